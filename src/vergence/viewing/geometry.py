@@ -1,0 +1,297 @@
+"""Shooting and viewing geometry of a stereoscopic pair (S0 §2, SPEC §1.1–1.6; S1 §IV.C).
+
+The model is the parallel-camera, shifted-sensor rig of Devernay & Beardsley: two cameras a
+baseline ``b`` apart whose frusta meet the convergence plane at distance ``H`` in the same window
+of width ``W``; the pair is shown to eyes ``b'`` apart at distance ``H'`` from a screen of width
+``W'``. Disparity ``d = x_r - x_l`` is a fraction of the image width, positive (uncrossed) behind
+the convergence plane. All lengths are in metres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
+
+__all__ = [
+    "CARDBOARD_ROUNDNESS",
+    "CONTROL_EFFECTS",
+    "DISPLAY_PRESETS",
+    "Display",
+    "Shooting",
+    "disparity",
+    "divergence_baseline",
+    "divergence_depth",
+    "focal_ratio",
+    "perceived_depth",
+    "perceived_depth_from_depth",
+    "roundness",
+    "roundness_baseline",
+    "scene_depth_from_disparity",
+    "shift_sensor_parallax",
+    "shift_sensor_positions",
+]
+
+# The paper's cardboard criterion (S0 §2): roundness below this looks like a flat cut-out.
+CARDBOARD_ROUNDNESS = 0.3
+
+
+@dataclass(frozen=True, slots=True)
+class Shooting:
+    """Acquisition geometry (S0 Fig. 1): baseline ``b``, convergence distance ``H``, window width ``W``.
+
+    Examples
+    --------
+    >>> Shooting.from_focal(baseline=0.1, convergence=30.0, focal_mm=350.0, sensor_mm=35.0).window
+    3.0
+    """
+
+    baseline: float
+    convergence: float
+    window: float
+
+    def __post_init__(self) -> None:
+        for name in ("baseline", "convergence", "window"):
+            object.__setattr__(self, name, check_positive(name, getattr(self, name)))
+
+    @classmethod
+    def from_focal(cls, *, baseline: float, convergence: float, focal_mm: float, sensor_mm: float) -> Shooting:
+        """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (SPEC §1.1)."""
+        f = check_positive("focal_mm", focal_mm) / check_positive("sensor_mm", sensor_mm)
+        return cls(baseline=baseline, convergence=convergence, window=check_positive("convergence", convergence) / f)
+
+    @property
+    def focal(self) -> float:
+        """Normalised focal length ``f = H / W``."""
+        return self.convergence / self.window
+
+
+@dataclass(frozen=True, slots=True)
+class Display:
+    """Viewing geometry (S0 Fig. 1): eye separation ``b'``, viewing distance ``H'``, screen width ``W'``.
+
+    ``resolution`` is the horizontal pixel count, needed for conversions to pixels and arcminutes.
+
+    Examples
+    --------
+    >>> Display(eye_separation=0.065, distance=3.0, width=1.2).focal
+    2.5
+    """
+
+    eye_separation: float
+    distance: float
+    width: float
+    resolution: int | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("eye_separation", "distance", "width"):
+            object.__setattr__(self, name, check_positive(name, getattr(self, name)))
+        if self.resolution is not None:
+            object.__setattr__(self, "resolution", check_positive_int("resolution", self.resolution))
+
+    @classmethod
+    def preset(cls, name: str) -> Display:
+        """A named display from :data:`DISPLAY_PRESETS`; the error lists the valid names."""
+        try:
+            return DISPLAY_PRESETS[name]
+        except (KeyError, TypeError):
+            valid = ", ".join(sorted(DISPLAY_PRESETS))
+            raise ValueError(f"unknown display preset {name!r}; valid presets: {valid}") from None
+
+    @property
+    def focal(self) -> float:
+        """Normalised projection focal length ``f' = H' / W'``."""
+        return self.distance / self.width
+
+    @property
+    def divergence_disparity(self) -> float:
+        """Largest disparity (fraction of W') before the eyes diverge: ``b'/W'`` (S0 Eq. 8)."""
+        return self.eye_separation / self.width
+
+    @property
+    def pixel_pitch(self) -> float:
+        """Width of one pixel in metres; needs ``resolution``."""
+        if self.resolution is None:
+            raise ValueError("display resolution is unknown: give the screen width in pixels")
+        return self.width / self.resolution
+
+
+# Typical viewing set-ups; eye separation 65 mm (adult mean). Screen widths from the diagonal and
+# aspect ratio; distances as commonly recommended for each screen.
+DISPLAY_PRESETS: dict[str, Display] = {
+    "cinema": Display(eye_separation=0.065, distance=15.0, width=10.0, resolution=2048),
+    "desktop-24": Display(eye_separation=0.065, distance=0.6, width=0.5313, resolution=1920),
+    "laptop-15": Display(eye_separation=0.065, distance=0.5, width=0.3442, resolution=1920),
+    "phone": Display(eye_separation=0.065, distance=0.3, width=0.1395, resolution=2400),
+    # S3's study display: Samsung 2233RZ, 22" 16:10, 1680 px at 0.282 mm pitch, viewed from 60 cm.
+    "samsung-2233rz": Display(eye_separation=0.065, distance=0.6, width=0.47376, resolution=1680),
+    # A 55" 16:9 television at 3 m: f' = 2.46, S0's living-room example.
+    "tv-55": Display(eye_separation=0.065, distance=3.0, width=1.2176, resolution=1920),
+}
+
+
+def _depths(name: str, z: object) -> np.ndarray:
+    arr = as_float_array(name, z)
+    if (arr <= 0).any():
+        raise ValueError(f"{name} must be > 0 (in front of the cameras); got min {arr.min():g}")
+    return arr
+
+
+def _out(arr: np.ndarray) -> float | np.ndarray:
+    return float(arr) if arr.ndim == 0 else arr
+
+
+def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
+    """Disparity of a point at depth ``z``, as a fraction of the window width (S0 Eq. 1a).
+
+    ``d(z) = (b / W) (z - H) / z``: zero on the convergence plane, ``b/W`` at infinity.
+
+    Examples
+    --------
+    >>> disparity(60.0, Shooting(baseline=0.3, convergence=30.0, window=3.0))
+    0.05
+    """
+    z_ = _depths("z", z)
+    return _out((shooting.baseline / shooting.window) * (z_ - shooting.convergence) / z_)
+
+
+def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndarray:
+    """Depth whose disparity is ``d``: ``z = bH / (b - W d)`` (SPEC Eq. 1c); inf at ``d = b/W``.
+
+    Disparities at or beyond ``b/W`` have no depth in front of the cameras: NaN there (inf at equality).
+    """
+    d_ = as_float_array("d", d)
+    den = shooting.baseline - shooting.window * d_
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = shooting.baseline * shooting.convergence / den
+    z = np.where(den > 0, z, np.where(den == 0, np.inf, np.nan))
+    return _out(z)
+
+
+def perceived_depth(d: object, display: Display) -> float | np.ndarray:
+    """Perceived depth of a disparity ``d`` (fraction of W') on a display (S0 Eq. 1b).
+
+    ``z' = b'H' / (b' - W' d)``. At ``d = b'/W'`` the eyes are parallel (``z' = inf``); beyond it
+    they diverge and nothing is perceived: NaN.
+
+    Examples
+    --------
+    >>> perceived_depth(0.0, Display(eye_separation=0.065, distance=3.0, width=1.2))
+    3.0
+    """
+    d_ = as_float_array("d", d)
+    den = display.eye_separation - display.width * d_
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zp = display.eye_separation * display.distance / den
+    zp = np.where(den > 0, zp, np.where(den == 0, np.inf, np.nan))
+    return _out(zp)
+
+
+def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) -> float | np.ndarray:
+    """Perceived depth of a scene point at depth ``z`` (S0 Eq. 2); NaN where the eyes diverge.
+
+    ``z'(z) = z b'H'W / (z (b'W - bW') + bHW')``.
+    """
+    z_ = _depths("z", z)
+    b, H, W = shooting.baseline, shooting.convergence, shooting.window
+    bp, Hp, Wp = display.eye_separation, display.distance, display.width
+    den = z_ * (bp * W - b * Wp) + b * H * Wp  # Eq. (2) denominator
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zp = z_ * bp * Hp * W / den
+    zp = np.where(den > 0, zp, np.where(den == 0, np.inf, np.nan))
+    return _out(zp)
+
+
+def roundness(z: object, shooting: Shooting, display: Display) -> float | np.ndarray:
+    """Roundness factor at depth ``z``: depth over width magnification (S0 Eq. 4).
+
+    ``rho(z) = b H' W / (z (b'W - bW') + bHW')``; 1 everywhere in the orthostereoscopic set-up
+    (b = b', H = H', W = W'). Below :data:`CARDBOARD_ROUNDNESS` objects look like cut-outs.
+    Where the eyes diverge the denominator is negative and so is the returned value (Eq. 4 as is).
+
+    Examples
+    --------
+    >>> round(roundness(30.0, Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2)), 12)
+    1.0
+    """
+    z_ = _depths("z", z)
+    b, H, W = shooting.baseline, shooting.convergence, shooting.window
+    bp, Hp, Wp = display.eye_separation, display.distance, display.width
+    den = z_ * (bp * W - b * Wp) + b * H * Wp  # Eq. (4) denominator
+    with np.errstate(divide="ignore"):
+        rho = b * Hp * W / den
+    return _out(rho)
+
+
+def divergence_baseline(window: float, display: Display) -> float:
+    """Largest baseline with no ocular divergence at any depth: ``b_div = b'W / W'`` (S0 Eq. 3)."""
+    return display.eye_separation * check_positive("window", window) / display.width
+
+
+def roundness_baseline(convergence: float, display: Display, *, roundness: float = 1.0) -> float:
+    """Baseline giving roundness ``rho`` on the convergence plane: ``b = rho b' H / H'`` (S0 Eq. 5)."""
+    rho = check_positive("roundness", roundness)
+    return rho * display.eye_separation * check_positive("convergence", convergence) / display.distance
+
+
+def focal_ratio(shooting: Shooting, display: Display) -> float:
+    """``f / f' = (H/W) / (H'/W')``, which equals ``b_round / b_div`` (S0 Eq. 6)."""
+    return shooting.focal / display.focal
+
+
+def divergence_depth(shooting: Shooting, display: Display) -> float:
+    """Depth beyond which the eyes diverge: ``bHW' / (bW' - b'W)``, or inf if ``b <= b_div`` (S0 §2)."""
+    b, H, W = shooting.baseline, shooting.convergence, shooting.window
+    excess = b * display.width - display.eye_separation * W
+    if excess <= 0:
+        return math.inf
+    return b * H * display.width / excess
+
+
+# ---------------------------------------------------------------------------------------------
+# Shift-sensor DIBR geometry (Fehn; S1 §IV.C, SPEC §6.1)
+
+# S1 Table I: the effect of increasing (+1) each control on screen parallax, perceived depth and
+# object size. "fore" = the scene shifts toward the viewer.
+CONTROL_EFFECTS: dict[str, dict[str, str]] = {
+    "interaxial": {"parallax": "increase", "perceived_depth": "increase", "object_size": "constant"},
+    "focal_length": {"parallax": "increase", "perceived_depth": "increase", "object_size": "increase"},
+    "convergence": {"parallax": "decrease", "perceived_depth": "shift toward viewer", "object_size": "constant"},
+}
+
+
+def shift_sensor_parallax(
+    depth: object, *, focal_px: float, interaxial: float, convergence: float
+) -> float | np.ndarray:
+    """Screen parallax in pixels of the shift-sensor pair (S1 §IV.C, SPEC §6.1).
+
+    ``P = x_r - x_l = alpha_u t_c (1/Z_c - 1/Z)``: zero at the convergence distance ``Z_c``,
+    positive behind it. ``focal_px`` is alpha_u, ``interaxial`` t_c and ``convergence`` Z_c (metres).
+
+    Examples
+    --------
+    >>> shift_sensor_parallax(4.0, focal_px=1000.0, interaxial=0.06, convergence=2.0)
+    15.0
+    """
+    z = _depths("depth", depth)
+    a = check_positive("focal_px", focal_px)
+    tc = check_finite("interaxial", interaxial)
+    zc = check_positive("convergence", convergence)
+    return _out(a * tc * (1.0 / zc - 1.0 / z))
+
+
+def shift_sensor_positions(
+    x_center: object, depth: object, *, focal_px: float, interaxial: float, convergence: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Left and right abscissae of centre-view pixels ``x_c`` with depth ``Z`` (Fehn, SPEC §6.1).
+
+    ``x_l = x_c + (alpha_u t_c / 2)(1/Z - 1/Z_c)``, ``x_r = x_c - (alpha_u t_c / 2)(1/Z - 1/Z_c)``.
+    """
+    xc = as_float_array("x_center", x_center)
+    p = np.asarray(shift_sensor_parallax(depth, focal_px=focal_px, interaxial=interaxial, convergence=convergence))
+    if p.shape != xc.shape and p.ndim and xc.ndim:
+        raise ValueError(f"depth must have shape {xc.shape} matching x_center; got {p.shape}")
+    return xc - p / 2.0, xc + p / 2.0
