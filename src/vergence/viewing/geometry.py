@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
+from vergence._validate import as_float_array, check_positive, check_positive_int
 
 __all__ = [
     "CARDBOARD_ROUNDNESS",
@@ -151,7 +151,7 @@ def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
 
     Examples
     --------
-    >>> disparity(60.0, Shooting(baseline=0.3, convergence=30.0, window=3.0))
+    >>> disparity(60.0, Shooting(baseline=0.2, convergence=30.0, window=2.0))
     0.05
     """
     z_ = _depths("z", z)
@@ -269,7 +269,8 @@ def shift_sensor_parallax(
     """Screen parallax in pixels of the shift-sensor pair (S1 §IV.C, SPEC §6.1).
 
     ``P = x_r - x_l = alpha_u t_c (1/Z_c - 1/Z)``: zero at the convergence distance ``Z_c``,
-    positive behind it. ``focal_px`` is alpha_u, ``interaxial`` t_c and ``convergence`` Z_c (metres).
+    positive behind it. ``focal_px`` is alpha_u, ``interaxial`` t_c (> 0) and ``convergence`` Z_c
+    (metres).
 
     Examples
     --------
@@ -278,7 +279,7 @@ def shift_sensor_parallax(
     """
     z = _depths("depth", depth)
     a = check_positive("focal_px", focal_px)
-    tc = check_finite("interaxial", interaxial)
+    tc = check_positive("interaxial", interaxial)
     zc = check_positive("convergence", convergence)
     return _out(a * tc * (1.0 / zc - 1.0 / z))
 

@@ -1,0 +1,141 @@
+"""``vergence budget``: the depth budget of a rig on a display (S0 §2), as a table or JSON, and a plot."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from vergence.cli._app import app, console, err_console, print_json
+from vergence.viewing.budget import DepthBudget, depth_budget
+from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, DISPLAY_PRESETS, Display, Shooting
+
+__all__ = ["budget"]
+
+_DISPLAY_LENGTHS = ("--eye-separation", "--viewing-distance", "--screen-width")
+
+
+def _shooting(baseline: float, convergence: float, window: float | None, focal_mm: float | None,
+              sensor_mm: float | None) -> Shooting:
+    """The rig from either --window or --focal-mm with --sensor-mm (exactly one of the two)."""
+    if window is not None and (focal_mm is not None or sensor_mm is not None):
+        raise ValueError("give either --window or --focal-mm with --sensor-mm, not both")
+    if window is not None:
+        return Shooting(baseline=baseline, convergence=convergence, window=window)
+    if focal_mm is None and sensor_mm is None:
+        raise ValueError("the convergence window is missing: give --window, or --focal-mm with --sensor-mm")
+    if sensor_mm is None:
+        raise ValueError("--sensor-mm (sensor width in mm) is required with --focal-mm")
+    if focal_mm is None:
+        raise ValueError("--focal-mm (focal length in mm) is required with --sensor-mm")
+    return Shooting.from_focal(baseline=baseline, convergence=convergence, focal_mm=focal_mm, sensor_mm=sensor_mm)
+
+
+def _display(preset: str | None, eye_separation: float | None, distance: float | None, width: float | None,
+             pixels: int | None) -> Display:
+    """The display from --display PRESET or from the three lengths (exactly one of the two)."""
+    lengths = (eye_separation, distance, width)
+    given = [name for name, v in zip(_DISPLAY_LENGTHS, lengths) if v is not None]
+    if preset is not None:
+        if given:
+            raise ValueError(
+                f"give either --display or the display lengths, not both (got --display and {', '.join(given)})"
+            )
+        display = Display.preset(preset)
+        return display if pixels is None else dataclasses.replace(display, resolution=pixels)
+    if len(given) < 3:
+        missing = ", ".join(n for n in _DISPLAY_LENGTHS if n not in given)
+        raise ValueError(f"the display is incomplete: give --display PRESET or all three lengths (missing {missing})")
+    return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    return "—" if value is None else format(value, spec)
+
+
+def _table(result: DepthBudget, shooting: Shooting, display: Display) -> None:
+    b_div, b_round = result.divergence_baseline, result.roundness_baseline
+    console.print(
+        f"rig: b = {shooting.baseline:.4g} m, H = {shooting.convergence:.4g} m, W = {shooting.window:.4g} m "
+        f"(f = {shooting.focal:.3g});  display: b' = {display.eye_separation:.4g} m, "
+        f"H' = {display.distance:.4g} m, W' = {display.width:.4g} m (f' = {display.focal:.3g})"
+    )
+    console.print(f"divergence baseline b_div = {b_div:.4g} m   (largest baseline with no divergence, S0 Eq. 3)")
+    console.print(f"roundness baseline b_round = {b_round:.4g} m   (roundness 1 at H, S0 Eq. 5)")
+    console.print(f"focal ratio f/f' = {result.focal_ratio:.4g} = b_round/b_div   (S0 Eq. 6)")
+    z_div = result.divergence_depth
+    console.print("eyes diverge beyond z = " + (f"{z_div:.4g} m" if math.isfinite(z_div) else "— (never)"))
+    with_px = display.resolution is not None
+    table = Table(title="depth budget")
+    table.add_column("depth z (m)", justify="right")
+    table.add_column("disparity d (% of W)", justify="right")
+    if with_px:
+        table.add_column("disparity (px)", justify="right")
+    table.add_column("perceived z' (m)", justify="right")
+    table.add_column("roundness ρ", justify="right")
+    table.add_column("note")
+    for s in result.samples:
+        if s.diverges:
+            note = "[red]eyes diverge[/]"
+        elif s.roundness is not None and s.roundness < CARDBOARD_ROUNDNESS:
+            note = "[yellow]cardboard[/]"
+        else:
+            note = ""
+        row = [f"{s.depth:.4g}", f"{100 * s.disparity:+.3f}"]
+        if with_px:
+            row.append(_fmt(s.disparity_px, "+.1f"))
+        # Eq. (4) is negative past the divergence limit: nothing is perceived there, show a dash.
+        row += [_fmt(s.perceived_depth, ".4g"), _fmt(None if s.diverges else s.roundness, ".3f"), note]
+        table.add_row(*row)
+    console.print(table)
+
+
+@app.command("budget")
+def budget(
+    baseline: float = typer.Option(..., "--baseline", help="Camera baseline b (m)."),
+    convergence: float = typer.Option(..., "--convergence", help="Convergence distance H (m)."),
+    window: float | None = typer.Option(None, "--window", help="Convergence-window width W (m)."),
+    focal_mm: float | None = typer.Option(
+        None, "--focal-mm", help="Focal length F (mm), with --sensor-mm instead of --window."
+    ),
+    sensor_mm: float | None = typer.Option(None, "--sensor-mm", help="Sensor width S (mm), with --focal-mm."),
+    eye_separation: float | None = typer.Option(None, "--eye-separation", help="Viewer eye separation b' (m)."),
+    viewing_distance: float | None = typer.Option(None, "--viewing-distance", help="Viewing distance H' (m)."),
+    screen_width: float | None = typer.Option(None, "--screen-width", help="Screen width W' (m)."),
+    screen_pixels: int | None = typer.Option(
+        None, "--screen-pixels", help="Screen width in pixels (adds disparity_px)."
+    ),
+    display_preset: str | None = typer.Option(
+        None, "--display", help=f"Display preset instead of the three lengths: {', '.join(sorted(DISPLAY_PRESETS))}."
+    ),
+    depth: list[float] | None = typer.Option(
+        None, "--depth", help="Scene depth z (m); repeat. Default: 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print only the JSON on stdout."),
+    plot: Path | None = typer.Option(
+        None, "--plot", help="Write a PNG of perceived depth and roundness against depth."
+    ),
+) -> None:
+    """Depth budget of a rig on a display: divergence and roundness baselines, z' and roundness per depth (S0 §2)."""
+    shooting = _shooting(baseline, convergence, window, focal_mm, sensor_mm)
+    display = _display(display_preset, eye_separation, viewing_distance, screen_width, screen_pixels)
+    result = depth_budget(shooting, display, depth if depth else None)
+    if plot is not None:
+        from vergence.report.budget_plot import plot_budget  # matplotlib only when a plot is asked for
+
+        depths = [s.depth for s in result.samples]
+        near, far = min(depths), max(depths)
+        if near == far:  # a single depth: show a range around it
+            near, far = near / 2.0, far * 2.0
+        plot_budget(shooting, display, near=near, far=far, path=plot)
+    if as_json:
+        print_json(result.to_dict())
+        if plot is not None:
+            err_console.print(f"plot written to {plot}", highlight=False)
+        return
+    _table(result, shooting, display)
+    if plot is not None:
+        console.print(f"plot written to {plot}", highlight=False)

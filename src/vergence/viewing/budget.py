@@ -1,0 +1,205 @@
+"""The depth budget of a shooting set-up on a display: S0 Eq. (1)–(6) at chosen scene depths (S0 §2).
+
+One call answers "what will a viewer see?": the baselines that bound the rig (no divergence, Eq. 3;
+roundness 1 on the convergence plane, Eq. 5), their ratio (the focal ratio f/f', Eq. 6), and at each
+scene depth the disparity (Eq. 1a), the perceived depth (Eq. 2), the roundness (Eq. 4) and whether
+the eyes diverge. ``vergence budget`` prints it; :mod:`vergence.report.budget_plot` draws it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from vergence._validate import as_float_array, check_finite
+from vergence.viewing.geometry import (
+    Display,
+    Shooting,
+    disparity,
+    divergence_baseline,
+    divergence_depth,
+    focal_ratio,
+    perceived_depth_from_depth,
+    roundness,
+    roundness_baseline,
+)
+
+__all__ = ["DEFAULT_DEPTH_FACTORS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
+
+# Scene depths sampled when none are given, as multiples of the convergence distance H: the
+# foreground at H/2, the subject on the convergence plane (d = 0), and a background out to 10 H
+# (where d is 90 % of its limit b/W, so divergence, if the rig has any, usually shows).
+DEFAULT_DEPTH_FACTORS: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0)
+
+
+@dataclass(frozen=True, slots=True)
+class DepthSample:
+    """The budget at one scene depth (S0 §2).
+
+    Attributes
+    ----------
+    depth : float
+        Scene depth z in metres.
+    disparity : float
+        Normalised disparity d, a fraction of W (S0 Eq. 1a).
+    disparity_px : float or None
+        ``d · N`` screen pixels, or None when the display resolution is unknown.
+    perceived_depth : float or None
+        Perceived depth z' in metres (S0 Eq. 2), None when the eyes diverge (or are exactly parallel).
+    roundness : float or None
+        rho of S0 Eq. (4) as is (negative where the eyes diverge); None only where it is infinite
+        (the eyes exactly parallel at this depth).
+    diverges : bool
+        Whether the eyes diverge at this depth (``d > b'/W'``, S0 Eq. 3 and 8).
+    """
+
+    depth: float
+    disparity: float
+    disparity_px: float | None
+    perceived_depth: float | None
+    roundness: float | None
+    diverges: bool
+
+    def __post_init__(self) -> None:
+        if check_finite("depth", self.depth) <= 0:
+            raise ValueError(f"depth must be > 0; got {self.depth:g}")
+        check_finite("disparity", self.disparity)
+        for name in ("disparity_px", "perceived_depth", "roundness"):
+            if getattr(self, name) is not None:
+                check_finite(name, getattr(self, name))
+        if self.diverges and self.perceived_depth is not None:
+            raise ValueError(f"perceived_depth must be None where the eyes diverge; got {self.perceived_depth:g}")
+
+    def to_dict(self) -> dict[str, float | bool | None]:
+        """The JSON object of one depth; ``disparity_px`` is left out when the resolution is unknown."""
+        out: dict[str, float | bool | None] = {"depth": self.depth, "disparity": self.disparity}
+        if self.disparity_px is not None:
+            out["disparity_px"] = self.disparity_px
+        out.update(perceived_depth=self.perceived_depth, roundness=self.roundness, diverges=self.diverges)
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class DepthBudget:
+    """Result of :func:`depth_budget`.
+
+    Attributes
+    ----------
+    divergence_baseline : float
+        ``b_div = b'W/W'`` (S0 Eq. 3), metres: the largest baseline that never makes the eyes diverge.
+    roundness_baseline : float
+        ``b_round = b'H/H'`` (S0 Eq. 5 with rho = 1), metres: roundness 1 at the convergence distance.
+    focal_ratio : float
+        ``f/f' = b_round/b_div`` (S0 Eq. 6).
+    divergence_depth : float
+        Scene depth beyond which the eyes diverge with this baseline, ``inf`` if none.
+    samples : tuple of DepthSample
+        One per requested depth, in the order given.
+    """
+
+    divergence_baseline: float
+    roundness_baseline: float
+    focal_ratio: float
+    divergence_depth: float
+    samples: tuple[DepthSample, ...]
+
+    def __post_init__(self) -> None:
+        for f in fields(self)[:3]:
+            if check_finite(f.name, getattr(self, f.name)) <= 0:
+                raise ValueError(f"{f.name} must be > 0; got {getattr(self, f.name):g}")
+        if not self.divergence_depth > 0:
+            raise ValueError(f"divergence_depth must be > 0 (inf if none); got {self.divergence_depth}")
+        object.__setattr__(self, "samples", tuple(self.samples))
+        if not self.samples or not all(isinstance(s, DepthSample) for s in self.samples):
+            raise ValueError("samples must be a non-empty sequence of DepthSample")
+
+    def to_dict(self) -> dict[str, object]:
+        """The JSON of ``vergence budget --json`` (issue 2): baselines, focal ratio and the depths."""
+        return {
+            "divergence_baseline": self.divergence_baseline,
+            "roundness_baseline": self.roundness_baseline,
+            "focal_ratio": self.focal_ratio,
+            "depths": [s.to_dict() for s in self.samples],
+        }
+
+
+def default_depths(shooting: Shooting) -> tuple[float, ...]:
+    """Scene depths used when none are given: :data:`DEFAULT_DEPTH_FACTORS` times ``H``."""
+    return tuple(k * shooting.convergence for k in DEFAULT_DEPTH_FACTORS)
+
+
+def depth_budget(shooting: Shooting, display: Display, depths: object = None) -> DepthBudget:
+    """Divergence and roundness baselines, focal ratio, and per-depth disparity, z' and roundness.
+
+    Parameters
+    ----------
+    shooting : Shooting
+        The rig: baseline b, convergence distance H, window width W.
+    display : Display
+        The viewing set-up: eye separation b', distance H', screen width W' (resolution optional).
+    depths : array_like of float, optional
+        Scene depths in metres, each finite and > 0 (a scalar or 1-D, any order, kept as given). Default:
+        :func:`default_depths`, i.e. 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H.
+
+    Returns
+    -------
+    DepthBudget
+        ``to_dict()`` gives the JSON of ``vergence budget --json``.
+
+    Raises
+    ------
+    TypeError
+        If ``shooting`` or ``display`` has the wrong type.
+    ValueError
+        If ``depths`` is empty, not 1-D, or holds a value that is not finite and > 0.
+
+    Notes
+    -----
+    S0 §2: ``d = (b/W)(z - H)/z`` (Eq. 1a), ``z' = z b'H'W / (z(b'W - bW') + bHW')`` (Eq. 2),
+    ``b_div = b'W/W'`` (Eq. 3), ``rho = bH'W / (z(b'W - bW') + bHW')`` (Eq. 4),
+    ``b_round = b'H/H'`` (Eq. 5), ``f/f' = b_round/b_div`` (Eq. 6). The eyes diverge where the
+    denominator of Eq. (2) is negative, i.e. ``d > b'/W'``.
+
+    Examples
+    --------
+    >>> budget = depth_budget(Shooting(0.26, 30.0, 3.0), Display(0.065, 3.0, 1.2), [30.0, 60.0])
+    >>> round(budget.divergence_baseline, 6), round(budget.roundness_baseline, 6), budget.focal_ratio
+    (0.1625, 0.65, 4.0)
+    >>> [round(s.perceived_depth, 4) for s in budget.samples]
+    [3.0, 15.0]
+    """
+    if not isinstance(shooting, Shooting):
+        raise TypeError(f"shooting must be a Shooting; got {type(shooting).__name__}")
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    if depths is None:
+        z = np.array(default_depths(shooting))
+    else:
+        z = np.atleast_1d(as_float_array("depths", depths))
+        if z.ndim != 1 or z.size == 0:
+            raise ValueError(f"depths must be a non-empty 1-D sequence of metres; got shape {z.shape}")
+        if (z <= 0).any():
+            raise ValueError(f"depths must be > 0 (in front of the cameras); got {z.min():g}")
+    d = np.atleast_1d(disparity(z, shooting))  # Eq. (1a)
+    zp = np.atleast_1d(perceived_depth_from_depth(z, shooting, display))  # Eq. (2): NaN diverges, inf parallel
+    rho = np.atleast_1d(roundness(z, shooting, display))  # Eq. (4)
+    samples = tuple(
+        DepthSample(
+            depth=float(z[i]),
+            disparity=float(d[i]),
+            disparity_px=None if display.resolution is None else float(d[i] * display.resolution),
+            perceived_depth=float(zp[i]) if math.isfinite(zp[i]) else None,
+            roundness=float(rho[i]) if math.isfinite(rho[i]) else None,
+            diverges=bool(np.isnan(zp[i])),
+        )
+        for i in range(z.size)
+    )
+    return DepthBudget(
+        divergence_baseline=divergence_baseline(shooting.window, display),  # Eq. (3)
+        roundness_baseline=roundness_baseline(shooting.convergence, display),  # Eq. (5)
+        focal_ratio=focal_ratio(shooting, display),  # Eq. (6)
+        divergence_depth=divergence_depth(shooting, display),
+        samples=samples,
+    )

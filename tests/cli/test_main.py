@@ -1,0 +1,31 @@
+"""The CLI entry point: usage errors and library errors are one line on stderr with exit code 2."""
+
+from __future__ import annotations
+
+from vergence.cli import main
+
+
+def test_usage_error_is_one_line(capsys):
+    code = main(["budget", "--baseline", "0.1", "--convergence", "3", "--window", "1", "--display", "tv-55",
+                 "--screen-pixels", "1.5"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and "--screen-pixels" in err
+
+
+def test_unknown_command_and_no_arguments(capsys):
+    assert main(["no-such-command"]) == 2
+    assert "No such command" in capsys.readouterr().err
+    assert main([]) == 0
+    assert "Commands" in capsys.readouterr().out
+
+
+def test_help_exits_zero(capsys):
+    assert main(["budget", "--help"]) == 0
+    assert "--baseline" in capsys.readouterr().out
+
+
+def test_library_error_is_one_line(capsys):
+    code = main(["budget", "--baseline", "-1", "--convergence", "3", "--window", "1", "--display", "tv-55"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err == "error: baseline must be > 0; got -1"
