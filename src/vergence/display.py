@@ -1,0 +1,360 @@
+"""A stereo pair to what a display takes: anaglyphs, frame-packed and interleaved layouts, view tiles.
+
+Every function takes float32 images in [0, 1] (``(H, W)`` grey or ``(H, W, 3)`` RGB; uint8/uint16
+are scaled by :func:`vergence._validate.as_image`), never modifies them, and returns a new float32
+image in [0, 1]. ``left`` and ``right`` must have the same shape. Pixel conventions:
+``docs/conventions.md`` (row 0 at the top, column 0 at the left, both counted from 0).
+
+Layouts (``left`` = L, ``right`` = R):
+
+- ``anaglyph``: one RGB image for coloured glasses, red filter on the left eye.
+- ``side_by_side`` / ``top_bottom``: L then R, next to each other or stacked; ``half=True`` squeezes
+  each view to half the width (height) with area averaging so the frame keeps the size of one view
+  (frame-compatible 3D broadcasts).
+- ``interleave``: rows (or columns) alternate L, R, L, ... (line-interleaved polarised screens).
+- ``checkerboard``: pixel (x, y) from L when x + y is even (DLP 3D projectors).
+- ``tile_views``: N views in a grid, row by row (contact sheets, multi-view autostereoscopic input).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from vergence._validate import as_image, check_positive_int
+
+__all__ = [
+    "anaglyph",
+    "checkerboard",
+    "interleave",
+    "side_by_side",
+    "tile_views",
+    "top_bottom",
+]
+
+# Dubois least-squares red-cyan matrices (rows: output R, G, B; columns: input R, G, B), for
+# linear RGB. E. Dubois, "Conversion of a stereo pair to anaglyph with the least-squares projection
+# method", March 2009 (www.site.uottawa.ca/~edubois/anaglyph/LeastSquaresHowToPhotoshop.pdf);
+# method: E. Dubois, "A projection method to generate anaglyph stereo images", ICASSP 2001.
+DUBOIS_RED_CYAN_LEFT = np.array(
+    [[0.437, 0.449, 0.164], [-0.062, -0.062, -0.024], [-0.048, -0.050, -0.017]]
+)
+DUBOIS_RED_CYAN_RIGHT = np.array(
+    [[-0.011, -0.032, -0.007], [0.377, 0.761, 0.009], [-0.026, -0.093, 1.234]]
+)
+# Rec. 601 luma weights for the half-colour anaglyph's left (red) channel.
+_LUMA_601 = np.array([0.299, 0.587, 0.114])
+_ANAGLYPH_METHODS = ("dubois", "half-color", "red-cyan")
+_ORIENTATIONS = ("columns", "rows")
+
+
+def _view(name: str, image: object) -> np.ndarray:
+    """One view as float32 (H, W) or (H, W, 3); alpha is refused."""
+    arr = as_image(name, image)
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if arr.ndim == 3 and arr.shape[2] != 3:
+        raise ValueError(f"{name} must have shape (H, W) or (H, W, 3); got {arr.shape} (no alpha)")
+    return arr
+
+
+def _pair(left: object, right: object) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a stereo pair: two views of one shape."""
+    lv, rv = _view("left", left), _view("right", right)
+    if lv.shape != rv.shape:
+        raise ValueError(f"right must have the same shape as left {lv.shape}; got {rv.shape}")
+    return lv, rv
+
+
+def _rgb(view: np.ndarray) -> np.ndarray:
+    """Grey (H, W) -> (H, W, 3) by replicating the channel; RGB unchanged."""
+    return np.repeat(view[:, :, None], 3, axis=2) if view.ndim == 2 else view
+
+
+def _srgb_to_linear(encoded: np.ndarray) -> np.ndarray:
+    """sRGB-encoded values in [0, 1] to linear light (IEC 61966-2-1), float64."""
+    v = np.asarray(encoded, dtype=np.float64)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def _linear_to_srgb(linear: np.ndarray) -> np.ndarray:
+    """Linear light in [0, 1] to sRGB-encoded values (IEC 61966-2-1), float64."""
+    v = np.asarray(linear, dtype=np.float64)
+    return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(np.maximum(v, 0.0031308), 1 / 2.4) - 0.055)
+
+
+def anaglyph(left: object, right: object, *, method: str = "dubois") -> np.ndarray:
+    """Combine a stereo pair into one red-cyan anaglyph (red filter on the left eye).
+
+    Methods (``L``, ``R`` the views' RGB, grey views replicated to three channels):
+
+    - ``"red-cyan"``: the plain colour anaglyph, ``(L_r, R_g, R_b)``; grey views give the grey
+      anaglyph.
+    - ``"half-color"``: ``(Y(L), R_g, R_b)`` with the Rec. 601 luma ``Y = 0.299 r + 0.587 g + 0.114 b``
+      of the left view (less retinal rivalry on saturated reds).
+    - ``"dubois"``: Dubois's least-squares projection, ``A = M_L L + M_R R`` computed in **linear
+      light** (sRGB decoded, the matrices applied, the result clipped to [0, 1] and sRGB encoded).
+
+    Parameters
+    ----------
+    left, right : array_like
+        Views, ``(H, W)`` or ``(H, W, 3)``, float in [0, 1] (sRGB-encoded) or uint8/uint16; same shape.
+    method : {"dubois", "half-color", "red-cyan"}, optional
+        Which anaglyph.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 ``(H, W, 3)`` in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        On an unknown method (the message lists the valid ones), mismatched shapes, values outside
+        [0, 1], NaN, empty images or an alpha channel.
+    TypeError
+        If a view is not numeric.
+
+    Notes
+    -----
+    Dubois's matrices (2009 red-cyan set, rows = output R, G, B) are
+    ``M_L = [[0.437, 0.449, 0.164], [-0.062, -0.062, -0.024], [-0.048, -0.050, -0.017]]`` and
+    ``M_R = [[-0.011, -0.032, -0.007], [0.377, 0.761, 0.009], [-0.026, -0.093, 1.234]]``, for linear
+    RGB (E. Dubois, "A projection method to generate anaglyph stereo images", ICASSP 2001; the
+    matrices from his 2009 note "Conversion of a stereo pair to anaglyph with the least-squares
+    projection method"). The least-squares solution can leave the display gamut; the method clips
+    it to [0, 1] before encoding, as Dubois does. The other two methods work on encoded values.
+
+    Examples
+    --------
+    >>> white, black = np.ones((1, 1, 3)), np.zeros((1, 1, 3))
+    >>> anaglyph(white, black, method="red-cyan")[0, 0]
+    array([1., 0., 0.], dtype=float32)
+    >>> anaglyph(white, white, method="dubois")[0, 0].round(3)  # a white pair stays white
+    array([1., 1., 1.], dtype=float32)
+    """
+    if method not in _ANAGLYPH_METHODS:
+        raise ValueError(f"method must be one of {', '.join(_ANAGLYPH_METHODS)}; got {method!r}")
+    lv, rv = _pair(left, right)
+    lc, rc = _rgb(lv), _rgb(rv)
+    if method == "red-cyan":
+        out = np.concatenate([lc[:, :, :1], rc[:, :, 1:]], axis=2)
+    elif method == "half-color":
+        luma = lc.astype(np.float64) @ _LUMA_601
+        out = np.concatenate([luma[:, :, None], rc[:, :, 1:]], axis=2)
+        out = np.clip(out, 0.0, 1.0)  # luma weights sum to 1: only float rounding (< 1e-15) removed
+    else:
+        lin = _srgb_to_linear(lc) @ DUBOIS_RED_CYAN_LEFT.T + _srgb_to_linear(rc) @ DUBOIS_RED_CYAN_RIGHT.T
+        out = _linear_to_srgb(np.clip(lin, 0.0, 1.0))  # Dubois: clip to the display gamut
+    return np.ascontiguousarray(out, dtype=np.float32)
+
+
+def _halve(view: np.ndarray, *, width: int, height: int) -> np.ndarray:
+    """Area-average resampling to (height, width); INTER_AREA is a convex average."""
+    out = cv2.resize(view, (width, height), interpolation=cv2.INTER_AREA)
+    return np.clip(out, 0.0, 1.0)  # convex weights: only float rounding (< 1e-6) can leave [0, 1]
+
+
+def side_by_side(left: object, right: object, *, half: bool = False) -> np.ndarray:
+    """Place ``left`` and ``right`` next to each other (left view on the left).
+
+    Parameters
+    ----------
+    left, right : array_like
+        Views ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape.
+    half : bool, optional
+        If True, each view is first resampled to ``W // 2`` columns with area averaging
+        (``cv2.INTER_AREA``), so the frame is ``(H, 2 * (W // 2))``: the size of one view for even
+        ``W`` (half side-by-side, frame-compatible). Otherwise the frame is ``(H, 2 W)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 frame, grey or RGB as the views.
+
+    Raises
+    ------
+    ValueError
+        On mismatched shapes, bad values, or ``half=True`` with ``W < 2``.
+    TypeError
+        If ``half`` is not a bool.
+
+    Examples
+    --------
+    >>> side_by_side(np.zeros((1, 2)), np.ones((1, 2)))
+    array([[0., 0., 1., 1.]], dtype=float32)
+    >>> side_by_side(np.zeros((1, 2)), np.ones((1, 2)), half=True)
+    array([[0., 1.]], dtype=float32)
+    """
+    lv, rv = _pair(left, right)
+    if not isinstance(half, bool):
+        raise TypeError(f"half must be a bool; got {type(half).__name__}")
+    if half:
+        h, w = lv.shape[:2]
+        if w < 2:
+            raise ValueError(f"left must be at least 2 pixels wide for half side-by-side; got width {w}")
+        lv, rv = _halve(lv, width=w // 2, height=h), _halve(rv, width=w // 2, height=h)
+    return np.concatenate([lv, rv], axis=1)
+
+
+def top_bottom(left: object, right: object, *, half: bool = False) -> np.ndarray:
+    """Stack ``left`` above ``right``.
+
+    Parameters
+    ----------
+    left, right : array_like
+        Views ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape.
+    half : bool, optional
+        If True, each view is first resampled to ``H // 2`` rows with area averaging
+        (``cv2.INTER_AREA``): the frame is ``(2 * (H // 2), W)``. Otherwise ``(2 H, W)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 frame, grey or RGB as the views.
+
+    Raises
+    ------
+    ValueError
+        On mismatched shapes, bad values, or ``half=True`` with ``H < 2``.
+    TypeError
+        If ``half`` is not a bool.
+
+    Examples
+    --------
+    >>> top_bottom(np.zeros((2, 1)), np.ones((2, 1)), half=True)
+    array([[0.],
+           [1.]], dtype=float32)
+    """
+    lv, rv = _pair(left, right)
+    if not isinstance(half, bool):
+        raise TypeError(f"half must be a bool; got {type(half).__name__}")
+    if half:
+        h, w = lv.shape[:2]
+        if h < 2:
+            raise ValueError(f"left must be at least 2 pixels high for half top-bottom; got height {h}")
+        lv, rv = _halve(lv, width=w, height=h // 2), _halve(rv, width=w, height=h // 2)
+    return np.concatenate([lv, rv], axis=0)
+
+
+def interleave(left: object, right: object, *, orientation: str = "rows") -> np.ndarray:
+    """Alternate lines of the two views: even rows (or columns) from ``left``, odd ones from ``right``.
+
+    The frame has the size of one view; each eye sees every other line (line-interleaved
+    polarised screens use rows, some lenticular/parallax-barrier screens columns). Row 0 and
+    column 0 are the first (top, left) lines.
+
+    Parameters
+    ----------
+    left, right : array_like
+        Views ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape.
+    orientation : {"rows", "columns"}, optional
+        Which lines alternate.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32, the shape of one view.
+
+    Raises
+    ------
+    ValueError
+        On an unknown orientation, mismatched shapes or bad values.
+
+    Examples
+    --------
+    >>> interleave(np.zeros((3, 1)), np.ones((3, 1)))[:, 0]
+    array([0., 1., 0.], dtype=float32)
+    """
+    if orientation not in _ORIENTATIONS:
+        raise ValueError(f"orientation must be one of {', '.join(_ORIENTATIONS)}; got {orientation!r}")
+    lv, rv = _pair(left, right)
+    out = lv.copy()
+    if orientation == "rows":
+        out[1::2] = rv[1::2]
+    else:
+        out[:, 1::2] = rv[:, 1::2]
+    return out
+
+
+def checkerboard(left: object, right: object) -> np.ndarray:
+    """Pixel (x, y) from ``left`` where ``x + y`` is even, from ``right`` where it is odd.
+
+    Parameters
+    ----------
+    left, right : array_like
+        Views ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32, the shape of one view.
+
+    Raises
+    ------
+    ValueError
+        On mismatched shapes or bad values.
+
+    Examples
+    --------
+    >>> checkerboard(np.zeros((2, 2)), np.ones((2, 2)))
+    array([[0., 1.],
+           [1., 0.]], dtype=float32)
+    """
+    lv, rv = _pair(left, right)
+    h, w = lv.shape[:2]
+    odd = (np.arange(h)[:, None] + np.arange(w)[None, :]) % 2 == 1
+    out = lv.copy()
+    out[odd] = rv[odd]
+    return out
+
+
+def tile_views(views: Sequence[object], *, columns: int | None = None) -> np.ndarray:
+    """Arrange N views of one shape in a grid, row by row, from the top-left cell.
+
+    Parameters
+    ----------
+    views : sequence of array_like
+        N >= 1 views ``(H, W)`` or ``(H, W, 3)`` in [0, 1], all the same shape.
+    columns : int, optional
+        Cells per row; default ``ceil(sqrt(N))``. The grid has ``ceil(N / columns)`` rows; cells
+        after the last view are black (0).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 ``(rows * H, columns * W[, 3])``; view ``i`` is at cell ``(i // columns, i % columns)``.
+
+    Raises
+    ------
+    ValueError
+        If ``views`` is empty, the views differ in shape or hold bad values, or ``columns < 1``.
+    TypeError
+        If ``views`` is not a sequence or ``columns`` not an integer.
+
+    Examples
+    --------
+    >>> tile_views([np.full((1, 1), v) for v in (0.25, 0.5, 0.75)], columns=2)
+    array([[0.25, 0.5 ],
+           [0.75, 0.  ]], dtype=float32)
+    """
+    if isinstance(views, np.ndarray | str | bytes) or not isinstance(views, Sequence):
+        raise TypeError(f"views must be a sequence (list or tuple) of images; got {type(views).__name__}")
+    if len(views) == 0:
+        raise ValueError("views must hold at least one view; got 0")
+    arrs = [_view(f"views[{i}]", v) for i, v in enumerate(views)]
+    for i, a in enumerate(arrs[1:], start=1):
+        if a.shape != arrs[0].shape:
+            raise ValueError(f"views[{i}] must have the shape of views[0] {arrs[0].shape}; got {a.shape}")
+    n = len(arrs)
+    cols = math.ceil(math.sqrt(n)) if columns is None else check_positive_int("columns", columns)
+    rows = math.ceil(n / cols)
+    h, w = arrs[0].shape[:2]
+    out = np.zeros((rows * h, cols * w, *arrs[0].shape[2:]), dtype=np.float32)
+    for i, a in enumerate(arrs):
+        r, c = divmod(i, cols)
+        out[r * h : (r + 1) * h, c * w : (c + 1) * w] = a
+    return out

@@ -1,0 +1,138 @@
+"""Atomic file output: write to a temporary file in the destination folder, then rename.
+
+A reader never sees a half-written output: the file appears under its final name only once it is
+complete (``os.replace`` is atomic on POSIX and Windows when both paths are on one file system,
+which a temporary file in the same folder guarantees).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["atomic_write", "write_json"]
+
+
+def _output_path(path: object) -> Path:
+    """Validate an output path: a str or PathLike whose folder exists and which is not a folder."""
+    if not isinstance(path, str | os.PathLike):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    out = Path(path)
+    if str(path) == "" or out.name == "":
+        raise ValueError(f"path must name a file; got {str(path)!r}")
+    if out.is_dir():
+        raise IsADirectoryError(f"cannot write {out}: it is a directory")
+    parent = out.parent if str(out.parent) != "" else Path(".")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"cannot write {out}: folder {parent} does not exist")
+    return out
+
+
+@contextmanager
+def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it to ``path`` when the block succeeds.
+
+    The temporary file has the same extension as ``path`` (writers that choose the format by
+    extension, such as OpenCV, work unchanged) and a hidden, unique name in the same folder. It does
+    not exist yet when yielded: the caller creates it. If the block raises, the temporary file is
+    removed and ``path`` is left untouched (an existing file keeps its old content).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Final output file. Its folder must exist. An existing file is replaced.
+
+    Yields
+    ------
+    pathlib.Path
+        Temporary file to write, in the folder of ``path``.
+
+    Raises
+    ------
+    TypeError
+        If ``path`` is not a str or path-like.
+    FileNotFoundError
+        If the folder of ``path`` does not exist.
+    IsADirectoryError
+        If ``path`` is a directory.
+    FileNotFoundError
+        If the block finished without creating the temporary file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> with atomic_write(folder / "note.txt") as tmp:
+    ...     _ = tmp.write_text("done")
+    >>> (folder / "note.txt").read_text()
+    'done'
+    """
+    out = _output_path(path)
+    tmp = out.with_name(f".{out.stem}.tmp-{uuid.uuid4().hex[:12]}{out.suffix}")
+    try:
+        yield tmp
+        if not tmp.is_file():
+            raise FileNotFoundError(f"cannot write {out}: the writer created no file")
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _json_default(obj: object) -> Any:
+    """Convert numpy scalars and arrays to Python numbers and lists for ``json``."""
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    raise TypeError(f"object of type {type(obj).__name__} is not JSON serialisable")
+
+
+def write_json(path: str | os.PathLike[str], obj: object) -> None:
+    """Write ``obj`` as JSON (UTF-8, indent 2, trailing newline) atomically; NaN and inf are refused.
+
+    numpy scalars and arrays become numbers and lists; paths become strings. ``allow_nan=False``:
+    strict JSON has no NaN or Infinity, so a non-finite float is an error rather than an invalid file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; its folder must exist. An existing file is replaced.
+    obj : object
+        JSON-serialisable data (dict, list, str, int, float, bool, None, numpy values).
+
+    Raises
+    ------
+    ValueError
+        If ``obj`` holds NaN or inf (the message names the path).
+    TypeError
+        If ``obj`` holds a value JSON cannot represent.
+    FileNotFoundError, IsADirectoryError
+        As :func:`atomic_write`.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "r.json"
+    >>> write_json(target, {"psnr": 31.5, "n": np.int64(3)})
+    >>> target.read_text().split()
+    ['{', '"psnr":', '31.5,', '"n":', '3', '}']
+    """
+    out = _output_path(path)
+    try:
+        text = json.dumps(obj, indent=2, allow_nan=False, default=_json_default)
+    except ValueError as exc:
+        raise ValueError(f"cannot write {out} as JSON: {exc} (NaN and inf are not valid JSON)") from exc
+    except TypeError as exc:
+        raise TypeError(f"cannot write {out} as JSON: {exc}") from exc
+    with atomic_write(out) as tmp:
+        tmp.write_text(text + "\n", encoding="utf-8")

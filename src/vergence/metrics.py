@@ -1,0 +1,393 @@
+"""Image quality of synthesized views: PSNR, SSIM, DSSIM and the registration error of S1 Eq. (11)-(13).
+
+All metrics compare an ``image`` (e.g. a synthesized view) with a ``reference`` (the real view),
+both float32 in [0, 1] (``(H, W)`` or ``(H, W, 3)``; uint8/uint16 are scaled), of one shape.
+Conventions: ``docs/conventions.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from types import MappingProxyType
+
+import numpy as np
+from skimage.metrics import structural_similarity
+
+from vergence._metrics_kernels import SIMILARITY_SSD, SIMILARITY_ZNCC, patch_sums, registration_search
+from vergence._validate import as_image, check_finite, check_in_range, check_positive, check_positive_int
+
+__all__ = [
+    "RegistrationError",
+    "dssim",
+    "psnr",
+    "registration_error",
+    "ssim",
+]
+
+# A patch is flat (ZNCC undefined) when its sum of squared deviations over the k x k x C samples is
+# at most this. One 16-bit level on one sample gives (1/65535)^2 (1 - 1/n) ~ 2e-10, 200 times more;
+# float64 rounding of the box sums is ~1e-14, 100 times less.
+FLAT_VARIANCE = 1e-12
+# Similarities closer than this are ties (won by the nearer candidate); ZNCC rounding is ~1e-14.
+TIE_TOLERANCE = 1e-9
+_SIMILARITIES = {"ssd": SIMILARITY_SSD, "zncc": SIMILARITY_ZNCC}
+_DEFAULT_RANKS = (0.8, 0.95, 1.0)
+
+
+def _pair(image: object, reference: object) -> tuple[np.ndarray, np.ndarray]:
+    """Validate an image and its reference: [0, 1], same shape, grey or RGB (no alpha)."""
+    a, b = as_image("image", image), as_image("reference", reference)
+    for name, arr in (("image", a), ("reference", b)):
+        if arr.ndim == 3 and arr.shape[2] == 4:
+            raise ValueError(f"{name} must have shape (H, W) or (H, W, 3); got {arr.shape} (no alpha)")
+    a = a[:, :, 0] if a.ndim == 3 and a.shape[2] == 1 else a
+    b = b[:, :, 0] if b.ndim == 3 and b.shape[2] == 1 else b
+    if a.shape != b.shape:
+        raise ValueError(f"reference must have the same shape as image {a.shape}; got {b.shape}")
+    return a.astype(np.float64), b.astype(np.float64)
+
+
+def _mask(mask: object, hw: tuple[int, ...]) -> np.ndarray | None:
+    """Validate an optional boolean (H, W) mask holding at least one True."""
+    if mask is None:
+        return None
+    m = np.asarray(mask)
+    if m.dtype != bool:
+        raise TypeError(f"mask must be a boolean array; got dtype {m.dtype}")
+    if m.shape != hw:
+        raise ValueError(f"mask must have shape (H, W) matching image {hw}; got {m.shape}")
+    if not m.any():
+        raise ValueError("mask must select at least one pixel; got an all-False mask")
+    return m
+
+
+def psnr(image: object, reference: object, *, mask: object = None) -> float:
+    """Peak signal-to-noise ratio in dB for images in [0, 1]: ``10 log10(1 / MSE)``.
+
+    Parameters
+    ----------
+    image, reference : array_like
+        ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape.
+    mask : array_like of bool, optional
+        ``(H, W)``: the MSE is averaged over the selected pixels (and all channels) only.
+
+    Returns
+    -------
+    float
+        PSNR in dB; ``inf`` when the images are identical (over the mask), since MSE = 0.
+
+    Raises
+    ------
+    ValueError
+        On mismatched shapes, values outside [0, 1], NaN, or a mask of the wrong shape or all False.
+    TypeError
+        If a mask is not boolean.
+
+    Notes
+    -----
+    ``PSNR = 10 log10(MAX^2 / MSE)`` with the data range ``MAX = 1``; MSE is the mean of the squared
+    differences over the pixels (and channels).
+
+    Examples
+    --------
+    >>> round(psnr(np.full((2, 2), 0.5), np.zeros((2, 2))), 4)  # MSE = 0.25: 10 log10(4)
+    6.0206
+    """
+    a, b = _pair(image, reference)
+    m = _mask(mask, a.shape[:2])
+    sq = (a - b) ** 2
+    if sq.ndim == 3:
+        sq = sq.mean(axis=2)
+    mse = float(sq.mean() if m is None else sq[m].mean())
+    if mse == 0.0:
+        return math.inf
+    return float(10.0 * np.log10(1.0 / mse))
+
+
+def _check_win_size(win_size: object, hw: tuple[int, ...]) -> int:
+    w = check_positive_int("win_size", win_size)
+    if w < 3 or w % 2 == 0:
+        raise ValueError(f"win_size must be an odd integer >= 3; got {w}")
+    if w > min(hw):
+        raise ValueError(f"win_size must not exceed the image's smaller side {min(hw)}; got {w}")
+    return w
+
+
+def ssim(image: object, reference: object, *, mask: object = None, win_size: int = 7) -> float:
+    """Mean structural similarity (Wang et al. 2004) through scikit-image, data range 1.
+
+    Parameters
+    ----------
+    image, reference : array_like
+        ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape, each side >= ``win_size``.
+    mask : array_like of bool, optional
+        ``(H, W)``: average the SSIM map (mean over channels) over the selected pixels instead of
+        over the whole image. As scikit-image does, a border of ``(win_size - 1) // 2`` pixels, where
+        the window leaves the image, is left out in both cases; so an all-True mask gives the
+        unmasked value.
+    win_size : int, optional
+        Side of the uniform window (odd, >= 3); scikit-image's default 7.
+
+    Returns
+    -------
+    float
+        SSIM in [-1, 1]; 1 for identical images.
+
+    Raises
+    ------
+    ValueError
+        On mismatched shapes, bad values, a bad ``win_size``, or a mask that selects no pixel
+        inside the border.
+    TypeError
+        If a mask is not boolean.
+
+    Notes
+    -----
+    ``skimage.metrics.structural_similarity(..., data_range=1, channel_axis=2)`` for colour images
+    (the mean of the per-channel SSIM maps).
+
+    Examples
+    --------
+    >>> ramp = np.linspace(0, 1, 64).reshape(8, 8)
+    >>> ssim(ramp, ramp)
+    1.0
+    """
+    a, b = _pair(image, reference)
+    m = _mask(mask, a.shape[:2])
+    w = _check_win_size(win_size, a.shape[:2])
+    channel_axis = 2 if a.ndim == 3 else None
+    mean, smap = structural_similarity(a, b, data_range=1.0, channel_axis=channel_axis, win_size=w, full=True)
+    if m is None:
+        return float(mean)
+    if smap.ndim == 3:
+        smap = smap.mean(axis=2)
+    pad = (w - 1) // 2
+    inner = np.zeros_like(m)
+    inner[pad : m.shape[0] - pad, pad : m.shape[1] - pad] = True
+    sel = m & inner
+    if not sel.any():
+        raise ValueError(f"mask must select at least one pixel at least {pad} pixels from the border; got none")
+    return float(smap[sel].mean())
+
+
+def dssim(image: object, reference: object, *, mask: object = None, win_size: int = 7) -> float:
+    """Structural dissimilarity ``(1 - SSIM) / 2``, in [0, 1]; 0 for identical images.
+
+    Parameters
+    ----------
+    image, reference : array_like
+        ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape, each side >= ``win_size``.
+    mask : array_like of bool, optional
+        ``(H, W)`` pixels to average over, as in :func:`ssim`.
+    win_size : int, optional
+        Side of the SSIM window (odd, >= 3).
+
+    Returns
+    -------
+    float
+        DSSIM in [0, 1].
+
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`ssim`.
+
+    Examples
+    --------
+    >>> dssim(np.zeros((8, 8)), np.zeros((8, 8)))
+    0.0
+    """
+    return (1.0 - ssim(image, reference, mask=mask, win_size=win_size)) / 2.0
+
+
+@dataclass(frozen=True, slots=True)
+class RegistrationError:
+    """Per-pixel registration distances and their summaries (S1 Eq. (11)-(13)).
+
+    Attributes
+    ----------
+    distance : numpy.ndarray
+        float64 ``(H, W)``, read-only: ``d(p, I')`` in pixels for each pixel of the image (Eq. 11);
+        ``radius`` where no candidate reached the similarity threshold.
+    rms : float
+        Root mean square of ``distance``.
+    median : float
+        Median of ``distance``.
+    ranked : Mapping[float, float]
+        ``k -> d^k(I, I')``, the k-th ranked distance (Eq. 13), read-only; ``k = 1`` is the
+        Hausdorff distance (Eq. 12).
+    radius : float
+        Search radius in pixels.
+    patch_size : int
+        Side of the square patch.
+    similarity : str
+        ``"zncc"`` or ``"ssd"``.
+    threshold : float
+        Similarity below which a pixel gets ``radius`` (``-inf``: none).
+    """
+
+    distance: np.ndarray
+    rms: float
+    median: float
+    ranked: Mapping[float, float]
+    radius: float
+    patch_size: int
+    similarity: str
+    threshold: float
+
+    def __post_init__(self) -> None:
+        d = np.asarray(self.distance, dtype=np.float64)
+        if d.ndim != 2 or d.size == 0:
+            raise ValueError(f"distance must be a non-empty (H, W) array; got shape {d.shape}")
+        if not np.isfinite(d).all() or d.min() < 0:
+            raise ValueError("distance must be finite and >= 0")
+        d = d.copy()
+        d.flags.writeable = False
+        object.__setattr__(self, "distance", d)
+        for name in ("rms", "median"):
+            check_finite(name, getattr(self, name))
+        ranks = {check_in_range("rank", float(k), 0.0, 1.0): check_finite("ranked value", float(v))
+                 for k, v in dict(self.ranked).items()}
+        object.__setattr__(self, "ranked", MappingProxyType(ranks))
+        if self.similarity not in _SIMILARITIES:
+            raise ValueError(
+                f"similarity must be one of {', '.join(sorted(_SIMILARITIES))}; got {self.similarity!r}"
+            )
+
+    @property
+    def hausdorff(self) -> float:
+        """Hausdorff distance ``max_p d(p, I')`` (S1 Eq. (12))."""
+        return float(self.distance.max())
+
+
+def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Integer offsets (dy, dx) with dy^2 + dx^2 <= radius^2, by distance, then dy, then dx."""
+    r = int(math.floor(radius))
+    dy, dx = np.mgrid[-r : r + 1, -r : r + 1]
+    dy, dx = dy.ravel(), dx.ravel()
+    keep = dy * dy + dx * dx <= radius * radius
+    dy, dx = dy[keep], dx[keep]
+    dist = np.sqrt(dy * dy + dx * dx)
+    order = np.lexsort((dx, dy, dist))
+    return np.stack([dy[order], dx[order]], axis=1).astype(np.int64), dist[order]
+
+
+def _ranked_value(values: np.ndarray, k: float) -> float:
+    """Nearest-rank k-th ranked value: the ``ceil(k N)``-th smallest of N values (k in (0, 1])."""
+    flat = np.sort(np.asarray(values, dtype=np.float64).ravel())
+    return float(flat[max(math.ceil(k * flat.size), 1) - 1])
+
+
+def registration_error(
+    image: object,
+    reference: object,
+    *,
+    radius: float = 10.0,
+    patch_size: int = 5,
+    similarity: str = "zncc",
+    threshold: float | None = None,
+    ranks: Sequence[float] = _DEFAULT_RANKS,
+) -> RegistrationError:
+    """Registration error of ``image`` against ``reference`` and its generalised Hausdorff distances.
+
+    For each pixel ``p`` of the image, the best-matching pixel ``p*`` of the reference within
+    ``radius`` is the one whose ``patch_size`` x ``patch_size`` patch is most similar to the patch
+    at ``p``; the error is ``|p - p*|`` (Eq. 11). Ties go to the nearest candidate; if the best
+    similarity is below ``threshold``, the error is ``radius``. The summaries are the RMS, the
+    median and the k-th ranked values (Eq. 13; k = 1 is the Hausdorff distance of Eq. 12).
+
+    Parameters
+    ----------
+    image, reference : array_like
+        ``(H, W)`` or ``(H, W, 3)`` in [0, 1], same shape, each side >= ``patch_size``.
+    radius : float, optional
+        Search radius r in pixels (> 0): candidates ``p'`` inside the reference with
+        ``|p' - p| <= r``.
+    patch_size : int, optional
+        Odd patch side k >= 3. Patches that leave the image read it mirrored (reflect-101).
+    similarity : {"zncc", "ssd"}, optional
+        ``"zncc"``: zero-mean normalised cross-correlation over the patch (each channel's own mean
+        removed, channels pooled); two flat patches score 1 (no structure to misregister), a flat
+        against a textured patch 0. ``"ssd"``: minus the mean squared difference over the patch.
+    threshold : float, optional
+        tau: a best similarity below it gives ``d = r``. Default: 0.8 for ZNCC, none for SSD.
+    ranks : sequence of float, optional
+        The k in (0, 1] of Eq. (13), nearest rank (the ``ceil(k N)``-th smallest of N distances).
+
+    Returns
+    -------
+    RegistrationError
+        The distance map (float64, pixels) and its summaries.
+
+    Raises
+    ------
+    ValueError
+        On mismatched shapes, bad values, ``radius <= 0``, an even or too large ``patch_size``, an
+        unknown similarity (the valid ones are listed), a ZNCC threshold outside [-1, 1] or ranks
+        outside (0, 1].
+
+    Notes
+    -----
+    S1 §V.B.2, Eq. (11) ``d(p, I') = |p - p*|``, ``p* = argmax_{|p' - p| <= r} S(I(p), I'(p'))``;
+    Eq. (12) ``d(I, I') = max_p d(p, I')``; Eq. (13) ``d^k(I, I') = K^th_p d(p, I')`` (Starck et al.).
+    Design choices (SPEC §6.5): ZNCC of 5 x 5 patches, r = 10, tau = 0.8, ties to the smallest
+    distance. A ZNCC flat patch has a sum of squared deviations <= ``FLAT_VARIANCE``; similarities
+    within ``TIE_TOLERANCE`` are ties. The search is a Numba kernel using box sums per offset.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ref = rng.random((24, 24))
+    >>> shifted = np.roll(ref, (-1, -2), axis=(0, 1))  # a (2, 1)-px misregistration
+    >>> result = registration_error(shifted, ref, radius=4)
+    >>> round(float(result.distance[10, 10]) ** 2, 6)
+    5.0
+    >>> registration_error(ref, ref).rms
+    0.0
+    """
+    a, b = _pair(image, reference)
+    r = check_positive("radius", radius)
+    k = check_positive_int("patch_size", patch_size)
+    if k < 3 or k % 2 == 0:
+        raise ValueError(f"patch_size must be an odd integer >= 3; got {k}")
+    if k > min(a.shape[:2]):
+        raise ValueError(f"patch_size must not exceed the image's smaller side {min(a.shape[:2])}; got {k}")
+    if similarity not in _SIMILARITIES:
+        raise ValueError(f"similarity must be one of {', '.join(sorted(_SIMILARITIES))}; got {similarity!r}")
+    if threshold is None:
+        tau = 0.8 if similarity == "zncc" else -math.inf
+    elif similarity == "zncc":
+        tau = check_in_range("threshold", threshold, -1.0, 1.0)
+    else:
+        tau = check_finite("threshold", threshold)
+    if isinstance(ranks, str | bytes) or not isinstance(ranks, Sequence) or len(ranks) == 0:
+        raise TypeError(f"ranks must be a non-empty sequence of numbers in (0, 1]; got {ranks!r}")
+    ks = [check_in_range("ranks", k_, 0.0, 1.0) for k_ in ranks]
+    if min(ks) <= 0.0:
+        raise ValueError(f"ranks must lie in (0, 1]; got {min(ks):g}")
+
+    h = k // 2
+    a3 = a[:, :, None] if a.ndim == 2 else a
+    b3 = b[:, :, None] if b.ndim == 2 else b
+    a_pad = np.ascontiguousarray(np.pad(a3, ((h, h), (h, h), (0, 0)), mode="reflect"))
+    b_pad = np.ascontiguousarray(np.pad(b3, ((h, h), (h, h), (0, 0)), mode="reflect"))
+    sums_a, squares_a = patch_sums(a_pad, k)
+    sums_b, squares_b = patch_sums(b_pad, k)
+    offsets, dists = _offsets(r)
+    best, distance = registration_search(  # Eq. (11)
+        a_pad, b_pad, sums_a, squares_a, sums_b, squares_b, offsets, dists, k,
+        _SIMILARITIES[similarity], FLAT_VARIANCE, TIE_TOLERANCE,
+    )
+    distance[best < tau] = r
+    return RegistrationError(
+        distance=distance,
+        rms=float(np.sqrt(np.mean(distance**2))),
+        median=float(np.median(distance)),
+        ranked={k_: _ranked_value(distance, k_) for k_ in ks},  # Eq. (12)-(13)
+        radius=r,
+        patch_size=k,
+        similarity=similarity,
+        threshold=tau,
+    )

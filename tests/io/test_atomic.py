@@ -1,0 +1,78 @@
+"""Atomic writes and strict JSON."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from vergence.io import atomic_write, write_json
+
+
+def test_atomic_write_renames_on_success_and_keeps_the_extension(tmp_path):
+    target = tmp_path / "out.png"
+    with atomic_write(target) as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".png" and tmp.name.startswith(".out.tmp-")
+        assert not tmp.exists() and not target.exists()
+        tmp.write_bytes(b"new")
+    assert target.read_bytes() == b"new"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.png"]
+
+
+def test_atomic_write_replaces_an_existing_file(tmp_path):
+    target = tmp_path / "out.txt"
+    target.write_text("old")
+    with atomic_write(target) as tmp:
+        tmp.write_text("new")
+    assert target.read_text() == "new"
+
+
+def test_failure_leaves_the_old_file_and_no_temporary(tmp_path):
+    target = tmp_path / "out.txt"
+    target.write_text("old")
+    with pytest.raises(RuntimeError, match="boom"), atomic_write(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("boom")
+    assert target.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]
+
+
+def test_block_that_writes_nothing_is_an_error(tmp_path):
+    with pytest.raises(FileNotFoundError, match="the writer created no file"), atomic_write(tmp_path / "a.txt"):
+        pass
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_output_paths(tmp_path):
+    with pytest.raises(FileNotFoundError, match=r"folder .*missing does not exist"), atomic_write(
+        tmp_path / "missing" / "a.txt"
+    ):
+        pass
+    with pytest.raises(IsADirectoryError, match="it is a directory"), atomic_write(tmp_path):
+        pass
+    with pytest.raises(TypeError, match="path must be a str or os.PathLike; got NoneType"), atomic_write(None):
+        pass
+
+
+def test_write_json_round_trip_with_numpy_values(tmp_path):
+    target = tmp_path / "r.json"
+    obj = {"a": np.float32(0.5), "b": np.int64(3), "c": np.arange(3), "d": [1.25, None, True], "p": tmp_path}
+    write_json(target, obj)
+    text = target.read_text()
+    assert text.endswith("}\n")
+    assert json.loads(text) == {"a": 0.5, "b": 3, "c": [0, 1, 2], "d": [1.25, None, True], "p": str(tmp_path)}
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, np.array([1.0, np.nan]), np.float64(-np.inf)])
+def test_write_json_refuses_non_finite_numbers(tmp_path, bad):
+    target = tmp_path / "r.json"
+    with pytest.raises(ValueError, match=r"cannot write .*r\.json as JSON: .*NaN and inf are not valid JSON"):
+        write_json(target, {"x": bad})
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_json_refuses_unserialisable_objects(tmp_path):
+    with pytest.raises(TypeError, match="object of type set is not JSON serialisable"):
+        write_json(tmp_path / "r.json", {"x": {1, 2}})
