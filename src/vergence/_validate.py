@@ -80,7 +80,8 @@ def as_float_array(
     if shape is not None:
         ok = arr.ndim == len(shape) and all(s is None or s == n for s, n in zip(shape, arr.shape))
         if not ok:
-            want = "(" + ", ".join("N" if s is None else str(s) for s in shape) + ")"
+            dims = ["N" if s is None else str(s) for s in shape]
+            want = "(" + ", ".join(dims) + ("," if len(dims) == 1 else "") + ")"
             raise ValueError(f"{name} must have shape {want}; got {arr.shape}")
     if allow_nan:
         if np.isinf(arr).any():

@@ -7,12 +7,16 @@ and exit code 2, never a traceback.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
+
+from vergence.viewing.geometry import Display
 
 app = typer.Typer(
     name="vergence",
@@ -28,7 +32,7 @@ err_console = Console(stderr=True)
 
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on stderr and return the exit (code 2) to raise."""
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code=2)
 
 
@@ -43,3 +47,31 @@ def check_output_path(out: Path, *inputs: Path) -> None:
     for p in inputs:
         if p is not None and Path(p).exists() and Path(out).exists() and Path(out).resolve() == Path(p).resolve():
             raise ValueError(f"output {out} would overwrite input {p}")
+
+
+_DISPLAY_LENGTHS = ("--eye-separation", "--viewing-distance", "--screen-width")
+
+
+def display_from_options(
+    preset: str | None,
+    eye_separation: float | None,
+    distance: float | None,
+    width: float | None,
+    pixels: int | None = None,
+) -> Display:
+    """The display from ``--display PRESET`` or from the three lengths (exactly one of the two).
+
+    ``pixels`` (``--screen-pixels``) sets or overrides the horizontal resolution.
+    """
+    given = [n for n, v in zip(_DISPLAY_LENGTHS, (eye_separation, distance, width)) if v is not None]
+    if preset is not None:
+        if given:
+            raise ValueError(
+                f"give either --display or the display lengths, not both (got --display and {', '.join(given)})"
+            )
+        display = Display.preset(preset)
+        return display if pixels is None else dataclasses.replace(display, resolution=pixels)
+    if len(given) < 3:
+        missing = ", ".join(n for n in _DISPLAY_LENGTHS if n not in given)
+        raise ValueError(f"the display is incomplete: give --display PRESET or all three lengths (missing {missing})")
+    return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)

@@ -2,20 +2,18 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, console, err_console, print_json
+from vergence.cli._app import app, console, display_from_options, err_console, print_json
 from vergence.viewing.budget import DepthBudget, depth_budget
 from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, DISPLAY_PRESETS, Display, Shooting
 
 __all__ = ["budget"]
 
-_DISPLAY_LENGTHS = ("--eye-separation", "--viewing-distance", "--screen-width")
 
 
 def _shooting(baseline: float, convergence: float, window: float | None, focal_mm: float | None,
@@ -32,24 +30,6 @@ def _shooting(baseline: float, convergence: float, window: float | None, focal_m
     if focal_mm is None:
         raise ValueError("--focal-mm (focal length in mm) is required with --sensor-mm")
     return Shooting.from_focal(baseline=baseline, convergence=convergence, focal_mm=focal_mm, sensor_mm=sensor_mm)
-
-
-def _display(preset: str | None, eye_separation: float | None, distance: float | None, width: float | None,
-             pixels: int | None) -> Display:
-    """The display from --display PRESET or from the three lengths (exactly one of the two)."""
-    lengths = (eye_separation, distance, width)
-    given = [name for name, v in zip(_DISPLAY_LENGTHS, lengths) if v is not None]
-    if preset is not None:
-        if given:
-            raise ValueError(
-                f"give either --display or the display lengths, not both (got --display and {', '.join(given)})"
-            )
-        display = Display.preset(preset)
-        return display if pixels is None else dataclasses.replace(display, resolution=pixels)
-    if len(given) < 3:
-        missing = ", ".join(n for n in _DISPLAY_LENGTHS if n not in given)
-        raise ValueError(f"the display is incomplete: give --display PRESET or all three lengths (missing {missing})")
-    return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)
 
 
 def _fmt(value: float | None, spec: str) -> str:
@@ -121,7 +101,7 @@ def budget(
 ) -> None:
     """Depth budget of a rig on a display: divergence and roundness baselines, z' and roundness per depth (S0 §2)."""
     shooting = _shooting(baseline, convergence, window, focal_mm, sensor_mm)
-    display = _display(display_preset, eye_separation, viewing_distance, screen_width, screen_pixels)
+    display = display_from_options(display_preset, eye_separation, viewing_distance, screen_width, screen_pixels)
     result = depth_budget(shooting, display, depth if depth else None)
     if plot is not None:
         from vergence.report.budget_plot import plot_budget  # matplotlib only when a plot is asked for

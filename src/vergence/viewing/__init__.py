@@ -1,5 +1,13 @@
-"""Viewing geometry (S0 §2), comfort zone and disparity mapping (S0 Eq. 7–9, Lang et al. 2010)."""
+"""Viewing geometry (S0 §2), comfort zone, depth budget and disparity mapping (S0 Eq. 7–9, Lang 2010)."""
 
+from vergence.viewing.budget import DepthBudget, DepthSample, default_depths, depth_budget
+from vergence.viewing.comfort import (
+    ComfortReport,
+    ComfortZone,
+    arcmin_from_pixels,
+    check_disparity_range,
+    pixels_from_arcmin,
+)
 from vergence.viewing.geometry import (
     CARDBOARD_ROUNDNESS,
     CONTROL_EFFECTS,
@@ -18,22 +26,61 @@ from vergence.viewing.geometry import (
     shift_sensor_parallax,
     shift_sensor_positions,
 )
+from vergence.viewing.mapping import (
+    BlendedMapping,
+    ConstrainedMapping,
+    DirectorConstraint,
+    DisparityMapping,
+    LinearMapping,
+    LogMapping,
+    PiecewiseMapping,
+    RationalHermiteMapping,
+    SaliencyMapping,
+    gradient_domain_mapping,
+    mapped_perceived_depth,
+    mapped_roundness,
+    psi_from_constraints,
+    temporal_mapping,
+)
 
 __all__ = [
     "CARDBOARD_ROUNDNESS",
     "CONTROL_EFFECTS",
     "DISPLAY_PRESETS",
+    "BlendedMapping",
+    "ComfortReport",
+    "ComfortZone",
+    "ConstrainedMapping",
+    "DepthBudget",
+    "DepthSample",
+    "DirectorConstraint",
     "Display",
+    "DisparityMapping",
+    "LinearMapping",
+    "LogMapping",
+    "PiecewiseMapping",
+    "RationalHermiteMapping",
+    "SaliencyMapping",
     "Shooting",
+    "arcmin_from_pixels",
+    "check_disparity_range",
+    "default_depths",
+    "depth_budget",
     "disparity",
     "divergence_baseline",
     "divergence_depth",
     "focal_ratio",
+    "gradient_domain_mapping",
+    "mapped_perceived_depth",
+    "mapped_roundness",
     "perceived_depth",
     "perceived_depth_from_depth",
+    "pixels_from_arcmin",
+    "psi_from_constraints",
     "roundness",
     "roundness_baseline",
     "scene_depth_from_disparity",
     "shift_sensor_parallax",
     "shift_sensor_positions",
+    "temporal_mapping",
 ]

@@ -1,0 +1,157 @@
+"""Effect of a disparity mapping psi on the perceived scene (S0 Eq. 7–9, SPEC §1.7–1.8).
+
+For any increasing psi applied to the disparity ``d(z)`` of a reference rig ``(b_r, H, W)`` (S0
+Eq. 1a) and shown on a display ``(b', H', W')``: the mapped perceived depth (Eq. 7), the
+divergence bound (Eq. 8) and the mapped roundness (Eq. 9); and, inverted, the value and slope psi
+must take for a director's depth and roundness constraint (S0 §6). Lengths in metres; disparities
+are fractions of the image width (``docs/conventions.md``); depths may be inf.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vergence._validate import check_positive
+from vergence.viewing.geometry import Display, Shooting, disparity
+from vergence.viewing.mapping_operators import DisparityMapping
+
+__all__ = [
+    "mapped_perceived_depth",
+    "mapped_roundness",
+    "psi_slope_for_roundness",
+    "psi_value_for_depth",
+]
+
+
+def _length_or_inf(name: str, value: object, *, where: str = "in front of the camera") -> float:
+    """A length > 0 that may be +inf (an infinitely far point)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"{name} must be a real number; got {type(value).__name__}")
+    v = float(value)
+    if math.isnan(v) or v <= 0:
+        raise ValueError(f"{name} must be > 0 ({where}); got {v:g}")
+    return v
+
+
+# A perceived depth <= 0 would need psi > b'/W': the eyes would diverge (S0 Eq. 8).
+_VIEWER = "in front of the viewer; a negative one is past the divergence limit b'/W'"
+
+
+def psi_value_for_depth(perceived: float, display: Display) -> float:
+    """``psi(d_e) = (b'/W')(1 - H'/z'_e)``: the value giving perceived depth ``z'_e`` (S0 Eq. 1b inverted).
+
+    ``b'/W'`` (the divergence limit, S0 Eq. 8) for ``z'_e = inf``.
+
+    Examples
+    --------
+    >>> psi_value_for_depth(3.0, Display(0.065, 3.0, 1.2))
+    0.0
+    """
+    zp = _length_or_inf("perceived", perceived, where=_VIEWER)
+    limit = display.eye_separation / display.width
+    return limit if math.isinf(zp) else limit * (1.0 - display.distance / zp)
+
+
+def psi_slope_for_roundness(
+    roundness: float, depth: float, perceived: float, reference: Shooting, display: Display
+) -> float:
+    """``psi'(d_e) = rho_e z_e b' / (b_r z'_e)``: the slope giving roundness ``rho_e`` (S0 Eq. 9, SPEC §1.8).
+
+    Examples
+    --------
+    >>> psi_slope_for_roundness(1.0, 30.0, 3.0, Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2))
+    1.0
+    """
+    rho = check_positive("roundness", roundness)
+    z = check_positive("depth", depth)
+    zp = check_positive("perceived", perceived)
+    return rho * z * display.eye_separation / (reference.baseline * zp)
+
+
+def _scene_depths(name: str, z: object) -> np.ndarray:
+    try:
+        arr = np.asarray(z, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be numeric; got {type(z).__name__}") from exc
+    if np.isnan(arr).any() or (arr <= 0).any():
+        bad = arr[np.isnan(arr) | (arr <= 0)].flat[0]
+        raise ValueError(f"{name} must be > 0 (in front of the camera; inf allowed); got {bad:g}")
+    return arr
+
+
+def _disparity_of(z: np.ndarray, reference: Shooting) -> np.ndarray:
+    """S0 Eq. (1a) with ``d(inf) = b/W``."""
+    finite = np.isfinite(z)
+    d = np.full(z.shape, reference.baseline / reference.window)
+    if finite.any():
+        d[finite] = disparity(z[finite], reference)
+    return d
+
+
+def _out(arr: np.ndarray) -> float | np.ndarray:
+    return float(arr) if arr.ndim == 0 else arr
+
+
+def _check_setup(psi: object, reference: object, display: object) -> None:
+    if not isinstance(psi, DisparityMapping):
+        raise TypeError(f"psi must be a DisparityMapping; got {type(psi).__name__}")
+    if not isinstance(reference, Shooting):
+        raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+
+
+def _perceived(value: np.ndarray, display: Display) -> np.ndarray:
+    """S0 Eq. (1b)/(7) as ``H' / (1 - psi/L)`` with ``L = b'/W'``: exactly inf where psi is exactly L
+    (``b' - W' L`` need not round to 0), NaN beyond (the eyes diverge)."""
+    gap = 1.0 - value / (display.eye_separation / display.width)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zp = display.distance / gap
+    return np.where(gap > 0, zp, np.where(gap == 0, np.inf, np.nan))
+
+
+def mapped_perceived_depth(
+    z: object, psi: DisparityMapping, reference: Shooting, display: Display
+) -> float | np.ndarray:
+    """Perceived depth of scene depth ``z`` under psi: ``z'_psi = b'H' / (b' - W' psi(d(z)))`` (S0 Eq. 7).
+
+    ``d(z)`` uses the reference rig; inf where psi reaches ``b'/W'``, NaN where it passes it (divergence).
+    ``z`` may hold inf.
+
+    Examples
+    --------
+    >>> from vergence.viewing.mapping_operators import LinearMapping
+    >>> half = LinearMapping(-1.0, 1.0, -0.5, 0.5)  # psi(d) = d/2
+    >>> round(mapped_perceived_depth(60.0, half, Shooting(0.3, 30.0, 3.0), Display(0.065, 3.0, 1.2)), 6)
+    5.571429
+    """
+    _check_setup(psi, reference, display)
+    d = _disparity_of(_scene_depths("z", z), reference)
+    return _out(_perceived(np.asarray(psi(d), dtype=np.float64), display))  # Eq. (7)
+
+
+def mapped_roundness(z: object, psi: DisparityMapping, reference: Shooting, display: Display) -> float | np.ndarray:
+    """Roundness of scene depth ``z`` under psi: ``rho_psi = b H' psi'(d) / (z (b' - W' psi(d)))`` (S0 Eq. 9).
+
+    Reduces to S0 Eq. (4) for the identity. 0 at ``z = inf`` below the divergence limit; NaN where
+    ``psi = b'/W'`` with ``psi' = 0`` (perceived at infinity: no depth to compare with a width);
+    negative where psi passes ``b'/W'`` (Eq. 9 as is, like Eq. 4 where the eyes diverge).
+
+    Examples
+    --------
+    >>> from vergence.viewing.mapping_operators import LinearMapping
+    >>> half = LinearMapping(-1.0, 1.0, -0.5, 0.5)  # psi(d) = d/2
+    >>> round(mapped_roundness(30.0, half, Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2)), 12)
+    0.5
+    """
+    _check_setup(psi, reference, display)
+    zz = _scene_depths("z", z)
+    d = _disparity_of(zz, reference)
+    value, slope = np.asarray(psi(d)), np.asarray(psi.derivative(d))
+    gap = 1.0 - value / (display.eye_separation / display.width)  # (b' - W' psi)/b', exactly 0 at psi = b'/W'
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = reference.baseline * display.distance * slope / (zz * display.eye_separation * gap)  # Eq. (9)
+    return _out(rho)
+

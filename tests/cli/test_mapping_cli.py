@@ -1,0 +1,169 @@
+"""Tests of ``vergence mapping``: JSON against an independent computation, the summary, the plot, errors."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from vergence.cli import main
+
+# Hand computations below use the same formulas with other roundings: a few ulps.
+RTOL = 1e-12
+# psi' by central differences of our own psi (step 1e-7 in d of order 0.1): error ~1e-7 relative.
+FD_STEP = 1e-7
+FD_RTOL = 1e-5
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+# A rig of our own: reference b_r = 0.5 m, H = 20 m, W = 2.5 m (f = 8) on a 1.1 m screen at 2.2 m
+# (f' = 2), eyes 63 mm apart. d(z) = 0.2 (1 - 20/z): d(10) = -0.2, d(inf) = +0.2, so the middle
+# of the 201 JSON samples is the subject at z = H.
+B, H, W = 0.5, 20.0, 2.5
+BP, HP, WP = 0.063, 2.2, 1.1
+RIG_ARGS = ["--reference-baseline", str(B), "--convergence", str(H), "--window", str(W)]
+DISPLAY_ARGS = ["--eye-separation", str(BP), "--viewing-distance", str(HP), "--screen-width", str(WP)]
+
+
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(["mapping", *args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _psi(d: np.ndarray, cps: list[dict]) -> np.ndarray:
+    """Our own psi from the control points: slope-continued line below, Gregory–Delbourgo between
+    (SPEC §1.8, the plain formula), saturating towards b'/W' above (the documented extension)."""
+    x = np.array([c["disparity"] for c in cps])
+    y = np.array([c["value"] for c in cps])
+    s = np.array([c["slope"] for c in cps])
+    out = np.empty_like(d)
+    for k, v in enumerate(d):
+        if v <= x[0]:
+            out[k] = y[0] + s[0] * (v - x[0])
+        elif v >= x[-1]:
+            gap = BP / WP - y[-1]
+            out[k] = y[-1] if gap == 0 else BP / WP - gap * math.exp(-s[-1] * (v - x[-1]) / gap)
+        else:
+            i = np.searchsorted(x, v) - 1
+            h = x[i + 1] - x[i]
+            t = (v - x[i]) / h
+            delta = (y[i + 1] - y[i]) / h
+            out[k] = y[i] + (y[i + 1] - y[i]) * (delta * t**2 + s[i] * t * (1 - t)) / (
+                delta + (s[i + 1] + s[i] - 2 * delta) * t * (1 - t)
+            )
+    return out
+
+
+def test_json_schema_and_values_match_independent_computation(capsys):
+    code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1",
+                          "--constraint", "z=50,perceived=4", "--near", "10", "--far", "inf", "--json")
+    assert code == 0 and err == ""
+    data = json.loads(out)
+    assert list(data) == ["control_points", "samples", "monotone", "diverges"]
+    assert data["monotone"] is True and data["diverges"] is False
+    cps = data["control_points"]
+    assert [list(c) for c in cps] == [["disparity", "value", "slope"]] * 2
+    # SPEC §1.8: d_e = (b/W)(1 - H/z_e), psi(d_e) = (b'/W')(1 - H'/z'_e), psi'(d_e) = rho z_e b'/(b_r z'_e).
+    assert cps[0]["disparity"] == pytest.approx(0.0, abs=1e-15)
+    assert cps[0]["value"] == pytest.approx(0.0, abs=1e-15)
+    assert cps[0]["slope"] == pytest.approx(1.0 * 20 * BP / (B * 2.2), rel=RTOL)
+    assert cps[1]["disparity"] == pytest.approx(B / W * (1 - H / 50), rel=RTOL)
+    assert cps[1]["value"] == pytest.approx(BP / WP * (1 - HP / 4), rel=RTOL)
+    samples = data["samples"]
+    assert len(samples) >= 100
+    assert all(list(s) == ["disparity", "mapped", "perceived_depth", "roundness"] for s in samples)
+    d = np.array([s["disparity"] for s in samples])
+    assert d[0] == pytest.approx(-0.2, rel=RTOL) and d[-1] == pytest.approx(0.2, rel=RTOL)
+    assert np.all(np.diff(d) > 0)
+    mapped = np.array([s["mapped"] for s in samples])
+    np.testing.assert_allclose(mapped, _psi(d, cps), rtol=1e-10, atol=1e-14)
+    for s, dd, m in zip(samples, d, mapped):
+        z = B * H / (B - W * dd) if dd < B / W else math.inf  # S0 Eq. (1c)
+        zp = BP * HP / (BP - WP * m)  # S0 Eq. (7)
+        assert s["perceived_depth"] == pytest.approx(zp, rel=1e-10)
+        slope = (_psi(np.array([dd + FD_STEP]), cps)[0] - _psi(np.array([dd - FD_STEP]), cps)[0]) / (2 * FD_STEP)
+        rho = 0.0 if math.isinf(z) else B * HP * slope / (z * (BP - WP * m))  # S0 Eq. (9)
+        if abs(dd) > 2 * FD_STEP and abs(dd - cps[1]["disparity"]) > 2 * FD_STEP:  # psi'' jumps at knots
+            assert s["roundness"] == pytest.approx(rho, rel=FD_RTOL, abs=1e-12)
+    middle = samples[len(samples) // 2]  # the subject: on the screen, roundness 1
+    assert middle["perceived_depth"] == pytest.approx(HP, rel=1e-12)
+    assert middle["roundness"] == pytest.approx(1.0, rel=1e-12)
+
+
+def test_json_background_at_infinity_gives_null(capsys):
+    # Tri-Rig (SPEC §1.8): background at infinity perceived at infinity -> psi(b_r/W) = b'/W'.
+    code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1",
+                        "--constraint", "z=inf,perceived=inf", "--near", "10", "--far", "inf", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["control_points"][1] == {"disparity": pytest.approx(B / W, rel=RTOL),
+                                         "value": pytest.approx(BP / WP, rel=RTOL), "slope": 0.0}
+    last = data["samples"][-1]
+    assert last["mapped"] == pytest.approx(BP / WP, rel=RTOL)
+    assert last["perceived_depth"] is None and last["roundness"] is None
+    assert all(s["perceived_depth"] is not None for s in data["samples"][:-1])
+
+
+def test_display_preset_and_b_div_reference(capsys):
+    # tv-55: b' = 0.065, H' = 3, W' = 1.2176. Reference b_div = b'W/W' -> psi'(0) = f/f' (SPEC §1.8).
+    b_div = 0.065 * W / 1.2176
+    code, out, _ = _run(capsys, "--reference-baseline", repr(b_div), "--convergence", str(H), "--window", str(W),
+                        "--display", "tv-55", "--constraint", "z=20,perceived=3,roundness=1",
+                        "--near", "12", "--far", "300", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["control_points"][0]["slope"] == pytest.approx((H / W) / (3.0 / 1.2176), rel=RTOL)
+    assert data["samples"][-1]["disparity"] == pytest.approx(b_div / W * (1 - H / 300), rel=RTOL)
+
+
+def test_summary_and_plot(capsys, tmp_path):
+    plot = tmp_path / "psi.png"
+    code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1",
+                          "--constraint", "z=50,perceived=4", "--near", "10", "--far", "200", "--plot", str(plot))
+    assert code == 0 and err == ""
+    assert "monotone: yes" in out and "control points" in out and f"plot written to {plot}" in out
+    data = plot.read_bytes()
+    assert data[:8] == PNG_SIGNATURE and len(data) > 20_000
+    assert [p.name for p in tmp_path.iterdir()] == ["psi.png"]  # no temporary file left behind
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--constraint", "z=20,perceivd=2"], "constraint 'z=20,perceivd=2' is malformed"),
+        (["--constraint", "z=20,perceived=2", "--constraint", "z=40,perceived=1.5"],
+         "perceived depths must increase with scene depth"),
+        (["--constraint", "z=20,perceived=2,roundness=0"], "roundness must be > 0"),
+        (["--constraint", "z=20,perceived=inf", "--constraint", "z=40,perceived=9"], "past the divergence limit"),
+        (["--constraint", "z=-5,perceived=2"], "depth must be > 0"),
+        (["--constraint", "z=500,perceived=9"], "lies outside the scene: near = 10, far = 100"),
+    ],
+)
+def test_bad_constraints_exit_2_with_one_line(capsys, args, message):
+    code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, *args, "--near", "10", "--far", "100", "--json")
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("error: ")
+    assert message in err
+
+
+@pytest.mark.parametrize(
+    ("display", "near_far", "message"),
+    [
+        (["--display", "tv-55", "--screen-width", "1"], ["--near", "10", "--far", "100"], "give either --display"),
+        (["--eye-separation", "0.065"], ["--near", "10", "--far", "100"], "the display is incomplete"),
+        (["--display", "imax"], ["--near", "10", "--far", "100"], "unknown display preset 'imax'"),
+        (DISPLAY_ARGS, ["--near", "100", "--far", "10"], "far must be > near 100; got 10"),
+    ],
+)
+def test_bad_options_exit_2(capsys, display, near_far, message):
+    code, _, err = _run(capsys, *RIG_ARGS, *display, "--constraint", "z=20,perceived=2", *near_far)
+    assert code == 2 and err.count("\n") == 1 and message in err
+
+
+def test_plot_must_be_png(capsys, tmp_path):
+    code, _, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2", "--near", "10",
+                        "--far", "100", "--plot", str(tmp_path / "psi.jpg"))
+    assert code == 2 and "path must end in .png" in err
+    assert list(tmp_path.iterdir()) == []
