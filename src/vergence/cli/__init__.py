@@ -1,0 +1,53 @@
+"""``vergence`` command line: each command lives in its own module and registers on ``app``."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+from rich.markup import escape
+
+from vergence.cli._app import app, console, err_console
+
+# Command modules register themselves on import (one per line, keep sorted).
+from vergence.cli import budget as _budget  # noqa: E402,F401
+from vergence.cli import demo as _demo  # noqa: E402,F401
+from vergence.cli import mapping as _mapping  # noqa: E402,F401
+from vergence.cli import render as _render  # noqa: E402,F401
+
+__all__ = ["app", "main"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI and return its exit code.
+
+    Library errors (``ValueError``, ``TypeError``, ``OSError``) and command-line usage errors become
+    one line on stderr and exit code 2; never a traceback.
+    """
+    try:
+        result = app(args=argv, standalone_mode=False)
+    except typer.Exit as exc:
+        return int(exc.exit_code)
+    except typer.Abort:
+        err_console.print("[bold red]error:[/] aborted", highlight=False)
+        return 130
+    except typer.TyperException as exc:  # click's usage errors (bad option, wrong type, missing value)
+        if type(exc).__name__ == "NoArgsIsHelpError":
+            console.print(exc.format_message())  # type: ignore[attr-defined]
+            return 0
+        message = exc.format_message() if hasattr(exc, "format_message") else str(exc)
+        _one_line_error(message)
+        return int(getattr(exc, "exit_code", 2) or 2)
+    except (ValueError, TypeError, OSError) as exc:
+        _one_line_error(str(exc) or type(exc).__name__)
+        return 2
+    return int(result) if isinstance(result, int) else 0
+
+
+def _one_line_error(message: str) -> None:
+    line = " ".join(message.split())
+    err_console.print(f"[bold red]error:[/] {escape(line)}", highlight=False, soft_wrap=True)
+
+
+def _entry() -> None:  # pragma: no cover - console script shim
+    sys.exit(main())

@@ -1,0 +1,143 @@
+"""The boundary to Mitsuba 3: rays in, first hits (or occlusion) out, whole wavefronts at a time.
+
+Mitsuba is only the ray caster (BVH build and traversal). We hand it spheres, rectangles and
+triangle meshes, cast rays with ``Scene.ray_intersect_preliminary`` (which object, which triangle,
+distance) and ``Scene.ray_test`` (occluded or not), and compute everything else ourselves
+(``surfaces.py``). Full surface interactions are avoided on purpose: with LLVM 15 (Debian 12) the
+``llvm_ad_rgb`` kernels for texture coordinates and vertex normals abort the process
+(``Cannot select: fminimum``).
+
+The variant is chosen once per process: ``cuda_ad_rgb`` when Dr.Jit finds a CUDA device, else
+``llvm_ad_rgb``; the environment variable ``VERGENCE_MITSUBA_VARIANT`` forces one.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+try:
+    import drjit as dr
+    import mitsuba as mi
+except ImportError as exc:  # pragma: no cover - depends on the installation
+    raise ImportError(
+        f"vergence.render needs Mitsuba 3 and Dr.Jit (pip install 'mitsuba>=3.5'); import failed: {exc}"
+    ) from exc
+
+__all__ = ["Caster", "select_variant"]
+
+# Rays per Mitsuba call: bounds the memory of one wavefront (about 100 bytes per ray in flight).
+_CHUNK = 1 << 22
+
+
+def select_variant() -> str:
+    """Set (once) and return the Mitsuba variant: CUDA when a device is present, else LLVM (CPU)."""
+    current = mi.variant()
+    if current is not None:
+        return current
+    forced = os.environ.get("VERGENCE_MITSUBA_VARIANT")
+    if forced:
+        if forced not in mi.variants():
+            raise ValueError(f"VERGENCE_MITSUBA_VARIANT must be one of {', '.join(mi.variants())}; got {forced!r}")
+        chosen = forced
+    elif "cuda_ad_rgb" in mi.variants() and dr.has_backend(dr.JitBackend.CUDA):
+        chosen = "cuda_ad_rgb"
+    else:
+        chosen = "llvm_ad_rgb"
+    mi.set_variant(chosen)
+    mi.set_log_level(mi.LogLevel.Error)
+    return chosen
+
+
+def _rectangle_transform(center: np.ndarray, normal: np.ndarray, up: np.ndarray, size: tuple) -> list:
+    # Mitsuba's rectangle is [-1, 1]^2 in the local xy plane with normal +z.
+    right = np.cross(up, normal)
+    M = np.eye(4)
+    M[:3, 0] = right * size[0] / 2.0
+    M[:3, 1] = up * size[1] / 2.0
+    M[:3, 2] = normal
+    M[:3, 3] = center
+    return M.tolist()
+
+
+def _mesh(name: str, vertices: np.ndarray, faces: np.ndarray) -> mi.Mesh:
+    mesh = mi.Mesh(name, vertex_count=len(vertices), face_count=len(faces),
+                   has_vertex_normals=False, has_vertex_texcoords=False)  # fmt: skip
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = np.ascontiguousarray(vertices, dtype=np.float32).ravel()
+    params["faces"] = np.ascontiguousarray(faces, dtype=np.uint32).ravel()
+    params.update()
+    return mesh
+
+
+class Caster:
+    """A Mitsuba scene of some objects, answering first-hit and visibility queries.
+
+    Parameters
+    ----------
+    shapes : list of (kind, params)
+        ``("sphere", (center, radius))``, ``("rectangle", (center, normal, up, size))`` or
+        ``("mesh", (vertices, faces))``, in world coordinates. The list index is the object id
+        returned by :meth:`intersect`.
+    """
+
+    def __init__(self, shapes: list[tuple[str, tuple]]) -> None:
+        self.variant = select_variant()
+        spec: dict = {"type": "scene"}
+        for i, (kind, p) in enumerate(shapes):
+            key = f"obj{i}"
+            if kind == "sphere":
+                spec[key] = {"type": "sphere", "center": [float(v) for v in p[0]], "radius": float(p[1])}
+            elif kind == "rectangle":
+                spec[key] = {"type": "rectangle", "to_world": mi.ScalarTransform4f(_rectangle_transform(*p))}
+            elif kind == "mesh":
+                spec[key] = _mesh(key, *p)
+            else:  # pragma: no cover - callers pass validated objects
+                raise ValueError(f"unknown shape kind {kind!r}")
+        self._scene = mi.load_dict(spec)
+        ids = [(int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]), int(s.id()[3:])) for s in self._scene.shapes()]
+        self._lookup = np.full(max([r for r, _ in ids], default=0) + 1, -1, dtype=np.int64)
+        for registry_id, obj in ids:
+            self._lookup[registry_id] = obj
+
+    def _ray(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None) -> mi.Ray3f:
+        ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(origins.T, dtype=np.float32)),
+                       mi.Vector3f(np.ascontiguousarray(dirs.T, dtype=np.float32)))  # fmt: skip
+        if maxt is not None:
+            ray.maxt = mi.Float(np.ascontiguousarray(maxt, dtype=np.float32))
+        return ray
+
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """First hits of rays ``(M, 3)``: object id (-1 for a miss), primitive index, distance (float32 accuracy)."""
+        m = len(origins)
+        obj = np.full(m, -1, dtype=np.int64)
+        prim = np.zeros(m, dtype=np.int64)
+        t = np.full(m, np.inf)
+        for s in range(0, m, _CHUNK):
+            e = min(m, s + _CHUNK)
+            pi = self._scene.ray_intersect_preliminary(self._ray(origins[s:e], dirs[s:e], None), True)
+            registry = dr.reinterpret_array(mi.UInt32, pi.shape).numpy().astype(np.int64)
+            obj[s:e] = self._lookup[np.minimum(registry, len(self._lookup) - 1)]
+            prim[s:e] = pi.prim_index.numpy()
+            t[s:e] = pi.t.numpy()
+        miss = ~np.isfinite(t) | (obj < 0)
+        obj[miss] = -1
+        return obj, prim, t
+
+    def occluded_soa(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`occluded` for rays already in Mitsuba's layout: float32 ``(3, M)`` origins and directions."""
+        ray = mi.Ray3f(mi.Point3f(origins), mi.Vector3f(dirs))
+        if maxt is not None:
+            ray.maxt = mi.Float(np.ascontiguousarray(maxt, dtype=np.float32))
+        return self._scene.ray_test(ray, True).numpy()
+
+    def occluded(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
+        """Whether each ray ``(M, 3)`` hits anything before ``maxt`` (unbounded when None)."""
+        m = len(origins)
+        out = np.zeros(m, dtype=bool)
+        for s in range(0, m, _CHUNK):
+            e = min(m, s + _CHUNK)
+            mt = None if maxt is None else maxt[s:e]
+            out[s:e] = self._scene.ray_test(self._ray(origins[s:e], dirs[s:e], mt), True).numpy()
+        return out

@@ -1,0 +1,137 @@
+"""Previews and files of a render: tone-mapped beauty, depth with a colour bar, layer contact sheet.
+
+Tone mapping is linear, as in S3 §3.2 ("a linear tone mapper"): ``exposure`` times radiance,
+clipped to [0, 1], then sRGB-encoded. The automatic exposure maps the 99th percentile of the
+luminance (Rec. 709 weights) to 1, so the brightest 1 % (sun, highlights) clips.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from vergence._validate import check_positive
+from vergence.render.raytree import RenderResult, layer_names
+
+__all__ = ["auto_exposure", "contact_sheet", "depth_preview", "save_render", "tonemap"]
+
+_LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def auto_exposure(radiance: np.ndarray) -> float:
+    """Exposure mapping the 99th percentile of luminance to 1 (1.0 for an all-black image)."""
+    lum = np.asarray(radiance, dtype=np.float64) @ _LUMA
+    lum = lum[np.isfinite(lum)]
+    p99 = float(np.percentile(lum, 99.0)) if lum.size else 0.0
+    return 1.0 / p99 if p99 > 0.0 else 1.0
+
+
+def tonemap(radiance: np.ndarray, *, exposure: float | None = None) -> np.ndarray:
+    """Linear HDR ``(H, W, 3)`` to display sRGB float32 in [0, 1]: ``srgb(clip(exposure * L))``."""
+    arr = np.asarray(radiance, dtype=np.float64)
+    if arr.ndim != 3 or arr.shape[2] != 3:
+        raise ValueError(f"radiance must have shape (H, W, 3); got {arr.shape}")
+    k = auto_exposure(arr) if exposure is None else check_positive("exposure", exposure)
+    x = np.clip(np.nan_to_num(arr * k, nan=0.0), 0.0, 1.0)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)  # IEC 61966-2-1
+    return srgb.astype(np.float32)
+
+
+def _figure_rgb(fig: Figure) -> np.ndarray:
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba(), dtype=np.float32)[:, :, :3] / 255.0
+
+
+def depth_preview(depth: np.ndarray, *, title: str = "depth (m)") -> np.ndarray:
+    """Depth map ``(H, W)`` drawn with a colour bar (matplotlib, Agg); NaN (no hit) in grey."""
+    d = np.asarray(depth, dtype=np.float64)
+    h, w = d.shape
+    scale = max(1.0, 480.0 / max(h, w))
+    fig = Figure(figsize=(w * scale / 100.0 + 1.4, h * scale / 100.0 + 0.6), dpi=100)
+    ax = fig.add_axes((0.02, 0.04, 0.76, 0.88))
+    cmap = __import__("matplotlib").colormaps["viridis"].with_extremes(bad=(0.5, 0.5, 0.5))
+    finite = d[np.isfinite(d)]
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    im = ax.imshow(np.ma.masked_invalid(d), cmap=cmap, vmin=vmin, vmax=vmax if vmax > vmin else vmin + 1.0)
+    ax.set_axis_off()
+    ax.set_title(title, fontsize=9)
+    cax = fig.add_axes((0.81, 0.1, 0.035, 0.76))
+    fig.colorbar(im, cax=cax).ax.tick_params(labelsize=8)
+    return _figure_rgb(fig)
+
+
+def contact_sheet(result: RenderResult, *, exposure: float | None = None) -> np.ndarray:
+    """All layers and the beauty in a grid, each tile labelled with its node, path and gain.
+
+    The beauty uses ``exposure`` (automatic when None); each layer is shown at the automatic
+    exposure of its non-black pixels and labelled with the gain over the beauty's (x1 = as bright
+    as in the image); a layer without light is labelled "empty".
+    """
+    k = auto_exposure(result.beauty) if exposure is None else check_positive("exposure", exposure)
+    names = layer_names(result.settings.max_depth)
+    tiles = [("beauty", tonemap(result.beauty, exposure=k))]
+    for i, name in enumerate(names):
+        layer = result.radiance[i]
+        lit = layer[(layer > 0).any(axis=-1)]
+        if lit.size == 0:
+            tiles.append((f"{i + 1}: {name}  (empty)", np.zeros_like(layer)))
+            continue
+        k_i = auto_exposure(lit[None])
+        tiles.append((f"{i + 1}: {name}  (x{k_i / k:.3g})", tonemap(layer, exposure=k_i)))
+    cols = min(4, len(tiles))
+    rows = -(-len(tiles) // cols)
+    h, w = result.beauty.shape[:2]
+    tile_w = 2.6
+    fig = Figure(figsize=(cols * tile_w, rows * (tile_w * h / w + 0.3)), dpi=100)
+    for j, (label, img) in enumerate(tiles):
+        ax = fig.add_subplot(rows, cols, j + 1)
+        ax.imshow(img, interpolation="nearest")
+        ax.set_title(label, fontsize=8)
+        ax.set_axis_off()
+    fig.subplots_adjust(left=0.01, right=0.99, bottom=0.01, top=0.95, wspace=0.04, hspace=0.18)
+    return _figure_rgb(fig)
+
+
+def save_render(result: RenderResult, folder: str | Path, *, stem: str = "render", exposure: float | None = None) -> list[Path]:
+    """Write ``stem.npz``, ``stem_camera.json`` and the PNG previews of ``result`` into ``folder``.
+
+    ``stem.npz`` holds ``radiance``, ``position``, ``normal``, ``depth``, ``beauty`` (float32),
+    ``layer_names`` and ``settings`` (a JSON string). ``stem_camera.json`` is ``camera.to_dict()``
+    (a pinhole one loads with :meth:`vergence.camera.Camera.from_dict`). Previews:
+    ``stem_beauty.png`` (tone-mapped with ``exposure``, automatic when None: give both eyes of a
+    pair the same value), ``stem_depth.png``, ``stem_layers.png``. Every file is written atomically.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
+    from vergence.io import atomic_write, write_image, write_json
+
+    out = Path(folder)
+    if not out.is_dir():
+        raise FileNotFoundError(f"output folder does not exist: {out}")
+    k = auto_exposure(result.beauty) if exposure is None else check_positive("exposure", exposure)
+    written = []
+    npz = out / f"{stem}.npz"
+    with atomic_write(npz) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(
+                fh, radiance=result.radiance, position=result.position, normal=result.normal, depth=result.depth,
+                beauty=result.beauty, layer_names=np.array(layer_names(result.settings.max_depth)),
+                settings=np.array(json.dumps(result.settings.to_dict())),
+            )  # fmt: skip
+    written.append(npz)
+    write_json(out / f"{stem}_camera.json", result.camera.to_dict())
+    written.append(out / f"{stem}_camera.json")
+    for name, img in (("beauty", tonemap(result.beauty, exposure=k)), ("depth", depth_preview(result.depth)),
+                      ("layers", contact_sheet(result, exposure=k))):  # fmt: skip
+        path = out / f"{stem}_{name}.png"
+        write_image(path, img)
+        written.append(path)
+    return written

@@ -1,0 +1,78 @@
+"""The parallel, shifted-sensor stereo rig of S0 §2 (SPEC §1.1) built on one camera.
+
+Two cameras with the orientation and intrinsics of ``camera``, their centres ``b/2`` to the left
+and right of its centre along its x axis, and their principal points shifted horizontally so that
+both frusta cut the plane at camera-frame depth ``H`` in the same window: the one ``camera`` sees
+there. A point at depth ``z`` then has pixel disparity
+
+    x_left - x_right = fx b (1/z - 1/H)
+
+(zero on the convergence plane, positive in front of it), which is S0 Eq. (1a),
+``d = (b/W)(z - H)/z`` as a fraction of the window width ``W = H width / fx``, with the opposite
+sign (``d = x_r - x_l``; see ``docs/conventions.md``). Pure geometry: no rendering engine here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vergence._validate import check_positive
+from vergence.camera import Camera
+
+__all__ = ["stereo_pair"]
+
+
+def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple[Camera, Camera]:
+    """Left and right cameras of a shifted-sensor rig centred on ``camera`` (S0 §2, SPEC §1.1).
+
+    Parameters
+    ----------
+    camera : Camera
+        The central (cyclopean) camera; its image is the convergence window.
+    baseline : float
+        Distance ``b`` between the two optical centres, metres, > 0.
+    convergence : float
+        Camera-frame depth ``H`` of the convergence plane, metres, > 0.
+
+    Returns
+    -------
+    left, right : Camera
+        Same ``R``, size and focal lengths as ``camera``; centres ``C -+ (b/2) r`` with ``r`` the
+        camera's right axis (first row of ``R``); principal points
+        ``cx -+ fx b / (2 H)`` (the sensor shift), ``cy`` unchanged.
+
+    Raises
+    ------
+    TypeError
+        If ``camera`` is not a :class:`~vergence.camera.Camera`.
+    ValueError
+        If ``baseline`` or ``convergence`` is not finite and > 0.
+
+    Notes
+    -----
+    Seen from the left camera, a point ``(X, Y, z)`` of the central camera frame is at
+    ``X + b/2``, so ``x_l = fx (X + b/2)/z + cx - fx b/(2H)``; likewise
+    ``x_r = fx (X - b/2)/z + cx + fx b/(2H)``. Both equal ``fx X/H + cx`` at ``z = H`` (same window)
+    and ``x_l - x_r = fx b (1/z - 1/H)``: S0 Eq. (1a) times ``-W_px``.
+
+    Examples
+    --------
+    >>> from vergence.camera import look_at
+    >>> cam = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=90, width=101, height=51)
+    >>> left, right = stereo_pair(cam, baseline=0.1, convergence=2.0)
+    >>> left.center.tolist(), left.principal_point
+    ([-0.05, 0.0, 0.0], (48.7375, 25.0))
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a vergence.camera.Camera; got {type(camera).__name__}")
+    b = check_positive("baseline", baseline)
+    H = check_positive("convergence", convergence)
+    right_axis = camera.R[0]
+    shift_px = camera.K[0, 0] * b / (2.0 * H)  # sensor shift fx b / (2H), SPEC §1.1
+    cams = []
+    for sign in (-1.0, 1.0):
+        center = camera.center + sign * (b / 2.0) * right_axis
+        K = np.array(camera.K, copy=True)
+        K[0, 2] += sign * shift_px
+        cams.append(Camera(K=K, R=camera.R, t=-camera.R @ center, width=camera.width, height=camera.height))
+    return cams[0], cams[1]

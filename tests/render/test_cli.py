@@ -1,0 +1,92 @@
+"""``vergence render`` through ``vergence.cli.main``: files written, stereo output, one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from vergence.camera import Camera
+from vergence.cli import main
+from vergence.io import read_image
+
+SMALL = ["--width", "16", "--height", "12", "--samples", "2"]
+
+
+def test_render_single_view(tmp_path, capsys):
+    assert main(["render", "tabletop", "--out", str(tmp_path / "out"), *SMALL, "--depth", "1"]) == 0
+    out = tmp_path / "out"
+    with np.load(out / "render.npz") as npz:
+        assert npz["radiance"].shape == (3, 12, 16, 3) and npz["radiance"].dtype == np.float32
+        assert npz["position"].shape == npz["normal"].shape == (3, 12, 16, 3)
+        assert npz["depth"].shape == (12, 16) and npz["beauty"].shape == (12, 16, 3)
+        assert_allclose(npz["beauty"], npz["radiance"].sum(axis=0))
+        assert list(npz["layer_names"]) == ["first hit", "R", "T"]
+        assert json.loads(str(npz["settings"]))["max_depth"] == 1
+    cam = Camera.from_dict(json.loads((out / "render_camera.json").read_text()))
+    assert (cam.width, cam.height) == (16, 12)
+    assert read_image(out / "render_beauty.png").shape == (12, 16, 3)
+    for name in ("render_depth.png", "render_layers.png"):
+        assert read_image(out / name).shape[2] == 3
+    assert "rendered tabletop" in capsys.readouterr().out
+
+
+def test_render_both_eyes_uses_the_scene_rig(tmp_path):
+    assert main(["render", "glasses", "--eye", "both", "--out", str(tmp_path), *SMALL]) == 0
+    left = Camera.from_dict(json.loads((tmp_path / "left_camera.json").read_text()))
+    right = Camera.from_dict(json.loads((tmp_path / "right_camera.json").read_text()))
+    # The glasses scene's rig: b = 0.065 m along the camera's right axis.
+    assert_allclose(right.center - left.center, 0.065 * left.R[0], atol=1e-12)
+    assert left.principal_point[0] < right.principal_point[0]  # sensor shift towards each other
+    for eye in ("left", "right"):
+        assert (tmp_path / f"{eye}.npz").is_file() and (tmp_path / f"{eye}_beauty.png").is_file()
+    assert not (tmp_path / "render.npz").exists()
+
+
+def test_render_one_eye_with_explicit_rig(tmp_path):
+    code = main(["render", "stadium", "--eye", "right", "--baseline", "0.2", "--convergence", "25", "--out",
+                 str(tmp_path), *SMALL, "--depth", "0"])  # fmt: skip
+    assert code == 0
+    assert (tmp_path / "right.npz").is_file() and not (tmp_path / "left.npz").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["moon"], "scene must be a scene file or one of glasses, stadium, tabletop; got 'moon'"),
+        (["tabletop", "--baseline", "0.1"], "--baseline and --convergence need --eye left, right or both"),
+        (["tabletop", "--eye", "up"], "--eye must be one of left, right, both; got 'up'"),
+        (["tabletop", "--depth", "9"], r"max_depth must be an integer in [0, 6]; got 9"),
+        (["tabletop", "--samples", "0"], "samples must be >= 1; got 0"),
+    ],
+)
+def test_render_errors_are_one_line(tmp_path, capsys, args, message):
+    assert main(["render", *args, "--out", str(tmp_path), "--width", "8", "--height", "6"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and message in err
+
+
+def test_bad_scene_file_is_one_line_exit_2(tmp_path, capsys):
+    scene = tmp_path / "scene.json"
+    scene.write_text('{"camera": 1, "environment": {}, "materials": {}, "objects": []}')
+    assert main(["render", str(scene), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "scene.json: camera must be a JSON object; got int" in err
+    no_rig = tmp_path / "plain.json"
+    no_rig.write_text(json.dumps({
+        "camera": {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 1, 0], "fov_deg": 40, "width": 8, "height": 6},
+        "environment": {"color": [1, 1, 1]}, "materials": {}, "objects": [],
+    }))  # fmt: skip
+    assert main(["render", str(no_rig), "--eye", "both", "--out", str(tmp_path / "o")]) == 2
+    assert 'the scene has no "stereo" block' in capsys.readouterr().err
+
+
+def test_import_vergence_does_not_import_mitsuba():
+    import subprocess
+    import sys
+
+    code = "import sys, vergence, vergence.cli, vergence.rig; print('mitsuba' in sys.modules, 'drjit' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "False"]
