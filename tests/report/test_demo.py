@@ -15,7 +15,7 @@ def test_demo_writes_index_with_existing_figures(tmp_path):
     result = run_demo(tmp_path / "out")
     html = result.index.read_text(encoding="utf-8")
     figures = re.findall(r'<img src="([^"]+)"', html)
-    assert len(figures) >= 3
+    assert len(figures) >= 6
     for name in figures:
         assert (result.index.parent / name).stat().st_size > 10_000  # a real plot, not an empty file
     # S0 Eq. (6): b_round / b_div = f/f' = 10 / 2.5 = 4.
@@ -29,6 +29,10 @@ def test_demo_writes_index_with_existing_figures(tmp_path):
     assert result.tri_rig.monotone and not result.tri_rig.diverges
     assert float(result.tri_rig.perceived_depth(SUBJECT_DEPTH)) == pytest.approx(DEMO_DISPLAY.distance)
     assert float(result.tri_rig.roundness(SUBJECT_DEPTH)) == pytest.approx(1.0)
+    # Measured on the rendered stadium: b_round pushes the bleachers past the divergence limit, b_div does not.
+    limit_px = DEMO_DISPLAY.divergence_disparity * DEMO_DISPLAY.resolution
+    assert result.stadium_disparity_px["b_round"][1] > limit_px > result.stadium_disparity_px["b_div"][1] > 0
+    assert result.stadium_disparity_px["b_div"][0] < 0  # the ball and the player's feet are in front of the screen
 
 
 def test_demo_cli_and_bad_output(tmp_path, capsys):
