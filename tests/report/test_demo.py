@@ -15,9 +15,9 @@ def test_demo_writes_index_with_existing_figures(tmp_path):
     result = run_demo(tmp_path / "out")
     html = result.index.read_text(encoding="utf-8")
     figures = re.findall(r'<img src="([^"]+)"', html)
-    assert len(figures) >= 6
+    assert len(figures) >= 15
     for name in figures:
-        assert (result.index.parent / name).stat().st_size > 10_000  # a real plot, not an empty file
+        assert (result.index.parent / name).stat().st_size > 1_000  # a real image, not an empty file
     # S0 Eq. (6): b_round / b_div = f/f' = 10 / 2.5 = 4.
     assert result.divergence_rig.focal_ratio == pytest.approx(4.0)
     # With b_div the subject is cardboard: rho(H) = b H'/(H b') = 0.1625 * 3 / (30 * 0.065) = 0.25.
@@ -33,6 +33,10 @@ def test_demo_writes_index_with_existing_figures(tmp_path):
     limit_px = DEMO_DISPLAY.divergence_disparity * DEMO_DISPLAY.resolution
     assert result.stadium_disparity_px["b_round"][1] > limit_px > result.stadium_disparity_px["b_div"][1] > 0
     assert result.stadium_disparity_px["b_div"][0] < 0  # the ball and the player's feet are in front of the screen
+    # DIBR right eye against the ray-traced one (measured 32.4 dB / SSIM 0.979 at 640x480): a broken warp
+    # (wrong sign, wrong scale, foreground smeared into holes) falls far below these bounds.
+    assert result.dibr_quality.psnr_db > 30.0
+    assert result.dibr_quality.ssim > 0.95
 
 
 def test_demo_cli_and_bad_output(tmp_path, capsys):

@@ -11,9 +11,15 @@ from vergence.cli._app import app, console, err_console
 
 # Command modules register themselves on import (one per line, keep sorted).
 from vergence.cli import budget as _budget  # noqa: E402,F401
+from vergence.cli import compare as _compare  # noqa: E402,F401
 from vergence.cli import demo as _demo  # noqa: E402,F401
+from vergence.cli import evaluate_disparity as _evaluate_disparity  # noqa: E402,F401
+from vergence.cli import interpolate as _interpolate  # noqa: E402,F401
 from vergence.cli import mapping as _mapping  # noqa: E402,F401
+from vergence.cli import match as _match  # noqa: E402,F401
+from vergence.cli import rectify as _rectify  # noqa: E402,F401
 from vergence.cli import render as _render  # noqa: E402,F401
+from vergence.cli import synthesize as _synthesize  # noqa: E402,F401
 
 __all__ = ["app", "main"]
 

@@ -1,0 +1,163 @@
+"""``vergence synthesize``: 2D + depth to a stereo pair or N views (S1 §IV, depth controls §IV.C)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import typer
+
+from vergence.cli._app import app, check_output_path, console, err_console, print_json
+from vergence.display import anaglyph, side_by_side, tile_views, top_bottom
+from vergence.io import read_disparity, read_image, write_image, write_json
+from vergence.synthesis import DEPTH_KINDS, FILL_METHODS, synthesize_stereo
+from vergence.viewing.geometry import DISPLAY_PRESETS, Display
+
+__all__ = ["synthesize"]
+
+FORMATS = ("anaglyph", "sbs", "tb", "views")
+# Without any depth control the pair gets this vergence budget on this display: +-30 arcmin is half
+# the usual +-1 degree comfort zone (vergence.viewing.comfort.ComfortZone), a safe start.
+DEFAULT_DISPLAY = "desktop-24"
+DEFAULT_BUDGET_ARCMIN = 30.0
+
+
+def _read_depth(path: Path, kind: str, scale: float | None):
+    """Depth as float32 (H, W): inverse depth from an image file, else a disparity-style map."""
+    if kind == "inverse":
+        depth = read_image(path)  # 8/16-bit values in [0, 1], 0 = far plane (MPEG), not unknown
+        if depth.ndim != 2:
+            raise ValueError(f"depth {path} must be a single-channel image; got shape {depth.shape}")
+        return depth if scale is None else depth / scale
+    integer = path.suffix.lower() in (".png", ".pgm")
+    return read_disparity(path, scale=(1.0 if scale is None else scale) if integer else scale)
+
+
+def _display_dict(display: Display | None, name: str | None) -> dict | None:
+    if display is None:
+        return None
+    return {"preset": name, **dataclasses.asdict(display)}
+
+
+@app.command("synthesize")
+def synthesize(
+    image: Path = typer.Argument(..., help="The original view (PNG, JPEG, PPM, PFM, NPY)."),
+    depth: Path = typer.Argument(..., help="Its depth map (PNG/PGM with --depth-scale, PFM or NPY)."),
+    out: Path = typer.Option(..., "--out", help="Output folder (created if missing)."),
+    depth_kind: str = typer.Option(
+        "metric", "--depth-kind", help=f"What the depth file holds: {', '.join(DEPTH_KINDS)}."
+    ),
+    depth_scale: float | None = typer.Option(
+        None,
+        "--depth-scale",
+        help="PNG/PGM: stored value / scale = metres (metric) or pixels (disparity); 0 = unknown. "
+        "Inverse depth: divides the [0, 1] values.",
+    ),
+    display_preset: str | None = typer.Option(
+        None, "--display", help=f"Display preset: {', '.join(sorted(DISPLAY_PRESETS))}."
+    ),
+    budget_arcmin: float | None = typer.Option(
+        None, "--budget-arcmin", help="Parallax budget +-A arcmin of vergence on the display."
+    ),
+    budget_px: float | None = typer.Option(None, "--budget-px", help="Parallax budget +-P image pixels."),
+    convergence: float | None = typer.Option(
+        None, "--convergence", help="Depth of the zero-parallax plane, in the depth map's unit."
+    ),
+    focal_px: float | None = typer.Option(None, "--focal-px", help="Shift-sensor control: focal length (px)."),
+    interaxial: float | None = typer.Option(None, "--interaxial", help="Shift-sensor control: interaxial (m)."),
+    fmt: str = typer.Option("sbs", "--format", help=f"Output layout: {', '.join(FORMATS)}."),
+    views: int = typer.Option(2, "--views", help="Number of views (>= 2); adjacent views form a stereo pair."),
+    origin: str = typer.Option("center", "--origin", help="The original image is the centre or the left view."),
+    fill: str = typer.Option("background", "--fill", help=f"Hole filling: {', '.join(FILL_METHODS)}."),
+    smooth_sigma: float | None = typer.Option(
+        None, "--smooth-sigma", help="ATTEST Gaussian pre-smoothing of the parallax map (px); off by default."
+    ),
+    bit_depth: int = typer.Option(8, "--bit-depth", help="PNG bit depth of the outputs (8 or 16)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the parameters JSON on stdout."),
+) -> None:
+    """Make the views a display needs from one image and its depth (writes views, layout, JSON).
+
+    Exactly one depth control: --budget-arcmin (with --display), --budget-px, or --focal-px with
+    --interaxial and --convergence. Without any, +-30 arcmin on desktop-24 is used.
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"--format must be one of {', '.join(FORMATS)}; got {fmt!r}")
+    if views != 2 and fmt != "views":
+        raise ValueError(f"--format {fmt} shows a stereo pair: use --views 2 or --format views; got --views {views}")
+    if bit_depth not in (8, 16):
+        raise ValueError(f"--bit-depth must be 8 or 16; got {bit_depth}")
+    control_given = any(v is not None for v in (budget_arcmin, budget_px, focal_px, interaxial))
+    if not control_given:
+        budget_arcmin = DEFAULT_BUDGET_ARCMIN
+        display_preset = display_preset or DEFAULT_DISPLAY
+    display = Display.preset(display_preset) if display_preset is not None else None
+    with err_console.status("reading inputs", spinner="dots"):
+        picture = read_image(image)
+        depth_map = _read_depth(depth, depth_kind, depth_scale)
+    with err_console.status("synthesizing views", spinner="dots"):
+        result = synthesize_stereo(
+            picture,
+            depth_map,
+            kind=depth_kind,
+            display=display,
+            budget_arcmin=budget_arcmin,
+            budget_px=budget_px,
+            convergence=convergence,
+            focal_px=focal_px,
+            interaxial=interaxial,
+            views=views,
+            origin=origin,
+            smooth_sigma=smooth_sigma,
+            fill=fill,
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
+    layout = {"sbs": "stereo_sbs.png", "tb": "stereo_tb.png", "anaglyph": "anaglyph.png", "views": "views_tiled.png"}[fmt]
+    targets = [out / n for n in [*names, layout, "synthesis.json"]]
+    for target in targets:
+        check_output_path(target, image, depth)
+    with err_console.status("writing outputs", spinner="dots"):
+        for name, view in zip(names, result.views):
+            write_image(out / name, view, bit_depth=bit_depth)
+        if fmt == "sbs":
+            packed = side_by_side(result.left, result.right)
+        elif fmt == "tb":
+            packed = top_bottom(result.left, result.right)
+        elif fmt == "anaglyph":
+            packed = anaglyph(result.left, result.right)
+        else:
+            packed = tile_views(result.views)
+        write_image(out / layout, packed, bit_depth=bit_depth)
+    plan = result.plan
+    params = {
+        "image": str(image),
+        "depth": str(depth),
+        "depth_kind": depth_kind,
+        "depth_scale": depth_scale,
+        "control": "shift-sensor" if focal_px is not None or interaxial is not None else "budget",
+        "budget_arcmin": budget_arcmin,
+        "budget_px": budget_px,
+        "convergence": convergence,
+        "focal_px": focal_px,
+        "interaxial": interaxial,
+        "display": _display_dict(display, display_preset),
+        "views": views,
+        "origin": origin,
+        "offsets": list(result.offsets),
+        "fill": fill,
+        "smooth_sigma": smooth_sigma,
+        "format": fmt,
+        "size": [int(picture.shape[1]), int(picture.shape[0])],
+        # Parallax between adjacent views, x_r - x_l, positive behind the screen.
+        "parallax_range_px": list(plan.range_px),
+        "parallax_range_arcmin": None if plan.range_arcmin is None else list(plan.range_arcmin),
+        "holes_percent": [round(100.0 * float(h.mean()), 4) for h in result.holes],
+        "outputs": [str(t) for t in targets],
+    }
+    write_json(out / "synthesis.json", params)
+    if as_json:
+        print_json(params)
+        return
+    lo, hi = plan.range_px
+    arcmin = "" if plan.range_arcmin is None else f" = {plan.range_arcmin[0]:+.1f} .. {plan.range_arcmin[1]:+.1f} arcmin"
+    console.print(f"{views} views, parallax {lo:+.2f} .. {hi:+.2f} px{arcmin}; wrote {', '.join(t.name for t in targets)} to {out}")

@@ -1,0 +1,290 @@
+"""Depth controls of 2D + depth rendering (S1 §IV.C, Table I): from a depth map to screen parallax.
+
+The parallax between the two eyes of the rendered pair is ``P = psi(p)`` where ``p = -q`` is the
+input's own parallax and ``q`` its nearness (larger = nearer): ``1/Z`` for metric depth, the
+value itself for inverse depth or for a disparity map. ``psi`` is an increasing disparity mapping
+(``vergence.viewing.mapping``); ``P = x_r - x_l`` in image pixels, positive (uncrossed)
+behind the screen, zero at the convergence (zero-parallax) distance.
+
+Three ways to choose psi, one per call:
+
+- **shift-sensor set-up** (S1 §IV.C, SPEC §6.1): interaxial ``t_c``, convergence ``Z_c`` and focal
+  length ``alpha_u``: ``P = alpha_u t_c (1/Z_c - 1/Z)``, a linear psi of slope ``alpha_u t_c``
+  through zero at ``Z_c``. Table I: a larger ``t_c`` or focal length increases the parallax, a
+  larger ``Z_c`` moves the scene toward the viewer.
+- **disparity budget**: the parallax range fits ``[-B, +B]`` (B in image pixels, or in
+  arcminutes for a :class:`~vergence.viewing.geometry.Display`, converted by
+  :func:`~vergence.viewing.comfort.pixels_from_arcmin`), linearly; with a convergence depth the
+  zero stays there and the larger side reaches the budget.
+- **any psi** given by the caller.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence._validate import check_finite, check_positive, check_positive_int
+from vergence.synthesis.warp import _count_nonfinite
+from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
+from vergence.viewing.geometry import Display
+from vergence.viewing.mapping import DisparityMapping, LinearMapping
+
+__all__ = ["DEPTH_KINDS", "ParallaxPlan", "nearness_from_depth", "plan_parallax", "views_offsets"]
+
+DEPTH_KINDS = ("disparity", "inverse", "metric")
+
+
+def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
+    """Nearness ``q`` (larger = nearer) of a depth map, NaN where unknown.
+
+    Parameters
+    ----------
+    depth : (H, W) array
+        ``"metric"``: camera-frame z in metres, > 0 where known; ``"inverse"``: inverse depth,
+        e.g. an 8-bit MPEG depth map read into [0, 1] (1 = nearest plane); ``"disparity"``: pixels,
+        ``x_left - x_right``. NaN = unknown.
+    kind : {"metric", "inverse", "disparity"}
+
+    Returns
+    -------
+    (H, W) float32
+        ``1/Z`` (metric) or the input itself (a new array).
+
+    Raises
+    ------
+    ValueError
+        Not 2-D, inf values, no known value, or metric depth <= 0.
+
+    Notes
+    -----
+    MPEG's 8-bit depth stores ``1/Z = (v/255)(1/Z_near - 1/Z_far) + 1/Z_far`` (SPEC §6.1): ``v`` is
+    an affine function of ``1/Z``, which any linear psi absorbs.
+
+    Examples
+    --------
+    >>> nearness_from_depth([[2.0, 4.0]]).tolist()
+    [[0.5, 0.25]]
+    """
+    if kind not in DEPTH_KINDS:
+        raise ValueError(f"kind must be one of {', '.join(DEPTH_KINDS)}; got {kind!r}")
+    try:
+        d = np.ascontiguousarray(depth, dtype=np.float32)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"depth must be numeric; got {type(depth).__name__}") from exc
+    if d.ndim != 2 or d.size == 0:
+        raise ValueError(f"depth must have shape (H, W); got {d.shape}")
+    n_nan, n_inf = _count_nonfinite(d)
+    if n_inf:
+        raise ValueError("depth must not contain inf (use NaN for unknown)")
+    if n_nan == d.size:
+        raise ValueError("depth must have at least one known value; got all unknown (NaN)")
+    if kind != "metric":
+        return d.copy() if d is depth else d
+    lo = float(np.nanmin(d))
+    if lo <= 0:
+        raise ValueError(f"depth must be > 0 metres where known (metric depth); got min {lo:g}")
+    return np.float32(1.0) / d
+
+
+@dataclass(frozen=True, slots=True, eq=False)  # holds an array: identity equality
+class ParallaxPlan:
+    """Screen parallax chosen for a 2D + depth image.
+
+    Attributes
+    ----------
+    parallax_px : (H, W) float32
+        ``P = x_r - x_l`` between the two eyes, image pixels, positive behind the screen; NaN
+        where the depth is unknown.
+    mapping : DisparityMapping
+        The psi from input parallax ``-q`` to ``P``.
+    range_px : (float, float)
+        Smallest and largest ``P`` over the image.
+    range_arcmin : (float, float) or None
+        The same as vergence changes for the display (None without a display).
+    """
+
+    parallax_px: np.ndarray
+    mapping: DisparityMapping
+    range_px: tuple[float, float]
+    range_arcmin: tuple[float, float] | None
+
+    def __post_init__(self) -> None:
+        if np.ndim(self.parallax_px) != 2:
+            raise ValueError(f"parallax_px must have shape (H, W); got {np.shape(self.parallax_px)}")
+        if not self.range_px[0] <= self.range_px[1]:
+            raise ValueError(f"range_px must be (min, max) with min <= max; got {self.range_px}")
+
+
+def _display_px(display: Display, image_width: int) -> float:
+    """Display pixels per image pixel when the image fills the screen width."""
+    if display.resolution is None:
+        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    return display.resolution / image_width
+
+
+def plan_parallax(
+    depth: object,
+    *,
+    kind: str = "metric",
+    budget_px: float | None = None,
+    budget_arcmin: float | None = None,
+    display: Display | None = None,
+    convergence: float | None = None,
+    focal_px: float | None = None,
+    interaxial: float | None = None,
+    mapping: DisparityMapping | None = None,
+) -> ParallaxPlan:
+    """Screen parallax of every pixel from its depth, by one of the three controls of the module.
+
+    Parameters
+    ----------
+    depth : (H, W) array
+        See :func:`nearness_from_depth`.
+    kind : {"metric", "inverse", "disparity"}
+    budget_px : float, optional
+        Budget mode: ``|P| <= budget_px`` image pixels.
+    budget_arcmin : float, optional
+        Budget mode for ``display``: ``|P| <= budget_arcmin`` of vergence change, the image shown
+        across the full screen width.
+    display : Display, optional
+        Needed with ``budget_arcmin``; with any mode it also gives ``range_arcmin``.
+    convergence : float, optional
+        Depth of the zero-parallax plane, in the unit of ``depth`` (metres for metric depth).
+        Budget mode: default the middle of the nearness range. Shift-sensor mode: required.
+    focal_px, interaxial : float, optional
+        Shift-sensor mode: focal length ``alpha_u`` in pixels and interaxial ``t_c`` in metres
+        (metric depth only).
+    mapping : DisparityMapping, optional
+        Caller's psi from input parallax ``-q`` to ``P``.
+
+    Returns
+    -------
+    ParallaxPlan
+
+    Raises
+    ------
+    ValueError
+        Bad depth (see :func:`nearness_from_depth`), no or several modes, missing parameters, a
+        budget arcmin without a display, shift-sensor mode on non-metric depth, a flat depth map
+        in budget mode without a convergence depth.
+
+    Notes
+    -----
+    Shift-sensor parallax ``P = alpha_u t_c (1/Z_c - 1/Z)`` (SPEC §6.1, Fehn; S1 Table I); linear
+    range-to-range psi (Lang et al. 2010, SPEC §7).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> plan = plan_parallax(np.array([[1.0, 2.0, 4.0]]), budget_px=10.0)
+    >>> [round(float(v), 3) for v in plan.parallax_px[0]], plan.range_px
+    ([-10.0, 3.333, 10.0], (-10.0, 10.0))
+    """
+    q = nearness_from_depth(depth, kind=kind)
+    modes = [
+        name
+        for name, given in (
+            ("budget", budget_px is not None or budget_arcmin is not None),
+            ("shift-sensor", focal_px is not None or interaxial is not None),
+            ("mapping", mapping is not None),
+        )
+        if given
+    ]
+    if len(modes) != 1:
+        raise ValueError(
+            "give exactly one control: budget_px or budget_arcmin, focal_px with interaxial, or mapping; "
+            f"got {', '.join(modes) if modes else 'none'}"
+        )
+    if display is not None and not isinstance(display, Display):
+        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    q_min, q_max = float(np.nanmin(q)), float(np.nanmax(q))
+    p_min, p_max = -q_max, -q_min  # input parallax p = -q: uncrossed positive, like P
+    p_c = None
+    if convergence is not None:
+        c = check_finite("convergence", convergence)
+        if kind == "metric":
+            c = check_positive("convergence", c)
+            p_c = -1.0 / c
+        else:
+            p_c = -c
+    width = q.shape[1]
+    if modes == ["budget"]:
+        psi = _budget_mapping(p_min, p_max, p_c, budget_px, budget_arcmin, display, width)
+    elif modes == ["shift-sensor"]:
+        if kind != "metric":
+            raise ValueError(f"focal_px and interaxial need metric depth (kind='metric'); got kind={kind!r}")
+        if focal_px is None or interaxial is None or p_c is None:
+            raise ValueError("the shift-sensor control needs focal_px, interaxial and convergence together")
+        gain = check_positive("focal_px", focal_px) * check_positive("interaxial", interaxial)
+        # P = alpha_u t_c (1/Z_c - 1/Z) = gain (p - p_c), SPEC §6.1.
+        psi = LinearMapping(p_c, p_c + 1.0, 0.0, gain)
+    else:
+        if not isinstance(mapping, DisparityMapping):
+            raise TypeError(f"mapping must be a DisparityMapping; got {type(mapping).__name__}")
+        psi = mapping
+    if isinstance(psi, LinearMapping):
+        # psi(-q) = gain (-q - s_min) + t_min, evaluated in place in float32 (two passes).
+        parallax = np.multiply(q, np.float32(-psi.gain), out=q)
+        parallax += np.float32(psi.target_min - psi.gain * psi.source_min)
+        lo, hi = float(psi(p_min)), float(psi(p_max))
+    else:
+        parallax = np.asarray(psi(-q.astype(np.float64)), dtype=np.float32)
+        lo, hi = float(np.nanmin(parallax)), float(np.nanmax(parallax))
+    arcmin = None
+    if display is not None:
+        scale = _display_px(display, width)
+        arcmin = (float(arcmin_from_pixels(lo * scale, display)), float(arcmin_from_pixels(hi * scale, display)))
+    return ParallaxPlan(parallax_px=parallax, mapping=psi, range_px=(lo, hi), range_arcmin=arcmin)
+
+
+def _budget_mapping(
+    p_min: float,
+    p_max: float,
+    p_c: float | None,
+    budget_px: float | None,
+    budget_arcmin: float | None,
+    display: Display | None,
+    width: int,
+) -> LinearMapping:
+    """Linear psi fitting ``[p_min, p_max]`` into ``[-B, B]`` (zero at ``p_c`` when given)."""
+    if budget_px is not None and budget_arcmin is not None:
+        raise ValueError("give budget_px or budget_arcmin, not both")
+    if budget_arcmin is not None:
+        if display is None:
+            raise ValueError("budget_arcmin needs a display (pixels per arcminute depend on it)")
+        a = check_positive("budget_arcmin", budget_arcmin)
+        b = float(pixels_from_arcmin(a, display)) / _display_px(display, width)
+        # Crossed side: the exact conversion is not symmetric; keep the smaller magnitude.
+        b = min(b, -float(pixels_from_arcmin(-a, display)) / _display_px(display, width))
+    else:
+        b = check_positive("budget_px", budget_px)
+    if p_c is None:
+        if p_max == p_min:
+            raise ValueError(
+                "depth must vary for a disparity budget without a convergence depth; got a flat map "
+                f"(nearness {-p_min:g} everywhere)"
+            )
+        return LinearMapping(p_min, p_max, -b, b)
+    span = max(p_c - p_min, p_max - p_c)
+    if span <= 0:
+        raise ValueError("depth must not be flat at the convergence depth for a disparity budget")
+    return LinearMapping(p_c - span, p_c + span, -b, b)
+
+
+def views_offsets(views: int, *, origin: str = "center") -> tuple[float, ...]:
+    """Positions of ``views`` views in units of the pair parallax: adjacent views differ by 1.
+
+    ``"center"``: symmetric about the original image (which is the middle view for odd counts);
+    ``"left"``: the original image is view 0.
+    """
+    n = check_positive_int("views", views)
+    if n < 2:
+        raise ValueError(f"views must be >= 2; got {n}")
+    if origin == "center":
+        return tuple(i - (n - 1) / 2.0 for i in range(n))
+    if origin == "left":
+        return tuple(float(i) for i in range(n))
+    raise ValueError(f"origin must be one of center, left; got {origin!r}")
+

@@ -1,0 +1,473 @@
+"""Depth-image-based rendering pipelines (S1 §IV): colour + depth in, the views a display needs out.
+
+- :func:`interpolate_view`: a view between two rectified references with their disparities
+  (view interpolation, S1 §II.C and §IV.B).
+- :func:`synthesize_views` / :func:`synthesize_stereo`: 2D + depth to a stereo pair or N views,
+  the parallax chosen by the depth controls of S1 §IV.C (``controls.py``).
+- :func:`synthesize_view`: one image with metric depth from one camera to another
+  (``vergence.camera``), the rectified fast path when the two cameras form a rectified pair.
+
+The pipelines compose the primitives in this order (S1 §IV.B): unknown reference depth filled from
+the background side, contour handling (the near side of depth edges, jumps above the gradient
+limit, grown by ``edge_dilation`` pixels), forward warp with the gap/hole rule, median refinement
+with inverse warping (view interpolation and camera-to-camera rendering, where depth comes from a
+measurement), depth-tested blending weighted by distance (two references), and
+background-directed hole filling.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence._validate import check_finite, check_in_range, check_positive
+from vergence.camera import Camera
+from vergence.synthesis.blend import _blend, baseline_weights
+from vergence.synthesis.controls import ParallaxPlan, plan_parallax, views_offsets
+from vergence.synthesis.filters import _check_radius, _median_refine, contour_mask, dilate_foreground, smooth_depth
+from vergence.synthesis.holes import FILL_METHODS, _fill_holes, fill_disparity
+from vergence.synthesis.warp import (
+    WarpResult,
+    _as_hwc,
+    _check_disparity,
+    _check_image,
+    _check_maps,
+    _forward_warp_unchecked,
+    _like,
+)
+from vergence.synthesis.warp3d import _check_depth, refine_camera_warp, warp_to_camera
+from vergence.viewing.geometry import Display
+from vergence.viewing.mapping import DisparityMapping
+
+__all__ = [
+    "StereoResult",
+    "ViewResult",
+    "interpolate_view",
+    "synthesize_stereo",
+    "synthesize_view",
+    "synthesize_views",
+]
+
+# Median refinement: a warped disparity that differs from its 3x3 median by more than this (pixels)
+# is re-sampled by inverse warping, if the reference agrees within the consistency tolerance.
+_MEDIAN_TOLERANCE_PX = 0.5
+_MEDIAN_CONSISTENCY_PX = 1.0
+# A warped reliability channel at or above this is reliable (exactly 1 unless interpolated with an
+# unreliable neighbour; float32 interpolation of 1 and 1 stays 1).
+_RELIABLE = 1.0
+# Rectified-pair detection for synthesize_view: rotations, intrinsics (except cx) and the off-axis
+# part of the baseline must agree to this relative precision.
+_RECTIFIED_RTOL = 1e-9
+
+
+@dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
+class ViewResult:
+    """A synthesized view.
+
+    Attributes
+    ----------
+    image : (H, W) or (H, W, C) float32
+        The view, holes filled.
+    disparity : (H, W) float32
+        Disparity (or, for :func:`synthesize_view` on the 3D path, target depth in metres) of the
+        surface seen at each pixel, holes filled from the background; NaN only where a whole row
+        had nothing to fill from.
+    holes : (H, W) bool
+        The pixels no reference saw, which hole filling made up.
+    """
+
+    image: np.ndarray
+    disparity: np.ndarray
+    holes: np.ndarray
+
+    def __post_init__(self) -> None:
+        _check_maps("ViewResult", self.image, disparity=self.disparity, holes=self.holes)
+
+
+@dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
+class StereoResult:
+    """Views rendered from 2D + depth.
+
+    Attributes
+    ----------
+    views : tuple of (H, W) or (H, W, C) float32
+        Left to right; ``views[0]`` and ``views[-1]`` are the outer eyes (the stereo pair for two).
+    holes : tuple of (H, W) bool
+        The disoccluded pixels each view had filled.
+    offsets : tuple of float
+        Position of each view in units of the pair parallax (adjacent views differ by 1).
+    plan : ParallaxPlan
+        The parallax map, psi and the parallax range between adjacent views in pixels and arcmin.
+    """
+
+    views: tuple[np.ndarray, ...]
+    holes: tuple[np.ndarray, ...]
+    offsets: tuple[float, ...]
+    plan: ParallaxPlan
+
+    def __post_init__(self) -> None:
+        if not len(self.views) == len(self.holes) == len(self.offsets):
+            raise ValueError(
+                f"views, holes and offsets must have one length; got {len(self.views)}, {len(self.holes)}, {len(self.offsets)}"
+            )
+
+    @property
+    def left(self) -> np.ndarray:
+        """The leftmost view."""
+        return self.views[0]
+
+    @property
+    def right(self) -> np.ndarray:
+        """The rightmost view."""
+        return self.views[-1]
+
+
+def _check_options(gradient_limit: float, edge_dilation: int, fill: str) -> tuple[float, int]:
+    limit = check_finite("gradient_limit", gradient_limit)
+    if limit < 0:
+        raise ValueError(f"gradient_limit must be >= 0; got {limit:g}")
+    r = _check_radius("edge_dilation", edge_dilation)
+    if fill not in FILL_METHODS:
+        raise ValueError(f"fill must be one of {', '.join(FILL_METHODS)}; got {fill!r}")
+    return limit, r
+
+
+def _prepare_disparity(d: np.ndarray, radius: int, threshold: float) -> np.ndarray:
+    """Unknown values from the background side, then the near side of edges grown."""
+    filled = fill_disparity(d)
+    if radius:
+        filled = dilate_foreground(filled, radius=radius, threshold=threshold)
+    return np.ascontiguousarray(filled, dtype=np.float32)
+
+
+def _warp_reference(
+    img_hwc: np.ndarray, d: np.ndarray, scale: float, limit: float, median: bool
+) -> WarpResult:
+    out, zbuf, holes = _forward_warp_unchecked(img_hwc, d, scale, limit)
+    warped = WarpResult(image=out, disparity=zbuf, holes=holes)
+    if median and scale != 0.0:
+        warped = _median_refine(img_hwc, d, warped, scale, _MEDIAN_TOLERANCE_PX, _MEDIAN_CONSISTENCY_PX, out)
+    return warped
+
+
+def interpolate_view(
+    left: object,
+    left_disparity: object,
+    right: object,
+    right_disparity: object,
+    position: float,
+    *,
+    gradient_limit: float = 1.0,
+    edge_dilation: int = 1,
+    median: bool = True,
+    contour_width: int = 0,
+    depth_tolerance: float = 1.0,
+    fill: str = "background",
+) -> ViewResult:
+    """The view at ``position`` between two rectified references on one horizontal line.
+
+    A pixel at x in ``left`` with disparity d appears at ``x - T d`` in the target; a pixel at x in
+    ``right`` with disparity d at ``x + (1 - T) d`` (T = ``position``).
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, C) arrays
+        The references (float in [0, 1], uint8 or uint16), one shape.
+    left_disparity, right_disparity : (H, W) arrays
+        Pixels on the left-right baseline, positive in front; NaN = unknown (filled from the
+        background side before warping).
+    position : float
+        T in [0, 1]: 0 is the left view, 1 the right one.
+    gradient_limit : float
+        Gap/hole rule of :func:`~vergence.synthesis.forward_warp`, target pixels.
+    edge_dilation : int
+        Contour handling: pixels to grow the near side of depth edges (jumps above
+        ``gradient_limit`` in the reference disparity; 0 = off), see
+        :func:`~vergence.synthesis.dilate_foreground`.
+    median : bool
+        Median refinement with inverse warping of each warped reference.
+    contour_width : int
+        Reliability-based contour removal (Müller et al., S1 §IV.B.3): source pixels within this
+        many pixels of the far side of a depth edge are unreliable and replaced by the other
+        reference where it sees the same surface reliably (0 = off; on Dolls it adds nothing once
+        ``edge_dilation`` is on, see ``benchmarks/dolls.py``).
+    depth_tolerance : float
+        Depth test of the blending, pixels of disparity.
+    fill : {"background", "mirror", "inpaint"}
+        Hole filling of what neither reference sees.
+
+    Returns
+    -------
+    ViewResult
+
+    Raises
+    ------
+    ValueError
+        Shapes differ, disparity with inf or all unknown, position outside [0, 1], bad options.
+
+    Notes
+    -----
+    S1 §IV.A–B: rectified warping (Eq. 7), sampling gaps vs holes, median + inverse warping, contour
+    artifacts, blending with weights ``w_L = 1 - T``, ``w_R = T`` (SPEC §6.3) and the nearer surface
+    winning, background-only hole filling. At T = 0 the result is ``left`` wherever its disparity
+    is known (the right reference only fills the rest), at T = 1 likewise ``right``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.tile(np.linspace(0, 1, 6, dtype=np.float32), (2, 1))
+    >>> d = np.full((2, 6), 2.0)
+    >>> res = interpolate_view(img, d, img, d, 0.0)
+    >>> bool(np.array_equal(res.image, img))
+    True
+    """
+    lft = _check_image("left", left)
+    rgt = _check_image("right", right)
+    if rgt.shape != lft.shape:
+        raise ValueError(f"right must have shape {lft.shape} like left; got {rgt.shape}")
+    dl = _check_disparity("left_disparity", left_disparity, "left", lft)
+    dr = _check_disparity("right_disparity", right_disparity, "right", rgt)
+    t = check_in_range("position", position, 0.0, 1.0)
+    limit, radius = _check_options(gradient_limit, edge_dilation, fill)
+    tol = check_positive("depth_tolerance", depth_tolerance)
+    contour = _check_radius("contour_width", contour_width)
+    images, disparities, reliable = [], [], []
+    for img, d, scale in ((lft, dl, t), (rgt, dr, -(1.0 - t))):
+        prepared = _prepare_disparity(d, radius, limit)
+        hwc = _as_hwc(img)
+        if contour:
+            # The reliability travels with the colours as one more channel (1 = reliable); a target
+            # pixel interpolated from an unreliable source pixel is unreliable.
+            band = contour_mask(prepared, width=contour, threshold=limit, side="far")
+            hwc = np.concatenate([hwc, (~band)[:, :, None].astype(np.float32)], axis=2)
+        warped = _warp_reference(hwc, prepared, scale, limit, median)
+        images.append(warped.image[:, :, : lft.shape[2] if lft.ndim == 3 else 1])
+        disparities.append(warped.disparity)
+        reliable.append(warped.image[:, :, -1] >= _RELIABLE if contour else None)
+    weights = baseline_weights([0.0, 1.0], t)
+    blended = _blend(images, disparities, weights, reliable if contour else None, tol)
+    image, disparity = _fill(blended.image, blended.disparity, blended.holes, fill)
+    return ViewResult(image=_like(image, lft), disparity=disparity, holes=blended.holes)
+
+
+def _fill(image_hwc: np.ndarray, disparity: np.ndarray, holes: np.ndarray, fill: str) -> tuple[np.ndarray, np.ndarray]:
+    """Fill holes in place on arrays this module owns (the values in the holes are ignored)."""
+    img = np.ascontiguousarray(image_hwc if image_hwc.ndim == 3 else image_hwc[:, :, None], dtype=np.float32)
+    d = np.ascontiguousarray(disparity, dtype=np.float32)
+    return _fill_holes(img, d, np.ascontiguousarray(holes), fill)
+
+
+def synthesize_views(
+    image: object,
+    parallax_px: object,
+    *,
+    offsets: tuple[float, ...] = (-0.5, 0.5),
+    gradient_limit: float = 1.0,
+    edge_dilation: int = 1,
+    fill: str = "background",
+) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+    """Render views of a 2D + parallax image: view k sees pixel x at ``x + offsets[k] P(x)``.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, C) array
+        The original view (float in [0, 1], uint8 or uint16).
+    parallax_px : (H, W) array
+        Screen parallax ``P = x_r - x_l`` between adjacent views, pixels, positive behind the screen;
+        NaN = unknown (filled from the background side).
+    offsets : tuple of float
+        View positions in units of P: ``(-0.5, 0.5)`` is a stereo pair around the original,
+        ``(0, 1)`` keeps the original as the left view.
+    gradient_limit, edge_dilation, fill
+        As in :func:`interpolate_view`.
+
+    Returns
+    -------
+    views : tuple of float32 images
+    holes : tuple of (H, W) bool
+        The disoccluded pixels of each view (filled in ``views``).
+
+    Notes
+    -----
+    Shift-sensor DIBR (Fehn; SPEC §6.1): ``x_l = x_c - P/2``, ``x_r = x_c + P/2``. With
+    ``d = -P`` this is :func:`~vergence.synthesis.forward_warp` with ``scale = offset``.
+    """
+    img = _check_image("image", image)
+    p = _check_disparity("parallax_px", parallax_px, "image", img)
+    if len(offsets) == 0:
+        raise ValueError("offsets must hold at least one view position; got none")
+    offs = tuple(check_finite(f"offsets[{k}]", o) for k, o in enumerate(offsets))
+    limit, radius = _check_options(gradient_limit, edge_dilation, fill)
+    return _render(_as_hwc(img), -p, offs, limit, radius, fill, img)
+
+
+def _render(
+    img_hwc: np.ndarray,
+    d: np.ndarray,
+    offsets: tuple[float, ...],
+    limit: float,
+    radius: int,
+    fill: str,
+    template: np.ndarray,
+) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+    prepared = _prepare_disparity(d, radius, limit)
+    views, holes = [], []
+    for o in offsets:
+        out, zbuf, hole = _forward_warp_unchecked(img_hwc, prepared, o, limit)
+        filled, _ = _fill(out, zbuf, hole, fill)
+        views.append(_like(filled, template))
+        holes.append(hole)
+    return tuple(views), tuple(holes)
+
+
+def synthesize_stereo(
+    image: object,
+    depth: object,
+    *,
+    kind: str = "metric",
+    display: Display | None = None,
+    budget_arcmin: float | None = None,
+    budget_px: float | None = None,
+    convergence: float | None = None,
+    focal_px: float | None = None,
+    interaxial: float | None = None,
+    mapping: DisparityMapping | None = None,
+    views: int = 2,
+    origin: str = "center",
+    smooth_sigma: float | None = None,
+    gradient_limit: float = 1.0,
+    edge_dilation: int = 1,
+    fill: str = "background",
+) -> StereoResult:
+    """2D + depth to a stereo pair (or N views): one call from a depth map to the display's views.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, C) array
+        The original view (float in [0, 1], uint8 or uint16).
+    depth : (H, W) array
+        Depth of ``kind`` (see :func:`~vergence.synthesis.nearness_from_depth`), NaN = unknown.
+    kind, display, budget_arcmin, budget_px, convergence, focal_px, interaxial, mapping
+        The depth control, see :func:`~vergence.synthesis.plan_parallax` (exactly one of a budget,
+        the shift-sensor focal length + interaxial, or a mapping).
+    views : int
+        Number of views, >= 2; adjacent views are a stereo pair with the planned parallax.
+    origin : {"center", "left"}
+        The original image is the centre of the views (the middle view for odd counts) or the
+        leftmost view.
+    smooth_sigma : float, optional
+        ATTEST Gaussian pre-smoothing of the parallax map (pixels); None = off.
+    gradient_limit, edge_dilation, fill
+        As in :func:`interpolate_view`.
+
+    Returns
+    -------
+    StereoResult
+        ``.left`` and ``.right`` are the outer views; ``.plan.range_px`` / ``.range_arcmin`` the
+        parallax range between adjacent views.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = np.random.default_rng(0).random((4, 16), dtype=np.float32)
+    >>> depth = np.full((4, 16), 2.0); depth[:, 6:10] = 1.0
+    >>> res = synthesize_stereo(img, depth, budget_px=4.0)
+    >>> res.plan.range_px, len(res.views), res.left.shape
+    ((-4.0, 4.0), 2, (4, 16))
+    """
+    img = _check_image("image", image)
+    shape = np.shape(depth)
+    if len(shape) != 2 or shape != img.shape[:2]:
+        raise ValueError(f"depth must have shape (H, W) matching image {img.shape[:2]}; got {shape}")
+    plan = plan_parallax(
+        depth,
+        kind=kind,
+        budget_px=budget_px,
+        budget_arcmin=budget_arcmin,
+        display=display,
+        convergence=convergence,
+        focal_px=focal_px,
+        interaxial=interaxial,
+        mapping=mapping,
+    )
+    offsets = views_offsets(views, origin=origin)
+    limit, radius = _check_options(gradient_limit, edge_dilation, fill)
+    p = plan.parallax_px
+    if smooth_sigma is not None:
+        p = smooth_depth(p, sigma=smooth_sigma)
+    rendered, holes = _render(_as_hwc(img), np.negative(p, dtype=np.float32), offsets, limit, radius, fill, img)
+    return StereoResult(views=rendered, holes=holes, offsets=offsets, plan=plan)
+
+
+def _rectified_disparity(depth: np.ndarray, source: Camera, target: Camera) -> np.ndarray | None:
+    """Disparity ``f b / Z + cx_s - cx_t`` if the cameras form a rectified pair, else None."""
+    ks, kt = source.K, target.K
+    same_k = np.allclose(np.delete(ks.ravel(), 2), np.delete(kt.ravel(), 2), rtol=_RECTIFIED_RTOL, atol=0.0)
+    same_r = np.allclose(source.R, target.R, rtol=0.0, atol=_RECTIFIED_RTOL)
+    base = source.R @ (target.center - source.center)  # baseline in the source camera frame
+    sideways = abs(base[1]) + abs(base[2]) <= _RECTIFIED_RTOL * max(abs(base[0]), 1e-300)
+    if not (same_k and same_r and sideways and (source.width, source.height) == (target.width, target.height)):
+        return None
+    return (ks[0, 0] * base[0] / depth + ks[0, 2] - kt[0, 2]).astype(np.float32)  # S1 Eq. (7): d = f b / Z
+
+
+def synthesize_view(
+    image: object,
+    depth: object,
+    source: Camera,
+    target: Camera,
+    *,
+    gradient_limit: float = 1.0,
+    edge_dilation: int = 1,
+    fill: str = "background",
+) -> ViewResult:
+    """Render the view of ``target`` from an image with metric depth taken by ``source``.
+
+    When the cameras form a rectified pair (same rotation and intrinsics up to the principal
+    point's x, centres on the camera x axis, one size) the disparity ``d = f b / Z + cx_s - cx_t``
+    goes through the rectified pipeline (gap/hole rule, contour handling, median refinement);
+    otherwise the 3D z-buffer warp with median refinement (:func:`~vergence.synthesis.warp_to_camera`).
+    Holes are then filled from the background side.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, C) array
+        Source view (float in [0, 1], uint8 or uint16), the size of ``source``.
+    depth : (H, W) array
+        Source camera-frame z in metres, > 0 where known, NaN = unknown.
+    source, target : Camera
+    gradient_limit, edge_dilation, fill
+        As in :func:`interpolate_view` (the first two apply to the rectified path).
+
+    Returns
+    -------
+    ViewResult
+        ``disparity`` holds the warped source disparity (rectified path) or the target depth in
+        metres (3D path).
+
+    Notes
+    -----
+    S1 §IV.A: rectified pairs need one-dimensional resampling only (Eq. 7, ``Z = f b / d``);
+    the general case is the 3D warp of S1 Eq. (5) (SPEC §6.1).
+    """
+    if not isinstance(source, Camera) or not isinstance(target, Camera):
+        raise TypeError("source and target must be Camera instances")
+    img = _check_image("image", image)
+    if img.shape[:2] != (source.height, source.width):
+        raise ValueError(f"image must have shape {(source.height, source.width)} matching the source camera; got {img.shape[:2]}")
+    z = _check_depth(depth, source)
+    limit, radius = _check_options(gradient_limit, edge_dilation, fill)
+    d = _rectified_disparity(z, source, target)
+    if d is not None:
+        prepared = _prepare_disparity(d, radius, limit)
+        warped = _warp_reference(_as_hwc(img), prepared, 1.0, limit, True)
+        image_t, disparity = _fill(warped.image, warped.disparity, warped.holes, fill)
+        return ViewResult(image=_like(image_t, img), disparity=disparity, holes=warped.holes)
+    warped = refine_camera_warp(warp_to_camera(img, z, source, target), img, z, source, target)
+    # Hole filling wants "larger = nearer": use inverse depth, then report depth.
+    inv = np.where(warped.holes, np.nan, 1.0 / warped.depth)
+    image_t, inv_filled = _fill(_as_hwc(warped.image), inv, warped.holes, fill)
+    with np.errstate(divide="ignore"):
+        depth_t = (1.0 / inv_filled).astype(np.float32)
+    return ViewResult(image=_like(image_t, img), disparity=depth_t, holes=warped.holes)

@@ -1,0 +1,217 @@
+"""``vergence synthesize``, ``interpolate`` and ``compare`` end to end on tiny files."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from vergence.cli import main
+from vergence.io import read_image, write_disparity, write_image
+
+# Outputs are 8-bit PNGs: half a grey level of quantisation.
+PNG_ATOL = 0.5 / 255 + 1e-7
+
+
+def _scene(tmp_path):
+    """A 16 x 48 textured image with a near square, its metric depth (NPY) and a 16-bit mm PNG."""
+    rng = np.random.default_rng(0)
+    img = rng.random((16, 48, 3)).astype(np.float32)
+    depth = np.full((16, 48), 4.0, np.float32)
+    depth[5:11, 20:28] = 1.0
+    write_image(tmp_path / "image.png", img)
+    np.save(tmp_path / "depth.npy", depth)
+    write_disparity(tmp_path / "depth_mm.png", depth * 1000.0, scale=1.0)  # 16-bit millimetres
+    return img, depth
+
+
+def _run(capsys, args):
+    code = main(args)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_synthesize_stereo_pair_writes_views_layout_and_json(tmp_path, capsys):
+    _scene(tmp_path)
+    out = tmp_path / "out"
+    code, stdout, _ = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"),
+                                    "--out", str(out), "--budget-px", "4", "--format", "tb", "--json"])
+    assert code == 0
+    params = json.loads(stdout)
+    assert params["parallax_range_px"] == [-4.0, 4.0]
+    assert params["parallax_range_arcmin"] is None and params["format"] == "tb"
+    for name in ("left.png", "right.png", "stereo_tb.png", "synthesis.json"):
+        assert (out / name).is_file()
+    assert json.loads((out / "synthesis.json").read_text()) == params
+    assert read_image(out / "stereo_tb.png").shape == (32, 48, 3)
+    # The near square (P = -4) sits 2 px right of its original place in the left view.
+    left = read_image(out / "left.png")
+    original = read_image(tmp_path / "image.png")
+    np.testing.assert_allclose(left[6:10, 22:30], original[6:10, 20:28], atol=PNG_ATOL)
+
+
+def test_synthesize_budget_in_arcmin_on_a_display_with_png_depth(tmp_path, capsys):
+    _scene(tmp_path)
+    out = tmp_path / "out"
+    code, stdout, _ = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth_mm.png"),
+                                    "--depth-scale", "1000", "--display", "tv-55", "--budget-arcmin", "20",
+                                    "--convergence", "4", "--format", "anaglyph", "--out", str(out), "--json"])
+    assert code == 0
+    params = json.loads(stdout)
+    lo, hi = params["parallax_range_arcmin"]
+    # The near side reaches the budget: within it (the exact arcmin conversion is not symmetric, the
+    # pixel budget is the smaller of the two sides), and within 0.01 % of it.
+    assert -20.0 <= lo and lo == pytest.approx(-20.0, rel=1e-4)
+    assert hi == pytest.approx(0.0, abs=1e-9)  # the background is the convergence plane
+    assert params["display"]["preset"] == "tv-55"
+    assert (out / "anaglyph.png").is_file()
+
+
+def test_synthesize_n_views_and_default_control(tmp_path, capsys):
+    _scene(tmp_path)
+    out = tmp_path / "out"
+    code, stdout, _ = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"),
+                                    "--views", "3", "--format", "views", "--smooth-sigma", "1.5", "--out", str(out),
+                                    "--json"])
+    assert code == 0
+    params = json.loads(stdout)
+    assert params["budget_arcmin"] == 30.0 and params["display"]["preset"] == "desktop-24"
+    assert params["smooth_sigma"] == 1.5
+    assert params["offsets"] == [-1.0, 0.0, 1.0]
+    assert [p.split("/")[-1] for p in params["outputs"]] == [
+        "view_00.png", "view_01.png", "view_02.png", "views_tiled.png", "synthesis.json"
+    ]
+    # The middle view is the original image.
+    np.testing.assert_allclose(read_image(out / "view_01.png"), read_image(tmp_path / "image.png"), atol=PNG_ATOL)
+
+
+@pytest.mark.parametrize(
+    ("extra", "depth_name", "message"),
+    [
+        (["--budget-px", "4", "--format", "sbs", "--views", "3"], "depth.npy", "--format sbs shows a stereo pair"),
+        (["--budget-arcmin", "20"], "depth.npy", "budget_arcmin needs a display"),
+        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, sbs, tb, views"),
+        (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "depth must be > 0 metres where known"),
+        (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
+        (["--budget-px", "4"], "small.npy", r"depth must have shape \(H, W\) matching image \(16, 48\)"),
+        (["--budget-px", "4", "--display", "imax"], "depth.npy", "unknown display preset 'imax'"),
+    ],
+)
+def test_synthesize_bad_input_is_one_line_and_exit_2(tmp_path, capsys, extra, depth_name, message):
+    _scene(tmp_path)
+    np.save(tmp_path / "negative.npy", -np.ones((16, 48), np.float32))
+    np.save(tmp_path / "nan.npy", np.full((16, 48), np.nan, np.float32))
+    np.save(tmp_path / "small.npy", np.ones((8, 48), np.float32))
+    code, _, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / depth_name),
+                                 "--out", str(tmp_path / "out"), *extra])
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1
+    assert re.search(message, err)
+
+
+def test_synthesize_never_overwrites_its_input(tmp_path, capsys):
+    _scene(tmp_path)
+    image = tmp_path / "left.png"  # the name of an output, in the output folder
+    write_image(image, np.zeros((16, 48, 3)))
+    before = image.read_bytes()
+    code, _, err = _run(capsys, ["synthesize", str(image), str(tmp_path / "depth.npy"), "--budget-px", "4",
+                                 "--out", str(tmp_path)])
+    assert code == 2 and "would overwrite input" in err
+    assert image.read_bytes() == before
+
+
+# --------------------------------------------------------------------------- interpolate
+
+
+def _references(tmp_path):
+    """Left/right views of a two-layer scene (background d = 2, square d = 8) and PNG disparities."""
+    h, w = 12, 40
+    xs = np.arange(w)[None, :].repeat(h, axis=0)
+
+    def view(t):
+        u_bg, u_fg = xs + 2.0 * t, xs + 8.0 * t
+        inside = (u_fg >= 16) & (u_fg < 26) & (np.arange(h)[:, None] >= 3) & (np.arange(h)[:, None] < 9)
+        img = np.where(inside, 0.9, 0.3 + 0.2 * np.sin(u_bg / 4.0)).astype(np.float32)
+        return img, np.where(inside, 8.0, 2.0)
+
+    for name, t in (("left", 0.0), ("right", 1.0), ("middle", 0.5)):
+        img, disp = view(t)
+        write_image(tmp_path / f"{name}.png", img, bit_depth=16)
+        write_disparity(tmp_path / f"{name}_disp.png", disp, scale=4.0)
+
+
+def _interp_args(tmp_path, position="0.5", out="mid.png"):
+    return ["interpolate", "--left", str(tmp_path / "left.png"), "--left-disparity", str(tmp_path / "left_disp.png"),
+            "--right", str(tmp_path / "right.png"), "--right-disparity", str(tmp_path / "right_disp.png"),
+            "--disparity-scale", "4", "--position", position, "--out", str(tmp_path / out)]
+
+
+def test_interpolate_writes_the_middle_view(tmp_path, capsys):
+    _references(tmp_path)
+    code, stdout, _ = _run(capsys, [*_interp_args(tmp_path), "--bit-depth", "16", "--json",
+                                    "--json-out", str(tmp_path / "mid.json")])
+    assert code == 0
+    report = json.loads(stdout)
+    assert report["position"] == 0.5 and report["holes_percent"] == 0.0
+    assert json.loads((tmp_path / "mid.json").read_text()) == report
+    # Integer shifts (1 and 4 px): away from the square's 1-px contour bands the view is exact.
+    synth, truth = read_image(tmp_path / "mid.png"), read_image(tmp_path / "middle.png")
+    np.testing.assert_allclose(synth[:, 2:10], truth[:, 2:10], atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("args_fn", "message"),
+    [
+        (lambda p: _interp_args(p, position="1.5"), r"position must lie in \[0, 1\]; got 1.5"),
+        (lambda p: _interp_args(p, out="left.png"), "would overwrite input"),
+        (lambda p: [a if a != "4" else "0" for a in _interp_args(p)], "scale must be > 0"),
+        (lambda p: [a.replace("right_disp.png", "small_disp.png") for a in _interp_args(p)],
+         r"right_disparity must have shape \(H, W\) matching right \(12, 40\)"),
+    ],
+)
+def test_interpolate_bad_input(tmp_path, capsys, args_fn, message):
+    _references(tmp_path)
+    write_disparity(tmp_path / "small_disp.png", np.ones((12, 30)), scale=4.0)
+    code, _, err = _run(capsys, args_fn(tmp_path))
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(message, err)
+
+
+# ------------------------------------------------------------------------------- compare
+
+
+def test_compare_identical_and_masked(tmp_path, capsys):
+    img = np.random.default_rng(1).random((24, 24)).astype(np.float32)
+    write_image(tmp_path / "a.png", img, bit_depth=16)
+    code, stdout, _ = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "a.png"), "--json"])
+    assert code == 0
+    data = json.loads(stdout)
+    assert data["psnr_db"] == "inf" and data["ssim"] == 1.0 and data["registration_rms_px"] == 0.0
+
+    other = img.copy()
+    other[:, 12:] = np.clip(other[:, 12:] + 0.1, 0, 1)
+    write_image(tmp_path / "b.png", other, bit_depth=16)
+    mask = np.zeros((24, 24))
+    mask[:, :12] = 1.0
+    write_image(tmp_path / "mask.png", mask)
+    code, stdout, _ = _run(capsys, ["compare", str(tmp_path / "b.png"), str(tmp_path / "a.png"), "--mask",
+                                    str(tmp_path / "mask.png"), "--json", "--error-image", str(tmp_path / "err.png")])
+    assert code == 0
+    data = json.loads(stdout)
+    assert data["psnr_db"] == "inf" and data["pixels"] == 24 * 12
+    err = read_image(tmp_path / "err.png")
+    assert err[:, :12].max() == 0.0 and err[:, 14:].min() > 0.0
+
+
+def test_compare_table_and_bad_input(tmp_path, capsys):
+    write_image(tmp_path / "a.png", np.zeros((16, 16)))
+    write_image(tmp_path / "b.png", np.full((16, 16), 0.4))  # 102 / 255 exactly
+    write_image(tmp_path / "c.png", np.zeros((16, 20)))
+    code, stdout, _ = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png")])
+    assert code == 0 and "PSNR" in stdout and "7.959" in stdout  # MSE 0.16: 10 log10(6.25) = 7.959 dB
+    code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "c.png")])
+    assert code == 2 and "reference must have the same shape as image" in err
+    code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "missing.png")])
+    assert code == 2 and len(err.strip().splitlines()) == 1

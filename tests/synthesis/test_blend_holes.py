@@ -1,0 +1,147 @@
+"""Blending with a depth test (S1 §IV.B.2) and background-only hole filling."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from vergence.synthesis import baseline_weights, blend_views, fill_disparity, fill_holes, forward_warp
+
+
+@pytest.mark.parametrize(
+    ("positions", "target", "expected"),
+    [
+        ([0.0, 1.0], 0.25, [0.75, 0.25]),  # SPEC §6.3: w_L = |t - t_R| / |t_R - t_L|
+        ([0.0, 1.0], 0.0, [1.0, 0.0]),
+        ([0.0, 1.0], 1.0, [0.0, 1.0]),
+        ([0.0, 1.0, 2.0], 1.5, [0.0, 0.5, 0.5]),  # only the neighbours on each side
+        ([0.0, 1.0], 1.5, [0.0, 1.0]),  # outside the segment: the nearest alone
+    ],
+)
+def test_baseline_weights(positions, target, expected):
+    assert_allclose(baseline_weights(positions, target), expected)
+
+
+def test_blend_depth_test_nearest_wins_and_weights_apply():
+    a = np.full((1, 3), 0.2, np.float32)
+    b = np.full((1, 3), 0.6, np.float32)
+    da = np.array([[5.0, 5.0, np.nan]])
+    db = np.array([[5.5, 9.0, 2.0]])
+    res = blend_views([a, b], [da, db], weights=[0.75, 0.25])
+    # Pixel 0: same surface (|5 - 5.5| <= 1) -> 0.75 * 0.2 + 0.25 * 0.6; pixel 1: b is nearer;
+    # pixel 2: only b sees it.
+    assert_allclose(res.image[0], [0.3, 0.6, 0.6], rtol=1e-6)
+    assert_allclose(res.disparity[0], [0.75 * 5 + 0.25 * 5.5, 9.0, 2.0], rtol=1e-6)
+    assert not res.holes.any()
+
+
+def test_blend_zero_weight_only_fills_holes():
+    a = np.full((1, 2), 0.2, np.float32)
+    b = np.full((1, 2), 0.6, np.float32)
+    res = blend_views([a, b], [np.array([[1.0, np.nan]]), np.array([[9.0, 1.0]])], weights=[1.0, 0.0])
+    # b is nearer at pixel 0 but weighs nothing there: the reference at the target position is kept.
+    assert_allclose(res.image[0], [0.2, 0.6])
+    assert res.disparity[0].tolist() == [1.0, 1.0]
+
+
+def test_blend_prefers_reliable_pixels_of_the_same_surface():
+    a = np.full((1, 2), 0.2, np.float32)
+    b = np.full((1, 2), 0.6, np.float32)
+    d = np.array([[3.0, 3.0]])
+    res = blend_views([a, b], [d, d], weights=[0.5, 0.5], reliable=[np.array([[False, True]]), np.array([[True, True]])])
+    assert_allclose(res.image[0], [0.6, 0.4])
+
+
+def test_blend_holes_where_no_reference_sees():
+    a = np.zeros((1, 2, 3), np.float32)
+    res = blend_views([a, a], [np.array([[np.nan, 1.0]])] * 2, weights=[0.5, 0.5])
+    assert res.holes.tolist() == [[True, False]]
+    assert np.isnan(res.disparity[0, 0]) and res.image.shape == (1, 2, 3)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"images": [], "disparities": [], "weights": []}, "non-empty sequences of one length"),
+        ({"images": [np.zeros((2, 2))], "disparities": [np.zeros((2, 3))], "weights": [1.0]}, r"disparities\[0\] must have shape \(2, 2\)"),
+        ({"images": [np.zeros((2, 2)), np.zeros((2, 3))], "disparities": [np.zeros((2, 2))] * 2, "weights": [1, 1]}, r"images\[1\] must have shape \(2, 2\)"),
+        ({"images": [np.zeros((2, 2))], "disparities": [np.zeros((2, 2))], "weights": [-1.0]}, "weights must be >= 0 and not all zero"),
+        ({"images": [np.zeros((2, 2))], "disparities": [np.full((2, 2), np.inf)], "weights": [1.0]}, "must not contain inf"),
+    ],
+)
+def test_blend_bad_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        blend_views(kwargs.pop("images"), kwargs.pop("disparities"), **kwargs)
+
+
+# ---------------------------------------------------------------------------------- holes
+
+
+def _disocclusion_scene():
+    """A foreground square (d = 12, colour 1) on a textured background (d = 2, colours in [0, 0.5])."""
+    rng = np.random.default_rng(5)
+    h, w = 20, 60
+    img = (0.5 * rng.random((h, w, 3))).astype(np.float32)
+    d = np.full((h, w), 2.0)
+    d[5:15, 25:40] = 12.0
+    img[5:15, 25:40] = 1.0
+    return img, d
+
+
+@pytest.mark.parametrize("method", ["background", "mirror", "inpaint"])
+def test_hole_filling_never_puts_foreground_colour_in_a_background_hole(method):
+    # Warping with the foreground moving left opens a hole right of it, bounded by the foreground
+    # (white, near) on its left and the background on its right. No method may paint white in it.
+    img, d = _disocclusion_scene()
+    warped = forward_warp(img, d)
+    assert warped.holes[5:15, 28:38].all()
+    known_d = np.where(warped.holes, 0.0, warped.disparity)
+    filled, filled_d = fill_holes(warped.image, known_d, warped.holes, method=method)
+    hole_pixels = filled[warped.holes & (np.arange(60) > 10)[None, :]]
+    assert hole_pixels.max() <= 0.5 + 1e-6  # background colours only; the foreground is 1.0
+    assert_allclose(filled_d[5:15, 28:38], 2.0)
+    assert_array_equal(filled[~warped.holes], warped.image[~warped.holes])
+
+
+def test_background_fill_repeats_the_background_neighbour():
+    img = np.array([[0.9, 0.0, 0.0, 0.2]], dtype=np.float32)
+    out, d = fill_holes(img, np.array([[8.0, 0.0, 0.0, 1.0]]), np.array([[False, True, True, False]]))
+    assert_allclose(out[0], [0.9, 0.2, 0.2, 0.2])
+    assert d[0].tolist() == [8.0, 1.0, 1.0, 1.0]
+
+
+def test_mirror_fill_reflects_the_background_scanline():
+    img = np.array([[0.9, 0.0, 0.0, 0.1, 0.2, 0.3]], dtype=np.float32)
+    d = np.array([[8.0, 0.0, 0.0, 1.0, 1.0, 1.0]])
+    out, _ = fill_holes(img, d, np.array([[False, True, True, False, False, False]]), method="mirror")
+    # Hole x = 1, 2, background side x_b = 3: x -> 2 * 3 - x = 5, 4.
+    assert_allclose(out[0], [0.9, 0.3, 0.2, 0.1, 0.2, 0.3])
+
+
+def test_border_runs_take_their_only_neighbour():
+    img = np.array([[0.0, 0.4, 0.7, 0.0]], dtype=np.float32)
+    out, _ = fill_holes(img, np.array([[0.0, 9.0, 1.0, 0.0]]), np.array([[True, False, False, True]]))
+    assert_allclose(out[0], [0.4, 0.4, 0.7, 0.7])
+
+
+def test_fill_disparity_takes_the_background():
+    d = np.array([[5.0, np.nan, np.nan, 2.0], [np.nan, 3.0, np.nan, np.nan], [np.nan] * 4])
+    out = fill_disparity(d)
+    assert out[0].tolist() == [5.0, 2.0, 2.0, 2.0]
+    assert out[1].tolist() == [3.0, 3.0, 3.0, 3.0]
+    assert np.isnan(out[2]).all()
+
+
+@pytest.mark.parametrize(
+    ("args", "kwargs", "error", "match"),
+    [
+        ((np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2))), {}, TypeError, "holes must be a boolean mask; got float64"),
+        ((np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 3), bool)), {}, ValueError, r"holes must have shape \(H, W\) matching image \(2, 2\)"),
+        ((np.zeros((2, 2)), np.full((2, 2), np.nan), np.zeros((2, 2), bool)), {}, ValueError, "disparity must be finite outside the holes"),
+        ((np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2), bool)), {"method": "smear"}, ValueError, "method must be one of background, inpaint, mirror; got 'smear'"),
+    ],
+)
+def test_fill_holes_bad_input(args, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        fill_holes(*args, **kwargs)

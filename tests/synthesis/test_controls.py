@@ -1,0 +1,120 @@
+"""Depth controls (S1 §IV.C, Table I): depth to screen parallax by budget, shift-sensor or psi."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from vergence.synthesis import nearness_from_depth, plan_parallax, views_offsets
+from vergence.viewing.comfort import arcmin_from_pixels
+from vergence.viewing.geometry import Display, shift_sensor_parallax
+from vergence.viewing.mapping import LogMapping
+
+# float32 parallax maps: a few ulps of values up to ~100 px.
+PARALLAX_ATOL = 1e-4
+
+DEPTH = np.array([[1.0, 2.0, 4.0], [np.nan, 2.0, 8.0]])
+
+
+def test_nearness_kinds():
+    assert_allclose(nearness_from_depth([[2.0, 4.0]]), [[0.5, 0.25]])
+    assert_allclose(nearness_from_depth([[2.0, -4.0]], kind="disparity"), [[2.0, -4.0]])
+    assert_allclose(nearness_from_depth([[0.0, 1.0]], kind="inverse"), [[0.0, 1.0]])
+    q = nearness_from_depth(DEPTH)
+    assert q.dtype == np.float32 and np.isnan(q[1, 0])
+
+
+def test_budget_maps_the_nearness_range_onto_plus_minus_budget():
+    plan = plan_parallax(DEPTH, budget_px=12.0)
+    # 1/Z spans [1/8, 1]; nearest (1 m) -> -12 (crossed, in front), farthest (8 m) -> +12.
+    assert plan.range_px == (-12.0, 12.0)
+    assert plan.parallax_px[0, 0] == pytest.approx(-12.0)
+    assert plan.parallax_px[1, 2] == pytest.approx(12.0)
+    assert np.isnan(plan.parallax_px[1, 0])
+    assert plan.range_arcmin is None
+
+
+def test_budget_with_convergence_keeps_zero_parallax_there():
+    plan = plan_parallax(DEPTH, budget_px=10.0, convergence=2.0)
+    assert_allclose(plan.parallax_px[0, 1], 0.0, atol=PARALLAX_ATOL)
+    # 1/Z: nearest 1 is 0.5 from 1/2, farthest 1/8 is 0.375 away: the near side reaches the budget.
+    assert plan.range_px[0] == pytest.approx(-10.0)
+    assert plan.range_px[1] == pytest.approx(10.0 * 0.375 / 0.5)
+
+
+def test_budget_in_arcmin_for_a_display():
+    display = Display.preset("desktop-24")
+    plan = plan_parallax(DEPTH, budget_arcmin=30.0, display=display)
+    lo, hi = plan.range_arcmin
+    assert max(abs(lo), abs(hi)) == pytest.approx(30.0, rel=1e-9)
+    assert abs(lo) <= 30.0 + 1e-9 and hi <= 30.0 + 1e-9
+    # The image (3 px wide) fills the 1920-px screen: 640 display pixels per image pixel.
+    assert hi == pytest.approx(arcmin_from_pixels(plan.range_px[1] * 640.0, display))
+
+
+def test_shift_sensor_matches_the_geometry_formula():
+    depth = np.array([[1.5, 2.0, 3.0, 7.0]])
+    plan = plan_parallax(depth, focal_px=1200.0, interaxial=0.065, convergence=2.0)
+    expected = shift_sensor_parallax(depth, focal_px=1200.0, interaxial=0.065, convergence=2.0)
+    assert_allclose(plan.parallax_px, expected, atol=PARALLAX_ATOL)
+    assert plan.parallax_px[0, 1] == pytest.approx(0.0, abs=PARALLAX_ATOL)
+
+
+def test_table_one_trends():
+    depth = np.array([[1.5, 2.0, 3.0, 7.0]])
+    base = plan_parallax(depth, focal_px=1000.0, interaxial=0.06, convergence=2.0).parallax_px
+    wider = plan_parallax(depth, focal_px=1000.0, interaxial=0.09, convergence=2.0).parallax_px
+    longer = plan_parallax(depth, focal_px=1500.0, interaxial=0.06, convergence=2.0).parallax_px
+    farther = plan_parallax(depth, focal_px=1000.0, interaxial=0.06, convergence=3.0).parallax_px
+    # S1 Table I: interaxial + and focal length + increase |parallax|; convergence + decreases
+    # parallax everywhere (the scene moves toward the viewer).
+    off = np.abs(base) > PARALLAX_ATOL
+    assert (np.abs(wider)[off] > np.abs(base)[off]).all()
+    assert (np.abs(longer)[off] > np.abs(base)[off]).all()
+    assert (farther < base).all()
+
+
+def test_any_mapping_is_applied_to_the_input_parallax():
+    psi = LogMapping(-1.0, -0.125, -5.0, 5.0, strength=2.0)
+    plan = plan_parallax(DEPTH, mapping=psi)
+    assert_allclose(plan.parallax_px[0], psi(-1.0 / DEPTH[0]), atol=PARALLAX_ATOL)
+    assert plan.range_px == pytest.approx((-5.0, 5.0))
+
+
+def test_views_offsets():
+    assert views_offsets(2) == (-0.5, 0.5)
+    assert views_offsets(3) == (-1.0, 0.0, 1.0)
+    assert views_offsets(3, origin="left") == (0.0, 1.0, 2.0)
+
+
+@pytest.mark.parametrize(
+    ("depth", "kwargs", "error", "match"),
+    [
+        (DEPTH, {}, ValueError, "give exactly one control: .*; got none"),
+        (DEPTH, {"budget_px": 5.0, "mapping": LogMapping(0, 1, 0, 1)}, ValueError, "got budget, mapping"),
+        (DEPTH, {"budget_arcmin": 30.0}, ValueError, "budget_arcmin needs a display"),
+        (DEPTH, {"budget_px": 1.0, "budget_arcmin": 1.0, "display": Display.preset("phone")}, ValueError, "not both"),
+        (DEPTH, {"budget_px": -1.0}, ValueError, "budget_px must be > 0; got -1"),
+        (DEPTH, {"focal_px": 1000.0, "interaxial": 0.06}, ValueError, "needs focal_px, interaxial and convergence"),
+        (DEPTH, {"focal_px": 1000.0, "interaxial": -0.06, "convergence": 2.0}, ValueError, "interaxial must be > 0"),
+        (DEPTH, {"kind": "disparity", "focal_px": 1.0, "interaxial": 1.0, "convergence": 1.0}, ValueError, "need metric depth"),
+        (np.full((2, 2), 3.0), {"budget_px": 5.0}, ValueError, "depth must vary for a disparity budget"),
+        (np.array([[1.0, -2.0]]), {"budget_px": 5.0}, ValueError, "depth must be > 0 metres where known .*got min -2"),
+        (np.array([[1.0, np.inf]]), {"budget_px": 5.0}, ValueError, "depth must not contain inf"),
+        (np.full((2, 2), np.nan), {"budget_px": 5.0}, ValueError, "at least one known value"),
+        (np.ones(3), {"budget_px": 5.0}, ValueError, r"depth must have shape \(H, W\); got \(3,\)"),
+        (DEPTH, {"kind": "sonar", "budget_px": 5.0}, ValueError, "kind must be one of disparity, inverse, metric; got 'sonar'"),
+        (DEPTH, {"budget_px": 5.0, "display": "tv"}, TypeError, "display must be a Display; got str"),
+    ],
+)
+def test_plan_parallax_bad_input(depth, kwargs, error, match):
+    with pytest.raises(error, match=match):
+        plan_parallax(depth, **kwargs)
+
+
+def test_views_offsets_bad_input():
+    with pytest.raises(ValueError, match="views must be >= 2; got 1"):
+        views_offsets(1)
+    with pytest.raises(ValueError, match="origin must be one of center, left; got 'right'"):
+        views_offsets(2, origin="right")
