@@ -76,13 +76,20 @@ def test_pfm_stores_unknown_as_inf_and_npy_as_nan(tmp_path):
         assert_array_equal(out, disparity.astype(np.float32))
 
 
-def test_float_files_zero_and_inf_read_as_unknown(tmp_path):
+def test_float_files_inf_reads_as_unknown_and_zero_is_a_disparity(tmp_path):
     path = tmp_path / "z.npy"
-    np.save(path, np.array([[0.0, np.inf, -np.inf, 3.0]], np.float32))
-    assert_array_equal(read_disparity(path), [[np.nan, np.nan, np.nan, 3.0]])
+    np.save(path, np.array([[0.0, np.inf, -np.inf, 3.0, np.nan]], np.float32))
+    assert_array_equal(read_disparity(path), [[0.0, np.nan, np.nan, 3.0, np.nan]])
     pfm = tmp_path / "z.pfm"
-    pfm.write_bytes(b"Pf\n2 1\n-1\n" + np.array([0.0, 1.0], "<f4").tobytes())
-    assert_array_equal(read_disparity(pfm), [[np.nan, 1.0]])
+    pfm.write_bytes(b"Pf\n3 1\n-1\n" + np.array([0.0, 1.0, np.inf], "<f4").tobytes())
+    assert_array_equal(read_disparity(pfm), [[0.0, 1.0, np.nan]])
+
+
+@pytest.mark.parametrize("suffix", [".pfm", ".npy"])
+def test_float_formats_keep_zero_and_negative_disparities(tmp_path, suffix):
+    d = np.array([[0.0, -2.5, np.nan, 7.0]], np.float32)
+    write_disparity(tmp_path / f"d{suffix}", d)
+    assert_array_equal(read_disparity(tmp_path / f"d{suffix}"), d)
 
 
 @settings(max_examples=25, deadline=None)
@@ -100,10 +107,10 @@ def test_png_round_trip_property(tmp_path_factory, levels, scale):
 @pytest.mark.parametrize(
     ("disparity", "scale", "message"),
     [
-        (np.array([[4096.0]]), 16, r"must round into \[1, 65535\] for 16-bit \.png; got \[65536, 65536\]"),
+        (np.array([[4096.0]]), 16, r"must round into \[1, 65535\] for 16-bit \.png .*got \[65536, 65536\]"),
         (np.array([[-1.0, 1.0]]), 16, r"round into \[1, 65535\] .*got \[-16, 16\]"),
         (np.array([[0.01]]), 16, r"round into \[1, 65535\] .*got \[0, 0\]"),
-        (np.array([[0.0, 1.0]]), 16, "known values of exactly 0"),
+        (np.array([[0.0, 1.0]]), 16, r"round into \[1, 65535\] .*use \.pfm or \.npy .*got \[0, 16\]"),
         (np.array([[np.inf]]), 16, "must not contain inf"),
         (np.zeros((2, 2, 1)) + 1, 16, r"shape \(H, W\) and not be empty; got \(2, 2, 1\)"),
         (np.zeros((0, 2)), 16, "not be empty"),
@@ -120,8 +127,6 @@ def test_write_type_and_extension_errors(tmp_path):
         write_disparity(tmp_path / "d.pfm", np.ones((2, 2), bool))
     with pytest.raises(ValueError, match=r"unknown disparity extension '\.jpg'; expected one of \.npy, \.pfm"):
         write_disparity(tmp_path / "d.jpg", np.ones((2, 2)))
-    with pytest.raises(ValueError, match=r"known values of exactly 0, which every disparity format"):
-        write_disparity(tmp_path / "d.npy", np.zeros((2, 2)))
 
 
 def test_read_errors(tmp_path):

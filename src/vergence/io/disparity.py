@@ -8,13 +8,15 @@ format     stored value                         unknown
 =========  ===================================  ========================================
 .png/.pgm  ``round(disparity * scale)``, uint   0 (Middlebury v2 and 2001; KITTI uses
                                                 scale 256)
-.pfm       float32 disparity                    inf (Middlebury 2014); 0 also read as unknown
-.npy       float32 disparity                    NaN; 0 and inf also read as unknown
+.pfm       float32 disparity                    inf (Middlebury 2014); NaN too
+.npy       float32 disparity                    NaN; inf too
 =========  ===================================  ========================================
 
-Reading therefore maps 0 (and inf for float formats) to NaN. Writing maps NaN to 0 in PNG/PGM,
-to inf in PFM, and keeps NaN in NPY; a finite disparity that would be stored as the unknown
-marker (0 after scaling and rounding) is an error rather than a silent loss.
+Reading maps each format's marker to NaN. In the float formats 0 is a real disparity (a point at
+infinity for a parallel rig), as everywhere in Vergence ("NaN, never 0", docs/conventions.md); only
+the integer formats use 0 for unknown. Writing maps NaN to 0 in PNG/PGM, to inf in PFM, and keeps NaN
+in NPY; a finite disparity that an integer format would store as its unknown marker (0 after scaling
+and rounding) is an error rather than a silent loss.
 """
 
 from __future__ import annotations
@@ -66,7 +68,8 @@ def read_disparity(path: str | os.PathLike[str], *, scale: float | None = None) 
     ``.png``/``.pgm`` (8 or 16-bit, grey): ``value / scale``, value 0 -> NaN (Middlebury). A
     colour file whose channels are all equal (a grey palette or RGB PNG, as Middlebury's tsukuba
     ground truth) is read as its one channel; a file with distinct channels is refused.
-    ``.pfm``/``.npy``: float as stored, 0 and +-inf -> NaN (Middlebury 2014 marks unknown with inf).
+    ``.pfm``/``.npy``: float as stored, +-inf -> NaN (Middlebury 2014 marks unknown with inf); 0 is a
+    real disparity there.
 
     Parameters
     ----------
@@ -120,7 +123,7 @@ def read_disparity(path: str | os.PathLike[str], *, scale: float | None = None) 
     if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)) or arr.dtype == bool:
         raise ValueError(f"cannot read {p}: disparity data must be numeric; got {arr.dtype}")
     out = arr.astype(np.float32)
-    out[(out == 0) | np.isinf(out)] = np.nan
+    out[np.isinf(out)] = np.nan
     return out
 
 
@@ -132,8 +135,8 @@ def write_disparity(
     ``.png``/``.pgm``: 16-bit ``round(disparity * scale)``, NaN -> 0; every known value must round
     into [1, 65535] (0 would read back as unknown; negative values cannot be stored).
     ``.pfm``: float32 little endian, NaN -> inf (Middlebury 2014). ``.npy``: float32, NaN kept.
-    Known disparities of exactly 0 cannot be told from unknown in any of these formats on reading,
-    so they are refused for every format.
+    Known disparities of exactly 0 are kept in the float formats; the integer ones cannot tell them
+    from unknown, so there they are refused.
 
     Parameters
     ----------
@@ -147,7 +150,7 @@ def write_disparity(
     Raises
     ------
     ValueError
-        On a wrong shape, inf, a known value of 0, a scaled value that does not fit 16 bits,
+        On a wrong shape, inf, a scaled value that does not fit 16 bits (or rounds to 0),
         a missing or superfluous ``scale``, or an unknown extension.
     TypeError
         If ``disparity`` is not numeric.
@@ -176,15 +179,12 @@ def write_disparity(
     if np.isinf(d).any():
         raise ValueError("disparity must not contain inf (mark unknown pixels with NaN)")
     known = ~np.isnan(d)
-    if (d[known] == 0).any():
-        raise ValueError(
-            "disparity holds known values of exactly 0, which every disparity format reads back as unknown"
-        )
     if factor is not None:
         scaled = np.rint(d[known] * factor)
         if scaled.size and (scaled.min() < 1 or scaled.max() > 65535):
             raise ValueError(
-                f"disparity * scale must round into [1, 65535] for 16-bit {suffix}; got "
+                f"disparity * scale must round into [1, 65535] for 16-bit {suffix} (0 means unknown there; "
+                f"use .pfm or .npy for zero or negative disparities); got "
                 f"[{scaled.min():g}, {scaled.max():g}] with scale {factor:g}"
             )
         samples = np.zeros(d.shape, np.uint16)

@@ -1,0 +1,75 @@
+"""Depth from stereo (S1 §III, §V.A; S2 §3.2): rectification, matching, refinement, evaluation.
+
+- :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (SPEC §4).
+- :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
+- :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
+- :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
+- :mod:`~vergence.depth.conversion`: depth from disparity and back (S1 Eq. 7).
+"""
+
+from vergence.depth.block import match_blocks
+from vergence.depth.conversion import depth_from_disparity, disparity_from_depth
+from vergence.depth.evaluate import (
+    RegionScore,
+    evaluate_disparity,
+    mask_agreement,
+    middlebury_regions,
+    read_middlebury_masks,
+)
+from vergence.depth.matching import (
+    METHODS,
+    compute_disparity,
+    match_bm,
+    match_sgbm,
+    sgbm_parameters,
+)
+from vergence.depth.rectify import (
+    Rectification,
+    RectifiedPair,
+    RowAlignment,
+    measure_row_alignment,
+    rectify_cameras,
+    rectify_pair,
+)
+from vergence.depth.refine import (
+    RefinedDisparity,
+    confidence_map,
+    fill_occlusions,
+    left_right_check,
+    refine_disparity,
+    remove_speckles,
+    smooth_wls,
+    unreliable_pixels,
+    weighted_median_filter,
+)
+
+__all__ = [
+    "METHODS",
+    "Rectification",
+    "RectifiedPair",
+    "RefinedDisparity",
+    "RegionScore",
+    "RowAlignment",
+    "compute_disparity",
+    "confidence_map",
+    "depth_from_disparity",
+    "disparity_from_depth",
+    "evaluate_disparity",
+    "fill_occlusions",
+    "left_right_check",
+    "mask_agreement",
+    "match_blocks",
+    "match_bm",
+    "match_sgbm",
+    "measure_row_alignment",
+    "middlebury_regions",
+    "read_middlebury_masks",
+    "rectify_cameras",
+    "rectify_pair",
+    "refine_disparity",
+    "remove_speckles",
+    "sgbm_parameters",
+    "smooth_wls",
+    "unreliable_pixels",
+    "weighted_median_filter",
+]

@@ -1,0 +1,48 @@
+"""Validation shared by the matchers: a stereo pair as 8-bit arrays and a disparity search range."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vergence._validate import as_image
+
+__all__ = ["check_disparity_range", "stereo_pair_u8"]
+
+
+def stereo_pair_u8(left: object, right: object) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a stereo pair (same size, both grey or both colour) and return 8-bit copies.
+
+    Colour images keep three channels (an alpha channel is dropped); values are ``round(255 v)``.
+    """
+    a = as_image("left", left)
+    b = as_image("right", right)
+    if a.shape[:2] != b.shape[:2]:
+        raise ValueError(f"right must have the size of left {a.shape[:2]}; got {b.shape[:2]}")
+    ca = 1 if a.ndim == 2 else min(a.shape[2], 3)
+    cb = 1 if b.ndim == 2 else min(b.shape[2], 3)
+    if ca != cb:
+        kind = {1: "grey", 3: "colour"}
+        raise ValueError(f"left and right must both be grey or both colour; got {kind[ca]} and {kind[cb]}")
+
+    def to_u8(img: np.ndarray) -> np.ndarray:
+        img = img if img.ndim == 2 else (img[:, :, 0] if img.shape[2] == 1 else img[:, :, :3])
+        return np.ascontiguousarray(np.rint(img * 255.0).astype(np.uint8))
+
+    return to_u8(a), to_u8(b)
+
+
+def check_disparity_range(max_disparity: object, min_disparity: object, width: int) -> tuple[int, int, int]:
+    """Return (min, max, OpenCV numDisparities); the range must fit the image width."""
+    for name, v in (("max_disparity", max_disparity), ("min_disparity", min_disparity)):
+        if isinstance(v, bool) or not isinstance(v, int | np.integer):
+            raise TypeError(f"{name} must be an integer number of pixels; got {type(v).__name__}")
+    lo, hi = int(min_disparity), int(max_disparity)
+    if hi <= lo:
+        raise ValueError(f"max_disparity must exceed min_disparity ({lo}); got {hi}")
+    count = 16 * math.ceil((hi - lo + 1) / 16)
+    if hi >= width or lo + count >= width:
+        raise ValueError(f"disparity range [{lo}, {hi}] (searched as {count} disparities from {lo}) is wider than "
+                         f"the image ({width} px)")
+    return lo, hi, count

@@ -1,0 +1,355 @@
+"""Disparity refinement: consistency check, speckles, background filling, edge-aware smoothing.
+
+S1 §III.B: a raw disparity map holds ambiguities and occlusions; occluded pixels take the
+background, extrapolated along the scan line, and the map is then smoothed with the image as a
+guide. Disparity is ``x_left - x_right`` in pixels, NaN = unknown (``docs/conventions.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from vergence._validate import (
+    as_float_array,
+    as_image,
+    check_positive,
+    check_positive_int,
+    check_same_hw,
+)
+from vergence.depth import _kernels
+
+__all__ = [
+    "RefinedDisparity",
+    "confidence_map",
+    "default_radius",
+    "fill_occlusions",
+    "left_right_check",
+    "refine_disparity",
+    "remove_speckles",
+    "smooth_wls",
+    "unreliable_pixels",
+    "weighted_median_filter",
+]
+
+_SMOOTHING = ("median", "wls", "none")
+# Fixed point used by OpenCV's disparity filters: 1 px = 16 units in int16.
+_FIXED = 16.0
+# |disparity| limit that fits int16 at 1/16 px.
+_FIXED_MAX = 2047.0
+
+
+def _disparity(name: str, value: object) -> np.ndarray:
+    d = as_float_array(name, value, allow_nan=True, dtype=np.float32)
+    if d.ndim != 2 or 0 in d.shape:
+        raise ValueError(f"{name} must have shape (H, W); got {d.shape}")
+    return d
+
+
+def _guide_u8(name: str, image: object, ref: np.ndarray) -> np.ndarray:
+    img = as_image(name, image)
+    check_same_hw(name, img, "disparity", ref)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    return np.ascontiguousarray(np.rint(img[:, :, :3] * 255.0).astype(np.uint8))
+
+
+def left_right_check(disparity_left: object, disparity_right: object, *, tolerance: float = 1.0) -> np.ndarray:
+    """Pixels whose left disparity is confirmed by the right map: ``|d_L(x) - d_R(x - round(d_L))| <= tol``.
+
+    Parameters
+    ----------
+    disparity_left : (H, W) array
+        Disparity of the left view (``x_left - x_right``), NaN = unknown.
+    disparity_right : (H, W) array
+        Disparity of the right view in the same sign convention (a right pixel ``x_r`` sees the
+        left pixel ``x_r + d_R``), NaN = unknown.
+    tolerance : float
+        Largest accepted difference, pixels.
+
+    Returns
+    -------
+    (H, W) bool
+        True where consistent; False where either value is unknown or the match leaves the image.
+    """
+    dl = _disparity("disparity_left", disparity_left)
+    dr = _disparity("disparity_right", disparity_right)
+    check_same_hw("disparity_right", dr, "disparity_left", dl)
+    tol = check_positive("tolerance", tolerance)
+    h, w = dl.shape
+    known = np.isfinite(dl)
+    xr = np.arange(w)[None, :] - np.rint(np.where(known, dl, 0.0)).astype(np.int64)
+    inside = known & (xr >= 0) & (xr < w)
+    rows = np.broadcast_to(np.arange(h)[:, None], (h, w))
+    other = dr[rows, np.clip(xr, 0, w - 1)]
+    with np.errstate(invalid="ignore"):
+        return inside & (np.abs(dl - other) <= tol)
+
+
+def remove_speckles(disparity: object, *, max_size: int, max_difference: float = 1.0) -> np.ndarray:
+    """Set to NaN the connected blobs of fewer than ``max_size`` pixels (OpenCV ``filterSpeckles``).
+
+    Neighbours belong to one blob when their disparities differ by at most ``max_difference`` px.
+    Disparities are processed at 1/16 px; their magnitude must stay below 2047 px.
+    """
+    d = _disparity("disparity", disparity)
+    size = check_positive_int("max_size", max_size)
+    diff = check_positive("max_difference", max_difference)
+    known = np.isfinite(d)
+    if known.any() and np.abs(d[known]).max() >= _FIXED_MAX:
+        raise ValueError(f"disparity must stay within +-{_FIXED_MAX:g} px for speckle removal; got {np.abs(d[known]).max():g}")
+    fixed = np.full(d.shape, np.iinfo(np.int16).min, np.int16)
+    fixed[known] = np.rint(d[known] * _FIXED).astype(np.int16)
+    newval = int(np.iinfo(np.int16).min)
+    cv2.filterSpeckles(fixed, newval, size, round(diff * _FIXED))
+    out = d.copy()
+    out[fixed == newval] = np.nan
+    return out
+
+
+def fill_occlusions(disparity: object) -> np.ndarray:
+    """Fill unknown disparities by extrapolating the background along each row (S1 §III.B).
+
+    Each NaN takes the smaller (farther) of the nearest known disparities to its left and right on
+    the same row; a run touching the image edge takes its only neighbour. Rows with no known value
+    are then filled the same way along the columns.
+
+    Raises
+    ------
+    ValueError
+        If no disparity is known at all.
+
+    Examples
+    --------
+    >>> fill_occlusions(np.array([[9.0, np.nan, np.nan, 4.0, np.nan]], np.float32)).tolist()
+    [[9.0, 4.0, 4.0, 4.0, 4.0]]
+    """
+    d = _disparity("disparity", disparity)
+    if not np.isfinite(d).any():
+        raise ValueError("disparity has no known value to extrapolate from")
+    out = _kernels.fill_background_rows(np.ascontiguousarray(d))
+    if np.isnan(out).any():
+        out = np.ascontiguousarray(_kernels.fill_background_rows(np.ascontiguousarray(out.T)).T)
+    return out
+
+
+def unreliable_pixels(disparity: object, *, jump: float = 1.0) -> np.ndarray:
+    """Pixels next to a disparity jump (>= ``jump`` px, dilated by one pixel) or off their 3x3 median by > 1 px.
+
+    These are where a matcher's answer is least trustworthy (foreground fattening at depth edges,
+    isolated mismatches); the refinement re-estimates them from their reliable neighbours.
+    """
+    d = _disparity("disparity", disparity)
+    if not np.isfinite(d).all():
+        raise ValueError("disparity must be complete (no NaN); fill it first")
+    gap = check_positive("jump", jump)
+    mark = np.zeros(d.shape, np.uint8)
+    hj = np.abs(np.diff(d, axis=1)) >= gap
+    vj = np.abs(np.diff(d, axis=0)) >= gap
+    mark[:, :-1] |= hj
+    mark[:, 1:] |= hj
+    mark[:-1] |= vj
+    mark[1:] |= vj
+    near = cv2.dilate(mark, np.ones((3, 3), np.uint8)) > 0
+    return near | (np.abs(cv2.medianBlur(d, 3) - d) > 1.0)
+
+
+def weighted_median_filter(
+    disparity: object,
+    guide: object,
+    *,
+    radius: int,
+    sigma_color: float = 12.0,
+    step: int = 1,
+    update: object = None,
+    support: object = None,
+    bin_width: float = 0.25,
+) -> np.ndarray:
+    """Edge-aware weighted median of a disparity map guided by the image.
+
+    Parameters
+    ----------
+    disparity : (H, W) array
+        Disparity, pixels; NaN allowed only outside ``support``.
+    guide : (H, W) or (H, W, C) image in [0, 1]
+        Usually the left image.
+    radius : int
+        Half size of the window, pixels.
+    sigma_color : float
+        Colour scale of the weights ``exp(-|I_p - I_q|^2 / (2 sigma^2))``, in 8-bit grey levels.
+    step : int
+        Sample every ``step``-th pixel of the window (a sparse window of ``(2 radius/step + 1)^2`` votes).
+    update, support : (H, W) bool arrays, optional
+        Pixels to recompute (default all) and pixels allowed to vote (default all known ones).
+    bin_width : float
+        Disparity resolution of the median, pixels; the result is the mean of the votes in the median bin.
+
+    Returns
+    -------
+    (H, W) float32
+        The filtered map (pixels outside ``update`` unchanged).
+    """
+    d = _disparity("disparity", disparity)
+    g = _guide_u8("guide", guide, d)
+    r = check_positive_int("radius", radius)
+    s = check_positive_int("step", step)
+    sig = check_positive("sigma_color", sigma_color)
+    bw = check_positive("bin_width", bin_width)
+    upd = np.ones(d.shape, bool) if update is None else np.asarray(update, bool)
+    sup = np.isfinite(d) if support is None else np.asarray(support, bool)
+    for name, m in (("update", upd), ("support", sup)):
+        if m.shape != d.shape:
+            raise ValueError(f"{name} must have shape {d.shape}; got {m.shape}")
+    if not np.isfinite(d[sup]).all():
+        raise ValueError("disparity must be known (finite) wherever support is set")
+    if not sup.any():
+        return d.copy()
+    d_min, d_max = float(d[sup].min()), float(d[sup].max())
+    nbins = int((d_max - d_min) / bw) + 1
+    lut = np.exp(-np.arange(g.shape[2] * 255 * 255 + 1, dtype=np.float64) / (2.0 * sig * sig)).astype(np.float32)
+    return _kernels.weighted_median(np.ascontiguousarray(d), g, np.ascontiguousarray(upd), np.ascontiguousarray(sup),
+                                    lut, r, s, d_min, bw, nbins)
+
+
+def smooth_wls(disparity: object, guide: object, *, lam: float = 8000.0, sigma_color: float = 1.5) -> np.ndarray:
+    """Edge-aware weighted-least-squares smoothing (OpenCV ximgproc ``DisparityWLSFilter``).
+
+    ``disparity`` must be complete (no NaN) and within +-2047 px; ``lam`` sets the smoothness and
+    ``sigma_color`` the edge sensitivity, as in ximgproc.
+    """
+    d = _disparity("disparity", disparity)
+    g = _guide_u8("guide", guide, d)
+    lam = check_positive("lam", lam)
+    sig = check_positive("sigma_color", sigma_color)
+    if not np.isfinite(d).all():
+        raise ValueError("disparity must be complete (no NaN) for WLS smoothing; fill it first")
+    if np.abs(d).max() >= _FIXED_MAX:
+        raise ValueError(f"disparity must stay within +-{_FIXED_MAX:g} px for WLS smoothing")
+    wls = cv2.ximgproc.createDisparityWLSFilterGeneric(False)
+    wls.setLambda(lam)
+    wls.setSigmaColor(sig)
+    fixed = np.rint(d * _FIXED).astype(np.int16)
+    guide_img = g if g.shape[2] == 3 else g[:, :, 0]
+    out = wls.filter(fixed, guide_img, ROI=(0, 0, d.shape[1], d.shape[0]))
+    return out.astype(np.float32) / np.float32(_FIXED)
+
+
+def confidence_map(raw: object, refined: object) -> np.ndarray:
+    """Per-pixel confidence in [0, 1] of a refined disparity map.
+
+    ``c = exp(-(d_refined - d_raw)^2 / 2) * (1 - exp(-r / 2))``, where ``r`` is the distance (pixels)
+    to the nearest :func:`unreliable_pixels` pixel of the refined map (a depth edge or an outlier),
+    and ``c = 0`` where the matcher gave no answer (``raw`` NaN). High where the matcher's answer
+    survived the refinement away from depth edges; low at edges, in filled or changed areas. On the
+    Middlebury pairs it ranks a correct pixel above a wrong one with probability 0.8-0.9.
+    """
+    r = _disparity("raw", raw)
+    f = _disparity("refined", refined)
+    check_same_hw("refined", f, "raw", r)
+    if not np.isfinite(f).all():
+        known = np.isfinite(f)
+        edges = unreliable_pixels(fill_occlusions(f)) if known.any() else np.ones(f.shape, bool)
+    else:
+        edges = unreliable_pixels(f)
+    dist = cv2.distanceTransform((~edges).astype(np.uint8), cv2.DIST_L2, 3)
+    with np.errstate(invalid="ignore"):
+        agree = np.exp(-0.5 * (f - r) ** 2)
+    c = np.where(np.isfinite(r) & np.isfinite(f), agree * (1.0 - np.exp(-0.5 * dist)), 0.0)
+    return c.astype(np.float32)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class RefinedDisparity:
+    """Result of :func:`refine_disparity` (and of ``compute_disparity``).
+
+    Attributes
+    ----------
+    disparity : (H, W) float32
+        Disparity, pixels; NaN only where the caller asked to keep unknown pixels.
+    confidence : (H, W) float32
+        :func:`confidence_map`, in [0, 1].
+    matched : (H, W) bool
+        Pixels where the matcher's own answer survived its checks (the others were filled).
+    """
+
+    disparity: np.ndarray
+    confidence: np.ndarray
+    matched: np.ndarray
+
+
+def default_radius(height: int, width: int) -> int:
+    """Weighted-median radius for an image size: 1/24 of the larger side, at least 8 px."""
+    return max(8, round(max(height, width) / 24.0))
+
+
+def refine_disparity(
+    disparity: object,
+    guide: object,
+    *,
+    smoothing: str = "median",
+    keep_invalid: bool = False,
+    speckle_size: int | None = None,
+    radius: int | None = None,
+    sigma_color: float = 12.0,
+) -> RefinedDisparity:
+    """Refine a raw disparity map: speckles, background filling, edge-aware smoothing, confidence.
+
+    Parameters
+    ----------
+    disparity : (H, W) array
+        Raw disparity with NaN where the matcher gave no answer (occlusions, failed checks).
+    guide : (H, W) or (H, W, C) image in [0, 1]
+        The reference (left) image.
+    smoothing : {"median", "wls", "none"}
+        ``"median"``: :func:`weighted_median_filter` at the :func:`unreliable_pixels`, votes from the
+        matched pixels only; ``"wls"``: :func:`smooth_wls` on the filled map.
+    keep_invalid : bool
+        Leave unmatched pixels NaN instead of filling them.
+    speckle_size : int, optional
+        Blobs smaller than this are removed first (default: image area / 2000, at least 20 px).
+    radius : int, optional
+        Weighted-median radius (default :func:`default_radius`); the window is sampled every
+        ``radius // 8`` pixels (about 17 x 17 votes whatever the radius).
+    sigma_color : float
+        Colour scale of the weighted median, 8-bit levels.
+
+    Returns
+    -------
+    RefinedDisparity
+
+    Notes
+    -----
+    S1 §III.B: unmatched (occluded) pixels take the background, extrapolated along the scan line
+    (:func:`fill_occlusions`); then the pixels next to a depth edge and isolated outliers are
+    re-estimated by a colour-weighted median of the matched pixels around them, which moves depth
+    edges onto image edges (foreground fattening) without blurring surfaces. Re-estimating every
+    filled pixel the same way was measured too: 12 % fewer bad pixels on the six Middlebury pairs,
+    but 65 % more on a large textureless card (benchmarks/matching.py) and nearly twice the time.
+    """
+    d = _disparity("disparity", disparity)
+    _guide_u8("guide", guide, d)
+    if smoothing not in _SMOOTHING:
+        raise ValueError(f"smoothing must be one of {', '.join(_SMOOTHING)}; got {smoothing!r}")
+    h, w = d.shape
+    size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
+    r = default_radius(h, w) if radius is None else check_positive_int("radius", radius)
+    raw = remove_speckles(d, max_size=size) if np.isfinite(d).any() else d
+    matched = np.isfinite(raw)
+    if not matched.any():
+        raise ValueError("the matcher found no reliable disparity; check the disparity range and the image pair")
+    filled = fill_occlusions(raw)
+    if smoothing == "median":
+        update = unreliable_pixels(filled)
+        if keep_invalid:
+            update &= matched
+        out = weighted_median_filter(filled, guide, radius=r, step=max(1, r // 8), sigma_color=sigma_color,
+                                     update=update, support=matched)
+    elif smoothing == "wls":
+        out = smooth_wls(filled, guide)
+    else:
+        out = filled
+    if keep_invalid:
+        out = np.where(matched, out, np.nan).astype(np.float32)
+    return RefinedDisparity(out, confidence_map(raw, out), matched)

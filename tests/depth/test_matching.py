@@ -1,0 +1,152 @@
+"""Matchers and the default pipeline: synthetic shifts, Middlebury targets, bad input."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from vergence.depth import (
+    METHODS,
+    compute_disparity,
+    evaluate_disparity,
+    match_blocks,
+    match_bm,
+    match_sgbm,
+    middlebury_regions,
+    read_middlebury_masks,
+    sgbm_parameters,
+)
+from vergence.io import read_disparity, read_image
+
+# A sub-pixel shift of a smooth random texture is recovered to 0.15 px (median over the image)
+# by every matcher: SGBM/BM interpolate at 1/16 px, the window matchers by a parabola.
+SUBPIXEL_TOL_PX = 0.15
+# The issue's target: raw OpenCV SGBM 3-way scores ~4.27 % (tsukuba) / 7.24 % (venus) bad nonocc;
+# the default pipeline must cut that by at least a third (measured: 2.18 % and 1.83 %).
+TARGET_NONOCC = {"tsukuba": 2.85, "venus": 4.83}
+# On the four scenes without official masks the pipeline must also cut the raw figure by a third
+# (measured cuts 80-88 %).
+MIN_CUT = 1.0 / 3.0
+
+
+def _texture(h: int, w: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    small = rng.random((h // 3 + 2, w // 3 + 2, 3)).astype(np.float32)
+    return cv2.resize(small, (w + 6, h + 6), interpolation=cv2.INTER_CUBIC)[3:h + 3, :w + 6].clip(0, 1)
+
+
+def _shifted_pair(shift: float, h: int = 60, w: int = 120) -> tuple[np.ndarray, np.ndarray]:
+    """left(x) = right(x - shift): disparity ``shift`` everywhere (bilinear resampling)."""
+    right = _texture(h, w)[:, :w]
+    xs, ys = np.meshgrid(np.arange(w, dtype=np.float32) - shift, np.arange(h, dtype=np.float32))
+    left = cv2.remap(_texture(h, w)[:, :w], xs, ys, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT).clip(0, 1)
+    return np.ascontiguousarray(left), np.ascontiguousarray(right)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("shift", [6.0, 9.5])
+def test_every_matcher_recovers_a_subpixel_shift(method, shift):
+    left, right = _shifted_pair(shift)
+    res = compute_disparity(left, right, max_disparity=20, method=method)
+    assert np.isfinite(res.disparity).all() and res.disparity.dtype == np.float32
+    assert abs(float(np.median(res.disparity[:, 30:])) - shift) < SUBPIXEL_TOL_PX
+    assert res.matched.mean() > 0.5
+
+
+def test_opencv_matchers_mark_the_unmatched_left_border_as_nan():
+    left, right = _shifted_pair(6.0)
+    for d in (match_sgbm(left, right, max_disparity=20), match_bm(left, right, max_disparity=20)):
+        assert np.isnan(d[:, :3]).all() and np.isfinite(d[:, 40:80]).mean() > 0.8
+
+
+def test_block_matcher_left_right_check_finds_the_occlusion():
+    """A foreground band at disparity 14 over a background at 4: a 10-px occluded strip left of it."""
+    h, w = 50, 140
+    bg, fg = _texture(h, w, 1)[:, :w], _texture(h, w, 2)[:, :w]
+    right = bg.copy()
+    right[:, 50:90] = fg[:, 64:104]  # the band seen 14 px to the left in the right image
+    left = np.roll(bg, 4, axis=1)
+    left[:, 64:104] = fg[:, 64:104]
+    d = match_blocks(left, right, max_disparity=20, cost="sad")
+    assert np.isnan(d[10:40, 56:62]).mean() > 0.8  # occluded: no left-right consistent match
+    assert abs(np.nanmedian(d[10:40, 70:100]) - 14) < SUBPIXEL_TOL_PX
+    assert abs(np.nanmedian(d[10:40, 20:50]) - 4) < SUBPIXEL_TOL_PX
+
+
+def test_keep_invalid_keeps_nan():
+    left, right = _shifted_pair(6.0)
+    res = compute_disparity(left, right, max_disparity=20, keep_invalid=True)
+    np.testing.assert_array_equal(np.isnan(res.disparity), ~res.matched)
+    assert np.isnan(res.disparity[:, :3]).all()
+
+
+def test_sgbm_parameters_by_hand():
+    p = sgbm_parameters(288, 384, 16, 3)
+    assert (p["blockSize"], p["P1"], p["P2"], p["numDisparities"]) == (3, 216, 432, 16)
+    assert p["mode"] == cv2.StereoSGBM_MODE_SGBM_3WAY
+    assert sgbm_parameters(1080, 1920, 128, 1)["blockSize"] == 5
+
+
+def _middlebury(folder, names, scale):
+    left, right, truth = (read_image(folder / names[0]), read_image(folder / names[1]),
+                          read_disparity(folder / names[2], scale=scale))
+    return left, right, truth
+
+
+def _raw_opencv(left, right, ndisp):
+    sgbm = cv2.StereoSGBM_create(0, ndisp, 5, P1=8 * 3 * 25, P2=32 * 3 * 25, disp12MaxDiff=1, uniquenessRatio=10,
+                                 speckleWindowSize=100, speckleRange=32, mode=cv2.StereoSGBM_MODE_SGBM_3WAY)
+    fixed = sgbm.compute(np.rint(left * 255).astype(np.uint8), np.rint(right * 255).astype(np.uint8))
+    return np.where(fixed < 0, np.nan, fixed / 16.0)
+
+
+@pytest.mark.parametrize(("scene", "names", "scale", "ndisp"),
+                         [("tsukuba", ("im3.png", "im4.png", "groundtruth.png"), 16, 16),
+                          ("venus", ("im2.ppm", "im6.ppm", "disp2.pgm"), 8, 32)])
+def test_middlebury_targets_with_official_masks(shared_data, scene, names, scale, ndisp):
+    folder = shared_data / "stereo" / scene
+    left, right, truth = _middlebury(folder, names, scale)
+    masks = read_middlebury_masks(folder)
+    raw = evaluate_disparity(_raw_opencv(left, right, ndisp), truth, masks=masks)["nonocc"].bad
+    ours = evaluate_disparity(compute_disparity(left, right, max_disparity=ndisp - 1).disparity, truth, masks=masks)
+    assert ours["nonocc"].bad <= TARGET_NONOCC[scene] < raw
+    assert ours["all"].bad < ours["disc"].bad
+
+
+@pytest.mark.parametrize("scene", ["barn2", "bull", "poster", "sawtooth"])
+def test_middlebury_computed_regions_cut_by_a_third(shared_data, scene):
+    folder = shared_data / "stereo" / scene
+    left, right, truth = _middlebury(folder, ("im2.png", "im6.png", "disp2.png"), 8)
+    regions = middlebury_regions(truth, truth_right=read_disparity(folder / "disp6.png", scale=8))
+    raw = evaluate_disparity(_raw_opencv(left, right, 32), truth, masks=regions)["nonocc"].bad
+    ours = evaluate_disparity(compute_disparity(left, right, max_disparity=31).disparity, truth, masks=regions)
+    assert ours["nonocc"].bad <= (1.0 - MIN_CUT) * raw
+
+
+def test_bad_input():
+    img = np.zeros((40, 60, 3), np.float32)
+    with pytest.raises(ValueError, match=r"right must have the size of left \(40, 60\); got \(40, 59\)"):
+        compute_disparity(img, img[:, :-1], max_disparity=10)
+    with pytest.raises(ValueError, match="both be grey or both colour; got colour and grey"):
+        compute_disparity(img, img[:, :, 0], max_disparity=10)
+    with pytest.raises(ValueError, match=r"disparity range \[0, 70\] .* is wider than the image \(60 px\)"):
+        compute_disparity(img, img, max_disparity=70)
+    with pytest.raises(ValueError, match=r"range \[0, 50\] \(searched as 64 disparities from 0\) is wider"):
+        compute_disparity(img, img, max_disparity=50)
+    with pytest.raises(ValueError, match=r"max_disparity must exceed min_disparity \(5\); got 5"):
+        compute_disparity(img, img, max_disparity=5, min_disparity=5)
+    with pytest.raises(TypeError, match="max_disparity must be an integer number of pixels; got float"):
+        compute_disparity(img, img, max_disparity=10.5)
+    with pytest.raises(ValueError, match="method must be one of bm, ncc, sad, sgbm, ssd; got 'census'"):
+        compute_disparity(img, img, max_disparity=10, method="census")
+    with pytest.raises(ValueError, match="block_size must be odd; got 4"):
+        match_sgbm(img, img, max_disparity=10, block_size=4)
+    with pytest.raises(ValueError, match="block_size must be odd and >= 5 for StereoBM; got 3"):
+        match_bm(img, img, max_disparity=10, block_size=3)
+    with pytest.raises(ValueError, match="cost must be one of ncc, sad, ssd; got 'abs'"):
+        match_blocks(img, img, max_disparity=10, cost="abs")
+    with pytest.raises(ValueError, match=r"left must be finite \(no NaN or inf\)"):
+        compute_disparity(np.full_like(img, np.nan), img, max_disparity=10)
+    with pytest.raises(ValueError, match=r"left values must lie in \[0, 1\]"):
+        compute_disparity(img + 2, img, max_disparity=10)
