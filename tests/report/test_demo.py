@@ -29,6 +29,9 @@ def test_demo_writes_index_with_existing_figures(tmp_path):
     assert result.tri_rig.monotone and not result.tri_rig.diverges
     assert float(result.tri_rig.perceived_depth(SUBJECT_DEPTH)) == pytest.approx(DEMO_DISPLAY.distance)
     assert float(result.tri_rig.roundness(SUBJECT_DEPTH)) == pytest.approx(1.0)
+    # ... and, unlike either plain rig, leaves the bleachers (80 m) neither diverging nor cardboard.
+    assert 3.0 < float(result.tri_rig.perceived_depth(80.0)) < float("inf")
+    assert float(result.tri_rig.roundness(80.0)) > 0.3
     # Measured on the rendered stadium: b_round pushes the bleachers past the divergence limit, b_div does not.
     limit_px = DEMO_DISPLAY.divergence_disparity * DEMO_DISPLAY.resolution
     assert result.stadium_disparity_px["b_round"][1] > limit_px > result.stadium_disparity_px["b_div"][1] > 0

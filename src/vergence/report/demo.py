@@ -30,8 +30,6 @@ BACKGROUND_DEPTH = 80.0
 SHOOTING_FOCAL = 10.0
 # A television seen with f' = H'/W' = 2.5 (S0 §2): 1.2 m wide, 3 m away, 1920 px, eyes 65 mm apart.
 DEMO_DISPLAY = Display(eye_separation=0.065, distance=3.0, width=1.2, resolution=1920)
-# Where the director wants the bleachers: 2 m behind the screen, well inside the comfort zone.
-BACKGROUND_PERCEIVED = 5.0
 # Scene depths shown in the budget table and the plots.
 TABLE_DEPTHS = (15.0, 20.0, 30.0, 40.0, 60.0, 80.0, 150.0)
 PLOT_NEAR, PLOT_FAR = 12.0, 200.0
@@ -60,7 +58,7 @@ def stadium_shooting(baseline: float) -> Shooting:
 
 def _fmt(v: float | None, digits: int = 3) -> str:
     if v is None:
-        return "diverges"
+        return "-"
     if math.isinf(v):
         return "inf"
     return f"{v:.{digits}g}"
@@ -69,17 +67,14 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 def _budget_table(name: str, budget: DepthBudget) -> list[tuple[str, ...]]:
     rows = []
     for s in budget.samples:
-        flag = "diverges" if s.diverges else ("cardboard" if (s.roundness or 0) < CARDBOARD_ROUNDNESS else "")
-        rows.append(
-            (
-                name,
-                f"{s.depth:g}",
-                _fmt(s.disparity_px, 3),
-                _fmt(s.perceived_depth, 3),
-                _fmt(s.roundness, 2),
-                flag,
-            )
-        )
+        if s.diverges:
+            perceived, rho, flag = "-", "-", "eyes diverge"
+        elif s.perceived_depth is None:
+            perceived, rho, flag = "inf", "-", "eyes parallel"
+        else:
+            perceived, rho = _fmt(s.perceived_depth, 3), _fmt(s.roundness, 2)
+            flag = "cardboard" if s.roundness is not None and s.roundness < CARDBOARD_ROUNDNESS else ""
+        rows.append((name, f"{s.depth:g}", _fmt(s.disparity_px, 3), perceived, rho, flag))
     return rows
 
 
@@ -105,6 +100,7 @@ def _section_budget(out: Path, progress: Progress) -> tuple[Section, DepthBudget
         f"{subject_div.roundness:.2f} (< {CARDBOARD_ROUNDNESS:g}: a cardboard cut-out). With "
         f"b = b_round = {b_round:.3f} m the player is round (1.0) but everything beyond "
         f"{round_rig.divergence_depth:.1f} m, the bleachers included, asks the eyes to diverge. "
+        "(With b = b_div the roundness is the same at every depth: Eq. (4)'s z term vanishes.) "
         "Disparities are in screen pixels (positive = behind the screen)."
     )
     table = (("rig", "depth z (m)", "disparity (px)", "perceived z' (m)", "roundness", "problem"),)
@@ -125,10 +121,10 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
     reference = stadium_shooting(b_round)
     constraints = [
         f"z={SUBJECT_DEPTH:g},perceived={display.distance:g},roundness=1",
-        f"z={BACKGROUND_DEPTH:g},perceived={BACKGROUND_PERCEIVED:g}",
+        "z=inf,perceived=inf",
     ]
     progress("building the Tri-Rig mapping psi")
-    tri = psi_from_constraints(reference, display, constraints, near=PLOT_NEAR, far=PLOT_FAR)
+    tri = psi_from_constraints(reference, display, constraints, near=PLOT_NEAR, far=math.inf)
     plot_mapping(tri, path=out / "tri_rig_psi.png")
     z = (PLOT_NEAR, SUBJECT_DEPTH, BACKGROUND_DEPTH, PLOT_FAR)
     zp = [float(tri.perceived_depth(v)) for v in z]
@@ -136,13 +132,17 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
     table = (("scene depth z (m)", "perceived z' (m)", "roundness"),) + tuple(
         (f"{a:g}", _fmt(b, 3), _fmt(c, 2)) for a, b, c in zip(z, zp, rho)
     )
+    bleachers = BACKGROUND_DEPTH
     text = (
         "The Tri-Rig (S0 §6) keeps the director's camera as the left view and builds the right view "
-        "through a disparity mapping psi fixed by constraints: the player on the screen "
-        f"(z' = {display.distance:g} m) with roundness 1, the bleachers at z' = {BACKGROUND_PERCEIVED:g} m. "
-        "psi is the Gregory–Delbourgo monotone rational Hermite interpolant of the control points "
-        "(S0 Eq. 7–9, SPEC §1.8), with reference rig b_round. "
-        f"monotone: {tri.monotone}; ever past the divergence limit b'/W': {tri.diverges}."
+        "through a disparity mapping psi fixed by constraints. Here, S0 Fig. 8 (right): the player on the "
+        f"screen (z' = {display.distance:g} m) with roundness 1, and infinity seen at infinity (psi reaches the "
+        "divergence limit b'/W' only at infinite depth). psi is the Gregory–Delbourgo monotone rational "
+        "Hermite interpolant of the control points (S0 Eq. 7–9, SPEC §1.8), reference rig b_round: it keeps "
+        "the player's disparities and compresses the background's. "
+        f"The bleachers at {bleachers:g} m are then seen at {float(tri.perceived_depth(bleachers)):.1f} m with "
+        f"roundness {float(tri.roundness(bleachers)):.2f} (b_div: 0.25, b_round: divergence). "
+        f"monotone: {tri.monotone}; ever past the divergence limit: {tri.diverges}."
     )
     fig = Figure("tri_rig_psi.png", "psi(d) with the identity and the divergence limit; mapped perceived depth and roundness.")
     return Section("2. The Tri-Rig's disparity mapping (S0 §6)", text, (fig,), table), tri
