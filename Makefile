@@ -10,9 +10,13 @@ PYTEST_ARGS ?= -m "not slow" -n 2
 setup: $(STAMP)
 
 $(VENV)/bin/python:
-	$(PYTHON) -m venv $(VENV) || { apt-get update && apt-get install -y python3-venv && $(PYTHON) -m venv $(VENV); }
+	$(PYTHON) -m venv $(VENV) || { apt-get update && apt-get install -y python3-venv && $(PYTHON) -m venv --clear $(VENV); }
 
+# Mitsuba's CPU backend (llvm_ad_rgb) loads libLLVM >= 15 at run time; Debian ships it as libllvm15.
 $(STAMP): pyproject.toml | $(VENV)/bin/python
+	@/sbin/ldconfig -p 2>/dev/null | grep -Eq 'libLLVM-(1[5-9]|[2-9][0-9])' || \
+	  { echo "libLLVM >= 15 not found: installing Debian's libllvm15 for Mitsuba"; \
+	    apt-get update && apt-get install -y libllvm15; }
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
