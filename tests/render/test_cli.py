@@ -90,3 +90,24 @@ def test_import_vergence_does_not_import_mitsuba():
     code = "import sys, vergence, vergence.cli, vergence.rig; print('mitsuba' in sys.modules, 'drjit' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+def test_stderr_is_empty_on_success_and_one_line_on_error(tmp_path, capsys):
+    # The progress bar is drawn only on a terminal: captured stderr holds nothing but errors.
+    assert main(["render", "tabletop", "--out", str(tmp_path), *SMALL, "--depth", "0"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["render", "tabletop", "--out", str(tmp_path), *SMALL, "--depth", "-1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1
+
+
+def test_eye_needs_a_pinhole_camera(tmp_path, capsys):
+    scene = tmp_path / "fish.json"
+    scene.write_text(json.dumps({
+        "camera": {"position": [0, 0, 0], "look_at": [0, 0, -1], "up": [0, 1, 0], "fov_deg": 180, "width": 8,
+                   "height": 6, "lens": "fisheye"},
+        "environment": {"color": [1, 1, 1]}, "materials": {}, "objects": [],
+    }))  # fmt: skip
+    assert main(["render", str(scene), "--eye", "left", "--baseline", "0.1", "--convergence", "2", "--out",
+                 str(tmp_path / "o")]) == 2  # fmt: skip
+    assert "--eye needs a pinhole scene camera (the rig shifts the sensor); got lens 'fisheye'" in capsys.readouterr().err

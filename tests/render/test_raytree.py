@@ -5,6 +5,8 @@ All renders are tiny (33 x 25 unless stated) and deterministic (no rng) so the f
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
@@ -21,6 +23,7 @@ from vergence.render import (
     Sphere,
     builtin_scene,
     layer_names,
+    load_scene,
     render,
     render_stereo,
     scene_from_dict,
@@ -321,3 +324,85 @@ def test_stereo_preview_one_call():
     assert not np.array_equal(pair.left, pair.right)
     with pytest.raises(ValueError, match="scene 'scene' has no stereo block: give baseline and convergence"):
         stereo_preview(_scene([], {}))
+
+
+def _own_rays(position, look_at, fov_deg, width, height, pp):
+    """Unit ray directions by hand: right = f x up, down = f x right, fx = width / (2 tan(fov / 2))."""
+    fwd = np.subtract(look_at, position) / np.linalg.norm(np.subtract(look_at, position))
+    right = np.cross(fwd, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(fwd, right)
+    f = width / (2.0 * np.tan(np.radians(fov_deg) / 2.0))
+    ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
+    d = ((xs - pp[0]) / f)[..., None] * right + ((ys - pp[1]) / f)[..., None] * down + fwd
+    return d / np.linalg.norm(d, axis=-1, keepdims=True), fwd
+
+
+def test_scene_file_with_off_centre_principal_point_against_analytic_hits(tmp_path):
+    # Two spheres and a finite tilted rectangle seen through an off-centre principal point: the
+    # first hit of every pixel from ray-sphere / ray-plane algebra, independent of the library.
+    cam = {"position": [0.3, 1.4, 5.0], "look_at": [0.1, 0.6, -1.0], "up": [0, 1, 0], "fov_deg": 55,
+           "width": W, "height": H, "principal_point": [12.25, 15.5]}  # fmt: skip
+    spheres = [([-1.0, 0.7, -1.0], 0.7), ([1.3, 0.5, 0.0], 0.5)]
+    n = np.array([0.2, 0.0, 1.0]) / np.hypot(0.2, 1.0)
+    rect_c, rect_up, rect_size = np.array([0.2, 2.0, -5.0]), np.array([0.0, 1.0, 0.0]), (6.0, 4.0)
+    data = {
+        "camera": cam, "environment": {"color": [1, 1, 1]},
+        "materials": {"m": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}},
+        "objects": [{"type": "sphere", "center": c, "radius": r, "material": "m"} for c, r in spheres]
+        + [{"type": "rectangle", "center": rect_c.tolist(), "normal": [0.2, 0, 1], "up": rect_up.tolist(),
+            "size": list(rect_size), "material": "m"}],
+    }  # fmt: skip
+    (tmp_path / "own.json").write_text(json.dumps(data))
+    res = render(load_scene(tmp_path / "own.json"), max_depth=0, samples=1)
+    d, fwd = _own_rays(cam["position"], cam["look_at"], cam["fov_deg"], W, H, cam["principal_point"])
+    o = np.array(cam["position"], dtype=np.float64)
+    best = np.full((H, W), np.inf)
+    grazing = np.zeros((H, W), dtype=bool)
+    for c, r in spheres:
+        oc = o - np.array(c)
+        b = d @ oc
+        disc = b * b - (oc @ oc - r * r)
+        t = -b - np.sqrt(np.abs(disc))
+        best = np.where((disc >= 0) & (t > 0), np.minimum(best, t), best)
+        grazing |= np.abs(disc) < 1e-3
+    t = ((rect_c - o) @ n) / (d @ n)
+    rel = o + t[..., None] * d - rect_c
+    u_axis = np.cross(rect_up, n)
+    inside = (np.abs(rel @ u_axis) <= rect_size[0] / 2) & (np.abs(rel @ rect_up) <= rect_size[1] / 2) & (t > 0)
+    best = np.where(inside, np.minimum(best, t), best)
+    grazing |= np.abs(np.abs(rel @ u_axis) - rect_size[0] / 2) < 1e-3
+    hit = np.isfinite(best)
+    assert 0.3 < hit.mean() < 0.95  # sky, spheres and wall all in view
+    assert_array_equal(np.isnan(res.depth)[~grazing], ~hit[~grazing])
+    ok = hit & ~grazing
+    expected = o + best[..., None] * d
+    assert_allclose(res.position[0][ok], expected[ok], atol=POS_ATOL)
+    assert_allclose(res.depth[ok], (best * (d @ fwd))[ok], rtol=1e-6)
+
+
+def test_stereo_views_of_the_convergence_plane_coincide_off_centre():
+    # A wall at depth H, off-centre principal point: both eyes see the same point at every pixel
+    # (the same window, S0 §2); at depth z the left pixel x sees what the right pixel x - d sees,
+    # d = fx b (1/z - 1/H) = 3 px here.
+    cam = SceneCamera(position=(0, 0, 0), look_at=(0, 0, -1), up=(0, 1, 0), fov_deg=60.0, width=W, height=H,
+                      principal_point=(10.0, 17.5))  # fmt: skip
+    fx = W / (2.0 * np.tan(np.radians(30.0)))
+    mats = {"wall": Diffuse(color=(0.5, 0.5, 0.5))}
+    hc, z, shift = 3.0, 2.0, 3
+    b = shift / (fx * (1.0 / z - 1.0 / hc))
+    for depth, px in ((hc, 0), (z, shift)):
+        left, right = render_stereo(_scene([_backdrop(-depth)], mats, camera=cam), baseline=b, convergence=hc, samples=1)
+        assert_allclose(left.depth, depth, rtol=1e-6)
+        assert_allclose(right.position[0][:, : W - px], left.position[0][:, px:], atol=POS_ATOL)
+
+
+def test_out_of_memory_is_a_value_error(monkeypatch):
+    from vergence.render import raytree
+
+    def boom(camera):
+        raise MemoryError
+
+    monkeypatch.setattr(raytree, "primary_rays", boom)
+    with pytest.raises(ValueError, match=r"width x height 33x25 with 7 layers does not fit in memory"):
+        render(_scene([], {}))

@@ -103,6 +103,8 @@ BAD = [
     (_with("objects.0.type", "cube"), ValueError, r"objects\[0\].type must be one of mesh, rectangle, sphere; got 'cube'"),
     (_with("objects.0.colour", [1, 0, 0]), ValueError, r"objects\[0\] \(sphere\) has unknown field\(s\) colour"),
     (_with("objects", {"a": 1}), TypeError, "objects must be a JSON list; got dict"),
+    (_with("objects.0", 3), TypeError, r"objects\[0\] must be a JSON object; got int"),
+    (_with("materials.m", [0.5, 0.5, 0.5]), TypeError, r"materials\['m'\] must be a JSON object; got list"),
     (_with("materials.m.type", "metal"), ValueError, r"materials\['m'\].type must be one of checker, diffuse"),
     (_with("materials.m.color", [0.5, 2.0, 0.5]), ValueError, r"materials\['m'\]: color must have components in \[0, 1\]"),
     (_with("materials.g.ior", 0), ValueError, r"materials\['g'\]: ior must be > 0; got 0"),
@@ -145,6 +147,9 @@ def test_bad_scene_files(tmp_path):
         load_scene(bad)
     with pytest.raises(FileNotFoundError, match="scene file not found"):
         load_scene(tmp_path / "missing.json")
+    bad.write_text(json.dumps(_with("objects.0", {"type": "mesh", "path": "gone.obj", "material": "m"})))
+    with pytest.raises(FileNotFoundError, match=r"^bad.json: objects\[0\] \(mesh\): mesh file not found: .*gone.obj$"):
+        load_scene(bad)  # a missing file names the scene file too
     (tmp_path / "cube.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     textured = _with("objects.0", {"type": "mesh", "path": "cube.obj", "material": "c"})
     textured["materials"]["c"] = {"type": "checker", "colors": [[1, 1, 1], [0, 0, 0]]}

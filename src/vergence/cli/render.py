@@ -29,6 +29,8 @@ def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
         return None
     if eye not in _EYES:
         raise ValueError(f"--eye must be one of {', '.join(_EYES)}; got {eye!r}")
+    if scene.camera.lens != "pinhole":
+        raise ValueError(f"--eye needs a pinhole scene camera (the rig shifts the sensor); got lens {scene.camera.lens!r}")
     rig = scene.stereo
     b = baseline if baseline is not None else (rig.baseline if rig else None)
     h = convergence if convergence is not None else (rig.convergence if rig else None)
@@ -71,7 +73,8 @@ def render(
     cam = sc.camera.build()
     start = time.perf_counter()
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=err_console, transient=True) as bar:
+    # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
+    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
         task = bar.add_task(f"rendering {sc.name}", total=1.0)
         report = lambda f, m: bar.update(task, completed=f, description=m)  # noqa: E731
         if rig is None:

@@ -154,6 +154,16 @@ class _Tracer:
         self.lighting = Lighting(scene.environment)
 
     def trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
+        try:
+            return self._trace(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                               progress=progress)  # fmt: skip
+        except MemoryError:
+            n = 2 ** (max_depth + 1) - 1
+            gib = 3 * n * camera.height * camera.width * 3 * 4 / 2**30  # radiance, position, normal (float32)
+            raise ValueError(f"width x height {camera.width}x{camera.height} with {n} layers does not fit in memory "
+                             f"(the layer arrays alone need {gib:.3g} GiB); render a smaller image") from None
+
+    def _trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
         h, w = camera.height, camera.width
         n_nodes = 2 ** (max_depth + 1) - 1
         origin, dirs_img = primary_rays(camera)

@@ -78,7 +78,9 @@ def _environment(data: object, base_dir: Path | None) -> Environment:
 
 def _material(name: str, data: object, base_dir: Path | None) -> Material:
     where = f"materials[{name!r}]"
-    kind = data.get("type") if isinstance(data, dict) else None
+    if not isinstance(data, dict):
+        raise TypeError(f"{where} must be a JSON object; got {type(data).__name__}")
+    kind = data.get("type")
     if kind not in MATERIALS:
         raise ValueError(f"{where}.type must be one of {', '.join(MATERIALS)}; got {kind!r}")
     spec = {"checker": (("colors",), ("squares",)), "diffuse": (("color",), ()), "glass": ((), ("ior", "color")),
@@ -139,7 +141,9 @@ def _mesh(where: str, d: dict, base_dir: Path | None) -> Mesh:
 
 
 def _object(i: int, data: object, base_dir: Path | None) -> Sphere | Rectangle | Mesh:
-    kind = data.get("type") if isinstance(data, dict) else None
+    if not isinstance(data, dict):
+        raise TypeError(f"objects[{i}] must be a JSON object; got {type(data).__name__}")
+    kind = data.get("type")
     where = f"objects[{i}] ({kind})"
     if kind == "sphere":
         d = _fields(where, data, ("type", "center", "radius", "material"))
@@ -195,5 +199,5 @@ def load_scene(path: str | Path) -> Scene:
         raise ValueError(f"scene file {p} is not UTF-8 text") from None
     try:
         return scene_from_dict(data, base_dir=p.parent, name=p.stem)
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, OSError) as exc:  # OSError: a missing texture, mesh or .hdr file
         raise type(exc)(f"{p.name}: {exc}") from None
