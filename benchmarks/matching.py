@@ -88,9 +88,9 @@ def main(argv: list[str] | None = None) -> int:
     lu = np.rint(left * 255).astype(np.uint8)
     ru = np.rint(right * 255).astype(np.uint8)
     block = 5
-    raw_matcher = cv2.StereoSGBM_create(  # OpenCV's sample settings, 3-way mode
+    raw_matcher = cv2.StereoSGBM_create(  # the raw baseline of benchmarks/middlebury.py, 3-way mode
         minDisparity=0, numDisparities=NUM_DISPARITIES, blockSize=block, P1=8 * 3 * block**2, P2=32 * 3 * block**2,
-        disp12MaxDiff=1, uniquenessRatio=10, speckleWindowSize=100, speckleRange=32, mode=cv2.StereoSGBM_MODE_SGBM_3WAY)
+        disp12MaxDiff=1, uniquenessRatio=10, speckleWindowSize=100, speckleRange=2, mode=cv2.StereoSGBM_MODE_SGBM_3WAY)
     compute_disparity(left[:64, :256], right[:64, :256], max_disparity=31)  # compile the Numba kernels first
     t_raw, t_ours, t_match = [], [], []
     for _ in range(args.repeats):

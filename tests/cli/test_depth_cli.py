@@ -60,6 +60,51 @@ def test_rectify_a_bundler_pair_named_by_a_list(capsys, shared_data, tmp_path):
     assert code == 2 and "'kermit004.jpg' is not registered" in err
 
 
+def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
+    """bundle.out stores no image size and its K depends on it: a (centrally) cropped right image
+    must get a camera built for its own size, not the left image's."""
+    import cv2
+
+    kermit = shared_data / "collections" / "kermit"
+    crop = tmp_path / "kermit001.png"
+    cv2.imwrite(str(crop), cv2.imread(str(kermit / "kermit001.jpg"))[8:-8, 8:-8])
+    names = [crop if i == 1 else kermit / f"kermit{i:03d}.jpg" for i in range(11)]
+    listing = tmp_path / "list.txt"
+    listing.write_text("".join(f"{n} 0 670\n" for n in names))
+    code, stdout, err = _run(capsys, "rectify", str(kermit / "kermit000.jpg"), str(crop), "--cameras",
+                             str(kermit / "bundle.out"), "--image-list", str(listing), "--out", str(tmp_path / "o"),
+                             "--check", "--json")
+    assert code == 0, err
+    assert json.loads(stdout)["row_alignment"]["median_abs_dy_px"] < MAX_MEDIAN_DY_PX
+    # without a list, bundle.out names its cameras 0, 1, ...: say what to pass
+    code, _, err = _run(capsys, "rectify", str(kermit / "kermit000.jpg"), str(kermit / "kermit001.jpg"), "--cameras",
+                        str(kermit / "bundle.out"), "--out", str(tmp_path / "o2"))
+    assert code == 2 and "pass --image-list" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--out", "d.pfm", "--preview", "d.pfm"], "--out, --preview and --confidence must name different files"),
+        (["--out", "d.png"], "--out d.png stores integers: give --scale"),
+        (["--out", "d.npy", "--scale", "16"], "--scale applies to .png/.pgm outputs only"),
+        (["--out", "d.tif"], "--out must be a .pfm, .npy, or .png/.pgm"),
+    ],
+)
+def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, monkeypatch, options, message):
+    import vergence.cli.match as match_cli
+
+    def no_matching(*args, **kwargs):
+        raise AssertionError("matching ran before the outputs were checked")
+
+    monkeypatch.setattr(match_cli, "compute_disparity", no_matching)
+    monkeypatch.chdir(tmp_path)
+    code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
+                        *options)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not list(tmp_path.iterdir())
+
+
 def test_match_then_evaluate(capsys, tsukuba, tmp_path):
     out = tmp_path / "d.pfm"
     code, stdout, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",

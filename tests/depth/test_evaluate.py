@@ -29,7 +29,7 @@ def test_bad_is_strictly_greater_than_the_threshold_and_rms_by_hand():
     est[12, 12] = 11.0  # error exactly 1: not bad
     est[12, 13] = 8.5  # error 1.5: bad
     est[13, 12] = np.nan  # unknown: bad, error = 10 in the RMS
-    est[13, 13] = 0.0  # unknown (Middlebury 0): bad, error = 10
+    est[13, 13] = 0.0  # a real disparity 0 (NaN marks unknown): error 10, bad
     scores = evaluate_disparity(est, truth)
     assert list(scores) == ["nonocc", "all"]  # a flat truth has no discontinuity region
     s = scores["all"]  # 10 x 10 pixels inside the 10-px border
@@ -37,6 +37,15 @@ def test_bad_is_strictly_greater_than_the_threshold_and_rms_by_hand():
     assert s.bad == pytest.approx(3.0, rel=RTOL)
     assert s.rms == pytest.approx(np.sqrt((1.0 + 2.25 + 100.0 + 100.0) / 100.0), rel=RTOL)
     assert evaluate_disparity(est, truth, threshold=1.6)["all"].bad == pytest.approx(2.0, rel=RTOL)
+
+
+def test_zero_is_a_real_estimate_and_nan_is_unknown():
+    """Only NaN is unknown (docs/conventions.md); a PNG estimate's 0 becomes NaN in read_disparity."""
+    truth = np.full((30, 30), 0.75)
+    est = np.zeros((30, 30))  # error 0.75 everywhere: not bad
+    est[12, 12:14] = np.nan  # unknown: bad, error = 0.75 in the RMS
+    s = evaluate_disparity(est, truth)["all"]
+    assert s.bad == pytest.approx(2.0, rel=RTOL) and s.rms == pytest.approx(0.75, rel=RTOL)
 
 
 def test_unknown_truth_is_never_evaluated():

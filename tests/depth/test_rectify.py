@@ -9,8 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from vergence.camera import Camera, look_at
 from vergence.depth import measure_row_alignment, rectify_cameras, rectify_pair
-from vergence.io import read_image
-from vergence.io.cameras import read_bundler, read_middlebury_par
+from vergence.io import read_bundler, read_image, read_middlebury_par
 
 # Projections through 3x3 double-precision products: rows agree to ~1e-12 px; 1e-8 leaves room.
 ROW_ATOL_PX = 1e-8

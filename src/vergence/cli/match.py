@@ -16,6 +16,22 @@ from vergence.io import read_image, write_disparity, write_image
 __all__ = ["match"]
 
 _SMOOTHING = ("median", "wls", "none")
+# Disparity file types of ``--out`` and whether they store integers (and so need ``--scale``).
+_OUT_NEEDS_SCALE = {".npy": False, ".pfm": False, ".pgm": True, ".png": True}
+
+
+def _check_outputs(out: Path, scale: float | None, extra: list[Path]) -> None:
+    """Refuse, before any matching, an output that cannot be written as asked."""
+    suffix = out.suffix.lower()
+    if suffix not in _OUT_NEEDS_SCALE:
+        raise ValueError(f"--out must be a .pfm, .npy, or .png/.pgm (with --scale) file; got {out.name!r}")
+    if _OUT_NEEDS_SCALE[suffix] and scale is None:
+        raise ValueError(f"--out {out.name} stores integers: give --scale (stored value = disparity x scale; 0 = unknown)")
+    if not _OUT_NEEDS_SCALE[suffix] and scale is not None:
+        raise ValueError(f"--scale applies to .png/.pgm outputs only; {out.name} stores float disparity")
+    resolved = [p.resolve() for p in (out, *extra)]
+    if len(set(resolved)) != len(resolved):
+        raise ValueError("--out, --preview and --confidence must name different files")
 
 
 def _preview(disparity: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -45,6 +61,7 @@ def match(
 ) -> None:
     """Compute the disparity map of LEFT (x_left - x_right, px) and write it to --out."""
     extra = [p for p in (preview, confidence) if p is not None]
+    _check_outputs(out, scale, extra)
     for o in (out, *extra):
         check_output_path(o, left, right)
     start = time.perf_counter()

@@ -8,14 +8,35 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import typer
 
+from vergence.camera import Camera
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
-from vergence.io import read_image, write_image, write_json
-from vergence.io.cameras import read_cameras
+from vergence.io import read_cameras, read_image, write_image, write_json
 
 __all__ = ["rectify"]
+
+
+def _read_pair(cameras: Path, left: Path, right: Path, sizes: tuple[tuple[int, int], tuple[int, int]],
+               image_list: Path | None) -> list[tuple[Camera, np.ndarray]]:
+    """The camera and distortion of each image, sized by that image (``*_par.txt`` and ``bundle.out``
+    store no image size; a Bundler K depends on it). The file is read again only if the sizes differ."""
+    sets = {}
+    for size in sizes:
+        if size not in sets:
+            sets[size] = read_cameras(cameras, image_size=size, image_list=image_list)
+    first = sets[sizes[0]]
+    if (image_list is None and cameras.suffix.lower() == ".out" and Path(left).name not in first.names
+            and first.names == tuple(str(i) for i in range(len(first)))):
+        raise ValueError(f"{cameras.name} does not name its images and no list.txt was found beside it; "
+                         "pass --image-list with Bundler's list.txt")
+    out = []
+    for path, size in zip((left, right), sizes):
+        cams = sets[size]
+        out.append((cams.camera(path.name), cams.distortion[cams.index(path.name)]))
+    return out
 
 
 @app.command("rectify")
@@ -42,10 +63,9 @@ def rectify(
         check_output_path(o, left, right, cameras)
     with err_console.status("rectifying", spinner="dots"):
         a, b = read_image(left), read_image(right)
-        cams = read_cameras(cameras, image_size=(a.shape[1], a.shape[0]), image_list=image_list)
-        il, ir = cams.index(left.name), cams.index(right.name)
-        pair = rectify_pair(a, b, cams.camera(left.name), cams.camera(right.name),
-                            left_distortion=cams.distortion[il], right_distortion=cams.distortion[ir],
+        (cam_l, dist_l), (cam_r, dist_r) = _read_pair(
+            cameras, left, right, ((a.shape[1], a.shape[0]), (b.shape[1], b.shape[0])), image_list)
+        pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
                             common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
         if check:

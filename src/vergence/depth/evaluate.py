@@ -227,8 +227,9 @@ def evaluate_disparity(
     Parameters
     ----------
     estimate : (H, W) array
-        Computed disparity, pixels. NaN or 0 is an unknown estimate: it counts as bad, and as
-        disparity 0 in the RMS (Middlebury files store unknown as 0).
+        Computed disparity, pixels. NaN is an unknown estimate: it counts as bad, and as disparity 0
+        in the RMS (as in the Middlebury tables, whose PNG files store unknown as 0;
+        :func:`vergence.io.read_disparity` turns that 0 into NaN). 0 itself is a real disparity.
     truth : (H, W) array
         Ground-truth disparity, NaN = unknown (never evaluated).
     masks : dict, optional
@@ -276,8 +277,8 @@ def evaluate_disparity(
             if arr.shape != t.shape or arr.dtype != bool:
                 raise ValueError(f"mask {name!r} must be a boolean array of shape {t.shape}; got {arr.dtype} {arr.shape}")
             regions[name] = arr & np.isfinite(t)
-    unknown = ~np.isfinite(e) | (e == 0.0)
-    err = np.where(unknown, t, e - t)  # unknown estimate -> disparity 0
+    unknown = np.isnan(e)  # NaN = unknown (docs/conventions.md); 0 is a real disparity
+    err = np.where(unknown, -t, e - t)  # an unknown estimate scores as disparity 0
     bad = unknown | (np.abs(err) > thr)
     scores = {}
     for name in sorted(regions, key=lambda k: (_REGION_ORDER.index(k) if k in _REGION_ORDER else 99, k)):

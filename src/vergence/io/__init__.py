@@ -7,14 +7,13 @@ linear from float files; disparity maps are float32 ``(H, W)`` with NaN for unkn
 """
 
 from vergence.io.atomic import atomic_write, write_json
+from vergence.io.bundler import read_bundler, write_bundler
 from vergence.io.cameras import (
     CameraSet,
-    read_bundler,
     read_cameras,
     read_cameras_json,
     read_colmap,
     read_middlebury_par,
-    write_bundler,
     write_cameras_json,
     write_colmap,
     write_middlebury_par,

@@ -1,19 +1,15 @@
-"""Calibrated camera sets: Middlebury ``*_par.txt``, Bundler ``bundle.out``, COLMAP text, our JSON.
+"""Calibrated camera sets: the :class:`CameraSet`, Middlebury ``*_par.txt``, COLMAP text, our JSON.
 
 Every reader returns a :class:`CameraSet` in our conventions (``docs/conventions.md``): camera frame
 x right, y down, z forward; ``x_cam = R @ x_world + t``; pixel centres at integer coordinates with
 the origin at the top-left pixel. Lens distortion is kept beside each camera as OpenCV
 ``(k1, k2, p1, p2)`` in normalised image coordinates, ready for ``cv2.undistort``.
+Bundler ``bundle.out`` lives in :mod:`vergence.io.bundler`; :func:`read_cameras` reads any of them.
 
 Format conventions converted here:
 
 - **Middlebury** multi-view (Seitz et al. 2006): ``name k11..k33 r11..r33 t1 t2 t3``, projection
   ``K [R | t]``, origin top-left. Taken as is; the files store no image size.
-- **Bundler v0.3** (Snavely): camera looks down -z with y up, ``p = -x_cam / z_cam``, pixel
-  ``f (1 + k1 |p|^2 + k2 |p|^4) p`` with the origin at the image centre and y up. We flip the y and
-  z camera axes (``R = diag(1, -1, -1) R_b``) and move the origin to the top-left pixel:
-  ``x = x_b + (W - 1)/2``, ``y = (H - 1)/2 - y_b`` (Bundler's ``ImageData::LoadKeys``). Cameras that
-  Bundler could not register (f = 0) are kept as ``None`` and listed by :attr:`CameraSet.unregistered`.
 - **COLMAP** text (``cameras.txt``, ``images.txt``): same camera frame as ours, quaternion
   ``(qw, qx, qy, qz)`` world-to-camera; COLMAP puts the centre of the top-left pixel at (0.5, 0.5),
   so ``cx = cx_colmap - 0.5``. Models PINHOLE, SIMPLE_PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV.
@@ -38,22 +34,14 @@ from vergence.io.atomic import atomic_write, write_json
 
 __all__ = [
     "CameraSet",
-    "read_bundler",
     "read_cameras",
     "read_cameras_json",
     "read_colmap",
     "read_middlebury_par",
-    "write_bundler",
     "write_cameras_json",
     "write_colmap",
     "write_middlebury_par",
 ]
-
-# Bundler's y-up, -z-forward camera frame -> ours (x right, y down, z forward); det = +1.
-_FLIP_YZ = np.diag([1.0, -1.0, -1.0])
-# Bundler and our writers require square pixels and a centred principal point to this tolerance
-# (pixels): loose enough for values printed with 10+ digits, tight enough to refuse a real offset.
-_PIXEL_TOL = 1e-6
 _COLMAP_PARAMS = {"SIMPLE_PINHOLE": 3, "PINHOLE": 4, "SIMPLE_RADIAL": 4, "RADIAL": 5, "OPENCV": 8}
 
 
@@ -199,6 +187,13 @@ def _fmt(v: float) -> str:
     return repr(float(v))
 
 
+def _count(value: float, what: str, path: Path) -> int:
+    """A count read from a file: a non-negative integer."""
+    if value != int(value) or value < 0:
+        raise ValueError(f"{path}: the number of {what} must be an integer >= 0; got {value:g}")
+    return int(value)
+
+
 # ------------------------------------------------------------------------------------- Middlebury
 def read_middlebury_par(path: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None) -> CameraSet:
     """Read a Middlebury multi-view ``*_par.txt`` (first line: count; then ``name K R t`` per line).
@@ -225,6 +220,7 @@ def read_middlebury_par(path: str | os.PathLike[str], *, image_size: tuple[int, 
         count = int(lines[0].split()[0])
     except (IndexError, ValueError) as exc:
         raise ValueError(f"{p}:1: expected the number of cameras on the first line") from exc
+    count = _count(count, "cameras", p)
     body = lines[1:]
     if len(body) < count:
         raise ValueError(f"{p} is truncated: the header announces {count} cameras, the file has {len(body)}")
@@ -249,141 +245,6 @@ def write_middlebury_par(path: str | os.PathLike[str], cameras: CameraSet) -> No
     for name, cam in zip(cameras.names, cameras.cameras):
         vals = [*cam.K.ravel(), *cam.R.ravel(), *cam.t]
         rows.append(" ".join([name, *(_fmt(v) for v in vals)]))
-    _write_text(path, "\n".join(rows) + "\n")
-
-
-# ---------------------------------------------------------------------------------------- Bundler
-def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], list[Path] | None]:
-    if image_list is None:
-        found = [c for c in (p.parent / "list.txt", p.parent.parent / "list.txt") if c.is_file()]
-        if not found:
-            return [str(i) for i in range(count)], None
-        image_list = found[0]
-    if isinstance(image_list, str | os.PathLike):
-        lp = input_path(image_list)
-        entries = [ln.split()[0] for ln in _text_lines(lp) if ln.strip()]
-        paths = [lp.parent / e for e in entries]
-    elif isinstance(image_list, Sequence):
-        entries = [os.fspath(e) for e in image_list]
-        paths = [p.parent / e for e in entries]
-    else:
-        raise TypeError(f"image_list must be a path to list.txt or a sequence of names; got {type(image_list).__name__}")
-    if len(entries) != count:
-        raise ValueError(f"image_list must name one image per camera ({count}); got {len(entries)}")
-    return [Path(e).name for e in entries], paths
-
-
-def read_bundler(
-    path: str | os.PathLike[str],
-    *,
-    image_size: tuple[int, int] | None = None,
-    image_list: str | os.PathLike[str] | Sequence[str] | None = None,
-) -> CameraSet:
-    """Read a Bundler v0.3 ``bundle.out`` into our conventions (see the module notes).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The bundle file.
-    image_size : (width, height), optional
-        Shared image size. Without it, sizes are read from the images of ``image_list``.
-    image_list : path or sequence of str, optional
-        Bundler's ``list.txt`` (one image per camera, in order) or the names themselves; by default
-        a ``list.txt`` beside the bundle or in its parent folder. Without one, cameras are named
-        ``"0"``, ``"1"``, ... and ``image_size`` is required.
-
-    Returns
-    -------
-    CameraSet
-        Unregistered cameras (f = 0) are ``None``; distortion rows hold ``(k1, k2, 0, 0)``.
-
-    Raises
-    ------
-    ValueError
-        On a wrong header, a truncated or malformed file, or a missing image size.
-    """
-    p = input_path(path)
-    lines = _text_lines(p)
-    if not lines or not lines[0].startswith("# Bundle file v0.3"):
-        raise ValueError(f"{p}: expected the header '# Bundle file v0.3'; got {lines[0][:40] if lines else ''!r}")
-    tokens = " ".join(lines[1:]).split()
-    pos = 0
-
-    def take(n: int, what: str) -> list[float]:
-        nonlocal pos
-        if pos + n > len(tokens):
-            raise ValueError(f"{p} is truncated: ran out of numbers while reading {what}")
-        vals = _floats(tokens[pos:pos + n], p, 0)
-        pos += n
-        return vals
-
-    n_cams, n_pts = (int(v) for v in take(2, "the camera and point counts"))
-    names, paths = _bundler_names(p, n_cams, image_list)
-    if image_size is not None:
-        sizes = [_check_size(image_size)] * n_cams
-    elif paths is not None:
-        sizes = [_image_size(q) for q in paths]
-    else:
-        raise ValueError(f"image_size is required: {p.name} stores no image sizes and no list.txt was found beside it")
-    cams: list[Camera | None] = []
-    dist = np.zeros((n_cams, 4))
-    for i in range(n_cams):
-        f, k1, k2 = take(3, f"camera {i}")
-        R_b = np.array(take(9, f"camera {i}")).reshape(3, 3)
-        t_b = np.array(take(3, f"camera {i}"))
-        if f == 0.0:
-            cams.append(None)
-            continue
-        w, h = sizes[i]
-        K = np.array([[f, 0.0, (w - 1) / 2.0], [0.0, f, (h - 1) / 2.0], [0.0, 0.0, 1.0]])
-        cams.append(_camera(K, _FLIP_YZ @ R_b, _FLIP_YZ @ t_b, (w, h), f"{p}: camera {i}"))
-        dist[i, :2] = k1, k2
-    pts, cols, obs, pix = np.zeros((n_pts, 3)), np.zeros((n_pts, 3), np.uint8), [], []
-    for j in range(n_pts):
-        pts[j] = take(3, f"point {j}")
-        cols[j] = np.clip(take(3, f"point {j}"), 0, 255)
-        (n_views,) = take(1, f"point {j}")
-        for _ in range(int(n_views)):
-            cam_i, key, xb, yb = take(4, f"point {j}")
-            if not 0 <= cam_i < n_cams or cams[int(cam_i)] is None:
-                raise ValueError(f"{p}: point {j} is observed by camera {int(cam_i)}, which is not registered")
-            w, h = sizes[int(cam_i)]
-            obs.append((j, int(cam_i), int(key)))
-            pix.append((xb + (w - 1) / 2.0, (h - 1) / 2.0 - yb))
-    return CameraSet(names=tuple(names), cameras=tuple(cams), distortion=dist, points=pts, colors=cols,
-                     observations=np.array(obs, np.int64).reshape(-1, 3), observation_pixels=np.array(pix).reshape(-1, 2))
-
-
-def write_bundler(path: str | os.PathLike[str], cameras: CameraSet) -> None:
-    """Write a Bundler v0.3 ``bundle.out`` atomically (inverse of :func:`read_bundler`).
-
-    Raises ``ValueError`` unless every registered camera has square pixels, no skew, the principal
-    point at the image centre and radial-only distortion (p1 = p2 = 0), as Bundler's model requires.
-    """
-    _check_set(cameras)
-    rows = ["# Bundle file v0.3", f"{len(cameras)} {len(cameras.points)}"]
-    for i, cam in enumerate(cameras.cameras):
-        if cam is None:
-            rows += ["0 0 0"] + ["0 0 0"] * 4
-            continue
-        K = cam.K
-        centre = ((cam.width - 1) / 2.0, (cam.height - 1) / 2.0)
-        if (abs(K[0, 0] - K[1, 1]) > _PIXEL_TOL or abs(K[0, 1]) > _PIXEL_TOL or abs(K[0, 2] - centre[0]) > _PIXEL_TOL
-                or abs(K[1, 2] - centre[1]) > _PIXEL_TOL or np.any(cameras.distortion[i, 2:] != 0)):
-            raise ValueError(f"camera {cameras.names[i]!r} does not fit Bundler's model (square pixels, centred "
-                             "principal point, radial distortion only)")
-        R, t = _FLIP_YZ @ cam.R, _FLIP_YZ @ cam.t
-        rows.append(" ".join(_fmt(v) for v in (K[0, 0], *cameras.distortion[i, :2])))
-        rows += [" ".join(_fmt(v) for v in row) for row in R] + [" ".join(_fmt(v) for v in t)]
-    for j, (pt, col) in enumerate(zip(cameras.points, cameras.colors)):
-        sel = np.flatnonzero(cameras.observations[:, 0] == j)
-        views = []
-        for k in sel:
-            _, ci, key = cameras.observations[k]
-            cam = cameras.cameras[ci]
-            x, y = cameras.observation_pixels[k]
-            views += [str(ci), str(key), _fmt(x - (cam.width - 1) / 2.0), _fmt((cam.height - 1) / 2.0 - y)]
-        rows += [" ".join(_fmt(v) for v in pt), " ".join(str(int(c)) for c in col), " ".join([str(len(sel)), *views])]
     _write_text(path, "\n".join(rows) + "\n")
 
 
@@ -558,6 +419,8 @@ def read_cameras(
     if name.endswith("_par.txt"):
         return read_middlebury_par(p, image_size=image_size)
     if name.endswith(".out"):
+        from vergence.io.bundler import read_bundler  # bundler.py builds on this module
+
         return read_bundler(p, image_size=image_size, image_list=image_list)
     if name.endswith(".json"):
         return read_cameras_json(p)
