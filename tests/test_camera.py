@@ -129,8 +129,11 @@ def test_arrays_are_read_only_copies():
 def test_interpolate_endpoints_and_midpoint():
     a = _cam(position=(0, 0, 0), target=(0, 0, 1))
     b = _cam(position=(2, 0, 0), target=(2 + math.sin(0.4), 0, math.cos(0.4)), fov_deg=40.0)
-    assert_allclose(interpolate(a, b, 0.0).R, a.R, atol=1e-12)
-    assert_allclose(interpolate(a, b, 1.0).t, b.t, atol=1e-12)
+    assert interpolate(a, b, 0.0) == a and interpolate(b, a, 1.0) == a  # exact endpoints
+    assert interpolate(a, b, 1.0) == b and interpolate(b, a, 0.0) == b
+    near_a = interpolate(a, b, 1e-12)
+    assert_allclose(near_a.R, a.R, atol=1e-11)
+    assert_allclose(near_a.t, a.t, atol=1e-11)
     mid = interpolate(a, b, 0.5)
     assert_allclose(mid.center, [1.0, 0.0, 0.0], atol=1e-12)
     # Slerp: half the relative rotation angle about y.
@@ -173,6 +176,8 @@ def test_bad_camera_parameters(kwargs, match):
 def test_bad_look_at_and_interpolate():
     with pytest.raises(ValueError, match="up must not be parallel"):
         look_at([0, 0, 0], [0, 0, 1], [0, 0, 2], fov_deg=60, width=4, height=4)
+    with pytest.raises(ValueError, match=r"^up must be a non-zero vector; got \(0, 0, 0\)$"):
+        look_at([0, 0, 0], [0, 0, 1], [0, 0, 0], fov_deg=60, width=4, height=4)
     with pytest.raises(ValueError, match="target must differ"):
         look_at([1, 1, 1], [1, 1, 1], [0, 1, 0], fov_deg=60, width=4, height=4)
     with pytest.raises(ValueError, match="fov_deg"):

@@ -253,6 +253,8 @@ def look_at(
         raise ValueError(f"fov_deg must lie strictly between 0 and 180; got {fov:g}")
     width = check_positive_int("width", width)
     height = check_positive_int("height", height)
+    if not np.any(up_):
+        raise ValueError("up must be a non-zero vector; got (0, 0, 0)")
     forward = target_ - c
     if np.linalg.norm(forward) == 0.0:
         raise ValueError("target must differ from position")
@@ -277,8 +279,8 @@ def interpolate(a: Camera, b: Camera, s: float) -> Camera:
     """The camera a fraction ``s`` of the way from ``a`` to ``b``.
 
     Centres are interpolated linearly, rotations by slerp, intrinsics linearly (S2 §8 with the
-    SPEC's recommended slerp). ``interpolate(a, b, 0) == a`` and ``interpolate(a, b, 1) == b`` up to
-    rounding, and ``interpolate(a, b, s)`` equals ``interpolate(b, a, 1 - s)``.
+    SPEC's recommended slerp). ``interpolate(a, b, 0) == a`` and ``interpolate(a, b, 1) == b``
+    exactly, and ``interpolate(a, b, s)`` equals ``interpolate(b, a, 1 - s)`` up to rounding.
 
     Raises
     ------
@@ -290,6 +292,8 @@ def interpolate(a: Camera, b: Camera, s: float) -> Camera:
     s = check_in_range("s", s, 0.0, 1.0)
     if (a.width, a.height) != (b.width, b.height):
         raise ValueError(f"cameras must share an image size; got {a.width}x{a.height} and {b.width}x{b.height}")
+    if s in (0.0, 1.0):  # the endpoints themselves, not slerp's rounding of them
+        return a if s == 0.0 else b
     center = (1.0 - s) * a.center + s * b.center
     rots = Rotation.from_matrix(np.stack([a.R, b.R]))
     R = Slerp([0.0, 1.0], rots)([s]).as_matrix()[0]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -127,6 +128,27 @@ def test_summary_and_plot(capsys, tmp_path):
     data = plot.read_bytes()
     assert data[:8] == PNG_SIGNATURE and len(data) > 20_000
     assert [p.name for p in tmp_path.iterdir()] == ["psi.png"]  # no temporary file left behind
+
+
+def test_summary_shows_the_lowest_roundness(capsys):
+    # Two round elements with a flat psi between them: the summary names the cardboard dip (rho < 0.3)
+    # that the 11-row table may step over; its value and depth come from a dense scan of Eq. (9).
+    from vergence.viewing.geometry import Display, Shooting
+    from vergence.viewing.mapping import psi_from_constraints
+
+    cons = ["z=20,perceived=2.2,roundness=1", "z=60,perceived=6,roundness=1"]
+    code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", cons[0], "--constraint", cons[1],
+                          "--near", "10", "--far", "100")
+    assert code == 0 and err == ""
+    m = psi_from_constraints(Shooting(B, H, W), Display(BP, HP, WP), cons, near=10.0, far=100.0)
+    z = np.geomspace(10.0, 100.0, 100_001)
+    rho = m.roundness(z)
+    assert rho.min() < 0.3  # the dip is real
+    found = re.findall(r"^lowest roundness over the scene: ρ = (\S+) at z = (\S+) m \(cardboard, below 0.3\)$",
+                       out, flags=re.MULTILINE)
+    assert len(found) == 1
+    assert float(found[0][0]) == pytest.approx(rho.min(), abs=5e-4)  # printed to 3 decimals
+    assert float(found[0][1]) == pytest.approx(z[rho.argmin()], rel=1e-3)  # 4 significant digits, grid 1e-5
 
 
 @pytest.mark.parametrize(

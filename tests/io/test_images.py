@@ -257,15 +257,17 @@ def test_hdr_round_trip_within_rgbe_precision(tmp_path):
     assert_array_equal(out[:, :, 0], out[:, :, 2])
 
 
-def test_hdr_errors(tmp_path):
+def test_hdr_errors(tmp_path, capfd):
     path = tmp_path / "r.hdr"
     with pytest.raises(ValueError, match="values must be >= 0 for Radiance .hdr; got min -1"):
         write_image(path, np.array([[-1.0, 2.0]]))
     write_image(path, _ramp_rgb(40, 50) * np.float32(7))
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
+    capfd.readouterr()
     with pytest.raises(ValueError, match=r"r\.hdr: Radiance HDR data is corrupt or truncated"):
         read_image(path)
+    assert capfd.readouterr().err == ""  # our one error only: OpenCV's own log lines are silenced
     path.write_bytes(b"hello")
     with pytest.raises(ValueError, match="not a Radiance HDR file"):
         read_image(path)

@@ -80,6 +80,29 @@ def test_exactly_parallel_eyes_give_null_depth_and_roundness_without_divergence(
     json.dumps(depth_budget(rig, display, [8.0]).to_dict(), allow_nan=False)
 
 
+@settings(max_examples=40, deadline=None)
+@given(b_over_b_div=st.floats(1.001, 100.0), H=st.floats(0.5, 100.0), W=st.floats(0.1, 50.0))
+def test_the_reported_divergence_depth_is_where_the_samples_turn_parallel(b_over_b_div, H, W):
+    # The depth the budget prints ("eyes diverge beyond z") is reported as parallel eyes (z' = inf ->
+    # null, not diverging), the float below it as a finite depth and the float above as diverging.
+    rig = Shooting(b_over_b_div * 0.065 * W / 1.2, H, W)
+    z_div = depth_budget(rig, TV, [H]).divergence_depth
+    depths = [math.nextafter(z_div, 0.0), z_div, math.nextafter(z_div, math.inf)]
+    below, at, above = depth_budget(rig, TV, depths).samples
+    assert below.perceived_depth is not None and below.perceived_depth > 0 and not below.diverges
+    assert at.perceived_depth is None and at.roundness is None and not at.diverges
+    assert above.perceived_depth is None and above.diverges
+
+
+def test_baseline_equal_to_the_reported_divergence_baseline_never_diverges():
+    # b'W/W' times W' need not round back to b'W: the reported b_div must still be safe at any depth.
+    for W in (0.3, 1.7, 2.9, 3.0, 7.3):
+        b_div = depth_budget(Shooting(0.1, 30.0, W), TV, [30.0]).divergence_baseline
+        budget = depth_budget(Shooting(b_div, 30.0, W), TV, [30.0, 1e9, 1e15])
+        assert budget.divergence_depth == math.inf
+        assert not any(s.diverges for s in budget.samples)
+
+
 def test_default_depths_are_multiples_of_the_convergence_distance():
     assert DEFAULT_DEPTH_FACTORS == (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0)
     assert default_depths(RIG) == (15.0, 22.5, 30.0, 45.0, 60.0, 90.0, 150.0, 300.0)

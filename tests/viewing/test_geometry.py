@@ -146,7 +146,8 @@ def test_perceived_depth_and_roundness_from_depth_hand_values():
     assert roundness(60.0, LONG_LENS, TV) == pytest.approx(1.0, rel=RTOL)  # 2.34 / 2.34
     assert roundness(30.0, LONG_LENS, TV) == pytest.approx(0.4, rel=RTOL)  # 2.34 / 5.85
     # Past the divergence depth 9.36/0.117 = 80 m: no perceived depth, Eq. (4) negative as is.
-    assert perceived_depth_from_depth(80.0, LONG_LENS, TV) > 1e12  # parallel eyes (inf up to rounding)
+    z_div = divergence_depth(LONG_LENS, TV)  # 80 m up to rounding
+    assert perceived_depth_from_depth(z_div, LONG_LENS, TV) == math.inf  # parallel eyes exactly there
     assert math.isnan(perceived_depth_from_depth(90.0, LONG_LENS, TV))
     assert roundness(90.0, LONG_LENS, TV) == pytest.approx(-2.0, rel=RTOL)  # 2.34 / -1.17
 
@@ -179,6 +180,12 @@ def test_display_presets_published_and_hand_values():
     width_16_9 = lambda inches: inches * 0.0254 * 16 / math.hypot(16, 9)  # noqa: E731
     assert Display.preset("tv-55").width == pytest.approx(width_16_9(55), abs=1e-4)
     assert Display.preset("desktop-24").width == pytest.approx(width_16_9(24), abs=1e-4)
+    assert Display.preset("laptop-15").width == pytest.approx(width_16_9(15.6), abs=1e-4)  # 0.3454 m
+    # The phone: 6.1" 20:9 in landscape, 2400 x 1080 px.
+    assert Display.preset("phone").width == pytest.approx(6.1 * 0.0254 * 20 / math.hypot(20, 9), abs=1e-4)
+    for name in ("desktop-24", "laptop-15", "tv-55"):
+        assert Display.preset(name).resolution == 1920  # 1920 x 1080, 16:9
+    assert Display.preset("phone").resolution == 2400
     # S0 §2: usual projection focal lengths f' lie in [1.4, 2.5].
     assert 1.4 <= Display.preset("tv-55").focal <= 2.5
     assert Display.preset("cinema").focal == 1.5
@@ -252,6 +259,10 @@ def test_eq2_and_eq4_match_ray_geometry(b, H, W, z_over_H, X):
     assume(np.isfinite(zp) and disparity(z, rig) < 0.95 * TV.divergence_disparity)
     _, zp_ray = _perceived_point(rig, TV, X, z)
     assert zp == pytest.approx(zp_ray, rel=RAY_RTOL)
+    # The finite-difference step is 1e-4 of the distance to the divergence depth: when that distance
+    # is a tiny share of z (b/W in the thousands), the ray geometry's rounding (RAY_RTOL) swamps the
+    # difference quotient, so Eq. (4) is compared only where the step stays >= 1e-6 z.
+    assume(divergence_depth(rig, TV) - z >= 0.01 * z)
     assert roundness(z, rig, TV) == pytest.approx(_numeric_roundness(rig, TV, X, z), rel=FD_RTOL)
 
 
@@ -323,6 +334,25 @@ def test_divergence_depth_is_where_disparity_reaches_the_eye_limit(H, W, bp, Hp,
     assert np.isfinite(perceived_depth_from_depth(z_div * (1 - 1e-6), rig, display))
     assert math.isnan(perceived_depth_from_depth(z_div * (1 + 1e-6), rig, display))
     assert roundness(z_div * (1 + 1e-6), rig, display) < 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(b=positive, H=positive, W=positive, bp=positive, Hp=positive, Wp=positive)
+def test_limits_are_exact_in_floating_point(b, H, W, bp, Hp, Wp):
+    # b' - W'(b'/W') and b'W - (b'W/W')W' need not round to 0: the limits must still be exact.
+    rig, display = Shooting(b, H, W), Display(bp, Hp, Wp)
+    assert perceived_depth(display.divergence_disparity, display) == math.inf  # parallel eyes, Eq. (1b)
+    assert math.isnan(perceived_depth(math.nextafter(display.divergence_disparity, math.inf), display))
+    assert scene_depth_from_disparity(b / W, rig) == math.inf  # d(inf) = b/W, Eq. (1c)
+    b_div = divergence_baseline(W, display)
+    assert divergence_depth(Shooting(b_div, H, W), display) == math.inf  # b = b_div never diverges (Eq. 3)
+    assert np.all(np.isfinite(perceived_depth_from_depth(np.array([H, 1e6 * H]), Shooting(b_div, H, W), display)))
+    z_div = divergence_depth(rig, display)
+    if math.isfinite(z_div):  # parallel exactly at z_div, finite before, diverging after (consistently)
+        assert perceived_depth_from_depth(z_div, rig, display) == math.inf
+        assert math.isfinite(perceived_depth_from_depth(math.nextafter(z_div, 0.0), rig, display))
+        assert math.isnan(perceived_depth_from_depth(math.nextafter(z_div, math.inf), rig, display))
+        assert roundness(math.nextafter(z_div, math.inf), rig, display) < 0
 
 
 @settings(max_examples=60, deadline=None)

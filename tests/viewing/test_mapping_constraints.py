@@ -150,6 +150,38 @@ def test_eq7_and_eq9_match_the_ray_geometry():
         assert m.roundness(z) == pytest.approx(dz / dx, rel=FD_RTOL)
 
 
+# min_roundness searches 4097 disparities: near a smooth minimum the error is second order in the step.
+MIN_GRID_RTOL = 1e-5
+
+
+def test_min_roundness_exposes_a_cardboard_dip_between_round_control_points():
+    # Both elements round (rho = 1 at 30 m and 80 m), yet psi flattens between them: Eq. (9) dips to
+    # cardboard (rho < 0.3). The report must show it: compare with a dense scan of Eq. (9) over z.
+    round_pair = ["z=30,perceived=3,roundness=1", "z=80,perceived=9,roundness=1"]
+    m = psi_from_constraints(Shooting(B_ROUND, H, W), TV, round_pair, near=20.0, far=100.0)
+    assert m.roundness(30.0) == pytest.approx(1.0, rel=CONSTRAINT_RTOL)
+    assert m.roundness(80.0) == pytest.approx(1.0, rel=CONSTRAINT_RTOL)
+    rho_min, z_min = m.min_roundness()
+    z = np.geomspace(20.0, 100.0, 200_001)
+    rho = m.roundness(z)
+    assert rho_min == pytest.approx(rho.min(), rel=MIN_GRID_RTOL)
+    assert rho_min >= rho.min() - 1e-12 and rho_min < 0.3  # a real sample of Eq. (9), and cardboard
+    assert z_min == pytest.approx(z[rho.argmin()], rel=1e-3)
+    assert m.roundness(z_min) == rho_min
+
+
+def test_min_roundness_skips_infinite_depths_and_includes_the_ends():
+    # Background perceived at infinity: Eq. (9) is undefined at z = inf; the minimum is at a finite depth.
+    m = psi_from_constraints(Shooting(B_ROUND, H, W), TV, [(H, TV.distance, 1.0), (math.inf, math.inf)],
+                             near=15.0, far=math.inf)
+    rho_min, z_min = m.min_roundness()
+    assert math.isfinite(z_min) and 15.0 <= z_min and 0 < rho_min < 1
+    # psi is the identity on [near, H] (one control point, slope 1): with b_round, Eq. (4) grows with z
+    # (its denominator z(b'W - bW') + bHW' falls), so the minimum is at the near end.
+    single = psi_from_constraints(Shooting(B_ROUND, H, W), TV, ["z=30,perceived=3"], near=20.0, far=30.0)
+    assert single.min_roundness() == (pytest.approx(float(single.roundness(20.0)), rel=EXACT), 20.0)
+
+
 def test_single_constraint_saturates_below_the_limit():
     m = psi_from_constraints(Shooting(B_ROUND, H, W), TV, ["z=30,perceived=3"], near=10.0, far=math.inf)
     assert m.control_points[0].slope == 1.0 and not m.control_points[0].prescribed
@@ -191,6 +223,11 @@ def test_samples_cover_near_to_far_and_inverse_round_trips():
          "constraint z=300,perceived=3 lies outside the scene: near = 10, far = 100"),
         (["z=30,perceived=3", "z=30,perceived=4"], 10, 100, ValueError, "are at the same depth"),
         ([(1e20, 3.0), (2e20, 4.0)], 10, math.inf, ValueError, "their disparities d.z. coincide"),
+        ([(30.0, 3.0), (60.0, 1e15), (90.0, 1.00000000000001e15)], 10, 100, ValueError,
+         r"constraints z=60,perceived=1e\+15 and z=90,perceived=1e\+15 are too close: their values psi"),
+        ([(30.0, 3.0), (60.0, 1e300)], 10, 100, ValueError,
+         (r"^constraint z=60,perceived=1e\+300: the perceived depth is so far that psi rounds to the divergence "
+          r"limit b'/W' = 0.0541667; ask for perceived=inf instead$")),
         (["z=30,perceived=inf"], 10, 100, ValueError, "the nearest constraint cannot be perceived at infinity"),
         (["z=30,perceived=inf,roundness=1"], 10, 100, ValueError, "roundness cannot be prescribed where perceived"),
         (["z=30,perceived=3", "z=inf,perceived=9,roundness=1"], 10, math.inf, ValueError,
@@ -263,6 +300,13 @@ def test_any_satisfiable_set_is_monotone_below_the_limit(scene):
             assert zp == pytest.approx(c.perceived_depth, rel=CONSTRAINT_RTOL)
         if c.roundness is not None:
             assert m.roundness(c.depth) == pytest.approx(c.roundness, rel=CONSTRAINT_RTOL)
+    # The reported lowest roundness is a value of Eq. (9) in the scene, no higher than at any control point.
+    rho_min, z_min = m.min_roundness()
+    assert near <= z_min <= far and m.roundness(z_min) == rho_min
+    for c in cons:
+        rho_c = m.roundness(c.depth) if math.isfinite(c.depth) else math.nan
+        if math.isfinite(rho_c):
+            assert rho_min <= rho_c * (1 + CONSTRAINT_RTOL)
     # inverse(psi(d)) == d wherever psi is strictly increasing, to the precision psi is known at:
     # an error of a few ulps in psi moves d by ulps / psi'.
     # The saturating tail approaches b'/W' without reaching it; in floating point it can round to it.

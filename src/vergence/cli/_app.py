@@ -63,6 +63,8 @@ def display_from_options(
 
     ``pixels`` (``--screen-pixels``) sets or overrides the horizontal resolution.
     """
+    if pixels is not None and pixels < 1:  # the library would name it "resolution"
+        raise ValueError(f"--screen-pixels must be >= 1 (the screen width in pixels); got {pixels}")
     given = [n for n, v in zip(_DISPLAY_LENGTHS, (eye_separation, distance, width)) if v is not None]
     if preset is not None:
         if given:

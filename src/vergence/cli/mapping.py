@@ -52,6 +52,9 @@ def _summary(result: ConstrainedMapping) -> None:
         note = "[yellow]cardboard[/]" if math.isfinite(rho) and rho < CARDBOARD_ROUNDNESS else ""
         table.add_row(_fmt(z, ".4g"), f"{d:+.5f}", f"{m:+.5f}", _fmt(zp, ".4g"), _fmt(rho, ".3f"), note)
     console.print(table)
+    rho_min, z_min = result.min_roundness()
+    flat = f"[yellow]cardboard[/], below {CARDBOARD_ROUNDNESS}" if rho_min < CARDBOARD_ROUNDNESS else "not cardboard"
+    console.print(f"lowest roundness over the scene: ρ = {rho_min:.3f} at z = {z_min:.4g} m ({flat})")
     console.print(f"monotone: {'yes' if result.monotone else '[red]no[/]'};  "
                   f"diverges (psi > b'/W' somewhere): {'[red]yes[/]' if result.diverges else 'no'}")
 

@@ -67,6 +67,17 @@ def _drop_opaque_alpha(arr: np.ndarray, path: Path) -> np.ndarray:
     return arr[:, :, :3]
 
 
+def _imdecode(data: bytes) -> np.ndarray | None:
+    """``cv2.imdecode`` with OpenCV's own logging silenced: a corrupt file is reported once, by our
+    ValueError, not also by OpenCV's warning lines on stderr. The previous log level is restored."""
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+    try:
+        return cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
 def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
     """Raw PNG samples ``(H, W)`` or ``(H, W, 3)`` RGB (uint8 or uint16) and their maxval."""
     if not data.startswith(_PNG_SIGNATURE):
@@ -74,7 +85,7 @@ def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
     if data.rfind(b"IEND") < 0:
         raise ValueError(f"cannot read {path}: PNG file is truncated (no IEND chunk)")
     colour_type = data[25] if len(data) > 25 else -1
-    arr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    arr = _imdecode(data)
     if arr is None:
         raise ValueError(f"cannot read {path}: PNG data is corrupt or truncated")
     if arr.ndim == 3 and arr.shape[2] == 4:
@@ -105,7 +116,7 @@ def _decode_hdr(data: bytes, path: Path) -> np.ndarray:
     """Radiance RGBE to linear float32 RGB ``(H, W, 3)``."""
     if not data.startswith((b"#?RADIANCE", b"#?RGBE")):
         raise ValueError(f"cannot read {path}: not a Radiance HDR file (expected a '#?RADIANCE' header)")
-    arr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    arr = _imdecode(data)
     if arr is None or arr.ndim != 3 or arr.dtype != np.float32:
         raise ValueError(f"cannot read {path}: Radiance HDR data is corrupt or truncated")
     return np.ascontiguousarray(arr[:, :, ::-1])  # BGR -> RGB

@@ -119,6 +119,8 @@ def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) ->
     ax_r.axhline(CARDBOARD_ROUNDNESS, color="tab:orange", lw=1.2, ls="--",
                  label=f"cardboard, ρ < {CARDBOARD_ROUNDNESS}")
     ax_r.axhspan(0.0, CARDBOARD_ROUNDNESS, color="tab:orange", alpha=0.12, lw=0)
+    rho_min, z_min = result.min_roundness()  # a dip between control points shows here
+    ax_r.plot(z_min, rho_min, "v", color="tab:red", ms=8, label=f"lowest ρ = {rho_min:.3g} at z = {z_min:.4g} m")
     ax_r.set_ylim(0, _top(np.concatenate([rho, rho_ref]), _MAX_ROUNDNESS, 1.2))
     ax_r.set_ylabel("roundness ρ")
     ax_r.set_title("roundness", fontsize=10)

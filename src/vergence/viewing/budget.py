@@ -52,7 +52,9 @@ class DepthSample:
         rho of S0 Eq. (4) as is (negative where the eyes diverge); None only where it is infinite
         (the eyes exactly parallel at this depth).
     diverges : bool
-        Whether the eyes diverge at this depth (``d > b'/W'``, S0 Eq. 3 and 8).
+        Whether the eyes diverge at this depth (``d > b'/W'``, S0 Eq. 3 and 8): exactly the depths
+        beyond :attr:`DepthBudget.divergence_depth`; at that depth itself the eyes are parallel
+        (``perceived_depth`` and ``roundness`` None, ``diverges`` False).
     """
 
     depth: float

@@ -119,16 +119,22 @@ class Display:
         return self.width / self.resolution
 
 
-# Typical viewing set-ups; eye separation 65 mm (adult mean). Screen widths from the diagonal and
-# aspect ratio; distances as commonly recommended for each screen.
+# Typical viewing set-ups; eye separation 65 mm (adult mean). Screen widths are the diagonal times
+# a / sqrt(a^2 + b^2) for an a:b aspect ratio, to 0.1 mm; distances as commonly recommended for each screen.
 DISPLAY_PRESETS: dict[str, Display] = {
+    # A 10 m wide cinema screen seen from 15 m (f' = 1.5), projected in 2K DCI (2048 px).
     "cinema": Display(eye_separation=0.065, distance=15.0, width=10.0, resolution=2048),
+    # 24" 16:9 monitor, 1920 x 1080, at 60 cm: 24 x 25.4 mm x 16/sqrt(337) = 0.5313 m.
     "desktop-24": Display(eye_separation=0.065, distance=0.6, width=0.5313, resolution=1920),
-    "laptop-15": Display(eye_separation=0.065, distance=0.5, width=0.3442, resolution=1920),
-    "phone": Display(eye_separation=0.065, distance=0.3, width=0.1395, resolution=2400),
+    # 15.6" 16:9 laptop, 1920 x 1080, at 50 cm: 15.6 x 25.4 mm x 16/sqrt(337) = 0.3454 m.
+    "laptop-15": Display(eye_separation=0.065, distance=0.5, width=0.3454, resolution=1920),
+    # 6.1" 20:9 phone held in landscape, 2400 x 1080 (e.g. Pixel 6a), at 30 cm:
+    # 6.1 x 25.4 mm x 20/sqrt(481) = 0.1413 m.
+    "phone": Display(eye_separation=0.065, distance=0.3, width=0.1413, resolution=2400),
     # S3's study display: Samsung 2233RZ, 22" 16:10, 1680 px at 0.282 mm pitch, viewed from 60 cm.
     "samsung-2233rz": Display(eye_separation=0.065, distance=0.6, width=0.47376, resolution=1680),
-    # A 55" 16:9 television at 3 m: f' = 2.46, S0's living-room example.
+    # A 55" 16:9 television, 1920 x 1080, at 3 m: 55 x 25.4 mm x 16/sqrt(337) = 1.2176 m; f' = 2.46,
+    # S0's living-room example.
     "tv-55": Display(eye_separation=0.065, distance=3.0, width=1.2176, resolution=1920),
 }
 
@@ -164,10 +170,12 @@ def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndar
     Disparities at or beyond ``b/W`` have no depth in front of the cameras: NaN there (inf at equality).
     """
     d_ = as_float_array("d", d)
-    den = shooting.baseline - shooting.window * d_
+    # Eq. (1c) as H / (1 - d/(b/W)): the gap is exactly 0 at d == b/W, so z = inf there
+    # (b - W(b/W) need not round to 0).
+    gap = 1.0 - d_ / (shooting.baseline / shooting.window)
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = shooting.baseline * shooting.convergence / den
-    z = np.where(den > 0, z, np.where(den == 0, np.inf, np.nan))
+        z = shooting.convergence / gap
+    z = np.where(gap > 0, z, np.where(gap == 0, np.inf, np.nan))
     return _out(z)
 
 
@@ -183,10 +191,12 @@ def perceived_depth(d: object, display: Display) -> float | np.ndarray:
     3.0
     """
     d_ = as_float_array("d", d)
-    den = display.eye_separation - display.width * d_
+    # Eq. (1b) as H' / (1 - d/(b'/W')): the gap is exactly 0 at d == b'/W' (Display.divergence_disparity),
+    # so parallel eyes give inf, not a huge finite depth (b' - W'(b'/W') need not round to 0).
+    gap = 1.0 - d_ / display.divergence_disparity
     with np.errstate(divide="ignore", invalid="ignore"):
-        zp = display.eye_separation * display.distance / den
-    zp = np.where(den > 0, zp, np.where(den == 0, np.inf, np.nan))
+        zp = display.distance / gap
+    zp = np.where(gap > 0, zp, np.where(gap == 0, np.inf, np.nan))
     return _out(zp)
 
 
@@ -196,11 +206,9 @@ def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) 
     ``z'(z) = z b'H'W / (z (b'W - bW') + bHW')``.
     """
     z_ = _depths("z", z)
-    b, H, W = shooting.baseline, shooting.convergence, shooting.window
-    bp, Hp, Wp = display.eye_separation, display.distance, display.width
-    den = z_ * (bp * W - b * Wp) + b * H * Wp  # Eq. (2) denominator
+    den = _eq2_denominator(z_, shooting, display)
     with np.errstate(divide="ignore", invalid="ignore"):
-        zp = z_ * bp * Hp * W / den
+        zp = z_ * display.eye_separation * display.distance * shooting.window / den
     zp = np.where(den > 0, zp, np.where(den == 0, np.inf, np.nan))
     return _out(zp)
 
@@ -218,11 +226,9 @@ def roundness(z: object, shooting: Shooting, display: Display) -> float | np.nda
     1.0
     """
     z_ = _depths("z", z)
-    b, H, W = shooting.baseline, shooting.convergence, shooting.window
-    bp, Hp, Wp = display.eye_separation, display.distance, display.width
-    den = z_ * (bp * W - b * Wp) + b * H * Wp  # Eq. (4) denominator
+    den = _eq2_denominator(z_, shooting, display)  # Eq. (4) shares Eq. (2)'s denominator
     with np.errstate(divide="ignore"):
-        rho = b * Hp * W / den
+        rho = shooting.baseline * display.distance * shooting.window / den
     return _out(rho)
 
 
@@ -242,13 +248,47 @@ def focal_ratio(shooting: Shooting, display: Display) -> float:
     return shooting.focal / display.focal
 
 
-def divergence_depth(shooting: Shooting, display: Display) -> float:
-    """Depth beyond which the eyes diverge: ``bHW' / (bW' - b'W)``, or inf if ``b <= b_div`` (S0 §2)."""
-    b, H, W = shooting.baseline, shooting.convergence, shooting.window
+def _excess(shooting: Shooting, display: Display) -> float:
+    """``bW' - b'W`` where the eyes can diverge (S0 Eq. 3), else 0.
+
+    The rig can make the eyes diverge when ``b > b_div`` with ``b_div`` as :func:`divergence_baseline`
+    computes it (so that ``b`` equal to the reported ``b_div`` never diverges) and ``bW' - b'W``
+    is positive in floating point; otherwise 0 (within an ulp of ``b_div``, or below it).
+    """
+    b, W = shooting.baseline, shooting.window
     excess = b * display.width - display.eye_separation * W
-    if excess <= 0:
-        return math.inf
-    return b * H * display.width / excess
+    return excess if excess > 0 and b > divergence_baseline(W, display) else 0.0
+
+
+def divergence_depth(shooting: Shooting, display: Display) -> float:
+    """Depth beyond which the eyes diverge: ``bHW' / (bW' - b'W)``, or inf if ``b <= b_div`` (S0 §2, Eq. 3).
+
+    ``b`` equal to :func:`divergence_baseline` gives exactly inf. At the returned depth
+    :func:`perceived_depth_from_depth` is exactly inf (parallel eyes); it is finite before it and
+    NaN (divergence) after it.
+
+    Examples
+    --------
+    >>> round(divergence_depth(Shooting(0.26, 30.0, 3.0), Display(0.065, 3.0, 1.2)), 9)
+    80.0
+    """
+    excess = _excess(shooting, display)
+    return math.inf if excess == 0 else shooting.baseline * shooting.convergence * display.width / excess
+
+
+def _eq2_denominator(z: np.ndarray, shooting: Shooting, display: Display) -> np.ndarray:
+    """``z (b'W - bW') + bHW'`` of S0 Eq. (2) and (4), written so that its sign is exact.
+
+    Without divergence (:func:`_excess` is 0) it is ``bHW' + z (b'W - bW')`` with both terms >= 0
+    (``b'W - bW'`` is kept only where it is >= 0; within an ulp of ``b_div`` it is taken as 0).
+    With divergence it is ``(bW' - b'W)(z_div - z)``, ``z_div`` from :func:`divergence_depth`: exactly
+    0 at that depth, negative beyond it.
+    """
+    b, H, Wp = shooting.baseline, shooting.convergence, display.width
+    excess = _excess(shooting, display)
+    if excess == 0:
+        return b * H * Wp + z * max(display.eye_separation * shooting.window - b * Wp, 0.0)
+    return excess * (divergence_depth(shooting, display) - z)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -223,6 +223,39 @@ class ConstrainedMapping:
         """Mapped roundness at scene depth ``z`` (S0 Eq. 9); see :func:`mapped_roundness`."""
         return mapped_roundness(z, self.psi, self.reference, self.display)
 
+    def min_roundness(self) -> tuple[float, float]:
+        """Lowest mapped roundness (S0 Eq. 9) over the scene, and the scene depth where it occurs.
+
+        Between two control points psi may flatten (its slope is free there), and Eq. (9) can dip
+        below the cardboard threshold (rho < 0.3) even when every constraint is round: the report
+        shows this minimum. It is searched at the depths of :data:`CHECK_SAMPLES` disparities evenly
+        over ``[d(near), d(far)]`` and at the constraints' depths, finite ones only (at ``z = inf``
+        Eq. (9) is 0, or undefined where psi reaches ``b'/W'``).
+
+        Returns
+        -------
+        (float, float)
+            ``(rho_min, z)``; ``rho_min`` is negative where psi passes ``b'/W'`` (the eyes diverge).
+
+        Examples
+        --------
+        >>> m = psi_from_constraints(Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2),
+        ...                          ["z=30,perceived=3,roundness=1", "z=80,perceived=9"], near=20.0, far=100.0)
+        >>> rho, z = m.min_roundness()
+        >>> round(rho, 3), round(z, 1)
+        (0.163, 55.2)
+        """
+        lo, hi = self.disparity_range
+        d = np.linspace(lo, hi, CHECK_SAMPLES)
+        z = np.asarray(scene_depth_from_disparity(d, self.reference), dtype=np.float64)
+        z[0], z[-1] = self.near, self.far
+        z = np.concatenate([z, [c.depth for c in self.constraints]])  # the control points' own depths
+        z = z[np.isfinite(z)]
+        rho = np.asarray(self.roundness(z), dtype=np.float64)  # Eq. (9)
+        # NaN only where psi = b'/W' with psi' = 0; never at ``near``, below the first control point.
+        k = int(np.nanargmin(np.where(np.isfinite(rho), rho, np.nan)))
+        return float(rho[k]), float(z[k])
+
     def sample(self, n: int = 201) -> MappingSamples:
         """psi, perceived depth and roundness at ``n >= 2`` disparities evenly spaced over ``[d(near), d(far)]``.
 
@@ -390,6 +423,17 @@ def psi_from_constraints(
             "their disparities d(z) coincide in floating point"
         )
     values = np.array([psi_value_for_depth(c.perceived_depth, display) for c in items])
+    for c, v in zip(items, values):
+        if math.isfinite(c.perceived_depth) and v >= limit:
+            raise ValueError(
+                f"constraint {c}: the perceived depth is so far that psi rounds to the divergence limit "
+                f"b'/W' = {limit:g}; ask for perceived=inf instead"
+            )
+    for k in np.flatnonzero(np.diff(values) <= 0):
+        raise ValueError(
+            f"constraints {items[k]} and {items[k + 1]} are too close: "
+            "their values psi = (b'/W')(1 - H'/z') coincide in floating point"
+        )
     estimates = pchip_slopes(knots, values) if len(items) > 1 else np.ones(1)
     estimates[0] = 1.0  # identity slope below the nearest control point (SPEC §1.8)
     slopes, prescribed = [], []
