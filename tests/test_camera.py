@@ -192,3 +192,12 @@ def test_bad_look_at_and_interpolate():
         _cam().backproject([[1.0, 2.0]], [-1.0])
     with pytest.raises(ValueError, match="missing field"):
         Camera.from_dict({"K": np.eye(3).tolist()})
+
+
+def test_fov_bounds_and_exact_intrinsics_row():
+    for fov in (0.0, -10.0, 180.0):
+        with pytest.raises(ValueError, match="strictly between 0 and 180"):
+            look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=fov, width=4, height=4)
+    K = np.diag([100.0, 100.0, 1.0 + 1e-9])  # a K whose last row is not (0, 0, 1) breaks project/backproject
+    with pytest.raises(ValueError, match=r"last row \(0, 0, 1\)"):
+        Camera(K=K, R=np.eye(3), t=np.zeros(3), width=4, height=4)

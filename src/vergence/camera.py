@@ -72,7 +72,7 @@ class Camera:
         height = check_positive_int("height", self.height)
         if K[0, 0] <= 0 or K[1, 1] <= 0:
             raise ValueError(f"K must have positive focal lengths fx, fy; got {K[0, 0]:g}, {K[1, 1]:g}")
-        if not np.allclose(K[2], [0.0, 0.0, 1.0]) or K[1, 0] != 0.0:
+        if K[2, 0] != 0.0 or K[2, 1] != 0.0 or K[2, 2] != 1.0 or K[1, 0] != 0.0:
             raise ValueError(f"K must be upper triangular with last row (0, 0, 1); got {K.tolist()}")
         if not np.allclose(R @ R.T, np.eye(3), atol=_ROTATION_TOL) or abs(np.linalg.det(R) - 1.0) > _ROTATION_TOL:
             raise ValueError(f"R must be a rotation (orthonormal, det +1); got det {np.linalg.det(R):.6g}")
@@ -248,8 +248,8 @@ def look_at(
     c = as_float_array("position", position, shape=(3,))
     target_ = as_float_array("target", target, shape=(3,))
     up_ = as_float_array("up", up, shape=(3,))
-    fov = check_in_range("fov_deg", fov_deg, 0.0, 180.0)
-    if fov in (0.0, 180.0):
+    fov = check_finite("fov_deg", fov_deg)
+    if not 0.0 < fov < 180.0:
         raise ValueError(f"fov_deg must lie strictly between 0 and 180; got {fov:g}")
     width = check_positive_int("width", width)
     height = check_positive_int("height", height)
