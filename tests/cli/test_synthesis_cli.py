@@ -41,7 +41,18 @@ def test_synthesize_stereo_pair_writes_views_layout_and_json(tmp_path, capsys):
     assert code == 0
     params = json.loads(stdout)
     assert params["parallax_range_px"] == [-4.0, 4.0]
-    assert params["parallax_range_arcmin"] is None and params["format"] == "tb"
+    assert params["format"] == "tb" and params["display"]["preset"] == "desktop-24"
+    # The arcminute range on the default display, by hand: 4 image px of a 48-px image filling the
+    # 1920-px, 0.5313-m screen are 4 * 0.5313 / 48 m; seen from 0.6 m with 0.065-m eye separation,
+    # the vergence changes by 2 atan(b'/2H') - 2 atan((b' - p)/2H') (positive behind the screen).
+    p = 4.0 * 0.5313 / 48.0
+
+    def vergence_change_arcmin(parallax_m):
+        return 60.0 * np.degrees(2 * np.arctan(0.065 / 1.2) - 2 * np.arctan((0.065 - parallax_m) / 1.2))
+
+    assert params["parallax_range_arcmin"] == pytest.approx(
+        [vergence_change_arcmin(-p), vergence_change_arcmin(p)], rel=1e-9
+    )
     for name in ("left.png", "right.png", "stereo_tb.png", "synthesis.json"):
         assert (out / name).is_file()
     assert json.loads((out / "synthesis.json").read_text()) == params
@@ -87,11 +98,26 @@ def test_synthesize_n_views_and_default_control(tmp_path, capsys):
     np.testing.assert_allclose(read_image(out / "view_01.png"), read_image(tmp_path / "image.png"), atol=PNG_ATOL)
 
 
+def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
+    # Inverse depth stored as float NPY: NaN is unknown (as for any float depth file), 0 the far plane.
+    _scene(tmp_path)
+    inverse = np.where(np.arange(48) < 24, 0.0, 1.0).repeat(16).reshape(48, 16).T.astype(np.float32)
+    inverse[0, :4] = np.nan
+    np.save(tmp_path / "inverse.npy", inverse)
+    code, stdout, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "inverse.npy"),
+                                      "--depth-kind", "inverse", "--budget-px", "2", "--out", str(tmp_path / "o"),
+                                      "--json"])
+    assert code == 0, err
+    assert json.loads(stdout)["parallax_range_px"] == [-2.0, 2.0]
+
+
 @pytest.mark.parametrize(
     ("extra", "depth_name", "message"),
     [
         (["--budget-px", "4", "--format", "sbs", "--views", "3"], "depth.npy", "--format sbs shows a stereo pair"),
-        (["--budget-arcmin", "20"], "depth.npy", "budget_arcmin needs a display"),
+        (["--views", "1", "--format", "views"], "depth.npy", "views must be >= 2; got 1"),
+        (["--budget-px", "4"], "zero.npy", r"depth must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
+        (["--budget-px", "4", "--depth-scale", "2"], "depth.npy", "scale applies to .png/.pgm disparity maps only"),
         (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, sbs, tb, views"),
         (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "depth must be > 0 metres where known"),
         (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
@@ -104,6 +130,7 @@ def test_synthesize_bad_input_is_one_line_and_exit_2(tmp_path, capsys, extra, de
     np.save(tmp_path / "negative.npy", -np.ones((16, 48), np.float32))
     np.save(tmp_path / "nan.npy", np.full((16, 48), np.nan, np.float32))
     np.save(tmp_path / "small.npy", np.ones((8, 48), np.float32))
+    np.save(tmp_path / "zero.npy", np.where(np.arange(48) == 3, 0.0, 2.0).repeat(16).reshape(48, 16).T.astype(np.float32))
     code, _, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / depth_name),
                                  "--out", str(tmp_path / "out"), *extra])
     assert code == 2
@@ -161,6 +188,37 @@ def test_interpolate_writes_the_middle_view(tmp_path, capsys):
     np.testing.assert_allclose(synth[:, 2:10], truth[:, 2:10], atol=1e-4)
 
 
+@pytest.mark.parametrize("suffix", [".pfm", ".npy"])
+def test_interpolate_float_disparity_zero_is_a_real_disparity(tmp_path, capsys, suffix):
+    # PFM/NPY: 0 is a point at infinity, not unknown (NaN is). Background d = 0 stays put at
+    # T = 0.5, the square (d = 4, columns 16..23) moves 2 px left. Were 0 unknown, the background
+    # would take the square's disparity from the rows it shares with it and move too.
+    from vergence.io import write_pfm
+
+    h, w = 12, 40
+    bg = (0.3 + 0.2 * np.sin(np.arange(w) / 3.0))[None, :].repeat(h, axis=0)
+    xs = np.arange(w)[None, :]
+
+    def view(t):
+        inside = (xs + 4.0 * t >= 16) & (xs + 4.0 * t < 24) & (np.arange(h)[:, None] >= 3) & (np.arange(h)[:, None] < 9)
+        return np.where(inside, 0.9, bg).astype(np.float32), np.where(inside, 4.0, 0.0).astype(np.float32)
+
+    (left, dl), (right, dr), (middle, _) = view(0.0), view(1.0), view(0.5)
+    write_image(tmp_path / "l.png", left, bit_depth=16)
+    write_image(tmp_path / "r.png", right, bit_depth=16)
+    for name, d in (("dl", dl), ("dr", dr)):
+        if suffix == ".pfm":
+            write_pfm(tmp_path / f"{name}.pfm", d)
+        else:
+            np.save(tmp_path / f"{name}.npy", d)
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "l.png"), "--left-disparity",
+                                 str(tmp_path / f"dl{suffix}"), "--right", str(tmp_path / "r.png"), "--right-disparity",
+                                 str(tmp_path / f"dr{suffix}"), "--position", "0.5", "--out", str(tmp_path / "m.png"),
+                                 "--bit-depth", "16", "--edge-dilation", "0"])
+    assert code == 0, err
+    np.testing.assert_allclose(read_image(tmp_path / "m.png"), middle, atol=1e-4)
+
+
 @pytest.mark.parametrize(
     ("args_fn", "message"),
     [
@@ -215,3 +273,8 @@ def test_compare_table_and_bad_input(tmp_path, capsys):
     assert code == 2 and "reference must have the same shape as image" in err
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "missing.png")])
     assert code == 2 and len(err.strip().splitlines()) == 1
+    for gain in ("-1", "nan", "0"):
+        code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--error-image",
+                                     str(tmp_path / "e.png"), "--error-gain", gain])
+        assert code == 2 and "--error-gain must be a finite number > 0" in err
+    assert not (tmp_path / "e.png").exists()

@@ -8,6 +8,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import Camera, look_at
 from vergence.synthesis import epipole, forward_warp, refine_camera_warp, warp_to_camera
+from vergence.synthesis.warp3d import _mesh_links
 
 # Depths of a plane after a project/back-project round trip: float32 storage, ~1e-7 relative.
 DEPTH_RTOL = 1e-6
@@ -73,22 +74,25 @@ def _slabs(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
     return z
 
 
+@pytest.mark.parametrize("gradient_limit", [None, 1.0])
 @pytest.mark.parametrize("tx", [0.3, -0.25, 0.05])
-def test_mcmillan_order_equals_zbuffer_on_rectified_rows(tx):
-    # SPEC §6.2 [V]: for a sideways move the occlusion-compatible order gives the z-buffer result.
+def test_mcmillan_order_equals_zbuffer_on_rectified_rows(tx, gradient_limit):
+    # SPEC §6.2 [V]: for a sideways move the occlusion-compatible order gives the z-buffer result,
+    # with point splats and with mesh facets (painted with their top-left pixel).
     rng = np.random.default_rng(int(abs(tx) * 100))
     src, tgt = _cam(0.0, width=60, height=20), _cam(tx, width=60, height=20)
     depth = _slabs(rng, 20, 60)
     img = rng.random((20, 60, 3), dtype=np.float32)
-    zb = warp_to_camera(img, depth, src, tgt, order="zbuffer")
-    mc = warp_to_camera(img, depth, src, tgt, order="mcmillan")
+    zb = warp_to_camera(img, depth, src, tgt, order="zbuffer", gradient_limit=gradient_limit)
+    mc = warp_to_camera(img, depth, src, tgt, order="mcmillan", gradient_limit=gradient_limit)
     assert_array_equal(mc.holes, zb.holes)
     assert_array_equal(mc.image, zb.image)
     assert_array_equal(mc.depth, zb.depth)
 
 
+@pytest.mark.parametrize("gradient_limit", [None, 1.0])
 @pytest.mark.parametrize("centre", [(0.3, 0.1, 1.0), (-0.4, 0.2, -1.5)])
-def test_mcmillan_order_matches_zbuffer_visibility_in_2d(centre):
+def test_mcmillan_order_matches_zbuffer_visibility_in_2d(centre, gradient_limit):
     # SPEC §6.2 [V]: with forward/backward moves (positive and negative epipoles) the painter's
     # order picks the same surface as the z-buffer except for rounding collisions (< 1 %).
     rng = np.random.default_rng(7)
@@ -98,8 +102,8 @@ def test_mcmillan_order_matches_zbuffer_visibility_in_2d(centre):
     depth[15:40, 20:50] = 4.0
     depth[30:55, 45:70] = 6.0
     img = rng.random((60, 80), dtype=np.float32)
-    zb = warp_to_camera(img, depth, src, tgt)
-    mc = warp_to_camera(img, depth, src, tgt, order="mcmillan")
+    zb = warp_to_camera(img, depth, src, tgt, gradient_limit=gradient_limit)
+    mc = warp_to_camera(img, depth, src, tgt, order="mcmillan", gradient_limit=gradient_limit)
     both = ~zb.holes & ~mc.holes
     wrong = np.abs(zb.depth[both] - mc.depth[both]) > 0.5
     assert wrong.mean() < 0.01
@@ -157,7 +161,7 @@ def test_refine_closes_sampling_gaps_of_a_magnified_plane():
     tgt = _cam(0.0, z=0.3, width=40, height=30)
     depth = np.full((30, 40), 2.0)
     ramp = np.tile(np.linspace(0.0, 1.0, 40, dtype=np.float32), (30, 1))
-    raw = warp_to_camera(ramp, depth, src, tgt)
+    raw = warp_to_camera(ramp, depth, src, tgt, gradient_limit=None)  # point splats: cracks
     refined = refine_camera_warp(raw, ramp, depth, src, tgt)
     inner = np.zeros((30, 40), bool)
     inner[8:22, 10:30] = True
@@ -169,9 +173,81 @@ def test_refine_closes_sampling_gaps_of_a_magnified_plane():
     assert_allclose(refined.image[inner], np.broadcast_to(expected, (30, 40))[inner], atol=1.5 / 39.0)
 
 
+# Mesh warp of a smooth texture: perspective-correct interpolation between pixel centres, so the
+# error is the texture's curvature over one source pixel (slope 7 * 0.4 / m, pixel ~ 2 m / 35 px):
+# a few thousandths; 0.01 leaves room while any crack (0) or wrong pixel (~0.4) fails.
+MESH_ATOL = 0.01
+
+
+@pytest.mark.parametrize("magnification", [1.5, 2.0, 3.0])
+def test_mesh_warp_has_no_cracks_when_the_target_magnifies(magnification):
+    # Moving toward a plane at 2 m (and turning a little) magnifies it; point splats leave cracks
+    # (most of the target at 2x), the mesh closes them with the plane's own texture.
+    w, h = 80, 60
+    src = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=60.0, width=w, height=h)
+    z_t = 2.0 - 2.0 / magnification
+    tgt = look_at([0, 0, z_t], [0.15, 0, z_t + 1.0], [0, -1, 0], fov_deg=60.0, width=w, height=h)
+
+    def texture(p):
+        return (0.5 + 0.4 * np.sin(7.0 * p[..., 0]) * np.cos(5.0 * p[..., 1])).astype(np.float32)
+
+    depth = np.full((h, w), 2.0)
+    img = texture(src.backproject_depth(depth))
+    rays = tgt.ray_directions()
+    points = tgt.center + rays * ((2.0 - tgt.center[2]) / rays[..., 2])[..., None]
+    pix, _ = src.project(points)
+    inside = (pix[..., 0] > 0) & (pix[..., 0] < w - 1) & (pix[..., 1] > 0) & (pix[..., 1] < h - 1)
+    points_only = warp_to_camera(img, depth, src, tgt, gradient_limit=None)
+    assert points_only.holes[inside].mean() > 0.3
+    mesh = warp_to_camera(img, depth, src, tgt)
+    assert not mesh.holes[inside].any()
+    assert_allclose(mesh.image[inside], texture(points)[inside], atol=MESH_ATOL)
+    assert_allclose(mesh.depth[inside], (points - tgt.center)[inside] @ tgt.R[2], rtol=DEPTH_RTOL)
+
+
+def test_mesh_links_kernel_matches_the_camera_round_trip():
+    # Slow reference: lift the right / lower neighbour with this pixel's depth through the Camera
+    # API and measure how far its projection moves; linked when <= 1 px and both are drawable.
+    rng = np.random.default_rng(11)
+    src = _cam(0.0)
+    tgt = look_at([0.2, -0.1, 0.4], [0.5, 0.0, 3.0], [0.0, -1.0, 0.0], fov_deg=50.0, width=40, height=30)
+    depth = rng.uniform(1.0, 4.0, (30, 40)) * (1.0 + (rng.random((30, 40)) < 0.3))
+    pix, zt = tgt.project(src.backproject_depth(depth))
+    grid = src.pixel_grid()
+    ok = np.isfinite(pix).all(axis=-1) & (zt > 0)
+    expected = []
+    for a, b in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))), ((slice(None, -1),), (slice(1, None),))):
+        moved, _ = tgt.project(src.backproject(grid[b], depth[a]))
+        link = np.zeros((30, 40), bool)
+        link[a] = (np.hypot(*np.moveaxis(moved - pix[b], -1, 0)) <= 1.0) & ok[a] & ok[b]
+        expected.append(link)
+    u, v = (np.ascontiguousarray(pix[..., k].ravel()) for k in (0, 1))
+    link_r, link_d = _mesh_links(depth, u, v, np.ascontiguousarray(zt.ravel()), src, tgt, 1.0)
+    assert 0.1 < link_r.mean() < 0.9  # both outcomes occur
+    assert_array_equal(link_r, expected[0])
+    assert_array_equal(link_d, expected[1])
+
+
+def test_mesh_warp_keeps_disocclusions_open():
+    # Rectified pair, background d = 3 px, a slab d = 9 px: the 6-px jump is an occlusion boundary,
+    # so the 6 columns the slab uncovers beside it stay holes, as in forward_warp.
+    src, tgt = _cam(0.0), _cam(0.1)
+    fb = src.focal_px * 0.1
+    d = np.full((30, 40), 3.0)
+    d[10:20, 15:25] = 9.0
+    img = np.random.default_rng(4).random((30, 40), dtype=np.float32)
+    mesh = warp_to_camera(img, fb / d, src, tgt)
+    flat = forward_warp(img, d)
+    assert mesh.holes[12:18, 16:22].all()  # the slab's columns 15..24 move to 6..15, background 25.. to 22..
+    assert_array_equal(mesh.holes[:, :36], flat.holes[:, :36])
+    assert_allclose(mesh.image[~mesh.holes], flat.image[~mesh.holes], atol=1e-6)
+
+
 @pytest.mark.parametrize(
     ("depth", "kwargs", "error", "match"),
     [
+        (np.full((30, 40), 2.0), {"gradient_limit": -1.0}, ValueError, "gradient_limit must be >= 0 or None; got -1"),
+        (np.full((30, 40), 2.0), {"gradient_limit": np.nan}, ValueError, "gradient_limit must be finite"),
         (np.full((30, 41), 2.0), {}, ValueError, r"depth must have shape \(30, 40\) matching the source camera; got \(30, 41\)"),
         (np.full((30, 40), -1.0), {}, ValueError, "depth must be > 0 metres where known; got min -1"),
         (np.full((30, 40), np.inf), {}, ValueError, "depth must not contain inf"),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,8 @@ def compare(
     as_json: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."""
+    if not (math.isfinite(error_gain) and error_gain > 0):
+        raise ValueError(f"--error-gain must be a finite number > 0; got {error_gain}")
     if error_image is not None:
         check_output_path(error_image, image, reference, *([mask] if mask is not None else []))
     with err_console.status("comparing", spinner="dots"):

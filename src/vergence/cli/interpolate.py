@@ -16,7 +16,8 @@ _INTEGER_DISPARITY = (".png", ".pgm")
 
 
 def _disparity(path: Path, scale: float | None):
-    """PNG/PGM: value / scale (0 = unknown); PFM/NPY: as stored (0, inf, NaN = unknown)."""
+    """PNG/PGM: value / scale (0 = unknown); PFM/NPY: pixels as stored (NaN, inf = unknown; 0 is a
+    real disparity, a point at infinity). The scale applies to PNG/PGM only."""
     return read_disparity(path, scale=scale if path.suffix.lower() in _INTEGER_DISPARITY else None)
 
 
@@ -27,7 +28,10 @@ def interpolate(
     right: Path = typer.Option(..., "--right", help="Right reference view."),
     right_disparity: Path = typer.Option(..., "--right-disparity", help="Its disparity map."),
     disparity_scale: float | None = typer.Option(
-        None, "--disparity-scale", help="PNG/PGM disparity = value / scale (e.g. 2 for Middlebury Dolls)."
+        None,
+        "--disparity-scale",
+        help="PNG/PGM disparity = value / scale (e.g. 2 for Middlebury Dolls); required for them, "
+        "not used for PFM/NPY, which hold pixels.",
     ),
     position: float = typer.Option(..., "--position", help="T in [0, 1]: 0 = left view, 1 = right view."),
     out: Path = typer.Option(..., "--out", help="Output image (extension picks the format)."),
@@ -40,7 +44,9 @@ def interpolate(
     """Synthesize the view at position T between two rectified references (view interpolation).
 
     A pixel at x in the left view with disparity d appears at x - T d; one at x in the right view
-    at x + (1 - T) d. Disparity 0 or NaN is unknown.
+    at x + (1 - T) d. Unknown disparity: 0 in PNG/PGM files; NaN or inf in PFM/NPY files, where 0
+    is a real disparity (a point at infinity). Unknown pixels take the disparity of their
+    background neighbour on the row.
     """
     inputs = (left, left_disparity, right, right_disparity)
     check_output_path(out, *inputs)

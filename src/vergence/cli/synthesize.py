@@ -23,13 +23,14 @@ DEFAULT_BUDGET_ARCMIN = 30.0
 
 
 def _read_depth(path: Path, kind: str, scale: float | None):
-    """Depth as float32 (H, W): inverse depth from an image file, else a disparity-style map."""
-    if kind == "inverse":
-        depth = read_image(path)  # 8/16-bit values in [0, 1], 0 = far plane (MPEG), not unknown
+    """Depth as float32 (H, W): PNG/PGM value / scale (0 = unknown; for inverse depth 8/16-bit values
+    in [0, 1] where 0 is the far plane, MPEG), PFM/NPY as stored (NaN, inf = unknown)."""
+    integer = path.suffix.lower() in (".png", ".pgm")
+    if kind == "inverse" and integer:
+        depth = read_image(path)
         if depth.ndim != 2:
             raise ValueError(f"depth {path} must be a single-channel image; got shape {depth.shape}")
         return depth if scale is None else depth / scale
-    integer = path.suffix.lower() in (".png", ".pgm")
     return read_disparity(path, scale=(1.0 if scale is None else scale) if integer else scale)
 
 
@@ -42,7 +43,11 @@ def _display_dict(display: Display | None, name: str | None) -> dict | None:
 @app.command("synthesize")
 def synthesize(
     image: Path = typer.Argument(..., help="The original view (PNG, JPEG, PPM, PFM, NPY)."),
-    depth: Path = typer.Argument(..., help="Its depth map (PNG/PGM with --depth-scale, PFM or NPY)."),
+    depth: Path = typer.Argument(
+        ...,
+        help="Its depth map: PNG/PGM (value / --depth-scale, 0 = unknown) or PFM/NPY (as stored, NaN or inf "
+        "= unknown; a metric depth must be > 0 where known).",
+    ),
     out: Path = typer.Option(..., "--out", help="Output folder (created if missing)."),
     depth_kind: str = typer.Option(
         "metric", "--depth-kind", help=f"What the depth file holds: {', '.join(DEPTH_KINDS)}."
@@ -50,11 +55,14 @@ def synthesize(
     depth_scale: float | None = typer.Option(
         None,
         "--depth-scale",
-        help="PNG/PGM: stored value / scale = metres (metric) or pixels (disparity); 0 = unknown. "
-        "Inverse depth: divides the [0, 1] values.",
+        help="PNG/PGM: stored value / scale = metres (metric) or pixels (disparity), default 1; 0 = unknown. "
+        "Inverse depth: divides the [0, 1] values. Not used for PFM/NPY.",
     ),
     display_preset: str | None = typer.Option(
-        None, "--display", help=f"Display preset: {', '.join(sorted(DISPLAY_PRESETS))}."
+        None,
+        "--display",
+        help=f"Display preset: {', '.join(sorted(DISPLAY_PRESETS))}; default {DEFAULT_DISPLAY}. The arcminute "
+        "budget and the arcminute range in the JSON refer to it (the image fills its width).",
     ),
     budget_arcmin: float | None = typer.Option(
         None, "--budget-arcmin", help="Parallax budget +-A arcmin of vergence on the display."
@@ -77,8 +85,10 @@ def synthesize(
 ) -> None:
     """Make the views a display needs from one image and its depth (writes views, layout, JSON).
 
-    Exactly one depth control: --budget-arcmin (with --display), --budget-px, or --focal-px with
-    --interaxial and --convergence. Without any, +-30 arcmin on desktop-24 is used.
+    Exactly one depth control: --budget-arcmin (on --display), --budget-px, or --focal-px with
+    --interaxial and --convergence. Without any, +-30 arcmin on the display (desktop-24 unless
+    given) is used. The JSON gives the parallax range between adjacent views in pixels and in
+    arcminutes of vergence on the display.
     """
     if fmt not in FORMATS:
         raise ValueError(f"--format must be one of {', '.join(FORMATS)}; got {fmt!r}")
@@ -89,8 +99,8 @@ def synthesize(
     control_given = any(v is not None for v in (budget_arcmin, budget_px, focal_px, interaxial))
     if not control_given:
         budget_arcmin = DEFAULT_BUDGET_ARCMIN
-        display_preset = display_preset or DEFAULT_DISPLAY
-    display = Display.preset(display_preset) if display_preset is not None else None
+    display_preset = display_preset or DEFAULT_DISPLAY  # the arcminute range is always reported
+    display = Display.preset(display_preset)
     with err_console.status("reading inputs", spinner="dots"):
         picture = read_image(image)
         depth_map = _read_depth(depth, depth_kind, depth_scale)

@@ -18,10 +18,13 @@ __all__ = [
     "count_nonfinite",
     "count_outside",
     "dilate_near_rows",
+    "fill_guide_rows",
     "fill_holes_rows",
     "fill_nan_rows",
     "forward_warp_rows",
     "median3_changes",
+    "mesh_links",
+    "splat_mesh",
     "splat_ordered",
     "splat_zbuffer",
 ]
@@ -126,6 +129,27 @@ def backward_warp_rows(img, disp, scale, out, valid):  # pragma: no cover - comp
             for c in range(img.shape[2]):
                 out[y, x, c] = (1.0 - s) * img[y, x0, c] + s * img[y, x1, c]
             valid[y, x] = True
+
+
+@nb.njit(cache=True, parallel=True)
+def fill_guide_rows(disp, src, scale, limit, out):  # pragma: no cover - compiled
+    """Hole-filling guide of a forward-warped view (see ``holes._fill_guide``).
+
+    ``g = src[y, x_s]`` at the source pixel ``x_s`` nearest to ``x + scale disp[y, x]`` (clamped to
+    the row); where the warped ``disp`` exceeds ``g`` by more than ``limit`` (a background pixel
+    moved with the foreground) the guide is halfway, ``(g + disp) / 2``. NaN where disp is NaN.
+    """
+    h, w = disp.shape
+    ws = src.shape[1]
+    for y in nb.prange(h):
+        for x in range(w):
+            d = disp[y, x]
+            if math.isnan(d):
+                out[y, x] = np.nan
+                continue
+            xs = int(math.floor(x + scale * d + 0.5))
+            g = src[y, min(max(xs, 0), ws - 1)]
+            out[y, x] = np.float32(0.5) * (g + d) if d > g + limit else g
 
 
 @nb.njit(cache=True, parallel=True)
@@ -348,6 +372,144 @@ def splat_ordered(order, u, v, z, colours, out, zbuf, painted):  # pragma: no co
         xt = int(math.floor(u[i] + 0.5))
         yt = int(math.floor(v[i] + 0.5))
         if xt < 0 or xt >= w or yt < 0 or yt >= h:
+            continue
+        zbuf[yt, xt] = zi
+        painted[yt, xt] = True
+        for c in range(colours.shape[1]):
+            out[yt, xt, c] = colours[i, c]
+
+
+@nb.njit(cache=True, parallel=True)
+def mesh_links(z, u, v, zt, A, c, limit, link_r, link_d):  # pragma: no cover - compiled
+    """Right and lower links of the mesh warp (2-D gradient rule, SPEC §6.3).
+
+    A source pixel ``m = (x, y, 1)`` with depth ``Z`` lands at ``h = Z A m + c`` (homogeneous target
+    pixel; ``A = K_t R_t R_s^T K_s^{-1}``, ``c = K_t (t_t - R_t R_s^T t_s)``, S1 Eq. 5). Pixel
+    (y, x) and its neighbour are linked when both land in front of the target (finite ``u, v``,
+    ``zt > 0``) and the neighbour, lifted with this pixel's depth, lands within ``limit`` pixels of
+    where it lands with its own.
+    """
+    h, w = z.shape
+    for y in nb.prange(h):
+        for x in range(w):
+            link_r[y, x] = False
+            link_d[y, x] = False
+            i = y * w + x
+            if not (zt[i] > 0.0 and math.isfinite(u[i]) and math.isfinite(v[i])):
+                continue
+            za = z[y, x]
+            for k in range(2):
+                xb = x + 1 - k
+                yb = y + k
+                if xb >= w or yb >= h:
+                    continue
+                j = yb * w + xb
+                if not (zt[j] > 0.0 and math.isfinite(u[j]) and math.isfinite(v[j])):
+                    continue
+                hx = za * (A[0, 0] * xb + A[0, 1] * yb + A[0, 2]) + c[0]
+                hy = za * (A[1, 0] * xb + A[1, 1] * yb + A[1, 2]) + c[1]
+                hz = za * (A[2, 0] * xb + A[2, 1] * yb + A[2, 2]) + c[2]
+                if not hz > 0.0:
+                    continue
+                ok = math.hypot(hx / hz - u[j], hy / hz - v[j]) <= limit
+                if k == 0:
+                    link_r[y, x] = ok
+                else:
+                    link_d[y, x] = ok
+
+
+@nb.njit(cache=True)
+def _raster_triangle(i0, i1, i2, u, v, z, colours, use_z, out, zbuf, painted):  # pragma: no cover - compiled
+    """Fill the target pixel centres inside the triangle of source points i0, i1, i2.
+
+    Depth is ``1 / (interpolated 1/z)`` (1/z is affine in the image for a planar facet), colours are
+    perspective-correct (weighted by 1/z). A pixel centre on a shared edge belongs to both triangles.
+    """
+    h, w = zbuf.shape
+    x0, y0, x1, y1, x2, y2 = u[i0], v[i0], u[i1], v[i1], u[i2], v[i2]
+    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if area == 0.0:
+        return
+    # Pixel centres on an edge, up to the round-off of the projection (~1e-15 px), are inside.
+    eps = 1e-9
+    xa = max(int(math.ceil(min(x0, min(x1, x2)) - eps)), 0)
+    xb = min(int(math.floor(max(x0, max(x1, x2)) + eps)), w - 1)
+    ya = max(int(math.ceil(min(y0, min(y1, y2)) - eps)), 0)
+    yb = min(int(math.floor(max(y0, max(y1, y2)) + eps)), h - 1)
+    q0, q1, q2 = 1.0 / z[i0], 1.0 / z[i1], 1.0 / z[i2]
+    tol = -eps
+    for yy in range(ya, yb + 1):
+        for xx in range(xa, xb + 1):
+            b0 = ((x1 - xx) * (y2 - yy) - (x2 - xx) * (y1 - yy)) / area
+            b1 = ((xx - x0) * (y2 - y0) - (x2 - x0) * (yy - y0)) / area
+            b2 = 1.0 - b0 - b1
+            if b0 < tol or b1 < tol or b2 < tol:
+                continue
+            q = b0 * q0 + b1 * q1 + b2 * q2
+            zz = 1.0 / q
+            if use_z and not zz < zbuf[yy, xx]:
+                continue
+            zbuf[yy, xx] = zz
+            painted[yy, xx] = True
+            for c in range(colours.shape[1]):
+                out[yy, xx, c] = (b0 * q0 * colours[i0, c] + b1 * q1 * colours[i1, c] + b2 * q2 * colours[i2, c]) / q
+
+
+@nb.njit(cache=True)
+def splat_mesh(order, u, v, z, link_r, link_d, colours, max_side, use_z, out, zbuf, painted):  # pragma: no cover - compiled
+    """Mesh warp: linked source neighbours are one surface, rasterized as triangles (SPEC §6.3 in 2-D).
+
+    Source points (flat index ``i = y W_s + x``) at target ``(u, v)`` with target depth ``z``
+    (NaN or <= 0: not drawn). ``link_r[y, x]`` / ``link_d[y, x]``: the point and its right / lower
+    neighbour are one surface. Each source quad is two triangles, (i, i+1, i+W_s) and
+    (i+1, i+W_s+1, i+W_s), drawn when both of its legs are linked and its target bounding box is
+    at most ``max_side`` pixels; a point in no drawn triangle is splatted at its nearest pixel.
+    Drawing follows ``order`` (triangles with their top-left point); ``use_z``: smaller depth wins
+    (``zbuf`` starts at +inf), else later writes win (McMillan's painter's order). Serial.
+    """
+    hs, ws = link_r.shape
+    n = hs * ws
+    tri_a = np.zeros(n, dtype=np.bool_)
+    tri_b = np.zeros(n, dtype=np.bool_)
+    covered = np.zeros(n, dtype=np.bool_)
+    for y in range(hs - 1):
+        for x in range(ws - 1):
+            i = y * ws + x
+            for k in range(2):
+                if k == 0:
+                    ok = link_r[y, x] and link_d[y, x]
+                    j0, j1, j2 = i, i + 1, i + ws
+                else:
+                    ok = link_d[y, x + 1] and link_r[y + 1, x]
+                    j0, j1, j2 = i + 1, i + ws + 1, i + ws
+                if not ok:
+                    continue
+                side = max(max(u[j0], u[j1]), u[j2]) - min(min(u[j0], u[j1]), u[j2])
+                side = max(side, max(max(v[j0], v[j1]), v[j2]) - min(min(v[j0], v[j1]), v[j2]))
+                if not side <= max_side:
+                    continue
+                if k == 0:
+                    tri_a[i] = True
+                else:
+                    tri_b[i] = True
+                covered[j0] = True
+                covered[j1] = True
+                covered[j2] = True
+    h, w = zbuf.shape
+    for k in range(order.shape[0]):
+        i = order[k]
+        if tri_a[i]:
+            _raster_triangle(i, i + 1, i + ws, u, v, z, colours, use_z, out, zbuf, painted)
+        if tri_b[i]:
+            _raster_triangle(i + 1, i + ws + 1, i + ws, u, v, z, colours, use_z, out, zbuf, painted)
+        zi = z[i]
+        if covered[i] or not zi > 0.0:
+            continue
+        xt = int(math.floor(u[i] + 0.5))
+        yt = int(math.floor(v[i] + 0.5))
+        if xt < 0 or xt >= w or yt < 0 or yt >= h:
+            continue
+        if use_z and not zi < zbuf[yt, xt]:
             continue
         zbuf[yt, xt] = zi
         painted[yt, xt] = True

@@ -84,7 +84,7 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
         return d.copy() if d is depth else d
     lo = float(np.nanmin(d))
     if lo <= 0:
-        raise ValueError(f"depth must be > 0 metres where known (metric depth); got min {lo:g}")
+        raise ValueError(f"depth must be > 0 metres where known (metric depth; NaN = unknown); got min {lo:g}")
     return np.float32(1.0) / d
 
 
@@ -279,9 +279,9 @@ def views_offsets(views: int, *, origin: str = "center") -> tuple[float, ...]:
     ``"center"``: symmetric about the original image (which is the middle view for odd counts);
     ``"left"``: the original image is view 0.
     """
+    if isinstance(views, int | np.integer) and not isinstance(views, bool) and views < 2:
+        raise ValueError(f"views must be >= 2; got {views}")
     n = check_positive_int("views", views)
-    if n < 2:
-        raise ValueError(f"views must be >= 2; got {n}")
     if origin == "center":
         return tuple(i - (n - 1) / 2.0 for i in range(n))
     if origin == "left":

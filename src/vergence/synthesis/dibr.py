@@ -12,7 +12,8 @@ the background side, contour handling (the near side of depth edges, jumps above
 limit, grown by ``edge_dilation`` pixels), forward warp with the gap/hole rule, median refinement
 with inverse warping (view interpolation and camera-to-camera rendering, where depth comes from a
 measurement), depth-tested blending weighted by distance (two references), and
-background-directed hole filling.
+background-directed hole filling steered by the original, undilated disparity (see
+``holes._fill_guide``).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from vergence.camera import Camera
 from vergence.synthesis.blend import _blend, baseline_weights
 from vergence.synthesis.controls import ParallaxPlan, plan_parallax, views_offsets
 from vergence.synthesis.filters import _check_radius, _median_refine, contour_mask, dilate_foreground, smooth_depth
-from vergence.synthesis.holes import FILL_METHODS, _fill_holes, fill_disparity
+from vergence.synthesis.holes import FILL_METHODS, _fill_guide, _fill_holes, fill_disparity
 from vergence.synthesis.warp import (
     WarpResult,
     _as_hwc,
@@ -133,12 +134,15 @@ def _check_options(gradient_limit: float, edge_dilation: int, fill: str) -> tupl
     return limit, r
 
 
-def _prepare_disparity(d: np.ndarray, radius: int, threshold: float) -> np.ndarray:
-    """Unknown values from the background side, then the near side of edges grown."""
-    filled = fill_disparity(d)
-    if radius:
-        filled = dilate_foreground(filled, radius=radius, threshold=threshold)
-    return np.ascontiguousarray(filled, dtype=np.float32)
+def _prepare_disparity(d: np.ndarray, radius: int, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unknown values from the background side, then the near side of edges grown.
+
+    Returns the warping disparity and the filled, undilated one (the same array without dilation).
+    """
+    filled = np.ascontiguousarray(fill_disparity(d), dtype=np.float32)
+    if not radius:
+        return filled, filled
+    return np.ascontiguousarray(dilate_foreground(filled, radius=radius, threshold=threshold), dtype=np.float32), filled
 
 
 def _warp_reference(
@@ -233,8 +237,9 @@ def interpolate_view(
     tol = check_positive("depth_tolerance", depth_tolerance)
     contour = _check_radius("contour_width", contour_width)
     images, disparities, reliable = [], [], []
+    nc = lft.shape[2] if lft.ndim == 3 else 1
     for img, d, scale in ((lft, dl, t), (rgt, dr, -(1.0 - t))):
-        prepared = _prepare_disparity(d, radius, limit)
+        prepared, original = _prepare_disparity(d, radius, limit)
         hwc = _as_hwc(img)
         if contour:
             # The reliability travels with the colours as one more channel (1 = reliable); a target
@@ -242,12 +247,18 @@ def interpolate_view(
             band = contour_mask(prepared, width=contour, threshold=limit, side="far")
             hwc = np.concatenate([hwc, (~band)[:, :, None].astype(np.float32)], axis=2)
         warped = _warp_reference(hwc, prepared, scale, limit, median)
-        images.append(warped.image[:, :, : lft.shape[2] if lft.ndim == 3 else 1])
+        colours = warped.image[:, :, :nc]
+        if radius:  # the fill guide travels through the blending as one more channel (0, not NaN, in holes)
+            guide = np.nan_to_num(_fill_guide(warped.disparity, prepared, original, scale, limit), nan=0.0)
+            colours = np.concatenate([colours, guide[:, :, None]], axis=2)
+        images.append(colours)
         disparities.append(warped.disparity)
         reliable.append(warped.image[:, :, -1] >= _RELIABLE if contour else None)
     weights = baseline_weights([0.0, 1.0], t)
     blended = _blend(images, disparities, weights, reliable if contour else None, tol)
-    image, disparity = _fill(blended.image, blended.disparity, blended.holes, fill)
+    disparity = fill_disparity(blended.disparity)  # NaN in the holes: the background rule of the fill
+    guide = blended.image[:, :, nc] if radius else blended.disparity
+    image, _ = _fill(blended.image[:, :, :nc], guide, blended.holes, fill)
     return ViewResult(image=_like(image, lft), disparity=disparity, holes=blended.holes)
 
 
@@ -311,11 +322,11 @@ def _render(
     fill: str,
     template: np.ndarray,
 ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
-    prepared = _prepare_disparity(d, radius, limit)
+    prepared, original = _prepare_disparity(d, radius, limit)
     views, holes = [], []
     for o in offsets:
         out, zbuf, hole = _forward_warp_unchecked(img_hwc, prepared, o, limit)
-        filled, _ = _fill(out, zbuf, hole, fill)
+        filled, _ = _fill(out, _fill_guide(zbuf, prepared, original, o, limit), hole, fill)
         views.append(_like(filled, template))
         holes.append(hole)
     return tuple(views), tuple(holes)
@@ -427,8 +438,9 @@ def synthesize_view(
     When the cameras form a rectified pair (same rotation and intrinsics up to the principal
     point's x, centres on the camera x axis, one size) the disparity ``d = f b / Z + cx_s - cx_t``
     goes through the rectified pipeline (gap/hole rule, contour handling, median refinement);
-    otherwise the 3D z-buffer warp with median refinement (:func:`~vergence.synthesis.warp_to_camera`).
-    Holes are then filled from the background side.
+    otherwise the 3D mesh warp with z-buffer and median refinement
+    (:func:`~vergence.synthesis.warp_to_camera`), which has no cracks where the target magnifies
+    the surface. Holes are then filled from the background side.
 
     Parameters
     ----------
@@ -438,7 +450,8 @@ def synthesize_view(
         Source camera-frame z in metres, > 0 where known, NaN = unknown.
     source, target : Camera
     gradient_limit, edge_dilation, fill
-        As in :func:`interpolate_view` (the first two apply to the rectified path).
+        As in :func:`interpolate_view`; ``gradient_limit`` also links the 3D mesh (pixels),
+        ``edge_dilation`` applies to the rectified path.
 
     Returns
     -------
@@ -460,11 +473,13 @@ def synthesize_view(
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     d = _rectified_disparity(z, source, target)
     if d is not None:
-        prepared = _prepare_disparity(d, radius, limit)
+        prepared, original = _prepare_disparity(d, radius, limit)
         warped = _warp_reference(_as_hwc(img), prepared, 1.0, limit, True)
-        image_t, disparity = _fill(warped.image, warped.disparity, warped.holes, fill)
+        guide = _fill_guide(warped.disparity, prepared, original, 1.0, limit)
+        disparity = fill_disparity(warped.disparity)
+        image_t, _ = _fill(warped.image, guide, warped.holes, fill)
         return ViewResult(image=_like(image_t, img), disparity=disparity, holes=warped.holes)
-    warped = refine_camera_warp(warp_to_camera(img, z, source, target), img, z, source, target)
+    warped = refine_camera_warp(warp_to_camera(img, z, source, target, gradient_limit=limit), img, z, source, target)
     # Hole filling wants "larger = nearer": use inverse depth, then report depth.
     inv = np.where(warped.holes, np.nan, 1.0 / warped.depth)
     image_t, inv_filled = _fill(_as_hwc(warped.image), inv, warped.holes, fill)

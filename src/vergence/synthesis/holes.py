@@ -8,9 +8,9 @@ hole only: the farther of the two pixels bounding it on its row.
 - ``"mirror"``: mirror the background scanline into the hole, which keeps its texture (S1: gives
   noticeably better results than spreading), falling back to repetition where the mirrored pixel
   is not background.
-- ``"inpaint"``: OpenCV's Telea inpainting after the foreground next to the hole has been replaced
-  by background, so the inpainting only propagates background; the disparity is filled from the
-  background side.
+- ``"inpaint"``: OpenCV's Telea inpainting after the foreground around the hole (beside, above or
+  below it) has been replaced by the nearest background, so the inpainting only propagates
+  background; the disparity is filled from the background side.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ __all__ = ["FILL_METHODS", "fill_disparity", "fill_holes"]
 FILL_METHODS = ("background", "inpaint", "mirror")
 
 # Inpainting: Telea's neighbourhood radius (pixels), and the band around each hole (pixels, wider
-# than that radius) in which foreground is replaced by background before inpainting.
+# than that radius, so Telea never reads past it) in which foreground is replaced by background.
 _INPAINT_RADIUS_PX = 3
 _INPAINT_GUARD_PX = _INPAINT_RADIUS_PX + 1
 
@@ -142,6 +142,31 @@ def fill_holes(
     return _like(out, img), out_d
 
 
+def _fill_guide(
+    warped_disparity: np.ndarray, prepared: np.ndarray, original: np.ndarray, scale: float, limit: float
+) -> np.ndarray:
+    """The disparity that steers hole filling: the original (undilated) one, carried to the view.
+
+    Edge dilation gives the background pixels along a depth edge the foreground's disparity, so a
+    hole can be bounded by such a pixel: judged by that disparity, a true foreground on the other
+    side can look farther (and be repeated into the hole), mirroring about it copies the
+    foreground behind it, and inpainting takes the foreground above or below the hole for
+    background. Each view pixel therefore looks up the original disparity of the source pixel it
+    came from (``x + scale d``). A pixel whose warped disparity exceeds that by more than
+    ``limit`` moved with the foreground and its colour mixes the two (interpolated with its
+    foreground neighbour): it counts halfway between them, so a true background pixel on the
+    other side of a hole wins over it (on Dolls: 37.11 dB, against 36.95 without the halfway rule
+    and 37.06 with no guide).
+    """
+    if prepared is original:
+        return warped_disparity
+    out = np.empty(warped_disparity.shape, dtype=np.float32)
+    _kernels.fill_guide_rows(
+        np.ascontiguousarray(warped_disparity, dtype=np.float32), original, float(scale), np.float32(limit), out
+    )
+    return out
+
+
 def _fill_holes(img: np.ndarray, d: np.ndarray, holes: np.ndarray, method: str) -> tuple[np.ndarray, np.ndarray]:
     """Unchecked body of :func:`fill_holes`, in place on ``(H, W, C)`` float32 ``img`` and ``d``
     (their values in the holes are ignored); returns them."""
@@ -157,28 +182,43 @@ def _fill_holes(img: np.ndarray, d: np.ndarray, holes: np.ndarray, method: str) 
 def _inpaint_background(img: np.ndarray, filled_d: np.ndarray, holes: np.ndarray) -> np.ndarray:
     """Telea inpainting of ``holes`` that only ever sees background colours.
 
-    Foreground pixels near a hole (within the guard band, nearer than the background disparity of
-    the closest hole pixel by more than one pixel) are first replaced by the background-directed
-    scanline fill; the guard band is wider than Telea's radius, so the inpainting of the holes
-    only draws on background (real, or spread from the background side). Only hole pixels change.
+    ``img`` holds the scanline (background-directed) fill in the holes and ``filled_d`` their
+    background disparity. Telea fills a pixel from the pixels within its radius, so the inpainting
+    reads only the holes and a band around them a pixel wider than that radius. Two precautions:
+
+    - a hole pixel with a farther hole pixel within that band belongs to a nearer layer (e.g. a
+      gap inside an overhanging object above a disocclusion): it keeps its scanline fill and
+      counts as known, so the farther hole is not inpainted from it;
+    - within the band, every known pixel nearer than the background disparity of the closest
+      inpainted hole pixel by more than one pixel (foreground beside, above or below the hole)
+      first takes the colour of the nearest pixel that is not: the band then holds background
+      only, whatever the shape of the foreground.
+
+    Only the inpainted hole pixels change.
     """
     if not holes.any():
         return img.copy()
-    guard = ndimage.binary_dilation(holes, iterations=_INPAINT_GUARD_PX) & ~holes
-    # Background disparity of the nearest hole pixel.
-    idx = ndimage.distance_transform_edt(~holes, return_distances=False, return_indices=True)
+    size = 2 * _INPAINT_GUARD_PX + 1
+    with np.errstate(invalid="ignore"):
+        hole_d = np.where(holes & ~np.isnan(filled_d), filled_d, np.inf)
+        upper = holes & (filled_d > ndimage.minimum_filter(hole_d, size=size, mode="nearest") + 1.0)
+    paint = holes & ~upper
+    # Background disparity of the nearest inpainted hole pixel, for every pixel.
+    idx = ndimage.distance_transform_edt(~paint, return_distances=False, return_indices=True)
     bg = filled_d[idx[0], idx[1]]
     with np.errstate(invalid="ignore"):
-        foreground = np.ascontiguousarray(guard & (filled_d > bg + 1.0))
-    masked = np.ascontiguousarray(holes | foreground)
+        near = ~paint & (filled_d > bg + 1.0)
+    guard = ndimage.binary_dilation(paint, iterations=_INPAINT_GUARD_PX) & near
     source = img.copy()
-    source_d = np.ascontiguousarray(np.where(masked, 0.0, filled_d), dtype=np.float32)
-    _kernels.fill_holes_rows(source, source_d, masked, False, source, source_d)
+    background = ~paint & ~near
+    if guard.any() and background.any():
+        src = ndimage.distance_transform_edt(~background, return_distances=False, return_indices=True)
+        source[guard] = img[src[0][guard], src[1][guard]]
     # Telea on 16-bit channels: its float variant extrapolates gradients beyond [0, 1].
     u16 = np.rint(np.clip(source, 0.0, 1.0) * 65535.0).astype(np.uint16)
-    mask = holes.astype(np.uint8)
+    mask = paint.astype(np.uint8)
     result = img.copy()
     for c in range(img.shape[2]):
         painted = cv2.inpaint(np.ascontiguousarray(u16[:, :, c]), mask, _INPAINT_RADIUS_PX, cv2.INPAINT_TELEA)
-        result[:, :, c][holes] = painted[holes] / np.float32(65535.0)
+        result[:, :, c][paint] = painted[paint] / np.float32(65535.0)
     return result

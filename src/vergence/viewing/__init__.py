@@ -44,18 +44,18 @@ from vergence.viewing.mapping import (
 )
 
 __all__ = [
+    "BlendedMapping",
     "CARDBOARD_ROUNDNESS",
     "CONTROL_EFFECTS",
-    "DISPLAY_PRESETS",
-    "BlendedMapping",
     "ComfortReport",
     "ComfortZone",
     "ConstrainedMapping",
+    "DISPLAY_PRESETS",
     "DepthBudget",
     "DepthSample",
     "DirectorConstraint",
-    "Display",
     "DisparityMapping",
+    "Display",
     "LinearMapping",
     "LogMapping",
     "PiecewiseMapping",
