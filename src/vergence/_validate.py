@@ -22,6 +22,7 @@ __all__ = [
     "check_positive",
     "check_positive_int",
     "check_same_hw",
+    "readonly_copy",
 ]
 
 
@@ -126,3 +127,10 @@ def check_same_hw(name: str, array: np.ndarray, ref_name: str, ref: np.ndarray) 
             f"{name} must have shape (H, W) matching {ref_name} {tuple(ref.shape[:2])}; "
             f"got {tuple(array.shape[:2])}"
         )
+
+
+def readonly_copy(array: object) -> np.ndarray:
+    """A float64 copy of ``array`` that cannot be written to (for fields of frozen dataclasses)."""
+    out = np.array(array, dtype=np.float64, copy=True)
+    out.flags.writeable = False
+    return out

@@ -14,19 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from vergence._validate import as_float_array, check_finite, check_in_range, check_positive_int
+from vergence._validate import as_float_array, check_finite, check_in_range, check_positive_int, readonly_copy
 
 __all__ = ["Camera", "interpolate", "look_at"]
 
 # A rotation matrix must satisfy R R^T = I and det R = 1 to this absolute tolerance: loose enough
 # for matrices read from 6-digit text files (Middlebury, Bundler), tight enough to reject scaling.
 _ROTATION_TOL = 1e-4
-
-
-def _readonly(arr: np.ndarray) -> np.ndarray:
-    arr = np.array(arr, dtype=np.float64, copy=True)
-    arr.flags.writeable = False
-    return arr
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -76,9 +70,9 @@ class Camera:
             raise ValueError(f"K must be upper triangular with last row (0, 0, 1); got {K.tolist()}")
         if not np.allclose(R @ R.T, np.eye(3), atol=_ROTATION_TOL) or abs(np.linalg.det(R) - 1.0) > _ROTATION_TOL:
             raise ValueError(f"R must be a rotation (orthonormal, det +1); got det {np.linalg.det(R):.6g}")
-        object.__setattr__(self, "K", _readonly(K))
-        object.__setattr__(self, "R", _readonly(R))
-        object.__setattr__(self, "t", _readonly(t))
+        object.__setattr__(self, "K", readonly_copy(K))
+        object.__setattr__(self, "R", readonly_copy(R))
+        object.__setattr__(self, "t", readonly_copy(t))
         object.__setattr__(self, "width", width)
         object.__setattr__(self, "height", height)
 

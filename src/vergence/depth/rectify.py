@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array, as_image, check_in_range, check_positive
+from vergence._validate import as_float_array, as_image, check_in_range, check_positive, readonly_copy
 from vergence.camera import Camera
 
 __all__ = ["Rectification", "RectifiedPair", "RowAlignment", "measure_row_alignment", "rectify_cameras", "rectify_pair"]
@@ -27,12 +27,6 @@ _EDGE_SAMPLES = 64
 # The baseline must exceed this fraction of the larger distance of the centres from the world
 # origin (plus 1e-12 absolute): below it, the two centres are the same point to double precision.
 _MIN_BASELINE_REL = 1e-9
-
-
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=np.float64, copy=True)
-    a.flags.writeable = False
-    return a
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -56,8 +50,8 @@ class Rectification:
     baseline: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "left_homography", _readonly(self.left_homography))
-        object.__setattr__(self, "right_homography", _readonly(self.right_homography))
+        object.__setattr__(self, "left_homography", readonly_copy(self.left_homography))
+        object.__setattr__(self, "right_homography", readonly_copy(self.right_homography))
 
     @property
     def focal_px(self) -> float:
@@ -100,7 +94,7 @@ class RowAlignment:
     abs_dy_px: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "abs_dy_px", _readonly(np.ravel(self.abs_dy_px)))
+        object.__setattr__(self, "abs_dy_px", readonly_copy(np.ravel(self.abs_dy_px)))
 
     @property
     def matches(self) -> int:
