@@ -10,10 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
+from scipy import ndimage
 from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
 from vergence.metrics import (
     FLAT_VARIANCE,
+    MIN_CONTRAST,
     TIE_TOLERANCE,
     RegistrationError,
     dssim,
@@ -131,8 +133,14 @@ def test_ssim_win_size_validation():
 # --- registration error: slow reference --------------------------------------------------------
 
 
-def reference_registration_distance(image, reference, *, radius, patch_size, similarity="zncc", threshold=None):
-    """Obviously-correct loops over pixels and candidates (S1 Eq. 11); same rules as the kernel."""
+def reference_registration_distance(
+    image, reference, *, radius, patch_size, similarity="zncc", threshold=None, min_contrast=MIN_CONTRAST
+):
+    """Obviously-correct loops over pixels and candidates (S1 Eq. 11); same rules as the kernel.
+
+    A pixel whose patch in ``image`` has an RMS deviation about its channel means (pooled over the
+    channels) below ``min_contrast`` is NaN; ``min_contrast=0`` is the plain Eq. (11).
+    """
     a = np.asarray(image, np.float64)
     b = np.asarray(reference, np.float64)
     a = a[:, :, None] if a.ndim == 2 else a
@@ -153,6 +161,9 @@ def reference_registration_distance(image, reference, *, radius, patch_size, sim
     for y in range(height):
         for x in range(width):
             pa = a_pad[y : y + patch_size, x : x + patch_size]
+            if math.sqrt(float(((pa - pa.mean(axis=(0, 1))) ** 2).mean())) < min_contrast:
+                out[y, x] = math.nan
+                continue
             best, best_d = -math.inf, 0.0
             for dist, dy, dx in candidates:
                 yb, xb = y + dy, x + dx
@@ -201,6 +212,19 @@ def _pair_with_varied_shifts(shape, seed):
     return image.astype(np.float32), ref.astype(np.float32)
 
 
+def _flat_noisy_with_textured_block(shape, seed, *, shift=(0, 0), noise=1 / 255):
+    """Grey 0.5 with a textured block in its middle third; the image is the reference with the
+    block's content shifted by ``shift`` (rows, columns); independent noise of ``noise`` RMS on each."""
+    rng = np.random.default_rng(seed)
+    clean = np.full(shape, 0.5)
+    tex = ndimage.gaussian_filter(rng.random(shape), 1.0)
+    block = (slice(shape[0] // 3, 2 * shape[0] // 3), slice(shape[1] // 3, 2 * shape[1] // 3))
+    clean[block] = 0.2 + 0.6 * (tex[block] - tex.min()) / np.ptp(tex)
+    ref = clean + noise * rng.standard_normal(shape)
+    image = np.roll(clean, shift, axis=(0, 1)) + noise * rng.standard_normal(shape)
+    return np.clip(image, 0, 1).astype(np.float32), np.clip(ref, 0, 1).astype(np.float32)
+
+
 @pytest.mark.parametrize(
     ("shape", "similarity", "threshold", "radius", "patch_size"),
     [
@@ -222,6 +246,20 @@ def test_kernel_matches_slow_reference(shape, similarity, threshold, radius, pat
     assert len(np.unique(slow)) >= 4  # the case exercises several distances, not one constant
 
 
+@pytest.mark.parametrize(("similarity", "min_contrast"), [("zncc", 0.0), ("zncc", 0.02), ("ssd", 0.02)])
+def test_kernel_matches_slow_reference_with_contrast_gate(similarity, min_contrast):
+    image, ref = _flat_noisy_with_textured_block((15, 18), 15, shift=(1, -1))
+    fast = registration_error(image, ref, radius=3, patch_size=3, similarity=similarity, min_contrast=min_contrast)
+    slow = reference_registration_distance(
+        image, ref, radius=3, patch_size=3, similarity=similarity, min_contrast=min_contrast
+    )
+    assert_array_equal(fast.distance, slow)  # NaN at the same pixels
+    skipped = np.isnan(slow).sum()
+    assert (skipped == 0) if min_contrast == 0 else (0 < skipped < slow.size)
+    assert fast.evaluated == slow.size - skipped
+    assert fast.evaluated_fraction == pytest.approx(fast.evaluated / slow.size, abs=FLOAT64_TOL)
+
+
 @settings(max_examples=10, deadline=None)
 @given(st.integers(0, 2**31), st.integers(-2, 2), st.integers(-2, 2))
 def test_kernel_matches_reference_property(seed, dy, dx):
@@ -239,11 +277,60 @@ def test_spec_example_two_one_misregistration_gives_sqrt5():
 
 
 def test_identical_images_give_zero():
-    for image in (_noise((15, 14, 3), 8), np.full((9, 9), 0.3, np.float32), np.zeros((9, 9))):
-        result = registration_error(image, image, radius=3)
+    # flat images have nothing above the default contrast: they need min_contrast=0
+    for image, min_contrast in (
+        (_noise((15, 14, 3), 8), MIN_CONTRAST),
+        (np.full((9, 9), 0.3, np.float32), 0.0),
+        (np.zeros((9, 9)), 0.0),
+    ):
+        result = registration_error(image, image, radius=3, min_contrast=min_contrast)
         assert_array_equal(result.distance, 0.0)
         assert result.rms == 0.0 and result.median == 0.0 and result.hausdorff == 0.0
         assert dict(result.ranked) == {0.8: 0.0, 0.95: 0.0, 1.0: 0.0}
+        assert result.evaluated == image.shape[0] * image.shape[1] and result.evaluated_fraction == 1.0
+
+
+def test_flat_noisy_region_no_longer_saturates_but_misregistration_is_measured():
+    # A (2, 1)-px misregistration of a textured block on a flat grey with independent 1/255 noise.
+    image, ref = _flat_noisy_with_textured_block((36, 48), 21, shift=(1, 2))
+    plain = registration_error(image, ref, min_contrast=0.0)
+    # flat and noisy: the ZNCC of two noise patches is random, mostly < 0.8, so d = r there
+    assert plain.median == 10.0 and plain.ranked[0.8] == 10.0 and plain.ranked[0.95] == 10.0
+    gated = registration_error(image, ref)  # default MIN_CONTRAST = 3/255, the noise is 1/255
+    assert np.isnan(gated.distance[:8]).all()  # the flat band above the block is not evaluated
+    assert_allclose(gated.distance[14:22, 18:30], math.sqrt(5), rtol=0, atol=FLOAT64_TOL)  # block interior
+    assert gated.median == pytest.approx(math.sqrt(5), abs=FLOAT64_TOL)
+    assert gated.ranked[0.95] == pytest.approx(math.sqrt(5), abs=FLOAT64_TOL)
+    assert 0.1 < gated.evaluated_fraction < 0.4  # the block (1/9 of the image) and its edges
+
+
+def test_min_contrast_zero_is_the_plain_eq11_on_every_pixel():
+    image, ref = _flat_noisy_with_textured_block((15, 18), 16, shift=(0, 1))
+    result = registration_error(image, ref, radius=3, patch_size=3, min_contrast=0)
+    assert not np.isnan(result.distance).any() and result.evaluated == 15 * 18
+    d = np.sort(result.distance.ravel())
+    assert result.rms == pytest.approx(math.sqrt(np.mean(d**2)), abs=FLOAT64_TOL)
+    assert result.median == np.median(d) and result.ranked[0.8] == d[math.ceil(0.8 * d.size) - 1]
+
+
+def test_summaries_skip_unevaluated_pixels():
+    image, ref = _flat_noisy_with_textured_block((15, 18), 17, shift=(1, 0))
+    result = registration_error(image, ref, radius=3, patch_size=3, min_contrast=0.02, ranks=(0.5, 1.0))
+    d = np.sort(result.distance[~np.isnan(result.distance)])
+    assert 0 < d.size < result.distance.size
+    assert result.rms == pytest.approx(math.sqrt(np.mean(d**2)), abs=FLOAT64_TOL)
+    assert result.median == np.median(d)
+    assert result.ranked[0.5] == d[math.ceil(0.5 * d.size) - 1]
+    assert result.ranked[1.0] == d[-1] == result.hausdorff
+
+
+def test_no_pixel_above_min_contrast_is_an_error():
+    flat = np.full((9, 9), 0.25)
+    with pytest.raises(ValueError, match=r"min_contrast must be at most the largest patch contrast of image \(0\)"):
+        registration_error(flat, flat)
+    ramp = np.tile(np.linspace(0.0, 1.0, 9), (9, 1))  # 3 x 3 patches: contrast (1/8) sqrt(2/3) inside
+    with pytest.raises(ValueError, match=r"contrast of image \(0\.102\) to leave a pixel; got 0\.2"):
+        registration_error(ramp, ramp, patch_size=3, min_contrast=0.2)
 
 
 def test_unrelated_images_fall_below_the_threshold():
@@ -258,7 +345,7 @@ def test_flat_patches_score_one_together_and_zero_against_texture():
     flat = np.full((9, 9), 0.5, np.float32)
     textured = flat.copy()
     textured[:, 6:] = _noise((9, 3), 11)  # texture in columns 6..8 only
-    result = registration_error(flat, textured, radius=4, patch_size=3)
+    result = registration_error(flat, textured, radius=4, patch_size=3, min_contrast=0)
     assert_array_equal(result.distance[:, :4], 0.0)  # flat patch, flat candidate at p itself
     # column 4's patch (columns 3..5) is flat; its own candidate patch (3..5) too: distance 0
     assert_array_equal(result.distance[:, 4], 0.0)
@@ -288,9 +375,11 @@ def test_result_is_frozen_and_read_only():
     with pytest.raises(TypeError):
         result.ranked[0.5] = 1.0
     assert result.radius == 2.0 and result.patch_size == 3 and result.similarity == "zncc"
-    assert result.threshold == 0.8
-    with pytest.raises(ValueError, match="distance must be finite and >= 0"):
-        RegistrationError(np.full((2, 2), -1.0), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8)
+    assert result.threshold == 0.8 and result.min_contrast == MIN_CONTRAST
+    with pytest.raises(ValueError, match="distance must be finite and >= 0 where evaluated"):
+        RegistrationError(np.full((2, 2), -1.0), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
+    with pytest.raises(ValueError, match="distance must hold at least one evaluated"):
+        RegistrationError(np.full((2, 2), np.nan), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
 
 
 @pytest.mark.parametrize(
@@ -309,6 +398,9 @@ def test_result_is_frozen_and_read_only():
         ({"ranks": (1.2,)}, ValueError, r"ranks must lie in \[0, 1\]; got 1.2"),
         ({"ranks": ()}, TypeError, "ranks must be a non-empty sequence"),
         ({"ranks": 0.5}, TypeError, "ranks must be a non-empty sequence"),
+        ({"min_contrast": -0.01}, ValueError, r"min_contrast must lie in \[0, 0.5\]; got -0.01"),
+        ({"min_contrast": 0.6}, ValueError, r"min_contrast must lie in \[0, 0.5\]; got 0.6"),
+        ({"min_contrast": math.nan}, ValueError, "min_contrast must be finite"),
     ],
 )
 def test_registration_error_bad_parameters(kwargs, error, message):

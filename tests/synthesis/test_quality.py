@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from vergence.metrics import MIN_CONTRAST
 from vergence.synthesis import assess_view
 
 
@@ -17,6 +18,8 @@ def test_identical_views():
     assert q.psnr_db == math.inf and q.ssim == 1.0 and q.dssim == 0.0
     assert q.registration_rms_px == 0.0 and q.registration_ranked_px[1.0] == 0.0
     assert q.to_dict()["psnr_db"] == "inf" and q.pixels == 400
+    assert q.registration_pixels == 400 and q.registration_min_contrast == MIN_CONTRAST
+    assert q.to_dict()["registration_fraction"] == 1.0
 
 
 def test_misregistered_view_has_registration_error_sqrt5():
@@ -28,6 +31,29 @@ def test_misregistered_view_has_registration_error_sqrt5():
     q = assess_view(syn, ref, mask=mask)
     assert q.registration_median_px == pytest.approx(math.sqrt(5))
     assert q.pixels == 24 * 24
+
+
+def test_registration_skips_flat_noisy_pixels():
+    # Left half textured and shifted by (2, 1) px; right half flat grey with independent 1/255 noise.
+    rng = np.random.default_rng(3)
+    clean = np.full((40, 60), 0.5)
+    clean[:, :30] = ndimage.gaussian_filter(rng.random((40, 30)), 1.0)
+    ref = clean + rng.normal(0, 1 / 255, clean.shape)
+    syn = np.roll(clean, (1, 2), axis=(0, 1)) + rng.normal(0, 1 / 255, clean.shape)
+    syn, ref = np.clip(syn, 0, 1), np.clip(ref, 0, 1)
+    mask = np.zeros((40, 60), bool)
+    mask[8:-8, 8:-8] = True  # 24 x 44 pixels, columns 8..51
+    plain = assess_view(syn, ref, mask=mask, min_contrast=0)
+    assert plain.registration_pixels == plain.pixels == 24 * 44
+    assert plain.registration_ranked_px[0.8] == 10.0  # noise matches noise at random: d = r
+    q = assess_view(syn, ref, mask=mask)
+    # syn's texture spans columns 2..31 after the shift; 5x5 patches centred up to column 33 reach it
+    assert q.pixels == 24 * 44 and q.registration_pixels == 24 * (33 - 8 + 1)
+    assert q.registration_ranked_px[0.95] == pytest.approx(math.sqrt(5))
+    with pytest.raises(ValueError, match="min_contrast must leave at least one pixel inside mask to evaluate"):
+        flat_mask = np.zeros((40, 60), bool)
+        flat_mask[:, 40:] = True
+        assess_view(syn, ref, mask=flat_mask)
 
 
 def test_mask_restricts_psnr():

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.io import read_image, write_image
+from vergence.metrics import MIN_CONTRAST
 from vergence.synthesis import assess_view
 
 __all__ = ["compare"]
@@ -30,6 +31,11 @@ def compare(
     reference: Path = typer.Argument(..., help="The reference (the real view)."),
     mask: Path | None = typer.Option(None, "--mask", help="Grey mask: compare where it is above one half."),
     radius: float = typer.Option(10.0, "--radius", help="Registration-error search radius (px)."),
+    min_contrast: float = typer.Option(
+        MIN_CONTRAST, "--min-contrast",
+        help="Registration error only where the image's 5x5 patch contrast (RMS, [0, 1] units) is at least "
+        "this; 0: every pixel.",
+    ),
     error_image: Path | None = typer.Option(
         None, "--error-image", help="Write |image - reference| (channel mean) times --error-gain here."
     ),
@@ -44,7 +50,7 @@ def compare(
     with err_console.status("comparing", spinner="dots"):
         a, b = read_image(image), read_image(reference)
         m = _mask(mask) if mask is not None else None
-        quality = assess_view(a, b, mask=m, radius=radius)
+        quality = assess_view(a, b, mask=m, radius=radius, min_contrast=min_contrast)
     if error_image is not None:
         if a.shape != b.shape:  # assess_view has checked; keeps the error image honest if it changes
             raise ValueError(f"reference must have the shape of image {a.shape}; got {b.shape}")
@@ -66,6 +72,10 @@ def compare(
     for k, v in quality.registration_ranked_px.items():
         table.add_row(f"registration d^{k:g} (px)" + (" = Hausdorff" if k == 1.0 else ""), f"{v:.3f}")
     table.add_row("pixels", str(quality.pixels))
+    table.add_row(
+        f"registration pixels (contrast >= {quality.registration_min_contrast:.4g})",
+        f"{quality.registration_pixels} ({100.0 * quality.registration_pixels / quality.pixels:.1f} %)",
+    )
     console.print(table)
     if error_image is not None:
         console.print(f"error image written to {error_image}")

@@ -2,8 +2,8 @@
 
 One call gathers what S1 and the view-synthesis literature report: PSNR, SSIM and DSSIM, and the
 registration error of S1 Eq. (11)-(13) with its generalised Hausdorff distances, all over an
-optional mask (e.g. the pixels a method did not have to invent). The metrics themselves live in
-:mod:`vergence.metrics`.
+optional mask (e.g. the pixels a method did not have to invent); the registration error only where
+the view has enough contrast to be registered. The metrics themselves live in :mod:`vergence.metrics`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence.metrics import dssim, psnr, registration_error, ssim
+from vergence.metrics import MIN_CONTRAST, dssim, psnr, registration_error, ssim
 
 __all__ = ["ViewQuality", "assess_view"]
 
@@ -31,13 +31,20 @@ class ViewQuality:
     ssim, dssim : float
         Mean SSIM and ``(1 - SSIM) / 2``.
     registration_rms_px, registration_median_px : float
-        RMS and median of the registration error ``d(p, I')`` (S1 Eq. 11), pixels.
+        RMS and median of the registration error ``d(p, I')`` (S1 Eq. 11) over the
+        ``registration_pixels`` evaluated pixels, pixels.
     registration_ranked_px : dict of float to float
-        ``k -> d^k(I, I')`` (Eq. 13) for k in 0.5, 0.8, 0.95 and 1 (the Hausdorff distance, Eq. 12).
+        ``k -> d^k(I, I')`` (Eq. 13) for k in 0.5, 0.8, 0.95 and 1 (the Hausdorff distance, Eq. 12),
+        over the evaluated pixels.
     registration_radius_px : float
         Search radius of the registration error (its largest possible value).
     pixels : int
-        Number of pixels compared.
+        Number of pixels compared (the mask's, or all).
+    registration_pixels : int
+        Number of those pixels where the registration error was evaluated: the view's patch
+        contrast is at least ``registration_min_contrast`` (1 to ``pixels``).
+    registration_min_contrast : float
+        The contrast threshold, [0, 1] intensity units (0: every pixel).
     """
 
     psnr_db: float
@@ -48,10 +55,14 @@ class ViewQuality:
     registration_ranked_px: dict
     registration_radius_px: float
     pixels: int
+    registration_pixels: int
+    registration_min_contrast: float
 
     def __post_init__(self) -> None:
         if self.pixels < 1:
             raise ValueError(f"pixels must be >= 1; got {self.pixels}")
+        if not 1 <= self.registration_pixels <= self.pixels:
+            raise ValueError(f"registration_pixels must lie in [1, pixels {self.pixels}]; got {self.registration_pixels}")
         if not 0.0 <= self.registration_median_px <= self.registration_radius_px:
             raise ValueError(
                 f"registration_median_px must lie in [0, radius {self.registration_radius_px:g}]; "
@@ -69,10 +80,20 @@ class ViewQuality:
             "registration_ranked_px": {f"{k:g}": v for k, v in self.registration_ranked_px.items()},
             "registration_radius_px": self.registration_radius_px,
             "pixels": self.pixels,
+            "registration_pixels": self.registration_pixels,
+            "registration_fraction": self.registration_pixels / self.pixels,
+            "registration_min_contrast": self.registration_min_contrast,
         }
 
 
-def assess_view(image: object, reference: object, *, mask: object = None, radius: float = 10.0) -> ViewQuality:
+def assess_view(
+    image: object,
+    reference: object,
+    *,
+    mask: object = None,
+    radius: float = 10.0,
+    min_contrast: float = MIN_CONTRAST,
+) -> ViewQuality:
     """PSNR, SSIM, DSSIM and the registration error of ``image`` against ``reference``.
 
     Parameters
@@ -83,6 +104,10 @@ def assess_view(image: object, reference: object, *, mask: object = None, radius
         Compare these pixels only (at least one).
     radius : float
         Search radius of the registration error, pixels (S1 Eq. 11; SPEC §6.5 suggests 10).
+    min_contrast : float
+        The registration error is evaluated only where the 5x5 patch of ``image`` has an RMS
+        contrast of at least this ([0, 1] units; default 3/255, see
+        :func:`vergence.metrics.registration_error`); 0 evaluates every pixel.
 
     Returns
     -------
@@ -91,28 +116,34 @@ def assess_view(image: object, reference: object, *, mask: object = None, radius
     Raises
     ------
     ValueError, TypeError
-        As the metrics in :mod:`vergence.metrics` (shapes, ranges, masks).
+        As the metrics in :mod:`vergence.metrics` (shapes, ranges, masks); also when no pixel
+        (inside the mask) reaches ``min_contrast``.
 
     Notes
     -----
     S1 §V.B.2: the registration error ``d(p, I') = |p - p*|`` with ``p*`` the most similar pixel of
     the reference within ``radius`` (Eq. 11), its maximum (Hausdorff, Eq. 12) and its k-th ranked
-    values (Eq. 13), here ZNCC of 5x5 patches (SPEC §6.5).
+    values (Eq. 13), here ZNCC of 5x5 patches (SPEC §6.5), over the pixels with enough contrast
+    (in flat areas the matched pixel is arbitrary and the distance would measure noise).
 
     Examples
     --------
     >>> import numpy as np
     >>> ref = np.random.default_rng(0).random((16, 16))
     >>> q = assess_view(ref, ref)
-    >>> q.psnr_db, q.ssim, q.registration_rms_px
-    (inf, 1.0, 0.0)
+    >>> q.psnr_db, q.ssim, q.registration_rms_px, q.registration_pixels
+    (inf, 1.0, 0.0, 256)
     """
     p = psnr(image, reference, mask=mask)
     s = ssim(image, reference, mask=mask)
     ds = dssim(image, reference, mask=mask)
-    reg = registration_error(image, reference, radius=radius)
+    reg = registration_error(image, reference, radius=radius, min_contrast=min_contrast)
     dist = reg.distance if mask is None else reg.distance[np.asarray(mask)]
-    flat = np.sort(dist.ravel())
+    flat = np.sort(dist[~np.isnan(dist)].ravel())  # the evaluated pixels
+    if flat.size == 0:
+        raise ValueError(
+            f"min_contrast must leave at least one pixel inside mask to evaluate; got {reg.min_contrast:g}"
+        )
     # Eq. (13), nearest rank; k = 1 is the Hausdorff distance of Eq. (12).
     ranked = {k: float(flat[max(math.ceil(k * flat.size), 1) - 1]) for k in _RANKS}
     return ViewQuality(
@@ -123,5 +154,7 @@ def assess_view(image: object, reference: object, *, mask: object = None, radius
         registration_median_px=float(np.median(flat)),
         registration_ranked_px=ranked,
         registration_radius_px=float(radius),
-        pixels=int(flat.size),
+        pixels=int(dist.size),
+        registration_pixels=int(flat.size),
+        registration_min_contrast=reg.min_contrast,
     )
