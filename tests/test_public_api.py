@@ -1,0 +1,71 @@
+"""Snapshot of the public API: removing or renaming a public name must be a deliberate change here.
+
+Also checks that every ``__all__`` is sorted and names something that exists.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+PUBLIC_API = {   'vergence': ['__version__'],
+    'vergence.camera': ['Camera', 'interpolate', 'look_at'],
+    'vergence.depth': [   'METHODS', 'Rectification', 'RectifiedPair', 'RefinedDisparity', 'RegionScore',
+                          'RowAlignment', 'compute_disparity', 'confidence_map', 'depth_from_disparity',
+                          'disparity_from_depth', 'evaluate_disparity', 'fill_occlusions', 'left_right_check',
+                          'mask_agreement', 'match_blocks', 'match_bm', 'match_sgbm', 'measure_row_alignment',
+                          'middlebury_regions', 'read_middlebury_masks', 'rectify_cameras', 'rectify_pair',
+                          'refine_disparity', 'remove_speckles', 'sgbm_parameters', 'smooth_wls',
+                          'unreliable_pixels', 'weighted_median_filter'],
+    'vergence.display': [   'anaglyph', 'checkerboard', 'interleave', 'side_by_side', 'tile_views',
+                            'top_bottom'],
+    'vergence.io': [   'CameraSet', 'atomic_write', 'read_bundler', 'read_cameras', 'read_cameras_json',
+                       'read_colmap', 'read_disparity', 'read_image', 'read_middlebury_par', 'read_pfm',
+                       'write_bundler', 'write_cameras_json', 'write_colmap', 'write_disparity',
+                       'write_image', 'write_json', 'write_middlebury_par', 'write_pfm'],
+    'vergence.metrics': ['MIN_CONTRAST', 'RegistrationError', 'dssim', 'psnr', 'registration_error', 'ssim'],
+    'vergence.render': [   'BUILTIN_SCENES', 'Checker', 'Diffuse', 'Environment', 'FisheyeCamera', 'Glass',
+                           'MAX_DEPTH', 'Mesh', 'Mirror', 'Rectangle', 'RenderResult', 'RenderSettings',
+                           'Scene', 'SceneCamera', 'Sphere', 'Stereo', 'StereoPreview', 'Texture',
+                           'auto_exposure', 'builtin_scene', 'contact_sheet', 'depth_preview', 'layer_names',
+                           'load_scene', 'open_scene', 'render', 'render_stereo', 'save_render',
+                           'scene_from_dict', 'schlick', 'select_variant', 'stereo_preview', 'tonemap'],
+    'vergence.report.html': ['Figure', 'Section', 'render_report', 'write_report'],
+    'vergence.rig': ['stereo_pair'],
+    'vergence.synthesis': [   'BlendResult', 'CameraWarpResult', 'DEPTH_KINDS', 'FILL_METHODS',
+                              'ParallaxPlan', 'StereoResult', 'ViewQuality', 'ViewResult', 'WARP_ORDERS',
+                              'WarpResult', 'assess_view', 'backward_warp', 'baseline_weights', 'blend_views',
+                              'contour_mask', 'dilate_foreground', 'epipole', 'fill_disparity', 'fill_holes',
+                              'forward_warp', 'interpolate_view', 'median_refine', 'nearness_from_depth',
+                              'plan_parallax', 'refine_camera_warp', 'smooth_depth', 'synthesize_stereo',
+                              'synthesize_view', 'synthesize_views', 'views_offsets', 'warp_to_camera'],
+    'vergence.viewing': [   'BlendedMapping', 'CARDBOARD_ROUNDNESS', 'CONTROL_EFFECTS', 'ComfortReport',
+                            'ComfortZone', 'ConstrainedMapping', 'DISPLAY_PRESETS', 'DepthBudget',
+                            'DepthSample', 'DirectorConstraint', 'DisparityMapping', 'Display',
+                            'LinearMapping', 'LogMapping', 'PiecewiseMapping', 'RationalHermiteMapping',
+                            'SaliencyMapping', 'Shooting', 'arcmin_from_pixels', 'check_disparity_range',
+                            'default_depths', 'depth_budget', 'disparity', 'divergence_baseline',
+                            'divergence_depth', 'focal_ratio', 'gradient_domain_mapping',
+                            'mapped_perceived_depth', 'mapped_roundness', 'perceived_depth',
+                            'perceived_depth_from_depth', 'pixels_from_arcmin', 'psi_from_constraints',
+                            'roundness', 'roundness_baseline', 'scene_depth_from_disparity',
+                            'shift_sensor_parallax', 'shift_sensor_positions', 'temporal_mapping']}
+
+
+@pytest.mark.parametrize("module", sorted(PUBLIC_API))
+def test_public_names_are_stable_sorted_and_exist(module):
+    mod = importlib.import_module(module)
+    assert list(mod.__all__) == sorted(mod.__all__), f"{module}.__all__ is not sorted"
+    assert sorted(mod.__all__) == PUBLIC_API[module]
+    missing = [name for name in mod.__all__ if not hasattr(mod, name)]
+    assert not missing
+
+
+def test_importing_vergence_does_not_import_heavy_engines():
+    import subprocess
+    import sys
+
+    code = "import sys, vergence, vergence.viewing, vergence.camera; print(' '.join(m for m in ('mitsuba', 'numba', 'matplotlib') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ""
