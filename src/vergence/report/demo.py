@@ -18,7 +18,13 @@ import numpy as np
 
 from vergence.report.html import Figure, Section, write_report
 from vergence.viewing.budget import DepthBudget, depth_budget
-from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, Display, Shooting
+from vergence.viewing.geometry import (
+    CARDBOARD_ROUNDNESS,
+    Display,
+    Shooting,
+    divergence_baseline,
+    roundness_baseline,
+)
 from vergence.viewing.mapping_constraints import ConstrainedMapping, psi_from_constraints
 
 __all__ = ["DEMO_DISPLAY", "DemoResult", "run_demo", "stadium_shooting"]
@@ -83,8 +89,8 @@ def _section_budget(out: Path, progress: Progress) -> tuple[Section, DepthBudget
 
     display = DEMO_DISPLAY
     window = SUBJECT_DEPTH / SHOOTING_FOCAL
-    b_div = display.eye_separation * window / display.width  # S0 Eq. (3)
-    b_round = display.eye_separation * SUBJECT_DEPTH / display.distance  # S0 Eq. (5)
+    b_div = divergence_baseline(window, display)  # S0 Eq. (3)
+    b_round = roundness_baseline(SUBJECT_DEPTH, display)  # S0 Eq. (5)
     div_rig = depth_budget(stadium_shooting(b_div), display, TABLE_DEPTHS)
     round_rig = depth_budget(stadium_shooting(b_round), display, TABLE_DEPTHS)
     progress("plotting the two plain rigs")
@@ -117,7 +123,7 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
     from vergence.report.mapping_plot import plot_mapping
 
     display = DEMO_DISPLAY
-    b_round = display.eye_separation * SUBJECT_DEPTH / display.distance  # S0 Eq. (5)
+    b_round = roundness_baseline(SUBJECT_DEPTH, display)  # S0 Eq. (5)
     reference = stadium_shooting(b_round)
     constraints = [
         f"z={SUBJECT_DEPTH:g},perceived={display.distance:g},roundness=1",
@@ -166,8 +172,8 @@ def _section_stadium(out: Path, progress: Progress) -> tuple[Section, dict[str, 
     display = DEMO_DISPLAY
     scene = builtin_scene("stadium", width=RENDER_WIDTH, height=RENDER_HEIGHT)
     window = 2.0 * SUBJECT_DEPTH * math.tan(math.radians(scene.camera.fov_deg) / 2.0)
-    b_div = display.eye_separation * window / display.width  # S0 Eq. (3)
-    b_round = display.eye_separation * SUBJECT_DEPTH / display.distance  # S0 Eq. (5)
+    b_div = divergence_baseline(window, display)  # S0 Eq. (3)
+    b_round = roundness_baseline(SUBJECT_DEPTH, display)  # S0 Eq. (5)
     limit_px = display.divergence_disparity * display.resolution
     rows: list[tuple[str, ...]] = [("rig", "baseline (m)", "nearest (px)", "farthest (px)", "divergence limit (px)")]
     figures = []
