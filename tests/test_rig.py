@@ -73,6 +73,7 @@ def test_disparity_is_s0_eq_1a(z, b, H):
     pr, zr = right.project(pts)
     # Parallel cameras: same depth, same rows (no vertical disparity).
     assert_allclose(zl, z, rtol=1e-12)
+    assert_allclose(zr, z, rtol=1e-12)
     assert_allclose(pl[:, 1], pr[:, 1], atol=PIX_ATOL)
     # S0 Eq. (1a): d = x_r - x_l as a fraction of the window W = H * width / fx.
     window = H * cam.width / cam.focal_px

@@ -16,8 +16,8 @@ from vergence.render.shading import Lighting, ao_directions, ao_lattice, reflect
 
 # Closed-form values computed in float64: a few ulps.
 EXACT = 1e-12
-# Irradiance tabulated on a 64 x 32 grid and interpolated bilinearly: the cosine lobe of a
-# half-bright sky is resolved to well under 1 %.
+# Irradiance tabulated for 32 x 16 normals from a 64 x 32 copy of the map, looked up bilinearly:
+# on the half-bright sky the largest error over all normals is 0.2 % of pi (measured).
 IRRADIANCE_RTOL = 1e-2
 
 

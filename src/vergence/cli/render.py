@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -53,8 +54,6 @@ def render(
     seed: int | None = typer.Option(None, "--seed", help="Random AO directions from this seed (default: fixed lattice)."),
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""
-    import numpy as np
-
     from vergence import render as vr
     from vergence.rig import stereo_pair
 

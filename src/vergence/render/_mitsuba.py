@@ -101,13 +101,6 @@ class Caster:
         for registry_id, obj in ids:
             self._lookup[registry_id] = obj
 
-    def _ray(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None) -> mi.Ray3f:
-        ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(origins.T, dtype=np.float32)),
-                       mi.Vector3f(np.ascontiguousarray(dirs.T, dtype=np.float32)))  # fmt: skip
-        if maxt is not None:
-            ray.maxt = mi.Float(np.ascontiguousarray(maxt, dtype=np.float32))
-        return ray
-
     def intersect(self, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """First hits of rays ``(M, 3)``: object id (-1 for a miss), primitive index, distance (float32 accuracy)."""
         m = len(origins)
@@ -116,7 +109,9 @@ class Caster:
         t = np.full(m, np.inf)
         for s in range(0, m, _CHUNK):
             e = min(m, s + _CHUNK)
-            pi = self._scene.ray_intersect_preliminary(self._ray(origins[s:e], dirs[s:e], None), True)
+            ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(origins[s:e].T, dtype=np.float32)),
+                           mi.Vector3f(np.ascontiguousarray(dirs[s:e].T, dtype=np.float32)))  # fmt: skip
+            pi = self._scene.ray_intersect_preliminary(ray, True)
             registry = dr.reinterpret_array(mi.UInt32, pi.shape).numpy().astype(np.int64)
             obj[s:e] = self._lookup[np.minimum(registry, len(self._lookup) - 1)]
             prim[s:e] = pi.prim_index.numpy()
@@ -125,19 +120,13 @@ class Caster:
         obj[miss] = -1
         return obj, prim, t
 
-    def occluded_soa(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
-        """:meth:`occluded` for rays already in Mitsuba's layout: float32 ``(3, M)`` origins and directions."""
+    def occluded(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
+        """Whether each ray hits anything before ``maxt`` (unbounded when None), in one Mitsuba call.
+
+        The rays come in Mitsuba's layout, float32 ``(3, M)`` origins and directions (as
+        ``_kernels.ao_rays`` writes them); the caller bounds ``M``.
+        """
         ray = mi.Ray3f(mi.Point3f(origins), mi.Vector3f(dirs))
         if maxt is not None:
             ray.maxt = mi.Float(np.ascontiguousarray(maxt, dtype=np.float32))
         return self._scene.ray_test(ray, True).numpy()
-
-    def occluded(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
-        """Whether each ray ``(M, 3)`` hits anything before ``maxt`` (unbounded when None)."""
-        m = len(origins)
-        out = np.zeros(m, dtype=bool)
-        for s in range(0, m, _CHUNK):
-            e = min(m, s + _CHUNK)
-            mt = None if maxt is None else maxt[s:e]
-            out[s:e] = self._scene.ray_test(self._ray(origins[s:e], dirs[s:e], mt), True).numpy()
-        return out

@@ -69,17 +69,13 @@ def cylinder(base: tuple, radius: float, height: float, material: str, *, segmen
                  base=base, material=material, segments=segments)  # fmt: skip
 
 
-def _font(size: int) -> ImageFont.ImageFont:
-    return ImageFont.load_default(size=size)
-
-
 def tile_texture(width: int = 768, height: int = 480, *, cols: int = 8, rows: int = 5) -> np.ndarray:
     """Coloured tiles, each with a large glyph (reflection and refraction flip it visibly)."""
     img = Image.new("RGB", (width, height))
     draw = ImageDraw.Draw(img)
     glyphs = "ABCDEFGHJKLMNPQRSTUVWXYZ2345679?&#@%"
     tw, th = width / cols, height / rows
-    font = _font(int(th * 0.6))
+    font = ImageFont.load_default(size=int(th * 0.6))
     for j in range(rows):
         for i in range(cols):
             hue = (i / cols + j * 0.37) % 1.0
@@ -120,7 +116,7 @@ def wood_texture(width: int = 512, height: int = 256, *, seed: int = 5) -> np.nd
 def grass_texture(width: int = 512, height: int = 512, *, stripes: int = 8, line_v: float = 0.45, seed: int = 7) -> np.ndarray:
     """Mown grass: alternating light and dark bands along v, fine noise, a white line across at ``line_v``."""
     rng = np.random.default_rng(seed)
-    ys, xs = np.mgrid[0:height, 0:width]
+    ys = np.mgrid[0:height, 0:width][0]
     band = (ys * stripes // height) % 2
     img = np.where(band[..., None] == 0, [0.18, 0.42, 0.14], [0.22, 0.5, 0.17])
     img = img * rng.uniform(0.85, 1.1, (height, width, 1))

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ from vergence.render.scene import (
     Stereo,
     Texture,
 )
+from vergence.render.scenefile import load_scene
 
 __all__ = ["BUILTIN_SCENES", "GLASSES_FALLBACK_SKY", "builtin_scene", "open_scene", "shared_hdri"]
 
@@ -184,10 +186,6 @@ def open_scene(spec: str | Path, *, width: int | None = None, height: int | None
     An existing file wins over a built-in of the same name. A missing size follows the other at the
     scene camera's aspect ratio (:meth:`SceneCamera.resized`).
     """
-    from dataclasses import replace
-
-    from vergence.render.scenefile import load_scene
-
     path = Path(spec)
     if path.is_file():
         scene = load_scene(path)

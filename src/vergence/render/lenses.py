@@ -1,4 +1,4 @@
-"""Image formation: primary rays of the pinhole camera and of an equidistant fisheye lens.
+"""Image formation beyond the pinhole: the equidistant fisheye lens (primary rays and projection).
 
 The fisheye is S3's "non-standard image formation" (S3 §3.2, Fig. 3): straight rays from one
 centre, but the angle ``theta`` from the optical axis maps linearly to the image radius,
@@ -17,7 +17,7 @@ import numpy as np
 from vergence._validate import as_float_array, check_finite, check_positive_int
 from vergence.camera import Camera
 
-__all__ = ["FisheyeCamera", "primary_rays"]
+__all__ = ["FisheyeCamera"]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -117,10 +117,3 @@ class FisheyeCamera:
             "focal_px": self.focal_px,
             "center": self.center.tolist(),
         }
-
-
-def primary_rays(camera: Camera | FisheyeCamera) -> tuple[np.ndarray, np.ndarray]:
-    """Origin ``(3,)`` and unit directions ``(H, W, 3)`` (NaN where a pixel has no ray) of a camera."""
-    if not isinstance(camera, Camera | FisheyeCamera):
-        raise TypeError(f"camera must be a Camera or FisheyeCamera; got {type(camera).__name__}")
-    return camera.center, camera.ray_directions()

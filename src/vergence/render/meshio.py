@@ -32,8 +32,7 @@ class MeshData:
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals (sum of the adjacent face cross products, normalised).
 
-    A vertex whose adjacent faces cancel (or that no face uses) gets the normal of its first face,
-    or +z when it is unused.
+    A vertex whose adjacent faces cancel, or that no face uses, gets +z.
     """
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
@@ -188,7 +187,7 @@ def _ply_ascii(path: Path, body: bytes, elements: list) -> dict[str, dict]:
                         n = int(tokens[pos])
                         cols[pname].append([int(t) for t in tokens[pos + 1 : pos + 1 + n]])
                         pos += 1 + n
-            tables[name] = {k: (np.asarray(v) if props and _scalar(props, k) else v) for k, v in cols.items()}
+            tables[name] = {k: (np.asarray(v) if _scalar(props, k) else v) for k, v in cols.items()}
     except (IndexError, ValueError):
         raise _fail(path, "truncated or malformed ASCII body") from None
     return tables

@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -54,7 +55,7 @@ def depth_preview(depth: np.ndarray, *, title: str = "depth (m)") -> np.ndarray:
     scale = max(1.0, 480.0 / max(h, w))
     fig = Figure(figsize=(w * scale / 100.0 + 1.4, h * scale / 100.0 + 0.6), dpi=100)
     ax = fig.add_axes((0.02, 0.04, 0.76, 0.88))
-    cmap = __import__("matplotlib").colormaps["viridis"].with_extremes(bad=(0.5, 0.5, 0.5))
+    cmap = colormaps["viridis"].with_extremes(bad=(0.5, 0.5, 0.5))
     finite = d[np.isfinite(d)]
     vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     im = ax.imshow(np.ma.masked_invalid(d), cmap=cmap, vmin=vmin, vmax=vmax if vmax > vmin else vmin + 1.0)
@@ -127,8 +128,9 @@ def save_render(result: RenderResult, folder: str | Path, *, stem: str = "render
                 settings=np.array(json.dumps(result.settings.to_dict())),
             )  # fmt: skip
     written.append(npz)
-    write_json(out / f"{stem}_camera.json", result.camera.to_dict())
-    written.append(out / f"{stem}_camera.json")
+    camera_json = out / f"{stem}_camera.json"
+    write_json(camera_json, result.camera.to_dict())
+    written.append(camera_json)
     for name, img in (("beauty", tonemap(result.beauty, exposure=k)), ("depth", depth_preview(result.depth)),
                       ("layers", contact_sheet(result, exposure=k))):  # fmt: skip
         path = out / f"{stem}_{name}.png"

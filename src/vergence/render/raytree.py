@@ -36,7 +36,7 @@ from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.render import _kernels, surfaces
 from vergence.render._mitsuba import Caster
-from vergence.render.lenses import FisheyeCamera, primary_rays
+from vergence.render.lenses import FisheyeCamera
 from vergence.render.scene import Glass, Scene
 from vergence.render.shading import Lighting, ao_lattice, reflect, refract, schlick
 
@@ -121,7 +121,8 @@ class RenderResult:
             if getattr(self, name).shape != shape:
                 raise ValueError(f"{name} must have shape {shape}; got {getattr(self, name).shape}")
         if self.depth.shape != shape[1:3] or self.beauty.shape != shape[1:]:
-            raise ValueError(f"depth and beauty must have shapes {shape[1:3]} and {shape[1:]}")
+            raise ValueError(f"depth and beauty must have shapes {shape[1:3]} and {shape[1:]}; "
+                             f"got {self.depth.shape} and {self.beauty.shape}")
         for name in ("radiance", "position", "normal", "depth", "beauty"):
             view = getattr(self, name).view()  # read-only view: the caller's array keeps its flags
             view.flags.writeable = False
@@ -166,15 +167,14 @@ class _Tracer:
     def _trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
         h, w = camera.height, camera.width
         n_nodes = 2 ** (max_depth + 1) - 1
-        origin, dirs_img = primary_rays(camera)
-        dirs_all = dirs_img.reshape(-1, 3)
+        dirs_all = camera.ray_directions().reshape(-1, 3)  # NaN where a pixel has no ray (fisheye)
         pix = np.flatnonzero(~np.isnan(dirs_all[:, 0]))
         rad = np.zeros((n_nodes, h * w, 3), dtype=np.float32)
         pos = np.full((n_nodes, h * w, 3), np.nan, dtype=np.float32)
         nrm = np.full((n_nodes, h * w, 3), np.nan, dtype=np.float32)
         depth = np.full(h * w, np.nan, dtype=np.float32)
         node = np.ones(len(pix), dtype=np.int64)
-        o = np.broadcast_to(origin, (len(pix), 3)).copy()  # exact origins (float64 geometry)
+        o = np.broadcast_to(camera.center, (len(pix), 3)).copy()  # exact origins (float64 geometry)
         oc = o  # origins handed to Mitsuba: moved off the surface they leave
         d = dirs_all[pix]
         thr = np.ones((len(pix), 3))
@@ -192,7 +192,7 @@ class _Tracer:
             rad[node[esc] - 1, pix[esc]] = thr[esc] * self.lighting.radiance(d[esc])
             hit = np.flatnonzero(~esc)
             node, pix, o, d, thr, obj = node[hit], pix[hit], o[hit], d[hit], thr[hit], obj[hit]
-            _, p, ng, ns, uv = surfaces.refine_hits(pk, obj, prim[hit], o, d, t32[hit])
+            p, ng, ns, uv = surfaces.refine_hits(pk, obj, prim[hit], o, d, t32[hit])
             dn = _dot(d, ng)
             entering = dn < 0.0
             side = np.where(entering, 1.0, -1.0)[:, None]
@@ -255,7 +255,7 @@ class _Tracer:
             shifts = np.empty((0, 2)) if rng is None else rng.random((e - s, 2))
             orig, dirs = _kernels.ao_rays(p[s:e], ng[s:e], ns[s:e], lattice, shifts, _EPS_REL)  # as ao_directions
             maxt = None if ao_distance is None else np.full(dirs.shape[1], ao_distance)
-            blocked = self.occluders.occluded_soa(orig, dirs, maxt).reshape(e - s, samples)
+            blocked = self.occluders.occluded(orig, dirs, maxt).reshape(e - s, samples)
             out[s:e] = 1.0 - blocked.mean(axis=1)
         return out
 

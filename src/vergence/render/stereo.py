@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -80,8 +80,6 @@ def stereo_preview(
     ((12, 16, 3), 'float32', 1.2)
     """
     if isinstance(scene, Scene):
-        from dataclasses import replace
-
         sc = replace(scene, camera=scene.camera.resized(width=width, height=height))
     else:
         sc = open_scene(scene, width=width, height=height)

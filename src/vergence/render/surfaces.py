@@ -20,7 +20,7 @@ import numpy as np
 
 from vergence.render.scene import Checker, Diffuse, Glass, Mesh, Mirror, Rectangle, Scene, Sphere, Texture
 
-__all__ = ["DIFFUSE", "GLASS", "MIRROR", "PackedScene", "pack_scene"]
+__all__ = ["DIFFUSE", "GLASS", "MIRROR", "PackedScene", "albedo", "pack_scene", "refine_hits"]
 
 SPHERE, RECTANGLE, MESH = 0, 1, 2
 DIFFUSE, MIRROR, GLASS = 0, 1, 2
@@ -93,8 +93,8 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def refine_hits(
     packed: PackedScene, obj: np.ndarray, prim: np.ndarray, origins: np.ndarray, dirs: np.ndarray, t_approx: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Float64 distance, position, outward geometric and shading normals and uv of hits ``(M,)``."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Float64 position, outward geometric and shading normals and uv of hits ``(M,)``."""
     m = len(obj)
     t = np.array(t_approx, dtype=np.float64)
     ng = np.zeros((m, 3))
@@ -151,7 +151,7 @@ def refine_hits(
         tuv = packed.tri_uv[tri]
         uv[s] = np.where(np.isnan(tuv[:, 0, :1]), 0.0, (w * tuv).sum(axis=1))
     p = o + t[:, None] * d
-    return t, p, ng, ns, uv
+    return p, ng, ns, uv
 
 
 def albedo(packed: PackedScene, mat: np.ndarray, uv: np.ndarray) -> np.ndarray:
