@@ -22,8 +22,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from vergence.depth import compute_disparity, match_sgbm
-from vergence.depth.refine import fill_occlusions, unreliable_pixels
+from vergence.depth import compute_disparity, fill_occlusions, match_sgbm, unreliable_pixels
 from vergence.io import read_image
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "stereo"

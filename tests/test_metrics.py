@@ -372,7 +372,7 @@ def test_result_is_frozen_and_read_only():
         result.rms = 0.0
     with pytest.raises(ValueError, match="read-only"):
         result.distance[0, 0] = 1.0
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match="does not support item assignment"):
         result.ranked[0.5] = 1.0
     assert result.radius == 2.0 and result.patch_size == 3 and result.similarity == "zncc"
     assert result.threshold == 0.8 and result.min_contrast == MIN_CONTRAST

@@ -114,12 +114,13 @@ def psnr(image: object, reference: object, *, mask: object = None) -> float:
     return float(10.0 * np.log10(1.0 / mse))
 
 
-def _check_win_size(win_size: object, hw: tuple[int, ...]) -> int:
-    w = check_positive_int("win_size", win_size)
+def _check_window(name: str, value: object, hw: tuple[int, ...]) -> int:
+    """An odd window side >= 3 that fits in the image (SSIM window, registration patch)."""
+    w = check_positive_int(name, value)
     if w < 3 or w % 2 == 0:
-        raise ValueError(f"win_size must be an odd integer >= 3; got {w}")
+        raise ValueError(f"{name} must be an odd integer >= 3; got {w}")
     if w > min(hw):
-        raise ValueError(f"win_size must not exceed the image's smaller side {min(hw)}; got {w}")
+        raise ValueError(f"{name} must not exceed the image's smaller side {min(hw)}; got {w}")
     return w
 
 
@@ -164,7 +165,7 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
     """
     a, b = _pair(image, reference)
     m = _mask(mask, a.shape[:2])
-    w = _check_win_size(win_size, a.shape[:2])
+    w = _check_window("win_size", win_size, a.shape[:2])
     channel_axis = 2 if a.ndim == 3 else None
     mean, smap = structural_similarity(a, b, data_range=1.0, channel_axis=channel_axis, win_size=w, full=True)
     if m is None:
@@ -300,10 +301,12 @@ def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([dy[order], dx[order]], axis=1).astype(np.int64), dist[order]
 
 
-def _ranked_value(values: np.ndarray, k: float) -> float:
-    """Nearest-rank k-th ranked value: the ``ceil(k N)``-th smallest of N values (k in (0, 1])."""
+def _summaries(values: np.ndarray, ranks: Sequence[float]) -> tuple[float, float, dict[float, float]]:
+    """RMS, median and nearest-rank k-th ranked values (the ``ceil(k N)``-th smallest of the N
+    values, k in (0, 1]; Eq. 13, k = 1 is Eq. 12) of a non-empty set of distances."""
     flat = np.sort(np.asarray(values, dtype=np.float64).ravel())
-    return float(flat[max(math.ceil(k * flat.size), 1) - 1])
+    ranked = {k: float(flat[max(math.ceil(k * flat.size), 1) - 1]) for k in ranks}
+    return float(np.sqrt(np.mean(flat**2))), float(np.median(flat)), ranked
 
 
 def _patch_contrast(sums: np.ndarray, squares: np.ndarray, k: int) -> np.ndarray:
@@ -409,11 +412,7 @@ def registration_error(
     """
     a, b = _pair(image, reference)
     r = check_positive("radius", radius)
-    k = check_positive_int("patch_size", patch_size)
-    if k < 3 or k % 2 == 0:
-        raise ValueError(f"patch_size must be an odd integer >= 3; got {k}")
-    if k > min(a.shape[:2]):
-        raise ValueError(f"patch_size must not exceed the image's smaller side {min(a.shape[:2])}; got {k}")
+    k = _check_window("patch_size", patch_size, a.shape[:2])
     if similarity not in _SIMILARITIES:
         raise ValueError(f"similarity must be one of {', '.join(sorted(_SIMILARITIES))}; got {similarity!r}")
     if threshold is None:
@@ -450,12 +449,12 @@ def registration_error(
     )
     distance[best < tau] = r
     distance[~evaluated] = np.nan
-    values = distance[evaluated]
+    rms, median, ranked = _summaries(distance[evaluated], ks)  # Eq. (12)-(13)
     return RegistrationError(
         distance=distance,
-        rms=float(np.sqrt(np.mean(values**2))),
-        median=float(np.median(values)),
-        ranked={k_: _ranked_value(values, k_) for k_ in ks},  # Eq. (12)-(13)
+        rms=rms,
+        median=median,
+        ranked=ranked,
         radius=r,
         patch_size=k,
         similarity=similarity,

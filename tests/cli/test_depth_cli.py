@@ -105,6 +105,16 @@ def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, mo
     assert not list(tmp_path.iterdir())
 
 
+def test_match_never_overwrites_an_input(capsys, tsukuba, tmp_path):
+    left = tmp_path / "im3.png"
+    shutil.copy(tsukuba / "im3.png", left)
+    before = left.read_bytes()
+    code, _, err = _run(capsys, "match", str(left), str(tsukuba / "im4.png"), "--max-disparity", "15",
+                        "--out", str(tmp_path / "." / "im3.png"), "--scale", "16")
+    assert code == 2 and f"would overwrite input {left}" in err and len(err.strip().splitlines()) == 1
+    assert left.read_bytes() == before
+
+
 def test_match_then_evaluate(capsys, tsukuba, tmp_path):
     out = tmp_path / "d.pfm"
     code, stdout, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
@@ -205,3 +215,6 @@ def test_evaluate_errors(capsys, tsukuba, tmp_path):
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
                         "--masks", str(tmp_path))
     assert code == 2 and "no Middlebury masks" in err
+    code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
+                        "--masks", str(tsukuba), "--image", str(tsukuba / "im3.png"))
+    assert code == 2 and "--masks replaces the computed regions; do not combine it with --truth-right or --image" in err

@@ -22,7 +22,8 @@ def test_hand_values_and_doffs():
 
 def test_invalid_disparities_give_nan():
     z = depth_from_disparity([np.nan, 0.0, -3.0, 2.0], focal_px=100.0, baseline=1.0, doffs_px=1.0)
-    assert np.isnan(z[:3]).sum() == 2 and z[1] == 100.0 and z[3] == pytest.approx(100.0 / 3.0)
+    # d + doffs = NaN, 1, -2 (behind: invalid), 3; assert_allclose compares NaN positions too.
+    np.testing.assert_allclose(z, [np.nan, 100.0, np.nan, 100.0 / 3.0], rtol=RTOL)
     assert np.isnan(disparity_from_depth([np.nan], focal_px=100.0, baseline=1.0)).all()
 
 

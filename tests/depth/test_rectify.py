@@ -126,8 +126,11 @@ def test_bad_geometry(verged_pair):
         rectify_cameras(right, left)
     ahead = look_at([0, 0, 1.0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=64, height=48)
     origin = look_at([0, 0, 0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=64, height=48)
-    with pytest.raises(ValueError, match="the right camera lies to the left|baseline is along the left optical axis"):
-        rectify_cameras(origin, ahead)
+    with pytest.raises(ValueError, match="the right camera lies to the left"):
+        rectify_cameras(origin, ahead)  # straight ahead: no step to the right at all
+    nearly_ahead = look_at([1e-7, 0, 1.0], [1e-7, 0, 6], [0, -1, 0], fov_deg=60, width=64, height=48)
+    with pytest.raises(ValueError, match="the baseline is along the left optical axis"):
+        rectify_cameras(origin, nearly_ahead)  # to the right, but at a sine of 1e-7 from the axis
     slanted = look_at([0.2, 0, 1.0], [0.2, 0, 6], [0, -1, 0], fov_deg=60, width=64, height=48)
     with pytest.raises(ValueError, match="epipole"):
         rectify_cameras(origin, slanted)
@@ -144,5 +147,5 @@ def test_bad_images(verged_pair):
         rectify_pair(img, img[:-1], left, right)
     with pytest.raises(ValueError, match="both be grey or both colour"):
         rectify_pair(img, img[:, :, 0], left, right)
-    with pytest.raises(ValueError, match="too few SIFT features|only 0 SIFT matches"):
+    with pytest.raises(ValueError, match=r"too few SIFT features to measure the row alignment"):
         measure_row_alignment(img, img)

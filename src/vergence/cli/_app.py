@@ -14,7 +14,6 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 
 from vergence.viewing.geometry import Display
 
@@ -30,12 +29,6 @@ console = Console(soft_wrap=True)
 err_console = Console(stderr=True)
 
 
-def fail(message: str) -> typer.Exit:
-    """Print ``error: message`` on stderr and return the exit (code 2) to raise."""
-    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
-    return typer.Exit(code=2)
-
-
 def print_json(data: object) -> None:
     """Print ``data`` as JSON on stdout (no Rich markup, machine-readable)."""
     sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
@@ -43,9 +36,12 @@ def print_json(data: object) -> None:
 
 
 def check_output_path(out: Path, *inputs: Path) -> None:
-    """Refuse to write ``out`` over one of the ``inputs``."""
+    """Refuse to write ``out`` over one of the ``inputs`` (an existing file reached by either path)."""
+    if not Path(out).exists():
+        return
+    target = Path(out).resolve()
     for p in inputs:
-        if p is not None and Path(p).exists() and Path(out).exists() and Path(out).resolve() == Path(p).resolve():
+        if Path(p).resolve() == target:
             raise ValueError(f"output {out} would overwrite input {p}")
 
 

@@ -15,7 +15,6 @@ from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, DISPLAY_PRESETS, Disp
 __all__ = ["budget"]
 
 
-
 def _shooting(baseline: float, convergence: float, window: float | None, focal_mm: float | None,
               sensor_mm: float | None) -> Shooting:
     """The rig from either --window or --focal-mm with --sensor-mm (exactly one of the two)."""

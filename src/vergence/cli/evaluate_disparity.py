@@ -28,13 +28,13 @@ def evaluate_disparity(
     as_json: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Score ESTIMATE against TRUTH: % bad pixels and RMS over nonocc / all / disc (/ textureless)."""
+    if masks is not None and (truth_right is not None or image is not None):
+        raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right or --image")
     est = read_disparity(estimate, scale=estimate_scale)
     gt = read_disparity(truth, scale=truth_scale)
     official = read_middlebury_masks(masks) if masks is not None else None
     right = read_disparity(truth_right, scale=truth_scale) if truth_right is not None else None
     img = read_image(image) if image is not None else None
-    if official is not None and (right is not None or img is not None):
-        raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right or --image")
     scores = evaluate(est, gt, masks=official, image=img, truth_right=right, threshold=threshold)
     data = {name: s.to_dict() for name, s in scores.items()}
     if as_json:

@@ -35,8 +35,8 @@ def _check_outputs(out: Path, scale: float | None, extra: list[Path]) -> None:
 
 
 def _preview(disparity: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Colour preview: turbo colour map over [lo, hi], black where unknown."""
-    scaled = np.clip((np.nan_to_num(disparity, nan=lo) - lo) / max(hi - lo, 1e-9), 0.0, 1.0)
+    """Colour preview: turbo colour map over [lo, hi] (``hi > lo``, as the matcher checked), black where unknown."""
+    scaled = np.clip((np.nan_to_num(disparity, nan=lo) - lo) / (hi - lo), 0.0, 1.0)
     rgb = cv2.applyColorMap(np.rint(scaled * 255).astype(np.uint8), cv2.COLORMAP_TURBO)[:, :, ::-1]
     rgb = rgb.astype(np.float32) / 255.0
     rgb[~np.isfinite(disparity)] = 0.0

@@ -34,12 +34,6 @@ def _read_depth(path: Path, kind: str, scale: float | None):
     return read_disparity(path, scale=(1.0 if scale is None else scale) if integer else scale)
 
 
-def _display_dict(display: Display | None, name: str | None) -> dict | None:
-    if display is None:
-        return None
-    return {"preset": name, **dataclasses.asdict(display)}
-
-
 @app.command("synthesize")
 def synthesize(
     image: Path = typer.Argument(..., help="The original view (PNG, JPEG, PPM, PFM, NPY)."),
@@ -150,7 +144,7 @@ def synthesize(
         "convergence": convergence,
         "focal_px": focal_px,
         "interaxial": interaxial,
-        "display": _display_dict(display, display_preset),
+        "display": {"preset": display_preset, **dataclasses.asdict(display)},
         "views": views,
         "origin": origin,
         "offsets": list(result.offsets),
@@ -160,7 +154,7 @@ def synthesize(
         "size": [int(picture.shape[1]), int(picture.shape[0])],
         # Parallax between adjacent views, x_r - x_l, positive behind the screen.
         "parallax_range_px": list(plan.range_px),
-        "parallax_range_arcmin": None if plan.range_arcmin is None else list(plan.range_arcmin),
+        "parallax_range_arcmin": list(plan.range_arcmin),  # a display is always given
         "holes_percent": [round(100.0 * float(h.mean()), 4) for h in result.holes],
         "outputs": [str(t) for t in targets],
     }
@@ -168,6 +162,8 @@ def synthesize(
     if as_json:
         print_json(params)
         return
-    lo, hi = plan.range_px
-    arcmin = "" if plan.range_arcmin is None else f" = {plan.range_arcmin[0]:+.1f} .. {plan.range_arcmin[1]:+.1f} arcmin"
-    console.print(f"{views} views, parallax {lo:+.2f} .. {hi:+.2f} px{arcmin}; wrote {', '.join(t.name for t in targets)} to {out}")
+    (lo, hi), (lo_arcmin, hi_arcmin) = plan.range_px, plan.range_arcmin
+    console.print(
+        f"{views} views, parallax {lo:+.2f} .. {hi:+.2f} px = {lo_arcmin:+.1f} .. {hi_arcmin:+.1f} arcmin; "
+        f"wrote {', '.join(t.name for t in targets)} to {out}"
+    )

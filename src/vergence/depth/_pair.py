@@ -1,4 +1,4 @@
-"""Validation shared by the matchers: a stereo pair as 8-bit arrays and a disparity search range."""
+"""Validation shared by the matchers: a stereo pair as 8-bit arrays, a disparity search range, a block size."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from vergence._validate import as_image
+from vergence._validate import as_image, check_positive_int
 
-__all__ = ["check_disparity_range", "stereo_pair_u8"]
+__all__ = ["check_block_size", "check_disparity_range", "stereo_pair_u8"]
 
 
 def stereo_pair_u8(left: object, right: object) -> tuple[np.ndarray, np.ndarray]:
@@ -46,3 +46,17 @@ def check_disparity_range(max_disparity: object, min_disparity: object, width: i
         raise ValueError(f"disparity range [{lo}, {hi}] (searched as {count} disparities from {lo}) is wider than "
                          f"the image ({width} px)")
     return lo, hi, count
+
+
+def check_block_size(block_size: object, default: int, *, minimum: int = 1, matcher: str = "") -> int:
+    """``block_size`` (an odd number of pixels, at least ``minimum``), or ``default`` when it is None.
+
+    ``matcher`` names the matcher that needs a ``minimum`` above 1, for the message.
+    """
+    if block_size is None:
+        return default
+    bs = check_positive_int("block_size", block_size)
+    if bs % 2 == 0 or bs < minimum:
+        need = "odd" if minimum <= 1 else f"odd and >= {minimum} for {matcher}"
+        raise ValueError(f"block_size must be {need}; got {bs}")
+    return bs

@@ -11,8 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from vergence._validate import check_positive_int
-from vergence.depth._pair import check_disparity_range, stereo_pair_u8
+from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
 
 __all__ = ["COSTS", "match_blocks"]
 
@@ -73,9 +72,7 @@ def match_blocks(
         raise ValueError(f"cost must be one of {', '.join(COSTS)}; got {cost!r}")
     a, b = stereo_pair_u8(left, right)
     lo, hi, _ = check_disparity_range(max_disparity, min_disparity, a.shape[1])
-    bs = (7 if max(a.shape[:2]) <= 1000 else 11) if block_size is None else check_positive_int("block_size", block_size)
-    if bs % 2 == 0:
-        raise ValueError(f"block_size must be odd; got {bs}")
+    bs = check_block_size(block_size, 7 if max(a.shape[:2]) <= 1000 else 11)
     L = a.astype(np.float32).reshape(a.shape[0], a.shape[1], -1)
     R = b.astype(np.float32).reshape(L.shape)
     h, w, _ = L.shape

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from vergence._validate import as_image, check_positive_int
-from vergence.depth._pair import check_disparity_range, stereo_pair_u8
+from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
 from vergence.depth.block import match_blocks
 from vergence.depth.refine import RefinedDisparity, refine_disparity
 
@@ -31,12 +31,9 @@ def sgbm_parameters(height: int, width: int, num_disparities: int, channels: int
     """
     for name, v in (("height", height), ("width", width), ("num_disparities", num_disparities), ("channels", channels)):
         check_positive_int(name, v)
-    block = 3 if max(height, width) <= 1000 else 5
     return {
         "numDisparities": int(num_disparities),
-        "blockSize": block,
-        "P1": 8 * channels * block * block,
-        "P2": 16 * channels * block * block,
+        **_block_and_penalties(3 if max(height, width) <= 1000 else 5, channels),
         "uniquenessRatio": 10,
         "disp12MaxDiff": 1,
         "preFilterCap": 15,
@@ -44,6 +41,11 @@ def sgbm_parameters(height: int, width: int, num_disparities: int, channels: int
         "speckleRange": 0,
         "mode": cv2.StereoSGBM_MODE_SGBM_3WAY,
     }
+
+
+def _block_and_penalties(block: int, channels: int) -> dict:
+    """SGBM block size and its smoothness penalties ``P1 = 8 c b^2``, ``P2 = 16 c b^2``."""
+    return {"blockSize": block, "P1": 8 * channels * block * block, "P2": 16 * channels * block * block}
 
 
 def _from_fixed(raw: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -74,13 +76,9 @@ def match_sgbm(
     """
     a, b = stereo_pair_u8(left, right)
     lo, hi, count = check_disparity_range(max_disparity, min_disparity, a.shape[1])
-    prm = sgbm_parameters(a.shape[0], a.shape[1], count, 1 if a.ndim == 2 else 3)
-    if block_size is not None:
-        bs = check_positive_int("block_size", block_size)
-        if bs % 2 == 0:
-            raise ValueError(f"block_size must be odd; got {bs}")
-        cn = 1 if a.ndim == 2 else 3
-        prm.update(blockSize=bs, P1=8 * cn * bs * bs, P2=16 * cn * bs * bs)
+    channels = 1 if a.ndim == 2 else 3
+    prm = sgbm_parameters(a.shape[0], a.shape[1], count, channels)
+    prm.update(_block_and_penalties(check_block_size(block_size, prm["blockSize"]), channels))
     matcher = cv2.StereoSGBM_create(minDisparity=lo, **prm)
     return _from_fixed(matcher.compute(a, b), lo, hi)
 
@@ -97,9 +95,7 @@ def match_bm(
     if a.ndim == 3:
         a, b = cv2.cvtColor(a, cv2.COLOR_RGB2GRAY), cv2.cvtColor(b, cv2.COLOR_RGB2GRAY)
     lo, hi, count = check_disparity_range(max_disparity, min_disparity, a.shape[1])
-    bs = (9 if max(a.shape) <= 1000 else 15) if block_size is None else check_positive_int("block_size", block_size)
-    if bs % 2 == 0 or bs < 5:
-        raise ValueError(f"block_size must be odd and >= 5 for StereoBM; got {bs}")
+    bs = check_block_size(block_size, 9 if max(a.shape) <= 1000 else 15, minimum=5, matcher="StereoBM")
     bm = cv2.StereoBM_create(numDisparities=count, blockSize=bs)
     bm.setMinDisparity(lo)
     bm.setPreFilterCap(31)

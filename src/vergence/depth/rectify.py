@@ -27,6 +27,9 @@ _EDGE_SAMPLES = 64
 # The baseline must exceed this fraction of the larger distance of the centres from the world
 # origin (plus 1e-12 absolute): below it, the two centres are the same point to double precision.
 _MIN_BASELINE_REL = 1e-9
+# The new y axis is k x r1 (k: old left optical axis): below this sine of the angle between the
+# baseline and k, that cross product has no reliable direction.
+_MIN_AXIS_SINE = 1e-6
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -208,7 +211,7 @@ def rectify_cameras(
         raise ValueError("the right camera lies to the left of the left camera (negative x in the left camera "
                          "frame); swap the two images")
     v2 = np.cross(left.R[2], r1)  # k = old left optical axis
-    if np.linalg.norm(v2) < 1e-6:
+    if np.linalg.norm(v2) < _MIN_AXIS_SINE:
         raise ValueError("the baseline is along the left optical axis; the pair cannot be rectified")
     r2 = v2 / np.linalg.norm(v2)
     r3 = np.cross(r1, r2)
@@ -309,7 +312,7 @@ def _grey_u8(name: str, image: object) -> np.ndarray:
     img = as_image(name, image)
     if img.ndim == 3:
         img = cv2.cvtColor(img[..., :3], cv2.COLOR_RGB2GRAY) if img.shape[2] >= 3 else img[..., 0]
-    return np.clip(np.rint(img * 255.0), 0, 255).astype(np.uint8)
+    return np.rint(img * 255.0).astype(np.uint8)  # as_image: values in [0, 1]
 
 
 def measure_row_alignment(

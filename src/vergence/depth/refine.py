@@ -311,7 +311,7 @@ def refine_disparity(
         Blobs smaller than this are removed first (default: image area / 2000, at least 20 px).
     radius : int, optional
         Weighted-median radius (default :func:`default_radius`); the window is sampled every
-        ``radius // 8`` pixels (about 17 x 17 votes whatever the radius).
+        ``max(1, radius // 8)`` pixels (between 17 x 17 and 31 x 31 votes, whatever the radius).
     sigma_color : float
         Colour scale of the weighted median, 8-bit levels.
 
@@ -326,7 +326,8 @@ def refine_disparity(
     re-estimated by a colour-weighted median of the matched pixels around them, which moves depth
     edges onto image edges (foreground fattening) without blurring surfaces. Re-estimating every
     filled pixel the same way was measured too: 12 % fewer bad pixels on the six Middlebury pairs,
-    but 65 % more on a large textureless card (benchmarks/matching.py) and nearly twice the time.
+    but 65 % more on a large textureless card (the scene of benchmarks/matching.py), and the
+    refinement took nearly three times as long there.
     """
     d = _disparity("disparity", disparity)
     _guide_u8("guide", guide, d)

@@ -30,7 +30,7 @@ from vergence._validate import check_positive
 from vergence.io._files import input_path, read_bytes, suffix_of
 from vergence.io._pnm import decode_pnm, encode_pnm
 from vergence.io.atomic import atomic_write
-from vergence.io.images import _decode_png, _encode, _load_npy
+from vergence.io.images import _decode_png, _encode, _load_npy, _save_npy
 from vergence.io.pfm import read_pfm, write_pfm
 
 __all__ = ["read_disparity", "write_disparity"]
@@ -200,5 +200,4 @@ def write_disparity(
     if suffix == ".pfm":
         write_pfm(p, np.where(known, out, np.float32(np.inf)))
         return
-    with atomic_write(p) as tmp, open(tmp, "wb") as fh:
-        np.save(fh, out, allow_pickle=False)
+    _save_npy(p, out)

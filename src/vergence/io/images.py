@@ -136,6 +136,12 @@ def _load_npy(path: Path, what: str) -> np.ndarray:
             raise ValueError(f"cannot read {path}: not a valid {what} .npy file ({exc})") from exc
 
 
+def _save_npy(path: Path, array: np.ndarray) -> None:
+    """Write ``array`` as ``.npy`` (no pickles) atomically."""
+    with atomic_write(path) as tmp, open(tmp, "wb") as fh:
+        np.save(fh, array, allow_pickle=False)
+
+
 def _image_from_array(arr: np.ndarray, path: Path) -> np.ndarray:
     """Check a decoded float or integer array and return it as a float32 Vergence image."""
     if arr.ndim == 3 and arr.shape[2] == 1:
@@ -320,8 +326,7 @@ def write_image(path: str | os.PathLike[str], image: object, *, bit_depth: int =
             write_pfm(p, arr)
             return
         if suffix == ".npy":
-            with atomic_write(p) as tmp, open(tmp, "wb") as fh:
-                np.save(fh, arr, allow_pickle=False)
+            _save_npy(p, arr)
             return
         if float(arr.min()) < 0.0:
             raise ValueError(f"image values must be >= 0 for Radiance .hdr; got min {float(arr.min()):g}")

@@ -1,7 +1,6 @@
 """Figure of a depth budget: perceived depth and roundness against scene depth (S0 §2, Eq. 2 and 4).
 
-Drawn on a bare :class:`matplotlib.figure.Figure` with the Agg canvas, so no pyplot state is created
-or left behind; written atomically as PNG.
+Drawn without pyplot state and written atomically as PNG (:mod:`vergence.report._figures`).
 """
 
 from __future__ import annotations
@@ -11,12 +10,10 @@ import os
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from vergence._validate import check_positive
-from vergence.io import atomic_write
+from vergence.report._figures import axis_top, new_figure, png_path, save_png
 from vergence.viewing.geometry import (
     CARDBOARD_ROUNDNESS,
     Display,
@@ -37,12 +34,6 @@ _MAX_PERCEIVED_FACTOR = 10.0
 _MAX_ROUNDNESS = 4.0
 # A depth range spanning this ratio or more is drawn on a logarithmic depth axis.
 _LOG_RATIO = 10.0
-
-
-def _axis_top(values: np.ndarray, cap: float, floor: float) -> float:
-    finite = values[np.isfinite(values)]
-    top = float(finite.max()) if finite.size else floor
-    return max(floor, min(top, cap)) * 1.08
 
 
 def plot_budget(
@@ -87,9 +78,7 @@ def plot_budget(
     far = check_positive("far", far)
     if not near < far:
         raise ValueError(f"far must be > near; got near={near:g}, far={far:g}")
-    out = Path(path)
-    if out.suffix.lower() != ".png":
-        raise ValueError(f"path must end in .png; got {str(path)!r}")
+    out = png_path(path)
 
     z_div = divergence_depth(shooting, display)
     z = np.geomspace(near, far, _SAMPLES) if far / near >= _LOG_RATIO else np.linspace(near, far, _SAMPLES)
@@ -99,8 +88,7 @@ def plot_budget(
     rho = np.asarray(roundness(z, shooting, display), dtype=float)  # Eq. (4)
     rho = np.where(np.isnan(zp), np.nan, rho)  # no roundness where nothing is perceived
 
-    fig = Figure(figsize=(7.5, 7.0), dpi=110, layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure(figsize=(7.5, 7.0), dpi=110)
     ax_z, ax_r = fig.subplots(2, 1, sharex=True)
     b_div = divergence_baseline(shooting.window, display)
     b_round = roundness_baseline(shooting.convergence, display)
@@ -113,7 +101,7 @@ def plot_budget(
 
     ax_z.plot(z, zp, color="tab:blue", lw=2, label="perceived depth z' (Eq. 2)")
     ax_z.axhline(display.distance, color="0.5", lw=1, ls=":", label=f"screen, H' = {display.distance:.3g} m")
-    ax_z.set_ylim(0, _axis_top(zp, _MAX_PERCEIVED_FACTOR * display.distance, 2 * display.distance))
+    ax_z.set_ylim(0, axis_top(zp, _MAX_PERCEIVED_FACTOR * display.distance, 2 * display.distance))
     ax_z.set_ylabel("perceived depth z' (m)")
 
     ax_r.plot(z, rho, color="tab:green", lw=2, label="roundness ρ (Eq. 4)")
@@ -121,7 +109,7 @@ def plot_budget(
     ax_r.axhline(
         CARDBOARD_ROUNDNESS, color="tab:orange", lw=1.5, ls="--", label=f"cardboard, ρ < {CARDBOARD_ROUNDNESS}"
     )
-    top_r = _axis_top(rho, _MAX_ROUNDNESS, 1.2)
+    top_r = axis_top(rho, _MAX_ROUNDNESS, 1.2)
     ax_r.axhspan(0.0, CARDBOARD_ROUNDNESS, color="tab:orange", alpha=0.12, lw=0)
     ax_r.set_ylim(0, top_r)
     ax_r.set_ylabel("roundness ρ")
@@ -143,6 +131,4 @@ def plot_budget(
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize=8)
 
-    with atomic_write(out) as tmp:
-        fig.savefig(tmp, format="png")
-    return out
+    return save_png(fig, out)

@@ -3,8 +3,7 @@
 Three panels: psi against the reference disparity d with the identity and the divergence limit
 ``b'/W'`` (S0 Eq. 8); the mapped perceived depth (Eq. 7) and the mapped roundness (Eq. 9) against
 scene depth, each beside the unmapped reference rig (Eq. 2 and 4) and the director's targets.
-Drawn on a bare :class:`matplotlib.figure.Figure` with the Agg canvas (no pyplot state) and written
-atomically as PNG.
+Drawn without pyplot state and written atomically as PNG (:mod:`vergence.report._figures`).
 """
 
 from __future__ import annotations
@@ -14,10 +13,8 @@ import os
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
-from vergence.io import atomic_write
+from vergence.report._figures import axis_top, new_figure, png_path, save_png
 from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, perceived_depth_from_depth, roundness
 from vergence.viewing.mapping_constraints import ConstrainedMapping
 
@@ -29,11 +26,6 @@ _SAMPLES = 801  # disparities along psi: smooth curves, instant to draw
 _MAX_PERCEIVED_FACTOR = 12.0
 _MAX_ROUNDNESS = 3.0
 _TANGENT = 0.06  # half-length of the slope ticks at the control points, as a share of the d range
-
-
-def _top(values: np.ndarray, cap: float, floor: float) -> float:
-    finite = values[np.isfinite(values)]
-    return max(floor, min(float(finite.max()) if finite.size else floor, cap)) * 1.08
 
 
 def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) -> Path:
@@ -62,9 +54,7 @@ def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) ->
     """
     if not isinstance(result, ConstrainedMapping):
         raise TypeError(f"result must be a ConstrainedMapping; got {type(result).__name__}")
-    out = Path(path)
-    if out.suffix.lower() != ".png":
-        raise ValueError(f"path must end in .png; got {str(path)!r}")
+    out = png_path(path)
 
     ref, display = result.reference, result.display
     limit = result.divergence_limit
@@ -75,8 +65,7 @@ def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) ->
     rho_ref = np.where(np.isnan(zp_ref), np.nan, np.asarray(roundness(z, ref, display), dtype=float))  # Eq. (4)
     log_x = not math.isfinite(result.far) or result.far / result.near > 20
 
-    fig = Figure(figsize=(14.0, 4.6), dpi=100, layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure(figsize=(14.0, 4.6), dpi=100)
     ax_psi, ax_z, ax_r = fig.subplots(1, 3)
     far_text = "∞" if math.isinf(result.far) else f"{result.far:.4g} m"
     fig.suptitle(
@@ -109,7 +98,8 @@ def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) ->
     ax_z.plot(z, zp_ref, color="0.5", lw=1, ls=":", label="reference rig, no mapping (Eq. 2)")
     ax_z.plot(z, zp, color="tab:blue", lw=2, label="mapped z'_ψ (Eq. 7)")
     ax_z.axhline(display.distance, color="0.6", lw=1, ls="-.", label=f"screen, H' = {display.distance:.3g} m")
-    ax_z.set_ylim(0, _top(np.concatenate([zp, zp_ref]), _MAX_PERCEIVED_FACTOR * display.distance, 2 * display.distance))
+    z_top = axis_top(np.concatenate([zp, zp_ref]), _MAX_PERCEIVED_FACTOR * display.distance, 2 * display.distance)
+    ax_z.set_ylim(0, z_top)
     ax_z.set_ylabel("perceived depth z' (m)")
     ax_z.set_title("perceived depth", fontsize=10)
 
@@ -121,7 +111,7 @@ def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) ->
     ax_r.axhspan(0.0, CARDBOARD_ROUNDNESS, color="tab:orange", alpha=0.12, lw=0)
     rho_min, z_min = result.min_roundness()  # a dip between control points shows here
     ax_r.plot(z_min, rho_min, "v", color="tab:red", ms=8, label=f"lowest ρ = {rho_min:.3g} at z = {z_min:.4g} m")
-    ax_r.set_ylim(0, _top(np.concatenate([rho, rho_ref]), _MAX_ROUNDNESS, 1.2))
+    ax_r.set_ylim(0, axis_top(np.concatenate([rho, rho_ref]), _MAX_ROUNDNESS, 1.2))
     ax_r.set_ylabel("roundness ρ")
     ax_r.set_title("roundness", fontsize=10)
 
@@ -147,6 +137,4 @@ def plot_mapping(result: ConstrainedMapping, *, path: str | os.PathLike[str]) ->
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize=7.5)
 
-    with atomic_write(out) as tmp:
-        fig.savefig(tmp, format="png")
-    return out
+    return save_png(fig, out)

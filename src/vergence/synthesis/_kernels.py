@@ -78,7 +78,7 @@ def forward_warp_rows(img, disp, scale, limit, out, zbuf, holes):  # pragma: no 
                         if z > zbuf[y, xt]:
                             zbuf[y, xt] = z
                             r = np.float32(1.0) - s  # (1 - s) v0 + s v1: exact at both ends
-                            if nc == 3:  # unrolled: the common case, about 20 % faster
+                            if nc == 3:  # unrolled: the common case (whole kernel ~7 % faster, 1080p RGB)
                                 out[y, xt, 0] = r * img[y, x, 0] + s * img[y, x + 1, 0]
                                 out[y, xt, 1] = r * img[y, x, 1] + s * img[y, x + 1, 1]
                                 out[y, xt, 2] = r * img[y, x, 2] + s * img[y, x + 1, 2]

@@ -196,15 +196,15 @@ def _blend(
         r = np.stack(rel) & cand
         cand = np.where(r.any(axis=0)[None], r, cand)
     # A zero weight in a pixel only zero-weight references see still counts: fall back to 1.
-    ww = np.where(weighted, w, 0.0)[:, None, None] * cand
+    ww = w[:, None, None] * cand
     ww = np.where(ww.sum(axis=0)[None] > 0, ww, cand.astype(np.float64))
     total = ww.sum(axis=0)
     norm = np.divide(ww, total[None], out=np.zeros_like(ww), where=total[None] > 0).astype(np.float32)
     stack = np.stack([im if im.ndim == 3 else im[:, :, None] for im in imgs])  # (N, H, W, C)
     image = np.einsum("nhw,nhwc->hwc", norm, stack)
-    disparity = np.einsum("nhw,nhw->hw", norm, np.where(cand, d, 0.0).astype(np.float32))
+    disparity = np.einsum("nhw,nhw->hw", norm, np.where(cand, d, np.float32(0.0)))
     disparity[holes] = np.nan
     image[holes] = 0.0
     if imgs[0].ndim == 2:
         image = image[:, :, 0]
-    return BlendResult(image=image.astype(np.float32), disparity=disparity.astype(np.float32), holes=holes)
+    return BlendResult(image=image, disparity=disparity, holes=holes)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int
-from vergence.synthesis.warp import _count_nonfinite
+from vergence.synthesis.warp import _check_map
 from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping, LinearMapping
@@ -69,17 +69,7 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     """
     if kind not in DEPTH_KINDS:
         raise ValueError(f"kind must be one of {', '.join(DEPTH_KINDS)}; got {kind!r}")
-    try:
-        d = np.ascontiguousarray(depth, dtype=np.float32)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"depth must be numeric; got {type(depth).__name__}") from exc
-    if d.ndim != 2 or d.size == 0:
-        raise ValueError(f"depth must have shape (H, W); got {d.shape}")
-    n_nan, n_inf = _count_nonfinite(d)
-    if n_inf:
-        raise ValueError("depth must not contain inf (use NaN for unknown)")
-    if n_nan == d.size:
-        raise ValueError("depth must have at least one known value; got all unknown (NaN)")
+    d = _check_map("depth", depth)
     if kind != "metric":
         return d.copy() if d is depth else d
     lo = float(np.nanmin(d))

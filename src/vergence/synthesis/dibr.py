@@ -31,13 +31,20 @@ from vergence.synthesis.holes import FILL_METHODS, _fill_guide, _fill_holes, fil
 from vergence.synthesis.warp import (
     WarpResult,
     _as_hwc,
-    _check_disparity,
     _check_image,
+    _check_map,
     _check_maps,
+    _check_nonnegative,
     _forward_warp_unchecked,
     _like,
 )
-from vergence.synthesis.warp3d import _check_depth, refine_camera_warp, warp_to_camera
+from vergence.synthesis.warp3d import (
+    _check_camera,
+    _check_depth,
+    _check_source_image,
+    refine_camera_warp,
+    warp_to_camera,
+)
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping
 
@@ -125,9 +132,7 @@ class StereoResult:
 
 
 def _check_options(gradient_limit: float, edge_dilation: int, fill: str) -> tuple[float, int]:
-    limit = check_finite("gradient_limit", gradient_limit)
-    if limit < 0:
-        raise ValueError(f"gradient_limit must be >= 0; got {limit:g}")
+    limit = _check_nonnegative("gradient_limit", gradient_limit)
     r = _check_radius("edge_dilation", edge_dilation)
     if fill not in FILL_METHODS:
         raise ValueError(f"fill must be one of {', '.join(FILL_METHODS)}; got {fill!r}")
@@ -230,8 +235,8 @@ def interpolate_view(
     rgt = _check_image("right", right)
     if rgt.shape != lft.shape:
         raise ValueError(f"right must have shape {lft.shape} like left; got {rgt.shape}")
-    dl = _check_disparity("left_disparity", left_disparity, "left", lft)
-    dr = _check_disparity("right_disparity", right_disparity, "right", rgt)
+    dl = _check_map("left_disparity", left_disparity, "left", lft)
+    dr = _check_map("right_disparity", right_disparity, "right", rgt)
     t = check_in_range("position", position, 0.0, 1.0)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     tol = check_positive("depth_tolerance", depth_tolerance)
@@ -264,9 +269,8 @@ def interpolate_view(
 
 def _fill(image_hwc: np.ndarray, disparity: np.ndarray, holes: np.ndarray, fill: str) -> tuple[np.ndarray, np.ndarray]:
     """Fill holes in place on arrays this module owns (the values in the holes are ignored)."""
-    img = np.ascontiguousarray(image_hwc if image_hwc.ndim == 3 else image_hwc[:, :, None], dtype=np.float32)
     d = np.ascontiguousarray(disparity, dtype=np.float32)
-    return _fill_holes(img, d, np.ascontiguousarray(holes), fill)
+    return _fill_holes(_as_hwc(image_hwc), d, np.ascontiguousarray(holes), fill)
 
 
 def synthesize_views(
@@ -305,7 +309,7 @@ def synthesize_views(
     ``d = -P`` this is :func:`~vergence.synthesis.forward_warp` with ``scale = offset``.
     """
     img = _check_image("image", image)
-    p = _check_disparity("parallax_px", parallax_px, "image", img)
+    p = _check_map("parallax_px", parallax_px, "image", img)
     if len(offsets) == 0:
         raise ValueError("offsets must hold at least one view position; got none")
     offs = tuple(check_finite(f"offsets[{k}]", o) for k, o in enumerate(offsets))
@@ -417,7 +421,7 @@ def _rectified_disparity(depth: np.ndarray, source: Camera, target: Camera) -> n
     same_k = np.allclose(np.delete(ks.ravel(), 2), np.delete(kt.ravel(), 2), rtol=_RECTIFIED_RTOL, atol=0.0)
     same_r = np.allclose(source.R, target.R, rtol=0.0, atol=_RECTIFIED_RTOL)
     base = source.R @ (target.center - source.center)  # baseline in the source camera frame
-    sideways = abs(base[1]) + abs(base[2]) <= _RECTIFIED_RTOL * max(abs(base[0]), 1e-300)
+    sideways = abs(base[1]) + abs(base[2]) <= _RECTIFIED_RTOL * abs(base[0])
     if not (same_k and same_r and sideways and (source.width, source.height) == (target.width, target.height)):
         return None
     return (ks[0, 0] * base[0] / depth + ks[0, 2] - kt[0, 2]).astype(np.float32)  # S1 Eq. (7): d = f b / Z
@@ -464,11 +468,9 @@ def synthesize_view(
     S1 §IV.A: rectified pairs need one-dimensional resampling only (Eq. 7, ``Z = f b / d``);
     the general case is the 3D warp of S1 Eq. (5) (SPEC §6.1).
     """
-    if not isinstance(source, Camera) or not isinstance(target, Camera):
-        raise TypeError("source and target must be Camera instances")
-    img = _check_image("image", image)
-    if img.shape[:2] != (source.height, source.width):
-        raise ValueError(f"image must have shape {(source.height, source.width)} matching the source camera; got {img.shape[:2]}")
+    source = _check_camera("source", source)
+    target = _check_camera("target", target)
+    img = _check_source_image(image, source)
     z = _check_depth(depth, source)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     d = _rectified_disparity(z, source, target)

@@ -16,14 +16,15 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from vergence._validate import check_finite, check_positive, check_same_hw
+from vergence._validate import check_finite, check_positive, check_positive_int, check_same_hw
 from vergence.synthesis import _kernels
 from vergence.synthesis.warp import (
     WarpResult,
     _as_hwc,
     _backward_warp_unchecked,
-    _check_disparity,
     _check_image,
+    _check_map,
+    _check_nonnegative,
     _like,
 )
 
@@ -36,17 +37,6 @@ def _check_radius(name: str, value: object) -> int:
     if value < 0:
         raise ValueError(f"{name} must be >= 0; got {value}")
     return int(value)
-
-
-def _check_map(name: str, value: object) -> np.ndarray:
-    d = np.asarray(value, dtype=np.float32)
-    if d.ndim != 2 or d.size == 0:
-        raise ValueError(f"{name} must have shape (H, W); got {d.shape}")
-    if np.isinf(d).any():
-        raise ValueError(f"{name} must not contain inf (use NaN for unknown)")
-    if np.isnan(d).all():
-        raise ValueError(f"{name} must have at least one known value; got all unknown (NaN)")
-    return d
 
 
 def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = None) -> np.ndarray:
@@ -123,13 +113,11 @@ def dilate_foreground(disparity: object, *, radius: int = 1, threshold: float = 
     """
     d = _check_map("disparity", disparity)
     r = _check_radius("radius", radius)
-    thr = check_finite("threshold", threshold)
-    if thr < 0:
-        raise ValueError(f"threshold must be >= 0; got {thr:g}")
+    thr = _check_nonnegative("threshold", threshold)
     if r == 0:
         return d.copy()
     out = np.empty(d.shape, dtype=np.float32)
-    _kernels.dilate_near_rows(np.ascontiguousarray(d), r, thr, out)
+    _kernels.dilate_near_rows(d, r, thr, out)
     return out
 
 
@@ -164,9 +152,7 @@ def contour_mask(disparity: object, *, width: int = 1, threshold: float = 1.0, s
     [[0, 0, 1, 0, 0, 0]]
     """
     d = _check_map("disparity", disparity)
-    w = _check_radius("width", width)
-    if w < 1:
-        raise ValueError(f"width must be >= 1; got {w}")
+    w = check_positive_int("width", width)
     thr = check_finite("threshold", threshold)
     if side not in ("both", "near", "far"):
         raise ValueError(f"side must be one of both, near, far; got {side!r}")
@@ -236,7 +222,7 @@ def median_refine(
     check_same_hw("source_image", img, "warped image", warped.image)
     if img.shape[2:] != warped.image.shape[2:]:
         raise ValueError(f"source_image must have the channels of the warped image {warped.image.shape}; got {img.shape}")
-    d_src = _check_disparity("source_disparity", source_disparity, "source_image", img)
+    d_src = _check_map("source_disparity", source_disparity, "source_image", img)
     s = check_finite("scale", scale)
     tol = check_positive("tolerance", tolerance)
     cons = check_positive("consistency", consistency)

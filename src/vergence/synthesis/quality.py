@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence.metrics import MIN_CONTRAST, dssim, psnr, registration_error, ssim
+from vergence.metrics import MIN_CONTRAST, _summaries, psnr, registration_error, ssim
 
 __all__ = ["ViewQuality", "assess_view"]
 
@@ -136,25 +136,24 @@ def assess_view(
     """
     p = psnr(image, reference, mask=mask)
     s = ssim(image, reference, mask=mask)
-    ds = dssim(image, reference, mask=mask)
     reg = registration_error(image, reference, radius=radius, min_contrast=min_contrast)
     dist = reg.distance if mask is None else reg.distance[np.asarray(mask)]
-    flat = np.sort(dist[~np.isnan(dist)].ravel())  # the evaluated pixels
-    if flat.size == 0:
+    evaluated = dist[~np.isnan(dist)]
+    if evaluated.size == 0:
         raise ValueError(
             f"min_contrast must leave at least one pixel inside mask to evaluate; got {reg.min_contrast:g}"
         )
     # Eq. (13), nearest rank; k = 1 is the Hausdorff distance of Eq. (12).
-    ranked = {k: float(flat[max(math.ceil(k * flat.size), 1) - 1]) for k in _RANKS}
+    rms, median, ranked = _summaries(evaluated, _RANKS)
     return ViewQuality(
-        psnr_db=float(p),
-        ssim=float(s),
-        dssim=float(ds),
-        registration_rms_px=float(np.sqrt(np.mean(flat**2))),
-        registration_median_px=float(np.median(flat)),
+        psnr_db=p,
+        ssim=s,
+        dssim=(1.0 - s) / 2.0,  # vergence.metrics.dssim, without computing the SSIM a second time
+        registration_rms_px=rms,
+        registration_median_px=median,
         registration_ranked_px=ranked,
-        registration_radius_px=float(radius),
+        registration_radius_px=reg.radius,
         pixels=int(dist.size),
-        registration_pixels=int(flat.size),
+        registration_pixels=int(evaluated.size),
         registration_min_contrast=reg.min_contrast,
     )

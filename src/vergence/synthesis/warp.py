@@ -91,15 +91,25 @@ def _like(hwc: np.ndarray, template: np.ndarray) -> np.ndarray:
     return hwc[:, :, 0] if template.ndim == 2 else hwc
 
 
-def _check_disparity(name: str, disparity: object, ref_name: str, ref: np.ndarray) -> np.ndarray:
-    """Validate a disparity map: ``(H, W)`` like ``ref``, NaN for unknown, no inf, not all unknown."""
+def _check_nonnegative(name: str, value: object) -> float:
+    """Return ``value`` as a float, or raise if it is not finite and >= 0."""
+    v = check_finite(name, value)
+    if v < 0:
+        raise ValueError(f"{name} must be >= 0; got {v:g}")
+    return v
+
+
+def _check_map(name: str, value: object, ref_name: str | None = None, ref: np.ndarray | None = None) -> np.ndarray:
+    """Validate a depth or disparity map as C-contiguous float32: ``(H, W)`` (like ``ref`` when
+    given), not empty, NaN for unknown, no inf, not all unknown (one Numba pass)."""
     try:
-        d = np.ascontiguousarray(disparity, dtype=np.float32)
+        d = np.ascontiguousarray(value, dtype=np.float32)
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be numeric; got {type(disparity).__name__}") from exc
-    if d.ndim != 2:
+        raise TypeError(f"{name} must be numeric; got {type(value).__name__}") from exc
+    if d.ndim != 2 or d.size == 0:
         raise ValueError(f"{name} must have shape (H, W); got {d.shape}")
-    check_same_hw(name, d, ref_name, ref)
+    if ref is not None:
+        check_same_hw(name, d, ref_name, ref)
     n_nan, n_inf = _count_nonfinite(d)
     if n_inf:
         raise ValueError(f"{name} must not contain inf (use NaN for unknown)")
@@ -170,11 +180,9 @@ def forward_warp(
     [[0, 0, 0, 0, 0, 0, 1, 1]]
     """
     img = _check_image("image", image)
-    d = _check_disparity("disparity", disparity, "image", img)
+    d = _check_map("disparity", disparity, "image", img)
     s = check_finite("scale", scale)
-    limit = check_finite("gradient_limit", gradient_limit)
-    if limit < 0:
-        raise ValueError(f"gradient_limit must be >= 0; got {limit:g}")
+    limit = _check_nonnegative("gradient_limit", gradient_limit)
     out, zbuf, holes = _forward_warp_unchecked(_as_hwc(img), d, s, limit)
     return WarpResult(image=_like(out, img), disparity=zbuf, holes=holes)
 
@@ -215,7 +223,7 @@ def backward_warp(image: object, disparity: object, *, scale: float = 1.0) -> tu
     ([[0.125, 0.375, 0.625, 0.875, 1.0]], [[True, True, True, True, True]])
     """
     img = _check_image("image", image)
-    d = _check_disparity("disparity", disparity, "image", img)
+    d = _check_map("disparity", disparity, "image", img)
     s = check_finite("scale", scale)
     out, valid = _backward_warp_unchecked(_as_hwc(img), d, s)
     return _like(out, img), valid

@@ -7,7 +7,8 @@ or by McMillan's occlusion-compatible order (SPEC §6.2): pixels are painted in 
 nearer surfaces arrive last, so no depth test is needed.
 
 Sampling: where the target magnifies the surface (moving toward it, turning to face it), point
-splats leave cracks that grow with the magnification (about 30 % of the pixels at 1.2x, 75 % at 2x).
+splats leave cracks that grow with the magnification m (a share 1 - 1/m^2 of the pixels: about 30 %
+at 1.2x, 75 % at 2x).
 By default neighbouring source pixels that are one surface (the gradient rule of SPEC §6.3 in two
 dimensions: moving one of them to the other's depth shifts its target position by at most
 ``gradient_limit`` pixels) are rasterized as triangles, so a surface stays closed at any
@@ -65,6 +66,13 @@ def _check_camera(name: str, cam: object) -> Camera:
     return cam
 
 
+def _check_source_image(image: object, source: Camera) -> np.ndarray:
+    img = _check_image("image", image)
+    if img.shape[:2] != (source.height, source.width):
+        raise ValueError(f"image must have shape {(source.height, source.width)} matching the source camera; got {img.shape[:2]}")
+    return img
+
+
 def _check_depth(depth: object, source: Camera) -> np.ndarray:
     z = np.asarray(depth, dtype=np.float64)
     if z.shape != (source.height, source.width):
@@ -102,9 +110,7 @@ def epipole(source: Camera, target: Camera) -> np.ndarray:
 def _mcmillan_order(source: Camera, target: Camera) -> np.ndarray:
     """Flat pixel indices in McMillan's occlusion-compatible order (SPEC §6.2)."""
     e = epipole(source, target)
-    ys, xs = np.mgrid[0 : source.height, 0 : source.width]
-    xs = xs.ravel().astype(np.float64)
-    ys = ys.ravel().astype(np.float64)
+    xs, ys = source.pixel_grid().reshape(-1, 2).T
     if abs(e[2]) <= _EPIPOLE_AT_INFINITY * np.linalg.norm(e):
         # Epipole at infinity in direction (e_x, e_y): travel toward it.
         key = xs * e[0] + ys * e[1]
@@ -175,9 +181,7 @@ def warp_to_camera(
     """
     source = _check_camera("source", source)
     target = _check_camera("target", target)
-    img = _check_image("image", image)
-    if img.shape[:2] != (source.height, source.width):
-        raise ValueError(f"image must have shape {(source.height, source.width)} matching the source camera; got {img.shape[:2]}")
+    img = _check_source_image(image, source)
     z = _check_depth(depth, source)
     if order not in WARP_ORDERS:
         raise ValueError(f"order must be one of {', '.join(WARP_ORDERS)}; got {order!r}")
@@ -265,9 +269,7 @@ def refine_camera_warp(
         raise TypeError(f"warped must be a CameraWarpResult; got {type(warped).__name__}")
     source = _check_camera("source", source)
     target = _check_camera("target", target)
-    img = _check_image("image", image)
-    if img.shape[:2] != (source.height, source.width):
-        raise ValueError(f"image must have shape {(source.height, source.width)} matching the source camera; got {img.shape[:2]}")
+    img = _check_source_image(image, source)
     z = _check_depth(depth, source)
     tol = check_positive("consistency", consistency)
     n = check_positive_int("iterations", iterations)

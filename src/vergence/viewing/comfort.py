@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, _out
 
 __all__ = [
     "ARCMIN_PER_RADIAN",
@@ -73,10 +73,6 @@ def _parallax_from_arcmin(theta_arcmin: np.ndarray, display: Display, exact: boo
             f"(a vergence between -180 and 180 degrees); got {worst:g}"
         )
     return e - 2.0 * D * np.tan(half)
-
-
-def _out(arr: np.ndarray) -> float | np.ndarray:
-    return float(arr) if arr.ndim == 0 else arr
 
 
 def arcmin_from_pixels(disparity_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:

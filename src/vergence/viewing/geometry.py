@@ -147,7 +147,19 @@ def _depths(name: str, z: object) -> np.ndarray:
 
 
 def _out(arr: np.ndarray) -> float | np.ndarray:
+    """A 0-d result as a Python float; arrays as they are (scalar in, float out)."""
     return float(arr) if arr.ndim == 0 else arr
+
+
+def _depth_ratio(numerator: float | np.ndarray, denominator: np.ndarray) -> np.ndarray:
+    """``numerator / denominator`` where the denominator is > 0, ``inf`` where it is exactly 0 (parallel
+    rays: a point at infinity) and NaN where it is negative (the rays meet behind: no such depth).
+
+    The callers write their denominators so that the sign, and an exact 0 at the limit, are exact.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = numerator / denominator
+    return np.where(denominator > 0, ratio, np.where(denominator == 0, np.inf, np.nan))
 
 
 def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
@@ -173,10 +185,7 @@ def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndar
     # Eq. (1c) as H / (1 - d/(b/W)): the gap is exactly 0 at d == b/W, so z = inf there
     # (b - W(b/W) need not round to 0).
     gap = 1.0 - d_ / (shooting.baseline / shooting.window)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = shooting.convergence / gap
-    z = np.where(gap > 0, z, np.where(gap == 0, np.inf, np.nan))
-    return _out(z)
+    return _out(_depth_ratio(shooting.convergence, gap))
 
 
 def perceived_depth(d: object, display: Display) -> float | np.ndarray:
@@ -190,14 +199,14 @@ def perceived_depth(d: object, display: Display) -> float | np.ndarray:
     >>> perceived_depth(0.0, Display(eye_separation=0.065, distance=3.0, width=1.2))
     3.0
     """
-    d_ = as_float_array("d", d)
-    # Eq. (1b) as H' / (1 - d/(b'/W')): the gap is exactly 0 at d == b'/W' (Display.divergence_disparity),
+    return _out(_perceived_depth(as_float_array("d", d), display))
+
+
+def _perceived_depth(d: np.ndarray, display: Display) -> np.ndarray:
+    """S0 Eq. (1b) on a validated array (see :func:`perceived_depth`)."""
+    # Written as H' / (1 - d/(b'/W')): the gap is exactly 0 at d == b'/W' (Display.divergence_disparity),
     # so parallel eyes give inf, not a huge finite depth (b' - W'(b'/W') need not round to 0).
-    gap = 1.0 - d_ / display.divergence_disparity
-    with np.errstate(divide="ignore", invalid="ignore"):
-        zp = display.distance / gap
-    zp = np.where(gap > 0, zp, np.where(gap == 0, np.inf, np.nan))
-    return _out(zp)
+    return _depth_ratio(display.distance, 1.0 - d / display.divergence_disparity)
 
 
 def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) -> float | np.ndarray:
@@ -207,10 +216,7 @@ def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) 
     """
     z_ = _depths("z", z)
     den = _eq2_denominator(z_, shooting, display)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        zp = z_ * display.eye_separation * display.distance * shooting.window / den
-    zp = np.where(den > 0, zp, np.where(den == 0, np.inf, np.nan))
-    return _out(zp)
+    return _out(_depth_ratio(z_ * display.eye_separation * display.distance * shooting.window, den))
 
 
 def roundness(z: object, shooting: Shooting, display: Display) -> float | np.ndarray:

@@ -156,12 +156,11 @@ class BlendedMapping(DisparityMapping):
         total = float(w.sum())
         if abs(total - 1.0) > _WEIGHT_SUM_ULPS * len(ops) * np.finfo(np.float64).eps:
             raise ValueError(f"weights must sum to 1; got {total!r}")
-        lo = max(op.domain()[0] for op in ops)
-        hi = min(op.domain()[1] for op in ops)
+        object.__setattr__(self, "operators", ops)
+        lo, hi = self.domain()
         if not lo < hi:
             raise ValueError(f"operators must share a domain; their domains meet in ({lo:g}, {hi:g})")
         w.setflags(write=False)
-        object.__setattr__(self, "operators", ops)
         object.__setattr__(self, "weights", w)
 
     def domain(self) -> tuple[float, float]:

@@ -25,14 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import check_positive
-from vergence.viewing.geometry import Display, Shooting, scene_depth_from_disparity
+from vergence.viewing.geometry import Display, Shooting, _perceived_depth, scene_depth_from_disparity
 from vergence.viewing.mapping_hermite import pchip_slopes
 from vergence.viewing.mapping_operators import DisparityMapping, RationalHermiteMapping
 from vergence.viewing.mapping_perception import (
     _VIEWER,
     _disparity_of,
     _length_or_inf,
-    _perceived,
     mapped_perceived_depth,
     mapped_roundness,
     psi_slope_for_roundness,
@@ -207,13 +206,21 @@ class ConstrainedMapping:
     @property
     def divergence_limit(self) -> float:
         """``b'/W'``: psi must stay at or below it (S0 Eq. 8)."""
-        return self.display.eye_separation / self.display.width
+        return self.display.divergence_disparity
 
     @property
     def disparity_range(self) -> tuple[float, float]:
         """``(d(near), d(far))`` with the reference rig (S0 Eq. 1a)."""
         lo, hi = _disparity_of(np.array([self.near, self.far]), self.reference)
         return float(lo), float(hi)
+
+    def _grid(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """``n`` disparities evenly over ``[d(near), d(far)]`` and their scene depths (S0 Eq. 1c),
+        the end depths set to ``near`` and ``far`` exactly."""
+        d = np.linspace(*self.disparity_range, n)
+        z = np.asarray(scene_depth_from_disparity(d, self.reference), dtype=np.float64)
+        z[0], z[-1] = self.near, self.far
+        return d, z
 
     def perceived_depth(self, z: object) -> float | np.ndarray:
         """Mapped perceived depth at scene depth ``z`` (S0 Eq. 7); see :func:`mapped_perceived_depth`."""
@@ -245,10 +252,7 @@ class ConstrainedMapping:
         >>> round(rho, 3), round(z, 1)
         (0.163, 55.2)
         """
-        lo, hi = self.disparity_range
-        d = np.linspace(lo, hi, CHECK_SAMPLES)
-        z = np.asarray(scene_depth_from_disparity(d, self.reference), dtype=np.float64)
-        z[0], z[-1] = self.near, self.far
+        _, z = self._grid(CHECK_SAMPLES)
         z = np.concatenate([z, [c.depth for c in self.constraints]])  # the control points' own depths
         z = z[np.isfinite(z)]
         rho = np.asarray(self.roundness(z), dtype=np.float64)  # Eq. (9)
@@ -263,16 +267,13 @@ class ConstrainedMapping:
         """
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 2:
             raise ValueError(f"n must be an integer >= 2; got {n!r}")
-        lo, hi = self.disparity_range
-        d = np.linspace(lo, hi, int(n))
-        z = np.asarray(scene_depth_from_disparity(d, self.reference), dtype=np.float64)
-        z[0], z[-1] = self.near, self.far
+        d, z = self._grid(int(n))
         mapped = np.asarray(self.psi(d))
         return MappingSamples(
             disparity=d,
             depth=z,
             mapped=mapped,
-            perceived_depth=_perceived(mapped, self.display),  # Eq. (7)
+            perceived_depth=_perceived_depth(mapped, self.display),  # Eq. (7): Eq. (1b) of psi(d)
             roundness=np.asarray(self.roundness(z)),  # Eq. (9)
         )
 
@@ -395,7 +396,7 @@ def psi_from_constraints(
     items = sorted((_as_constraint(k, c) for k, c in enumerate(constraints)), key=lambda c: c.depth)
     if not items:
         raise ValueError("constraints must hold at least one constraint; got none")
-    limit = display.eye_separation / display.width
+    limit = display.divergence_disparity
     for c in items:
         if not z_near <= c.depth <= z_far:
             raise ValueError(f"constraint {c} lies outside the scene: near = {z_near:g}, far = {_num(z_far)}")

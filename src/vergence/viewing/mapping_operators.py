@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range, check_positive, check_positive_int
+from vergence.viewing.geometry import _out
 from vergence.viewing.mapping_hermite import (
     gregory_delbourgo,
     gregory_delbourgo_derivative,
@@ -42,10 +43,6 @@ _BISECTION_STEPS = 2200
 _BISECTION_EPS = 2.0 * np.finfo(np.float64).eps
 # Doublings allowed when searching a bracket on an unbounded side (2^1100 exceeds every double).
 _BRACKET_DOUBLINGS = 1100
-
-
-def _out(arr: np.ndarray) -> float | np.ndarray:
-    return float(arr) if arr.ndim == 0 else arr
 
 
 class DisparityMapping(ABC):
@@ -368,7 +365,6 @@ class RationalHermiteMapping(DisparityMapping):
         else:
             out = np.where(value == y[0], x[0], out)
         return np.where(np.isnan(value), np.nan, out)
-
 
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality

@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from vergence._validate import check_positive
-from vergence.viewing.geometry import Display, Shooting, disparity
+from vergence.viewing.geometry import Display, Shooting, _out, _perceived_depth, disparity
 from vergence.viewing.mapping_operators import DisparityMapping
 
 __all__ = [
@@ -50,7 +50,7 @@ def psi_value_for_depth(perceived: float, display: Display) -> float:
     0.0
     """
     zp = _length_or_inf("perceived", perceived, where=_VIEWER)
-    limit = display.eye_separation / display.width
+    limit = display.divergence_disparity
     return limit if math.isinf(zp) else limit * (1.0 - display.distance / zp)
 
 
@@ -90,10 +90,6 @@ def _disparity_of(z: np.ndarray, reference: Shooting) -> np.ndarray:
     return d
 
 
-def _out(arr: np.ndarray) -> float | np.ndarray:
-    return float(arr) if arr.ndim == 0 else arr
-
-
 def _check_setup(psi: object, reference: object, display: object) -> None:
     if not isinstance(psi, DisparityMapping):
         raise TypeError(f"psi must be a DisparityMapping; got {type(psi).__name__}")
@@ -101,15 +97,6 @@ def _check_setup(psi: object, reference: object, display: object) -> None:
         raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
     if not isinstance(display, Display):
         raise TypeError(f"display must be a Display; got {type(display).__name__}")
-
-
-def _perceived(value: np.ndarray, display: Display) -> np.ndarray:
-    """S0 Eq. (1b)/(7) as ``H' / (1 - psi/L)`` with ``L = b'/W'``: exactly inf where psi is exactly L
-    (``b' - W' L`` need not round to 0), NaN beyond (the eyes diverge)."""
-    gap = 1.0 - value / (display.eye_separation / display.width)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        zp = display.distance / gap
-    return np.where(gap > 0, zp, np.where(gap == 0, np.inf, np.nan))
 
 
 def mapped_perceived_depth(
@@ -129,7 +116,8 @@ def mapped_perceived_depth(
     """
     _check_setup(psi, reference, display)
     d = _disparity_of(_scene_depths("z", z), reference)
-    return _out(_perceived(np.asarray(psi(d), dtype=np.float64), display))  # Eq. (7)
+    # Eq. (7) is Eq. (1b) of psi(d): inf exactly where psi reaches b'/W', NaN past it.
+    return _out(_perceived_depth(np.asarray(psi(d), dtype=np.float64), display))  # Eq. (7)
 
 
 def mapped_roundness(z: object, psi: DisparityMapping, reference: Shooting, display: Display) -> float | np.ndarray:
@@ -150,7 +138,7 @@ def mapped_roundness(z: object, psi: DisparityMapping, reference: Shooting, disp
     zz = _scene_depths("z", z)
     d = _disparity_of(zz, reference)
     value, slope = np.asarray(psi(d)), np.asarray(psi.derivative(d))
-    gap = 1.0 - value / (display.eye_separation / display.width)  # (b' - W' psi)/b', exactly 0 at psi = b'/W'
+    gap = 1.0 - value / display.divergence_disparity  # (b' - W' psi)/b', exactly 0 at psi = b'/W'
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = reference.baseline * display.distance * slope / (zz * display.eye_separation * gap)  # Eq. (9)
     return _out(rho)
