@@ -287,3 +287,17 @@ def test_compare_table_and_bad_input(tmp_path, capsys):
                                      str(tmp_path / "e.png"), "--error-gain", gain])
         assert code == 2 and "--error-gain must be a finite number > 0" in err
     assert not (tmp_path / "e.png").exists()
+
+
+def test_scales_that_cannot_apply_are_refused(tmp_path, capsys):
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "disp.npy", np.full(img.shape[:2], 2.0, np.float32))
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "disp.npy"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "disp.npy"), "--disparity-scale", "2",
+                                 "--position", "0.5", "--out", str(tmp_path / "v.png")])
+    assert code == 2 and "applies to PNG/PGM disparity files only" in err and len(err.strip().splitlines()) == 1
+    for scale in ("0", "-2"):
+        code, _, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth_mm.png"),
+                                     "--depth-kind", "inverse", "--depth-scale", scale, "--out", str(tmp_path / "o")])
+        assert code == 2 and "--depth-scale must be > 0" in err

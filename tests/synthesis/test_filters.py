@@ -137,3 +137,8 @@ def test_median_refine_bad_input():
         median_refine(warped, np.zeros((4, 5, 3)), np.ones((4, 5)), scale=1.0)
     with pytest.raises(ValueError, match="tolerance must be > 0"):
         median_refine(warped, img, np.ones((4, 5)), scale=1.0, tolerance=0.0)
+
+
+def test_contour_mask_refuses_a_negative_threshold():
+    with pytest.raises(ValueError, match="threshold"):
+        contour_mask(np.zeros((3, 3)), threshold=-1.0)

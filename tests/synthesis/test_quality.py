@@ -71,3 +71,11 @@ def test_bad_input():
         assess_view(np.zeros((16, 16)), np.zeros((16, 17)))
     with pytest.raises(ValueError, match="mask must select at least one pixel"):
         assess_view(np.zeros((16, 16)), np.zeros((16, 16)), mask=np.zeros((16, 16), bool))
+
+
+def test_ranked_registration_values_are_read_only():
+    rng = np.random.default_rng(3)
+    img = rng.random((24, 24)).astype(np.float32)
+    q = assess_view(img, img)
+    with pytest.raises(TypeError):
+        q.registration_ranked_px[0.5] = 3.0  # type: ignore[index]

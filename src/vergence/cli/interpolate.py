@@ -18,7 +18,11 @@ _INTEGER_DISPARITY = (".png", ".pgm")
 def _disparity(path: Path, scale: float | None):
     """PNG/PGM: value / scale (0 = unknown); PFM/NPY: pixels as stored (NaN, inf = unknown; 0 is a
     real disparity, a point at infinity). The scale applies to PNG/PGM only."""
-    return read_disparity(path, scale=scale if path.suffix.lower() in _INTEGER_DISPARITY else None)
+    if path.suffix.lower() in _INTEGER_DISPARITY:
+        return read_disparity(path, scale=scale)
+    if scale is not None and scale != 1.0:
+        raise ValueError(f"--disparity-scale applies to PNG/PGM disparity files only; {path} holds pixels (got {scale:g})")
+    return read_disparity(path)
 
 
 @app.command("interpolate")

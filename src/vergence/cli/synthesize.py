@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from vergence._validate import check_positive
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.display import anaglyph, side_by_side, tile_views, top_bottom
 from vergence.io import read_disparity, read_image, write_image, write_json
@@ -26,6 +27,8 @@ def _read_depth(path: Path, kind: str, scale: float | None):
     """Depth as float32 (H, W): PNG/PGM value / scale (0 = unknown; for inverse depth 8/16-bit values
     in [0, 1] where 0 is the far plane, MPEG), PFM/NPY as stored (NaN, inf = unknown)."""
     integer = path.suffix.lower() in (".png", ".pgm")
+    if scale is not None:
+        check_positive("--depth-scale", scale)
     if kind == "inverse" and integer:
         depth = read_image(path)
         if depth.ndim != 2:

@@ -153,7 +153,7 @@ def contour_mask(disparity: object, *, width: int = 1, threshold: float = 1.0, s
     """
     d = _check_map("disparity", disparity)
     w = check_positive_int("width", width)
-    thr = check_finite("threshold", threshold)
+    thr = _check_nonnegative("threshold", threshold)
     if side not in ("both", "near", "far"):
         raise ValueError(f"side must be one of both, near, far; got {side!r}")
     mark = np.zeros(d.shape, dtype=bool)

@@ -9,7 +9,9 @@ the view has enough contrast to be registered. The metrics themselves live in :m
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -33,7 +35,7 @@ class ViewQuality:
     registration_rms_px, registration_median_px : float
         RMS and median of the registration error ``d(p, I')`` (S1 Eq. 11) over the
         ``registration_pixels`` evaluated pixels, pixels.
-    registration_ranked_px : dict of float to float
+    registration_ranked_px : read-only mapping of float to float
         ``k -> d^k(I, I')`` (Eq. 13) for k in 0.5, 0.8, 0.95 and 1 (the Hausdorff distance, Eq. 12),
         over the evaluated pixels.
     registration_radius_px : float
@@ -52,7 +54,7 @@ class ViewQuality:
     dssim: float
     registration_rms_px: float
     registration_median_px: float
-    registration_ranked_px: dict
+    registration_ranked_px: Mapping[float, float]
     registration_radius_px: float
     pixels: int
     registration_pixels: int
@@ -61,6 +63,7 @@ class ViewQuality:
     def __post_init__(self) -> None:
         if self.pixels < 1:
             raise ValueError(f"pixels must be >= 1; got {self.pixels}")
+        object.__setattr__(self, "registration_ranked_px", MappingProxyType(dict(self.registration_ranked_px)))
         if not 1 <= self.registration_pixels <= self.pixels:
             raise ValueError(f"registration_pixels must lie in [1, pixels {self.pixels}]; got {self.registration_pixels}")
         if not 0.0 <= self.registration_median_px <= self.registration_radius_px:
