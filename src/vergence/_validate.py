@@ -17,6 +17,8 @@ import numpy as np
 __all__ = [
     "as_float_array",
     "as_image",
+    "as_image_pair",
+    "as_view",
     "check_finite",
     "check_in_range",
     "check_positive",
@@ -134,3 +136,22 @@ def readonly_copy(array: object) -> np.ndarray:
     out = np.array(array, dtype=np.float64, copy=True)
     out.flags.writeable = False
     return out
+
+
+def as_view(name: str, image: object) -> np.ndarray:
+    """:func:`as_image` restricted to grey ``(H, W)`` or RGB ``(H, W, 3)``: a single channel axis is
+    dropped, alpha is refused."""
+    arr = as_image(name, image)
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if arr.ndim == 3 and arr.shape[2] != 3:
+        raise ValueError(f"{name} must have shape (H, W) or (H, W, 3); got {arr.shape} (no alpha)")
+    return arr
+
+
+def as_image_pair(first_name: str, first: object, second_name: str, second: object) -> tuple[np.ndarray, np.ndarray]:
+    """Two views (see :func:`as_view`) that must share one shape; float32."""
+    a, b = as_view(first_name, first), as_view(second_name, second)
+    if a.shape != b.shape:
+        raise ValueError(f"{second_name} must have the same shape as {first_name} {a.shape}; got {b.shape}")
+    return a, b

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from vergence._validate import as_image, check_positive_int
+from vergence._validate import as_image_pair, as_view, check_positive_int
 
 __all__ = [
     "anaglyph",
@@ -51,22 +51,9 @@ _ANAGLYPH_METHODS = ("dubois", "half-color", "red-cyan")
 _ORIENTATIONS = ("columns", "rows")
 
 
-def _view(name: str, image: object) -> np.ndarray:
-    """One view as float32 (H, W) or (H, W, 3); alpha is refused."""
-    arr = as_image(name, image)
-    if arr.ndim == 3 and arr.shape[2] == 1:
-        arr = arr[:, :, 0]
-    if arr.ndim == 3 and arr.shape[2] != 3:
-        raise ValueError(f"{name} must have shape (H, W) or (H, W, 3); got {arr.shape} (no alpha)")
-    return arr
-
-
 def _pair(left: object, right: object) -> tuple[np.ndarray, np.ndarray]:
     """Validate a stereo pair: two views of one shape."""
-    lv, rv = _view("left", left), _view("right", right)
-    if lv.shape != rv.shape:
-        raise ValueError(f"right must have the same shape as left {lv.shape}; got {rv.shape}")
-    return lv, rv
+    return as_image_pair("left", left, "right", right)
 
 
 def _rgb(view: np.ndarray) -> np.ndarray:
@@ -345,7 +332,7 @@ def tile_views(views: Sequence[object], *, columns: int | None = None) -> np.nda
         raise TypeError(f"views must be a sequence (list or tuple) of images; got {type(views).__name__}")
     if len(views) == 0:
         raise ValueError("views must hold at least one view; got 0")
-    arrs = [_view(f"views[{i}]", v) for i, v in enumerate(views)]
+    arrs = [as_view(f"views[{i}]", v) for i, v in enumerate(views)]
     for i, a in enumerate(arrs[1:], start=1):
         if a.shape != arrs[0].shape:
             raise ValueError(f"views[{i}] must have the shape of views[0] {arrs[0].shape}; got {a.shape}")

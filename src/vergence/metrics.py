@@ -16,7 +16,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from vergence._metrics_kernels import SIMILARITY_SSD, SIMILARITY_ZNCC, patch_sums, registration_search
-from vergence._validate import as_image, check_finite, check_in_range, check_positive, check_positive_int
+from vergence._validate import as_image_pair, check_finite, check_in_range, check_positive, check_positive_int
 
 __all__ = [
     "MIN_CONTRAST",
@@ -46,14 +46,7 @@ _MAX_CONTRAST = 0.5
 
 def _pair(image: object, reference: object) -> tuple[np.ndarray, np.ndarray]:
     """Validate an image and its reference: [0, 1], same shape, grey or RGB (no alpha)."""
-    a, b = as_image("image", image), as_image("reference", reference)
-    for name, arr in (("image", a), ("reference", b)):
-        if arr.ndim == 3 and arr.shape[2] == 4:
-            raise ValueError(f"{name} must have shape (H, W) or (H, W, 3); got {arr.shape} (no alpha)")
-    a = a[:, :, 0] if a.ndim == 3 and a.shape[2] == 1 else a
-    b = b[:, :, 0] if b.ndim == 3 and b.shape[2] == 1 else b
-    if a.shape != b.shape:
-        raise ValueError(f"reference must have the same shape as image {a.shape}; got {b.shape}")
+    a, b = as_image_pair("image", image, "reference", reference)
     return a.astype(np.float64), b.astype(np.float64)
 
 
