@@ -29,3 +29,17 @@ def test_library_error_is_one_line(capsys):
     code = main(["budget", "--baseline", "-1", "--convergence", "3", "--window", "1", "--display", "tv-55"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and err == "error: baseline must be > 0; got -1"
+
+
+def test_unexpected_exception_is_one_line_with_exit_code_1(capsys, monkeypatch):
+    import vergence.cli.budget as budget_cli
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("kaboom")
+
+    monkeypatch.setattr(budget_cli, "depth_budget", boom)
+    monkeypatch.delenv("VERGENCE_DEBUG", raising=False)
+    code = main(["budget", "--baseline", "0.1", "--convergence", "3", "--window", "1", "--display", "tv-55"])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and len(err.splitlines()) == 1
+    assert "internal error" in err and "RuntimeError: kaboom" in err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 import typer
@@ -28,7 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI and return its exit code.
 
     Library errors (``ValueError``, ``TypeError``, ``OSError``) and command-line usage errors become
-    one line on stderr and exit code 2; never a traceback.
+    one line on stderr and exit code 2; any other exception is a bug of ours: one line and exit code 1
+    (set ``VERGENCE_DEBUG=1`` for the traceback). ``KeyboardInterrupt`` is left alone.
     """
     try:
         result = app(args=argv, standalone_mode=False)
@@ -47,6 +49,12 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, TypeError, OSError) as exc:
         _one_line_error(str(exc) or type(exc).__name__)
         return 2
+    except Exception as exc:  # a bug of ours, not a user mistake: still one line, exit code 1
+        if os.environ.get("VERGENCE_DEBUG"):
+            raise
+        _one_line_error(f"internal error, please report it (VERGENCE_DEBUG=1 shows the traceback): "
+                        f"{type(exc).__name__}: {exc}")
+        return 1
     return int(result) if isinstance(result, int) else 0
 
 
