@@ -148,7 +148,8 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
         "the player's disparities and compresses the background's. "
         f"The bleachers at {bleachers:g} m are then seen at {float(tri.perceived_depth(bleachers)):.1f} m with "
         f"roundness {float(tri.roundness(bleachers)):.2f} (b_div: 0.25, b_round: divergence). "
-        f"monotone: {tri.monotone}; ever past the divergence limit: {tri.diverges}."
+        f"psi is monotone: {'yes' if tri.monotone else 'no'}; ever past the divergence limit: "
+        f"{'yes' if tri.diverges else 'no'}."
     )
     fig = Figure("tri_rig_psi.png", "psi(d) with the identity and the divergence limit; mapped perceived depth and roundness.")
     return Section("2. The Tri-Rig's disparity mapping (S0 §6)", text, (fig,), table), tri
