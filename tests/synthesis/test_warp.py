@@ -86,7 +86,7 @@ def test_forward_warp_matches_slow_reference(case):
     out, zbuf, holes = slow_forward_warp(img, disp, scale, limit)
     assert_array_equal(res.holes, holes)
     assert_allclose(res.image, out, rtol=0, atol=KERNEL_ATOL)
-    assert_allclose(res.disparity, zbuf, rtol=0, atol=KERNEL_ATOL)
+    assert_allclose(res.nearness, zbuf, rtol=0, atol=KERNEL_ATOL)
 
 
 def test_step_near_on_the_left_leaves_a_hole_as_wide_as_the_jump():
@@ -113,7 +113,7 @@ def test_gap_filling_interpolates_linearly_between_neighbours():
     disp = np.array([[0.0, -0.5, -0.5]])
     res = forward_warp(img, disp, scale=2.0)
     assert_allclose(res.image[0, :3], [0.0, 0.5, 1.0])
-    assert_allclose(res.disparity[0, :3], [0.0, -0.25, -0.5])
+    assert_allclose(res.nearness[0, :3], [0.0, -0.25, -0.5])
 
 
 def test_zbuffer_keeps_the_nearest_surface():
@@ -122,7 +122,7 @@ def test_zbuffer_keeps_the_nearest_surface():
     disp = np.array([[0.0, np.nan, np.nan, 3.0]])
     res = forward_warp(img, disp)
     assert res.image[0, 0] == pytest.approx(0.8)
-    assert res.disparity[0, 0] == 3.0
+    assert res.nearness[0, 0] == 3.0
     assert res.holes[0].tolist() == [False, True, True, True]
 
 
@@ -157,7 +157,7 @@ def test_grey_8_and_16_bit_inputs_give_the_same_warp():
 def test_backward_warp_undoes_a_constant_forward_warp():
     img = np.random.default_rng(6).random((2, 12, 3), dtype=np.float32)
     fwd = forward_warp(img, np.full((2, 12), 2.0))
-    back, valid = backward_warp(fwd.image, fwd.disparity, scale=-1.0)
+    back, valid = backward_warp(fwd.image, fwd.nearness, scale=-1.0)
     # The forward warp put source x + 2 at x (x = 0..9); backward, x takes x - 2 of that: x = 2..9.
     assert_allclose(back[:, 2:10], img[:, 2:10], atol=1e-7)
     assert valid[:, 2:10].all() and not valid[:, :2].any() and not valid[:, 10:].any()

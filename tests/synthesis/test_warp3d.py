@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import Camera, look_at
 from vergence.synthesis import epipole, forward_warp, refine_camera_warp, warp_to_camera
-from vergence.synthesis.warp3d import _mesh_links
+from vergence.synthesis._stages3d import mesh_links as _mesh_links
 
 # Depths of a plane after a project/back-project round trip: float32 storage, ~1e-7 relative.
 DEPTH_RTOL = 1e-6

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int
-from vergence.synthesis.warp import _check_map
+from vergence.synthesis._checks import check_map
 from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping, LinearMapping
@@ -69,7 +69,7 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     """
     if kind not in DEPTH_KINDS:
         raise ValueError(f"kind must be one of {', '.join(DEPTH_KINDS)}; got {kind!r}")
-    d = _check_map("depth", depth)
+    d = check_map("depth", depth)
     if kind != "metric":
         return d.copy() if d is depth else d
     lo = float(np.nanmin(d))
