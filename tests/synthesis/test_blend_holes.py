@@ -12,7 +12,7 @@ from vergence.synthesis import WarpedView, baseline_weights, blend_views, fill_d
 @pytest.mark.parametrize(
     ("positions", "target", "expected"),
     [
-        ([0.0, 1.0], 0.25, [0.75, 0.25]),  # SPEC §6.3: w_L = |t - t_R| / |t_R - t_L|
+        ([0.0, 1.0], 0.25, [0.75, 0.25]),  # S1 Sec. IV.B.2: w_L = |t - t_R| / |t_R - t_L|
         ([0.0, 1.0], 0.0, [1.0, 0.0]),
         ([0.0, 1.0], 1.0, [0.0, 1.0]),
         ([0.0, 1.0, 2.0], 1.5, [0.0, 0.5, 0.5]),  # only the neighbours on each side

@@ -23,7 +23,7 @@ def test_identical_views():
 
 
 def test_misregistered_view_has_registration_error_sqrt5():
-    # SPEC §6.5 [V]: a (2, 1)-px shift gives d = sqrt(5) on interior pixels.
+    # S1 Eqs. (11)-(13): a (2, 1)-px shift gives d = sqrt(5) on interior pixels.
     ref = ndimage.gaussian_filter(np.random.default_rng(2).random((40, 40)), 1.0)
     syn = np.roll(ref, (1, 2), axis=(0, 1))
     mask = np.zeros((40, 40), bool)

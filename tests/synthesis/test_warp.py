@@ -1,4 +1,4 @@
-"""Rectified forward/backward warping: kernel vs a slow reference, SPEC §6.3 examples, bad input."""
+"""Rectified forward/backward warping: kernel vs a slow reference, examples of S1 Sec. IV.B.1's gradient rule, bad input."""
 
 from __future__ import annotations
 
@@ -90,7 +90,7 @@ def test_forward_warp_matches_slow_reference(case):
 
 
 def test_step_near_on_the_left_leaves_a_hole_as_wide_as_the_jump():
-    # SPEC §6.3 [V]: d = 15 left of x = 50, 5 right of it; x' = x - d: a 10-px hole at 35..44.
+    # S1 Sec. IV.B.1: d = 15 left of x = 50, 5 right of it; x' = x - d: a 10-px hole at 35..44.
     n = 100
     disp = np.where(np.arange(n) < 50, 15.0, 5.0)[None, :]
     img = np.random.default_rng(0).random((1, n), dtype=np.float32)
@@ -100,7 +100,7 @@ def test_step_near_on_the_left_leaves_a_hole_as_wide_as_the_jump():
 
 
 def test_smooth_slanted_surface_has_no_gaps():
-    # SPEC §6.3 [V]: d from 0 to -30 over 100 px (stretched by 1.3): every sampling gap is filled.
+    # S1 Sec. IV.B.1: d from 0 to -30 over 100 px (stretched by 1.3): every sampling gap is filled.
     n = 100
     disp = -np.linspace(0.0, 30.0, n)[None, :]
     res = forward_warp(np.random.default_rng(1).random((1, n), dtype=np.float32), disp)

@@ -34,7 +34,7 @@ def baseline_weights(positions: object, target: float) -> np.ndarray:
     Returns
     -------
     (N,) float64
-        Non-negative weights summing to 1. For two references they are the linear ones of SPEC §6.3,
+        Non-negative weights summing to 1. For two references they are the linear ones of S1 Sec. IV.B.2,
         ``w_L = |t - t_R| / |t_R - t_L|``, ``w_R = 1 - w_L`` (zero outside the segment). For more,
         only the nearest reference on each side of the target contributes, with those linear
         weights (one side only: the nearest reference alone). A reference at the target gets 1.
@@ -64,7 +64,7 @@ def baseline_weights(positions: object, target: float) -> np.ndarray:
     if left.size and right.size:
         i = left[np.argmax(p[left])]
         j = right[np.argmin(p[right])]
-        w[i] = (p[j] - t) / (p[j] - p[i])  # SPEC §6.3: w_L = |t_v - t_R| / |t_R - t_L|
+        w[i] = (p[j] - t) / (p[j] - p[i])  # S1 Sec. IV.B.2: w_L = |t_v - t_R| / |t_R - t_L|
         w[j] = 1.0 - w[i]
     else:
         side = left if left.size else right

@@ -187,7 +187,7 @@ def interpolate_view(
     Notes
     -----
     S1 §IV.A–B: rectified warping (Eq. 7), sampling gaps vs holes, median + inverse warping, contour
-    artifacts, blending with weights ``w_L = 1 - T``, ``w_R = T`` (SPEC §6.3) and the nearer surface
+    artifacts, blending with weights ``w_L = 1 - T``, ``w_R = T`` (S1 Sec. IV.B.2) and the nearer surface
     winning, background-only hole filling. At T = 0 the result is ``left`` wherever its disparity
     is known (the right reference only fills the rest), at T = 1 likewise ``right``.
 
@@ -272,7 +272,7 @@ def synthesize_views(
 
     Notes
     -----
-    Shift-sensor DIBR (Fehn; SPEC §6.1): ``x_l = x_c - P/2``, ``x_r = x_c + P/2``. With
+    Shift-sensor DIBR (Fehn 2004): ``x_l = x_c - P/2``, ``x_r = x_c + P/2``. With
     ``d = -P`` this is :func:`~vergence.synthesis.forward_warp` with ``scale = offset``.
     """
     img = check_image("image", image)
@@ -435,7 +435,7 @@ def synthesize_view(
     Notes
     -----
     S1 §IV.A: rectified pairs need one-dimensional resampling only (Eq. 7, ``Z = f b / d``);
-    the general case is the 3D warp of S1 Eq. (5) (SPEC §6.1).
+    the general case is the 3D warp of S1 Eq. (5) (sign of the translation corrected).
     """
     source = check_camera("source", source)
     target = check_camera("target", target)

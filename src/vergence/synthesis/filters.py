@@ -74,7 +74,7 @@ def dilate_foreground(disparity: object, *, radius: int = 1, threshold: float = 
     radius : int
         Pixels to grow, >= 0 (0 returns a copy).
     threshold : float
-        Smallest disparity jump treated as a discontinuity, in pixels (the gap limit of SPEC §6.3).
+        Smallest disparity jump treated as a discontinuity, in pixels (the gap limit of the gradient rule, S1 Sec. IV.B.1).
 
     Returns
     -------

@@ -106,7 +106,7 @@ def assess_view(
     mask : (H, W) bool array, optional
         Compare these pixels only (at least one).
     radius : float
-        Search radius of the registration error, pixels (S1 Eq. 11; SPEC §6.5 suggests 10).
+        Search radius of the registration error, pixels (S1 Eq. 11; the paper gives none, 10 px is our choice).
     min_contrast : float
         The registration error is evaluated only where the 5x5 patch of ``image`` has an RMS
         contrast of at least this ([0, 1] units; default 3/255, see
@@ -126,7 +126,7 @@ def assess_view(
     -----
     S1 §V.B.2: the registration error ``d(p, I') = |p - p*|`` with ``p*`` the most similar pixel of
     the reference within ``radius`` (Eq. 11), its maximum (Hausdorff, Eq. 12) and its k-th ranked
-    values (Eq. 13), here ZNCC of 5x5 patches (SPEC §6.5), over the pixels with enough contrast
+    values (Eq. 13), here ZNCC of 5x5 patches (our choice of the similarity S of S1 Eq. 11), over the pixels with enough contrast
     (in flat areas the matched pixel is arbitrary and the distance would measure noise).
 
     Examples

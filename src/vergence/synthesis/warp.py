@@ -3,7 +3,7 @@
 Two rectified views on one horizontal line: a pixel at column x with disparity d (pixels,
 ``x_left - x_right``, positive in front; see ``docs/conventions.md``) moves to ``x - scale d`` in
 the target view, ``scale`` being the target's position along the baseline in units of the
-baseline the disparity was measured on (S1 Eq. 7; SPEC §6.1). Resampling is one-dimensional along
+baseline the disparity was measured on (S1 Eq. 7). Resampling is one-dimensional along
 the rows (S1 §IV.A).
 """
 
@@ -40,7 +40,7 @@ def forward_warp(
         Target position in baselines: 1 is the right view of a left reference, 0.5 the middle,
         negative values move the other way (a right reference toward the left).
     gradient_limit : float
-        Largest gap, in target pixels, that is still a sampling gap (SPEC §6.3; S1 §IV.B.1).
+        Largest gap, in target pixels, that is still a sampling gap (S1 Sec. IV.B.1).
 
     Returns
     -------
@@ -56,7 +56,7 @@ def forward_warp(
     Notes
     -----
     Rectified warping ``x' = x - scale d``, S1 Eq. (7) with ``Z = f b / d``; gap vs hole by the
-    disparity-gradient rule of S1 §IV.B.1 (SPEC §6.3): near on the left with a 10-px jump leaves a
+    disparity-gradient rule of S1 Sec. IV.B.1: near on the left with a 10-px jump leaves a
     10-px hole. Rows run in parallel (Numba); within a row the z-test keeps the larger disparity.
 
     Examples

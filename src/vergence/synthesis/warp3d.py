@@ -1,15 +1,15 @@
-"""General 3D warping between two pinhole cameras with depth in metres (S1 §IV.A, SPEC §6.1–6.2).
+"""General 3D warping between two pinhole cameras with depth in metres (S1 Sec. IV.A; McMillan 1997).
 
 Each source pixel is lifted to 3D with its depth and projected into the target camera,
 ``Z_t m_t = K_t (R_t X + t_t)`` with ``X = R_s^T (Z_s K_s^{-1} m_s - t_s)`` (the corrected form of
-S1 Eq. (5), SPEC §6.1). Visibility is resolved either by a z-buffer (the smaller target depth wins)
-or by McMillan's occlusion-compatible order (SPEC §6.2): pixels are painted in an order that makes
+S1 Eq. (5) with the sign of the translation corrected). Visibility is resolved either by a z-buffer (the smaller target depth wins)
+or by McMillan's occlusion-compatible order (McMillan 1997): pixels are painted in an order that makes
 nearer surfaces arrive last, so no depth test is needed.
 
 Sampling: where the target magnifies the surface (moving toward it, turning to face it), point
 splats leave cracks that grow with the magnification m (a share 1 - 1/m^2 of the pixels: about 30 %
 at 1.2x, 75 % at 2x).
-By default neighbouring source pixels that are one surface (the gradient rule of SPEC §6.3 in two
+By default neighbouring source pixels that are one surface (the gradient rule of S1 Sec. IV.B.1 in two
 dimensions: moving one of them to the other's depth shifts its target position by at most
 ``gradient_limit`` pixels) are rasterized as triangles, so a surface stays closed at any
 magnification; a larger shift is an occlusion boundary and stays a hole (disocclusion).
@@ -96,9 +96,9 @@ def warp_to_camera(
     Notes
     -----
     ``Z_t m_t = Z_s K_t R K_s^{-1} m_s + K_t t`` for the relative pose (R, t) (S1 Eq. (5) with the
-    sign of SPEC §6.1). McMillan (SPEC §6.2): with the epipole ``e = K_s (R_s C_t + t_s)``, paint
+    translation's sign corrected: ``+ K_t t``, not ``+ K_t C``). McMillan 1997: with the epipole ``e = K_s (R_s C_t + t_s)``, paint
     toward it when ``e_w > 0`` and away from it when ``e_w < 0``; later writes win. The mesh link
-    is the gradient rule of SPEC §6.3 (S1 §IV.B.1) generalised to 3D: on a rectified pair it is
+    is the gradient rule of S1 Sec. IV.B.1 generalised to 3D: on a rectified pair it is
     ``|d_1 - d_0| <= gradient_limit`` exactly, the rule of :func:`~vergence.synthesis.forward_warp`.
 
     Examples
