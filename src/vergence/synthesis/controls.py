@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int
+from vergence.io.depth import DEPTH_KINDS
 from vergence.synthesis._checks import check_map
 from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
 from vergence.viewing.geometry import Display
@@ -33,7 +34,6 @@ from vergence.viewing.mapping import DisparityMapping, LinearMapping
 
 __all__ = ["DEPTH_KINDS", "ParallaxPlan", "nearness_from_depth", "plan_parallax", "views_offsets"]
 
-DEPTH_KINDS = ("disparity", "inverse", "metric")
 
 
 def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:

@@ -90,6 +90,19 @@ class StereoResult:
                 f"views, holes and offsets must have one length; got {len(self.views)}, {len(self.holes)}, {len(self.offsets)}"
             )
 
+    def to_dict(self) -> dict:
+        """JSON-ready summary: view offsets, size, parallax range between adjacent views (pixels,
+        arcmin when a display was given; ``x_r - x_l``, positive behind the screen) and the share of
+        each view that hole filling made up (percent, 4 decimals)."""
+        h, w = self.views[0].shape[:2]
+        return {
+            "offsets": list(self.offsets),
+            "size": [int(w), int(h)],
+            "parallax_range_px": list(self.plan.range_px),
+            "parallax_range_arcmin": None if self.plan.range_arcmin is None else list(self.plan.range_arcmin),
+            "holes_percent": [round(100.0 * float(m.mean()), 4) for m in self.holes],
+        }
+
     @property
     def left(self) -> np.ndarray:
         """The leftmost view."""

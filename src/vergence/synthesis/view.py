@@ -73,3 +73,14 @@ class WarpedView:
             if m is not None and np.asarray(m).dtype != bool:
                 raise TypeError(f"WarpedView.{name} must be a bool array; got {np.asarray(m).dtype}")
         object.__setattr__(self, "payload", MappingProxyType(dict(self.payload)))
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: size ``[W, H]``, the share of holes (percent, 4 decimals), the
+        nearness unit and the payload channel names."""
+        h, w = np.shape(self.image)[:2]
+        return {
+            "size": [int(w), int(h)],
+            "holes_percent": round(100.0 * float(np.mean(self.holes)), 4),
+            "nearness_unit": self.nearness_unit,
+            "payload": sorted(self.payload),
+        }
