@@ -82,3 +82,75 @@ def test_importing_a_primitive_does_not_import_the_pipelines():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["False", "True"]
+
+
+def test_inpaint_keeps_the_scanline_fill_of_a_nearer_layer_hole():
+    # Foreground (0.9, d = 3) on columns 0-9, background (0.2, d = 1) on 10-19; hole A (columns
+    # 6-7) inside the foreground, hole B (11-12) inside the background. Column 7 has a hole pixel
+    # of B within the inpainting band (4 px) that is farther by 2 px (> the 1 px margin): it belongs
+    # to a nearer layer and keeps its scanline fill, exactly the foreground grey.
+    h, w = 10, 20
+    img = np.full((h, w), 0.2, np.float32)
+    d = np.ones((h, w))
+    img[:, :10] = 0.9
+    d[:, :10] = 3.0
+    holes = np.zeros((h, w), bool)
+    holes[3:7, 6:8] = True
+    holes[3:7, 11:13] = True
+    out, _ = fill_holes(img, d, holes, method="inpaint")
+    np.testing.assert_array_equal(out[3:7, 7], np.float32(0.9))
+
+
+def test_synthesize_view_takes_the_3d_path_for_nearly_rectified_cameras():
+    # A rotation of 1e-4 rad is far above the 1e-9 precision of the rectified-pair test: the 3D
+    # path (nearness in 1/m) renders it; the exactly rectified pair takes the rectified one (px).
+    h, w = 8, 12
+    a = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    b = look_at([0.1, 0, 0], [0.1, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    tilted = look_at([0.1, 0, 0], [0.1 + 1e-4, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    img = np.random.default_rng(1).random((h, w)).astype(np.float32)
+    depth = np.full((h, w), 2.0)
+    assert synthesize_view(img, depth, a, b).nearness_unit == "px"
+    assert synthesize_view(img, depth, a, tilted).nearness_unit == "1/m"
+
+
+def test_median_refine_needs_five_known_neighbours_and_half_a_pixel():
+    # Disparity 0 (the source pixel is the target pixel). Hole (1, 2) has 4 known values in its
+    # 3 x 3 window: no median (at least 5 needed), it stays a hole; hole (1, 1) has 5 and is filled.
+    # The known pixel (1, 5) = 1 px differs from its median 0 by more than the 0.5 px tolerance:
+    # it is re-sampled and takes the median.
+    from vergence.synthesis import WarpedView, median_refine
+
+    src = np.tile(np.linspace(0.1, 0.7, 7, dtype=np.float32), (3, 1))
+    near = np.zeros((3, 7), np.float32)
+    near[[1, 0, 0, 0, 1], [2, 1, 2, 3, 1]] = np.nan
+    near[1, 5] = 1.0
+    warped = WarpedView(np.where(np.isnan(near), 0.0, src).astype(np.float32), np.isnan(near), near)
+    res = median_refine(warped, src, np.zeros((3, 7)), scale=1.0)
+    assert res.holes[1, 2] and not res.holes[1, 1]
+    assert res.image[1, 1] == src[1, 1]
+    assert res.nearness[1, 5] == 0.0
+
+
+def test_refine_camera_warp_needs_five_known_depths_and_agreeing_source_depth():
+    # A rectified pair looking at a plane 2 m away, warped, then holes punched by hand. Hole
+    # (3, 5) has 4 known depths in its window: it stays. Hole (3, 8) has 8 known neighbours at
+    # 2.5 m: the median lifts it to 2.5 m, whose source pixel lies at 2.0 m, 20 % off (> 1 %): it
+    # stays. Hole (6, 5), 8 neighbours on the plane: filled from the source.
+    h, w = 10, 12
+    a = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    b = look_at([0.05, 0, 0], [0.05, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    img = np.random.default_rng(2).random((h, w)).astype(np.float32)
+    depth = np.full((h, w), 2.0)
+    from vergence.synthesis import WarpedView, refine_camera_warp, warp_to_camera
+
+    full = warp_to_camera(img, depth, a, b)
+    z = full.depth.copy()
+    z[[3, 2, 2, 2, 3], [5, 4, 5, 6, 4]] = np.nan
+    z[2:5, 7:10] = 2.5
+    z[3, 8] = np.nan
+    z[6, 5] = np.nan
+    holes = np.isnan(z) | full.holes
+    warped = WarpedView(np.where(holes, 0.0, full.image).astype(np.float32), holes, (1 / z).astype(np.float32), "1/m", z)
+    res = refine_camera_warp(warped, img, depth, a, b, iterations=1)
+    assert res.holes[3, 5] and res.holes[3, 8] and not res.holes[6, 5]
