@@ -154,3 +154,18 @@ def test_refine_camera_warp_needs_five_known_depths_and_agreeing_source_depth():
     warped = WarpedView(np.where(holes, 0.0, full.image).astype(np.float32), holes, (1 / z).astype(np.float32), "1/m", z)
     res = refine_camera_warp(warped, img, depth, a, b, iterations=1)
     assert res.holes[3, 5] and res.holes[3, 8] and not res.holes[6, 5]
+
+
+def test_a_warped_pixel_is_reliable_only_if_every_contributing_source_pixel_was():
+    # Disparity 0.6 warped by 0.5: each source pixel moves 0.3 px left, so target x interpolates
+    # sources x (weight 0.7) and x + 1 (weight 0.3). Source 5 unreliable: targets 4 and 5 used it.
+    from vergence.synthesis import _stages
+
+    w = 10
+    unreliable = np.zeros((1, w, 1), np.float32)
+    unreliable[0, 5, 0] = 1.0
+    out, _, holes = _stages.forward_warp(unreliable, np.full((1, w), 0.6, np.float32), 0.5, 1.0)
+    reliable = _stages.reliable_from_warped(out[:, :, 0], holes)
+    expected = ~holes
+    expected[0, 4:6] = False
+    np.testing.assert_array_equal(reliable, expected)

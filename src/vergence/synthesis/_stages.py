@@ -89,6 +89,17 @@ def median_refine(
     return image, refined, holes & ~ok
 
 
+def reliable_from_warped(unreliable: np.ndarray, holes: np.ndarray) -> np.ndarray:
+    """Reliability of warped pixels from the warped 0/1 unreliability channel (1 = unreliable).
+
+    Every warped value is a convex combination of source values (splat, linear interpolation,
+    inverse warping), so the channel is exactly 0 where no unreliable source pixel contributed
+    with a non-zero weight, and > 0 where one did: a pixel is reliable iff every source pixel that
+    contributed was. Holes are not reliable.
+    """
+    return (unreliable <= 0.0) & ~holes
+
+
 # --- depth filters -----------------------------------------------------------------------------
 
 

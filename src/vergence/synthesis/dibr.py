@@ -229,13 +229,12 @@ def interpolate_view(
         prepared, original = _stages.prepare_disparity(d, radius, limit)
         hwc = _stages.as_hwc(img)
         if contour:
-            # The kernel warps the unreliable band as one more channel (1 = unreliable): a target
-            # pixel is a convex combination of its source pixels, so that channel is exactly 0 iff
-            # no unreliable source pixel contributed with a non-zero weight.
+            # The kernel warps the unreliable band as one more channel (1 = unreliable), split off
+            # right after the warp (see _stages.reliable_from_warped).
             band = _stages.contour_mask(prepared, contour, limit, "far")
             hwc = np.concatenate([hwc, band[:, :, None].astype(np.float32)], axis=2)
         image, near, holes = _warp_reference(hwc, prepared, scale, limit, median)
-        reliability = (image[:, :, nc] <= 0.0) & ~holes if contour else None
+        reliability = _stages.reliable_from_warped(image[:, :, nc], holes) if contour else None
         payload = {}
         if radius:  # 0, not NaN, where unknown: the guide is blended like the colours
             payload["fill_guide"] = np.nan_to_num(_stages.fill_guide(near, prepared, original, scale, limit), nan=0.0)
