@@ -27,7 +27,7 @@ import numpy as np
 
 from vergence.io import read_disparity, read_image, write_image, write_json
 from vergence.metrics import MIN_CONTRAST, psnr, registration_error, ssim
-from vergence.synthesis import WarpedView, blend_views, forward_warp, interpolate_view
+from vergence.synthesis import WarpedView, blend_views, error_image, forward_warp, interpolate_view
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "multiview" / "dolls"
 DISPARITY_SCALE = 2.0  # Dolls PNG disparities: value / 2 (SOURCES.md)
@@ -113,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - t0
     scores = score(result.image, v3)
     if args.out is not None:
-        error = np.clip(ERROR_GAIN * np.abs(result.image - v3).mean(axis=2), 0.0, 1.0)
+        error = error_image(result.image, v3, gain=ERROR_GAIN)
         write_image(args.out / "view3_synthesized.png", result.image)
         write_image(args.out / "view3_error_x4.png", error)
 

@@ -24,7 +24,7 @@ from vergence.synthesis.controls import (
 )
 from vergence.synthesis.filters import contour_mask, dilate_foreground, median_refine, smooth_depth
 from vergence.synthesis.holes import FILL_METHODS, fill_disparity, fill_holes
-from vergence.synthesis.quality import ViewQuality, assess_view
+from vergence.synthesis.quality import ViewQuality, assess_view, error_image
 from vergence.synthesis.view import NEARNESS_UNITS, WarpedView
 from vergence.synthesis.warp import backward_warp, forward_warp
 from vergence.synthesis.warp3d import WARP_ORDERS, epipole, refine_camera_warp, warp_to_camera
@@ -76,6 +76,7 @@ __all__ = [
     "contour_mask",
     "dilate_foreground",
     "epipole",
+    "error_image",
     "fill_disparity",
     "fill_holes",
     "forward_warp",
