@@ -210,3 +210,17 @@ def test_splat_zbuffer_matches_slow_reference():
     assert_array_equal(zbuf, best)
     assert_array_equal(painted, np.isfinite(best))
     assert_allclose(out, ref, atol=0)
+
+
+def test_counting_kernels_match_numpy():
+    rng = np.random.default_rng(7)
+    a = rng.uniform(-0.5, 1.5, (6, 9)).astype(np.float32)
+    a[rng.random((6, 9)) < 0.2] = np.nan
+    a[rng.random((6, 9)) < 0.1] = np.inf
+    n_nan, n_inf = np.empty(6, np.int64), np.empty(6, np.int64)
+    _kernels.count_nonfinite(a, n_nan, n_inf)
+    assert_array_equal(n_nan, [sum(math.isnan(v) for v in row) for row in a])
+    assert_array_equal(n_inf, [sum(math.isinf(v) for v in row) for row in a])
+    bad = np.empty(6, np.int64)
+    _kernels.count_outside(a, np.float32(0.0), np.float32(1.0), bad)
+    assert_array_equal(bad, [sum(not (0.0 <= v <= 1.0) for v in row) for row in a])  # NaN counts as outside

@@ -133,7 +133,7 @@ def backward_warp_rows(img, disp, scale, out, valid):  # pragma: no cover - comp
 
 @nb.njit(cache=True, parallel=True)
 def fill_guide_rows(disp, src, scale, limit, out):  # pragma: no cover - compiled
-    """Hole-filling guide of a forward-warped view (see ``holes._fill_guide``).
+    """Hole-filling guide of a forward-warped view (see ``_stages.fill_guide``).
 
     ``g = src[y, x_s]`` at the source pixel ``x_s`` nearest to ``x + scale disp[y, x]`` (clamped to
     the row); where the warped ``disp`` exceeds ``g`` by more than ``limit`` (a background pixel

@@ -7,13 +7,15 @@
 - :func:`synthesize_view`: one image with metric depth from one camera to another
   (``vergence.camera``), the rectified fast path when the two cameras form a rectified pair.
 
-The pipelines compose the primitives in this order (S1 §IV.B): unknown reference depth filled from
+Each pipeline validates its arguments once, then composes the same unchecked stages the
+primitives call (``_stages``, ``_stages3d``), in this order (S1 §IV.B): unknown reference depth filled from
 the background side, contour handling (the near side of depth edges, jumps above the gradient
 limit, grown by ``edge_dilation`` pixels), forward warp with the gap/hole rule, median refinement
 with inverse warping (view interpolation and camera-to-camera rendering, where depth comes from a
 measurement), depth-tested blending weighted by distance (two references), and
 background-directed hole filling steered by the original, undilated disparity (see
-``holes._fill_guide``).
+``_stages.fill_guide``; it travels through the blending as the ``"fill_guide"`` payload of each
+:class:`~vergence.synthesis.WarpedView`, the contour reliability as its ``reliability``).
 """
 
 from __future__ import annotations
