@@ -20,8 +20,12 @@ EPIPOLE_AT_INFINITY = 1e-12
 # points are splatted): a source pixel magnified 64 times is far beyond what one image supports,
 # and the cap bounds the cost of a facet stretched across the image near the target's centre plane.
 MAX_FACET_PX = 64.0
-# Median refinement of a 3D warp: a hole needs this many known target depths among its 3 x 3.
+# Median refinement of a 3D warp: a hole needs this many known target depths among its 3 x 3; the
+# source depth must agree with the median's within this relative tolerance; at most this many passes
+# (the defaults of refine_camera_warp and the 3D path of synthesize_view).
 MEDIAN_MIN_KNOWN = 5
+REFINE_CONSISTENCY = 0.01
+REFINE_ITERATIONS = 3
 
 
 def epipole(source: Camera, target: Camera) -> np.ndarray:

@@ -55,9 +55,6 @@ __all__ = [
 # is re-sampled by inverse warping, if the reference agrees within the consistency tolerance.
 _MEDIAN_TOLERANCE_PX = 0.5
 _MEDIAN_CONSISTENCY_PX = 1.0
-# Median refinement of the 3D path (refine_camera_warp's defaults): relative depth agreement, passes.
-_CAMERA_CONSISTENCY = 0.01
-_CAMERA_ITERATIONS = 3
 # Rectified-pair detection for synthesize_view: rotations, intrinsics (except cx) and the off-axis
 # part of the baseline must agree to this relative precision.
 _RECTIFIED_RTOL = 1e-9
@@ -471,7 +468,9 @@ def synthesize_view(
                 depth_t = (fb / (disparity.astype(np.float64) - cx_s + cx_t)).astype(np.float32)  # Z = f b / d
         return WarpedView(image=_stages.like(image_t, img), holes=holes, nearness=disparity, depth=depth_t)
     warped = _stages3d.warp_to_camera(img, z, source, target, "zbuffer", limit)
-    warped = _stages3d.refine_camera_warp(warped, img, z, source, target, _CAMERA_CONSISTENCY, _CAMERA_ITERATIONS)
+    warped = _stages3d.refine_camera_warp(
+        warped, img, z, source, target, _stages3d.REFINE_CONSISTENCY, _stages3d.REFINE_ITERATIONS
+    )
     # Hole filling wants "larger = nearer": inverse depth, then depth from the filled inverse depth.
     inv = np.where(warped.holes, np.nan, warped.nearness)
     image_t, inv_filled = _fill(_stages.as_hwc(warped.image), inv, warped.holes, fill)

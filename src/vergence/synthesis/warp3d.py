@@ -132,8 +132,8 @@ def refine_camera_warp(
     source: Camera,
     target: Camera,
     *,
-    consistency: float = 0.01,
-    iterations: int = 3,
+    consistency: float = _stages3d.REFINE_CONSISTENCY,
+    iterations: int = _stages3d.REFINE_ITERATIONS,
 ) -> WarpedView:
     """Close the sampling gaps of a 3D warp: median target depth, then inverse warping (Do et al.).
 
