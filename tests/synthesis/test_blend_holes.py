@@ -260,3 +260,14 @@ def test_fill_guide_kernel_matches_a_slow_reference():
             expected[y, x] = (g + d) / 2 if d > g + limit else g
     assert_allclose(_fill_guide(warped, prepared, original, scale, limit), expected, rtol=1e-6)
     assert _fill_guide(warped, original, original, scale, limit) is warped  # no dilation: no guide
+
+
+def test_blend_scalar_weights_are_their_broadcast():
+    rng = np.random.default_rng(9)
+    views = [_view(rng.random((3, 5, 3)), rng.choice([1.0, 2.5, np.nan], size=(3, 5))) for _ in range(3)]
+    w = np.array([0.2, 0.0, 0.8])
+    a = blend_views(views, w)
+    b = blend_views(views, np.broadcast_to(w[:, None, None], (3, 3, 5)).copy())
+    assert_array_equal(a.image, b.image)
+    assert_array_equal(a.nearness, b.nearness)
+    assert_array_equal(a.holes, b.holes)
