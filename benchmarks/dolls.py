@@ -27,7 +27,7 @@ import numpy as np
 
 from vergence.io import read_disparity, read_image, write_image, write_json
 from vergence.metrics import MIN_CONTRAST, psnr, registration_error, ssim
-from vergence.synthesis import blend_views, forward_warp, interpolate_view
+from vergence.synthesis import WarpedView, blend_views, error_image, forward_warp, interpolate_view
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "multiview" / "dolls"
 DISPARITY_SCALE = 2.0  # Dolls PNG disparities: value / 2 (SOURCES.md)
@@ -56,14 +56,18 @@ def _telea(image: np.ndarray, holes: np.ndarray) -> np.ndarray:
     return cv2.inpaint(u8, holes.astype(np.uint8), 3, cv2.INPAINT_TELEA).astype(np.float32) / 255.0
 
 
+def _nearest_view(image: np.ndarray, disparity: np.ndarray, scale: float) -> WarpedView:
+    out, zbuf, holes = _nearest_warp(image, disparity, scale)
+    return WarpedView(image=out, holes=holes, nearness=zbuf.astype(np.float32))
+
+
 def _two_reference_baseline(v1, d1, v5, d5, t, *, gap_filling: bool) -> np.ndarray:
     """Warp both references (nearest pixel, or forward_warp's gap filling), blend, Telea."""
     if gap_filling:
-        a, b = forward_warp(v1, d1, scale=t), forward_warp(v5, d5, scale=-(1.0 - t))
-        warps = [(a.image, a.disparity), (b.image, b.disparity)]
+        warps = [forward_warp(v1, d1, scale=t), forward_warp(v5, d5, scale=-(1.0 - t))]
     else:
-        warps = [_nearest_warp(v1, d1, t)[:2], _nearest_warp(v5, d5, -(1.0 - t))[:2]]
-    blended = blend_views([w[0] for w in warps], [w[1] for w in warps], weights=[1.0 - t, t])
+        warps = [_nearest_view(v1, d1, t), _nearest_view(v5, d5, -(1.0 - t))]
+    blended = blend_views(warps, [1.0 - t, t])
     return _telea(blended.image, blended.holes)
 
 
@@ -109,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - t0
     scores = score(result.image, v3)
     if args.out is not None:
-        error = np.clip(ERROR_GAIN * np.abs(result.image - v3).mean(axis=2), 0.0, 1.0)
+        error = error_image(result.image, v3, gain=ERROR_GAIN)
         write_image(args.out / "view3_synthesized.png", result.image)
         write_image(args.out / "view3_error_x4.png", error)
 
@@ -136,7 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     quarter = {}
     for t in (0.25, 0.75):
         res = interpolate_view(v1, d1, v5, d5, t)
-        back = forward_warp(res.image, res.disparity, scale=0.5 - t)
+        back = forward_warp(res.image, res.nearness, scale=0.5 - t)
         quarter[f"T={t} re-warped to view3"] = round(psnr(back.image, v3, mask=~back.holes), 3)
         if args.out is not None:
             write_image(args.out / f"view_T{t}.png", res.image)

@@ -223,3 +223,34 @@ def test_tile_views_bad_input():
         tile_views([np.zeros((2, 2))], columns=2.0)
     with pytest.raises(ValueError, match=r"views\[0\] values must lie in \[0, 1\]"):
         tile_views([np.full((2, 2), 3.0)])
+
+
+# ---------------------------------------------------------------------------------- pack
+
+
+def test_pack_dispatches_every_layout_of_the_table():
+    from vergence.display import LAYOUTS, pack
+
+    left = np.zeros((2, 4, 3), np.float32)
+    right = np.ones((2, 4, 3), np.float32)
+    shapes = {
+        "sbs": (2, 8, 3), "half-sbs": (2, 4, 3), "tb": (4, 4, 3), "half-tb": (2, 4, 3), "cross-eyed": (2, 8, 3),
+        "rows": (2, 4, 3), "columns": (2, 4, 3), "checkerboard": (2, 4, 3),
+        "anaglyph": (2, 4, 3), "anaglyph-half-color": (2, 4, 3), "anaglyph-red-cyan": (2, 4, 3),
+    }
+    assert set(LAYOUTS) == set(shapes)
+    for name, shape in shapes.items():
+        assert pack(left, right, layout=name).shape == shape, name
+    # Cross-eyed free viewing: the right view on the left.
+    assert pack(left, right, layout="cross-eyed")[0, :4].min() == 1.0
+    assert_array_equal(pack(left, right, layout="columns"), interleave(left, right, orientation="columns"))
+    assert_array_equal(pack(left, right, layout="anaglyph-red-cyan"), anaglyph(left, right, method="red-cyan"))
+
+
+def test_pack_refuses_an_unknown_layout_and_lists_the_valid_ones():
+    from vergence.display import LAYOUTS, pack
+
+    with pytest.raises(ValueError, match="layout must be one of " + ", ".join(LAYOUTS) + "; got 'gif'"):
+        pack(np.zeros((2, 2)), np.zeros((2, 2)), layout="gif")
+    with pytest.raises(TypeError):
+        LAYOUTS["gif"] = None  # read-only table

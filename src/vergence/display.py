@@ -14,12 +14,15 @@ Layouts (``left`` = L, ``right`` = R):
 - ``interleave``: rows (or columns) alternate L, R, L, ... (line-interleaved polarised screens).
 - ``checkerboard``: pixel (x, y) from L when x + y is even (DLP 3D projectors).
 - ``tile_views``: N views in a grid, row by row (contact sheets, multi-view autostereoscopic input).
+
+:func:`pack` packs a pair into any layout of the one table :data:`LAYOUTS` by name.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from types import MappingProxyType
 
 import cv2
 import numpy as np
@@ -27,9 +30,11 @@ import numpy as np
 from vergence._validate import as_image_pair, as_view, check_positive_int
 
 __all__ = [
+    "LAYOUTS",
     "anaglyph",
     "checkerboard",
     "interleave",
+    "pack",
     "side_by_side",
     "tile_views",
     "top_bottom",
@@ -345,3 +350,60 @@ def tile_views(views: Sequence[object], *, columns: int | None = None) -> np.nda
         r, c = divmod(i, cols)
         out[r * h : (r + 1) * h, c * w : (c + 1) * w] = a
     return out
+
+
+def _cross_eyed(left: object, right: object) -> np.ndarray:
+    """Side by side with the views swapped (R then L), for free viewing with crossed eyes."""
+    return side_by_side(right, left)
+
+
+# Stereo-pair layouts, name -> function(left, right): one entry per layout; pack's dispatch, its
+# error message and the CLI's --format choices all read this table.
+LAYOUTS: MappingProxyType[str, Callable[[object, object], np.ndarray]] = MappingProxyType(
+    {
+        "anaglyph": anaglyph,
+        "anaglyph-half-color": lambda left, right: anaglyph(left, right, method="half-color"),
+        "anaglyph-red-cyan": lambda left, right: anaglyph(left, right, method="red-cyan"),
+        "checkerboard": checkerboard,
+        "columns": lambda left, right: interleave(left, right, orientation="columns"),
+        "cross-eyed": _cross_eyed,
+        "half-sbs": lambda left, right: side_by_side(left, right, half=True),
+        "half-tb": lambda left, right: top_bottom(left, right, half=True),
+        "rows": interleave,
+        "sbs": side_by_side,
+        "tb": top_bottom,
+    }
+)
+
+
+def pack(left: object, right: object, *, layout: str = "sbs") -> np.ndarray:
+    """Pack a stereo pair into one image in the display layout ``layout``.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3) arrays
+        The views, one shape (float in [0, 1], uint8 or uint16).
+    layout : str
+        A key of :data:`LAYOUTS`: ``"anaglyph"`` (Dubois), ``"anaglyph-half-color"``,
+        ``"anaglyph-red-cyan"``, ``"sbs"`` / ``"half-sbs"``, ``"tb"`` / ``"half-tb"``, ``"rows"`` /
+        ``"columns"`` (interleaved), ``"checkerboard"``, ``"cross-eyed"`` (R then L).
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        An unknown layout (the message lists the valid ones), or the errors of the layout's function.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> pack(np.zeros((1, 2)), np.ones((1, 2)), layout="cross-eyed").tolist()
+    [[1.0, 1.0, 0.0, 0.0]]
+    """
+    if not isinstance(layout, str) or layout not in LAYOUTS:
+        raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}; got {layout!r}")
+    return LAYOUTS[layout](left, right)

@@ -118,7 +118,7 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         (["--views", "1", "--format", "views"], "depth.npy", "views must be >= 2; got 1"),
         (["--budget-px", "4"], "zero.npy", r"depth must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
         (["--budget-px", "4", "--depth-scale", "2"], "depth.npy", "scale applies to .png/.pgm disparity maps only"),
-        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, sbs, tb, views"),
+        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-half-color, .*, tb, views"),
         (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "depth must be > 0 metres where known"),
         (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
         (["--budget-px", "4"], "small.npy", r"depth must have shape \(H, W\) matching image \(16, 48\)"),
@@ -301,3 +301,16 @@ def test_scales_that_cannot_apply_are_refused(tmp_path, capsys):
         code, _, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth_mm.png"),
                                      "--depth-kind", "inverse", "--depth-scale", scale, "--out", str(tmp_path / "o")])
         assert code == 2 and "--depth-scale must be > 0" in err
+
+
+@pytest.mark.parametrize("layout", ["half-sbs", "cross-eyed"])
+def test_synthesize_accepts_every_display_layout(tmp_path, capsys, layout):
+    from vergence.display import pack
+
+    _scene(tmp_path)
+    out = tmp_path / "out"
+    code, stdout, _ = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"),
+                                    "--out", str(out), "--budget-px", "4", "--format", layout, "--json"])
+    assert code == 0 and json.loads(stdout)["format"] == layout
+    expected = pack(read_image(out / "left.png"), read_image(out / "right.png"), layout=layout)
+    np.testing.assert_allclose(read_image(out / f"stereo_{layout}.png"), expected, atol=PNG_ATOL)

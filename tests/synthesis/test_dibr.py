@@ -279,3 +279,21 @@ def test_hole_filling_never_smears_foreground_into_the_background(fill, edge_dil
         background_holes = holes & behind
         assert background_holes.sum() > 20
         assert view[background_holes][:, :2].max() <= BACKGROUND_OR_MIX_MAX
+
+
+def test_synthesize_view_reports_target_depth_on_both_paths():
+    # A fronto-parallel plane 2 m away stays 2 m away for a sideways move (rectified path, depth
+    # from Z = f b / d) and for a move along the optical axis (3D path), 2 - 0.1 = 1.9 m.
+    h, w = 8, 16
+    a = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    side = look_at([0.05, 0, 0], [0.05, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    ahead = look_at([0, 0, 0.1], [0, 0, 1], [0, -1, 0], fov_deg=60, width=w, height=h)
+    img = np.random.default_rng(3).random((h, w)).astype(np.float32)
+    depth = np.full((h, w), 2.0)
+    rect = synthesize_view(img, depth, a, side)
+    assert rect.nearness_unit == "px"
+    assert_allclose(rect.depth, 2.0, rtol=1e-6)
+    assert_allclose(rect.nearness, a.K[0, 0] * 0.05 / 2.0, rtol=1e-6)  # d = f b / Z
+    general = synthesize_view(img, depth, a, ahead)
+    assert general.nearness_unit == "1/m"
+    assert_allclose(general.depth[~general.holes], 1.9, rtol=1e-6)

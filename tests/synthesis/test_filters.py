@@ -97,7 +97,7 @@ def test_median_refine_closes_a_crack_with_the_right_colour():
     refined = median_refine(warped, img, np.full((5, 12), 2.0), scale=1.0)
     assert not refined.holes[2, 4]
     assert_allclose(refined.image[2, 4], img[2, 6])
-    assert refined.disparity[2, 4] == 2.0
+    assert refined.nearness[2, 4] == 2.0
 
 
 def test_median_refine_leaves_true_disocclusions():
@@ -131,7 +131,7 @@ def test_filters_bad_input(fn, kwargs, error, match):
 def test_median_refine_bad_input():
     img = np.zeros((4, 5), np.float32)
     warped = forward_warp(img, np.ones((4, 5)))
-    with pytest.raises(TypeError, match="warped must be a WarpResult; got tuple"):
+    with pytest.raises(TypeError, match="warped must be a WarpedView; got tuple"):
         median_refine((1, 2), img, np.ones((4, 5)), scale=1.0)
     with pytest.raises(ValueError, match="source_image must have the channels of the warped image"):
         median_refine(warped, np.zeros((4, 5, 3)), np.ones((4, 5)), scale=1.0)

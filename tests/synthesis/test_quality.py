@@ -23,7 +23,7 @@ def test_identical_views():
 
 
 def test_misregistered_view_has_registration_error_sqrt5():
-    # SPEC §6.5 [V]: a (2, 1)-px shift gives d = sqrt(5) on interior pixels.
+    # S1 Eqs. (11)-(13): a (2, 1)-px shift gives d = sqrt(5) on interior pixels.
     ref = ndimage.gaussian_filter(np.random.default_rng(2).random((40, 40)), 1.0)
     syn = np.roll(ref, (1, 2), axis=(0, 1))
     mask = np.zeros((40, 40), bool)
@@ -79,3 +79,17 @@ def test_ranked_registration_values_are_read_only():
     q = assess_view(img, img)
     with pytest.raises(TypeError):
         q.registration_ranked_px[0.5] = 3.0  # type: ignore[index]
+
+
+def test_error_image_is_gain_times_the_channel_mean_error():
+    from vergence.synthesis import error_image
+
+    a = np.zeros((1, 2, 3), np.float32)
+    b = np.zeros((1, 2, 3), np.float32)
+    b[0, 1] = [0.1, 0.2, 0.3]  # mean error 0.2, times 4 = 0.8
+    b[0, 0] = [0.3, 0.3, 0.3]  # 1.2 clipped to 1
+    np.testing.assert_allclose(error_image(a, b), [[1.0, 0.8]], rtol=1e-6)
+    with pytest.raises(ValueError, match="gain must be > 0; got 0"):
+        error_image(a, b, gain=0.0)
+    with pytest.raises(ValueError, match="reference"):
+        error_image(a, np.zeros((1, 3, 3)))

@@ -1,4 +1,4 @@
-"""Rectified forward/backward warping: kernel vs a slow reference, SPEC §6.3 examples, bad input."""
+"""Rectified forward/backward warping: kernel vs a slow reference, examples of S1 Sec. IV.B.1's gradient rule, bad input."""
 
 from __future__ import annotations
 
@@ -86,11 +86,11 @@ def test_forward_warp_matches_slow_reference(case):
     out, zbuf, holes = slow_forward_warp(img, disp, scale, limit)
     assert_array_equal(res.holes, holes)
     assert_allclose(res.image, out, rtol=0, atol=KERNEL_ATOL)
-    assert_allclose(res.disparity, zbuf, rtol=0, atol=KERNEL_ATOL)
+    assert_allclose(res.nearness, zbuf, rtol=0, atol=KERNEL_ATOL)
 
 
 def test_step_near_on_the_left_leaves_a_hole_as_wide_as_the_jump():
-    # SPEC §6.3 [V]: d = 15 left of x = 50, 5 right of it; x' = x - d: a 10-px hole at 35..44.
+    # S1 Sec. IV.B.1: d = 15 left of x = 50, 5 right of it; x' = x - d: a 10-px hole at 35..44.
     n = 100
     disp = np.where(np.arange(n) < 50, 15.0, 5.0)[None, :]
     img = np.random.default_rng(0).random((1, n), dtype=np.float32)
@@ -100,7 +100,7 @@ def test_step_near_on_the_left_leaves_a_hole_as_wide_as_the_jump():
 
 
 def test_smooth_slanted_surface_has_no_gaps():
-    # SPEC §6.3 [V]: d from 0 to -30 over 100 px (stretched by 1.3): every sampling gap is filled.
+    # S1 Sec. IV.B.1: d from 0 to -30 over 100 px (stretched by 1.3): every sampling gap is filled.
     n = 100
     disp = -np.linspace(0.0, 30.0, n)[None, :]
     res = forward_warp(np.random.default_rng(1).random((1, n), dtype=np.float32), disp)
@@ -113,7 +113,7 @@ def test_gap_filling_interpolates_linearly_between_neighbours():
     disp = np.array([[0.0, -0.5, -0.5]])
     res = forward_warp(img, disp, scale=2.0)
     assert_allclose(res.image[0, :3], [0.0, 0.5, 1.0])
-    assert_allclose(res.disparity[0, :3], [0.0, -0.25, -0.5])
+    assert_allclose(res.nearness[0, :3], [0.0, -0.25, -0.5])
 
 
 def test_zbuffer_keeps_the_nearest_surface():
@@ -122,7 +122,7 @@ def test_zbuffer_keeps_the_nearest_surface():
     disp = np.array([[0.0, np.nan, np.nan, 3.0]])
     res = forward_warp(img, disp)
     assert res.image[0, 0] == pytest.approx(0.8)
-    assert res.disparity[0, 0] == 3.0
+    assert res.nearness[0, 0] == 3.0
     assert res.holes[0].tolist() == [False, True, True, True]
 
 
@@ -157,7 +157,7 @@ def test_grey_8_and_16_bit_inputs_give_the_same_warp():
 def test_backward_warp_undoes_a_constant_forward_warp():
     img = np.random.default_rng(6).random((2, 12, 3), dtype=np.float32)
     fwd = forward_warp(img, np.full((2, 12), 2.0))
-    back, valid = backward_warp(fwd.image, fwd.disparity, scale=-1.0)
+    back, valid = backward_warp(fwd.image, fwd.nearness, scale=-1.0)
     # The forward warp put source x + 2 at x (x = 0..9); backward, x takes x - 2 of that: x = 2..9.
     assert_allclose(back[:, 2:10], img[:, 2:10], atol=1e-7)
     assert valid[:, 2:10].all() and not valid[:, :2].any() and not valid[:, 10:].any()

@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import Camera, look_at
 from vergence.synthesis import epipole, forward_warp, refine_camera_warp, warp_to_camera
-from vergence.synthesis.warp3d import _mesh_links
+from vergence.synthesis._stages3d import mesh_links as _mesh_links
 
 # Depths of a plane after a project/back-project round trip: float32 storage, ~1e-7 relative.
 DEPTH_RTOL = 1e-6
@@ -77,7 +77,7 @@ def _slabs(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
 @pytest.mark.parametrize("gradient_limit", [None, 1.0])
 @pytest.mark.parametrize("tx", [0.3, -0.25, 0.05])
 def test_mcmillan_order_equals_zbuffer_on_rectified_rows(tx, gradient_limit):
-    # SPEC §6.2 [V]: for a sideways move the occlusion-compatible order gives the z-buffer result,
+    # McMillan 1997: for a sideways move the occlusion-compatible order gives the z-buffer result,
     # with point splats and with mesh facets (painted with their top-left pixel).
     rng = np.random.default_rng(int(abs(tx) * 100))
     src, tgt = _cam(0.0, width=60, height=20), _cam(tx, width=60, height=20)
@@ -93,7 +93,7 @@ def test_mcmillan_order_equals_zbuffer_on_rectified_rows(tx, gradient_limit):
 @pytest.mark.parametrize("gradient_limit", [None, 1.0])
 @pytest.mark.parametrize("centre", [(0.3, 0.1, 1.0), (-0.4, 0.2, -1.5)])
 def test_mcmillan_order_matches_zbuffer_visibility_in_2d(centre, gradient_limit):
-    # SPEC §6.2 [V]: with forward/backward moves (positive and negative epipoles) the painter's
+    # McMillan 1997: with forward/backward moves (positive and negative epipoles) the painter's
     # order picks the same surface as the z-buffer except for rounding collisions (< 1 %).
     rng = np.random.default_rng(7)
     src = _cam(0.0, width=80, height=60)

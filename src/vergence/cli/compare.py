@@ -12,7 +12,7 @@ from rich.table import Table
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.io import read_image, write_image
 from vergence.metrics import MIN_CONTRAST
-from vergence.synthesis import assess_view
+from vergence.synthesis import assess_view, error_image
 
 __all__ = ["compare"]
 
@@ -36,7 +36,7 @@ def compare(
         help="Registration error only where the image's 5x5 patch contrast (RMS, [0, 1] units) is at least "
         "this; 0: every pixel.",
     ),
-    error_image: Path | None = typer.Option(
+    error_path: Path | None = typer.Option(
         None, "--error-image", help="Write |image - reference| (channel mean) times --error-gain here."
     ),
     error_gain: float = typer.Option(4.0, "--error-gain", help="Gain of the error image."),
@@ -45,16 +45,14 @@ def compare(
     """Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."""
     if not (math.isfinite(error_gain) and error_gain > 0):
         raise ValueError(f"--error-gain must be a finite number > 0; got {error_gain}")
-    if error_image is not None:
-        check_output_path(error_image, image, reference, *([mask] if mask is not None else []))
+    if error_path is not None:
+        check_output_path(error_path, image, reference, *([mask] if mask is not None else []))
     with err_console.status("comparing", spinner="dots"):
         a, b = read_image(image), read_image(reference)
         m = _mask(mask) if mask is not None else None
         quality = assess_view(a, b, mask=m, radius=radius, min_contrast=min_contrast)
-    if error_image is not None:  # assess_view has checked that a and b have one shape
-        err = np.abs(a - b)
-        err = err.mean(axis=2) if err.ndim == 3 else err
-        write_image(error_image, np.clip(error_gain * err, 0.0, 1.0))
+    if error_path is not None:
+        write_image(error_path, error_image(a, b, gain=error_gain))
     data = {"image": str(image), "reference": str(reference), "mask": None if mask is None else str(mask), **quality.to_dict()}
     if as_json:
         print_json(data)
@@ -75,5 +73,5 @@ def compare(
         f"{quality.registration_pixels} ({100.0 * quality.registration_pixels / quality.pixels:.1f} %)",
     )
     console.print(table)
-    if error_image is not None:
-        console.print(f"error image written to {error_image}")
+    if error_path is not None:
+        console.print(f"error image written to {error_path}")

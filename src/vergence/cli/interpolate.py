@@ -73,8 +73,7 @@ def interpolate(
         "position": position,
         "fill": fill,
         "edge_dilation": edge_dilation,
-        "size": [int(result.image.shape[1]), int(result.image.shape[0])],
-        "holes_percent": round(100.0 * float(result.holes.mean()), 4),
+        **result.to_dict(),
         "output": str(out),
     }
     if json_out is not None:

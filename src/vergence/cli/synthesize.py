@@ -9,32 +9,19 @@ import typer
 
 from vergence._validate import check_positive
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
-from vergence.display import anaglyph, side_by_side, tile_views, top_bottom
-from vergence.io import read_disparity, read_image, write_image, write_json
-from vergence.synthesis import DEPTH_KINDS, FILL_METHODS, synthesize_stereo
+from vergence.display import LAYOUTS, pack, tile_views
+from vergence.io import DEPTH_KINDS, read_depth, read_image, write_image, write_json
+from vergence.synthesis import FILL_METHODS, synthesize_stereo
 from vergence.viewing.geometry import DISPLAY_PRESETS, Display
 
 __all__ = ["synthesize"]
 
-FORMATS = ("anaglyph", "sbs", "tb", "views")
+# The stereo-pair layouts of vergence.display, and all views tiled.
+FORMATS = (*LAYOUTS, "views")
 # Without any depth control the pair gets this vergence budget on this display: +-30 arcmin is half
 # the usual +-1 degree comfort zone (vergence.viewing.comfort.ComfortZone), a safe start.
 DEFAULT_DISPLAY = "desktop-24"
 DEFAULT_BUDGET_ARCMIN = 30.0
-
-
-def _read_depth(path: Path, kind: str, scale: float | None):
-    """Depth as float32 (H, W): PNG/PGM value / scale (0 = unknown; for inverse depth 8/16-bit values
-    in [0, 1] where 0 is the far plane, MPEG), PFM/NPY as stored (NaN, inf = unknown)."""
-    integer = path.suffix.lower() in (".png", ".pgm")
-    if scale is not None:
-        check_positive("--depth-scale", scale)
-    if kind == "inverse" and integer:
-        depth = read_image(path)
-        if depth.ndim != 2:
-            raise ValueError(f"depth {path} must be a single-channel image; got shape {depth.shape}")
-        return depth if scale is None else depth / scale
-    return read_disparity(path, scale=(1.0 if scale is None else scale) if integer else scale)
 
 
 @app.command("synthesize")
@@ -100,7 +87,9 @@ def synthesize(
     display = Display.preset(display_preset)
     with err_console.status("reading inputs", spinner="dots"):
         picture = read_image(image)
-        depth_map = _read_depth(depth, depth_kind, depth_scale)
+        if depth_scale is not None:
+            check_positive("--depth-scale", depth_scale)
+        depth_map = read_depth(depth, kind=depth_kind, scale=depth_scale)
     with err_console.status("synthesizing views", spinner="dots"):
         result = synthesize_stereo(
             picture,
@@ -119,21 +108,14 @@ def synthesize(
         )
     out.mkdir(parents=True, exist_ok=True)
     names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
-    layout = {"sbs": "stereo_sbs.png", "tb": "stereo_tb.png", "anaglyph": "anaglyph.png", "views": "views_tiled.png"}[fmt]
+    layout = {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(fmt, f"stereo_{fmt}.png")
     targets = [out / n for n in [*names, layout, "synthesis.json"]]
     for target in targets:
         check_output_path(target, image, depth)
     with err_console.status("writing outputs", spinner="dots"):
         for name, view in zip(names, result.views):
             write_image(out / name, view, bit_depth=bit_depth)
-        if fmt == "sbs":
-            packed = side_by_side(result.left, result.right)
-        elif fmt == "tb":
-            packed = top_bottom(result.left, result.right)
-        elif fmt == "anaglyph":
-            packed = anaglyph(result.left, result.right)
-        else:
-            packed = tile_views(result.views)
+        packed = tile_views(result.views) if fmt == "views" else pack(result.left, result.right, layout=fmt)
         write_image(out / layout, packed, bit_depth=bit_depth)
     plan = result.plan
     params = {
@@ -150,15 +132,10 @@ def synthesize(
         "display": {"preset": display_preset, **dataclasses.asdict(display)},
         "views": views,
         "origin": origin,
-        "offsets": list(result.offsets),
         "fill": fill,
         "smooth_sigma": smooth_sigma,
         "format": fmt,
-        "size": [int(picture.shape[1]), int(picture.shape[0])],
-        # Parallax between adjacent views, x_r - x_l, positive behind the screen.
-        "parallax_range_px": list(plan.range_px),
-        "parallax_range_arcmin": list(plan.range_arcmin),  # a display is always given
-        "holes_percent": [round(100.0 * float(h.mean()), 4) for h in result.holes],
+        **result.to_dict(),
         "outputs": [str(t) for t in targets],
     }
     write_json(out / "synthesis.json", params)

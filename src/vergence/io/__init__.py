@@ -18,17 +18,20 @@ from vergence.io.cameras import (
     write_colmap,
     write_middlebury_par,
 )
+from vergence.io.depth import DEPTH_KINDS, read_depth
 from vergence.io.disparity import read_disparity, write_disparity
 from vergence.io.images import read_image, write_image
 from vergence.io.pfm import read_pfm, write_pfm
 
 __all__ = [
     "CameraSet",
+    "DEPTH_KINDS",
     "atomic_write",
     "read_bundler",
     "read_cameras",
     "read_cameras_json",
     "read_colmap",
+    "read_depth",
     "read_disparity",
     "read_image",
     "read_middlebury_par",

@@ -2,13 +2,19 @@
 
 Primitives: :func:`forward_warp` / :func:`backward_warp` (rectified), :func:`warp_to_camera`
 (general 3D, z-buffer or McMillan order), :func:`median_refine`, :func:`dilate_foreground`,
-:func:`contour_mask`, :func:`smooth_depth`, :func:`blend_views`, :func:`fill_holes`.
-Depth controls: :func:`plan_parallax`. Pipelines: :func:`interpolate_view`,
+:func:`contour_mask`, :func:`smooth_depth`, :func:`blend_views`, :func:`fill_holes`; one result
+type, :class:`WarpedView`. Depth controls: :func:`plan_parallax`. Pipelines (``dibr.py``, imported
+on first use so that importing a primitive does not load them): :func:`interpolate_view`,
 :func:`synthesize_stereo`, :func:`synthesize_views`, :func:`synthesize_view`. Quality against the
 real view: :func:`assess_view`.
 """
 
-from vergence.synthesis.blend import BlendResult, baseline_weights, blend_views
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+from vergence.synthesis.blend import baseline_weights, blend_views
 from vergence.synthesis.controls import (
     DEPTH_KINDS,
     ParallaxPlan,
@@ -16,37 +22,53 @@ from vergence.synthesis.controls import (
     plan_parallax,
     views_offsets,
 )
-from vergence.synthesis.dibr import (
-    StereoResult,
-    ViewResult,
-    interpolate_view,
-    synthesize_stereo,
-    synthesize_view,
-    synthesize_views,
-)
 from vergence.synthesis.filters import contour_mask, dilate_foreground, median_refine, smooth_depth
 from vergence.synthesis.holes import FILL_METHODS, fill_disparity, fill_holes
-from vergence.synthesis.quality import ViewQuality, assess_view
-from vergence.synthesis.warp import WarpResult, backward_warp, forward_warp
-from vergence.synthesis.warp3d import (
-    WARP_ORDERS,
-    CameraWarpResult,
-    epipole,
-    refine_camera_warp,
-    warp_to_camera,
-)
+from vergence.synthesis.quality import ViewQuality, assess_view, error_image
+from vergence.synthesis.view import NEARNESS_UNITS, WarpedView
+from vergence.synthesis.warp import backward_warp, forward_warp
+from vergence.synthesis.warp3d import WARP_ORDERS, epipole, refine_camera_warp, warp_to_camera
+
+if TYPE_CHECKING:
+    from vergence.synthesis.dibr import (
+        StereoResult,
+        interpolate_view,
+        synthesize_stereo,
+        synthesize_view,
+        synthesize_views,
+    )
+
+# Pipelines, loaded on first attribute access (PEP 562).
+_LAZY = {
+    "StereoResult": "vergence.synthesis.dibr",
+    "interpolate_view": "vergence.synthesis.dibr",
+    "synthesize_stereo": "vergence.synthesis.dibr",
+    "synthesize_view": "vergence.synthesis.dibr",
+    "synthesize_views": "vergence.synthesis.dibr",
+}
+
+
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
-    "BlendResult",
-    "CameraWarpResult",
     "DEPTH_KINDS",
     "FILL_METHODS",
+    "NEARNESS_UNITS",
     "ParallaxPlan",
     "StereoResult",
     "ViewQuality",
-    "ViewResult",
     "WARP_ORDERS",
-    "WarpResult",
+    "WarpedView",
     "assess_view",
     "backward_warp",
     "baseline_weights",
@@ -54,6 +76,7 @@ __all__ = [
     "contour_mask",
     "dilate_foreground",
     "epipole",
+    "error_image",
     "fill_disparity",
     "fill_holes",
     "forward_warp",

@@ -32,7 +32,7 @@ __all__ = [
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
 def forward_warp_rows(img, disp, scale, limit, out, zbuf, holes):  # pragma: no cover - compiled
-    """Rectified forward warp ``x' = x - scale d`` with z-buffer and the gap/hole rule (SPEC §6.3).
+    """Rectified forward warp ``x' = x - scale d`` with z-buffer and the gap/hole rule (S1 Sec. IV.B.1).
 
     Fills ``out`` (0 in holes), ``zbuf`` (the winning source disparity, NaN in holes) and ``holes``;
     their previous contents are ignored. A pair of neighbours whose target shifts differ by at most
@@ -50,7 +50,7 @@ def forward_warp_rows(img, disp, scale, limit, out, zbuf, holes):  # pragma: no 
             zbuf[y, x] = -np.inf
             pos[x] = x - scale * disp[y, x]  # S1 Eq. (7) on rectified rows: x' = x - scale d
         for x in range(w - 1):
-            # SPEC §6.3 gap/hole rule; False when either is NaN.
+            # S1 Sec. IV.B.1 gap/hole rule; False when either is NaN.
             link[x] = abs(scale * (disp[y, x + 1] - disp[y, x])) <= limit
         link[w - 1] = False
         prev = False  # link[x - 1]
@@ -133,7 +133,7 @@ def backward_warp_rows(img, disp, scale, out, valid):  # pragma: no cover - comp
 
 @nb.njit(cache=True, parallel=True)
 def fill_guide_rows(disp, src, scale, limit, out):  # pragma: no cover - compiled
-    """Hole-filling guide of a forward-warped view (see ``holes._fill_guide``).
+    """Hole-filling guide of a forward-warped view (see ``_stages.fill_guide``).
 
     ``g = src[y, x_s]`` at the source pixel ``x_s`` nearest to ``x + scale disp[y, x]`` (clamped to
     the row); where the warped ``disp`` exceeds ``g`` by more than ``limit`` (a background pixel
@@ -381,7 +381,7 @@ def splat_ordered(order, u, v, z, colours, out, zbuf, painted):  # pragma: no co
 
 @nb.njit(cache=True, parallel=True)
 def mesh_links(z, u, v, zt, A, c, limit, link_r, link_d):  # pragma: no cover - compiled
-    """Right and lower links of the mesh warp (2-D gradient rule, SPEC §6.3).
+    """Right and lower links of the mesh warp (2-D gradient rule of S1 Sec. IV.B.1).
 
     A source pixel ``m = (x, y, 1)`` with depth ``Z`` lands at ``h = Z A m + c`` (homogeneous target
     pixel; ``A = K_t R_t R_s^T K_s^{-1}``, ``c = K_t (t_t - R_t R_s^T t_s)``, S1 Eq. 5). Pixel
@@ -457,7 +457,7 @@ def _raster_triangle(i0, i1, i2, u, v, z, colours, use_z, out, zbuf, painted):  
 
 @nb.njit(cache=True)
 def splat_mesh(order, u, v, z, link_r, link_d, colours, max_side, use_z, out, zbuf, painted):  # pragma: no cover - compiled
-    """Mesh warp: linked source neighbours are one surface, rasterized as triangles (SPEC §6.3 in 2-D).
+    """Mesh warp: linked source neighbours are one surface, rasterized as triangles (S1 Sec. IV.B.1 in 2-D).
 
     Source points (flat index ``i = y W_s + x``) at target ``(u, v)`` with target depth ``z``
     (NaN or <= 0: not drawn). ``link_r[y, x]`` / ``link_d[y, x]``: the point and its right / lower

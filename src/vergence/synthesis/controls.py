@@ -8,7 +8,7 @@ behind the screen, zero at the convergence (zero-parallax) distance.
 
 Three ways to choose psi, one per call:
 
-- **shift-sensor set-up** (S1 §IV.C, SPEC §6.1): interaxial ``t_c``, convergence ``Z_c`` and focal
+- **shift-sensor set-up** (S1 Sec. IV.C; Fehn 2004): interaxial ``t_c``, convergence ``Z_c`` and focal
   length ``alpha_u``: ``P = alpha_u t_c (1/Z_c - 1/Z)``, a linear psi of slope ``alpha_u t_c``
   through zero at ``Z_c``. Table I: a larger ``t_c`` or focal length increases the parallax, a
   larger ``Z_c`` moves the scene toward the viewer.
@@ -26,14 +26,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int
-from vergence.synthesis.warp import _check_map
+from vergence.io.depth import DEPTH_KINDS
+from vergence.synthesis._checks import check_map
 from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping, LinearMapping
 
 __all__ = ["DEPTH_KINDS", "ParallaxPlan", "nearness_from_depth", "plan_parallax", "views_offsets"]
 
-DEPTH_KINDS = ("disparity", "inverse", "metric")
 
 
 def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
@@ -59,7 +59,7 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
 
     Notes
     -----
-    MPEG's 8-bit depth stores ``1/Z = (v/255)(1/Z_near - 1/Z_far) + 1/Z_far`` (SPEC §6.1): ``v`` is
+    MPEG's 8-bit depth stores ``1/Z = (v/255)(1/Z_near - 1/Z_far) + 1/Z_far`` (Fehn 2004; S1 Sec. IV.C): ``v`` is
     an affine function of ``1/Z``, which any linear psi absorbs.
 
     Examples
@@ -69,7 +69,7 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     """
     if kind not in DEPTH_KINDS:
         raise ValueError(f"kind must be one of {', '.join(DEPTH_KINDS)}; got {kind!r}")
-    d = _check_map("depth", depth)
+    d = check_map("depth", depth)
     if kind != "metric":
         return d.copy() if d is depth else d
     lo = float(np.nanmin(d))
@@ -162,8 +162,8 @@ def plan_parallax(
 
     Notes
     -----
-    Shift-sensor parallax ``P = alpha_u t_c (1/Z_c - 1/Z)`` (SPEC §6.1, Fehn; S1 Table I); linear
-    range-to-range psi (Lang et al. 2010, SPEC §7).
+    Shift-sensor parallax ``P = alpha_u t_c (1/Z_c - 1/Z)`` (Fehn 2004; S1 Table I); linear
+    range-to-range psi (Lang et al. 2010).
 
     Examples
     --------
@@ -208,7 +208,7 @@ def plan_parallax(
         if focal_px is None or interaxial is None or p_c is None:
             raise ValueError("the shift-sensor control needs focal_px, interaxial and convergence together")
         gain = check_positive("focal_px", focal_px) * check_positive("interaxial", interaxial)
-        # P = alpha_u t_c (1/Z_c - 1/Z) = gain (p - p_c), SPEC §6.1.
+        # P = alpha_u t_c (1/Z_c - 1/Z) = gain (p - p_c) (Fehn 2004).
         psi = LinearMapping(p_c, p_c + 1.0, 0.0, gain)
     else:
         if not isinstance(mapping, DisparityMapping):

@@ -7,13 +7,15 @@
 - :func:`synthesize_view`: one image with metric depth from one camera to another
   (``vergence.camera``), the rectified fast path when the two cameras form a rectified pair.
 
-The pipelines compose the primitives in this order (S1 §IV.B): unknown reference depth filled from
+Each pipeline validates its arguments once, then composes the same unchecked stages the
+primitives call (``_stages``, ``_stages3d``), in this order (S1 §IV.B): unknown reference depth filled from
 the background side, contour handling (the near side of depth edges, jumps above the gradient
 limit, grown by ``edge_dilation`` pixels), forward warp with the gap/hole rule, median refinement
 with inverse warping (view interpolation and camera-to-camera rendering, where depth comes from a
 measurement), depth-tested blending weighted by distance (two references), and
 background-directed hole filling steered by the original, undilated disparity (see
-``holes._fill_guide``).
+``_stages.fill_guide``; it travels through the blending as the ``"fill_guide"`` payload of each
+:class:`~vergence.synthesis.WarpedView`, the contour reliability as its ``reliability``).
 """
 
 from __future__ import annotations
@@ -24,33 +26,25 @@ import numpy as np
 
 from vergence._validate import check_finite, check_in_range, check_positive
 from vergence.camera import Camera
-from vergence.synthesis.blend import _blend, baseline_weights
+from vergence.synthesis import _stages, _stages3d
+from vergence.synthesis._checks import (
+    check_camera,
+    check_depth,
+    check_image,
+    check_map,
+    check_method,
+    check_nonnegative,
+    check_radius,
+    check_source_image,
+)
+from vergence.synthesis.blend import baseline_weights
 from vergence.synthesis.controls import ParallaxPlan, plan_parallax, views_offsets
-from vergence.synthesis.filters import _check_radius, _median_refine, contour_mask, dilate_foreground, smooth_depth
-from vergence.synthesis.holes import FILL_METHODS, _fill_guide, _fill_holes, fill_disparity
-from vergence.synthesis.warp import (
-    WarpResult,
-    _as_hwc,
-    _check_image,
-    _check_map,
-    _check_maps,
-    _check_nonnegative,
-    _forward_warp_unchecked,
-    _like,
-)
-from vergence.synthesis.warp3d import (
-    _check_camera,
-    _check_depth,
-    _check_source_image,
-    refine_camera_warp,
-    warp_to_camera,
-)
+from vergence.synthesis.view import WarpedView
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping
 
 __all__ = [
     "StereoResult",
-    "ViewResult",
     "interpolate_view",
     "synthesize_stereo",
     "synthesize_view",
@@ -61,36 +55,11 @@ __all__ = [
 # is re-sampled by inverse warping, if the reference agrees within the consistency tolerance.
 _MEDIAN_TOLERANCE_PX = 0.5
 _MEDIAN_CONSISTENCY_PX = 1.0
-# A warped reliability channel at or above this is reliable (exactly 1 unless interpolated with an
-# unreliable neighbour; float32 interpolation of 1 and 1 stays 1).
-_RELIABLE = 1.0
 # Rectified-pair detection for synthesize_view: rotations, intrinsics (except cx) and the off-axis
 # part of the baseline must agree to this relative precision.
 _RECTIFIED_RTOL = 1e-9
-
-
-@dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
-class ViewResult:
-    """A synthesized view.
-
-    Attributes
-    ----------
-    image : (H, W) or (H, W, C) float32
-        The view, holes filled.
-    disparity : (H, W) float32
-        Disparity (or, for :func:`synthesize_view` on the 3D path, target depth in metres) of the
-        surface seen at each pixel, holes filled from the background; NaN only where a whole row
-        had nothing to fill from.
-    holes : (H, W) bool
-        The pixels no reference saw, which hole filling made up.
-    """
-
-    image: np.ndarray
-    disparity: np.ndarray
-    holes: np.ndarray
-
-    def __post_init__(self) -> None:
-        _check_maps("ViewResult", self.image, disparity=self.disparity, holes=self.holes)
+# blend's metric depth test is not used on the rectified path (no metric depth there).
+_UNUSED_RTOL = 0.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
@@ -120,6 +89,19 @@ class StereoResult:
                 f"views, holes and offsets must have one length; got {len(self.views)}, {len(self.holes)}, {len(self.offsets)}"
             )
 
+    def to_dict(self) -> dict:
+        """JSON-ready summary: view offsets, size, parallax range between adjacent views (pixels,
+        arcmin when a display was given; ``x_r - x_l``, positive behind the screen) and the share of
+        each view that hole filling made up (percent, 4 decimals)."""
+        h, w = self.views[0].shape[:2]
+        return {
+            "offsets": list(self.offsets),
+            "size": [int(w), int(h)],
+            "parallax_range_px": list(self.plan.range_px),
+            "parallax_range_arcmin": None if self.plan.range_arcmin is None else list(self.plan.range_arcmin),
+            "holes_percent": [round(100.0 * float(m.mean()), 4) for m in self.holes],
+        }
+
     @property
     def left(self) -> np.ndarray:
         """The leftmost view."""
@@ -132,32 +114,27 @@ class StereoResult:
 
 
 def _check_options(gradient_limit: float, edge_dilation: int, fill: str) -> tuple[float, int]:
-    limit = _check_nonnegative("gradient_limit", gradient_limit)
-    r = _check_radius("edge_dilation", edge_dilation)
-    if fill not in FILL_METHODS:
-        raise ValueError(f"fill must be one of {', '.join(FILL_METHODS)}; got {fill!r}")
+    limit = check_nonnegative("gradient_limit", gradient_limit)
+    r = check_radius("edge_dilation", edge_dilation)
+    check_method("fill", fill, _stages.FILL_METHODS)
     return limit, r
-
-
-def _prepare_disparity(d: np.ndarray, radius: int, threshold: float) -> tuple[np.ndarray, np.ndarray]:
-    """Unknown values from the background side, then the near side of edges grown.
-
-    Returns the warping disparity and the filled, undilated one (the same array without dilation).
-    """
-    filled = np.ascontiguousarray(fill_disparity(d), dtype=np.float32)
-    if not radius:
-        return filled, filled
-    return np.ascontiguousarray(dilate_foreground(filled, radius=radius, threshold=threshold), dtype=np.float32), filled
 
 
 def _warp_reference(
     img_hwc: np.ndarray, d: np.ndarray, scale: float, limit: float, median: bool
-) -> WarpResult:
-    out, zbuf, holes = _forward_warp_unchecked(img_hwc, d, scale, limit)
-    warped = WarpResult(image=out, disparity=zbuf, holes=holes)
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Forward warp (and median refinement): ``(H, W, C)`` image, warped disparity, holes."""
+    out, zbuf, holes = _stages.forward_warp(img_hwc, d, scale, limit)
     if median and scale != 0.0:
-        warped = _median_refine(img_hwc, d, warped, scale, _MEDIAN_TOLERANCE_PX, _MEDIAN_CONSISTENCY_PX, out)
-    return warped
+        out, zbuf, holes = _stages.median_refine(
+            img_hwc, d, out, zbuf, holes, scale, _MEDIAN_TOLERANCE_PX, _MEDIAN_CONSISTENCY_PX
+        )
+    return out, zbuf, holes
+
+
+def _fill(image_hwc: np.ndarray, guide: np.ndarray, holes: np.ndarray, fill: str) -> tuple[np.ndarray, np.ndarray]:
+    """Fill holes in place on arrays this module owns (the values in the holes are ignored)."""
+    return _stages.fill_holes(_stages.as_hwc(image_hwc), np.ascontiguousarray(guide, dtype=np.float32), holes, fill)
 
 
 def interpolate_view(
@@ -173,7 +150,7 @@ def interpolate_view(
     contour_width: int = 0,
     depth_tolerance: float = 1.0,
     fill: str = "background",
-) -> ViewResult:
+) -> WarpedView:
     """The view at ``position`` between two rectified references on one horizontal line.
 
     A pixel at x in ``left`` with disparity d appears at ``x - T d`` in the target; a pixel at x in
@@ -208,7 +185,11 @@ def interpolate_view(
 
     Returns
     -------
-    ViewResult
+    WarpedView
+        The view (holes filled), ``holes`` (the pixels neither reference saw), ``nearness`` (unit
+        ``"px"``): the disparity on the left-right baseline of the surface seen, holes filled from
+        the background (NaN only where a whole row had nothing to fill from); ``depth`` None;
+        ``reliability`` with ``contour_width`` > 0 (True where a reliable source pixel was used).
 
     Raises
     ------
@@ -218,7 +199,7 @@ def interpolate_view(
     Notes
     -----
     S1 §IV.A–B: rectified warping (Eq. 7), sampling gaps vs holes, median + inverse warping, contour
-    artifacts, blending with weights ``w_L = 1 - T``, ``w_R = T`` (SPEC §6.3) and the nearer surface
+    artifacts, blending with weights ``w_L = 1 - T``, ``w_R = T`` (S1 Sec. IV.B.2) and the nearer surface
     winning, background-only hole filling. At T = 0 the result is ``left`` wherever its disparity
     is known (the right reference only fills the rest), at T = 1 likewise ``right``.
 
@@ -231,46 +212,43 @@ def interpolate_view(
     >>> bool(np.array_equal(res.image, img))
     True
     """
-    lft = _check_image("left", left)
-    rgt = _check_image("right", right)
+    lft = check_image("left", left)
+    rgt = check_image("right", right)
     if rgt.shape != lft.shape:
         raise ValueError(f"right must have shape {lft.shape} like left; got {rgt.shape}")
-    dl = _check_map("left_disparity", left_disparity, "left", lft)
-    dr = _check_map("right_disparity", right_disparity, "right", rgt)
+    dl = check_map("left_disparity", left_disparity, "left", lft)
+    dr = check_map("right_disparity", right_disparity, "right", rgt)
     t = check_in_range("position", position, 0.0, 1.0)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     tol = check_positive("depth_tolerance", depth_tolerance)
-    contour = _check_radius("contour_width", contour_width)
-    images, disparities, reliable = [], [], []
+    contour = check_radius("contour_width", contour_width)
     nc = lft.shape[2] if lft.ndim == 3 else 1
+    views = []
     for img, d, scale in ((lft, dl, t), (rgt, dr, -(1.0 - t))):
-        prepared, original = _prepare_disparity(d, radius, limit)
-        hwc = _as_hwc(img)
+        prepared, original = _stages.prepare_disparity(d, radius, limit)
+        hwc = _stages.as_hwc(img)
         if contour:
-            # The reliability travels with the colours as one more channel (1 = reliable); a target
-            # pixel interpolated from an unreliable source pixel is unreliable.
-            band = contour_mask(prepared, width=contour, threshold=limit, side="far")
-            hwc = np.concatenate([hwc, (~band)[:, :, None].astype(np.float32)], axis=2)
-        warped = _warp_reference(hwc, prepared, scale, limit, median)
-        colours = warped.image[:, :, :nc]
-        if radius:  # the fill guide travels through the blending as one more channel (0, not NaN, in holes)
-            guide = np.nan_to_num(_fill_guide(warped.disparity, prepared, original, scale, limit), nan=0.0)
-            colours = np.concatenate([colours, guide[:, :, None]], axis=2)
-        images.append(colours)
-        disparities.append(warped.disparity)
-        reliable.append(warped.image[:, :, -1] >= _RELIABLE if contour else None)
+            # The kernel warps the unreliable band as one more channel (1 = unreliable), split off
+            # right after the warp (see _stages.reliable_from_warped).
+            band = _stages.contour_mask(prepared, contour, limit, "far")
+            hwc = np.concatenate([hwc, band[:, :, None].astype(np.float32)], axis=2)
+        image, near, holes = _warp_reference(hwc, prepared, scale, limit, median)
+        reliability = _stages.reliable_from_warped(image[:, :, nc], holes) if contour else None
+        payload = {}
+        if radius:  # 0, not NaN, where unknown: the guide is blended like the colours
+            payload["fill_guide"] = np.nan_to_num(_stages.fill_guide(near, prepared, original, scale, limit), nan=0.0)
+        views.append(
+            WarpedView(image=image[:, :, :nc], holes=holes, nearness=near, reliability=reliability, payload=payload)
+        )
     weights = baseline_weights([0.0, 1.0], t)
-    blended = _blend(images, disparities, weights, reliable if contour else None, tol)
-    disparity = fill_disparity(blended.disparity)  # NaN in the holes: the background rule of the fill
-    guide = blended.image[:, :, nc] if radius else blended.disparity
-    image, _ = _fill(blended.image[:, :, :nc], guide, blended.holes, fill)
-    return ViewResult(image=_like(image, lft), disparity=disparity, holes=blended.holes)
-
-
-def _fill(image_hwc: np.ndarray, disparity: np.ndarray, holes: np.ndarray, fill: str) -> tuple[np.ndarray, np.ndarray]:
-    """Fill holes in place on arrays this module owns (the values in the holes are ignored)."""
-    d = np.ascontiguousarray(disparity, dtype=np.float32)
-    return _fill_holes(_as_hwc(image_hwc), d, np.ascontiguousarray(holes), fill)
+    w = np.broadcast_to(weights[:, None, None], (2, *lft.shape[:2]))
+    blended = _stages.blend(views, w, tol, _UNUSED_RTOL)
+    disparity = _stages.fill_disparity(blended.nearness)  # NaN in the holes: the background rule of the fill
+    guide = blended.payload["fill_guide"] if radius else blended.nearness
+    image, _ = _fill(blended.image, guide, blended.holes, fill)
+    return WarpedView(
+        image=_stages.like(image, lft), holes=blended.holes, nearness=disparity, reliability=blended.reliability
+    )
 
 
 def synthesize_views(
@@ -305,16 +283,16 @@ def synthesize_views(
 
     Notes
     -----
-    Shift-sensor DIBR (Fehn; SPEC §6.1): ``x_l = x_c - P/2``, ``x_r = x_c + P/2``. With
+    Shift-sensor DIBR (Fehn 2004): ``x_l = x_c - P/2``, ``x_r = x_c + P/2``. With
     ``d = -P`` this is :func:`~vergence.synthesis.forward_warp` with ``scale = offset``.
     """
-    img = _check_image("image", image)
-    p = _check_map("parallax_px", parallax_px, "image", img)
+    img = check_image("image", image)
+    p = check_map("parallax_px", parallax_px, "image", img)
     if len(offsets) == 0:
         raise ValueError("offsets must hold at least one view position; got none")
     offs = tuple(check_finite(f"offsets[{k}]", o) for k, o in enumerate(offsets))
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
-    return _render(_as_hwc(img), -p, offs, limit, radius, fill, img)
+    return _render(_stages.as_hwc(img), -p, offs, limit, radius, fill, img)
 
 
 def _render(
@@ -326,12 +304,12 @@ def _render(
     fill: str,
     template: np.ndarray,
 ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
-    prepared, original = _prepare_disparity(d, radius, limit)
+    prepared, original = _stages.prepare_disparity(d, radius, limit)
     views, holes = [], []
     for o in offsets:
-        out, zbuf, hole = _forward_warp_unchecked(img_hwc, prepared, o, limit)
-        filled, _ = _fill(out, _fill_guide(zbuf, prepared, original, o, limit), hole, fill)
-        views.append(_like(filled, template))
+        out, zbuf, hole = _stages.forward_warp(img_hwc, prepared, o, limit)
+        filled, _ = _fill(out, _stages.fill_guide(zbuf, prepared, original, o, limit), hole, fill)
+        views.append(_stages.like(filled, template))
         holes.append(hole)
     return tuple(views), tuple(holes)
 
@@ -391,7 +369,7 @@ def synthesize_stereo(
     >>> res.plan.range_px, len(res.views), res.left.shape
     ((-4.0, 4.0), 2, (4, 16))
     """
-    img = _check_image("image", image)
+    img = check_image("image", image)
     shape = np.shape(depth)
     if len(shape) != 2 or shape != img.shape[:2]:
         raise ValueError(f"depth must have shape (H, W) matching image {img.shape[:2]}; got {shape}")
@@ -410,13 +388,14 @@ def synthesize_stereo(
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     p = plan.parallax_px
     if smooth_sigma is not None:
-        p = smooth_depth(p, sigma=smooth_sigma)
-    rendered, holes = _render(_as_hwc(img), np.negative(p, dtype=np.float32), offsets, limit, radius, fill, img)
+        sigma = check_positive("smooth_sigma", smooth_sigma)
+        p = _stages.smooth_depth(p, sigma, sigma)
+    rendered, holes = _render(_stages.as_hwc(img), np.negative(p, dtype=np.float32), offsets, limit, radius, fill, img)
     return StereoResult(views=rendered, holes=holes, offsets=offsets, plan=plan)
 
 
-def _rectified_disparity(depth: np.ndarray, source: Camera, target: Camera) -> np.ndarray | None:
-    """Disparity ``f b / Z + cx_s - cx_t`` if the cameras form a rectified pair, else None."""
+def _rectified_pair(source: Camera, target: Camera) -> tuple[float, float, float] | None:
+    """``(f b, cx_s, cx_t)`` if the cameras form a rectified pair, else None (b: baseline along x_s)."""
     ks, kt = source.K, target.K
     same_k = np.allclose(np.delete(ks.ravel(), 2), np.delete(kt.ravel(), 2), rtol=_RECTIFIED_RTOL, atol=0.0)
     same_r = np.allclose(source.R, target.R, rtol=0.0, atol=_RECTIFIED_RTOL)
@@ -424,7 +403,7 @@ def _rectified_disparity(depth: np.ndarray, source: Camera, target: Camera) -> n
     sideways = abs(base[1]) + abs(base[2]) <= _RECTIFIED_RTOL * abs(base[0])
     if not (same_k and same_r and sideways and (source.width, source.height) == (target.width, target.height)):
         return None
-    return (ks[0, 0] * base[0] / depth + ks[0, 2] - kt[0, 2]).astype(np.float32)  # S1 Eq. (7): d = f b / Z
+    return float(ks[0, 0] * base[0]), float(ks[0, 2]), float(kt[0, 2])
 
 
 def synthesize_view(
@@ -436,7 +415,7 @@ def synthesize_view(
     gradient_limit: float = 1.0,
     edge_dilation: int = 1,
     fill: str = "background",
-) -> ViewResult:
+) -> WarpedView:
     """Render the view of ``target`` from an image with metric depth taken by ``source``.
 
     When the cameras form a rectified pair (same rotation and intrinsics up to the principal
@@ -459,32 +438,44 @@ def synthesize_view(
 
     Returns
     -------
-    ViewResult
-        ``disparity`` holds the warped source disparity (rectified path) or the target depth in
-        metres (3D path).
+    WarpedView
+        ``depth``: target camera-frame z in metres (holes filled from the background); None on
+        the rectified path when the cameras share their centre (a principal-point shift). ``nearness``: on the rectified path (``nearness_unit == "px"``) the warped
+        source disparity ``f b / Z + cx_s - cx_t`` in pixels, on the 3D path (``"1/m"``) ``1 / depth``.
 
     Notes
     -----
     S1 §IV.A: rectified pairs need one-dimensional resampling only (Eq. 7, ``Z = f b / d``);
-    the general case is the 3D warp of S1 Eq. (5) (SPEC §6.1).
+    the general case is the 3D warp of S1 Eq. (5) (sign of the translation corrected).
     """
-    source = _check_camera("source", source)
-    target = _check_camera("target", target)
-    img = _check_source_image(image, source)
-    z = _check_depth(depth, source)
+    source = check_camera("source", source)
+    target = check_camera("target", target)
+    img = check_source_image(image, source)
+    z = check_depth(depth, source)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
-    d = _rectified_disparity(z, source, target)
-    if d is not None:
-        prepared, original = _prepare_disparity(d, radius, limit)
-        warped = _warp_reference(_as_hwc(img), prepared, 1.0, limit, True)
-        guide = _fill_guide(warped.disparity, prepared, original, 1.0, limit)
-        disparity = fill_disparity(warped.disparity)
-        image_t, _ = _fill(warped.image, guide, warped.holes, fill)
-        return ViewResult(image=_like(image_t, img), disparity=disparity, holes=warped.holes)
-    warped = refine_camera_warp(warp_to_camera(img, z, source, target, gradient_limit=limit), img, z, source, target)
-    # Hole filling wants "larger = nearer": use inverse depth, then report depth.
-    inv = np.where(warped.holes, np.nan, 1.0 / warped.depth)
-    image_t, inv_filled = _fill(_as_hwc(warped.image), inv, warped.holes, fill)
+    pair = _rectified_pair(source, target)
+    if pair is not None:
+        fb, cx_s, cx_t = pair
+        d = (fb / z + cx_s - cx_t).astype(np.float32)  # S1 Eq. (7): d = f b / Z
+        prepared, original = _stages.prepare_disparity(d, radius, limit)
+        image_w, near, holes = _warp_reference(_stages.as_hwc(img), prepared, 1.0, limit, True)
+        guide = _stages.fill_guide(near, prepared, original, 1.0, limit)
+        disparity = _stages.fill_disparity(near)
+        image_t, _ = _fill(image_w, guide, holes, fill)
+        depth_t = None  # a pure principal-point shift (b = 0) keeps no depth in its disparity
+        if fb != 0.0:
+            with np.errstate(divide="ignore"):  # d = cx_s - cx_t: a point at infinity
+                depth_t = (fb / (disparity.astype(np.float64) - cx_s + cx_t)).astype(np.float32)  # Z = f b / d
+        return WarpedView(image=_stages.like(image_t, img), holes=holes, nearness=disparity, depth=depth_t)
+    warped = _stages3d.warp_to_camera(img, z, source, target, "zbuffer", limit)
+    warped = _stages3d.refine_camera_warp(
+        warped, img, z, source, target, _stages3d.REFINE_CONSISTENCY, _stages3d.REFINE_ITERATIONS
+    )
+    # Hole filling wants "larger = nearer": inverse depth, then depth from the filled inverse depth.
+    inv = np.where(warped.holes, np.nan, warped.nearness)
+    image_t, inv_filled = _fill(_stages.as_hwc(warped.image), inv, warped.holes, fill)
     with np.errstate(divide="ignore"):
         depth_t = (1.0 / inv_filled).astype(np.float32)
-    return ViewResult(image=_like(image_t, img), disparity=depth_t, holes=warped.holes)
+    return WarpedView(
+        image=_stages.like(image_t, img), holes=warped.holes, nearness=inv_filled, nearness_unit="1/m", depth=depth_t
+    )

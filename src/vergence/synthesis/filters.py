@@ -14,29 +14,16 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from vergence._validate import check_finite, check_positive, check_positive_int, check_same_hw
-from vergence.synthesis import _kernels
-from vergence.synthesis.warp import (
-    WarpResult,
-    _as_hwc,
-    _backward_warp_unchecked,
-    _check_image,
-    _check_map,
-    _check_nonnegative,
-    _like,
-)
+from vergence.synthesis import _stages
+from vergence.synthesis._checks import check_image, check_map, check_nonnegative, check_radius
+from vergence.synthesis.view import WarpedView
 
-__all__ = ["contour_mask", "dilate_foreground", "median_refine", "smooth_depth"]
+__all__ = ["CONTOUR_SIDES", "contour_mask", "dilate_foreground", "median_refine", "smooth_depth"]
 
-
-def _check_radius(name: str, value: object) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{name} must be an integer; got {type(value).__name__}")
-    if value < 0:
-        raise ValueError(f"{name} must be >= 0; got {value}")
-    return int(value)
+# Sides of a depth edge that contour_mask can mark.
+CONTOUR_SIDES = ("both", "near", "far")
 
 
 def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = None) -> np.ndarray:
@@ -68,15 +55,10 @@ def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = 
     >>> smooth_depth(np.full((3, 3), 2.0), sigma=1.0).tolist()[1]
     [2.0, 2.0, 2.0]
     """
-    d = _check_map("depth", depth)
+    d = check_map("depth", depth)
     sx = check_positive("sigma", sigma)
     sy = sx if vertical_sigma is None else check_positive("vertical_sigma", vertical_sigma)
-    known = ~np.isnan(d)
-    num = ndimage.gaussian_filter(np.where(known, d, 0.0).astype(np.float64), (sy, sx), mode="nearest")
-    den = ndimage.gaussian_filter(known.astype(np.float64), (sy, sx), mode="nearest")
-    out = np.full(d.shape, np.nan, dtype=np.float32)
-    out[known] = (num[known] / den[known]).astype(np.float32)
-    return out
+    return _stages.smooth_depth(d, sx, sy)
 
 
 def dilate_foreground(disparity: object, *, radius: int = 1, threshold: float = 1.0) -> np.ndarray:
@@ -92,7 +74,7 @@ def dilate_foreground(disparity: object, *, radius: int = 1, threshold: float = 
     radius : int
         Pixels to grow, >= 0 (0 returns a copy).
     threshold : float
-        Smallest disparity jump treated as a discontinuity, in pixels (the gap limit of SPEC §6.3).
+        Smallest disparity jump treated as a discontinuity, in pixels (the gap limit of the gradient rule, S1 Sec. IV.B.1).
 
     Returns
     -------
@@ -111,14 +93,10 @@ def dilate_foreground(disparity: object, *, radius: int = 1, threshold: float = 
     >>> dilate_foreground(np.array([[0.0, 0, 5, 5, 0, 0]]), radius=1).tolist()
     [[0.0, 5.0, 5.0, 5.0, 5.0, 0.0]]
     """
-    d = _check_map("disparity", disparity)
-    r = _check_radius("radius", radius)
-    thr = _check_nonnegative("threshold", threshold)
-    if r == 0:
-        return d.copy()
-    out = np.empty(d.shape, dtype=np.float32)
-    _kernels.dilate_near_rows(d, r, thr, out)
-    return out
+    d = check_map("disparity", disparity)
+    r = check_radius("radius", radius)
+    thr = check_nonnegative("threshold", threshold)
+    return _stages.dilate_foreground(d, r, thr)
 
 
 def contour_mask(disparity: object, *, width: int = 1, threshold: float = 1.0, side: str = "both") -> np.ndarray:
@@ -151,45 +129,28 @@ def contour_mask(disparity: object, *, width: int = 1, threshold: float = 1.0, s
     >>> contour_mask(np.array([[0.0, 0, 0, 5, 5, 5]]), side="far").astype(int).tolist()
     [[0, 0, 1, 0, 0, 0]]
     """
-    d = _check_map("disparity", disparity)
+    d = check_map("disparity", disparity)
     w = check_positive_int("width", width)
-    thr = _check_nonnegative("threshold", threshold)
-    if side not in ("both", "near", "far"):
-        raise ValueError(f"side must be one of both, near, far; got {side!r}")
-    mark = np.zeros(d.shape, dtype=bool)
-    for axis in (0, 1):
-        a = np.moveaxis(d, axis, 0)
-        m = np.moveaxis(mark, axis, 0)
-        with np.errstate(invalid="ignore"):
-            jump = np.abs(a[1:] - a[:-1]) > thr  # NaN compares False: no discontinuity
-            first_near = a[:-1] > a[1:]
-        near_first = jump & first_near
-        near_second = jump & ~first_near
-        if side in ("both", "near"):
-            m[:-1] |= near_first
-            m[1:] |= near_second
-        if side in ("both", "far"):
-            m[1:] |= near_first
-            m[:-1] |= near_second
-    if w > 1:
-        mark = ndimage.binary_dilation(mark, structure=np.ones((2 * w - 1, 2 * w - 1), dtype=bool))
-    return mark
+    thr = check_nonnegative("threshold", threshold)
+    if side not in CONTOUR_SIDES:
+        raise ValueError(f"side must be one of {', '.join(CONTOUR_SIDES)}; got {side!r}")
+    return _stages.contour_mask(d, w, thr, side)
 
 
 def median_refine(
-    warped: WarpResult,
+    warped: WarpedView,
     source_image: object,
     source_disparity: object,
     *,
     scale: float,
     tolerance: float = 0.5,
     consistency: float = 1.0,
-) -> WarpResult:
+) -> WarpedView:
     """Median-filter a forward-warped disparity and inverse-warp the pixels it changed (Do et al.).
 
     Parameters
     ----------
-    warped : WarpResult
+    warped : WarpedView
         The output of :func:`vergence.synthesis.forward_warp` of ``source_image``.
     source_image : (H, W) or (H, W, C) array
         The reference view that was warped.
@@ -207,7 +168,7 @@ def median_refine(
 
     Returns
     -------
-    WarpResult
+    WarpedView
         Same layout, with the refined colours, disparities and the smaller hole mask.
 
     Notes
@@ -216,42 +177,19 @@ def median_refine(
     removes isolated warping errors and closes cracks without blurring edges; the pixels it changed
     get their colour by inverse warping ``x_src = x + scale d_med`` (S1 Eq. 7 read backwards).
     """
-    if not isinstance(warped, WarpResult):
-        raise TypeError(f"warped must be a WarpResult; got {type(warped).__name__}")
-    img = _check_image("source_image", source_image)
+    if not isinstance(warped, WarpedView):
+        raise TypeError(f"warped must be a WarpedView; got {type(warped).__name__}")
+    if warped.nearness_unit != "px":
+        raise ValueError(f"warped must come from a rectified warp (nearness in px); got nearness in {warped.nearness_unit}")
+    img = check_image("source_image", source_image)
     check_same_hw("source_image", img, "warped image", warped.image)
     if img.shape[2:] != warped.image.shape[2:]:
         raise ValueError(f"source_image must have the channels of the warped image {warped.image.shape}; got {img.shape}")
-    d_src = _check_map("source_disparity", source_disparity, "source_image", img)
+    d_src = check_map("source_disparity", source_disparity, "source_image", img)
     s = check_finite("scale", scale)
     tol = check_positive("tolerance", tolerance)
     cons = check_positive("consistency", consistency)
-    return _median_refine(_as_hwc(img), d_src, warped, s, tol, cons, img)
-
-
-def _median_refine(
-    img_hwc: np.ndarray,
-    d_src: np.ndarray,
-    warped: WarpResult,
-    s: float,
-    tol: float,
-    cons: float,
-    template: np.ndarray,
-) -> WarpResult:
-    """Unchecked body of :func:`median_refine` (``template`` gives the output channel layout)."""
-    z = np.ascontiguousarray(warped.disparity, dtype=np.float32)
-    med = np.empty_like(z)
-    changed = np.empty(z.shape, dtype=bool)
-    _kernels.median3_changes(z, np.ascontiguousarray(warped.holes), tol, 5, med, changed)
-    d_target = np.where(changed, med, np.nan).astype(np.float32)
-    colours, ok = _backward_warp_unchecked(img_hwc, d_target, s)
-    h, w = z.shape
-    xs = np.rint(np.arange(w)[None, :] + s * np.nan_to_num(d_target)).astype(np.intp)
-    np.clip(xs, 0, w - 1, out=xs)
-    with np.errstate(invalid="ignore"):
-        ok &= np.abs(d_src[np.arange(h)[:, None], xs] - d_target) <= cons
-    image = _as_hwc(warped.image).copy()
-    image[ok] = colours[ok]
-    disparity = warped.disparity.copy()
-    disparity[ok] = d_target[ok]
-    return WarpResult(image=_like(image, template), disparity=disparity, holes=warped.holes & ~ok)
+    image, disparity, holes = _stages.median_refine(
+        _stages.as_hwc(img), d_src, _stages.as_hwc(warped.image), warped.nearness, warped.holes, s, tol, cons
+    )
+    return WarpedView(image=_stages.like(image, img), holes=holes, nearness=disparity, nearness_unit="px")

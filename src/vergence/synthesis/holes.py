@@ -15,42 +15,16 @@ hole only: the farther of the two pixels bounding it on its row.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
-from scipy import ndimage
 
-from vergence._validate import check_same_hw
-from vergence.synthesis import _kernels
-from vergence.synthesis.warp import _as_hwc, _check_image, _count_nonfinite, _like
+from vergence.synthesis import _stages
+from vergence.synthesis._checks import check_holes, check_image, check_known_disparity, check_method, count_nonfinite
 
 __all__ = ["FILL_METHODS", "fill_disparity", "fill_holes"]
 
-FILL_METHODS = ("background", "inpaint", "mirror")
-
-# Inpainting: Telea's neighbourhood radius (pixels), and the band around each hole (pixels, wider
-# than that radius, so Telea never reads past it) in which foreground is replaced by background.
-_INPAINT_RADIUS_PX = 3
-_INPAINT_GUARD_PX = _INPAINT_RADIUS_PX + 1
-
-
-def _check_holes(holes: object, ref: np.ndarray) -> np.ndarray:
-    m = np.asarray(holes)
-    if m.dtype != bool:
-        raise TypeError(f"holes must be a boolean mask; got {m.dtype}")
-    if m.ndim != 2:
-        raise ValueError(f"holes must have shape (H, W); got {m.shape}")
-    check_same_hw("holes", m, "image", ref)
-    return np.ascontiguousarray(m)
-
-
-def _check_known_disparity(disparity: object, holes: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    d = np.asarray(disparity, dtype=np.float32)
-    if d.ndim != 2:
-        raise ValueError(f"disparity must have shape (H, W); got {d.shape}")
-    check_same_hw("disparity", d, "image", ref)
-    if not np.isfinite(d[~holes]).all():
-        raise ValueError("disparity must be finite outside the holes")
-    return np.ascontiguousarray(np.where(holes, 0.0, d), dtype=np.float32)
+# Hole-filling methods, name -> stage (one entry per method: the CLI choices, the dispatch and the
+# error message all read this table).
+FILL_METHODS = _stages.FILL_METHODS
 
 
 def fill_disparity(disparity: object) -> np.ndarray:
@@ -82,11 +56,9 @@ def fill_disparity(disparity: object) -> np.ndarray:
     d = np.ascontiguousarray(disparity, dtype=np.float32)
     if d.ndim != 2 or d.size == 0:
         raise ValueError(f"disparity must have shape (H, W); got {d.shape}")
-    if _count_nonfinite(d)[1]:
+    if count_nonfinite(d)[1]:
         raise ValueError("disparity must not contain inf (use NaN for unknown)")
-    out = np.empty_like(d)
-    _kernels.fill_nan_rows(d, out)
-    return out
+    return _stages.fill_disparity(d)
 
 
 def fill_holes(
@@ -133,92 +105,9 @@ def fill_holes(
     >>> out.tolist(), dd.tolist()
     ([[0.8999999761581421, 0.20000000298023224, 0.20000000298023224, 0.20000000298023224]], [[8.0, 1.0, 1.0, 1.0]])
     """
-    img = _check_image("image", image)
-    m = _check_holes(holes, img)
-    d = _check_known_disparity(disparity, m, img)
-    if method not in FILL_METHODS:
-        raise ValueError(f"method must be one of {', '.join(FILL_METHODS)}; got {method!r}")
-    out, out_d = _fill_holes(_as_hwc(img).copy(), d, m, method)
-    return _like(out, img), out_d
-
-
-def _fill_guide(
-    warped_disparity: np.ndarray, prepared: np.ndarray, original: np.ndarray, scale: float, limit: float
-) -> np.ndarray:
-    """The disparity that steers hole filling: the original (undilated) one, carried to the view.
-
-    Edge dilation gives the background pixels along a depth edge the foreground's disparity, so a
-    hole can be bounded by such a pixel: judged by that disparity, a true foreground on the other
-    side can look farther (and be repeated into the hole), mirroring about it copies the
-    foreground behind it, and inpainting takes the foreground above or below the hole for
-    background. Each view pixel therefore looks up the original disparity of the source pixel it
-    came from (``x + scale d``). A pixel whose warped disparity exceeds that by more than
-    ``limit`` moved with the foreground and its colour mixes the two (interpolated with its
-    foreground neighbour): it counts halfway between them, so a true background pixel on the
-    other side of a hole wins over it (on Dolls: 37.11 dB, against 36.95 without the halfway rule
-    and 37.06 with no guide).
-    """
-    if prepared is original:
-        return warped_disparity
-    out = np.empty(warped_disparity.shape, dtype=np.float32)
-    _kernels.fill_guide_rows(
-        np.ascontiguousarray(warped_disparity, dtype=np.float32), original, float(scale), np.float32(limit), out
-    )
-    return out
-
-
-def _fill_holes(img: np.ndarray, d: np.ndarray, holes: np.ndarray, method: str) -> tuple[np.ndarray, np.ndarray]:
-    """Unchecked body of :func:`fill_holes`, in place on ``(H, W, C)`` float32 ``img`` and ``d``
-    (their values in the holes are ignored); returns them."""
-    out, out_d = img, d
-    _kernels.fill_holes_rows(img, d, holes, method == "mirror", out, out_d)
-    dead = holes.all(axis=1)
-    out_d[dead] = np.nan
-    if method == "inpaint":
-        out = _inpaint_background(img, out_d, holes)
-    return out, out_d
-
-
-def _inpaint_background(img: np.ndarray, filled_d: np.ndarray, holes: np.ndarray) -> np.ndarray:
-    """Telea inpainting of ``holes`` that only ever sees background colours.
-
-    ``img`` holds the scanline (background-directed) fill in the holes and ``filled_d`` their
-    background disparity. Telea fills a pixel from the pixels within its radius, so the inpainting
-    reads only the holes and a band around them a pixel wider than that radius. Two precautions:
-
-    - a hole pixel with a farther hole pixel within that band belongs to a nearer layer (e.g. a
-      gap inside an overhanging object above a disocclusion): it keeps its scanline fill and
-      counts as known, so the farther hole is not inpainted from it;
-    - within the band, every known pixel nearer than the background disparity of the closest
-      inpainted hole pixel by more than one pixel (foreground beside, above or below the hole)
-      first takes the colour of the nearest pixel that is not: the band then holds background
-      only, whatever the shape of the foreground.
-
-    Only the inpainted hole pixels change.
-    """
-    if not holes.any():
-        return img.copy()
-    size = 2 * _INPAINT_GUARD_PX + 1
-    with np.errstate(invalid="ignore"):
-        hole_d = np.where(holes & ~np.isnan(filled_d), filled_d, np.inf)
-        upper = holes & (filled_d > ndimage.minimum_filter(hole_d, size=size, mode="nearest") + 1.0)
-    paint = holes & ~upper
-    # Background disparity of the nearest inpainted hole pixel, for every pixel.
-    idx = ndimage.distance_transform_edt(~paint, return_distances=False, return_indices=True)
-    bg = filled_d[idx[0], idx[1]]
-    with np.errstate(invalid="ignore"):
-        near = ~paint & (filled_d > bg + 1.0)
-    guard = ndimage.binary_dilation(paint, iterations=_INPAINT_GUARD_PX) & near
-    source = img.copy()
-    background = ~paint & ~near
-    if guard.any() and background.any():
-        src = ndimage.distance_transform_edt(~background, return_distances=False, return_indices=True)
-        source[guard] = img[src[0][guard], src[1][guard]]
-    # Telea on 16-bit channels: its float variant extrapolates gradients beyond [0, 1].
-    u16 = np.rint(np.clip(source, 0.0, 1.0) * 65535.0).astype(np.uint16)
-    mask = paint.astype(np.uint8)
-    result = img.copy()
-    for c in range(img.shape[2]):
-        painted = cv2.inpaint(np.ascontiguousarray(u16[:, :, c]), mask, _INPAINT_RADIUS_PX, cv2.INPAINT_TELEA)
-        result[:, :, c][paint] = painted[paint] / np.float32(65535.0)
-    return result
+    img = check_image("image", image)
+    m = check_holes(holes, img)
+    d = check_known_disparity(disparity, m, img)
+    check_method("method", method, FILL_METHODS)
+    out, out_d = _stages.fill_holes(_stages.as_hwc(img).copy(), d, m, method)
+    return _stages.like(out, img), out_d

@@ -15,9 +15,10 @@ from types import MappingProxyType
 
 import numpy as np
 
+from vergence._validate import as_image_pair, check_finite
 from vergence.metrics import MIN_CONTRAST, _summaries, psnr, registration_error, ssim
 
-__all__ = ["ViewQuality", "assess_view"]
+__all__ = ["ViewQuality", "assess_view", "error_image"]
 
 _RANKS = (0.5, 0.8, 0.95, 1.0)
 
@@ -106,7 +107,7 @@ def assess_view(
     mask : (H, W) bool array, optional
         Compare these pixels only (at least one).
     radius : float
-        Search radius of the registration error, pixels (S1 Eq. 11; SPEC §6.5 suggests 10).
+        Search radius of the registration error, pixels (S1 Eq. 11; the paper gives none, 10 px is our choice).
     min_contrast : float
         The registration error is evaluated only where the 5x5 patch of ``image`` has an RMS
         contrast of at least this ([0, 1] units; default 3/255, see
@@ -126,7 +127,7 @@ def assess_view(
     -----
     S1 §V.B.2: the registration error ``d(p, I') = |p - p*|`` with ``p*`` the most similar pixel of
     the reference within ``radius`` (Eq. 11), its maximum (Hausdorff, Eq. 12) and its k-th ranked
-    values (Eq. 13), here ZNCC of 5x5 patches (SPEC §6.5), over the pixels with enough contrast
+    values (Eq. 13), here ZNCC of 5x5 patches (our choice of the similarity S of S1 Eq. 11), over the pixels with enough contrast
     (in flat areas the matched pixel is arbitrary and the distance would measure noise).
 
     Examples
@@ -160,3 +161,32 @@ def assess_view(
         registration_pixels=int(evaluated.size),
         registration_min_contrast=reg.min_contrast,
     )
+
+
+def error_image(image: object, reference: object, *, gain: float = 4.0) -> np.ndarray:
+    """The error image of a view: ``gain |image - reference|``, mean over the channels, clipped to [0, 1].
+
+    Parameters
+    ----------
+    image, reference : (H, W) or (H, W, C) arrays
+        One shape (float in [0, 1], uint8 or uint16).
+    gain : float
+        Finite, > 0 (4 makes an error of a quarter of the range white).
+
+    Returns
+    -------
+    (H, W) float32
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> error_image(np.full((1, 2), 0.5), np.array([[0.5, 0.4]])).round(3).tolist()
+    [[0.0, 0.4]]
+    """
+    a, b = as_image_pair("image", image, "reference", reference)
+    g = check_finite("gain", gain)
+    if g <= 0:
+        raise ValueError(f"gain must be > 0; got {g:g}")
+    err = np.abs(a - b)
+    err = err.mean(axis=2) if err.ndim == 3 else err
+    return np.clip(g * err, 0.0, 1.0).astype(np.float32)
