@@ -194,6 +194,17 @@ def test_display_presets_published_and_hand_values():
         assert preset.eye_separation == 0.065 and preset.resolution is not None
 
 
+
+def test_display_presets_cannot_be_changed():
+    tv = DISPLAY_PRESETS["tv-55"]
+    with pytest.raises(TypeError):
+        DISPLAY_PRESETS["tv-55"] = Display(eye_separation=0.065, distance=1.0, width=1.0)  # type: ignore[index]
+    with pytest.raises(TypeError):
+        del DISPLAY_PRESETS["tv-55"]  # type: ignore[attr-defined]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        tv.distance = 1.0  # type: ignore[misc]
+    assert not hasattr(DISPLAY_PRESETS, "update") and Display.preset("tv-55").distance == 3.0
+
 def test_scalar_in_float_out_and_array_shapes_kept():
     assert type(disparity(40.0, LONG_LENS)) is float
     assert type(roundness(np.float32(40.0), LONG_LENS, TV)) is float

@@ -10,7 +10,9 @@ the convergence plane. All lengths are in metres.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -121,7 +123,8 @@ class Display:
 
 # Typical viewing set-ups; eye separation 65 mm (adult mean). Screen widths are the diagonal times
 # a / sqrt(a^2 + b^2) for an a:b aspect ratio, to 0.1 mm; distances as commonly recommended for each screen.
-DISPLAY_PRESETS: dict[str, Display] = {
+# Read-only (a mapping proxy of frozen Displays): no caller can change a preset for everyone else.
+DISPLAY_PRESETS: Mapping[str, Display] = MappingProxyType({
     # A 10 m wide cinema screen seen from 15 m (f' = 1.5), projected in 2K DCI (2048 px).
     "cinema": Display(eye_separation=0.065, distance=15.0, width=10.0, resolution=2048),
     # 24" 16:9 monitor, 1920 x 1080, at 60 cm: 24 x 25.4 mm x 16/sqrt(337) = 0.5313 m.
@@ -136,7 +139,7 @@ DISPLAY_PRESETS: dict[str, Display] = {
     # A 55" 16:9 television, 1920 x 1080, at 3 m: 55 x 25.4 mm x 16/sqrt(337) = 1.2176 m; f' = 2.46,
     # S0's living-room example.
     "tv-55": Display(eye_separation=0.065, distance=3.0, width=1.2176, resolution=1920),
-}
+})
 
 
 def _depths(name: str, z: object) -> np.ndarray:
