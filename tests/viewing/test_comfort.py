@@ -239,11 +239,11 @@ def test_small_angle_option_changes_the_conversion():
 
 
 def test_range_check_bad_input():
-    with pytest.raises(ValueError, match="^disparity_px must hold at least one finite value; got 2 values, none"):
+    with pytest.raises(ValueError, match="^parallax_px must hold at least one finite value; got 2 values, none"):
         check_disparity_range([np.nan, np.nan], SAMSUNG)
-    with pytest.raises(ValueError, match="^disparity_px must hold at least one finite value; got 0 values"):
+    with pytest.raises(ValueError, match="^parallax_px must hold at least one finite value; got 0 values"):
         check_disparity_range([], SAMSUNG)
-    with pytest.raises(ValueError, match=r"^disparity_px must not contain inf"):
+    with pytest.raises(ValueError, match=r"^parallax_px must not contain inf"):
         check_disparity_range([0.0, np.inf], SAMSUNG)
     with pytest.raises(TypeError, match="^zone must be a ComfortZone; got tuple"):
         check_disparity_range([0.0, 1.0], SAMSUNG, zone=(60, 60))  # type: ignore[arg-type]
@@ -254,7 +254,7 @@ def test_range_check_bad_input():
 def test_conversion_bad_input():
     with pytest.raises(ValueError, match="display resolution is unknown"):
         arcmin_from_pixels(1.0, Display(0.065, 3.0, 1.2))
-    with pytest.raises(ValueError, match="^disparity_px must not contain inf"):
+    with pytest.raises(ValueError, match="^parallax_px must not contain inf"):
         arcmin_from_pixels(np.inf, TV)
     with pytest.raises(TypeError, match="^disparity_arcmin must be numeric; got str"):
         pixels_from_arcmin("one", TV)

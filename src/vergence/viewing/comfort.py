@@ -75,12 +75,12 @@ def _parallax_from_arcmin(theta_arcmin: np.ndarray, display: Display, exact: boo
     return e - 2.0 * D * np.tan(half)
 
 
-def arcmin_from_pixels(disparity_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
+def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
     """Vergence change in arcminutes of a screen disparity in pixels (SPEC §5.6).
 
     Parameters
     ----------
-    disparity_px : float or array_like
+    parallax_px : float or array_like
         Screen parallax ``x_r - x_l`` in display pixels, positive (uncrossed) behind the screen.
         NaN (invalid) passes through as NaN; inf is refused.
     display : Display
@@ -97,11 +97,11 @@ def arcmin_from_pixels(disparity_px: object, display: Display, *, exact: bool = 
     Raises
     ------
     ValueError
-        If ``disparity_px`` holds inf, or the display resolution is unknown.
+        If ``parallax_px`` holds inf, or the display resolution is unknown.
 
     Notes
     -----
-    With pitch ``p = W'/N``, parallax ``s = disparity_px · p`` and (SPEC §5.6)
+    With pitch ``p = W'/N``, parallax ``s = parallax_px · p`` and (SPEC §5.6)
     ``theta = 2 atan(e/2D) - 2 atan((e - s)/2D)``, or ``theta ≈ s/D`` for small angles.
     The two agree within 0.3 % for a few pixels at 60 cm.
 
@@ -113,7 +113,7 @@ def arcmin_from_pixels(disparity_px: object, display: Display, *, exact: bool = 
     >>> round(arcmin_from_pixels(1.0, samsung), 3), round(arcmin_from_pixels(1.0, samsung, exact=False), 3)
     (1.611, 1.616)
     """
-    s = as_float_array("disparity_px", disparity_px, allow_nan=True) * display.pixel_pitch
+    s = as_float_array("parallax_px", parallax_px, allow_nan=True) * display.pixel_pitch
     return _out(_arcmin_from_parallax(s, display, exact))
 
 
@@ -144,7 +144,7 @@ def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: boo
 
     Notes
     -----
-    ``s = e - 2D tan(atan(e/2D) - theta/2)`` (exact) or ``s = theta D``, then ``disparity_px = s / p``.
+    ``s = e - 2D tan(atan(e/2D) - theta/2)`` (exact) or ``s = theta D``, then ``parallax_px = s / p``.
 
     Examples
     --------
@@ -283,13 +283,13 @@ class ComfortReport:
 
 
 def check_disparity_range(
-    disparity_px: object, display: Display, *, zone: ComfortZone | None = None, exact: bool = True
+    parallax_px: object, display: Display, *, zone: ComfortZone | None = None, exact: bool = True
 ) -> ComfortReport:
     """Check screen disparities against a comfort zone and the divergence limit.
 
     Parameters
     ----------
-    disparity_px : float or array_like
+    parallax_px : float or array_like
         Screen disparities ``x_r - x_l`` in pixels: a ``(min, max)`` pair, or a whole disparity map.
         NaN (invalid) entries are ignored; at least one must be finite; inf is refused.
     display : Display
@@ -306,7 +306,7 @@ def check_disparity_range(
     Raises
     ------
     ValueError
-        If ``disparity_px`` has no finite value or holds inf, or the resolution is unknown.
+        If ``parallax_px`` has no finite value or holds inf, or the resolution is unknown.
 
     Notes
     -----
@@ -320,10 +320,10 @@ def check_disparity_range(
     >>> r.inside, round(r.far_margin_px, 1), round(r.divergence_px, 1)
     (True, 7.2, 230.5)
     """
-    values = as_float_array("disparity_px", disparity_px, allow_nan=True)
+    values = as_float_array("parallax_px", parallax_px, allow_nan=True)
     finite = values[np.isfinite(values)]
     if finite.size == 0:
-        raise ValueError(f"disparity_px must hold at least one finite value; got {values.size} values, none finite")
+        raise ValueError(f"parallax_px must hold at least one finite value; got {values.size} values, none finite")
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
