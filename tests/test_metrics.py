@@ -276,6 +276,21 @@ def test_spec_example_two_one_misregistration_gives_sqrt5():
     assert_allclose(interior, math.sqrt(5), rtol=0, atol=FLOAT64_TOL)
 
 
+
+def test_registration_error_to_dict_is_json_of_the_summaries():
+    import json
+
+    ref = _noise((30, 32), 7)
+    image = np.roll(ref, (-1, -2), axis=(0, 1))
+    result = registration_error(image, ref)
+    data = json.loads(json.dumps(result.to_dict(), allow_nan=False))
+    assert data["rms"] == result.rms and data["median"] == result.median and data["hausdorff"] == result.hausdorff
+    assert data["ranked"] == {"0.8": result.ranked[0.8], "0.95": result.ranked[0.95], "1": result.ranked[1.0]}
+    assert (data["radius"], data["patch_size"], data["similarity"], data["threshold"]) == (10.0, 5, "zncc", 0.8)
+    ssd = registration_error(image, ref, similarity="ssd").to_dict()
+    assert ssd["threshold"] is None  # SSD's default: no threshold (-inf has no JSON form)
+    assert data["evaluated"] == result.evaluated and "distance" not in data
+
 def test_identical_images_give_zero():
     # flat images have nothing above the default contrast: they need min_contrast=0
     for image, min_contrast in (
