@@ -404,7 +404,8 @@ def registration_error(
     -----
     S1 §V.B.2, Eq. (11) ``d(p, I') = |p - p*|``, ``p* = argmax_{|p' - p| <= r} S(I(p), I'(p'))``;
     Eq. (12) ``d(I, I') = max_p d(p, I')``; Eq. (13) ``d^k(I, I') = K^th_p d(p, I')`` (Starck et al.).
-    Design choices (SPEC §6.5): ZNCC of 5 x 5 patches, r = 10, tau = 0.8, ties to the smallest
+    Design choices (S1 and Starck et al. 2008 leave them open): ZNCC of 5 x 5 patches, r = 10,
+    tau = 0.8, ties to the smallest
     distance. A ZNCC flat patch has a sum of squared deviations <= ``FLAT_VARIANCE``; similarities
     within ``TIE_TOLERANCE`` are ties. The search is a Numba kernel using box sums per offset; the
     contrast ``sqrt(sum_c sum_q (I_c(q) - mean_c)^2 / (k^2 C))`` comes from the same box sums.

@@ -33,7 +33,7 @@ def _summary(result: ConstrainedMapping) -> None:
         f"scene depths {result.near:.4g} m – {_fmt(result.far, '.4g')} m: d from {lo:+.5f} to {hi:+.5f};  "
         f"divergence limit b'/W' = {result.divergence_limit:.5f} (S0 Eq. 8)"
     )
-    table = Table(title="control points (psi from the constraints, SPEC §1.8)")
+    table = Table(title="control points (psi from the constraints, S0 §6)")
     table.add_column("constraint", overflow="fold")
     for col in ("d", "ψ(d)", "ψ'(d)", "slope from", "z' (Eq. 7)", "ρ (Eq. 9)"):
         table.add_column(col, justify="left" if col == "slope from" else "right")

@@ -1,12 +1,13 @@
-"""Screen disparity in pixels and arcminutes, and the stereoscopic comfort zone (SPEC §5.6, S0 §2).
+"""Screen disparity in pixels and arcminutes, and the stereoscopic comfort zone (S3 §3–4, S0 §2).
 
 The disparity here is the **screen parallax** of a displayed pair, ``x_r - x_l`` in display pixels:
 positive (uncrossed) behind the screen, the pixel form ``d · N`` of S0's normalised disparity ``d``
 (fraction of the screen width ``W'``, see ``docs/conventions.md``). A stereo matcher's disparity map
 (``x_left - x_right``) has the opposite sign: negate it before using these functions.
 
-Angles follow the vergence of a viewer centred in front of the screen: a parallax ``s`` (metres) on
-a screen at distance ``D`` seen by eyes ``e`` apart changes the vergence angle by (SPEC §5.6)
+Angles follow the vergence of a viewer centred in front of the screen (S3 §3 measures disparities in
+arcmin): a parallax ``s`` (metres) on a screen at distance ``D`` seen by eyes ``e`` apart changes the
+vergence angle by
 
 ``theta = 2 atan(e / 2D) - 2 atan((e - s) / 2D)``  (exact), or ``theta ≈ s / D``  (small angle),
 
@@ -46,7 +47,7 @@ def _screen_vergence(display: Display) -> float:
 
 
 def _arcmin_from_parallax(s: np.ndarray, display: Display, exact: bool) -> np.ndarray:
-    """Vergence change (arcmin) of a screen parallax ``s`` in metres (SPEC §5.6)."""
+    """Vergence change (arcmin) of a screen parallax ``s`` in metres (vergence geometry, module docstring)."""
     e, D = display.eye_separation, display.distance
     if exact:
         theta = _screen_vergence(display) - 2.0 * np.arctan((e - s) / (2.0 * D))
@@ -76,7 +77,7 @@ def _parallax_from_arcmin(theta_arcmin: np.ndarray, display: Display, exact: boo
 
 
 def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
-    """Vergence change in arcminutes of a screen disparity in pixels (SPEC §5.6).
+    """Vergence change in arcminutes of a screen disparity in pixels (S3 §3 works in arcmin).
 
     Parameters
     ----------
@@ -101,13 +102,13 @@ def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = T
 
     Notes
     -----
-    With pitch ``p = W'/N``, parallax ``s = parallax_px · p`` and (SPEC §5.6)
+    With pitch ``p = W'/N``, parallax ``s = parallax_px · p`` and (vergence geometry)
     ``theta = 2 atan(e/2D) - 2 atan((e - s)/2D)``, or ``theta ≈ s/D`` for small angles.
     The two agree within 0.3 % for a few pixels at 60 cm.
 
     Examples
     --------
-    S3's study display, 1 px at 60 cm (SPEC §5.6: about 1.62′):
+    S3's study display, 1 px at 60 cm (S3 §4: 0.282 mm pitch, about 1.62′):
 
     >>> samsung = Display.preset("samsung-2233rz")
     >>> round(arcmin_from_pixels(1.0, samsung), 3), round(arcmin_from_pixels(1.0, samsung, exact=False), 3)
@@ -118,7 +119,7 @@ def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = T
 
 
 def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
-    """Screen disparity in pixels whose vergence change is ``disparity_arcmin`` (SPEC §5.6).
+    """Screen disparity in pixels whose vergence change is ``disparity_arcmin`` (inverse of the above).
 
     The inverse of :func:`arcmin_from_pixels` with the same ``exact`` choice.
 

@@ -1,4 +1,4 @@
-"""Shooting and viewing geometry of a stereoscopic pair (S0 §2, SPEC §1.1–1.6; S1 §IV.C).
+"""Shooting and viewing geometry of a stereoscopic pair (S0 §2, Eq. (1)–(6); Devernay & Beardsley 2010; S1 §IV.C).
 
 The model is the parallel-camera, shifted-sensor rig of Devernay & Beardsley: two cameras a
 baseline ``b`` apart whose frusta meet the convergence plane at distance ``H`` in the same window
@@ -61,7 +61,7 @@ class Shooting:
 
     @classmethod
     def from_focal(cls, *, baseline: float, convergence: float, focal_mm: float, sensor_mm: float) -> Shooting:
-        """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (SPEC §1.1)."""
+        """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (S0 §2)."""
         f = check_positive("focal_mm", focal_mm) / check_positive("sensor_mm", sensor_mm)
         return cls(baseline=baseline, convergence=convergence, window=check_positive("convergence", convergence) / f)
 
@@ -180,7 +180,7 @@ def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
 
 
 def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndarray:
-    """Depth whose disparity is ``d``: ``z = bH / (b - W d)`` (SPEC Eq. 1c); inf at ``d = b/W``.
+    """Depth whose disparity is ``d``: ``z = bH / (b - W d)`` (S0 Eq. (1a) solved for z); inf at ``d = b/W``.
 
     Disparities at or beyond ``b/W`` have no depth in front of the cameras: NaN there (inf at equality).
     """
@@ -301,7 +301,7 @@ def _eq2_denominator(z: np.ndarray, shooting: Shooting, display: Display) -> np.
 
 
 # ---------------------------------------------------------------------------------------------
-# Shift-sensor DIBR geometry (Fehn; S1 §IV.C, SPEC §6.1)
+# Shift-sensor DIBR geometry (Fehn 2004; S1 §IV.C, Table I)
 
 # S1 Table I: the effect of increasing (+1) each control on screen parallax, perceived depth and
 # object size. "fore" = the scene shifts toward the viewer.
@@ -315,7 +315,7 @@ CONTROL_EFFECTS: dict[str, dict[str, str]] = {
 def shift_sensor_parallax(
     depth: object, *, focal_px: float, interaxial: float, convergence: float
 ) -> float | np.ndarray:
-    """Screen parallax in pixels of the shift-sensor pair (S1 §IV.C, SPEC §6.1).
+    """Screen parallax in pixels of the shift-sensor pair (Fehn 2004; S1 §IV.C, Table I).
 
     ``P = x_r - x_l = alpha_u t_c (1/Z_c - 1/Z)``: zero at the convergence distance ``Z_c``,
     positive behind it. ``focal_px`` is alpha_u, ``interaxial`` t_c (> 0) and ``convergence`` Z_c
@@ -336,7 +336,7 @@ def shift_sensor_parallax(
 def shift_sensor_positions(
     x_center: object, depth: object, *, focal_px: float, interaxial: float, convergence: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Left and right abscissae of centre-view pixels ``x_c`` with depth ``Z`` (Fehn, SPEC §6.1).
+    """Left and right abscissae of centre-view pixels ``x_c`` with depth ``Z`` (Fehn 2004; S1 §IV.C).
 
     ``x_l = x_c + (alpha_u t_c / 2)(1/Z - 1/Z_c)``, ``x_r = x_c - (alpha_u t_c / 2)(1/Z - 1/Z_c)``.
     """
