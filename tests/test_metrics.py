@@ -88,6 +88,14 @@ def test_shared_bad_input():
             f(np.zeros((8, 8)), np.zeros((8, 9)))
         with pytest.raises(ValueError, match=r"image values must lie in \[0, 1\]"):
             f(np.full((8, 8), 1.5), np.zeros((8, 8)))
+        with pytest.raises(ValueError, match=r"^image must have shape \(H, W\) or \(H, W, C\) with C in 1, 3, 4; got \(8,\)$"):
+            f(np.zeros(8), np.zeros(8))
+        with pytest.raises(ValueError, match=r"^image must not be empty; got shape \(0, 8\)$"):
+            f(np.zeros((0, 8)), np.zeros((0, 8)))
+        with pytest.raises(TypeError, match="^image must be a numeric image .*; got bool$"):
+            f(np.zeros((8, 8), bool), np.zeros((8, 8)))
+        with pytest.raises(TypeError, match="^reference must be float in \\[0, 1\\], uint8 or uint16; got int64$"):
+            f(np.zeros((8, 8)), np.zeros((8, 8), np.int64))
         with pytest.raises(ValueError, match="reference must be finite"):
             f(np.zeros((8, 8)), np.full((8, 8), np.nan))
         with pytest.raises(ValueError, match=r"no alpha"):
@@ -395,6 +403,10 @@ def test_result_is_frozen_and_read_only():
         RegistrationError(np.full((2, 2), -1.0), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
     with pytest.raises(ValueError, match="distance must hold at least one evaluated"):
         RegistrationError(np.full((2, 2), np.nan), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
+    with pytest.raises(ValueError, match=r"^distance must be a non-empty \(H, W\) array; got shape \(4,\)$"):
+        RegistrationError(np.zeros(4), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
+    with pytest.raises(ValueError, match="^similarity must be one of ssd, zncc; got 'sad'$"):
+        RegistrationError(np.zeros((2, 2)), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "sad", 0.8, 0.0)
 
 
 @pytest.mark.parametrize(

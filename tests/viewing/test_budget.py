@@ -172,3 +172,5 @@ def test_result_validation():
         dataclasses.replace(budget, samples=())
     with pytest.raises(ValueError, match="^focal_ratio must be > 0; got 0"):
         dataclasses.replace(budget, focal_ratio=0.0)
+    with pytest.raises(ValueError, match=r"^divergence_depth must be > 0 \(inf if none\); got nan$"):
+        dataclasses.replace(budget, divergence_depth=math.nan)

@@ -269,5 +269,7 @@ def test_report_validates_its_fields():
     r = check_disparity_range([-10.0, 30.0], SAMSUNG)
     with pytest.raises(ValueError, match="^min_px must be <= max_px; got 30 > -10"):
         dataclasses.replace(r, min_px=30.0, max_px=-10.0)
+    with pytest.raises(ValueError, match="^excess_px and excess_arcmin must be >= 0; got -1, 0$"):
+        dataclasses.replace(r, excess_px=-1.0)
     with pytest.raises(ValueError, match="^excess_px must be finite"):
         dataclasses.replace(r, excess_px=math.nan)
