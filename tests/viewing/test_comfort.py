@@ -273,3 +273,16 @@ def test_report_validates_its_fields():
         dataclasses.replace(r, excess_px=-1.0)
     with pytest.raises(ValueError, match="^excess_px must be finite"):
         dataclasses.replace(r, excess_px=math.nan)
+
+
+def test_the_limits_themselves_are_inside():
+    # Eyes exactly parallel at the divergence limit do not diverge; a range that touches the zone
+    # edge (margin exactly 0) is inside: both comparisons are inclusive of the limit.
+    r = check_disparity_range([0.0, 1.0], CINEMA)
+    at_limit = check_disparity_range([0.0, r.divergence_px], CINEMA)
+    assert not at_limit.diverges
+    assert check_disparity_range([0.0, np.nextafter(r.divergence_px, math.inf)], CINEMA).diverges
+    zone_lo, zone_hi = ComfortZone().pixels(SAMSUNG)
+    edge = check_disparity_range([zone_lo, zone_hi], SAMSUNG)
+    assert edge.near_margin_px == 0.0 and edge.far_margin_px == 0.0 and edge.inside
+    assert not check_disparity_range([np.nextafter(zone_lo, -math.inf), 0.0], SAMSUNG).inside

@@ -101,3 +101,21 @@ def test_a_single_constraint_need_not_be_a_list():
     one = psi_from_constraints(RIG, TV, "z=30,perceived=3", near=12.0, far=80.0)
     assert len(one.constraints) == 1
     assert one.psi(np.array([0.0]))[0] == 0.0  # z' = H' at z = H: psi(0) = 0 (S0 Eq. (7))
+
+
+def test_blend_weights_must_sum_to_one_to_a_few_ulps():
+    # _WEIGHT_SUM_ULPS = 8 per weight: 2 weights allow 16 eps = 3.6e-15; 1e-14 is a user's mistake.
+    other = LinearMapping(-1.0, 1.0, -2.0, 2.0)
+    BlendedMapping([ID, other], [0.25, 0.75])
+    BlendedMapping([ID, other], [0.5, 0.5 + 8 * np.finfo(float).eps])
+    with pytest.raises(ValueError, match="^weights must sum to 1; got 1.00000000000001"):
+        BlendedMapping([ID, other], [0.5, 0.5 + 1e-14])
+
+
+def test_cuts_may_be_exactly_one_transition_apart():
+    from vergence.viewing.mapping_composite import temporal_weights
+
+    # ramps over [-0.5, 0.5] and [0.5, 1.5] touch at t = 0.5: allowed, and the weights telescope
+    assert temporal_weights(0.5, [0.0, 1.0], transition=1.0).tolist() == [0.0, 1.0, 0.0]
+    with pytest.raises(ValueError, match=r"^cuts must increase by at least transition 1; got \[0.0, 0.5\]$"):
+        temporal_weights(0.5, [0.0, 0.5], transition=1.0)
