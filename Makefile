@@ -32,7 +32,9 @@ test-all: setup
 
 # The property tests (hypothesis) with a fresh random seed, printed so that a failure can be replayed
 # with `--hypothesis-seed=N`; CI runs them derandomized (tests/conftest.py, profile "ci").
-HYPOTHESIS_SEED ?= $(shell od -An -N4 -tu4 /dev/urandom | tr -d ' ')
+ifndef HYPOTHESIS_SEED
+HYPOTHESIS_SEED := $(shell od -An -N4 -tu4 /dev/urandom | tr -d ' ')
+endif
 test-fresh-seeds: setup
 	@echo "hypothesis seed: $(HYPOTHESIS_SEED)"
 	env -u CI $(PY) -m pytest $(PYTEST_ARGS) -q --hypothesis-seed=$(HYPOTHESIS_SEED) \
