@@ -14,9 +14,6 @@ from vergence.viewing.mapping_constraints import ConstrainedMapping, DirectorCon
 
 __all__ = ["mapping"]
 
-_JSON_SAMPLES = 201  # samples in the JSON report, evenly spaced in disparity over [d(near), d(far)]
-
-
 def _fmt(v: float, spec: str) -> str:
     return "∞" if v == math.inf else ("—" if not math.isfinite(v) else format(v, spec))
 
@@ -88,7 +85,7 @@ def mapping(
 
         plot_mapping(result, path=plot)
     if as_json:
-        print_json(result.to_dict(samples=_JSON_SAMPLES))
+        print_json(result.to_dict())  # 201 samples evenly spaced in d over [d(near), d(far)]
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
         return

@@ -280,6 +280,8 @@ class ConstrainedMapping:
     def to_dict(self, *, samples: int = 201) -> dict[str, object]:
         """The JSON report of ``vergence mapping --json``; non-finite depths and roundness become None.
 
+        ``samples`` disparities evenly spaced over ``[d(near), d(far)]`` (201 for the CLI).
+
         ``{"control_points": [{"disparity", "value", "slope"}...], "samples": [{"disparity", "mapped",
         "perceived_depth", "roundness"}...], "monotone": bool, "diverges": bool}``.
         """
