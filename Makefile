@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 PYTEST_ARGS ?= -m "not slow" -n 2
 
-.PHONY: setup demo test test-all bench clean
+.PHONY: setup demo test test-all test-fresh-seeds bench clean
 
 setup: $(STAMP)
 
@@ -29,6 +29,16 @@ test: setup
 
 test-all: setup
 	$(PY) -m pytest -n 2
+
+# The property tests (hypothesis) with a fresh random seed, printed so that a failure can be replayed
+# with `--hypothesis-seed=N`; CI runs them derandomized (tests/conftest.py, profile "ci").
+ifndef HYPOTHESIS_SEED
+HYPOTHESIS_SEED := $(shell od -An -N4 -tu4 /dev/urandom | tr -d ' ')
+endif
+test-fresh-seeds: setup
+	@echo "hypothesis seed: $(HYPOTHESIS_SEED)"
+	env -u CI $(PY) -m pytest $(PYTEST_ARGS) -q --hypothesis-seed=$(HYPOTHESIS_SEED) \
+	  $$(grep -rlE --include='test_*.py' '^(from|import) hypothesis' tests)
 
 bench: setup
 	for f in benchmarks/*.py; do $(PY) $$f || exit 1; done

@@ -9,13 +9,18 @@ default r = 10, 5 x 5 ZNCC. The first (compiling) call is not timed.
 from __future__ import annotations
 
 import importlib.util
+import os
 import statistics
 import time
 from pathlib import Path
 
-import numpy as np
+# Before Numba's threading layer starts: spinning OpenMP threads steal shared cores (the library
+# leaves the environment alone; see docs/conventions.md). A policy set by the caller wins.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-from vergence.metrics import registration_error
+import numpy as np  # noqa: E402
+
+from vergence.metrics import registration_error  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DOLLS = REPO.parent / "shared" / "data" / "multiview" / "dolls"

@@ -192,6 +192,16 @@ def test_bad_look_at_and_interpolate():
         _cam().backproject([[1.0, 2.0]], [-1.0])
     with pytest.raises(ValueError, match="missing field"):
         Camera.from_dict({"K": np.eye(3).tolist()})
+    with pytest.raises(ValueError, match=r"^pixels must have shape \(\.\.\., 2\); got \(2, 3\)$"):
+        _cam().backproject(np.zeros((2, 3)), [1.0, 1.0])
+    with pytest.raises(ValueError, match=r"^depth must have shape \(2,\) matching pixels; got \(3,\)$"):
+        _cam().backproject(np.zeros((2, 2)), [1.0, 1.0, 1.0])
+    with pytest.raises(TypeError, match="^camera must be a JSON object; got list$"):
+        Camera.from_dict([1, 2])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="^camera has unknown field\\(s\\) focal, skew$"):
+        Camera.from_dict({**_cam().to_dict(), "focal": 1.0, "skew": 0.0})
+    with pytest.raises(TypeError, match="^a and b must be Camera instances$"):
+        interpolate(_cam(), "camera", 0.5)  # type: ignore[arg-type]
 
 
 def test_fov_bounds_and_exact_intrinsics_row():

@@ -88,6 +88,14 @@ def test_shared_bad_input():
             f(np.zeros((8, 8)), np.zeros((8, 9)))
         with pytest.raises(ValueError, match=r"image values must lie in \[0, 1\]"):
             f(np.full((8, 8), 1.5), np.zeros((8, 8)))
+        with pytest.raises(ValueError, match=r"^image must have shape \(H, W\) or \(H, W, C\) with C in 1, 3, 4; got \(8,\)$"):
+            f(np.zeros(8), np.zeros(8))
+        with pytest.raises(ValueError, match=r"^image must not be empty; got shape \(0, 8\)$"):
+            f(np.zeros((0, 8)), np.zeros((0, 8)))
+        with pytest.raises(TypeError, match="^image must be a numeric image .*; got bool$"):
+            f(np.zeros((8, 8), bool), np.zeros((8, 8)))
+        with pytest.raises(TypeError, match="^reference must be float in \\[0, 1\\], uint8 or uint16; got int64$"):
+            f(np.zeros((8, 8)), np.zeros((8, 8), np.int64))
         with pytest.raises(ValueError, match="reference must be finite"):
             f(np.zeros((8, 8)), np.full((8, 8), np.nan))
         with pytest.raises(ValueError, match=r"no alpha"):
@@ -276,6 +284,21 @@ def test_spec_example_two_one_misregistration_gives_sqrt5():
     assert_allclose(interior, math.sqrt(5), rtol=0, atol=FLOAT64_TOL)
 
 
+
+def test_registration_error_to_dict_is_json_of_the_summaries():
+    import json
+
+    ref = _noise((30, 32), 7)
+    image = np.roll(ref, (-1, -2), axis=(0, 1))
+    result = registration_error(image, ref)
+    data = json.loads(json.dumps(result.to_dict(), allow_nan=False))
+    assert data["rms"] == result.rms and data["median"] == result.median and data["hausdorff"] == result.hausdorff
+    assert data["ranked"] == {"0.8": result.ranked[0.8], "0.95": result.ranked[0.95], "1": result.ranked[1.0]}
+    assert (data["radius"], data["patch_size"], data["similarity"], data["threshold"]) == (10.0, 5, "zncc", 0.8)
+    ssd = registration_error(image, ref, similarity="ssd").to_dict()
+    assert ssd["threshold"] is None  # SSD's default: no threshold (-inf has no JSON form)
+    assert data["evaluated"] == result.evaluated and "distance" not in data
+
 def test_identical_images_give_zero():
     # flat images have nothing above the default contrast: they need min_contrast=0
     for image, min_contrast in (
@@ -380,6 +403,10 @@ def test_result_is_frozen_and_read_only():
         RegistrationError(np.full((2, 2), -1.0), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
     with pytest.raises(ValueError, match="distance must hold at least one evaluated"):
         RegistrationError(np.full((2, 2), np.nan), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
+    with pytest.raises(ValueError, match=r"^distance must be a non-empty \(H, W\) array; got shape \(4,\)$"):
+        RegistrationError(np.zeros(4), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "zncc", 0.8, 0.0)
+    with pytest.raises(ValueError, match="^similarity must be one of ssd, zncc; got 'sad'$"):
+        RegistrationError(np.zeros((2, 2)), 0.0, 0.0, {1.0: 0.0}, 1.0, 3, "sad", 0.8, 0.0)
 
 
 @pytest.mark.parametrize(
@@ -406,3 +433,51 @@ def test_result_is_frozen_and_read_only():
 def test_registration_error_bad_parameters(kwargs, error, message):
     with pytest.raises(error, match=message):
         registration_error(np.zeros((8, 8)), np.zeros((8, 8)), **kwargs)
+
+
+def _checkerboard(shape, centre, amplitude, dtype=np.float64):
+    yy, xx = np.indices(shape)
+    return (centre + amplitude * np.where((yy + xx) % 2 == 0, 1, -1)).astype(dtype)
+
+
+def test_default_min_contrast_is_three_8_bit_levels():
+    # A 5 x 5 checkerboard of +-a has RMS deviation a sqrt(1 - 1/25^2) ~ 0.9992 a about its mean:
+    # +-3.5 levels lies above MIN_CONTRAST = 3/255 (evaluated), +-2.5 levels below it (not evaluated).
+    above = _checkerboard((12, 12), 0.5, 3.5 / 255.0)
+    below = _checkerboard((12, 12), 0.5, 2.5 / 255.0)
+    assert registration_error(above, above, radius=2.0).evaluated_fraction == 1.0
+    with pytest.raises(ValueError, match=r"^min_contrast must be at most the largest patch contrast of image \(0.0098\)"):
+        registration_error(below, below, radius=2.0)
+
+
+def test_one_16_bit_level_of_texture_is_not_flat():
+    # +-1 level of 16 bits: a 5 x 5 patch has 25 (1/65535)^2 ~ 5.8e-9 of squared deviation, far above
+    # FLAT_VARIANCE = 1e-12, so against a flat reference it scores ZNCC 0 (< 0.8): d = r everywhere.
+    texture = _checkerboard((12, 12), 32768, 1, np.uint16)
+    flat = np.full((12, 12), 32768, np.uint16)
+    result = registration_error(texture, flat, radius=2.0, min_contrast=0.0)
+    assert_array_equal(result.distance, 2.0)
+    assert_array_equal(registration_error(flat, flat, radius=2.0, min_contrast=0.0).distance, 0.0)
+
+
+def test_ranked_distances_use_the_nearest_rank():
+    from vergence.metrics import _summaries
+
+    # N = 5: k = 0.3 -> ceil(1.5) = 2nd smallest, k = 0.5 -> ceil(2.5) = 3rd, k = 1 -> the largest.
+    rms, median, ranked = _summaries(np.array([5.0, 1.0, 4.0, 2.0, 3.0]), (0.3, 0.5, 1.0))
+    assert ranked == {0.3: 2.0, 0.5: 3.0, 1.0: 5.0}
+    assert median == 3.0 and rms == pytest.approx(math.sqrt(11.0), rel=FLOAT64_TOL)
+
+
+def test_a_better_match_farther_away_beats_a_near_one_unless_tied():
+    # Columns alternate in sign (period 2) with a random amplitude per row, plus 1 % noise: the
+    # reference is the image shifted by 2 columns, so ZNCC is 1 at offset (0, 2) and about
+    # 1 - 1e-4 at offset (0, 0) (the noise differs). The gap is far above TIE_TOLERANCE = 1e-9, so
+    # the exact match 2 px away wins; a tolerance of 1e-3 would call it a tie and pick distance 0.
+    rng = np.random.default_rng(5)
+    shape = (20, 24)
+    sign = np.where(np.arange(shape[1]) % 2 == 0, 1.0, -1.0)
+    image = 0.5 + 0.3 * rng.uniform(0.5, 1.0, (shape[0], 1)) * sign + 0.003 * rng.standard_normal(shape)
+    reference = np.roll(image, 2, axis=1)  # image(p) = reference(p + (0, 2))
+    result = registration_error(image, reference, radius=3.0)
+    assert_array_equal(result.distance[3:-3, 3:-5], 2.0)

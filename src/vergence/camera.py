@@ -273,7 +273,7 @@ def interpolate(a: Camera, b: Camera, s: float) -> Camera:
     """The camera a fraction ``s`` of the way from ``a`` to ``b``.
 
     Centres are interpolated linearly, rotations by slerp, intrinsics linearly (S2 §8 with the
-    SPEC's recommended slerp). ``interpolate(a, b, 0) == a`` and ``interpolate(a, b, 1) == b``
+    the usual slerp). ``interpolate(a, b, 0) == a`` and ``interpolate(a, b, 1) == b``
     exactly, and ``interpolate(a, b, s)`` equals ``interpolate(b, a, 1 - s)`` up to rounding.
 
     Raises

@@ -281,6 +281,32 @@ class RegistrationError:
         """Hausdorff distance ``max_p d(p, I')`` over the evaluated pixels (S1 Eq. (12))."""
         return float(np.nanmax(self.distance))
 
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready summaries (no per-pixel ``distance``): distances in pixels, ranks as ``"0.95"`` keys.
+
+        ``threshold`` is None when it is ``-inf`` (no threshold; JSON has no infinity).
+
+        Examples
+        --------
+        >>> img = np.tile(np.linspace(0.0, 1.0, 16), (16, 1))
+        >>> d = registration_error(img, img, radius=2.0).to_dict()
+        >>> d["rms"], d["hausdorff"], d["ranked"]["0.95"], d["evaluated"]
+        (0.0, 0.0, 0.0, 256)
+        """
+        return {
+            "rms": float(self.rms),
+            "median": float(self.median),
+            "hausdorff": self.hausdorff,
+            "ranked": {f"{k:g}": float(v) for k, v in self.ranked.items()},
+            "evaluated": self.evaluated,
+            "evaluated_fraction": self.evaluated_fraction,
+            "radius": float(self.radius),
+            "patch_size": int(self.patch_size),
+            "similarity": self.similarity,
+            "threshold": None if self.threshold == -np.inf else float(self.threshold),
+            "min_contrast": float(self.min_contrast),
+        }
+
 
 def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
     """Integer offsets (dy, dx) with dy^2 + dx^2 <= radius^2, by distance, then dy, then dx."""
@@ -378,7 +404,8 @@ def registration_error(
     -----
     S1 §V.B.2, Eq. (11) ``d(p, I') = |p - p*|``, ``p* = argmax_{|p' - p| <= r} S(I(p), I'(p'))``;
     Eq. (12) ``d(I, I') = max_p d(p, I')``; Eq. (13) ``d^k(I, I') = K^th_p d(p, I')`` (Starck et al.).
-    Design choices (SPEC §6.5): ZNCC of 5 x 5 patches, r = 10, tau = 0.8, ties to the smallest
+    Design choices (S1 and Starck et al. 2008 leave them open): ZNCC of 5 x 5 patches, r = 10,
+    tau = 0.8, ties to the smallest
     distance. A ZNCC flat patch has a sum of squared deviations <= ``FLAT_VARIANCE``; similarities
     within ``TIE_TOLERANCE`` are ties. The search is a Numba kernel using box sums per offset; the
     contrast ``sqrt(sum_c sum_q (I_c(q) - mean_c)^2 / (k^2 C))`` comes from the same box sums.

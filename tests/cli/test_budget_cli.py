@@ -28,7 +28,7 @@ DISPLAY_ARGS = ["--eye-separation", "0.063", "--viewing-distance", "2.2", "--scr
 def _hand(z: float, b=0.12, H=8.0, W=2.4, bp=0.063, Hp=2.2, Wp=1.1, N=1280) -> dict[str, float]:
     d = b / W * (z - H) / z  # S0 Eq. (1a)
     den = z * (bp * W - b * Wp) + b * H * Wp
-    return {"depth": z, "disparity": d, "disparity_px": d * N, "perceived_depth": z * bp * Hp * W / den,
+    return {"depth": z, "disparity": d, "parallax_px": d * N, "perceived_depth": z * bp * Hp * W / den,
             "roundness": b * Hp * W / den}
 
 
@@ -44,7 +44,7 @@ def test_json_matches_hand_computation(capsys):
     assert [row["depth"] for row in data["depths"]] == [4.0, 8.0, 20.0, 100.0]
     for row in data["depths"]:
         want = _hand(row["depth"])
-        assert list(row) == ["depth", "disparity", "disparity_px", "perceived_depth", "roundness", "diverges"]
+        assert list(row) == ["depth", "disparity", "parallax_px", "perceived_depth", "roundness", "diverges"]
         for key, value in want.items():
             assert row[key] == pytest.approx(value, rel=RTOL, abs=1e-15), key
         assert row["diverges"] is False
@@ -64,7 +64,7 @@ def test_json_with_divergence_and_focal_length(capsys):
     assert data["divergence_baseline"] == pytest.approx(0.065 * 14.4 / 1.2, rel=RTOL)
     assert data["focal_ratio"] == pytest.approx((50 / 36) / 2.5, rel=RTOL)
     near, far = data["depths"]
-    assert "disparity_px" not in near  # no screen resolution given
+    assert "parallax_px" not in near  # no screen resolution given
     want = _hand(50.0, b=1.0, H=20.0, W=14.4, bp=0.065, Hp=3.0, Wp=1.2)
     assert near["perceived_depth"] == pytest.approx(want["perceived_depth"], rel=RTOL)
     assert near["roundness"] == pytest.approx(want["roundness"], rel=RTOL) and near["diverges"] is False
@@ -79,11 +79,11 @@ def test_display_preset_gives_pixels(capsys):
     row = json.loads(out)["depths"][0]
     d = 0.12 / 2.4 * (16 - 8) / 16
     assert row["disparity"] == pytest.approx(d, rel=RTOL)
-    assert row["disparity_px"] == pytest.approx(d * 1680, rel=RTOL)
+    assert row["parallax_px"] == pytest.approx(d * 1680, rel=RTOL)
     # --screen-pixels overrides the preset's resolution.
     _, out, _ = _run(capsys, *RIG_ARGS, "--display", "samsung-2233rz", "--screen-pixels", "840", "--depth", "16",
                      "--json")
-    assert json.loads(out)["depths"][0]["disparity_px"] == pytest.approx(d * 840, rel=RTOL)
+    assert json.loads(out)["depths"][0]["parallax_px"] == pytest.approx(d * 840, rel=RTOL)
 
 
 def test_default_depths(capsys):

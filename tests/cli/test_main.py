@@ -43,3 +43,27 @@ def test_unexpected_exception_is_one_line_with_exit_code_1(capsys, monkeypatch):
     err = capsys.readouterr().err.strip()
     assert code == 1 and len(err.splitlines()) == 1
     assert "internal error" in err and "RuntimeError: kaboom" in err
+
+
+def test_console_script_prefers_passive_omp_wait_but_the_user_wins():
+    from vergence.cli import _prefer_passive_omp_wait
+
+    environ: dict[str, str] = {}
+    _prefer_passive_omp_wait(environ)
+    assert environ == {"OMP_WAIT_POLICY": "PASSIVE"}
+    environ = {"OMP_WAIT_POLICY": "ACTIVE"}
+    _prefer_passive_omp_wait(environ)
+    assert environ == {"OMP_WAIT_POLICY": "ACTIVE"}
+
+
+def test_importing_vergence_leaves_the_environment_alone():
+    # vergence.cli is left out: it imports OpenCV, whose own loader prepends to LD_LIBRARY_PATH.
+    import os
+    import subprocess
+    import sys
+
+    code = ("import os; before = dict(os.environ); import vergence, vergence.viewing, vergence.metrics, "
+            "vergence.camera; assert dict(os.environ) == before, set(os.environ.items()) ^ set(before.items())")
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    result = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr

@@ -35,7 +35,7 @@ def _run(capsys, *args: str) -> tuple[int, str, str]:
 
 def _psi(d: np.ndarray, cps: list[dict]) -> np.ndarray:
     """Our own psi from the control points: slope-continued line below, Gregory–Delbourgo between
-    (SPEC §1.8, the plain formula), saturating towards b'/W' above (the documented extension)."""
+    (S0 §6, the plain formula), saturating towards b'/W' above (the documented extension)."""
     x = np.array([c["disparity"] for c in cps])
     y = np.array([c["value"] for c in cps])
     s = np.array([c["slope"] for c in cps])
@@ -66,7 +66,7 @@ def test_json_schema_and_values_match_independent_computation(capsys):
     assert data["monotone"] is True and data["diverges"] is False
     cps = data["control_points"]
     assert [list(c) for c in cps] == [["disparity", "value", "slope"]] * 2
-    # SPEC §1.8: d_e = (b/W)(1 - H/z_e), psi(d_e) = (b'/W')(1 - H'/z'_e), psi'(d_e) = rho z_e b'/(b_r z'_e).
+    # S0 Eq. (1a), (7), (9): d_e = (b/W)(1 - H/z_e), psi(d_e) = (b'/W')(1 - H'/z'_e), psi'(d_e) = rho z_e b'/(b_r z'_e).
     assert cps[0]["disparity"] == pytest.approx(0.0, abs=1e-15)
     assert cps[0]["value"] == pytest.approx(0.0, abs=1e-15)
     assert cps[0]["slope"] == pytest.approx(1.0 * 20 * BP / (B * 2.2), rel=RTOL)
@@ -94,7 +94,7 @@ def test_json_schema_and_values_match_independent_computation(capsys):
 
 
 def test_json_background_at_infinity_gives_null(capsys):
-    # Tri-Rig (SPEC §1.8): background at infinity perceived at infinity -> psi(b_r/W) = b'/W'.
+    # Tri-Rig (S0 §6, Fig. 8 right): background at infinity perceived at infinity -> psi(b_r/W) = b'/W'.
     code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1",
                         "--constraint", "z=inf,perceived=inf", "--near", "10", "--far", "inf", "--json")
     assert code == 0
@@ -108,7 +108,7 @@ def test_json_background_at_infinity_gives_null(capsys):
 
 
 def test_display_preset_and_b_div_reference(capsys):
-    # tv-55: b' = 0.065, H' = 3, W' = 1.2176. Reference b_div = b'W/W' -> psi'(0) = f/f' (SPEC §1.8).
+    # tv-55: b' = 0.065, H' = 3, W' = 1.2176. Reference b_div = b'W/W' -> psi'(0) = f/f' (S0 §6).
     b_div = 0.065 * W / 1.2176
     code, out, _ = _run(capsys, "--reference-baseline", repr(b_div), "--convergence", str(H), "--window", str(W),
                         "--display", "tv-55", "--constraint", "z=20,perceived=3,roundness=1",

@@ -37,11 +37,11 @@ def test_json_matches_hand_computation():
     assert out["focal_ratio"] == pytest.approx(4.0, rel=RTOL)
     d60, d90 = 0.26 / 3 * 30 / 60, 0.26 / 3 * 60 / 90
     expected = [
-        {"depth": 30.0, "disparity": 0.0, "disparity_px": 0.0, "perceived_depth": 3.0, "roundness": 0.4,
+        {"depth": 30.0, "disparity": 0.0, "parallax_px": 0.0, "perceived_depth": 3.0, "roundness": 0.4,
          "diverges": False},
-        {"depth": 60.0, "disparity": d60, "disparity_px": d60 * 1920, "perceived_depth": 60 * 0.585 / 2.34,
+        {"depth": 60.0, "disparity": d60, "parallax_px": d60 * 1920, "perceived_depth": 60 * 0.585 / 2.34,
          "roundness": 1.0, "diverges": False},
-        {"depth": 90.0, "disparity": d90, "disparity_px": d90 * 1920, "perceived_depth": None,
+        {"depth": 90.0, "disparity": d90, "parallax_px": d90 * 1920, "perceived_depth": None,
          "roundness": 2.34 / (90 * -0.117 + 9.36), "diverges": True},
     ]
     assert len(out["depths"]) == 3
@@ -56,10 +56,10 @@ def test_json_matches_hand_computation():
     json.dumps(out, allow_nan=False)  # strict JSON: no NaN or inf anywhere
 
 
-def test_disparity_px_only_when_the_resolution_is_known():
+def test_parallax_px_only_when_the_resolution_is_known():
     out = depth_budget(RIG, Display(0.065, 3.0, 1.2), [45.0]).to_dict()
     assert list(out["depths"][0]) == ["depth", "disparity", "perceived_depth", "roundness", "diverges"]
-    assert depth_budget(RIG, Display(0.065, 3.0, 1.2), [45.0]).samples[0].disparity_px is None
+    assert depth_budget(RIG, Display(0.065, 3.0, 1.2), [45.0]).samples[0].parallax_px is None
 
 
 def test_result_fields_and_divergence_depth():
@@ -137,7 +137,7 @@ def test_budget_is_consistent_with_eq1b_and_eq8(b, H, W, z):
     assert s.diverges == (s.disparity > limit)  # Eq. (8)
     if s.perceived_depth is not None:
         assert s.perceived_depth == pytest.approx(0.065 * 3.0 / (0.065 - 1.2 * s.disparity), rel=1e-9)  # Eq. (1b)
-    assert s.disparity_px == pytest.approx(s.disparity * 1920, rel=RTOL)
+    assert s.parallax_px == pytest.approx(s.disparity * 1920, rel=RTOL)
     assert budget.focal_ratio == pytest.approx(budget.roundness_baseline / budget.divergence_baseline, rel=RTOL)
 
 
@@ -172,3 +172,5 @@ def test_result_validation():
         dataclasses.replace(budget, samples=())
     with pytest.raises(ValueError, match="^focal_ratio must be > 0; got 0"):
         dataclasses.replace(budget, focal_ratio=0.0)
+    with pytest.raises(ValueError, match=r"^divergence_depth must be > 0 \(inf if none\); got nan$"):
+        dataclasses.replace(budget, divergence_depth=math.nan)

@@ -1,4 +1,4 @@
-"""Tests of vergence.viewing.comfort: pixel <-> arcmin (SPEC §5.6), the comfort zone, range checks."""
+"""Tests of vergence.viewing.comfort: pixel <-> arcmin (S3 §3–4), the comfort zone, range checks."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ CINEMA = Display.preset("cinema")  # 15 m from a 10 m screen: the screen vergenc
 
 
 def _exact_arcmin(px: float, display: Display) -> float:
-    """SPEC §5.6 written out: 2 atan(e/2D) - 2 atan((e - s)/2D), s = px * W'/N."""
+    """The vergence geometry written out: 2 atan(e/2D) - 2 atan((e - s)/2D), s = px * W'/N."""
     e, D = display.eye_separation, display.distance
     s = px * display.width / display.resolution
     return (2 * math.atan(e / (2 * D)) - 2 * math.atan((e - s) / (2 * D))) * 180 * 60 / math.pi
@@ -43,23 +43,24 @@ def _exact_arcmin(px: float, display: Display) -> float:
 
 
 def test_samsung_2233rz_one_pixel_is_about_1_62_arcmin():
-    # SPEC §5.6 [V]: pitch 0.282 mm at 60 cm, 1 px ≈ 1.62′ (small angle: 0.282/600 rad = 1.6157′).
+    # S3 §4's display: pitch 0.282 mm at 60 cm, 1 px ≈ 1.62′ (small angle: 0.282/600 rad = 1.6157′).
     small = arcmin_from_pixels(1.0, SAMSUNG, exact=False)
     assert round(small, 2) == 1.62
     assert small == pytest.approx(0.282e-3 / 0.6 * 180 * 60 / math.pi, rel=1e-9)
     exact = arcmin_from_pixels(1.0, SAMSUNG)
     assert exact == pytest.approx(_exact_arcmin(1.0, SAMSUNG), rel=RTOL)
-    assert abs(exact - small) / small < 0.003  # SPEC: the two forms agree within 0.3 % at 60 cm
+    assert abs(exact - small) / small < 0.003  # the two forms agree within 0.3 % at 60 cm
 
 
 @pytest.mark.parametrize("px, arcmin", [(9.0, 14.5), (81.0, 131.0)])
 def test_samsung_2233rz_published_pixel_figures(px, arcmin):
-    # SPEC §5.6: 9 px ≈ 14.5′ (the 15′ vertical range) and 81 px ≈ 131′, to the figures' precision.
+    # S3 §3's 81 x 9 px search: 9 px ≈ 14.5′ (its 15′ vertical range) and 81 px ≈ 131′ (S3 prints 24′,
+    # inconsistent with its own display), to the figures' precision.
     assert arcmin_from_pixels(px, SAMSUNG, exact=False) == pytest.approx(arcmin, abs=0.5)
 
 
 def test_samsung_2233rz_three_degrees_is_about_111_pixels():
-    assert pixels_from_arcmin(180.0, SAMSUNG, exact=False) == pytest.approx(111.0, abs=0.5)  # SPEC §5.6
+    assert pixels_from_arcmin(180.0, SAMSUNG, exact=False) == pytest.approx(111.0, abs=0.5)  # 180′ / 1.616′
 
 
 def test_exact_form_hand_values():
@@ -239,11 +240,11 @@ def test_small_angle_option_changes_the_conversion():
 
 
 def test_range_check_bad_input():
-    with pytest.raises(ValueError, match="^disparity_px must hold at least one finite value; got 2 values, none"):
+    with pytest.raises(ValueError, match="^parallax_px must hold at least one finite value; got 2 values, none"):
         check_disparity_range([np.nan, np.nan], SAMSUNG)
-    with pytest.raises(ValueError, match="^disparity_px must hold at least one finite value; got 0 values"):
+    with pytest.raises(ValueError, match="^parallax_px must hold at least one finite value; got 0 values"):
         check_disparity_range([], SAMSUNG)
-    with pytest.raises(ValueError, match=r"^disparity_px must not contain inf"):
+    with pytest.raises(ValueError, match=r"^parallax_px must not contain inf"):
         check_disparity_range([0.0, np.inf], SAMSUNG)
     with pytest.raises(TypeError, match="^zone must be a ComfortZone; got tuple"):
         check_disparity_range([0.0, 1.0], SAMSUNG, zone=(60, 60))  # type: ignore[arg-type]
@@ -254,7 +255,7 @@ def test_range_check_bad_input():
 def test_conversion_bad_input():
     with pytest.raises(ValueError, match="display resolution is unknown"):
         arcmin_from_pixels(1.0, Display(0.065, 3.0, 1.2))
-    with pytest.raises(ValueError, match="^disparity_px must not contain inf"):
+    with pytest.raises(ValueError, match="^parallax_px must not contain inf"):
         arcmin_from_pixels(np.inf, TV)
     with pytest.raises(TypeError, match="^disparity_arcmin must be numeric; got str"):
         pixels_from_arcmin("one", TV)
@@ -268,5 +269,20 @@ def test_report_validates_its_fields():
     r = check_disparity_range([-10.0, 30.0], SAMSUNG)
     with pytest.raises(ValueError, match="^min_px must be <= max_px; got 30 > -10"):
         dataclasses.replace(r, min_px=30.0, max_px=-10.0)
+    with pytest.raises(ValueError, match="^excess_px and excess_arcmin must be >= 0; got -1, 0$"):
+        dataclasses.replace(r, excess_px=-1.0)
     with pytest.raises(ValueError, match="^excess_px must be finite"):
         dataclasses.replace(r, excess_px=math.nan)
+
+
+def test_the_limits_themselves_are_inside():
+    # Eyes exactly parallel at the divergence limit do not diverge; a range that touches the zone
+    # edge (margin exactly 0) is inside: both comparisons are inclusive of the limit.
+    r = check_disparity_range([0.0, 1.0], CINEMA)
+    at_limit = check_disparity_range([0.0, r.divergence_px], CINEMA)
+    assert not at_limit.diverges
+    assert check_disparity_range([0.0, np.nextafter(r.divergence_px, math.inf)], CINEMA).diverges
+    zone_lo, zone_hi = ComfortZone().pixels(SAMSUNG)
+    edge = check_disparity_range([zone_lo, zone_hi], SAMSUNG)
+    assert edge.near_margin_px == 0.0 and edge.far_margin_px == 0.0 and edge.inside
+    assert not check_disparity_range([np.nextafter(zone_lo, -math.inf), 0.0], SAMSUNG).inside

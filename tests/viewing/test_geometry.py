@@ -2,8 +2,7 @@
 
 Ground truth for the equations is built independently of them: a point is projected through two
 shifted-sensor cameras (``vergence.camera.Camera`` with off-axis principal points), and the perceived
-point is the intersection of the two eye rays through the screen points (as in
-``shared/spec/checks/verify_s0_geometry.py``).
+point is the intersection of the two eye rays through the screen points.
 """
 
 from __future__ import annotations
@@ -172,7 +171,7 @@ def test_shooting_from_focal_and_display_properties():
 
 
 def test_display_presets_published_and_hand_values():
-    # S3's study display: Samsung 2233RZ, 1680 px at 0.282 mm pitch, viewed from 60 cm (SPEC §5.6).
+    # S3's study display: Samsung 2233RZ, 1680 px at 0.282 mm pitch, viewed from 60 cm (S3 §4).
     samsung = Display.preset("samsung-2233rz")
     assert samsung.pixel_pitch == pytest.approx(0.282e-3, rel=1e-9)
     assert samsung.distance == 0.6 and samsung.resolution == 1680
@@ -193,6 +192,17 @@ def test_display_presets_published_and_hand_values():
         assert Display.preset(name) is preset
         assert preset.eye_separation == 0.065 and preset.resolution is not None
 
+
+
+def test_display_presets_cannot_be_changed():
+    tv = DISPLAY_PRESETS["tv-55"]
+    with pytest.raises(TypeError):
+        DISPLAY_PRESETS["tv-55"] = Display(eye_separation=0.065, distance=1.0, width=1.0)  # type: ignore[index]
+    with pytest.raises(TypeError):
+        del DISPLAY_PRESETS["tv-55"]  # type: ignore[attr-defined]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        tv.distance = 1.0  # type: ignore[misc]
+    assert not hasattr(DISPLAY_PRESETS, "update") and Display.preset("tv-55").distance == 3.0
 
 def test_scalar_in_float_out_and_array_shapes_kept():
     assert type(disparity(40.0, LONG_LENS)) is float
@@ -277,7 +287,7 @@ def test_perceived_depth_from_depth_is_eq1b_of_eq1a():
     z = np.linspace(5.0, 79.0, 50)  # in front of the divergence depth of LONG_LENS on TV
     via_disparity = perceived_depth(disparity(z, LONG_LENS), TV)
     assert_allclose(perceived_depth_from_depth(z, LONG_LENS, TV), via_disparity, rtol=1e-11)
-    # SPEC §1.5 identity: rho(z) / z'(z) = b / (z b').
+    # S0 Eq. (2) and (4) identity: rho(z) / z'(z) = b / (z b').
     ratio = roundness(z, LONG_LENS, TV) / perceived_depth_from_depth(z, LONG_LENS, TV)
     assert_allclose(ratio, LONG_LENS.baseline / (z * TV.eye_separation), rtol=1e-12)
 
@@ -289,7 +299,7 @@ def test_perceived_depth_from_depth_is_eq1b_of_eq1a():
 @settings(max_examples=60, deadline=None)
 @given(b=positive, H=positive, W=positive, z=st.floats(0.01, 1e4))
 def test_orthostereoscopic_setup_has_roundness_one_and_true_depth(b, H, W, z):
-    # b = b', H = H', W = W': the viewer sees the scene as it is (S0 §2, SPEC §1.5).
+    # b = b', H = H', W = W': the viewer sees the scene as it is (S0 §2, Eq. (4)).
     rig, display = Shooting(b, H, W), Display(eye_separation=b, distance=H, width=W)
     assert roundness(z, rig, display) == pytest.approx(1.0, rel=8 * np.finfo(float).eps)
     assert perceived_depth_from_depth(z, rig, display) == pytest.approx(z, rel=8 * np.finfo(float).eps)
@@ -366,7 +376,7 @@ def test_no_divergence_under_the_divergence_baseline(H, W, bp, Hp, Wp, share):
     z = np.geomspace(0.01 * H, 1e6 * H, 40)
     zp = perceived_depth_from_depth(z, rig, display)
     assert np.all(np.isfinite(zp) & (zp > 0))
-    if share < 0.99:  # z' tends to b'H'W / (b'W - bW') (SPEC §1.4)
+    if share < 0.99:  # z' tends to b'H'W / (b'W - bW') (S0 Eq. (2) as z -> inf; Eq. (3))
         far = bp * Hp * W / (bp * W - b * Wp)
         assert perceived_depth_from_depth(1e12 * H, rig, display) == pytest.approx(far, rel=1e-9)
 

@@ -1,4 +1,4 @@
-"""psi built from director constraints (S0 §6, Eq. 7–9; SPEC §1.7–1.8)."""
+"""psi built from director constraints (S0 §6, Eq. (7)–(9))."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ LIMIT = TV.eye_separation / TV.width  # b'/W' (S0 Eq. 8)
 
 
 def test_tri_rig_example_of_spec():
-    # SPEC §1.8: reference b_round, subject at H with z' = H' and rho = 1 -> psi(0) = 0, psi'(0) = 1;
+    # S0 §6, Fig. 8 right: reference b_round, subject at H with z' = H' and rho = 1 -> psi(0) = 0, psi'(0) = 1;
     # background at infinity with z' = inf -> psi(b_r/W) = b'/W'.
     ref = Shooting(B_ROUND, H, W)
     m = psi_from_constraints(ref, TV, [(H, TV.distance, 1.0), (math.inf, math.inf)], near=15.0, far=math.inf)
@@ -57,7 +57,7 @@ def test_tri_rig_example_of_spec():
 
 
 def test_b_div_reference_expands_at_the_subject():
-    # SPEC §1.8 / S0 Fig. 8 left: reference b_div -> psi'(0) = f/f' = 4; background preserved.
+    # S0 §6, Fig. 8 left: reference b_div -> psi'(0) = f/f' = 4; background preserved.
     ref = Shooting(B_DIV, H, W)
     m = psi_from_constraints(ref, TV, [(H, TV.distance, 1.0), (math.inf, math.inf)], near=15.0, far=math.inf)
     assert m.psi.derivative(0.0) == pytest.approx((H / W) / TV.focal, abs=EXACT)
@@ -111,7 +111,7 @@ def test_every_constraint_reproduced_to_1e9():
 
 
 def test_eq9_matches_finite_differences_of_eq7():
-    # rho = (dz'/dz) / (dx'/dX) with the width magnification dx'/dX = W' H z' / (W z H') (SPEC §1.5).
+    # rho = (dz'/dz) / (dx'/dX) with the width magnification dx'/dX = W' H z' / (W z H') (S0 Eq. (4)).
     m = _demo_mapping()
     ref = m.reference
     z = np.array([21.0, 27.0, 35.0, 55.0, 95.0, 180.0])  # off the control points (psi'' jumps there)
@@ -123,7 +123,7 @@ def test_eq9_matches_finite_differences_of_eq7():
 
 
 def _perceived_point(X, z, ref, display, psi):
-    """Ray geometry of SPEC §1.1–1.2: project with the rig, remap the right image, triangulate the eyes."""
+    """Ray geometry of S0 §2, Eq. (1): project with the rig, remap the right image, triangulate the eyes."""
     b, Hh, Ww = ref.baseline, ref.convergence, ref.window
     ul = (X * Hh / z - b / 2 + Ww / 2) / Ww  # left image abscissa, fraction of W
     ur = (b + (X - b) * Hh / z - b / 2 + Ww / 2) / Ww

@@ -1,4 +1,4 @@
-"""Gradient-domain disparity mapping of a disparity map (Lang et al. 2010, SPEC §7)."""
+"""Gradient-domain disparity mapping of a disparity map (Lang et al. 2010)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ EXACT = 1e-9
 
 
 def test_spec_example_jump_compressed_detail_kept():
-    # SPEC §7 [V] (verify_dibr_perception.py): detail slopes + a 10-px jump, x0.2 above |g| > 1.
+    # Lang et al. 2010's gradient operator: detail slopes + a 10-px jump, x0.2 above |g| > 1.
     profile = np.concatenate([np.linspace(0.0, 3.0, 50), np.linspace(13.0, 16.0, 50)])
     out = gradient_domain_mapping(profile, threshold=1.0, scale=0.2)
     assert out[50] - out[49] == pytest.approx(2.0, abs=EXACT)

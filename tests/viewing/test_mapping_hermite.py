@@ -1,4 +1,4 @@
-"""Monotone Hermite interpolants: Gregory–Delbourgo (SPEC §1.8) and PCHIP slopes."""
+"""Monotone Hermite interpolants: Gregory & Delbourgo 1982 and PCHIP slopes (Fritsch & Carlson 1980)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ FD_TOL = 1e-7
 
 
 def _tri_rig_knots():
-    """SPEC §1.8 / verify_s0_geometry.py: f = 10, f' = 2.5, reference b_round; subject and background."""
+    """S0 §6, Fig. 8 right: f = 10, f' = 2.5, reference b_round; subject and background."""
     bp, Hp, Wp = 0.065, 2.5, 1.0  # f' = 2.5
     H, W = 20.0, 2.0  # f = 10
     b_r = bp * H / Hp  # b_round
@@ -49,7 +49,7 @@ def test_gd_equal_slopes_give_the_straight_line():
 
 
 def test_cubic_hermite_overshoots_where_gd_does_not():
-    # SPEC §1.8 pitfall: slope/secant > 3 makes the cubic exceed psi <= b'/W' (Eq. 8); GD stays below.
+    # Fritsch & Carlson 1980: slope/secant > 3 makes the cubic exceed psi <= b'/W' (Eq. 8); GD stays below.
     k, y, s, limit = _tri_rig_knots()
     x = np.linspace(k[0], k[1], 2001)
     assert s[0] / ((y[1] - y[0]) / (k[1] - k[0])) > 3.0  # the Fritsch–Carlson bound is exceeded

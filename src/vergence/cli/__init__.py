@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import MutableMapping
 
 import typer
 from rich.markup import escape
@@ -63,5 +64,17 @@ def _one_line_error(message: str) -> None:
     err_console.print(f"[bold red]error:[/] {escape(line)}", highlight=False, soft_wrap=True)
 
 
+def _prefer_passive_omp_wait(environ: MutableMapping[str, str]) -> None:
+    """Let OpenMP threads sleep rather than spin while they wait, unless the user chose a policy.
+
+    Numba reads ``OMP_WAIT_POLICY`` when its threading layer starts (the first parallel kernel), so
+    the console script sets it before running a command. Spinning threads steal shared cores
+    (measured: ``forward_warp`` 3.3x slower than with passive waiting under a load average of 5 on 2
+    cores). The library itself never touches the environment of the program that imports it.
+    """
+    environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
 def _entry() -> None:  # pragma: no cover - console script shim
+    _prefer_passive_omp_wait(os.environ)
     sys.exit(main())

@@ -52,7 +52,7 @@ def _table(result: DepthBudget, shooting: Shooting, display: Display) -> None:
     table.add_column("depth z (m)", justify="right")
     table.add_column("disparity d (% of W)", justify="right")
     if with_px:
-        table.add_column("disparity (px)", justify="right")
+        table.add_column("parallax (px)", justify="right")
     table.add_column("perceived z' (m)", justify="right")
     table.add_column("roundness ρ", justify="right")
     table.add_column("note")
@@ -65,7 +65,7 @@ def _table(result: DepthBudget, shooting: Shooting, display: Display) -> None:
             note = ""
         row = [f"{s.depth:.4g}", f"{100 * s.disparity:+.3f}"]
         if with_px:
-            row.append(_fmt(s.disparity_px, "+.1f"))
+            row.append(_fmt(s.parallax_px, "+.1f"))
         # Eq. (4) is negative past the divergence limit: nothing is perceived there, show a dash.
         row += [_fmt(s.perceived_depth, ".4g"), _fmt(None if s.diverges else s.roundness, ".3f"), note]
         table.add_row(*row)
@@ -85,7 +85,7 @@ def budget(
     viewing_distance: float | None = typer.Option(None, "--viewing-distance", help="Viewing distance H' (m)."),
     screen_width: float | None = typer.Option(None, "--screen-width", help="Screen width W' (m)."),
     screen_pixels: int | None = typer.Option(
-        None, "--screen-pixels", help="Screen width in pixels (adds disparity_px)."
+        None, "--screen-pixels", help="Screen width in pixels (adds parallax_px)."
     ),
     display_preset: str | None = typer.Option(
         None, "--display", help=f"Display preset instead of the three lengths: {', '.join(sorted(DISPLAY_PRESETS))}."

@@ -14,9 +14,6 @@ from vergence.viewing.mapping_constraints import ConstrainedMapping, DirectorCon
 
 __all__ = ["mapping"]
 
-_JSON_SAMPLES = 201  # samples in the JSON report, evenly spaced in disparity over [d(near), d(far)]
-
-
 def _fmt(v: float, spec: str) -> str:
     return "∞" if v == math.inf else ("—" if not math.isfinite(v) else format(v, spec))
 
@@ -33,7 +30,7 @@ def _summary(result: ConstrainedMapping) -> None:
         f"scene depths {result.near:.4g} m – {_fmt(result.far, '.4g')} m: d from {lo:+.5f} to {hi:+.5f};  "
         f"divergence limit b'/W' = {result.divergence_limit:.5f} (S0 Eq. 8)"
     )
-    table = Table(title="control points (psi from the constraints, SPEC §1.8)")
+    table = Table(title="control points (psi from the constraints, S0 §6)")
     table.add_column("constraint", overflow="fold")
     for col in ("d", "ψ(d)", "ψ'(d)", "slope from", "z' (Eq. 7)", "ρ (Eq. 9)"):
         table.add_column(col, justify="left" if col == "slope from" else "right")
@@ -88,7 +85,7 @@ def mapping(
 
         plot_mapping(result, path=plot)
     if as_json:
-        print_json(result.to_dict(samples=_JSON_SAMPLES))
+        print_json(result.to_dict())  # 201 samples evenly spaced in d over [d(near), d(far)]
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
         return

@@ -80,7 +80,7 @@ def _budget_table(name: str, budget: DepthBudget) -> list[tuple[str, ...]]:
         else:
             perceived, rho = _fmt(s.perceived_depth, 3), _fmt(s.roundness, 2)
             flag = "cardboard" if s.roundness is not None and s.roundness < CARDBOARD_ROUNDNESS else ""
-        rows.append((name, f"{s.depth:g}", _fmt(s.disparity_px, 3), perceived, rho, flag))
+        rows.append((name, f"{s.depth:g}", _fmt(s.parallax_px, 3), perceived, rho, flag))
     return rows
 
 

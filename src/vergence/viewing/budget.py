@@ -44,8 +44,9 @@ class DepthSample:
         Scene depth z in metres.
     disparity : float
         Normalised disparity d, a fraction of W (S0 Eq. 1a).
-    disparity_px : float or None
-        ``d · N`` screen pixels, or None when the display resolution is unknown.
+    parallax_px : float or None
+        Screen parallax ``x_r - x_l = d · N`` in display pixels (positive behind the screen; the
+        opposite sign of a matcher's ``disparity_px``), or None when the display resolution is unknown.
     perceived_depth : float or None
         Perceived depth z' in metres (S0 Eq. 2), None when the eyes diverge (or are exactly parallel).
     roundness : float or None
@@ -59,7 +60,7 @@ class DepthSample:
 
     depth: float
     disparity: float
-    disparity_px: float | None
+    parallax_px: float | None
     perceived_depth: float | None
     roundness: float | None
     diverges: bool
@@ -68,17 +69,17 @@ class DepthSample:
         if check_finite("depth", self.depth) <= 0:
             raise ValueError(f"depth must be > 0; got {self.depth:g}")
         check_finite("disparity", self.disparity)
-        for name in ("disparity_px", "perceived_depth", "roundness"):
+        for name in ("parallax_px", "perceived_depth", "roundness"):
             if getattr(self, name) is not None:
                 check_finite(name, getattr(self, name))
         if self.diverges and self.perceived_depth is not None:
             raise ValueError(f"perceived_depth must be None where the eyes diverge; got {self.perceived_depth:g}")
 
     def to_dict(self) -> dict[str, float | bool | None]:
-        """The JSON object of one depth; ``disparity_px`` is left out when the resolution is unknown."""
+        """The JSON object of one depth; ``parallax_px`` is left out when the resolution is unknown."""
         out: dict[str, float | bool | None] = {"depth": self.depth, "disparity": self.disparity}
-        if self.disparity_px is not None:
-            out["disparity_px"] = self.disparity_px
+        if self.parallax_px is not None:
+            out["parallax_px"] = self.parallax_px
         out.update(perceived_depth=self.perceived_depth, roundness=self.roundness, diverges=self.diverges)
         return out
 
@@ -191,7 +192,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
         DepthSample(
             depth=float(z[i]),
             disparity=float(d[i]),
-            disparity_px=None if display.resolution is None else float(d[i] * display.resolution),
+            parallax_px=None if display.resolution is None else float(d[i] * display.resolution),
             perceived_depth=float(zp[i]) if math.isfinite(zp[i]) else None,
             roundness=float(rho[i]) if math.isfinite(rho[i]) else None,
             diverges=bool(np.isnan(zp[i])),

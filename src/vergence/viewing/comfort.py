@@ -1,12 +1,13 @@
-"""Screen disparity in pixels and arcminutes, and the stereoscopic comfort zone (SPEC §5.6, S0 §2).
+"""Screen disparity in pixels and arcminutes, and the stereoscopic comfort zone (S3 §3–4, S0 §2).
 
 The disparity here is the **screen parallax** of a displayed pair, ``x_r - x_l`` in display pixels:
 positive (uncrossed) behind the screen, the pixel form ``d · N`` of S0's normalised disparity ``d``
 (fraction of the screen width ``W'``, see ``docs/conventions.md``). A stereo matcher's disparity map
 (``x_left - x_right``) has the opposite sign: negate it before using these functions.
 
-Angles follow the vergence of a viewer centred in front of the screen: a parallax ``s`` (metres) on
-a screen at distance ``D`` seen by eyes ``e`` apart changes the vergence angle by (SPEC §5.6)
+Angles follow the vergence of a viewer centred in front of the screen (S3 §3 measures disparities in
+arcmin): a parallax ``s`` (metres) on a screen at distance ``D`` seen by eyes ``e`` apart changes the
+vergence angle by
 
 ``theta = 2 atan(e / 2D) - 2 atan((e - s) / 2D)``  (exact), or ``theta ≈ s / D``  (small angle),
 
@@ -46,7 +47,7 @@ def _screen_vergence(display: Display) -> float:
 
 
 def _arcmin_from_parallax(s: np.ndarray, display: Display, exact: bool) -> np.ndarray:
-    """Vergence change (arcmin) of a screen parallax ``s`` in metres (SPEC §5.6)."""
+    """Vergence change (arcmin) of a screen parallax ``s`` in metres (vergence geometry, module docstring)."""
     e, D = display.eye_separation, display.distance
     if exact:
         theta = _screen_vergence(display) - 2.0 * np.arctan((e - s) / (2.0 * D))
@@ -75,12 +76,12 @@ def _parallax_from_arcmin(theta_arcmin: np.ndarray, display: Display, exact: boo
     return e - 2.0 * D * np.tan(half)
 
 
-def arcmin_from_pixels(disparity_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
-    """Vergence change in arcminutes of a screen disparity in pixels (SPEC §5.6).
+def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
+    """Vergence change in arcminutes of a screen disparity in pixels (S3 §3 works in arcmin).
 
     Parameters
     ----------
-    disparity_px : float or array_like
+    parallax_px : float or array_like
         Screen parallax ``x_r - x_l`` in display pixels, positive (uncrossed) behind the screen.
         NaN (invalid) passes through as NaN; inf is refused.
     display : Display
@@ -97,28 +98,28 @@ def arcmin_from_pixels(disparity_px: object, display: Display, *, exact: bool = 
     Raises
     ------
     ValueError
-        If ``disparity_px`` holds inf, or the display resolution is unknown.
+        If ``parallax_px`` holds inf, or the display resolution is unknown.
 
     Notes
     -----
-    With pitch ``p = W'/N``, parallax ``s = disparity_px · p`` and (SPEC §5.6)
+    With pitch ``p = W'/N``, parallax ``s = parallax_px · p`` and (vergence geometry)
     ``theta = 2 atan(e/2D) - 2 atan((e - s)/2D)``, or ``theta ≈ s/D`` for small angles.
     The two agree within 0.3 % for a few pixels at 60 cm.
 
     Examples
     --------
-    S3's study display, 1 px at 60 cm (SPEC §5.6: about 1.62′):
+    S3's study display, 1 px at 60 cm (S3 §4: 0.282 mm pitch, about 1.62′):
 
     >>> samsung = Display.preset("samsung-2233rz")
     >>> round(arcmin_from_pixels(1.0, samsung), 3), round(arcmin_from_pixels(1.0, samsung, exact=False), 3)
     (1.611, 1.616)
     """
-    s = as_float_array("disparity_px", disparity_px, allow_nan=True) * display.pixel_pitch
+    s = as_float_array("parallax_px", parallax_px, allow_nan=True) * display.pixel_pitch
     return _out(_arcmin_from_parallax(s, display, exact))
 
 
 def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
-    """Screen disparity in pixels whose vergence change is ``disparity_arcmin`` (SPEC §5.6).
+    """Screen disparity in pixels whose vergence change is ``disparity_arcmin`` (inverse of the above).
 
     The inverse of :func:`arcmin_from_pixels` with the same ``exact`` choice.
 
@@ -144,7 +145,7 @@ def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: boo
 
     Notes
     -----
-    ``s = e - 2D tan(atan(e/2D) - theta/2)`` (exact) or ``s = theta D``, then ``disparity_px = s / p``.
+    ``s = e - 2D tan(atan(e/2D) - theta/2)`` (exact) or ``s = theta D``, then ``parallax_px = s / p``.
 
     Examples
     --------
@@ -283,13 +284,13 @@ class ComfortReport:
 
 
 def check_disparity_range(
-    disparity_px: object, display: Display, *, zone: ComfortZone | None = None, exact: bool = True
+    parallax_px: object, display: Display, *, zone: ComfortZone | None = None, exact: bool = True
 ) -> ComfortReport:
     """Check screen disparities against a comfort zone and the divergence limit.
 
     Parameters
     ----------
-    disparity_px : float or array_like
+    parallax_px : float or array_like
         Screen disparities ``x_r - x_l`` in pixels: a ``(min, max)`` pair, or a whole disparity map.
         NaN (invalid) entries are ignored; at least one must be finite; inf is refused.
     display : Display
@@ -306,7 +307,7 @@ def check_disparity_range(
     Raises
     ------
     ValueError
-        If ``disparity_px`` has no finite value or holds inf, or the resolution is unknown.
+        If ``parallax_px`` has no finite value or holds inf, or the resolution is unknown.
 
     Notes
     -----
@@ -320,10 +321,10 @@ def check_disparity_range(
     >>> r.inside, round(r.far_margin_px, 1), round(r.divergence_px, 1)
     (True, 7.2, 230.5)
     """
-    values = as_float_array("disparity_px", disparity_px, allow_nan=True)
+    values = as_float_array("parallax_px", parallax_px, allow_nan=True)
     finite = values[np.isfinite(values)]
     if finite.size == 0:
-        raise ValueError(f"disparity_px must hold at least one finite value; got {values.size} values, none finite")
+        raise ValueError(f"parallax_px must hold at least one finite value; got {values.size} values, none finite")
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")

@@ -1,4 +1,4 @@
-"""Shooting and viewing geometry of a stereoscopic pair (S0 §2, SPEC §1.1–1.6; S1 §IV.C).
+"""Shooting and viewing geometry of a stereoscopic pair (S0 §2, Eq. (1)–(6); Devernay & Beardsley 2010; S1 §IV.C).
 
 The model is the parallel-camera, shifted-sensor rig of Devernay & Beardsley: two cameras a
 baseline ``b`` apart whose frusta meet the convergence plane at distance ``H`` in the same window
@@ -10,7 +10,9 @@ the convergence plane. All lengths are in metres.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -59,7 +61,7 @@ class Shooting:
 
     @classmethod
     def from_focal(cls, *, baseline: float, convergence: float, focal_mm: float, sensor_mm: float) -> Shooting:
-        """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (SPEC §1.1)."""
+        """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (S0 §2)."""
         f = check_positive("focal_mm", focal_mm) / check_positive("sensor_mm", sensor_mm)
         return cls(baseline=baseline, convergence=convergence, window=check_positive("convergence", convergence) / f)
 
@@ -121,7 +123,8 @@ class Display:
 
 # Typical viewing set-ups; eye separation 65 mm (adult mean). Screen widths are the diagonal times
 # a / sqrt(a^2 + b^2) for an a:b aspect ratio, to 0.1 mm; distances as commonly recommended for each screen.
-DISPLAY_PRESETS: dict[str, Display] = {
+# Read-only (a mapping proxy of frozen Displays): no caller can change a preset for everyone else.
+DISPLAY_PRESETS: Mapping[str, Display] = MappingProxyType({
     # A 10 m wide cinema screen seen from 15 m (f' = 1.5), projected in 2K DCI (2048 px).
     "cinema": Display(eye_separation=0.065, distance=15.0, width=10.0, resolution=2048),
     # 24" 16:9 monitor, 1920 x 1080, at 60 cm: 24 x 25.4 mm x 16/sqrt(337) = 0.5313 m.
@@ -136,7 +139,7 @@ DISPLAY_PRESETS: dict[str, Display] = {
     # A 55" 16:9 television, 1920 x 1080, at 3 m: 55 x 25.4 mm x 16/sqrt(337) = 1.2176 m; f' = 2.46,
     # S0's living-room example.
     "tv-55": Display(eye_separation=0.065, distance=3.0, width=1.2176, resolution=1920),
-}
+})
 
 
 def _depths(name: str, z: object) -> np.ndarray:
@@ -177,7 +180,7 @@ def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
 
 
 def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndarray:
-    """Depth whose disparity is ``d``: ``z = bH / (b - W d)`` (SPEC Eq. 1c); inf at ``d = b/W``.
+    """Depth whose disparity is ``d``: ``z = bH / (b - W d)`` (S0 Eq. (1a) solved for z); inf at ``d = b/W``.
 
     Disparities at or beyond ``b/W`` have no depth in front of the cameras: NaN there (inf at equality).
     """
@@ -298,7 +301,7 @@ def _eq2_denominator(z: np.ndarray, shooting: Shooting, display: Display) -> np.
 
 
 # ---------------------------------------------------------------------------------------------
-# Shift-sensor DIBR geometry (Fehn; S1 §IV.C, SPEC §6.1)
+# Shift-sensor DIBR geometry (Fehn 2004; S1 §IV.C, Table I)
 
 # S1 Table I: the effect of increasing (+1) each control on screen parallax, perceived depth and
 # object size. "fore" = the scene shifts toward the viewer.
@@ -312,7 +315,7 @@ CONTROL_EFFECTS: dict[str, dict[str, str]] = {
 def shift_sensor_parallax(
     depth: object, *, focal_px: float, interaxial: float, convergence: float
 ) -> float | np.ndarray:
-    """Screen parallax in pixels of the shift-sensor pair (S1 §IV.C, SPEC §6.1).
+    """Screen parallax in pixels of the shift-sensor pair (Fehn 2004; S1 §IV.C, Table I).
 
     ``P = x_r - x_l = alpha_u t_c (1/Z_c - 1/Z)``: zero at the convergence distance ``Z_c``,
     positive behind it. ``focal_px`` is alpha_u, ``interaxial`` t_c (> 0) and ``convergence`` Z_c
@@ -333,7 +336,7 @@ def shift_sensor_parallax(
 def shift_sensor_positions(
     x_center: object, depth: object, *, focal_px: float, interaxial: float, convergence: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Left and right abscissae of centre-view pixels ``x_c`` with depth ``Z`` (Fehn, SPEC §6.1).
+    """Left and right abscissae of centre-view pixels ``x_c`` with depth ``Z`` (Fehn 2004; S1 §IV.C).
 
     ``x_l = x_c + (alpha_u t_c / 2)(1/Z - 1/Z_c)``, ``x_r = x_c - (alpha_u t_c / 2)(1/Z - 1/Z_c)``.
     """

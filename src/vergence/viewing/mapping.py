@@ -1,4 +1,4 @@
-"""Disparity mapping functions psi (S0 Eq. 7–9, SPEC §1.7–1.8; Lang et al. 2010, SPEC §7).
+"""Disparity mapping functions psi (S0 §6, Eq. (7)–(9); Lang et al. 2010).
 
 One import point for the mapping family, implemented in:
 

@@ -1,8 +1,8 @@
-"""Combinations of disparity mapping operators: piecewise and temporal blends (Lang et al. 2010, SPEC §7).
+"""Combinations of disparity mapping operators: piecewise and temporal blends (Lang et al. 2010).
 
 ``PiecewiseMapping`` applies operator k on the k-th interval of a partition of the disparity axis
 and stays continuous by construction; ``BlendedMapping`` is a convex combination
-``sum_k w_k psi_k`` (SPEC §7, temporal operator), and :func:`temporal_weights` gives the weights of
+``sum_k w_k psi_k`` (Lang et al. 2010, temporal operator), and :func:`temporal_weights` gives the weights of
 per-shot operators at time ``t`` with a linear ramp over a transition window around each cut.
 Both keep psi increasing, since each part is.
 """
@@ -41,7 +41,7 @@ def _operators(name: str, operators: Sequence[DisparityMapping]) -> tuple[Dispar
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
 class PiecewiseMapping(DisparityMapping):
-    """Operator k on the k-th interval of a partition, kept continuous (Lang et al. 2010, SPEC §7).
+    """Operator k on the k-th interval of a partition, kept continuous (Lang et al. 2010).
 
     With breakpoints ``b_1 < ... < b_{n-1}`` and operators ``psi_0 ... psi_{n-1}``, piece k covers
     ``(b_k, b_{k+1}]`` and adds its own increments to the value reached at ``b_k``:
@@ -132,7 +132,7 @@ class PiecewiseMapping(DisparityMapping):
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
 class BlendedMapping(DisparityMapping):
-    """Convex combination ``psi(d) = sum_k w_k psi_k(d)``, ``sum_k w_k = 1`` (SPEC §7, temporal operator).
+    """Convex combination ``psi(d) = sum_k w_k psi_k(d)``, ``sum_k w_k = 1`` (Lang et al. 2010, temporal operator).
 
     Increasing because every ``psi_k`` is and the weights are >= 0; defined on the intersection of
     the operators' domains. The inverse has no closed form: vectorised bisection.
@@ -175,7 +175,7 @@ class BlendedMapping(DisparityMapping):
 
 
 def temporal_weights(t: float, cuts: object, *, transition: float) -> np.ndarray:
-    """Weights of the per-shot operators at time ``t``: linear ramps across each cut (SPEC §7).
+    """Weights of the per-shot operators at time ``t``: linear ramps across each cut (Lang et al. 2010).
 
     Shot k runs from cut k-1 to cut k. Across cut ``c_k`` the weight moves linearly from shot k to
     shot k+1 over ``[c_k - T/2, c_k + T/2]`` (``T = transition``; ``T = 0`` is a hard cut, taking the
@@ -220,7 +220,7 @@ def temporal_mapping(
 ) -> BlendedMapping:
     """The mapping in force at time ``t``: per-shot operators blended by :func:`temporal_weights`.
 
-    ``psi_t(d) = sum_k w_k(t) psi_k(d)`` (SPEC §7, Lang et al. 2010): one operator per shot,
+    ``psi_t(d) = sum_k w_k(t) psi_k(d)`` (Lang et al. 2010): one operator per shot,
     ``len(cuts) + 1`` operators.
 
     Examples

@@ -1,4 +1,4 @@
-"""Disparity mapping psi built from director constraints (S0 §6, Eq. 7–9; SPEC §1.7–1.8).
+"""Disparity mapping psi built from director constraints (S0 §6, Eq. (7)–(9)).
 
 The director asks, for chosen scene depths ``z_e``, for a perceived depth ``z'_e`` and optionally a
 roundness ``rho_e``. With a reference rig ``(b_r, H, W)`` (whose disparity is ``d(z)``, S0 Eq. 1a)
@@ -125,7 +125,7 @@ class DirectorConstraint:
 
 @dataclass(frozen=True, slots=True)
 class ControlPoint:
-    """A control point of psi: ``psi(disparity) = value``, ``psi'(disparity) = slope`` (SPEC §1.8).
+    """A control point of psi: ``psi(disparity) = value``, ``psi'(disparity) = slope`` (S0 §6).
 
     ``prescribed`` tells whether the slope comes from a roundness (or an infinite perceived depth,
     slope 0) rather than from an estimate (PCHIP, or 1 at the nearest point).
@@ -160,7 +160,7 @@ class MappingSamples:
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
 class ConstrainedMapping:
-    """psi built from director constraints, with its report (S0 §6, Eq. 7–9; SPEC §1.8).
+    """psi built from director constraints, with its report (S0 §6, Eq. (7)–(9)).
 
     Attributes
     ----------
@@ -280,6 +280,8 @@ class ConstrainedMapping:
     def to_dict(self, *, samples: int = 201) -> dict[str, object]:
         """The JSON report of ``vergence mapping --json``; non-finite depths and roundness become None.
 
+        ``samples`` disparities evenly spaced over ``[d(near), d(far)]`` (201 for the CLI).
+
         ``{"control_points": [{"disparity", "value", "slope"}...], "samples": [{"disparity", "mapped",
         "perceived_depth", "roundness"}...], "monotone": bool, "diverges": bool}``.
         """
@@ -325,7 +327,7 @@ def psi_from_constraints(
     near: float,
     far: float,
 ) -> ConstrainedMapping:
-    """Build the monotone C1 disparity mapping psi honouring director constraints (S0 §6, SPEC §1.8).
+    """Build the monotone C1 disparity mapping psi honouring director constraints (S0 §6).
 
     Parameters
     ----------
@@ -361,9 +363,10 @@ def psi_from_constraints(
     Notes
     -----
     Control point of constraint e: ``d_e = d(z_e)``, ``psi(d_e) = (b'/W')(1 - H'/z'_e)``,
-    ``psi'(d_e) = rho_e z_e b'/(b_r z'_e)`` (SPEC §1.8); slope 0 where ``z'_e = inf``. Slopes not
+    ``psi'(d_e) = rho_e z_e b'/(b_r z'_e)`` (S0 Eq. (9) at ``d_e``); slope 0 where ``z'_e = inf``. Slopes not
     prescribed are Fritsch–Carlson (PCHIP) estimates, except at the nearest control point, where the
-    slope is 1 so that psi continues as the identity's slope below it (SPEC §1.8); PCHIP's end formula
+    slope is 1 so that psi continues as the identity's slope below it (our extension; S0 §6 leaves
+    it open); PCHIP's end formula
     gives 0 at the farthest point when the values decelerate sharply, and psi is then flat beyond
     it (give a roundness there to avoid it). Between control
     points psi is the Gregory–Delbourgo interpolant; above the farthest it saturates towards
@@ -436,7 +439,7 @@ def psi_from_constraints(
             "their values psi = (b'/W')(1 - H'/z') coincide in floating point"
         )
     estimates = pchip_slopes(knots, values) if len(items) > 1 else np.ones(1)
-    estimates[0] = 1.0  # identity slope below the nearest control point (SPEC §1.8)
+    estimates[0] = 1.0  # identity slope below the nearest control point (our extension of S0 §6)
     slopes, prescribed = [], []
     for c, est in zip(items, estimates):
         if c.roundness is not None:

@@ -1,4 +1,4 @@
-"""Gradient-domain disparity mapping of a disparity *map* (Lang et al. 2010, SPEC §7).
+"""Gradient-domain disparity mapping of a disparity *map* (Lang et al. 2010).
 
 Instead of mapping each disparity value, map the disparity gradients: compress depth jumps
 (``|g| > threshold`` -> ``scale * g``), keep the small gradients of local detail, and rebuild the
@@ -39,7 +39,7 @@ def _edges(valid: np.ndarray, d: np.ndarray, index: np.ndarray) -> tuple[np.ndar
 
 
 def gradient_domain_mapping(disparity: object, *, threshold: float, scale: float) -> np.ndarray:
-    """Remap a disparity map in the gradient domain: compress jumps, keep detail (SPEC §7).
+    """Remap a disparity map in the gradient domain: compress jumps, keep detail (Lang et al. 2010).
 
     Target gradients ``g' = scale * g`` where ``|g| > threshold``, else ``g`` (forward differences
     between 4-neighbours, Lang et al. 2010's phi_grad). The result ``d'`` minimises
@@ -71,7 +71,8 @@ def gradient_domain_mapping(disparity: object, *, threshold: float, scale: float
     -----
     Where the target gradients are integrable (1-D profiles, jumps along straight rows or
     columns), ``d'`` reproduces them exactly: a 10-px jump with ``scale = 0.2`` becomes 2 px while
-    the detail slopes stay as they were (SPEC §7 [V]). Elsewhere it is the least-squares compromise.
+    the detail slopes stay as they were (Lang et al. 2010; a 10-px jump x0.2 keeps the detail slopes
+    exactly). Elsewhere it is the least-squares compromise.
 
     Examples
     --------

@@ -1,4 +1,5 @@
-"""Monotone C1 interpolation through values and slopes: Gregory–Delbourgo and PCHIP (SPEC §1.8).
+"""Monotone C1 interpolation through values and slopes: Gregory–Delbourgo and PCHIP
+(Gregory & Delbourgo 1982, Fritsch & Carlson 1980; for psi of S0 §6).
 
 S0 §6 builds the disparity mapping psi from control points (value and, for a roundness constraint,
 slope) and asks for "any technique exactly interpolating the control points and its derivatives".
@@ -34,7 +35,7 @@ def _segments(x: np.ndarray, knots: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def gregory_delbourgo(x: np.ndarray, knots: np.ndarray, values: np.ndarray, slopes: np.ndarray) -> np.ndarray:
-    """Gregory–Delbourgo rational-quadratic Hermite interpolant (SPEC §1.8).
+    """Gregory–Delbourgo rational-quadratic Hermite interpolant (Gregory & Delbourgo 1982).
 
     On ``[x_i, x_{i+1}]`` with ``h = x_{i+1} - x_i``, ``t = (x - x_i)/h``,
     ``Delta = (y_{i+1} - y_i)/h``::

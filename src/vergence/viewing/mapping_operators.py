@@ -1,4 +1,4 @@
-"""Disparity mapping operators psi(d) (Lang et al. 2010, SPEC §7; S0 Eq. 7–9, SPEC §1.7).
+"""Disparity mapping operators psi(d) (Lang et al. 2010; S0 Eq. (7)–(9)).
 
 Every operator is a frozen object, increasing in ``d``, callable on arrays, with
 ``derivative(d)`` (psi', needed by the mapped roundness, S0 Eq. 9) and ``inverse(value)``
@@ -159,7 +159,7 @@ def bisect_inverse(
 
 @dataclass(frozen=True, slots=True)
 class LinearMapping(DisparityMapping):
-    """Linear range-to-range operator (Lang et al. 2010, SPEC §7).
+    """Linear range-to-range operator (Lang et al. 2010).
 
     ``psi(d) = (r'/r)(d - d_min) + d'_min`` with ``r = d_max - d_min``, ``r' = d'_max - d'_min``;
     defined (extrapolated) on all of R.
@@ -200,7 +200,7 @@ class LinearMapping(DisparityMapping):
 
 @dataclass(frozen=True, slots=True)
 class LogMapping(DisparityMapping):
-    """Logarithmic range-mapped operator (Lang et al. 2010, SPEC §7): compresses large disparities.
+    """Logarithmic range-mapped operator (Lang et al. 2010): compresses large disparities.
 
     ``psi(d) = a log(1 + s (d - d_min)) + d'_min`` with ``a = r' / log(1 + s r)`` so that
     ``[d_min, d_max]`` maps onto ``[d'_min, d'_max]``. ``strength`` is ``s`` (1/disparity unit);
@@ -246,7 +246,7 @@ class LogMapping(DisparityMapping):
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
 class RationalHermiteMapping(DisparityMapping):
-    """Monotone C1 psi through control points: Gregory–Delbourgo between knots (SPEC §1.8).
+    """Monotone C1 psi through control points: Gregory–Delbourgo between knots (S0 §6).
 
     Between the knots psi is the rational-quadratic Hermite interpolant
     (:func:`~vergence.viewing.mapping_hermite.gregory_delbourgo`), honouring values and slopes
@@ -369,7 +369,7 @@ class RationalHermiteMapping(DisparityMapping):
 
 @dataclass(frozen=True, slots=True, eq=False)  # holds arrays: identity equality
 class SaliencyMapping(DisparityMapping):
-    """Saliency-driven operator (Lang et al. 2010, SPEC §7): output range follows importance.
+    """Saliency-driven operator (Lang et al. 2010): output range follows importance.
 
     ``psi(d) = d'_min + r' * integral_{d_min}^{d} h / integral_Omega h``, with ``h`` the
     saliency-weighted disparity histogram on ``bins`` equal bins of ``[d_min, d_max]``, mixed with

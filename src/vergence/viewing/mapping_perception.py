@@ -1,4 +1,4 @@
-"""Effect of a disparity mapping psi on the perceived scene (S0 Eq. 7–9, SPEC §1.7–1.8).
+"""Effect of a disparity mapping psi on the perceived scene (S0 §6, Eq. (7)–(9)).
 
 For any increasing psi applied to the disparity ``d(z)`` of a reference rig ``(b_r, H, W)`` (S0
 Eq. 1a) and shown on a display ``(b', H', W')``: the mapped perceived depth (Eq. 7), the
@@ -57,7 +57,7 @@ def psi_value_for_depth(perceived: float, display: Display) -> float:
 def psi_slope_for_roundness(
     roundness: float, depth: float, perceived: float, reference: Shooting, display: Display
 ) -> float:
-    """``psi'(d_e) = rho_e z_e b' / (b_r z'_e)``: the slope giving roundness ``rho_e`` (S0 Eq. 9, SPEC §1.8).
+    """``psi'(d_e) = rho_e z_e b' / (b_r z'_e)``: the slope giving roundness ``rho_e`` (S0 Eq. (9)).
 
     Examples
     --------
