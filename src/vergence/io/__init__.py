@@ -8,21 +8,18 @@ linear from float files; disparity maps are float32 ``(H, W)`` with NaN for unkn
 
 from vergence.io.atomic import atomic_write, write_json
 from vergence.io.bundler import read_bundler, write_bundler
-from vergence.io.cameras import (
-    CameraSet,
-    read_cameras,
-    read_cameras_json,
-    read_colmap,
-    read_middlebury_par,
-    write_cameras_json,
-    write_colmap,
-    write_middlebury_par,
-)
+from vergence.io.camera_set import CameraSet
+from vergence.io.cameras import CAMERA_FORMATS, CameraFormat, read_cameras, write_cameras
+from vergence.io.cameras_json import read_cameras_json, write_cameras_json
+from vergence.io.colmap import read_colmap, write_colmap
+from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
 from vergence.io.disparity import read_disparity, write_disparity
 from vergence.io.images import read_image, write_image
 from vergence.io.pfm import read_pfm, write_pfm
 
 __all__ = [
+    "CAMERA_FORMATS",
+    "CameraFormat",
     "CameraSet",
     "atomic_write",
     "read_bundler",
@@ -34,6 +31,7 @@ __all__ = [
     "read_middlebury_par",
     "read_pfm",
     "write_bundler",
+    "write_cameras",
     "write_cameras_json",
     "write_colmap",
     "write_disparity",
