@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vergence.depth import (
-    METHODS,
+    MATCHERS,
     compute_disparity,
     evaluate_disparity,
     match_blocks,
@@ -48,7 +48,7 @@ def _shifted_pair(shift: float, h: int = 60, w: int = 120) -> tuple[np.ndarray, 
     return np.ascontiguousarray(left), np.ascontiguousarray(right)
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", MATCHERS)
 @pytest.mark.parametrize("shift", [6.0, 9.5])
 def test_every_matcher_recovers_a_subpixel_shift(method, shift):
     left, right = _shifted_pair(shift)

@@ -114,6 +114,11 @@ class RowAlignment:
         """90th percentile of the vertical offset, pixels."""
         return float(np.percentile(self.abs_dy_px, 90))
 
+    def to_dict(self) -> dict:
+        """``{"median_abs_dy_px": px, "p90_abs_dy_px": px, "matches": n}``."""
+        return {"median_abs_dy_px": self.median_abs_dy_px, "p90_abs_dy_px": self.p90_abs_dy_px,
+                "matches": self.matches}
+
 
 def _distortion(name: str, value: object) -> np.ndarray:
     if value is None:

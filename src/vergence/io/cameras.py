@@ -15,12 +15,15 @@ from pathlib import Path
 from types import MappingProxyType
 
 from vergence.io.bundler import read_bundler, write_bundler
+import numpy as np
+
+from vergence.camera import Camera
 from vergence.io.camera_set import CameraSet
 from vergence.io.cameras_json import read_cameras_json, write_cameras_json
 from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
 
-__all__ = ["CAMERA_FORMATS", "CameraFormat", "read_cameras", "write_cameras"]
+__all__ = ["CAMERA_FORMATS", "CameraFormat", "cameras_for_images", "read_cameras", "write_cameras"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,3 +114,52 @@ def write_cameras(path: str | os.PathLike[str], cameras: CameraSet, *, format: s
     """
     p, fmt = _format_of(path, format)
     fmt.write(p, cameras)
+
+
+def cameras_for_images(
+    path: str | os.PathLike[str],
+    images: Sequence[tuple[str | os.PathLike[str], tuple[int, int]]],
+    *,
+    format: str | None = None,
+    image_list: str | os.PathLike[str] | Sequence[str] | None = None,
+) -> list[tuple[Camera, np.ndarray]]:
+    """The camera and distortion of each image, each read with that image's size.
+
+    Middlebury ``*_par.txt`` and Bundler ``bundle.out`` store no image size, and a Bundler ``K``
+    depends on it, so the file is read once per distinct size in ``images``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The camera file (any format of :data:`CAMERA_FORMATS`).
+    images : sequence of (name, (width, height))
+        The images, by file name (a path is reduced to its name), with their sizes.
+    format, image_list
+        As :func:`read_cameras`.
+
+    Returns
+    -------
+    list of (Camera, (4,) array)
+        One ``(camera, distortion)`` per image, in order.
+
+    Raises
+    ------
+    ValueError
+        If an image has no registered camera in the file, or the file is a Bundler bundle that does
+        not name its images (no ``list.txt`` beside it and no ``image_list``).
+    """
+    p, fmt = _format_of(path, format)
+    sets: dict[tuple[int, int], CameraSet] = {}
+    for _, size in images:
+        if size not in sets:
+            sets[size] = read_cameras(p, format=format, image_size=size, image_list=image_list)
+    out = []
+    for name, size in images:
+        cams = sets[size]
+        key = Path(os.fspath(name)).name
+        if (image_list is None and fmt is CAMERA_FORMATS["bundler"] and key not in cams.names
+                and cams.names == tuple(str(i) for i in range(len(cams)))):
+            raise ValueError(f"{p.name} does not name its images and no list.txt was found beside it; "
+                             "pass image_list (Bundler's list.txt)")
+        out.append((cams.camera(key), cams.distortion[cams.index(key)]))
+    return out
