@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from vergence.depth import (
+    SMOOTHING_METHODS,
+    RefinedDisparity,
     confidence_map,
     evaluate_disparity,
     fill_occlusions,
@@ -63,6 +65,37 @@ def test_unreliable_pixels_by_hand():
     u = unreliable_pixels(d)
     assert u[:, 3:7].all() and not u[:, 8:].any()  # both edge pixels, dilated by one
     assert u[2, 1] and u[1, 1]  # the outlier and its neighbours (it is a jump >= 1)
+
+
+def test_outlier_rule_is_more_than_one_pixel_off_the_3x3_median():
+    """With jumps set too high to fire, only the median rule marks: |d - median3x3(d)| > 1 px."""
+    d = np.full((7, 7), 10.0, np.float32)
+    d[1, 1] = 12.0  # 2 px off its median (10): an outlier
+    d[5, 5] = 11.0  # exactly 1 px off: not an outlier (strictly greater)
+    d[3, 5] = 11.5  # 1.5 px off: an outlier
+    u = unreliable_pixels(d, jump=5.0)
+    expected = np.zeros(d.shape, bool)
+    expected[1, 1] = expected[3, 5] = True
+    np.testing.assert_array_equal(u, expected)
+
+
+def test_smoothing_table_names_every_stage():
+    assert tuple(SMOOTHING_METHODS) == ("median", "wls", "none")
+    d = np.full((12, 12), 5.0, np.float32)
+    d[:, :3] = np.nan
+    img = np.zeros((12, 12), np.float32)
+    out = refine_disparity(d, img, smoothing="none")
+    np.testing.assert_array_equal(out.disparity, np.full((12, 12), 5.0, np.float32))  # filled, not smoothed
+    np.testing.assert_array_equal(out.matched, np.isfinite(d))
+
+
+def test_refined_disparity_to_dict_by_hand():
+    d = np.array([[1.0, np.nan], [3.0, 2.0]], np.float32)
+    res = RefinedDisparity(d, np.zeros_like(d), np.array([[True, False], [False, False]]))
+    assert res.to_dict() == {"width": 2, "height": 2, "matched_percent": 25.0, "known_percent": 75.0,
+                             "disparity_min": 1.0, "disparity_max": 3.0}
+    none = RefinedDisparity(np.full((1, 2), np.nan, np.float32), np.zeros((1, 2), np.float32), np.zeros((1, 2), bool))
+    assert none.to_dict()["disparity_min"] is None and none.to_dict()["known_percent"] == 0.0
 
 
 def test_weighted_median_snaps_a_disparity_edge_to_the_image_edge():
