@@ -20,7 +20,6 @@ from vergence.io.camera_set import (
     CameraSet,
     _camera,
     _check_set,
-    _check_size,
     _floats,
     _fmt,
     _text_lines,
@@ -36,6 +35,13 @@ def _colmap_dir(path: str | os.PathLike[str]) -> Path:
         raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
     p = Path(path)
     return p if p.is_dir() else p.parent
+
+
+def _integer(token: str, what: str, path: Path, line: int) -> int:
+    try:
+        return int(token)
+    except ValueError:
+        raise ValueError(f"{path}:{line}: {what} must be an integer; got {token[:20]!r}") from None
 
 
 def _colmap_intrinsics(model: str, prm: list[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -77,7 +83,10 @@ def read_colmap(path: str | os.PathLike[str]) -> CameraSet:
         if len(tok) != 4 + _COLMAP_PARAMS[tok[1]]:
             raise ValueError(f"{cpath}:{i}: {tok[1]} takes {_COLMAP_PARAMS[tok[1]]} parameters; got {len(tok) - 4}")
         K, dist = _colmap_intrinsics(tok[1], _floats(tok[4:], cpath, i))
-        intr[int(tok[0])] = (K, dist, _check_size((int(tok[2]), int(tok[3]))))
+        width, height = _integer(tok[2], "WIDTH", cpath, i), _integer(tok[3], "HEIGHT", cpath, i)
+        if width < 1 or height < 1:
+            raise ValueError(f"{cpath}:{i}: the image size must be positive; got {width}x{height}")
+        intr[_integer(tok[0], "CAMERA_ID", cpath, i)] = (K, dist, (width, height))
     names, cams, dists = [], [], []
     lines = _text_lines(ipath)
     i = 0
@@ -90,7 +99,7 @@ def read_colmap(path: str | os.PathLike[str]) -> CameraSet:
             raise ValueError(f"{ipath}:{i}: expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME; got {len(tok)} fields")
         q = _floats(tok[1:5], ipath, i)
         t = np.array(_floats(tok[5:8], ipath, i))
-        cam_id = int(tok[8])
+        cam_id = _integer(tok[8], "CAMERA_ID", ipath, i)
         if cam_id not in intr:
             raise ValueError(f"{ipath}:{i}: image {tok[9]} uses camera {cam_id}, which cameras.txt does not define")
         norm = math.sqrt(sum(v * v for v in q))
