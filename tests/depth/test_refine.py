@@ -20,6 +20,7 @@ from vergence.depth import (
     unreliable_pixels,
     weighted_median_filter,
 )
+from vergence.depth.refine import default_radius
 from vergence.io import read_disparity, read_image
 
 # WLS works at 1/16 px (OpenCV fixed point): a constant map comes back within one step.
@@ -96,6 +97,50 @@ def test_refined_disparity_to_dict_by_hand():
                              "disparity_min": 1.0, "disparity_max": 3.0}
     none = RefinedDisparity(np.full((1, 2), np.nan, np.float32), np.zeros((1, 2), np.float32), np.zeros((1, 2), bool))
     assert none.to_dict()["disparity_min"] is None and none.to_dict()["known_percent"] == 0.0
+
+
+def test_default_speckle_size_is_the_area_over_2000():
+    """300 x 300: blobs below 45 px go, larger ones stay (the default of refine_disparity)."""
+    d = np.full((300, 300), 10.0, np.float32)
+    d[50:60, 50:60] = 30.0  # 100 px: kept
+    d[200:205, 200:205] = 30.0  # 25 px: a speckle
+    img = np.zeros((300, 300), np.float32)
+    matched = refine_disparity(d, img, smoothing="none").matched
+    assert matched[50:60, 50:60].all() and not matched[200:205, 200:205].any()
+
+
+def test_default_radius_by_hand():
+    assert (default_radius(480, 640), default_radius(100, 90), default_radius(1080, 1920)) == (27, 8, 80)
+
+
+def test_median_smoothing_samples_the_window_every_radius_over_8_pixels():
+    """The documented pipeline: fill, then the weighted median at the unreliable pixels, step max(1, r // 8)."""
+    rng = np.random.default_rng(3)
+    d = np.full((60, 80), 8.0, np.float32)
+    d[:, 40:] = 14.0
+    d += rng.normal(0, 0.6, d.shape).astype(np.float32)
+    img = np.where(np.arange(80) < 37, 0.2, 0.8)[None, :].repeat(60, axis=0).astype(np.float32)
+    out = refine_disparity(d, img, radius=16, speckle_size=1).disparity
+    raw = remove_speckles(d, max_size=1)
+    filled = fill_occlusions(raw)
+    expected = weighted_median_filter(filled, img, radius=16, step=2, update=unreliable_pixels(filled),
+                                      support=np.isfinite(raw))
+    np.testing.assert_array_equal(out, expected)
+
+
+def test_confidence_by_hand():
+    """c = exp(-(d_refined - d_raw)^2 / 2) (1 - exp(-r / 2)), r = distance to the nearest unreliable pixel."""
+    refined = np.full((40, 60), 5.0, np.float32)
+    refined[:, 30:] = 10.0  # unreliable: columns 28..31
+    raw = refined.copy()
+    raw[20, 5] = 7.0  # 2 px off, far from the edge
+    raw[5, 5] = np.nan
+    c = confidence_map(raw, refined)
+    assert c[5, 5] == 0.0 and c[10, 29] == 0.0
+    far = 1.0 - np.exp(-0.5 * 23.0)  # column 5 is 23 px from column 28
+    assert c[10, 5] == pytest.approx(far, rel=1e-3)
+    assert c[20, 5] == pytest.approx(np.exp(-2.0) * far, rel=1e-3)
+    assert c[10, 27] == pytest.approx(1.0 - np.exp(-0.5), rel=0.1)  # one pixel from the edge band
 
 
 def test_weighted_median_snaps_a_disparity_edge_to_the_image_edge():
