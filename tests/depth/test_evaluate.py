@@ -55,7 +55,7 @@ def test_unknown_truth_is_never_evaluated():
     assert s["all"].pixels == 20 * 20 - 5 * 20 and s["all"].bad == 0.0 and s["all"].rms == 0.0
 
 
-def _spec_scene() -> tuple[np.ndarray, np.ndarray]:
+def _step_scene() -> tuple[np.ndarray, np.ndarray]:
     """verify_dibr_perception.py: background 5 px, a 40x40 square at 20 px, a flat grey patch."""
     rng = np.random.default_rng(0)
     disp = np.full((80, 120), 5.0)
@@ -65,8 +65,8 @@ def _spec_scene() -> tuple[np.ndarray, np.ndarray]:
     return disp, (grey / 255.0).astype(np.float32)
 
 
-def test_regions_on_the_spec_scene():
-    disp, grey = _spec_scene()
+def test_regions_on_the_step_scene():
+    disp, grey = _step_scene()
     r = middlebury_regions(disp, image=grey, disc_includes_occlusions=False)
     # occluded strip = d_fg - d_bg = 15 px left of the foreground (cols 35..49)
     assert not r["nonocc"][40, 35:50].any() and r["nonocc"][40, 30:35].all() and r["nonocc"][40, 50:110].all()
@@ -181,6 +181,22 @@ def test_bad_input():
         middlebury_regions(t, image=np.zeros((31, 30), np.float32))
     with pytest.raises(ValueError, match="border must be an integer >= 0"):
         middlebury_regions(t, border=-1)
+    with pytest.raises(ValueError, match=r"truth must have shape \(H, W\); got \(30,\)"):
+        middlebury_regions(t[0])
+    with pytest.raises(TypeError, match="masks must be a non-empty dict of region name"):
+        evaluate_disparity(t, t, masks={})
+    with pytest.raises(ValueError, match=r"mask must have the shape of reference \(30, 30\); got \(30, 29\)"):
+        mask_agreement(np.ones((30, 29), bool), np.ones((30, 30), bool))
+
+
+def test_bad_mask_folders(tmp_path):
+    with pytest.raises(FileNotFoundError, match="masks folder .* does not exist"):
+        read_middlebury_masks(tmp_path / "nope")
+    rgb = np.zeros((4, 4, 3), np.uint8)
+    rgb[..., 0] = 255
+    cv2.imwrite(str(tmp_path / "nonocc.png"), rgb)
+    with pytest.raises(ValueError, match="must be grey"):
+        read_middlebury_masks(tmp_path)
 
 
 @pytest.mark.parametrize(("step", "textureless"), [(3.9, True), (4.1, False)])

@@ -173,3 +173,5 @@ def test_bad_images(verged_pair):
         rectify_pair(img, img[:, :, 0], left, right)
     with pytest.raises(ValueError, match=r"too few SIFT features to measure the row alignment"):
         measure_row_alignment(img, img)
+    with pytest.raises(TypeError, match="right_camera must be a Camera; got str"):
+        rectify_pair(img, img, left, "right")

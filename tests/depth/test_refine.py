@@ -211,3 +211,31 @@ def test_bad_input():
         left_right_check(d, d[:, :-1])
     with pytest.raises(ValueError, match=r"raw must have shape \(H, W\); got \(5,\)"):
         confidence_map(np.zeros(5), np.zeros(5))
+
+
+def test_more_bad_input():
+    d = np.zeros((6, 8), np.float32)
+    img = np.zeros((6, 8), np.float32)
+    with pytest.raises(ValueError, match=r"disparity must be complete \(no NaN\); fill it first"):
+        unreliable_pixels(np.where(d == 0, np.nan, d))
+    with pytest.raises(ValueError, match=r"update must have shape \(6, 8\); got \(6, 7\)"):
+        weighted_median_filter(d, img, radius=2, update=np.ones((6, 7), bool))
+    no_votes = weighted_median_filter(d + 3, img, radius=2, support=np.zeros((6, 8), bool))
+    np.testing.assert_array_equal(no_votes, d + 3)  # nobody may vote: unchanged
+    with pytest.raises(ValueError, match=r"disparity must stay within \+-2047 px for WLS smoothing"):
+        smooth_wls(d + 2047.0, img)
+    with pytest.raises(ValueError, match=r"disparity must be complete \(no NaN\) for WLS smoothing"):
+        smooth_wls(np.where(d == 0, np.nan, d), img)
+
+
+def test_disparity_preview():
+    from vergence.depth import disparity_preview
+
+    rgb = disparity_preview(np.array([[0.0, 10.0, np.nan, 20.0]]), lo=0.0, hi=10.0)
+    assert rgb.shape == (1, 4, 3) and rgb.dtype == np.float32
+    np.testing.assert_array_equal(rgb[0, 2], 0.0)  # unknown: black
+    np.testing.assert_array_equal(rgb[0, 3], rgb[0, 1])  # clipped at hi
+    with pytest.raises(ValueError, match="hi must be finite and greater than lo; got lo=1.0, hi=1.0"):
+        disparity_preview(np.zeros((2, 2)), lo=1.0, hi=1.0)
+    with pytest.raises(ValueError, match=r"disparity must have shape \(H, W\); got \(4,\)"):
+        disparity_preview(np.zeros(4), lo=0.0, hi=1.0)

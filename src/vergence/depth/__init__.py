@@ -1,6 +1,6 @@
 """Depth from stereo (S1 §III, §V.A; S2 §3.2): rectification, matching, refinement, evaluation.
 
-- :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (SPEC §4).
+- :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000).
 - :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
 - :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
 - :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
