@@ -24,8 +24,8 @@ from vergence._validate import (
 from vergence.depth import _kernels
 
 __all__ = [
-    "SMOOTHING_METHODS",
     "RefinedDisparity",
+    "SMOOTHING_METHODS",
     "confidence_map",
     "default_radius",
     "fill_occlusions",
