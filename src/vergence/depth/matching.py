@@ -17,7 +17,7 @@ import numpy as np
 
 from vergence._validate import as_image, check_positive_int
 from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
-from vergence.depth.block import match_blocks
+from vergence.depth.block import COSTS, match_blocks
 from vergence.depth.refine import RefinedDisparity, refine_disparity
 
 __all__ = ["MATCHERS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
@@ -107,15 +107,11 @@ def match_bm(
     return _from_fixed(bm.compute(a, b), lo, hi)
 
 
-MATCHERS: MappingProxyType[str, Callable[..., np.ndarray]] = MappingProxyType({
-    "bm": match_bm,
-    "ncc": partial(match_blocks, cost="ncc"),
-    "sad": partial(match_blocks, cost="sad"),
-    "sgbm": match_sgbm,
-    "ssd": partial(match_blocks, cost="ssd"),
-})
+MATCHERS: MappingProxyType[str, Callable[..., np.ndarray]] = MappingProxyType(dict(sorted(
+    {"bm": match_bm, "sgbm": match_sgbm, **{c: partial(match_blocks, cost=c) for c in COSTS}}.items())))
 """Matcher name -> ``matcher(left, right, *, max_disparity, min_disparity, block_size)`` giving raw
-disparity (NaN = no answer); read-only. :func:`compute_disparity`, its error message and the CLI's
+disparity (NaN = no answer); read-only: OpenCV's ``bm`` and ``sgbm``, and one window matcher per
+:data:`~vergence.depth.block.COSTS` entry. :func:`compute_disparity`, its error message and the CLI's
 ``--method`` choices all read this table."""
 
 
