@@ -93,6 +93,19 @@ def test_sgbm_parameters_by_hand():
     assert sgbm_parameters(1080, 1920, 128, 1)["blockSize"] == 5
 
 
+def test_bm_settings_are_the_documented_ones(monkeypatch):
+    """match_bm's docstring: texture threshold 10, uniqueness 15 %, left-right check at 1 px (and OpenCV's
+    pre-filter cap 31); block 9 px up to 1000 px."""
+    made = []
+    create = cv2.StereoBM_create
+    monkeypatch.setattr(cv2, "StereoBM_create", lambda **kw: made.append(create(**kw)) or made[-1])
+    img = np.random.default_rng(0).random((40, 80)).astype(np.float32)
+    match_bm(img, img, max_disparity=16, min_disparity=2)
+    bm = made[0]
+    assert (bm.getTextureThreshold(), bm.getUniquenessRatio(), bm.getDisp12MaxDiff(), bm.getPreFilterCap(),
+            bm.getBlockSize(), bm.getMinDisparity(), bm.getNumDisparities()) == (10, 15, 1, 31, 9, 2, 16)
+
+
 def test_matcher_table_is_the_dispatch():
     assert tuple(MATCHERS) == ("bm", "ncc", "sad", "sgbm", "ssd")
     assert MATCHERS["sgbm"] is match_sgbm and MATCHERS["bm"] is match_bm
