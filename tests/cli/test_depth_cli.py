@@ -46,6 +46,15 @@ def test_rectify_writes_images_and_json(capsys, dino, tmp_path):
     assert data["row_alignment"]["median_abs_dy_px"] < MAX_MEDIAN_DY_PX and data["row_alignment"]["matches"] > 50
 
 
+def test_rectify_prints_a_summary_without_json(capsys, dino, tmp_path):
+    code, stdout, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"),
+                             "--cameras", str(dino / "dino_par.txt"), "--out", str(tmp_path / "r"), "--check")
+    assert code == 0, err
+    data = json.loads((tmp_path / "r" / "rectification.json").read_text())
+    assert f"baseline {data['baseline']:.6g}" in stdout.replace("\n", " ")
+    assert f"median |dy| = {data['row_alignment']['median_abs_dy_px']:.3f} px" in stdout.replace("\n", " ")
+
+
 def test_rectify_a_bundler_pair_named_by_a_list(capsys, shared_data, tmp_path):
     kermit = shared_data / "collections" / "kermit"
     listing = tmp_path / "list.txt"

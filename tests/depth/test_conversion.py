@@ -27,11 +27,38 @@ def test_invalid_disparities_give_nan():
     assert np.isnan(disparity_from_depth([np.nan], focal_px=100.0, baseline=1.0)).all()
 
 
+# Unit roundoff of float64 (round to nearest): every +, -, *, / has relative error <= U.
+U = np.finfo(np.float64).eps / 2
+
+
+def round_trip_rtol(q: float, d: float) -> float:
+    """Bound on |z'/z - 1| for z' = f b / ((f b / z - doffs) + doffs), with q = f b / z and d = q - doffs.
+
+    Write p = fl(f b), q = fl(p / z) = (p / z)(1 + e2), d = fl(q - doffs) = (q - doffs)(1 + e3),
+    s = fl(d + doffs) = (q + e3 d)(1 + e4), z' = fl(p / s) = (p / s)(1 + e5), |e_i| <= U. The error
+    of fl(f b) cancels (p is in both), so z'/z = (1 + e5) / ((1 + e2 + e3 d / q)(1 + e4)) and, to first
+    order, |z'/z - 1| <= U (3 + |d| / q). The term |d| / q is the cancellation: the absolute error
+    U |d| of the subtraction is relative to q once doffs is added back (z = 6111, f = 10, b = 0.001,
+    doffs = 33: q = 1.6e-6, |d| / q = 2e7, bound 2.2e-9). One more U covers the second-order terms,
+    which are below (U (3 + |d| / q))^2 << U.
+    """
+    return U * (4.0 + abs(d) / q)
+
+
 @settings(max_examples=30, deadline=None)
 @given(z=st.floats(0.1, 1e4), f=st.floats(10.0, 1e4), b=st.floats(1e-3, 10.0), off=st.floats(-50.0, 50.0))
 def test_round_trip(z, f, b, off):
     d = disparity_from_depth(z, focal_px=f, baseline=b, doffs_px=off)
-    np.testing.assert_allclose(depth_from_disparity(d, focal_px=f, baseline=b, doffs_px=off), z, rtol=1e-9)
+    rtol = round_trip_rtol(f * b / z, float(d))
+    np.testing.assert_allclose(depth_from_disparity(d, focal_px=f, baseline=b, doffs_px=off), z, rtol=rtol, atol=0)
+
+
+def test_round_trip_of_the_reported_cancellation():
+    """The case that broke the old fixed rtol = 1e-9: the error is 2e-9, inside the derived bound."""
+    z, f, b, off = 6111.0, 10.0, 0.001, 33.0
+    d = disparity_from_depth(z, focal_px=f, baseline=b, doffs_px=off)
+    err = abs(depth_from_disparity(d, focal_px=f, baseline=b, doffs_px=off) / z - 1.0)
+    assert 1e-9 < err <= round_trip_rtol(f * b / z, float(d))
 
 
 def test_matches_the_rectified_cameras():

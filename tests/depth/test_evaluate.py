@@ -1,4 +1,4 @@
-"""Middlebury evaluation (S1 Eq. 9-10, SPEC §6.4): hand values, reference loops, official masks, errors."""
+"""Middlebury evaluation (S1 Eq. 9-10; Scharstein & Szeliski 2002): hand values, reference loops, official masks, errors."""
 
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ def test_unknown_truth_is_never_evaluated():
     assert s["all"].pixels == 20 * 20 - 5 * 20 and s["all"].bad == 0.0 and s["all"].rms == 0.0
 
 
-def _spec_scene() -> tuple[np.ndarray, np.ndarray]:
+def _step_scene() -> tuple[np.ndarray, np.ndarray]:
     """verify_dibr_perception.py: background 5 px, a 40x40 square at 20 px, a flat grey patch."""
     rng = np.random.default_rng(0)
     disp = np.full((80, 120), 5.0)
@@ -65,10 +65,10 @@ def _spec_scene() -> tuple[np.ndarray, np.ndarray]:
     return disp, (grey / 255.0).astype(np.float32)
 
 
-def test_regions_on_the_spec_scene():
-    disp, grey = _spec_scene()
+def test_regions_on_the_step_scene():
+    disp, grey = _step_scene()
     r = middlebury_regions(disp, image=grey, disc_includes_occlusions=False)
-    # occluded strip = d_fg - d_bg = 15 px left of the foreground (cols 35..49), SPEC §6.4 [V]
+    # occluded strip = d_fg - d_bg = 15 px left of the foreground (cols 35..49)
     assert not r["nonocc"][40, 35:50].any() and r["nonocc"][40, 30:35].all() and r["nonocc"][40, 50:110].all()
     # disc: the jump at cols 89|90 marks both, dilated by 9x9 -> cols 85..94 (band of 2 + 8 px)
     assert r["disc"][40, 85:95].all() and not r["disc"][40, 84] and not r["disc"][40, 95]
@@ -181,6 +181,32 @@ def test_bad_input():
         middlebury_regions(t, image=np.zeros((31, 30), np.float32))
     with pytest.raises(ValueError, match="border must be an integer >= 0"):
         middlebury_regions(t, border=-1)
+    with pytest.raises(ValueError, match=r"truth must have shape \(H, W\); got \(30,\)"):
+        middlebury_regions(t[0])
+    with pytest.raises(TypeError, match="masks must be a non-empty dict of region name"):
+        evaluate_disparity(t, t, masks={})
+    with pytest.raises(ValueError, match=r"mask must have the shape of reference \(30, 30\); got \(30, 29\)"):
+        mask_agreement(np.ones((30, 29), bool), np.ones((30, 30), bool))
+
+
+def test_bad_mask_folders(tmp_path):
+    with pytest.raises(FileNotFoundError, match="masks folder .* does not exist"):
+        read_middlebury_masks(tmp_path / "nope")
+    rgb = np.zeros((4, 4, 3), np.uint8)
+    rgb[..., 0] = 255
+    cv2.imwrite(str(tmp_path / "nonocc.png"), rgb)
+    with pytest.raises(ValueError, match="must be grey"):
+        read_middlebury_masks(tmp_path)
+
+
+@pytest.mark.parametrize(("step", "textureless"), [(3.9, True), (4.1, False)])
+def test_textureless_threshold_is_an_rms_gradient_of_4_grey_levels(step, textureless):
+    """A horizontal ramp of ``step`` grey levels per pixel: the squared difference is step^2 everywhere,
+    so it is textureless exactly when step < 4 (Scharstein & Szeliski 2002: eval_textureless_thresh 4)."""
+    ramp = (np.arange(40) * step / 255.0)[None, :].repeat(30, axis=0).astype(np.float32)
+    r = middlebury_regions(np.full((30, 40), 5.0), image=ramp)
+    assert r["nonocc"].any()
+    assert (r["textureless"] == r["nonocc"]).all() if textureless else not r["textureless"].any()
 
 
 def test_textureless_region_on_tsukuba_is_plausible(shared_data):

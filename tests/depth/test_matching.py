@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vergence.depth import (
-    METHODS,
+    MATCHERS,
     compute_disparity,
     evaluate_disparity,
     match_blocks,
@@ -48,7 +48,7 @@ def _shifted_pair(shift: float, h: int = 60, w: int = 120) -> tuple[np.ndarray, 
     return np.ascontiguousarray(left), np.ascontiguousarray(right)
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", MATCHERS)
 @pytest.mark.parametrize("shift", [6.0, 9.5])
 def test_every_matcher_recovers_a_subpixel_shift(method, shift):
     left, right = _shifted_pair(shift)
@@ -87,9 +87,36 @@ def test_keep_invalid_keeps_nan():
 
 def test_sgbm_parameters_by_hand():
     p = sgbm_parameters(288, 384, 16, 3)
-    assert (p["blockSize"], p["P1"], p["P2"], p["numDisparities"]) == (3, 216, 432, 16)
-    assert p["mode"] == cv2.StereoSGBM_MODE_SGBM_3WAY
+    assert p == {"numDisparities": 16, "blockSize": 3, "P1": 216, "P2": 432, "uniquenessRatio": 10,
+                 "disp12MaxDiff": 1, "preFilterCap": 15, "speckleWindowSize": 0, "speckleRange": 0,
+                 "mode": cv2.StereoSGBM_MODE_SGBM_3WAY}
     assert sgbm_parameters(1080, 1920, 128, 1)["blockSize"] == 5
+
+
+def test_bm_settings_are_the_documented_ones(monkeypatch):
+    """match_bm's docstring: texture threshold 10, uniqueness 15 %, left-right check at 1 px (and OpenCV's
+    pre-filter cap 31); block 9 px up to 1000 px."""
+    made = []
+    create = cv2.StereoBM_create
+    monkeypatch.setattr(cv2, "StereoBM_create", lambda **kw: made.append(create(**kw)) or made[-1])
+    img = np.random.default_rng(0).random((40, 80)).astype(np.float32)
+    match_bm(img, img, max_disparity=16, min_disparity=2)
+    bm = made[0]
+    assert (bm.getTextureThreshold(), bm.getUniquenessRatio(), bm.getDisp12MaxDiff(), bm.getPreFilterCap(),
+            bm.getBlockSize(), bm.getMinDisparity(), bm.getNumDisparities()) == (10, 15, 1, 31, 9, 2, 16)
+
+
+def test_matcher_table_is_the_dispatch():
+    assert tuple(MATCHERS) == ("bm", "ncc", "sad", "sgbm", "ssd")
+    assert MATCHERS["sgbm"] is match_sgbm and MATCHERS["bm"] is match_bm
+    rng = np.random.default_rng(1)
+    right = rng.random((24, 64)).astype(np.float32)
+    left = np.roll(right, 4, axis=1)
+    for cost in ("ncc", "sad", "ssd"):
+        np.testing.assert_array_equal(MATCHERS[cost](left, right, max_disparity=16, min_disparity=0, block_size=None),
+                                      match_blocks(left, right, max_disparity=16, cost=cost))
+    with pytest.raises(ValueError, match="method must be one of bm, ncc, sad, sgbm, ssd; got 'census'"):
+        compute_disparity(left, right, max_disparity=16, method="census")
 
 
 def _middlebury(folder, names, scale):

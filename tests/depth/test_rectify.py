@@ -1,4 +1,4 @@
-"""FTV rectification (SPEC §4): exact geometry on synthetic cameras, row alignment on real pairs, errors."""
+"""FTV rectification (Fusiello et al. 2000): exact geometry on synthetic cameras, row alignment on real pairs, errors."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def _camera(K, axis, angle, centre, width=640, height=480) -> Camera:
 
 @pytest.fixture
 def verged_pair() -> tuple[Camera, Camera]:
-    """SPEC check's pair: different intrinsics (one skewed), rotations and a baseline off the x axis."""
+    """A hard pair: different intrinsics (one skewed), rotations and a baseline off the x axis."""
     K1 = np.array([[1000, 2, 320], [0, 990, 240], [0, 0, 1.0]])
     K2 = np.array([[1100, 0, 300], [0, 1080, 250], [0, 0, 1.0]])
     return _camera(K1, [0.2, 1, 0.1], 0.1, [0, 0, 0]), _camera(K2, [-0.1, 1, 0.3], -0.15, [0.5, 0.05, 0.03])
@@ -44,7 +44,7 @@ def test_conjugate_points_share_rows_and_homographies_match_the_new_cameras(verg
     pts = np.column_stack([rng.uniform(-2, 2, (50, 2)), rng.uniform(4, 10, 50)])
     nl, _ = rect.left_camera.project(pts)
     nr, _ = rect.right_camera.project(pts)
-    np.testing.assert_allclose(nl[:, 1], nr[:, 1], rtol=0, atol=ROW_ATOL_PX)  # SPEC §4 check
+    np.testing.assert_allclose(nl[:, 1], nr[:, 1], rtol=0, atol=ROW_ATOL_PX)  # Fusiello et al. 2000: conjugate rows equal
     for cam, new, T in ((left, nl, rect.left_homography), (right, nr, rect.right_homography)):
         old, _ = cam.project(pts)
         h = np.column_stack([old, np.ones(len(old))]) @ T.T
@@ -118,6 +118,30 @@ def test_measure_is_reproducible(shared_data):
     np.testing.assert_array_equal(measure_row_alignment(a, b).abs_dy_px, measure_row_alignment(a, b).abs_dy_px)
 
 
+def test_new_axes_and_common_intrinsics_by_the_construction(verged_pair):
+    """Fusiello et al. 2000: r1 along c_right - c_left, r2 = k x r1 with k the old LEFT optical axis,
+    r3 = r1 x r2; A = (A_1 + A_2) / 2 with zero skew (the skew of K1 must not survive)."""
+    left, right = verged_pair
+    rect = rectify_cameras(left, right)
+    r1 = (right.center - left.center) / np.linalg.norm(right.center - left.center)
+    r2 = np.cross(left.R[2], r1)
+    r2 /= np.linalg.norm(r2)
+    np.testing.assert_allclose(rect.left_camera.R, np.stack([r1, r2, np.cross(r1, r2)]), rtol=0, atol=1e-15)
+    for cam in (rect.left_camera, rect.right_camera):
+        assert cam.K[0, 1] == 0.0
+        assert (cam.K[0, 0], cam.K[1, 1]) == ((1000 + 1100) / 2, (990 + 1080) / 2)
+
+
+def test_output_growth_limit_is_16_times_the_input_area():
+    origin = look_at([0, 0, 0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=64, height=48)
+    steep = look_at([0.8, 0, 1.0], [0.8, 0, 6], [0, -1, 0], fov_deg=60, width=64, height=48)  # 31 times
+    with pytest.raises(ValueError, match="over 16 times the input area"):
+        rectify_cameras(origin, steep)
+    wide = look_at([1.0, 0, 1.0], [1.0, 0, 6], [0, -1, 0], fov_deg=60, width=64, height=48)
+    rect = rectify_cameras(origin, wide)  # 10 times: accepted
+    assert 9 * 64 * 48 < rect.left_camera.width * rect.left_camera.height <= 16 * 64 * 48
+
+
 def test_bad_geometry(verged_pair):
     left, right = verged_pair
     with pytest.raises(ValueError, match=r"distinct centres \(baseline > 0\); got baseline 0"):
@@ -149,3 +173,5 @@ def test_bad_images(verged_pair):
         rectify_pair(img, img[:, :, 0], left, right)
     with pytest.raises(ValueError, match=r"too few SIFT features to measure the row alignment"):
         measure_row_alignment(img, img)
+    with pytest.raises(TypeError, match="right_camera must be a Camera; got str"):
+        rectify_pair(img, img, left, "right")

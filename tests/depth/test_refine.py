@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from vergence.depth import (
+    SMOOTHING_METHODS,
+    RefinedDisparity,
     confidence_map,
     evaluate_disparity,
     fill_occlusions,
@@ -18,6 +20,7 @@ from vergence.depth import (
     unreliable_pixels,
     weighted_median_filter,
 )
+from vergence.depth.refine import default_radius
 from vergence.io import read_disparity, read_image
 
 # WLS works at 1/16 px (OpenCV fixed point): a constant map comes back within one step.
@@ -63,6 +66,81 @@ def test_unreliable_pixels_by_hand():
     u = unreliable_pixels(d)
     assert u[:, 3:7].all() and not u[:, 8:].any()  # both edge pixels, dilated by one
     assert u[2, 1] and u[1, 1]  # the outlier and its neighbours (it is a jump >= 1)
+
+
+def test_outlier_rule_is_more_than_one_pixel_off_the_3x3_median():
+    """With jumps set too high to fire, only the median rule marks: |d - median3x3(d)| > 1 px."""
+    d = np.full((7, 7), 10.0, np.float32)
+    d[1, 1] = 12.0  # 2 px off its median (10): an outlier
+    d[5, 5] = 11.0  # exactly 1 px off: not an outlier (strictly greater)
+    d[3, 5] = 11.5  # 1.5 px off: an outlier
+    u = unreliable_pixels(d, jump=5.0)
+    expected = np.zeros(d.shape, bool)
+    expected[1, 1] = expected[3, 5] = True
+    np.testing.assert_array_equal(u, expected)
+
+
+def test_smoothing_table_names_every_stage():
+    assert tuple(SMOOTHING_METHODS) == ("median", "wls", "none")
+    d = np.full((12, 12), 5.0, np.float32)
+    d[:, :3] = np.nan
+    img = np.zeros((12, 12), np.float32)
+    out = refine_disparity(d, img, smoothing="none")
+    np.testing.assert_array_equal(out.disparity, np.full((12, 12), 5.0, np.float32))  # filled, not smoothed
+    np.testing.assert_array_equal(out.matched, np.isfinite(d))
+
+
+def test_refined_disparity_to_dict_by_hand():
+    d = np.array([[1.0, np.nan], [3.0, 2.0]], np.float32)
+    res = RefinedDisparity(d, np.zeros_like(d), np.array([[True, False], [False, False]]))
+    assert res.to_dict() == {"width": 2, "height": 2, "matched_percent": 25.0, "known_percent": 75.0,
+                             "disparity_min": 1.0, "disparity_max": 3.0}
+    none = RefinedDisparity(np.full((1, 2), np.nan, np.float32), np.zeros((1, 2), np.float32), np.zeros((1, 2), bool))
+    assert none.to_dict()["disparity_min"] is None and none.to_dict()["known_percent"] == 0.0
+
+
+def test_default_speckle_size_is_the_area_over_2000():
+    """300 x 300: blobs below 45 px go, larger ones stay (the default of refine_disparity)."""
+    d = np.full((300, 300), 10.0, np.float32)
+    d[50:60, 50:60] = 30.0  # 100 px: kept
+    d[200:205, 200:205] = 30.0  # 25 px: a speckle
+    img = np.zeros((300, 300), np.float32)
+    matched = refine_disparity(d, img, smoothing="none").matched
+    assert matched[50:60, 50:60].all() and not matched[200:205, 200:205].any()
+
+
+def test_default_radius_by_hand():
+    assert (default_radius(480, 640), default_radius(100, 90), default_radius(1080, 1920)) == (27, 8, 80)
+
+
+def test_median_smoothing_samples_the_window_every_radius_over_8_pixels():
+    """The documented pipeline: fill, then the weighted median at the unreliable pixels, step max(1, r // 8)."""
+    rng = np.random.default_rng(3)
+    d = np.full((60, 80), 8.0, np.float32)
+    d[:, 40:] = 14.0
+    d += rng.normal(0, 0.6, d.shape).astype(np.float32)
+    img = np.where(np.arange(80) < 37, 0.2, 0.8)[None, :].repeat(60, axis=0).astype(np.float32)
+    out = refine_disparity(d, img, radius=16, speckle_size=1).disparity
+    raw = remove_speckles(d, max_size=1)
+    filled = fill_occlusions(raw)
+    expected = weighted_median_filter(filled, img, radius=16, step=2, update=unreliable_pixels(filled),
+                                      support=np.isfinite(raw))
+    np.testing.assert_array_equal(out, expected)
+
+
+def test_confidence_by_hand():
+    """c = exp(-(d_refined - d_raw)^2 / 2) (1 - exp(-r / 2)), r = distance to the nearest unreliable pixel."""
+    refined = np.full((40, 60), 5.0, np.float32)
+    refined[:, 30:] = 10.0  # unreliable: columns 28..31
+    raw = refined.copy()
+    raw[20, 5] = 7.0  # 2 px off, far from the edge
+    raw[5, 5] = np.nan
+    c = confidence_map(raw, refined)
+    assert c[5, 5] == 0.0 and c[10, 29] == 0.0
+    far = 1.0 - np.exp(-0.5 * 23.0)  # column 5 is 23 px from column 28
+    assert c[10, 5] == pytest.approx(far, rel=1e-3)
+    assert c[20, 5] == pytest.approx(np.exp(-2.0) * far, rel=1e-3)
+    assert c[10, 27] == pytest.approx(1.0 - np.exp(-0.5), rel=0.1)  # one pixel from the edge band
 
 
 def test_weighted_median_snaps_a_disparity_edge_to_the_image_edge():
@@ -133,3 +211,31 @@ def test_bad_input():
         left_right_check(d, d[:, :-1])
     with pytest.raises(ValueError, match=r"raw must have shape \(H, W\); got \(5,\)"):
         confidence_map(np.zeros(5), np.zeros(5))
+
+
+def test_more_bad_input():
+    d = np.zeros((6, 8), np.float32)
+    img = np.zeros((6, 8), np.float32)
+    with pytest.raises(ValueError, match=r"disparity must be complete \(no NaN\); fill it first"):
+        unreliable_pixels(np.where(d == 0, np.nan, d))
+    with pytest.raises(ValueError, match=r"update must have shape \(6, 8\); got \(6, 7\)"):
+        weighted_median_filter(d, img, radius=2, update=np.ones((6, 7), bool))
+    no_votes = weighted_median_filter(d + 3, img, radius=2, support=np.zeros((6, 8), bool))
+    np.testing.assert_array_equal(no_votes, d + 3)  # nobody may vote: unchanged
+    with pytest.raises(ValueError, match=r"disparity must stay within \+-2047 px for WLS smoothing"):
+        smooth_wls(d + 2047.0, img)
+    with pytest.raises(ValueError, match=r"disparity must be complete \(no NaN\) for WLS smoothing"):
+        smooth_wls(np.where(d == 0, np.nan, d), img)
+
+
+def test_disparity_preview():
+    from vergence.depth import disparity_preview
+
+    rgb = disparity_preview(np.array([[0.0, 10.0, np.nan, 20.0]]), lo=0.0, hi=10.0)
+    assert rgb.shape == (1, 4, 3) and rgb.dtype == np.float32
+    np.testing.assert_array_equal(rgb[0, 2], 0.0)  # unknown: black
+    np.testing.assert_array_equal(rgb[0, 3], rgb[0, 1])  # clipped at hi
+    with pytest.raises(ValueError, match="hi must be finite and greater than lo; got lo=1.0, hi=1.0"):
+        disparity_preview(np.zeros((2, 2)), lo=1.0, hi=1.0)
+    with pytest.raises(ValueError, match=r"disparity must have shape \(H, W\); got \(4,\)"):
+        disparity_preview(np.zeros(4), lo=0.0, hi=1.0)

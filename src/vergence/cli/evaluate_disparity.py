@@ -1,4 +1,4 @@
-"""``vergence evaluate-disparity``: Middlebury bad-pixel and RMS figures (S1 Eq. 9-10, SPEC §6.4)."""
+"""``vergence evaluate-disparity``: Middlebury bad-pixel and RMS figures (S1 Eq. 9-10; Scharstein & Szeliski 2002)."""
 
 from __future__ import annotations
 

@@ -7,18 +7,15 @@ from pathlib import Path
 import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
-from vergence.io import read_disparity, read_image, write_image, write_json
+from vergence.io import read_disparity, read_image, stores_integers, write_image, write_json
 from vergence.synthesis import FILL_METHODS, interpolate_view
 
 __all__ = ["interpolate"]
 
-_INTEGER_DISPARITY = (".png", ".pgm")
-
-
 def _disparity(path: Path, scale: float | None):
     """PNG/PGM: value / scale (0 = unknown); PFM/NPY: pixels as stored (NaN, inf = unknown; 0 is a
     real disparity, a point at infinity). The scale applies to PNG/PGM only."""
-    if path.suffix.lower() in _INTEGER_DISPARITY:
+    if stores_integers(path):
         return read_disparity(path, scale=scale)
     if scale is not None and scale != 1.0:
         raise ValueError(f"--disparity-scale applies to PNG/PGM disparity files only; {path} holds pixels (got {scale:g})")

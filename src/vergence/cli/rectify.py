@@ -1,4 +1,4 @@
-"""``vergence rectify``: Fusiello-Trucco-Verri rectification of a calibrated pair (SPEC §4, S2 §3.2).
+"""``vergence rectify``: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000; S2 §3.2).
 
 Writes ``DIR/left.png``, ``DIR/right.png`` and ``DIR/rectification.json`` (rectified cameras,
 homographies, baseline, focal length, doffs and, with ``--check``, the measured row alignment).
@@ -8,35 +8,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import typer
 
-from vergence.camera import Camera
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
-from vergence.io import read_cameras, read_image, write_image, write_json
+from vergence.io import cameras_for_images, read_image, write_image, write_json
 
 __all__ = ["rectify"]
-
-
-def _read_pair(cameras: Path, left: Path, right: Path, sizes: tuple[tuple[int, int], tuple[int, int]],
-               image_list: Path | None) -> list[tuple[Camera, np.ndarray]]:
-    """The camera and distortion of each image, sized by that image (``*_par.txt`` and ``bundle.out``
-    store no image size; a Bundler K depends on it). The file is read again only if the sizes differ."""
-    sets = {}
-    for size in sizes:
-        if size not in sets:
-            sets[size] = read_cameras(cameras, image_size=size, image_list=image_list)
-    first = sets[sizes[0]]
-    if (image_list is None and cameras.suffix.lower() == ".out" and Path(left).name not in first.names
-            and first.names == tuple(str(i) for i in range(len(first)))):
-        raise ValueError(f"{cameras.name} does not name its images and no list.txt was found beside it; "
-                         "pass --image-list with Bundler's list.txt")
-    out = []
-    for path, size in zip((left, right), sizes):
-        cams = sets[size]
-        out.append((cams.camera(path.name), cams.distortion[cams.index(path.name)]))
-    return out
 
 
 @app.command("rectify")
@@ -63,15 +41,16 @@ def rectify(
         check_output_path(o, left, right, cameras)
     with err_console.status("rectifying", spinner="dots"):
         a, b = read_image(left), read_image(right)
-        (cam_l, dist_l), (cam_r, dist_r) = _read_pair(
-            cameras, left, right, ((a.shape[1], a.shape[0]), (b.shape[1], b.shape[0])), image_list)
+        try:
+            (cam_l, dist_l), (cam_r, dist_r) = cameras_for_images(
+                cameras, [(left, (a.shape[1], a.shape[0])), (right, (b.shape[1], b.shape[0]))], image_list=image_list)
+        except ValueError as exc:  # the library names its argument; here it is an option
+            raise ValueError(str(exc).replace("pass image_list", "pass --image-list")) from exc
         pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
                             common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
         if check:
-            rows = measure_row_alignment(pair.left, pair.right)
-            data["row_alignment"] = {"median_abs_dy_px": rows.median_abs_dy_px,
-                                     "p90_abs_dy_px": rows.p90_abs_dy_px, "matches": rows.matches}
+            data["row_alignment"] = measure_row_alignment(pair.left, pair.right).to_dict()
     out.mkdir(parents=True, exist_ok=True)
     write_image(outputs[0], pair.left)
     write_image(outputs[1], pair.right)

@@ -1,6 +1,6 @@
 """Depth from stereo (S1 §III, §V.A; S2 §3.2): rectification, matching, refinement, evaluation.
 
-- :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (SPEC §4).
+- :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000).
 - :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
 - :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
 - :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
@@ -17,12 +17,13 @@ from vergence.depth.evaluate import (
     read_middlebury_masks,
 )
 from vergence.depth.matching import (
-    METHODS,
+    MATCHERS,
     compute_disparity,
     match_bm,
     match_sgbm,
     sgbm_parameters,
 )
+from vergence.depth.preview import disparity_preview
 from vergence.depth.rectify import (
     Rectification,
     RectifiedPair,
@@ -32,6 +33,7 @@ from vergence.depth.rectify import (
     rectify_pair,
 )
 from vergence.depth.refine import (
+    SMOOTHING_METHODS,
     RefinedDisparity,
     confidence_map,
     fill_occlusions,
@@ -44,16 +46,18 @@ from vergence.depth.refine import (
 )
 
 __all__ = [
-    "METHODS",
+    "MATCHERS",
     "Rectification",
     "RectifiedPair",
     "RefinedDisparity",
     "RegionScore",
     "RowAlignment",
+    "SMOOTHING_METHODS",
     "compute_disparity",
     "confidence_map",
     "depth_from_disparity",
     "disparity_from_depth",
+    "disparity_preview",
     "evaluate_disparity",
     "fill_occlusions",
     "left_right_check",

@@ -8,6 +8,9 @@ check). Images are processed whole, one disparity at a time: memory stays at a f
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from types import MappingProxyType
+
 import cv2
 import numpy as np
 
@@ -15,25 +18,42 @@ from vergence.depth._pair import check_block_size, check_disparity_range, stereo
 
 __all__ = ["COSTS", "match_blocks"]
 
-COSTS = ("ncc", "sad", "ssd")
 # NCC denominators below this (8-bit levels squared) mean a flat window: no correlation is defined.
 _FLAT_VARIANCE = 1e-6
 
 
-def _cost(left: np.ndarray, right_shift: np.ndarray, kind: str, block: int, stats: tuple) -> np.ndarray:
-    """Window cost at one disparity (lower is better); ``stats`` caches the left means/variances."""
+def _cost_sad(left: np.ndarray, right_shift: np.ndarray, block: int, cache: dict) -> np.ndarray:
+    """Sum of absolute differences over the window (summed over channels)."""
+    return cv2.blur(np.abs(left - right_shift).sum(axis=2), (block, block))
+
+
+def _cost_ssd(left: np.ndarray, right_shift: np.ndarray, block: int, cache: dict) -> np.ndarray:
+    """Sum of squared differences over the window (summed over channels)."""
+    return cv2.blur(((left - right_shift) ** 2).sum(axis=2), (block, block))
+
+
+def _cost_ncc(left: np.ndarray, right_shift: np.ndarray, block: int, cache: dict) -> np.ndarray:
+    """One minus the normalised cross-correlation (averaged over channels); ``cache`` keeps the left
+    window means and variances across disparities."""
     box = (block, block)
-    if kind == "sad":
-        return cv2.blur(np.abs(left - right_shift).sum(axis=2), box)
-    if kind == "ssd":
-        return cv2.blur(((left - right_shift) ** 2).sum(axis=2), box)
-    mean_l, var_l = stats
+    if not cache:
+        mean_l = cv2.blur(left, box).reshape(left.shape)
+        cache["left"] = (mean_l, cv2.blur(left * left, box).reshape(left.shape) - mean_l * mean_l)
+    mean_l, var_l = cache["left"]
     mean_r = cv2.blur(right_shift, box).reshape(left.shape)
     var_r = cv2.blur(right_shift * right_shift, box).reshape(left.shape) - mean_r * mean_r
     cross = cv2.blur(left * right_shift, box).reshape(left.shape) - mean_l * mean_r
     denom = np.sqrt(np.maximum(var_l, 0.0) * np.maximum(var_r, 0.0))
     ncc = np.where(denom > _FLAT_VARIANCE, cross / np.maximum(denom, _FLAT_VARIANCE), 0.0)
     return 1.0 - ncc.mean(axis=2)  # 0 for a perfect correlation, 2 for an inverted one
+
+
+COSTS: MappingProxyType[str, Callable[[np.ndarray, np.ndarray, int, dict], np.ndarray]] = MappingProxyType({
+    "ncc": _cost_ncc,
+    "sad": _cost_sad,
+    "ssd": _cost_ssd,
+})
+"""Window cost name -> ``cost(left, right_shifted, block, cache)`` (lower is better); read-only."""
 
 
 def match_blocks(
@@ -53,8 +73,8 @@ def match_blocks(
         Rectified pair in [0, 1], same size, both grey or both colour.
     max_disparity, min_disparity : int
         Disparity search range, pixels.
-    cost : {"sad", "ssd", "ncc"}
-        Sum of absolute or squared differences over the window (summed over channels), or one
+    cost : str
+        A name of :data:`COSTS`: sum of absolute or squared differences over the window (summed over channels), or one
         minus the normalised cross-correlation (averaged over channels).
     block_size : int, optional
         Odd window size; default 7 px up to 1000 px, 11 beyond.
@@ -76,10 +96,7 @@ def match_blocks(
     L = a.astype(np.float32).reshape(a.shape[0], a.shape[1], -1)
     R = b.astype(np.float32).reshape(L.shape)
     h, w, _ = L.shape
-    stats = ()
-    if cost == "ncc":
-        mean_l = cv2.blur(L, (bs, bs)).reshape(L.shape)
-        stats = (mean_l, cv2.blur(L * L, (bs, bs)).reshape(L.shape) - mean_l * mean_l)
+    cost_of, cache = COSTS[cost], {}
     inf = np.float32(np.inf)
     best = np.full((h, w), inf, np.float32)
     best_d = np.full((h, w), np.nan, np.float32)
@@ -95,7 +112,7 @@ def match_blocks(
         if x1 <= x0:
             continue
         shifted[:, x0:x1] = R[:, x0 - d:x1 - d]
-        c = _cost(L, shifted, cost, bs, stats).astype(np.float32)
+        c = cost_of(L, shifted, bs, cache).astype(np.float32)
         c[:, :x0] = inf
         c[:, x1:] = inf
         c_plus[just_won] = c[just_won]

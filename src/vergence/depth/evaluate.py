@@ -1,6 +1,6 @@
 """Middlebury stereo evaluation: bad-pixel percentage and RMS error over the standard regions.
 
-S1 §V.A Eq. (9)-(10), SPEC §6.4 (Scharstein & Szeliski 2002; StereoMatcher ``StcEvaluate.cpp``).
+S1 §V.A Eq. (9)-(10); Scharstein & Szeliski 2002 and their StereoMatcher code (``StcEvaluate.cpp``).
 Regions come from the official Middlebury masks when given (``nonocc.png``, ``all.png``,
 ``disc.png``: 255 = evaluate) or are computed from the ground truth. Disparity is
 ``x_left - x_right`` in pixels, NaN = unknown (``docs/conventions.md``).
@@ -19,7 +19,7 @@ from vergence._validate import as_float_array, as_image, check_positive, check_s
 
 __all__ = ["RegionScore", "evaluate_disparity", "mask_agreement", "middlebury_regions", "read_middlebury_masks"]
 
-# StereoMatcher's evaluation constants (SPEC §6.4).
+# StereoMatcher's evaluation constants (Scharstein & Szeliski 2002, ``StcEvaluate.cpp``).
 EVAL_BAD_THRESH = 1.0
 EVAL_TEXTURELESS_WIDTH = 3
 EVAL_TEXTURELESS_THRESH = 4.0
@@ -59,7 +59,7 @@ def _border_mask(shape: tuple[int, int], border: int) -> np.ndarray:
 
 
 def _occluded(d_left: np.ndarray, d_right: np.ndarray | None, thresh: float) -> np.ndarray:
-    """SPEC §6.4 nonocc rule: occluded if ``x - round(d_L)`` leaves the image or ``d_R(x_r) > d_L + thresh``."""
+    """Middlebury nonocc rule (Scharstein & Szeliski 2002): occluded if ``x - round(d_L)`` leaves the image or ``d_R(x_r) > d_L + thresh``."""
     h, w = d_left.shape
     known = np.isfinite(d_left)
     ys, xs = np.nonzero(known)
@@ -118,7 +118,7 @@ def middlebury_regions(
     border: int = EVAL_IGNORE_BORDER,
     disc_includes_occlusions: bool = True,
 ) -> dict[str, np.ndarray]:
-    """Compute the Middlebury evaluation regions from ground truth (SPEC §6.4).
+    """Compute the Middlebury evaluation regions from ground truth (Scharstein & Szeliski 2002).
 
     Parameters
     ----------
@@ -134,7 +134,7 @@ def middlebury_regions(
     disc_includes_occlusions : bool
         Also grow the discontinuity region from occluded pixels, as the official Middlebury v2
         ``disc.png`` masks do (agreement 99.97 % on tsukuba, 99.7 % on venus against 98.9 % and
-        98.4 % without); False gives SPEC §6.4's jumps-only region.
+        98.4 % without); False gives StereoMatcher's jumps-only region.
 
     Returns
     -------

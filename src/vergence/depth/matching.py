@@ -8,17 +8,19 @@ S1 §III.B: local (window) matching and global matching minimising ``E(d) = E_da
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+from types import MappingProxyType
+
 import cv2
 import numpy as np
 
 from vergence._validate import as_image, check_positive_int
 from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
-from vergence.depth.block import match_blocks
+from vergence.depth.block import COSTS, match_blocks
 from vergence.depth.refine import RefinedDisparity, refine_disparity
 
-__all__ = ["METHODS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
-
-METHODS = ("bm", "ncc", "sad", "sgbm", "ssd")
+__all__ = ["MATCHERS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
 
 
 def sgbm_parameters(height: int, width: int, num_disparities: int, channels: int) -> dict:
@@ -105,6 +107,14 @@ def match_bm(
     return _from_fixed(bm.compute(a, b), lo, hi)
 
 
+MATCHERS: MappingProxyType[str, Callable[..., np.ndarray]] = MappingProxyType(dict(sorted(
+    {"bm": match_bm, "sgbm": match_sgbm, **{c: partial(match_blocks, cost=c) for c in COSTS}}.items())))
+"""Matcher name -> ``matcher(left, right, *, max_disparity, min_disparity, block_size)`` giving raw
+disparity (NaN = no answer); read-only: OpenCV's ``bm`` and ``sgbm``, and one window matcher per
+:data:`~vergence.depth.block.COSTS` entry. :func:`compute_disparity`, its error message and the CLI's
+``--method`` choices all read this table."""
+
+
 def compute_disparity(
     left: object,
     right: object,
@@ -124,11 +134,12 @@ def compute_disparity(
         Rectified pair, same size, both grey or both colour.
     max_disparity, min_disparity : int
         Disparity search range, pixels; it must fit inside the image width.
-    method : {"sgbm", "bm", "sad", "ssd", "ncc"}
-        ``sgbm``: :func:`match_sgbm` (default); ``bm``: :func:`match_bm`; ``sad``/``ssd``/``ncc``:
-        :func:`~vergence.depth.block.match_blocks` with that window cost.
-    smoothing : {"median", "wls", "none"}
-        Edge-aware smoothing of :func:`~vergence.depth.refine.refine_disparity`.
+    method : str
+        A name of :data:`MATCHERS`: ``sgbm``: :func:`match_sgbm` (default); ``bm``: :func:`match_bm`;
+        ``sad``/``ssd``/``ncc``: :func:`~vergence.depth.block.match_blocks` with that window cost.
+    smoothing : str
+        A name of :data:`~vergence.depth.refine.SMOOTHING_METHODS` (``median``, ``wls``, ``none``):
+        the edge-aware smoothing of :func:`~vergence.depth.refine.refine_disparity`.
     keep_invalid : bool
         Keep NaN where the matcher gave no answer; by default every pixel gets a disparity
         (background extrapolation, S1 §III.B).
@@ -155,13 +166,8 @@ def compute_disparity(
     >>> float(np.median(res.disparity[:, 20:]))
     5.0
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
-    kw = {"max_disparity": max_disparity, "min_disparity": min_disparity, "block_size": block_size}
-    if method == "sgbm":
-        raw = match_sgbm(left, right, **kw)
-    elif method == "bm":
-        raw = match_bm(left, right, **kw)
-    else:
-        raw = match_blocks(left, right, cost=method, **kw)
+    if method not in MATCHERS:
+        raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
+    raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
+                           block_size=block_size)
     return refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)

@@ -1,6 +1,6 @@
 """Fusiello-Trucco-Verri rectification of a calibrated pair, and a check of its row alignment.
 
-SPEC §4 (Fusiello, Trucco, Verri 2000, restated in S2 §3.2): both cameras keep their centres and
+Fusiello et al. 2000 (restated in S2 §3.2): both cameras keep their centres and
 are rotated to share one orientation whose x axis is the baseline, so conjugate points lie on the
 same image row. Conventions: ``docs/conventions.md`` (x right, y down, z forward; pixel centres at
 integers; disparity ``x_left - x_right``).
@@ -39,9 +39,10 @@ class Rectification:
     Attributes
     ----------
     left_camera, right_camera : Camera
-        Rectified cameras: same rotation and focal lengths, centres unchanged (SPEC §4 step 4).
+        Rectified cameras: same rotation and focal lengths, centres unchanged (Fusiello et al. 2000:
+        ``P_n = A [R | -R c]``).
     left_homography, right_homography : (3, 3) arrays
-        ``T_k = Q_nk Q_ok^-1`` (SPEC §4 step 5): ``m_rectified ~ T_k m_original`` for undistorted pixels.
+        ``T_k = Q_nk Q_ok^-1`` (Fusiello et al. 2000): ``m_rectified ~ T_k m_original`` for undistorted pixels.
     baseline : float
         Distance between the centres, in world units.
     """
@@ -114,6 +115,11 @@ class RowAlignment:
         """90th percentile of the vertical offset, pixels."""
         return float(np.percentile(self.abs_dy_px, 90))
 
+    def to_dict(self) -> dict:
+        """``{"median_abs_dy_px": px, "p90_abs_dy_px": px, "matches": n}``."""
+        return {"median_abs_dy_px": self.median_abs_dy_px, "p90_abs_dy_px": self.p90_abs_dy_px,
+                "matches": self.matches}
+
 
 def _distortion(name: str, value: object) -> np.ndarray:
     if value is None:
@@ -157,7 +163,7 @@ def rectify_cameras(
     right_distortion: object = None,
     common_principal_point: bool = False,
 ) -> Rectification:
-    """Rectify a calibrated pair (FTV, SPEC §4) and size the outputs to keep both images in view.
+    """Rectify a calibrated pair (Fusiello et al. 2000) and size the outputs to keep both images in view.
 
     Parameters
     ----------
@@ -183,7 +189,7 @@ def rectify_cameras(
 
     Notes
     -----
-    SPEC §4: ``r1 = (c_right - c_left)/|.|``, ``r2 = k x r1`` with k the old left optical axis,
+    Fusiello et al. 2000: ``r1 = (c_right - c_left)/|.|``, ``r2 = k x r1`` with k the old left optical axis,
     ``r3 = r1 x r2``; ``A = (A_1 + A_2)/2`` with zero skew; ``T_k = A R (K_k R_k)^-1``. The principal
     points of A are then shifted so the rectified image extents fit in the output (same vertical shift
     for both, which keeps the rows aligned).
@@ -201,7 +207,8 @@ def rectify_cameras(
         raise TypeError("left and right must be Camera instances")
     d_l, d_r = _distortion("left_distortion", left_distortion), _distortion("right_distortion", right_distortion)
     c1, c2 = left.center, right.center
-    v1 = c2 - c1  # SPEC §4 step 2: c_right - c_left (c_left - c_right would turn both images by 180 deg)
+    # c_right - c_left as in S2 §3.2; the c_left - c_right of Fusiello et al. 2000's listing turns both images by 180 deg
+    v1 = c2 - c1
     baseline = float(np.linalg.norm(v1))
     scale = max(np.linalg.norm(c1), np.linalg.norm(c2))
     if baseline <= _MIN_BASELINE_REL * scale + 1e-12:
@@ -243,8 +250,8 @@ def rectify_cameras(
     for cam, c, cx in ((left, c1, cx_l), (right, c2, cx_r)):
         Ak = A.copy()
         Ak[0, 2], Ak[1, 2] = cx, cy
-        cams.append(Camera(K=Ak, R=R, t=-R @ c, width=width, height=height))  # SPEC §4 step 4
-        homs.append(Ak @ R @ cam.R.T @ np.linalg.inv(cam.K))  # SPEC §4 step 5: T = Q_n Q_o^-1
+        cams.append(Camera(K=Ak, R=R, t=-R @ c, width=width, height=height))  # P_n = A [R | -R c]
+        homs.append(Ak @ R @ cam.R.T @ np.linalg.inv(cam.K))  # T = Q_n Q_o^-1 (Fusiello et al. 2000)
     return Rectification(cams[0], cams[1], homs[0], homs[1], baseline)
 
 

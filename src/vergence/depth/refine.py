@@ -7,7 +7,9 @@ guide. Disparity is ``x_left - x_right`` in pixels, NaN = unknown (``docs/conven
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import cv2
 import numpy as np
@@ -23,6 +25,7 @@ from vergence.depth import _kernels
 
 __all__ = [
     "RefinedDisparity",
+    "SMOOTHING_METHODS",
     "confidence_map",
     "default_radius",
     "fill_occlusions",
@@ -34,7 +37,9 @@ __all__ = [
     "weighted_median_filter",
 ]
 
-_SMOOTHING = ("median", "wls", "none")
+# unreliable_pixels: a pixel further than this (pixels) from the median of its 3x3 neighbourhood
+# is an isolated outlier. 1 px is the Middlebury bad-pixel threshold (Scharstein & Szeliski 2002).
+_OUTLIER_PX = 1.0
 # Fixed point used by OpenCV's disparity filters: 1 px = 16 units in int16.
 _FIXED = 16.0
 # |disparity| limit that fits int16 at 1/16 px.
@@ -153,7 +158,7 @@ def unreliable_pixels(disparity: object, *, jump: float = 1.0) -> np.ndarray:
     mark[:-1] |= vj
     mark[1:] |= vj
     near = cv2.dilate(mark, np.ones((3, 3), np.uint8)) > 0
-    return near | (np.abs(cv2.medianBlur(d, 3) - d) > 1.0)
+    return near | (np.abs(cv2.medianBlur(d, 3) - d) > _OUTLIER_PX)
 
 
 def weighted_median_filter(
@@ -278,10 +283,53 @@ class RefinedDisparity:
     confidence: np.ndarray
     matched: np.ndarray
 
+    def to_dict(self) -> dict:
+        """JSON-ready summary: size, % matched, % with a disparity, known range (``None`` if none known)."""
+        d = self.disparity
+        known = np.isfinite(d)
+        return {
+            "width": int(d.shape[1]), "height": int(d.shape[0]),
+            "matched_percent": float(100.0 * self.matched.mean()),
+            "known_percent": float(100.0 * known.mean()),
+            "disparity_min": float(d[known].min()) if known.any() else None,
+            "disparity_max": float(d[known].max()) if known.any() else None,
+        }
+
 
 def default_radius(height: int, width: int) -> int:
     """Weighted-median radius for an image size: 1/24 of the larger side, at least 8 px."""
     return max(8, round(max(height, width) / 24.0))
+
+
+def _smooth_median(filled: np.ndarray, guide: object, matched: np.ndarray, *, radius: int, sigma_color: float,
+                   keep_invalid: bool) -> np.ndarray:
+    """Weighted median at the unreliable pixels (only the matched ones when ``keep_invalid``), matched votes."""
+    update = unreliable_pixels(filled)
+    if keep_invalid:
+        update &= matched
+    return weighted_median_filter(filled, guide, radius=radius, step=max(1, radius // 8), sigma_color=sigma_color,
+                                  update=update, support=matched)
+
+
+def _smooth_wls(filled: np.ndarray, guide: object, matched: np.ndarray, *, radius: int, sigma_color: float,
+                keep_invalid: bool) -> np.ndarray:
+    """:func:`smooth_wls` of the whole filled map with its own defaults."""
+    return smooth_wls(filled, guide)
+
+
+def _smooth_none(filled: np.ndarray, guide: object, matched: np.ndarray, *, radius: int, sigma_color: float,
+                 keep_invalid: bool) -> np.ndarray:
+    return filled
+
+
+SMOOTHING_METHODS: MappingProxyType[str, Callable[..., np.ndarray]] = MappingProxyType({
+    "median": _smooth_median,
+    "wls": _smooth_wls,
+    "none": _smooth_none,
+})
+"""Smoothing name -> stage ``smooth(filled, guide, matched, *, radius, sigma_color, keep_invalid)`` of
+:func:`refine_disparity`; read-only. The refinement, its error message and the CLI's ``--smoothing``
+choices all read this table."""
 
 
 def refine_disparity(
@@ -302,9 +350,10 @@ def refine_disparity(
         Raw disparity with NaN where the matcher gave no answer (occlusions, failed checks).
     guide : (H, W) or (H, W, C) image in [0, 1]
         The reference (left) image.
-    smoothing : {"median", "wls", "none"}
-        ``"median"``: :func:`weighted_median_filter` at the :func:`unreliable_pixels`, votes from the
-        matched pixels only; ``"wls"``: :func:`smooth_wls` on the filled map.
+    smoothing : str
+        A name of :data:`SMOOTHING_METHODS`. ``"median"``: :func:`weighted_median_filter` at the
+        :func:`unreliable_pixels`, votes from the matched pixels only; ``"wls"``: :func:`smooth_wls`
+        on the filled map; ``"none"``: the filled map as it is.
     keep_invalid : bool
         Leave unmatched pixels NaN instead of filling them.
     speckle_size : int, optional
@@ -331,8 +380,8 @@ def refine_disparity(
     """
     d = _disparity("disparity", disparity)
     _guide_u8("guide", guide, d)
-    if smoothing not in _SMOOTHING:
-        raise ValueError(f"smoothing must be one of {', '.join(_SMOOTHING)}; got {smoothing!r}")
+    if smoothing not in SMOOTHING_METHODS:
+        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_METHODS)}; got {smoothing!r}")
     h, w = d.shape
     size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
     r = default_radius(h, w) if radius is None else check_positive_int("radius", radius)
@@ -341,16 +390,8 @@ def refine_disparity(
     if not matched.any():
         raise ValueError("the matcher found no reliable disparity; check the disparity range and the image pair")
     filled = fill_occlusions(raw)
-    if smoothing == "median":
-        update = unreliable_pixels(filled)
-        if keep_invalid:
-            update &= matched
-        out = weighted_median_filter(filled, guide, radius=r, step=max(1, r // 8), sigma_color=sigma_color,
-                                     update=update, support=matched)
-    elif smoothing == "wls":
-        out = smooth_wls(filled, guide)
-    else:
-        out = filled
+    out = SMOOTHING_METHODS[smoothing](filled, guide, matched, radius=r, sigma_color=sigma_color,
+                                       keep_invalid=keep_invalid)
     if keep_invalid:
         out = np.where(matched, out, np.nan).astype(np.float32)
     return RefinedDisparity(out, confidence_map(raw, out), matched)

@@ -8,25 +8,23 @@ linear from float files; disparity maps are float32 ``(H, W)`` with NaN for unkn
 
 from vergence.io.atomic import atomic_write, write_json
 from vergence.io.bundler import read_bundler, write_bundler
-from vergence.io.cameras import (
-    CameraSet,
-    read_cameras,
-    read_cameras_json,
-    read_colmap,
-    read_middlebury_par,
-    write_cameras_json,
-    write_colmap,
-    write_middlebury_par,
-)
+from vergence.io.camera_set import CameraSet
+from vergence.io.cameras import CAMERA_FORMATS, CameraFormat, cameras_for_images, read_cameras, write_cameras
+from vergence.io.cameras_json import read_cameras_json, write_cameras_json
+from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.depth import DEPTH_KINDS, read_depth
-from vergence.io.disparity import read_disparity, write_disparity
+from vergence.io.disparity import read_disparity, stores_integers, write_disparity
 from vergence.io.images import read_image, write_image
+from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
 from vergence.io.pfm import read_pfm, write_pfm
 
 __all__ = [
+    "CAMERA_FORMATS",
+    "CameraFormat",
     "CameraSet",
     "DEPTH_KINDS",
     "atomic_write",
+    "cameras_for_images",
     "read_bundler",
     "read_cameras",
     "read_cameras_json",
@@ -36,7 +34,9 @@ __all__ = [
     "read_image",
     "read_middlebury_par",
     "read_pfm",
+    "stores_integers",
     "write_bundler",
+    "write_cameras",
     "write_cameras_json",
     "write_colmap",
     "write_disparity",

@@ -7,7 +7,7 @@ pixel: ``x = x_b + (W - 1)/2``, ``y = (H - 1)/2 - y_b`` (Bundler's ``ImageData::
 gives our camera frame (x right, y down, z forward) and pixel convention (``docs/conventions.md``).
 ``(k1, k2)`` act on the same normalised coordinates in both frames, so they are kept as OpenCV
 ``(k1, k2, 0, 0)``. Cameras that Bundler could not register (f = 0) are ``None`` in the
-:class:`~vergence.io.cameras.CameraSet`. The file stores no image size: it comes from the images
+:class:`~vergence.io.camera_set.CameraSet`. The file stores no image size: it comes from the images
 (named by Bundler's ``list.txt``) or from the caller.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 
 from vergence.camera import Camera
 from vergence.io._files import input_path
-from vergence.io.cameras import (
+from vergence.io.camera_set import (
     CameraSet,
     _camera,
     _check_set,

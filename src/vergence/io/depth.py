@@ -14,8 +14,8 @@ from types import MappingProxyType
 import numpy as np
 
 from vergence._validate import check_positive
-from vergence.io._files import input_path, suffix_of
-from vergence.io.disparity import read_disparity
+from vergence.io._files import input_path
+from vergence.io.disparity import read_disparity, stores_integers
 from vergence.io.images import read_image
 
 __all__ = ["DEPTH_KINDS", "read_depth"]
@@ -28,11 +28,6 @@ DEPTH_KINDS = MappingProxyType(
         "metric": "camera-frame z, > 0",
     }
 )
-
-# Files that store integers: a scale turns their values into the map's unit and 0 marks unknown
-# (except inverse depth, where 0 is the far plane).
-_INTEGER_SUFFIXES = (".pgm", ".png")
-
 
 def read_depth(path: str | os.PathLike[str], *, kind: str = "metric", scale: float | None = None) -> np.ndarray:
     """Read a depth map of ``kind`` as float32 ``(H, W)``, NaN where unknown.
@@ -74,7 +69,7 @@ def read_depth(path: str | os.PathLike[str], *, kind: str = "metric", scale: flo
     if scale is not None:
         check_positive("scale", scale)
     p = input_path(path)
-    integer = suffix_of(p) in _INTEGER_SUFFIXES
+    integer = stores_integers(p)  # a scale turns their values into the map's unit, 0 = unknown
     if kind == "inverse" and integer:
         depth = read_image(p)
         if depth.ndim != 2:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -33,10 +34,13 @@ from vergence.io.atomic import atomic_write
 from vergence.io.images import _decode_png, _encode, _load_npy, _save_npy
 from vergence.io.pfm import read_pfm, write_pfm
 
-__all__ = ["read_disparity", "write_disparity"]
+__all__ = ["read_disparity", "stores_integers", "write_disparity"]
 
-_INTEGER_SUFFIXES = (".pgm", ".png")
-_FLOAT_SUFFIXES = (".npy", ".pfm")
+# Disparity file extension -> whether the format stores integers (and so needs a scale, with 0 = unknown).
+# The one place this rule is written; everything else asks :func:`stores_integers`.
+_STORES_INTEGERS = MappingProxyType({".npy": False, ".pfm": False, ".pgm": True, ".png": True})
+_INTEGER_SUFFIXES = tuple(k for k, v in _STORES_INTEGERS.items() if v)
+_FLOAT_SUFFIXES = tuple(k for k, v in _STORES_INTEGERS.items() if not v)
 _SUPPORTED = ", ".join((*_FLOAT_SUFFIXES, *_INTEGER_SUFFIXES))
 
 
@@ -46,9 +50,34 @@ def _unknown_suffix(path: Path) -> ValueError:
     )
 
 
+def stores_integers(path: str | os.PathLike[str]) -> bool:
+    """Whether the disparity format of ``path`` (by its extension) stores integers.
+
+    ``.png``/``.pgm`` store ``round(disparity * scale)`` with 0 for unknown, so reading and writing
+    them needs a ``scale``; ``.pfm``/``.npy`` store float disparity and refuse one.
+
+    Raises
+    ------
+    ValueError
+        If the extension is not a disparity format (the message lists them).
+
+    Examples
+    --------
+    >>> stores_integers("disp.png"), stores_integers("disp.pfm")
+    (True, False)
+    """
+    if not isinstance(path, str | os.PathLike):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    p = Path(path)
+    suffix = suffix_of(p)
+    if suffix not in _STORES_INTEGERS:
+        raise _unknown_suffix(p)
+    return _STORES_INTEGERS[suffix]
+
+
 def _check_scale(scale: object, suffix: str, path: Path) -> float | None:
     """Scale is required for integer formats and refused for float ones."""
-    if suffix in _INTEGER_SUFFIXES:
+    if _STORES_INTEGERS[suffix]:
         if scale is None:
             raise ValueError(
                 f"scale is required for a {suffix} disparity map ({path}): disparity = value / scale "
@@ -101,9 +130,8 @@ def read_disparity(path: str | os.PathLike[str], *, scale: float | None = None) 
     array([[1.5, nan]], dtype=float32)
     """
     p = input_path(path)
+    stores_integers(p)
     suffix = suffix_of(p)
-    if suffix not in (*_INTEGER_SUFFIXES, *_FLOAT_SUFFIXES):
-        raise _unknown_suffix(p)
     factor = _check_scale(scale, suffix, p)
     if suffix == ".pfm":
         arr = read_pfm(p)
@@ -166,9 +194,8 @@ def write_disparity(
     if not isinstance(path, str | os.PathLike):
         raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
     p = Path(path)
+    stores_integers(p)
     suffix = suffix_of(p)
-    if suffix not in (*_INTEGER_SUFFIXES, *_FLOAT_SUFFIXES):
-        raise _unknown_suffix(p)
     factor = _check_scale(scale, suffix, p)
     arr = np.asarray(disparity)
     if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
