@@ -87,7 +87,7 @@ def test_import_vergence_does_not_import_mitsuba():
     import subprocess
     import sys
 
-    code = "import sys, vergence, vergence.cli, vergence.rig; print('mitsuba' in sys.modules, 'drjit' in sys.modules)"
+    code = "import sys, vergence, vergence.cli, vergence.rigs; print('mitsuba' in sys.modules, 'drjit' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
 

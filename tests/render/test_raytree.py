@@ -28,7 +28,7 @@ from vergence.render import (
     render_stereo,
     scene_from_dict,
 )
-from vergence.rig import stereo_pair
+from vergence.rigs import stereo_pair
 from vergence.viewing.geometry import Shooting, disparity
 
 W, H = 33, 25  # odd sizes: pixel (16, 12) lies on the optical axis

@@ -55,7 +55,8 @@ def render(
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""
     from vergence import render as vr
-    from vergence.rig import stereo_pair
+    from vergence.report.preview import save_render
+    from vergence.rigs import stereo_pair
 
     sc = vr.open_scene(scene, width=width, height=height)
     rig = _rig(sc, eye, baseline, convergence)
@@ -85,7 +86,7 @@ def render(
             results = [vr.render(sc, camera=pair[0] if eye == "left" else pair[1], progress=report, **options)]
     elapsed = time.perf_counter() - start
     exposure = vr.auto_exposure(results[0].beauty)  # one exposure for both eyes
-    written = [p for stem, res in zip(stems, results) for p in vr.save_render(res, out, stem=stem, exposure=exposure)]
+    written = [p for stem, res in zip(stems, results) for p in save_render(res, out, stem=stem, exposure=exposure)]
     r = results[0]
     console.print(
         f"rendered {sc.name}: {len(results)} view(s) {r.camera.width}x{r.camera.height}, {r.n_layers} layers "

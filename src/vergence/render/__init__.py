@@ -8,8 +8,19 @@ time); the ray tree, the materials and the shading are ours. Importing this pack
 from vergence.render._mitsuba import select_variant
 from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.preview import auto_exposure, contact_sheet, depth_preview, save_render, tonemap
-from vergence.render.raytree import MAX_DEPTH, RenderResult, RenderSettings, layer_names, render, render_stereo
+from vergence.render.disparity import screen_disparity
+from vergence.render.intersect import Hits, Intersector
+from vergence.render.raytree import (
+    MAX_DEPTH,
+    RayTree,
+    RenderResult,
+    RenderSettings,
+    Tracer,
+    layer_names,
+    render,
+    render_stereo,
+)
+from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays
 from vergence.render.scene import (
     Checker,
     Diffuse,
@@ -25,8 +36,10 @@ from vergence.render.scene import (
     Texture,
 )
 from vergence.render.scenefile import load_scene, scene_from_dict
+from vergence.render.shader import WhittedShader
 from vergence.render.shading import schlick
 from vergence.render.stereo import StereoPreview, stereo_preview
+from vergence.render.tonemap import auto_exposure, tonemap
 
 __all__ = [
     "BUILTIN_SCENES",
@@ -35,9 +48,14 @@ __all__ = [
     "Environment",
     "FisheyeCamera",
     "Glass",
+    "Hits",
+    "Intersector",
     "MAX_DEPTH",
     "Mesh",
     "Mirror",
+    "RAY_GENERATORS",
+    "RayBatch",
+    "RayTree",
     "Rectangle",
     "RenderResult",
     "RenderSettings",
@@ -47,18 +65,19 @@ __all__ = [
     "Stereo",
     "StereoPreview",
     "Texture",
+    "Tracer",
+    "WhittedShader",
     "auto_exposure",
     "builtin_scene",
-    "contact_sheet",
-    "depth_preview",
+    "camera_rays",
     "layer_names",
     "load_scene",
     "open_scene",
     "render",
     "render_stereo",
-    "save_render",
     "scene_from_dict",
     "schlick",
+    "screen_disparity",
     "select_variant",
     "stereo_preview",
     "tonemap",

@@ -32,23 +32,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import check_positive, check_positive_int
+from vergence._validate import as_float_array, check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.render import _kernels, surfaces
-from vergence.render._mitsuba import Caster
+from vergence.render import surfaces
+from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.scene import Glass, Scene
-from vergence.render.shading import Lighting, ao_lattice, reflect, refract, schlick
+from vergence.render.rays import RayBatch, camera_rays
+from vergence.render.scene import Scene
+from vergence.render.shader import WhittedShader, offset
 
-__all__ = ["MAX_DEPTH", "RenderResult", "RenderSettings", "layer_names", "render", "render_stereo"]
+__all__ = ["MAX_DEPTH", "RayTree", "RenderResult", "RenderSettings", "Tracer", "layer_names", "render", "render_stereo"]
 
 MAX_DEPTH = 6  # 127 layers; beyond that the arrays outgrow memory long before they help
-# Offset of secondary ray origins, relative to the coordinates' magnitude: well above the float32
-# error of Mitsuba's intersection (~1e-6 relative), well below any feature of the built-in scenes.
-_EPS_REL = 1e-4
-_AO_CHUNK = 1 << 21  # shadow rays per Mitsuba call
 
 Progress = Callable[[float, str], None]
+_DEFAULTS = {"max_depth": 2, "samples": 16, "rng": None, "ao_distance": None}
 
 
 def layer_names(max_depth: int) -> list[str]:
@@ -134,130 +132,296 @@ class RenderResult:
         return self.radiance.shape[0]
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class RayTree:
+    """The ray tree of arbitrary rays (:meth:`Tracer.trace_rays`), laid out as ``shape``. Arrays are read-only.
+
+    The same nodes as :class:`RenderResult` (heap order, ``N = 2^(D+1) - 1``), over the ray grid
+    ``shape`` instead of a camera's pixels.
+
+    Attributes
+    ----------
+    radiance, position, normal : (N, *shape, 3) float32
+        As in :class:`RenderResult`.
+    distance : shape float64
+        Distance from the origin to the first hit along the unit direction, metres; NaN where the
+        primary ray hits nothing within its ``tmax``.
+    hit : shape bool
+        Whether the primary ray hit a surface within ``tmax``. A ray with a finite ``tmax`` and no
+        hit carries no radiance at all: the caller continues it from ``origin + tmax direction``
+        (curved rays cut into segments). A ray with ``tmax = inf`` and no hit escapes and takes the
+        environment radiance.
+    beauty : (*shape, 3) float32
+        ``radiance.sum(axis=0)``.
+    settings : RenderSettings
+    """
+
+    radiance: np.ndarray
+    position: np.ndarray
+    normal: np.ndarray
+    distance: np.ndarray
+    hit: np.ndarray
+    beauty: np.ndarray
+    settings: RenderSettings
+
+    def __post_init__(self) -> None:
+        for name in ("radiance", "position", "normal", "distance", "hit", "beauty"):
+            view = getattr(self, name).view()
+            view.flags.writeable = False
+            object.__setattr__(self, name, view)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The ray grid's shape."""
+        return self.hit.shape
+
+    @property
+    def n_layers(self) -> int:
+        """Number of nodes ``N = 2^(D+1) - 1``."""
+        return self.radiance.shape[0]
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
-def _offset(p: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Move points off the surface along ``n`` (the side the new ray leaves on)."""
-    return p + (_EPS_REL * (1.0 + np.abs(p).max(axis=1)))[:, None] * n
+@dataclass(frozen=True, slots=True)
+class _Flat:
+    """The tree of ``n_slots`` ray slots, flat: what the stages produce before any reshaping."""
+
+    radiance: np.ndarray  # (N, n_slots, 3) float32
+    position: np.ndarray
+    normal: np.ndarray
+    first_point: np.ndarray  # (n_slots, 3) float64, NaN without a first hit
+    first_t: np.ndarray  # (n_slots,) float64, NaN without a first hit
+    tree_rays: np.ndarray  # (views,) rays of the tree per view
+    ao_rays: np.ndarray  # (views,) AO rays per view
 
 
-class _Tracer:
-    """One scene prepared for tracing: Mitsuba scenes for hits and for occlusion, packed arrays."""
+class Tracer:
+    """A scene prepared once for tracing, reusable across cameras and ray sets (S3 §3.1).
 
-    def __init__(self, scene: Scene) -> None:
+    Three stages, each replaceable: ray generation (``rays``: camera -> :class:`~vergence.render.rays.RayBatch`,
+    default :func:`~vergence.render.rays.camera_rays`), intersection (``intersector``: default
+    :class:`~vergence.render.intersect.Intersector`, Mitsuba's cast refined in float64) and shading
+    (``shader``: default :class:`~vergence.render.shader.WhittedShader`, IBL x AO and Schlick's
+    Fresnel split). The Mitsuba scenes are built once, here.
+
+    Parameters
+    ----------
+    scene : Scene
+    rays : callable(camera) -> RayBatch, optional
+    intersector : callable, optional
+        Called as ``intersector(origins, directions, cast_from=..., tmax=...)``, returning
+        :class:`~vergence.render.intersect.Hits`; needs a ``packed`` attribute and a ``variant``.
+    shader : object, optional
+        With the methods ``background``, ``diffuse`` and ``specular`` of :class:`WhittedShader`.
+
+    Examples
+    --------
+    >>> from vergence.render import builtin_scene
+    >>> tracer = Tracer(builtin_scene("tabletop", width=16, height=12))
+    >>> tracer.render(samples=1).beauty.shape
+    (12, 16, 3)
+    >>> tree = tracer.trace_rays([[0.0, 0.3, 1.2]], [[0.0, 0.0, -1.0]], max_depth=0, samples=1)
+    >>> tree.hit.tolist()
+    [True]
+    """
+
+    def __init__(self, scene: Scene, *, rays: Callable[..., RayBatch] | None = None, intersector=None, shader=None) -> None:  # noqa: ANN001
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
         self.scene = scene
-        self.packed = surfaces.pack_scene(scene)
-        self.caster = Caster(self.packed.shapes)
-        glass = [isinstance(scene.materials[o.material], Glass) for o in scene.objects]
-        self.occluders = Caster([s for s, g in zip(self.packed.shapes, glass) if not g]) if any(glass) else self.caster
-        self.lighting = Lighting(scene.environment)
+        self.rays = camera_rays if rays is None else rays
+        self.intersector = Intersector(scene) if intersector is None else intersector
+        self.packed = self.intersector.packed
+        caster = getattr(self.intersector, "caster", None)
+        self.shader = WhittedShader(scene, self.packed, caster) if shader is None else shader
 
-    def trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
+    # ------------------------------------------------------------------ public entry points
+    def render(self, camera: Camera | FisheyeCamera | None = None, *, max_depth: int = 2, samples: int = 16,
+               rng: np.random.Generator | None = None, ao_distance: float | None = None,
+               progress: Progress | None = None) -> RenderResult:  # fmt: skip
+        """Ray-trace one camera's view (default: the scene's camera); parameters as :func:`render`."""
+        max_depth, samples, ao_distance = _check_options(self.scene, camera, max_depth, samples, rng, ao_distance)
+        cam = self.scene.camera.build() if camera is None else camera
+        return self._render_many([cam], max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                                 progress=progress)[0]  # fmt: skip
+
+    def trace_rays(
+        self, origins: object, directions: object, *, shape: tuple[int, ...] | None = None, tmax: object = None,
+        max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
+        ao_distance: float | None = None,
+    ) -> RayTree:  # fmt: skip
+        """Trace arbitrary rays into their ray tree (per-pixel camera origins, segments of curved rays).
+
+        Parameters
+        ----------
+        origins, directions : (..., 3) array
+            Finite world origins and directions, metres; the directions must be finite and non-zero
+            and are **normalised** here (distances and ``tmax`` are metres along the unit direction).
+            ``origins`` broadcasts against ``directions``.
+        shape : tuple of int, optional
+            Layout of the result (its size must equal the number of rays); default: the leading
+            shape of ``directions``.
+        tmax : float or array broadcasting to the leading shape, optional
+            Largest distance of each primary ray's hit (> 0, ``inf`` allowed); default: unbounded.
+            Only the primary ray is bounded; the tree below a hit is traced in full.
+        max_depth, samples, rng, ao_distance
+            As :func:`render`.
+
+        Returns
+        -------
+        RayTree
+            ``hit`` tells which rays hit within ``tmax``; rays with a finite ``tmax`` and no hit
+            carry no radiance (continue them), rays with ``tmax = inf`` and no hit escape.
+
+        Raises
+        ------
+        ValueError
+            On a malformed, non-finite or zero input, a ``shape`` of another size or ``tmax <= 0``.
+        """
+        max_depth, samples, ao_distance = _check_options(self.scene, None, max_depth, samples, rng, ao_distance)
+        d = as_float_array("directions", directions)
+        if d.ndim == 0 or d.shape[-1] != 3:
+            raise ValueError(f"directions must have shape (..., 3); got {d.shape}")
+        o = as_float_array("origins", origins)
+        if o.ndim == 0 or o.shape[-1] != 3:
+            raise ValueError(f"origins must have shape (..., 3); got {o.shape}")
         try:
-            return self._trace(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                               progress=progress)  # fmt: skip
-        except MemoryError:
-            n = 2 ** (max_depth + 1) - 1
-            gib = 3 * n * camera.height * camera.width * 3 * 4 / 2**30  # radiance, position, normal (float32)
-            raise ValueError(f"width x height {camera.width}x{camera.height} with {n} layers does not fit in memory "
-                             f"(the layer arrays alone need {gib:.3g} GiB); render a smaller image") from None
+            o = np.broadcast_to(o, d.shape)
+        except ValueError:
+            raise ValueError(f"origins must broadcast to the directions' shape {d.shape}; got {o.shape}") from None
+        lead = d.shape[:-1]
+        for name, a in (("origins", o), ("directions", d)):
+            if not np.isfinite(a).all():
+                raise ValueError(f"{name} must be finite; got {int((~np.isfinite(a)).any(axis=-1).sum())} non-finite rows")
+        norm = np.linalg.norm(d, axis=-1)
+        if (norm == 0).any():
+            raise ValueError(f"directions must be non-zero; got {int((norm == 0).sum())} zero rows")
+        n = int(np.prod(lead, dtype=np.int64))
+        out_shape = lead if shape is None else tuple(int(v) for v in shape)
+        if int(np.prod(out_shape, dtype=np.int64)) != n or any(v < 0 for v in out_shape):
+            raise ValueError(f"shape must hold the {n} rays; got {shape!r}")
+        bound = None
+        if tmax is not None:
+            tm = as_float_array("tmax", tmax)
+            if np.isnan(tm).any() or (tm <= 0).any():
+                raise ValueError("tmax must be > 0 (inf allowed) for every ray")
+            try:
+                bound = np.broadcast_to(tm, lead).reshape(n).astype(np.float64)
+            except ValueError:
+                raise ValueError(f"tmax must broadcast to the rays' shape {lead}; got {tm.shape}") from None
+        rays = RayBatch(origins=o.reshape(n, 3).copy(), directions=(d / norm[..., None]).reshape(n, 3),
+                        pixels=np.arange(n), shape=(n,))  # fmt: skip
+        flat = self._trace([rays], np.array([0, n]), tmax=bound, max_depth=max_depth, samples=samples, rng=rng,
+                           ao_distance=ao_distance, progress=None)  # fmt: skip
+        nodes = flat.radiance.shape[0]
+        settings = self._settings(max_depth, samples, rng, ao_distance, int(flat.tree_rays[0]), int(flat.ao_rays[0]))
+        rad = flat.radiance.reshape(nodes, *out_shape, 3)
+        return RayTree(radiance=rad, position=flat.position.reshape(rad.shape), normal=flat.normal.reshape(rad.shape),
+                       distance=flat.first_t.reshape(out_shape), hit=np.isfinite(flat.first_t).reshape(out_shape),
+                       beauty=rad.sum(axis=0), settings=settings)  # fmt: skip
 
-    def _trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
-        h, w = camera.height, camera.width
+    # ------------------------------------------------------------------ internals
+    def _settings(self, max_depth, samples, rng, ao_distance, tree_rays, ao_rays) -> RenderSettings:  # noqa: ANN001
+        return RenderSettings(
+            scene=self.scene.name, max_depth=max_depth, samples=samples, deterministic=rng is None,
+            ao_distance=ao_distance, variant=self.intersector.variant, environment=self.scene.environment.describe(),
+            tree_rays=tree_rays, ao_rays=ao_rays,
+        )  # fmt: skip
+
+    def _render_many(self, cameras, *, max_depth, samples, rng, ao_distance, progress) -> list[RenderResult]:  # noqa: ANN001
+        """Render several cameras' views with one wavefront per tree level (their rays side by side)."""
+        n = 2 ** (max_depth + 1) - 1
+        try:
+            batches = [self.rays(c) for c in cameras]
+            sizes = [c.height * c.width for c in cameras]
+            starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+            shifted = [RayBatch(b.origins, b.directions, b.pixels + s, b.shape) for b, s in zip(batches, starts)]
+            flat = self._trace(shifted, starts, tmax=None, max_depth=max_depth, samples=samples, rng=rng,
+                               ao_distance=ao_distance, progress=progress)  # fmt: skip
+        except MemoryError:
+            c = cameras[0]
+            gib = 3 * n * c.height * c.width * 3 * 4 / 2**30  # radiance, position, normal (float32)
+            raise ValueError(f"width x height {c.width}x{c.height} with {n} layers does not fit in memory "
+                             f"(the layer arrays alone need {gib:.3g} GiB); render a smaller image") from None
+        out = []
+        for k, cam in enumerate(cameras):
+            sl = slice(starts[k], starts[k + 1])
+            h, w = cam.height, cam.width
+            rad = flat.radiance[:, sl].reshape(n, h, w, 3)
+            p0 = flat.first_point[sl]
+            depth = (p0 @ cam.R[2] + cam.t[2]).astype(np.float32).reshape(h, w)
+            settings = self._settings(max_depth, samples, rng, ao_distance, int(flat.tree_rays[k]), int(flat.ao_rays[k]))
+            out.append(RenderResult(radiance=rad, position=flat.position[:, sl].reshape(rad.shape),
+                                    normal=flat.normal[:, sl].reshape(rad.shape), depth=depth,
+                                    beauty=rad.sum(axis=0), camera=cam, settings=settings))  # fmt: skip
+        return out
+
+    def _trace(self, batches, starts, *, tmax, max_depth, samples, rng, ao_distance, progress) -> _Flat:  # noqa: ANN001
         n_nodes = 2 ** (max_depth + 1) - 1
-        dirs_all = camera.ray_directions().reshape(-1, 3)  # NaN where a pixel has no ray (fisheye)
-        pix = np.flatnonzero(~np.isnan(dirs_all[:, 0]))
-        rad = np.zeros((n_nodes, h * w, 3), dtype=np.float32)
-        pos = np.full((n_nodes, h * w, 3), np.nan, dtype=np.float32)
-        nrm = np.full((n_nodes, h * w, 3), np.nan, dtype=np.float32)
-        depth = np.full(h * w, np.nan, dtype=np.float32)
+        n_slots, n_views = int(starts[-1]), len(starts) - 1
+        view_of = lambda slots: np.searchsorted(starts[1:], slots, side="right")  # noqa: E731
+        rad = np.zeros((n_nodes, n_slots, 3), dtype=np.float32)
+        pos = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
+        nrm = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
+        first_p = np.full((n_slots, 3), np.nan)
+        first_t = np.full(n_slots, np.nan)
+        pix = np.concatenate([b.pixels for b in batches])
+        o = np.concatenate([b.origins for b in batches])  # exact origins (float64 geometry)
+        d = np.concatenate([b.directions for b in batches])
         node = np.ones(len(pix), dtype=np.int64)
-        o = np.broadcast_to(camera.center, (len(pix), 3)).copy()  # exact origins (float64 geometry)
         oc = o  # origins handed to Mitsuba: moved off the surface they leave
-        d = dirs_all[pix]
         thr = np.ones((len(pix), 3))
         queue: list[tuple[np.ndarray, ...]] = []  # diffuse hits: node, pixel, p, n_geo, n_shade, albedo x throughput
         pk = self.packed
-        tree_rays = 0
+        tree_rays = np.zeros(n_views, dtype=np.int64)
         for level in range(max_depth + 1):
             if progress is not None:
                 progress(level / (max_depth + 2), f"level {level}: {len(pix):,} rays")
             if not len(pix):
                 break
-            obj, prim, t32 = self.caster.intersect(oc, d)
-            tree_rays += len(d)
-            esc = obj < 0
-            rad[node[esc] - 1, pix[esc]] = thr[esc] * self.lighting.radiance(d[esc])
-            hit = np.flatnonzero(~esc)
-            node, pix, o, d, thr, obj = node[hit], pix[hit], o[hit], d[hit], thr[hit], obj[hit]
-            p, ng, ns, uv = surfaces.refine_hits(pk, obj, prim[hit], o, d, t32[hit])
-            dn = _dot(d, ng)
-            entering = dn < 0.0
+            hits = self.intersector(o, d, cast_from=oc, tmax=tmax if level == 0 else None)
+            tree_rays += np.bincount(view_of(pix), minlength=n_views)
+            esc = np.ones(len(pix), dtype=bool)
+            esc[hits.rays] = False
+            if level == 0 and tmax is not None:
+                esc &= np.isinf(tmax)  # a bounded segment without a hit is unfinished, not escaped
+            rad[node[esc] - 1, pix[esc]] = thr[esc] * self.shader.background(d[esc])
+            hit = hits.rays
+            node, pix, d, thr, obj = node[hit], pix[hit], d[hit], thr[hit], hits.obj
+            p, ng, ns, uv = hits.points, hits.n_geo, hits.n_shade, hits.uv
+            entering = _dot(d, ng) < 0.0
             side = np.where(entering, 1.0, -1.0)[:, None]
             ng, ns = ng * side, ns * side  # both face the arriving ray now
             pos[node - 1, pix] = p
             nrm[node - 1, pix] = ns
             if level == 0:
-                depth[pix] = p @ camera.R[2] + camera.t[2]
+                first_p[pix] = p
+                first_t[pix] = hits.t
             mat = pk.material[obj]
             kind = pk.mat_kind[mat]
             s = np.flatnonzero(kind == surfaces.DIFFUSE)
             queue.append((node[s], pix[s], p[s], ng[s], ns[s], thr[s] * surfaces.albedo(pk, mat[s], uv[s])))
             if level == max_depth:
                 break  # specular hits at the last level are cut off
-            children: list[tuple[np.ndarray, ...]] = []
             s = np.flatnonzero(kind != surfaces.DIFFUSE)
-            is_glass = kind[s] == surfaces.GLASS
-            cos_i = np.clip(-_dot(d[s], ns[s]), 0.0, 1.0)
-            ior = pk.mat_ior[mat[s]]
-            n1 = np.where(entering[s], 1.0, ior)
-            n2 = np.where(entering[s], ior, 1.0)
-            R = np.where(is_glass, schlick(cos_i, n1, n2), 1.0)  # SPEC §5.2; mirrors reflect all
-            refl_w = np.where(is_glass[:, None], R[:, None], pk.mat_color[mat[s]])
-            children.append((2 * node[s], pix[s], p[s], _offset(p[s], ng[s]), reflect(d[s], ns[s]), thr[s] * refl_w))
-            g = s[is_glass]
-            eta = n1[is_glass] / n2[is_glass]
-            tdir, tir = refract(d[g], ns[g], eta)
-            ok = ~tir & (R[is_glass] < 1.0)
-            g, tdir = g[ok], tdir[ok]
-            tint = np.where(entering[g][:, None], pk.mat_color[mat[g]], 1.0)
-            t_w = (1.0 - R[is_glass][ok])[:, None] * tint
-            children.append((2 * node[g] + 1, pix[g], p[g], _offset(p[g], -ng[g]), tdir, thr[g] * t_w))
+            rdir, rw, g, tdir, tw = self.shader.specular(d[s], ns[s], entering[s], mat[s])
+            ps, ngs = p[s], ng[s]
+            children = [(2 * node[s], pix[s], ps, offset(ps, ngs), rdir, thr[s] * rw),
+                        (2 * node[s][g] + 1, pix[s][g], ps[g], offset(ps[g], -ngs[g]), tdir, thr[s][g] * tw)]  # fmt: skip
             node, pix, o, oc, d, thr = (np.concatenate([c[k] for c in children]) for k in range(6))
         if progress is not None:
             progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")
-        n_shade = 0
+        ao_rays = np.zeros(n_views, dtype=np.int64)
         if queue:
             qn, qpix, qp, qng, qns, qalb = (np.concatenate([q[k] for q in queue]) for k in range(6))
-            ao = self._ambient_occlusion(qp, qng, qns, samples, rng, ao_distance)
-            rad[qn - 1, qpix] = qalb / np.pi * self.lighting.irradiance(qns) * ao[:, None]
-            n_shade = len(qn)
-        rad = rad.reshape(n_nodes, h, w, 3)
-        settings = RenderSettings(
-            scene=self.scene.name, max_depth=max_depth, samples=samples, deterministic=rng is None,
-            ao_distance=ao_distance, variant=self.caster.variant, environment=self.scene.environment.describe(),
-            tree_rays=tree_rays, ao_rays=n_shade * samples,
-        )  # fmt: skip
+            rad[qn - 1, qpix] = qalb * self.shader.diffuse(qp, qng, qns, samples=samples, rng=rng, ao_distance=ao_distance)
+            ao_rays = np.bincount(view_of(qpix), minlength=n_views) * samples
         if progress is not None:
             progress(1.0, "done")
-        return RenderResult(radiance=rad, position=pos.reshape(rad.shape), normal=nrm.reshape(rad.shape),
-                            depth=depth.reshape(h, w), beauty=rad.sum(axis=0), camera=camera, settings=settings)  # fmt: skip
-
-    def _ambient_occlusion(self, p, ng, ns, samples, rng, ao_distance) -> np.ndarray:  # noqa: ANN001
-        """Cosine-weighted unoccluded fraction of the hemisphere around ``ns`` at each point."""
-        out = np.empty(len(p))
-        lattice = ao_lattice(samples)
-        step = max(1, _AO_CHUNK // samples)
-        for s in range(0, len(p), step):
-            e = min(len(p), s + step)
-            shifts = np.empty((0, 2)) if rng is None else rng.random((e - s, 2))
-            orig, dirs = _kernels.ao_rays(p[s:e], ng[s:e], ns[s:e], lattice, shifts, _EPS_REL)  # as ao_directions
-            maxt = None if ao_distance is None else np.full(dirs.shape[1], ao_distance)
-            blocked = self.occluders.occluded(orig, dirs, maxt).reshape(e - s, samples)
-            out[s:e] = 1.0 - blocked.mean(axis=1)
-        return out
+        return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays)
 
 
 def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
@@ -316,8 +480,7 @@ def render(
     ray takes the environment radiance. ``beauty == radiance.sum(axis=0)`` (SPEC §5.1).
     """
     max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
-    cam = scene.camera.build() if camera is None else camera
-    return _Tracer(scene).trace(cam, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+    return Tracer(scene).render(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
                                 progress=progress)  # fmt: skip
 
 
@@ -335,23 +498,18 @@ def render_stereo(
 ) -> tuple[RenderResult, RenderResult]:
     """Render the left and right views of the shifted-sensor rig on ``camera`` (S0 §2).
 
-    The rig is :func:`vergence.rig.stereo_pair` (``baseline`` b, convergence distance H, metres);
-    ``camera`` defaults to the scene's (pinhole only). Other parameters as :func:`render`; with an
-    ``rng``, the left view draws first. ``progress`` fractions run 0..0.5 (left), 0.5..1 (right).
+    The rig is :func:`vergence.rigs.stereo_pair` (``baseline`` b, convergence distance H, metres);
+    ``camera`` defaults to the scene's (pinhole only). Other parameters as :func:`render`. Both eyes
+    are traced through one :class:`Tracer`, their rays side by side in one wavefront per tree level;
+    with an ``rng`` the AO draws follow that joint order (left pixels before right ones within a
+    level). ``progress`` reports the joint wavefronts.
     """
-    from vergence.rig import stereo_pair
+    from vergence.rigs import stereo_pair
 
     max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
     cam = scene.camera.build() if camera is None else camera
     if not isinstance(cam, Camera):
         raise TypeError(f"render_stereo needs a pinhole Camera; got {type(cam).__name__}")
     left, right = stereo_pair(cam, baseline=baseline, convergence=convergence)
-    tracer = _Tracer(scene)
-    out = []
-    for k, (eye, c) in enumerate((("left", left), ("right", right))):
-        report = None
-        if progress is not None:
-            report = lambda f, m, k=k, eye=eye: progress((k + f) / 2.0, f"{eye}: {m}")  # noqa: E731
-        out.append(tracer.trace(c, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                                progress=report))  # fmt: skip
-    return out[0], out[1]
+    return tuple(Tracer(scene)._render_many([left, right], max_depth=max_depth, samples=samples, rng=rng,
+                                            ao_distance=ao_distance, progress=progress))  # fmt: skip
