@@ -260,7 +260,7 @@ class Tracer:
         origins, directions : (..., 3) array
             Finite world origins and directions, metres; the directions must be finite and non-zero
             and are **normalised** here (distances and ``tmax`` are metres along the unit direction).
-            ``origins`` broadcasts against ``directions``.
+            The two broadcast together.
         shape : tuple of int, optional
             Layout of the result (its size must equal the number of rays); default: the leading
             shape of ``directions``.
@@ -289,13 +289,10 @@ class Tracer:
         if o.ndim == 0 or o.shape[-1] != 3:
             raise ValueError(f"origins must have shape (..., 3); got {o.shape}")
         try:
-            o = np.broadcast_to(o, d.shape)
+            o, d = np.broadcast_arrays(o, d)
         except ValueError:
-            raise ValueError(f"origins must broadcast to the directions' shape {d.shape}; got {o.shape}") from None
+            raise ValueError(f"origins and directions must broadcast together; got {o.shape} and {d.shape}") from None
         lead = d.shape[:-1]
-        for name, a in (("origins", o), ("directions", d)):
-            if not np.isfinite(a).all():
-                raise ValueError(f"{name} must be finite; got {int((~np.isfinite(a)).any(axis=-1).sum())} non-finite rows")
         norm = np.linalg.norm(d, axis=-1)
         if (norm == 0).any():
             raise ValueError(f"directions must be non-zero; got {int((norm == 0).sum())} zero rows")
@@ -305,7 +302,10 @@ class Tracer:
             raise ValueError(f"shape must hold the {n} rays; got {shape!r}")
         bound = None
         if tmax is not None:
-            tm = as_float_array("tmax", tmax)
+            try:
+                tm = np.asarray(tmax, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise TypeError(f"tmax must be numeric; got {type(tmax).__name__}") from None
             if np.isnan(tm).any() or (tm <= 0).any():
                 raise ValueError("tmax must be > 0 (inf allowed) for every ray")
             try:
