@@ -1,4 +1,4 @@
-"""Ray-tree renders checked against geometry worked out by hand (S3 §3.1, SPEC §5.1–5.2).
+"""Ray-tree renders checked against geometry worked out by hand (S3 §3.1; Whitted 1980, Schlick 1994).
 
 All renders are tiny (33 x 25 unless stated) and deterministic (no rng) so the file stays fast.
 """

@@ -1,4 +1,4 @@
-"""Ray tracing into the S3 ray tree (S3 §3.1, SPEC §5.1–5.2), and the ground truth of every other part.
+"""Ray tracing into the S3 ray tree (S3 §3.1; Whitted 1980, Schlick 1994), and the ground truth of every other part.
 
 Mitsuba 3 casts the rays (``llvm_ad_rgb`` on the CPU, ``cuda_ad_rgb`` on a GPU, chosen at run
 time); the ray tree, the materials and the shading are ours. Importing this package imports Mitsuba

@@ -1,4 +1,4 @@
-"""Whitted ray tracing into the ray tree of S3 §3.1 (SPEC §5.1): one image layer per tree node.
+"""Whitted ray tracing into the ray tree of S3 §3.1 (Whitted 1980): one image layer per tree node.
 
 Node numbering (heap order): node 1 is the first hit; the children of node ``i`` are ``2i``
 (reflection) and ``2i + 1`` (refraction); with at most ``D`` specular bounces there are
@@ -9,7 +9,7 @@ background color when there is no local hit point"; P_i "the scene-space locatio
 intersections"):
 
 - ``radiance``: the path throughput (product of the Fresnel factors ``R`` or ``1 - R`` of glass,
-  the colours of mirrors and of glass entered, SPEC §5.1) times the **local** contribution of the
+  the colours of mirrors and of glass entered, S3 §3.1) times the **local** contribution of the
   node's hit: the diffuse radiance ``albedo/pi E(n) AO`` if the surface is diffuse, 0 if it is a
   mirror or glass (their light is carried by the children), or the environment radiance along the
   ray if it escapes. So ``beauty = sum over nodes`` exactly, and no light is counted twice.
@@ -476,8 +476,8 @@ def render(
     Notes
     -----
     Diffuse radiance is ``albedo / pi * E(n) * AO`` (image-based lighting times ambient occlusion,
-    S3 §3.1); glass splits by Schlick's ``R`` (SPEC §5.2) with total internal reflection; an escaping
-    ray takes the environment radiance. ``beauty == radiance.sum(axis=0)`` (SPEC §5.1).
+    S3 §3.1); glass splits by Schlick's ``R`` (Schlick 1994) with total internal reflection; an escaping
+    ray takes the environment radiance. ``beauty == radiance.sum(axis=0)`` (S3 §3.1: ``L = sum_i L_i``).
     """
     max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
     return Tracer(scene).render(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,

@@ -1,6 +1,6 @@
 """Shading of the ray tree: Schlick Fresnel, mirror and refraction directions, image-based lighting.
 
-- Fresnel: Schlick's approximation (SPEC §5.2, S3 §3.1), ``R = R0 + (1 - R0)(1 - cos)^5`` with
+- Fresnel: Schlick's approximation (Schlick 1994, as S3 §3.1 uses it), ``R = R0 + (1 - R0)(1 - cos)^5`` with
   ``R0 = ((n1 - n2)/(n1 + n2))^2``; going into a less dense medium the cosine of the transmitted
   angle is used, and ``sin^2 theta_t > 1`` is total internal reflection (``R = 1``).
 - Diffuse radiance: image-based lighting times ambient occlusion (S3 §3.1):
@@ -36,7 +36,7 @@ _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def schlick(cos_i: np.ndarray | float, n1: np.ndarray | float, n2: np.ndarray | float) -> np.ndarray:
-    """Schlick's reflectance for a ray in medium ``n1`` meeting medium ``n2`` (SPEC §5.2).
+    """Schlick's reflectance for a ray in medium ``n1`` meeting medium ``n2`` (Schlick 1994).
 
     Parameters
     ----------
@@ -58,7 +58,7 @@ def schlick(cos_i: np.ndarray | float, n1: np.ndarray | float, n2: np.ndarray | 
     cos_i = np.asarray(cos_i, dtype=np.float64)
     n1 = np.asarray(n1, dtype=np.float64)
     n2 = np.asarray(n2, dtype=np.float64)
-    r0 = ((n1 - n2) / (n1 + n2)) ** 2  # SPEC §5.2
+    r0 = ((n1 - n2) / (n1 + n2)) ** 2  # Schlick 1994
     sin2_t = (n1 / n2) ** 2 * (1.0 - cos_i**2)
     tir = (n1 > n2) & (sin2_t > 1.0)
     cos = np.where(n1 > n2, np.sqrt(np.clip(1.0 - sin2_t, 0.0, 1.0)), cos_i)

@@ -144,7 +144,7 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
         "through a disparity mapping psi fixed by constraints. Here, S0 Fig. 8 (right): the player on the "
         f"screen (z' = {display.distance:g} m) with roundness 1, and infinity seen at infinity (psi reaches the "
         "divergence limit b'/W' only at infinite depth). psi is the Gregory–Delbourgo monotone rational "
-        "Hermite interpolant of the control points (S0 Eq. 7–9, SPEC §1.8), reference rig b_round: it keeps "
+        "Hermite interpolant of the control points (S0 §6, Eq. 7–9), reference rig b_round: it keeps "
         "the player's disparities and compresses the background's. "
         f"The bleachers at {bleachers:g} m are then seen at {float(tri.perceived_depth(bleachers)):.1f} m with "
         f"roundness {float(tri.roundness(bleachers)):.2f} (b_div: 0.25, b_round: divergence). "
