@@ -7,7 +7,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["ao_rays"]
+__all__ = ["ao_rays", "equirect_lookup", "refine_hits", "scatter_nodes", "scatter_weighted"]
 
 
 @numba.njit(parallel=True, cache=True)
@@ -55,3 +55,130 @@ def ao_rays(
             dirs[1, j] = lx * t1y + ly * t2y + lz * ny
             dirs[2, j] = lx * t1z + ly * t2z + lz * nz
     return origins, dirs
+
+
+@numba.njit(parallel=True, cache=True)
+def refine_hits(
+    kind: np.ndarray, center: np.ndarray, radius: np.ndarray, normal: np.ndarray, right: np.ndarray, up: np.ndarray,
+    size: np.ndarray, tri_offset: np.ndarray, tri_v: np.ndarray, tri_n: np.ndarray, tri_uv: np.ndarray,
+    obj: np.ndarray, prim: np.ndarray, o: np.ndarray, d: np.ndarray, t_approx: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """Float64 distance, point, outward geometric and shading normals and uv of hits: ``surfaces.refine_hits``.
+
+    The same maths, one ray per iteration: the sphere root nearest Mitsuba's distance (``q = -(b +
+    sign(b) sqrt(b^2 - c))``, roots ``q`` and ``c/q``), the rectangle's plane, the triangle's plane
+    with barycentric normals and texture coordinates. ``kind`` 0 = sphere, 1 = rectangle, 2 = mesh.
+    """
+    m = obj.shape[0]
+    t = np.empty(m)
+    p = np.empty((m, 3))
+    ng = np.empty((m, 3))
+    ns = np.empty((m, 3))
+    uv = np.zeros((m, 2))
+    for i in numba.prange(m):
+        k = obj[i]
+        ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
+        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        if kind[k] == 0:
+            cx, cy, cz, r = center[k, 0], center[k, 1], center[k, 2], radius[k]
+            ux, uy, uz = ox - cx, oy - cy, oz - cz
+            b = ux * dx + uy * dy + uz * dz
+            cc = ux * ux + uy * uy + uz * uz - r * r
+            sq = math.sqrt(max(b * b - cc, 0.0))
+            q = -(b + (sq if b >= 0 else -sq))
+            r2 = cc / q if q != 0 else q
+            ti = q if abs(q - t_approx[i]) <= abs(r2 - t_approx[i]) else r2
+            qx, qy, qz = (ox + ti * dx - cx) / r, (oy + ti * dy - cy) / r, (oz + ti * dz - cz) / r
+            ln = math.sqrt(qx * qx + qy * qy + qz * qz)
+            qx, qy, qz = qx / ln, qy / ln, qz / ln
+            ng[i, 0], ng[i, 1], ng[i, 2] = qx, qy, qz
+            ns[i, 0], ns[i, 1], ns[i, 2] = qx, qy, qz
+            uv[i, 0] = 0.5 + math.atan2(qx, qz) / (2 * math.pi)
+            uv[i, 1] = 1.0 - math.acos(min(max(qy, -1.0), 1.0)) / math.pi
+        elif kind[k] == 1:
+            nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
+            cx, cy, cz = center[k, 0], center[k, 1], center[k, 2]
+            ti = ((cx - ox) * nx + (cy - oy) * ny + (cz - oz) * nz) / (dx * nx + dy * ny + dz * nz)
+            rx, ry, rz = ox + ti * dx - cx, oy + ti * dy - cy, oz + ti * dz - cz
+            ng[i, 0], ng[i, 1], ng[i, 2] = nx, ny, nz
+            ns[i, 0], ns[i, 1], ns[i, 2] = nx, ny, nz
+            uv[i, 0] = 0.5 + (rx * right[k, 0] + ry * right[k, 1] + rz * right[k, 2]) / size[k, 0]
+            uv[i, 1] = 0.5 + (rx * up[k, 0] + ry * up[k, 1] + rz * up[k, 2]) / size[k, 1]
+        else:
+            f = tri_offset[k] + prim[i]
+            ax, ay, az = tri_v[f, 0, 0], tri_v[f, 0, 1], tri_v[f, 0, 2]
+            e1x, e1y, e1z = tri_v[f, 1, 0] - ax, tri_v[f, 1, 1] - ay, tri_v[f, 1, 2] - az
+            e2x, e2y, e2z = tri_v[f, 2, 0] - ax, tri_v[f, 2, 1] - ay, tri_v[f, 2, 2] - az
+            nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+            ti = ((ax - ox) * nx + (ay - oy) * ny + (az - oz) * nz) / (dx * nx + dy * ny + dz * nz)
+            rx, ry, rz = ox + ti * dx - ax, oy + ti * dy - ay, oz + ti * dz - az
+            d11 = e1x * e1x + e1y * e1y + e1z * e1z
+            d12 = e1x * e2x + e1y * e2y + e1z * e2z
+            d22 = e2x * e2x + e2y * e2y + e2z * e2z
+            s1 = rx * e1x + ry * e1y + rz * e1z
+            s2 = rx * e2x + ry * e2y + rz * e2z
+            den = d11 * d22 - d12 * d12
+            b1 = (d22 * s1 - d12 * s2) / den
+            b2 = (d11 * s2 - d12 * s1) / den
+            b0 = 1.0 - b1 - b2
+            ln = math.sqrt(nx * nx + ny * ny + nz * nz)
+            ng[i, 0], ng[i, 1], ng[i, 2] = nx / ln, ny / ln, nz / ln
+            if math.isnan(tri_n[f, 0, 0]):
+                ns[i, 0], ns[i, 1], ns[i, 2] = ng[i, 0], ng[i, 1], ng[i, 2]
+            else:
+                sx = b0 * tri_n[f, 0, 0] + b1 * tri_n[f, 1, 0] + b2 * tri_n[f, 2, 0]
+                sy = b0 * tri_n[f, 0, 1] + b1 * tri_n[f, 1, 1] + b2 * tri_n[f, 2, 1]
+                sz = b0 * tri_n[f, 0, 2] + b1 * tri_n[f, 1, 2] + b2 * tri_n[f, 2, 2]
+                ls = math.sqrt(sx * sx + sy * sy + sz * sz)
+                ns[i, 0], ns[i, 1], ns[i, 2] = sx / ls, sy / ls, sz / ls
+            if not math.isnan(tri_uv[f, 0, 0]):
+                for c in range(2):
+                    uv[i, c] = b0 * tri_uv[f, 0, c] + b1 * tri_uv[f, 1, c] + b2 * tri_uv[f, 2, c]
+        t[i] = ti
+        p[i, 0], p[i, 1], p[i, 2] = ox + ti * dx, oy + ti * dy, oz + ti * dz
+    return t, p, ng, ns, uv
+
+
+@numba.njit(parallel=True, cache=True)
+def equirect_lookup(table: np.ndarray, dirs: np.ndarray, rotation: float) -> np.ndarray:
+    """Bilinear lookup ``(M, 3)`` of an equirectangular ``(h, w, 3)`` table at unit directions: ``shading.Lighting``.
+
+    ``u = frac(1/2 + (atan2(x, -z) - rotation) / 2 pi)`` (wraps), ``v = acos(y) / pi`` (clamped at
+    the poles); texel centres at ``(i + 1/2) / w``.
+    """
+    h, w = table.shape[0], table.shape[1]
+    m = dirs.shape[0]
+    out = np.empty((m, 3))
+    for i in numba.prange(m):
+        phi = math.atan2(dirs[i, 0], -dirs[i, 2]) - rotation
+        u = (0.5 + phi / (2 * math.pi)) % 1.0
+        v = math.acos(min(max(dirs[i, 1], -1.0), 1.0)) / math.pi
+        x = u * w - 0.5
+        y = min(max(v * h - 0.5, 0.0), h - 1.0)
+        xf, yf = math.floor(x), math.floor(y)
+        fx, fy = x - xf, y - yf
+        x0 = int(xf) % w
+        y0 = int(yf)
+        x1 = (x0 + 1) % w
+        y1 = min(y0 + 1, h - 1)
+        for c in range(3):
+            top = table[y0, x0, c] * (1 - fx) + table[y0, x1, c] * fx
+            bottom = table[y1, x0, c] * (1 - fx) + table[y1, x1, c] * fx
+            out[i, c] = top * (1 - fy) + bottom * fy
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def scatter_nodes(dst: np.ndarray, node: np.ndarray, slot: np.ndarray, values: np.ndarray) -> None:
+    """``dst[node[j] - 1, slot[j]] = values[j]`` for layer arrays ``(N, S, 3)`` (pairs must not repeat)."""
+    for j in numba.prange(node.shape[0]):
+        for c in range(3):
+            dst[node[j] - 1, slot[j], c] = values[j, c]
+
+
+@numba.njit(parallel=True, cache=True)
+def scatter_weighted(dst: np.ndarray, node: np.ndarray, slot: np.ndarray, weight: np.ndarray, values: np.ndarray) -> None:
+    """``dst[node[j] - 1, slot[j]] = weight[j] * values[j]`` (radiance = throughput x local light)."""
+    for j in numba.prange(node.shape[0]):
+        for c in range(3):
+            dst[node[j] - 1, slot[j], c] = weight[j, c] * values[j, c]

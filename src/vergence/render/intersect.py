@@ -69,8 +69,7 @@ class Intersector:
         obj, prim, t32 = self.caster.intersect(origins if cast_from is None else cast_from, directions, tmax)
         rays = np.flatnonzero(obj >= 0)
         obj, prim = obj[rays], prim[rays]
-        p, ng, ns, uv = surfaces.refine_hits(self.packed, obj, prim, origins[rays], directions[rays], t32[rays])
-        t = np.einsum("ij,ij->i", p - origins[rays], directions[rays])
+        t, p, ng, ns, uv = surfaces.refine_hits_fast(self.packed, obj, prim, origins[rays], directions[rays], t32[rays])
         if tmax is not None:
             keep = t <= tmax[rays]
             rays, obj, prim, t, p, ng, ns, uv = (a[keep] for a in (rays, obj, prim, t, p, ng, ns, uv))

@@ -34,7 +34,7 @@ import numpy as np
 
 from vergence._validate import as_float_array, check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.render import surfaces
+from vergence.render import _kernels, surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
 from vergence.render.rays import RayBatch, camera_rays
@@ -388,15 +388,15 @@ class Tracer:
             esc[hits.rays] = False
             if level == 0 and tmax is not None:
                 esc &= np.isinf(tmax)  # a bounded segment without a hit is unfinished, not escaped
-            rad[node[esc] - 1, pix[esc]] = thr[esc] * self.shader.background(d[esc])
+            _kernels.scatter_weighted(rad, node[esc], pix[esc], thr[esc], self.shader.background(d[esc]))
             hit = hits.rays
             node, pix, d, thr, obj = node[hit], pix[hit], d[hit], thr[hit], hits.obj
             p, ng, ns, uv = hits.points, hits.n_geo, hits.n_shade, hits.uv
             entering = _dot(d, ng) < 0.0
             side = np.where(entering, 1.0, -1.0)[:, None]
             ng, ns = ng * side, ns * side  # both face the arriving ray now
-            pos[node - 1, pix] = p
-            nrm[node - 1, pix] = ns
+            _kernels.scatter_nodes(pos, node, pix, p)
+            _kernels.scatter_nodes(nrm, node, pix, ns)
             if level == 0:
                 first_p[pix] = p
                 first_t[pix] = hits.t
@@ -417,7 +417,8 @@ class Tracer:
         ao_rays = np.zeros(n_views, dtype=np.int64)
         if queue:
             qn, qpix, qp, qng, qns, qalb = (np.concatenate([q[k] for q in queue]) for k in range(6))
-            rad[qn - 1, qpix] = qalb * self.shader.diffuse(qp, qng, qns, samples=samples, rng=rng, ao_distance=ao_distance)
+            light = self.shader.diffuse(qp, qng, qns, samples=samples, rng=rng, ao_distance=ao_distance)
+            _kernels.scatter_weighted(rad, qn, qpix, qalb, np.ascontiguousarray(light, dtype=np.float64))
             ao_rays = np.bincount(view_of(qpix), minlength=n_views) * samples
         if progress is not None:
             progress(1.0, "done")

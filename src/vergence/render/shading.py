@@ -144,20 +144,10 @@ class Lighting:
         return np.stack([st * np.sin(phi)[None], np.cos(theta)[:, None] * np.ones((1, w)), -st * np.cos(phi)[None]], axis=-1)
 
     def _lookup(self, table: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-        h, w = table.shape[:2]
-        phi = np.arctan2(dirs[:, 0], -dirs[:, 2]) - self._rot  # 0 faces -z; rotation about +y
-        u = (0.5 + phi / (2 * np.pi)) % 1.0
-        v = np.arccos(np.clip(dirs[:, 1], -1.0, 1.0)) / np.pi
-        x = u * w - 0.5
-        y = np.clip(v * h - 0.5, 0.0, h - 1.0)
-        x0, y0 = np.floor(x), np.floor(y)
-        fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-        x0 = x0.astype(np.int64) % w
-        y0 = y0.astype(np.int64)
-        x1, y1 = (x0 + 1) % w, np.minimum(y0 + 1, h - 1)
-        top = table[y0, x0] * (1 - fx) + table[y0, x1] * fx
-        bottom = table[y1, x0] * (1 - fx) + table[y1, x1] * fx
-        return top * (1 - fy) + bottom * fy
+        """Bilinear lookup of an equirectangular table at unit directions (``_kernels.equirect_lookup``)."""
+        from vergence.render import _kernels
+
+        return _kernels.equirect_lookup(table, np.ascontiguousarray(dirs, dtype=np.float64), self._rot)
 
     def radiance(self, dirs: np.ndarray) -> np.ndarray:
         """Environment radiance ``(M, 3)`` arriving along unit directions ``(M, 3)`` (looked up at ``dirs``)."""

@@ -20,7 +20,7 @@ import numpy as np
 
 from vergence.render.scene import Checker, Diffuse, Glass, Mesh, Mirror, Rectangle, Scene, Sphere, Texture
 
-__all__ = ["DIFFUSE", "GLASS", "MIRROR", "PackedScene", "albedo", "pack_scene", "refine_hits"]
+__all__ = ["DIFFUSE", "GLASS", "MIRROR", "PackedScene", "albedo", "pack_scene", "refine_hits", "refine_hits_fast"]
 
 SPHERE, RECTANGLE, MESH = 0, 1, 2
 DIFFUSE, MIRROR, GLASS = 0, 1, 2
@@ -152,6 +152,22 @@ def refine_hits(
         uv[s] = np.where(np.isnan(tuv[:, 0, :1]), 0.0, (w * tuv).sum(axis=1))
     p = o + t[:, None] * d
     return p, ng, ns, uv
+
+
+def refine_hits_fast(
+    packed: PackedScene, obj: np.ndarray, prim: np.ndarray, origins: np.ndarray, dirs: np.ndarray, t_approx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`refine_hits` as one Numba kernel (the renderer's path); also returns the distance ``t``.
+
+    :func:`refine_hits` stays as the vectorised numpy reference the tests compare against.
+    """
+    from vergence.render import _kernels
+
+    f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    pk = packed
+    return _kernels.refine_hits(pk.kind, pk.center, pk.radius, pk.normal, pk.right, pk.up, pk.size, pk.tri_offset,
+                                pk.tri_v, pk.tri_n, pk.tri_uv, np.ascontiguousarray(obj, dtype=np.int64),
+                                np.ascontiguousarray(prim, dtype=np.int64), f64(origins), f64(dirs), f64(t_approx))  # fmt: skip
 
 
 def albedo(packed: PackedScene, mat: np.ndarray, uv: np.ndarray) -> np.ndarray:
