@@ -153,3 +153,29 @@ def test_scatter_kernels_against_python_loops():
         for c in range(3):
             want[node[j] - 1, slot[j], c] = weight[j, c] * values[j, c]
     assert_array_equal(got, want)
+
+
+def test_offset_bilinear_and_pinhole_kernels_against_python_loops():
+    from vergence.camera import look_at
+
+    rng = np.random.default_rng()
+    p, n = rng.normal(size=(20, 3)) * 10, rng.normal(size=(20, 3))
+    want = np.array([[p[i, c] - 1e-4 * (1 + max(abs(v) for v in p[i])) * n[i, c] for c in range(3)] for i in range(20)])
+    assert_allclose(_kernels.offset_points(p, n, -1.0, 1e-4), want, rtol=0, atol=1e-12)
+    img = rng.random((3, 4, 3))
+    x, y = rng.uniform(-6, 6, 30), rng.uniform(-6, 6, 30)
+    want = np.empty((30, 3))
+    for i in range(30):
+        x0, y0 = math.floor(x[i]), math.floor(y[i])
+        fx, fy = x[i] - x0, y[i] - y0
+        for c in range(3):
+            want[i, c] = sum(wy * wx * img[(y0 + dy) % 3, (x0 + dx) % 4, c]
+                             for dy, wy in ((0, 1 - fy), (1, fy)) for dx, wx in ((0, 1 - fx), (1, fx)))  # fmt: skip
+    assert_allclose(_kernels.bilinear_wrap(img, x, y), want, rtol=1e-12, atol=1e-14)
+    cam = look_at(rng.normal(size=3), [0, 0, 0], [0, 1, 0], fov_deg=float(rng.uniform(20, 120)), width=7, height=5)
+    k_inv = np.linalg.inv(cam.K)
+    got = _kernels.pinhole_directions(k_inv, cam.R, 7, 5)
+    for row in range(5):
+        for col in range(7):
+            v = cam.R.T @ (k_inv @ [col, row, 1.0])
+            assert_allclose(got[row * 7 + col], v / math.sqrt(sum(c * c for c in v)), atol=1e-14)

@@ -399,10 +399,11 @@ def test_stereo_views_of_the_convergence_plane_coincide_off_centre():
 
 def test_out_of_memory_is_a_value_error(monkeypatch):
     from vergence.camera import Camera
+    from vergence.render import RAY_GENERATORS
 
     def boom(camera):
         raise MemoryError
 
-    monkeypatch.setattr(Camera, "ray_directions", boom)  # the first allocation of a render
+    monkeypatch.setitem(RAY_GENERATORS, Camera, boom)  # the first allocation of a render
     with pytest.raises(ValueError, match=r"width x height 33x25 with 7 layers does not fit in memory"):
         render(_scene([], {}))

@@ -7,7 +7,16 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["ao_rays", "equirect_lookup", "refine_hits", "scatter_nodes", "scatter_weighted"]
+__all__ = [
+    "ao_rays",
+    "bilinear_wrap",
+    "equirect_lookup",
+    "offset_points",
+    "pinhole_directions",
+    "refine_hits",
+    "scatter_nodes",
+    "scatter_weighted",
+]
 
 
 @numba.njit(parallel=True, cache=True)
@@ -182,3 +191,51 @@ def scatter_weighted(dst: np.ndarray, node: np.ndarray, slot: np.ndarray, weight
     for j in numba.prange(node.shape[0]):
         for c in range(3):
             dst[node[j] - 1, slot[j], c] = weight[j, c] * values[j, c]
+
+
+@numba.njit(parallel=True, cache=True)
+def offset_points(p: np.ndarray, n: np.ndarray, sign: float, eps_rel: float) -> np.ndarray:
+    """Secondary-ray origins ``p + sign eps_rel (1 + |p|_inf) n`` ``(M, 3)``: ``shader.offset``."""
+    m = p.shape[0]
+    out = np.empty((m, 3))
+    for i in numba.prange(m):
+        e = sign * eps_rel * (1.0 + max(abs(p[i, 0]), abs(p[i, 1]), abs(p[i, 2])))
+        for c in range(3):
+            out[i, c] = p[i, c] + e * n[i, c]
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def bilinear_wrap(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Bilinear lookup ``(M, C)`` of an ``(h, w, C)`` image at pixel coordinates, periodic in both axes."""
+    h, w, nc = img.shape
+    m = x.shape[0]
+    out = np.empty((m, nc))
+    for i in numba.prange(m):
+        xf, yf = math.floor(x[i]), math.floor(y[i])
+        fx, fy = x[i] - xf, y[i] - yf
+        x0, y0 = int(xf) % w, int(yf) % h
+        x1, y1 = (x0 + 1) % w, (y0 + 1) % h
+        for c in range(nc):
+            top = img[y0, x0, c] * (1 - fx) + img[y0, x1, c] * fx
+            bottom = img[y1, x0, c] * (1 - fx) + img[y1, x1, c] * fx
+            out[i, c] = top * (1 - fy) + bottom * fy
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def pinhole_directions(k_inv: np.ndarray, r: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Unit world directions ``(H W, 3)`` through pixel centres: ``normalise(R^T K^-1 (x, y, 1))``."""
+    out = np.empty((width * height, 3))
+    for row in numba.prange(height):
+        for col in range(width):
+            cx = k_inv[0, 0] * col + k_inv[0, 1] * row + k_inv[0, 2]
+            cy = k_inv[1, 0] * col + k_inv[1, 1] * row + k_inv[1, 2]
+            cz = k_inv[2, 0] * col + k_inv[2, 1] * row + k_inv[2, 2]
+            wx = r[0, 0] * cx + r[1, 0] * cy + r[2, 0] * cz
+            wy = r[0, 1] * cx + r[1, 1] * cy + r[2, 1] * cz
+            wz = r[0, 2] * cx + r[1, 2] * cy + r[2, 2] * cz
+            ln = math.sqrt(wx * wx + wy * wy + wz * wz)
+            j = row * width + col
+            out[j, 0], out[j, 1], out[j, 2] = wx / ln, wy / ln, wz / ln
+    return out

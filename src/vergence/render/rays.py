@@ -40,8 +40,18 @@ def _grid_rays(camera: Camera | FisheyeCamera) -> RayBatch:
     return RayBatch(origins=origins, directions=dirs[pix], pixels=pix, shape=(camera.height, camera.width))
 
 
+def _pinhole_rays(camera: Camera) -> RayBatch:
+    from vergence.render import _kernels
+
+    dirs = _kernels.pinhole_directions(np.linalg.inv(camera.K), np.ascontiguousarray(camera.R), camera.width,
+                                       camera.height)  # fmt: skip
+    n = camera.width * camera.height
+    origins = np.broadcast_to(camera.center, (n, 3)).copy()
+    return RayBatch(origins=origins, directions=dirs, pixels=np.arange(n), shape=(camera.height, camera.width))
+
+
 RAY_GENERATORS: dict[type, Callable[..., RayBatch]] = {
-    Camera: _grid_rays,  # pinhole: K^-1 (x, y, 1), rotated to the world
+    Camera: _pinhole_rays,  # pinhole: K^-1 (x, y, 1), rotated to the world
     FisheyeCamera: _grid_rays,  # equidistant r = f theta (S3 §3.2)
 }
 

@@ -410,7 +410,7 @@ class Tracer:
             rdir, rw, g, tdir, tw = self.shader.specular(d[s], ns[s], entering[s], mat[s])
             ps, ngs = p[s], ng[s]
             children = [(2 * node[s], pix[s], ps, offset(ps, ngs), rdir, thr[s] * rw),
-                        (2 * node[s][g] + 1, pix[s][g], ps[g], offset(ps[g], -ngs[g]), tdir, thr[s][g] * tw)]  # fmt: skip
+                        (2 * node[s][g] + 1, pix[s][g], ps[g], offset(ps[g], ngs[g], -1.0), tdir, thr[s][g] * tw)]  # fmt: skip
             node, pix, o, oc, d, thr = (np.concatenate([c[k] for c in children]) for k in range(6))
         if progress is not None:
             progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")

@@ -188,12 +188,8 @@ def albedo(packed: PackedScene, mat: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 
 def _bilinear_wrap(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Bilinear lookup with periodic wrap in both axes (texture repeat)."""
-    h, w = img.shape[:2]
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    x0, y0 = x0.astype(np.int64) % w, y0.astype(np.int64) % h
-    x1, y1 = (x0 + 1) % w, (y0 + 1) % h
-    top = img[y0, x0] * (1 - fx) + img[y0, x1] * fx
-    bottom = img[y1, x0] * (1 - fx) + img[y1, x1] * fx
-    return top * (1 - fy) + bottom * fy
+    """Bilinear lookup with periodic wrap in both axes (texture repeat), as a Numba kernel."""
+    from vergence.render import _kernels
+
+    f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    return _kernels.bilinear_wrap(np.ascontiguousarray(img), f64(x), f64(y))
