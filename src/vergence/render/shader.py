@@ -82,7 +82,7 @@ class WhittedShader:
             orig, dirs = _kernels.ao_rays(points[s:e], n_geo[s:e], n_shade[s:e], lattice, shifts, EPS_REL)
             maxt = None if ao_distance is None else np.full(dirs.shape[1], ao_distance)
             blocked = self.occluders.occluded(orig, dirs, maxt).reshape(e - s, samples)
-            out[s:e] = 1.0 - blocked.mean(axis=1)
+            out[s:e] = 1.0 - np.count_nonzero(blocked, axis=1) / samples  # the blocked fraction
         return out
 
     def specular(self, d: np.ndarray, n_shade: np.ndarray, entering: np.ndarray, mat: np.ndarray) -> SpecularSplit:
