@@ -93,6 +93,9 @@ def test_intersector_against_an_analytic_sphere_and_plane():
     # A bound below the hit distance: no hit.
     bounded = inter(o, d, tmax=np.array([3.9, 4.3, 4.0, 7.0]))
     assert_array_equal(bounded.rays, [1, 2])
+    # The bound holds on the float64 distance: a hit 1e-9 m beyond it (below float32 resolution at 4 m,
+    # where Mitsuba's float32 bound cannot tell) is no hit.
+    assert len(inter(o[:1], d[:1], tmax=np.array([4.0 - 1e-9])).rays) == 0
 
 
 # ---------------------------------------------------------------------------- shading
