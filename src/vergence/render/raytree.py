@@ -46,7 +46,6 @@ __all__ = ["MAX_DEPTH", "RayTree", "RenderResult", "RenderSettings", "Tracer", "
 MAX_DEPTH = 6  # 127 layers; beyond that the arrays outgrow memory long before they help
 
 Progress = Callable[[float, str], None]
-_DEFAULTS = {"max_depth": 2, "samples": 16, "rng": None, "ao_distance": None}
 
 
 def layer_names(max_depth: int) -> list[str]:
