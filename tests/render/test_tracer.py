@@ -231,3 +231,23 @@ def test_importing_the_renderer_does_not_import_matplotlib():
     code = "import sys, vergence.render; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "False"
+
+
+def test_hashed_ao_pattern_is_deterministic_unbiased_and_unstructured():
+    # The half-space of test_raytree: a floor with an infinite wall behind the camera, AO = 1/2 exactly.
+    floor = Rectangle(center=(0, 0, 0), normal=(0, 1, 0), up=(0, 0, -1), size=(4000.0, 4000.0), material="white")
+    wall = Rectangle(center=(0, 0, 5), normal=(0, 0, -1), up=(0, 1, 0), size=(4000.0, 4000.0), material="white")
+    cam = SceneCamera(position=(0, 1, 0), look_at=(0, 0, -2), up=(0, 1, 0), fov_deg=30.0, width=33, height=25)
+    scene = Scene(camera=cam, environment=Environment(color=(1, 1, 1)), materials={"white": Diffuse(color=(1, 1, 1))},
+                  objects=(floor, wall))  # fmt: skip
+    hashed = Tracer(scene, shader=WhittedShader(scene, ao_pattern="hashed"))
+    a, b = hashed.render(samples=16), hashed.render(samples=16)
+    assert_array_equal(a.radiance, b.radiance)  # no rng: deterministic
+    ao = a.radiance[0, ..., 0]  # albedo 1, sky 1: radiance = AO
+    # Unbiased: the mean of ~800 points with 16 stratified directions each is within 2 % of 1/2 ...
+    assert ao.mean() == pytest.approx(0.5, rel=0.02)
+    # ... and the points do not all share one lattice (which gives the same AO at every point here).
+    fixed = Tracer(scene).render(samples=16).radiance[0, ..., 0]
+    assert np.ptp(fixed) < 1e-6 < np.ptp(ao)
+    with pytest.raises(ValueError, match="ao_pattern must be one of lattice, hashed; got 'blue'"):
+        WhittedShader(scene, ao_pattern="blue")

@@ -36,12 +36,13 @@ from vergence.render.scene import (
     Texture,
 )
 from vergence.render.scenefile import load_scene, scene_from_dict
-from vergence.render.shader import WhittedShader
+from vergence.render.shader import AO_PATTERNS, WhittedShader
 from vergence.render.shading import schlick
 from vergence.render.stereo import StereoPreview, stereo_preview
 from vergence.render.tonemap import auto_exposure, tonemap
 
 __all__ = [
+    "AO_PATTERNS",
     "BUILTIN_SCENES",
     "Checker",
     "Diffuse",
