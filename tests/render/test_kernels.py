@@ -179,3 +179,11 @@ def test_offset_bilinear_and_pinhole_kernels_against_python_loops():
         for col in range(7):
             v = cam.R.T @ (k_inv @ [col, row, 1.0])
             assert_allclose(got[row * 7 + col], v / math.sqrt(sum(c * c for c in v)), atol=1e-14)
+
+
+def test_take_rows_against_python_loops():
+    rng = np.random.default_rng()
+    a = rng.random((9, 3))
+    idx = rng.integers(0, 9, 14)
+    got = _kernels.take_rows(a, idx)
+    assert_array_equal(got, np.array([[a[i, c] for c in range(3)] for i in idx]))

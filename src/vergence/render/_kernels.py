@@ -16,6 +16,7 @@ __all__ = [
     "refine_hits",
     "scatter_nodes",
     "scatter_weighted",
+    "take_rows",
 ]
 
 
@@ -238,4 +239,15 @@ def pinhole_directions(k_inv: np.ndarray, r: np.ndarray, width: int, height: int
             ln = math.sqrt(wx * wx + wy * wy + wz * wz)
             j = row * width + col
             out[j, 0], out[j, 1], out[j, 2] = wx / ln, wy / ln, wz / ln
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def take_rows(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """``a[idx]`` for a 2-D array: the rows ``idx`` gathered in parallel (numpy's ``take`` is one thread)."""
+    m, k = idx.shape[0], a.shape[1]
+    out = np.empty((m, k), dtype=a.dtype)
+    for i in numba.prange(m):
+        for c in range(k):
+            out[i, c] = a[idx[i], c]
     return out

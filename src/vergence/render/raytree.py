@@ -184,6 +184,11 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
+def _take(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``a[rows]`` for ``(M, k)`` float64 arrays, gathered by a parallel kernel."""
+    return _kernels.take_rows(np.ascontiguousarray(a, dtype=np.float64), rows)
+
+
 @dataclass(frozen=True, slots=True)
 class _Flat:
     """The tree of ``n_slots`` ray slots, flat: what the stages produce before any reshaping."""
@@ -389,7 +394,7 @@ class Tracer:
                 esc &= np.isinf(tmax)  # a bounded segment without a hit is unfinished, not escaped
             _kernels.scatter_weighted(rad, node[esc], pix[esc], thr[esc], self.shader.background(d[esc]))
             hit = hits.rays
-            node, pix, d, thr, obj = node[hit], pix[hit], d[hit], thr[hit], hits.obj
+            node, pix, d, thr, obj = node[hit], pix[hit], _take(d, hit), _take(thr, hit), hits.obj
             p, ng, ns, uv = hits.points, hits.n_geo, hits.n_shade, hits.uv
             entering = _dot(d, ng) < 0.0
             side = np.where(entering, 1.0, -1.0)[:, None]
@@ -402,7 +407,8 @@ class Tracer:
             mat = pk.material[obj]
             kind = pk.mat_kind[mat]
             s = np.flatnonzero(kind == surfaces.DIFFUSE)
-            queue.append((node[s], pix[s], p[s], ng[s], ns[s], thr[s] * surfaces.albedo(pk, mat[s], uv[s])))
+            queue.append((node[s], pix[s], _take(p, s), _take(ng, s), _take(ns, s),
+                          _take(thr, s) * surfaces.albedo(pk, mat[s], _take(uv, s))))  # fmt: skip
             if level == max_depth:
                 break  # specular hits at the last level are cut off
             s = np.flatnonzero(kind != surfaces.DIFFUSE)
