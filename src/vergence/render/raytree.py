@@ -412,10 +412,11 @@ class Tracer:
             if level == max_depth:
                 break  # specular hits at the last level are cut off
             s = np.flatnonzero(kind != surfaces.DIFFUSE)
-            rdir, rw, g, tdir, tw = self.shader.specular(d[s], ns[s], entering[s], mat[s])
-            ps, ngs = p[s], ng[s]
-            children = [(2 * node[s], pix[s], ps, offset(ps, ngs), rdir, thr[s] * rw),
-                        (2 * node[s][g] + 1, pix[s][g], ps[g], offset(ps[g], ngs[g], -1.0), tdir, thr[s][g] * tw)]  # fmt: skip
+            rdir, rw, g, tdir, tw = self.shader.specular(_take(d, s), _take(ns, s), entering[s], mat[s])
+            ps, ngs, ts = _take(p, s), _take(ng, s), _take(thr, s)
+            pg = _take(ps, g)
+            children = [(2 * node[s], pix[s], ps, offset(ps, ngs), rdir, ts * rw),
+                        (2 * node[s][g] + 1, pix[s][g], pg, offset(pg, _take(ngs, g), -1.0), tdir, _take(ts, g) * tw)]  # fmt: skip
             node, pix, o, oc, d, thr = (np.concatenate([c[k] for c in children]) for k in range(6))
         if progress is not None:
             progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")
