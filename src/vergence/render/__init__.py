@@ -2,7 +2,14 @@
 
 Mitsuba 3 casts the rays (``llvm_ad_rgb`` on the CPU, ``cuda_ad_rgb`` on a GPU, chosen at run
 time); the ray tree, the materials and the shading are ours. Importing this package imports Mitsuba
-(``import vergence`` alone does not). Scene format: ``docs/scenes.md``.
+(``import vergence`` alone does not; matplotlib is not imported: figures live in
+``vergence.report.preview``). Scene format: ``docs/scenes.md``.
+
+:class:`Tracer` prepares a scene once and renders any number of cameras (:meth:`Tracer.render`) or
+arbitrary rays (:meth:`Tracer.trace_rays`) through three swappable stages: ray generation
+(:func:`camera_rays`, one generator per camera type in :data:`RAY_GENERATORS`), intersection
+(:class:`Intersector`) and shading (:class:`WhittedShader`). :func:`render` and
+:func:`render_stereo` are one-call conveniences on top.
 """
 
 from vergence.render._mitsuba import select_variant
