@@ -101,6 +101,12 @@ def test_refine_hits_kernel_against_python_loops():
             tuv = pk.tri_uv[prim[i]]
             assert_allclose(uv[i], [sum(w[j] * tuv[j, k] for j in range(3)) for k in range(2)], atol=1e-9)
         assert_allclose(p[i], o[i] + t[i] * d[i], atol=ATOL)
+    # Gathering the rays inside the kernel (rows) equals gathering them first.
+    perm = rng.permutation(m)
+    inv = np.argsort(perm)
+    got = refine_hits_fast(pk, obj, prim, o[perm], d[perm], t_approx, rows=inv)
+    for x, y in zip(got, (t, p, ng, ns, uv)):
+        assert_array_equal(x, y)
     # ... and the vectorised numpy version agrees everywhere.
     ref = refine_hits(pk, obj, prim, o, d, t_approx)
     for got, want in zip((p, ng, ns, uv), ref):

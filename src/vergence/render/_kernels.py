@@ -71,13 +71,14 @@ def ao_rays(
 def refine_hits(
     kind: np.ndarray, center: np.ndarray, radius: np.ndarray, normal: np.ndarray, right: np.ndarray, up: np.ndarray,
     size: np.ndarray, tri_offset: np.ndarray, tri_v: np.ndarray, tri_n: np.ndarray, tri_uv: np.ndarray,
-    obj: np.ndarray, prim: np.ndarray, o: np.ndarray, d: np.ndarray, t_approx: np.ndarray,
+    obj: np.ndarray, prim: np.ndarray, o: np.ndarray, d: np.ndarray, t_approx: np.ndarray, rows: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """Float64 distance, point, outward geometric and shading normals and uv of hits: ``surfaces.refine_hits``.
 
     The same maths, one ray per iteration: the sphere root nearest Mitsuba's distance (``q = -(b +
     sign(b) sqrt(b^2 - c))``, roots ``q`` and ``c/q``), the rectangle's plane, the triangle's plane
     with barycentric normals and texture coordinates. ``kind`` 0 = sphere, 1 = rectangle, 2 = mesh.
+    Hit ``i`` belongs to the ray ``rows[i]`` of ``o`` and ``d`` (gathered here, not by the caller).
     """
     m = obj.shape[0]
     t = np.empty(m)
@@ -87,8 +88,9 @@ def refine_hits(
     uv = np.zeros((m, 2))
     for i in numba.prange(m):
         k = obj[i]
-        ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
-        dx, dy, dz = d[i, 0], d[i, 1], d[i, 2]
+        r_ = rows[i]
+        ox, oy, oz = o[r_, 0], o[r_, 1], o[r_, 2]
+        dx, dy, dz = d[r_, 0], d[r_, 1], d[r_, 2]
         if kind[k] == 0:
             cx, cy, cz, r = center[k, 0], center[k, 1], center[k, 2], radius[k]
             ux, uy, uz = ox - cx, oy - cy, oz - cz

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence.render import _kernels, surfaces
+from vergence.render import surfaces
 from vergence.render._mitsuba import Caster
 from vergence.render.scene import Scene
 
@@ -69,9 +69,7 @@ class Intersector:
         obj, prim, t32 = self.caster.intersect(origins if cast_from is None else cast_from, directions, tmax)
         rays = np.flatnonzero(obj >= 0)
         obj, prim = obj[rays], prim[rays]
-        o_hit = _kernels.take_rows(np.ascontiguousarray(origins, dtype=np.float64), rays)
-        d_hit = _kernels.take_rows(np.ascontiguousarray(directions, dtype=np.float64), rays)
-        t, p, ng, ns, uv = surfaces.refine_hits_fast(self.packed, obj, prim, o_hit, d_hit, t32[rays])
+        t, p, ng, ns, uv = surfaces.refine_hits_fast(self.packed, obj, prim, origins, directions, t32[rays], rays)
         if tmax is not None:
             keep = t <= tmax[rays]
             rays, obj, prim, t, p, ng, ns, uv = (a[keep] for a in (rays, obj, prim, t, p, ng, ns, uv))

@@ -155,9 +155,12 @@ def refine_hits(
 
 
 def refine_hits_fast(
-    packed: PackedScene, obj: np.ndarray, prim: np.ndarray, origins: np.ndarray, dirs: np.ndarray, t_approx: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    packed: PackedScene, obj: np.ndarray, prim: np.ndarray, origins: np.ndarray, dirs: np.ndarray, t_approx: np.ndarray,
+    rows: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """:func:`refine_hits` as one Numba kernel (the renderer's path); also returns the distance ``t``.
+
+    With ``rows``, hit ``i`` is that of the ray ``rows[i]`` of ``origins`` and ``dirs`` (default: ray ``i``).
 
     :func:`refine_hits` stays as the vectorised numpy reference the tests compare against.
     """
@@ -167,7 +170,8 @@ def refine_hits_fast(
     pk = packed
     return _kernels.refine_hits(pk.kind, pk.center, pk.radius, pk.normal, pk.right, pk.up, pk.size, pk.tri_offset,
                                 pk.tri_v, pk.tri_n, pk.tri_uv, np.ascontiguousarray(obj, dtype=np.int64),
-                                np.ascontiguousarray(prim, dtype=np.int64), f64(origins), f64(dirs), f64(t_approx))  # fmt: skip
+                                np.ascontiguousarray(prim, dtype=np.int64), f64(origins), f64(dirs), f64(t_approx),
+                                np.arange(len(obj)) if rows is None else np.ascontiguousarray(rows, dtype=np.int64))  # fmt: skip
 
 
 def albedo(packed: PackedScene, mat: np.ndarray, uv: np.ndarray) -> np.ndarray:
