@@ -251,3 +251,57 @@ def test_hashed_ao_pattern_is_deterministic_unbiased_and_unstructured():
     assert np.ptp(fixed) < 1e-6 < np.ptp(ao)
     with pytest.raises(ValueError, match="ao_pattern must be one of lattice, hashed; got 'blue'"):
         WhittedShader(scene, ao_pattern="blue")
+
+
+# ---------------------------------------------------------------------------- supersampling
+def test_subpixel_rays_pass_through_their_offsets():
+    from vergence.render import subpixel_rays
+
+    cam = look_at([0.3, 0.1, 2.0], [0, 0, 0], [0, 1, 0], fov_deg=50, width=6, height=4)
+    off = np.random.default_rng().uniform(-0.5, 0.5, (4, 6, 2))
+    rays = subpixel_rays(cam, off)
+    pixels, _ = cam.project(rays.origins + 2.0 * rays.directions)
+    assert_allclose(pixels.reshape(4, 6, 2), cam.pixel_grid() + off, atol=1e-9)
+    with pytest.raises(TypeError, match="sub-pixel rays need a pinhole Camera; got FisheyeCamera"):
+        subpixel_rays(FisheyeCamera(R=np.eye(3), t=np.zeros(3), width=4, height=4, fov_deg=90.0), (0.0, 0.0))
+
+
+def test_supersampling_averages_the_sub_pixel_trees(tracer):
+    from vergence.render import subpixel_rays
+
+    cam = tracer.scene.camera.build()
+    plain = tracer.render(cam, samples=2)
+    ss = tracer.render(cam, samples=2, supersample=2)
+    # Geometry is the pixel-centre ray's; radiance is the mean of the 2 x 2 grid of cell centres.
+    assert_array_equal(ss.position, plain.position)
+    assert_array_equal(ss.depth, plain.depth)
+    subs = []
+    for dy in (-0.25, 0.25):
+        for dx in (-0.25, 0.25):
+            r = subpixel_rays(cam, (dx, dy))
+            subs.append(tracer.trace_rays(r.origins, r.directions, shape=r.shape, samples=2).radiance)
+    assert_allclose(ss.radiance, np.mean(subs, axis=0), rtol=1e-6, atol=1e-7)
+    # The ball's silhouette is smoothed: some pixels now lie between ball and wall.
+    assert not np.allclose(ss.beauty, plain.beauty)
+    n = cam.width * cam.height
+    assert ss.settings.supersample == 2 and ss.settings.tree_rays >= 5 * n and plain.settings.tree_rays < 5 * n
+    jittered = tracer.render(cam, samples=2, supersample=2, rng=np.random.default_rng(1))
+    assert_array_equal(jittered.position, plain.position)
+
+
+def test_supersample_bad_input(tracer):
+    with pytest.raises(ValueError, match="supersample must be >= 1; got 0"):
+        tracer.render(supersample=0)
+    fisheye = FisheyeCamera(R=np.eye(3), t=np.array([0.0, 0.0, -5.0]), width=8, height=8, fov_deg=90.0)
+    with pytest.raises(TypeError, match="supersample > 1 needs a pinhole Camera; got FisheyeCamera"):
+        tracer.render(fisheye, supersample=2)
+    with pytest.raises(ValueError, match="supersample must be >= 1; got 0"):
+        render_stereo(tracer.scene, baseline=0.1, convergence=5.0, supersample=0)
+
+
+def test_supersampled_stereo_equals_two_supersampled_renders(tracer):
+    left, right = render_stereo(tracer.scene, baseline=0.2, convergence=5.0, samples=1, supersample=2)
+    for joint, c in zip((left, right), stereo_pair(tracer.scene.camera.build(), baseline=0.2, convergence=5.0)):
+        alone = tracer.render(c, samples=1, supersample=2)
+        assert_array_equal(joint.radiance, alone.radiance)
+        assert joint.settings == alone.settings

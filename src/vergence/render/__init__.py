@@ -27,7 +27,7 @@ from vergence.render.raytree import (
     render,
     render_stereo,
 )
-from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays
+from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays, subpixel_rays
 from vergence.render.scene import (
     Checker,
     Diffuse,
@@ -88,5 +88,6 @@ __all__ = [
     "screen_disparity",
     "select_variant",
     "stereo_preview",
+    "subpixel_rays",
     "tonemap",
 ]

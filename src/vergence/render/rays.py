@@ -16,7 +16,7 @@ import numpy as np
 from vergence.camera import Camera
 from vergence.render.lenses import FisheyeCamera
 
-__all__ = ["RAY_GENERATORS", "RayBatch", "camera_rays"]
+__all__ = ["RAY_GENERATORS", "RayBatch", "camera_rays", "subpixel_rays"]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -69,3 +69,30 @@ def camera_rays(camera: Camera | FisheyeCamera) -> RayBatch:
         valid = ", ".join(t.__name__ for t in RAY_GENERATORS)
         raise TypeError(f"camera must be one of {valid}; got {type(camera).__name__}")
     return generator(camera)
+
+
+def subpixel_rays(camera: Camera, offsets: np.ndarray) -> RayBatch:
+    """Pinhole rays through ``(x + dx, y + dy)`` for every pixel ``(x, y)``: supersampling.
+
+    Parameters
+    ----------
+    camera : Camera
+        A pinhole camera (``K^-1 (x, y, 1)`` holds at any sub-pixel position).
+    offsets : (H, W, 2) or (2,) array
+        Offsets from the pixel centres in pixels, ``(dx, dy)``, per pixel or shared.
+
+    Raises
+    ------
+    TypeError
+        If ``camera`` is not a pinhole :class:`~vergence.camera.Camera`.
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"sub-pixel rays need a pinhole Camera; got {type(camera).__name__}")
+    ys, xs = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
+    off = np.broadcast_to(np.asarray(offsets, dtype=np.float64), (camera.height, camera.width, 2))
+    homog = np.stack([xs + off[..., 0], ys + off[..., 1], np.ones_like(xs)], axis=-1).reshape(-1, 3)
+    d = (homog @ np.linalg.inv(camera.K).T) @ camera.R
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    n = len(d)
+    return RayBatch(origins=np.broadcast_to(camera.center, (n, 3)).copy(), directions=d, pixels=np.arange(n),
+                    shape=(camera.height, camera.width))  # fmt: skip

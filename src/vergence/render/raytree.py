@@ -37,7 +37,7 @@ from vergence.camera import Camera
 from vergence.render import _kernels, surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.rays import RayBatch, camera_rays
+from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
 from vergence.render.scene import Scene
 from vergence.render.shader import WhittedShader, offset
 
@@ -65,7 +65,8 @@ class RenderSettings:
     """How a :class:`RenderResult` was made (JSON-ready through :meth:`to_dict`).
 
     ``tree_rays`` counts the rays of the tree (primary and specular), ``ao_rays`` the
-    ambient-occlusion rays: together, all the rays Mitsuba cast.
+    ambient-occlusion rays: together, all the rays Mitsuba cast. ``supersample`` k: radiance is the
+    mean of k x k sub-pixel rays per pixel (1: the pixel centre only).
     """
 
     scene: str
@@ -77,6 +78,7 @@ class RenderSettings:
     environment: str
     tree_rays: int = 0
     ao_rays: int = 0
+    supersample: int = 1
 
     def to_dict(self) -> dict:
         """Plain dictionary of the settings."""
@@ -245,12 +247,13 @@ class Tracer:
     # ------------------------------------------------------------------ public entry points
     def render(self, camera: Camera | FisheyeCamera | None = None, *, max_depth: int = 2, samples: int = 16,
                rng: np.random.Generator | None = None, ao_distance: float | None = None,
-               progress: Progress | None = None) -> RenderResult:  # fmt: skip
+               progress: Progress | None = None, supersample: int = 1) -> RenderResult:  # fmt: skip
         """Ray-trace one camera's view (default: the scene's camera); parameters as :func:`render`."""
         max_depth, samples, ao_distance = _check_options(self.scene, camera, max_depth, samples, rng, ao_distance)
         cam = self.scene.camera.build() if camera is None else camera
+        supersample = _check_supersample(supersample, [cam])
         return self._render_many([cam], max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                                 progress=progress)[0]  # fmt: skip
+                                 progress=progress, supersample=supersample)[0]  # fmt: skip
 
     def trace_rays(
         self, origins: object, directions: object, *, shape: tuple[int, ...] | None = None, tmax: object = None,
@@ -328,19 +331,37 @@ class Tracer:
                        beauty=rad.sum(axis=0), settings=settings)  # fmt: skip
 
     # ------------------------------------------------------------------ internals
-    def _settings(self, max_depth, samples, rng, ao_distance, tree_rays, ao_rays) -> RenderSettings:  # noqa: ANN001
+    def _settings(self, max_depth, samples, rng, ao_distance, tree_rays, ao_rays, supersample=1) -> RenderSettings:  # noqa: ANN001
         return RenderSettings(
             scene=self.scene.name, max_depth=max_depth, samples=samples, deterministic=rng is None,
             ao_distance=ao_distance, variant=self.intersector.variant, environment=self.scene.environment.describe(),
-            tree_rays=tree_rays, ao_rays=ao_rays,
+            tree_rays=tree_rays, ao_rays=ao_rays, supersample=supersample,
         )  # fmt: skip
 
-    def _render_many(self, cameras, *, max_depth, samples, rng, ao_distance, progress) -> list[RenderResult]:  # noqa: ANN001
-        """Render several cameras' views with one wavefront per tree level (their rays side by side)."""
+    def _render_many(self, cameras, *, max_depth, samples, rng, ao_distance, progress,
+                     supersample=1) -> list[RenderResult]:  # noqa: ANN001  # fmt: skip
+        """Render several cameras' views with one wavefront per tree level (their rays side by side).
+
+        With ``supersample`` k > 1, each camera also casts a k x k grid of sub-pixel rays per pixel
+        (cell centres, or jittered within their cells by ``rng``); its radiance layers and beauty are
+        their mean, while position, normal and depth stay those of the pixel-centre ray (a point of
+        one surface, never an average across an edge).
+        """
         n = 2 ** (max_depth + 1) - 1
+        k2 = supersample * supersample
         try:
             batches = [self.rays(c) for c in cameras]
             sizes = [c.height * c.width for c in cameras]
+            if supersample > 1:
+                grid = (np.arange(supersample) + 0.5) / supersample - 0.5
+                for c in cameras:
+                    for gy in grid:
+                        for gx in grid:
+                            off = np.array([gx, gy])
+                            if rng is not None:
+                                off = off + (rng.random((c.height, c.width, 2)) - 0.5) / supersample
+                            batches.append(subpixel_rays(c, off))
+                            sizes.append(c.height * c.width)
             starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
             shifted = [RayBatch(b.origins, b.directions, b.pixels + s, b.shape) for b, s in zip(batches, starts)]
             flat = self._trace(shifted, starts, tmax=None, max_depth=max_depth, samples=samples, rng=rng,
@@ -351,13 +372,23 @@ class Tracer:
             raise ValueError(f"width x height {c.width}x{c.height} with {n} layers does not fit in memory "
                              f"(the layer arrays alone need {gib:.3g} GiB); render a smaller image") from None
         out = []
+        nc = len(cameras)
         for k, cam in enumerate(cameras):
             sl = slice(starts[k], starts[k + 1])
             h, w = cam.height, cam.width
             rad = flat.radiance[:, sl].reshape(n, h, w, 3)
+            tree_rays, ao_rays = int(flat.tree_rays[k]), int(flat.ao_rays[k])
+            if supersample > 1:
+                subs = [nc + k * k2 + j for j in range(k2)]
+                acc = np.zeros((n, h * w, 3), dtype=np.float64)
+                for v in subs:
+                    acc += flat.radiance[:, starts[v] : starts[v + 1]]
+                rad = (acc / k2).astype(np.float32).reshape(n, h, w, 3)
+                tree_rays += int(flat.tree_rays[subs].sum())
+                ao_rays += int(flat.ao_rays[subs].sum())
             p0 = flat.first_point[sl]
             depth = (p0 @ cam.R[2] + cam.t[2]).astype(np.float32).reshape(h, w)
-            settings = self._settings(max_depth, samples, rng, ao_distance, int(flat.tree_rays[k]), int(flat.ao_rays[k]))
+            settings = self._settings(max_depth, samples, rng, ao_distance, tree_rays, ao_rays, supersample)
             out.append(RenderResult(radiance=rad, position=flat.position[:, sl].reshape(rad.shape),
                                     normal=flat.normal[:, sl].reshape(rad.shape), depth=depth,
                                     beauty=rad.sum(axis=0), camera=cam, settings=settings))  # fmt: skip
@@ -431,6 +462,14 @@ class Tracer:
         return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays)
 
 
+def _check_supersample(supersample, cameras) -> int:  # noqa: ANN001
+    k = check_positive_int("supersample", supersample)
+    if k > 1 and not all(isinstance(c, Camera) for c in cameras):
+        raise TypeError("supersample > 1 needs a pinhole Camera; got "
+                        f"{next(type(c).__name__ for c in cameras if not isinstance(c, Camera))}")  # fmt: skip
+    return k
+
+
 def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
@@ -455,6 +494,7 @@ def render(
     rng: np.random.Generator | None = None,
     ao_distance: float | None = None,
     progress: Progress | None = None,
+    supersample: int = 1,
 ) -> RenderResult:
     """Ray-trace ``scene`` into its ray tree of ``2^(max_depth+1) - 1`` layers (S3 §3.1).
 
@@ -475,6 +515,10 @@ def render(
         Occluders farther than this (metres) are ignored; default: any distance.
     progress : callable(fraction, message), optional
         Called as the wavefronts advance.
+    supersample : int
+        k > 1 averages the radiance of a k x k grid of sub-pixel rays per pixel (anti-aliasing; the
+        cell centres, jittered within the cells with an ``rng``); position, normal and depth stay
+        those of the pixel-centre ray. Pinhole cameras only. Costs about ``1 + k^2`` times the rays.
 
     Returns
     -------
@@ -488,7 +532,7 @@ def render(
     """
     max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
     return Tracer(scene).render(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                                progress=progress)  # fmt: skip
+                                progress=progress, supersample=supersample)  # fmt: skip
 
 
 def render_stereo(
@@ -502,6 +546,7 @@ def render_stereo(
     rng: np.random.Generator | None = None,
     ao_distance: float | None = None,
     progress: Progress | None = None,
+    supersample: int = 1,
 ) -> tuple[RenderResult, RenderResult]:
     """Render the left and right views of the shifted-sensor rig on ``camera`` (S0 §2).
 
@@ -517,6 +562,7 @@ def render_stereo(
     cam = scene.camera.build() if camera is None else camera
     if not isinstance(cam, Camera):
         raise TypeError(f"render_stereo needs a pinhole Camera; got {type(cam).__name__}")
+    supersample = check_positive_int("supersample", supersample)
     left, right = stereo_pair(cam, baseline=baseline, convergence=convergence)
     return tuple(Tracer(scene)._render_many([left, right], max_depth=max_depth, samples=samples, rng=rng,
-                                            ao_distance=ao_distance, progress=progress))  # fmt: skip
+                                            ao_distance=ao_distance, progress=progress, supersample=supersample))  # fmt: skip
