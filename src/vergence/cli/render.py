@@ -52,6 +52,7 @@ def render(
     depth: int = typer.Option(2, "--depth", help="Maximum specular bounces D: 2^(D+1)-1 layers."),
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
     seed: int | None = typer.Option(None, "--seed", help="Random AO directions from this seed (default: fixed lattice)."),
+    supersample: int = typer.Option(1, "--supersample", help="k: average k x k sub-pixel rays per pixel (anti-aliasing)."),
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""
     from vergence import render as vr
@@ -69,7 +70,7 @@ def render(
     if sc.environment.note:
         err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
     rng = None if seed is None else np.random.default_rng(seed)
-    options = {"max_depth": depth, "samples": samples, "rng": rng}
+    options = {"max_depth": depth, "samples": samples, "rng": rng, "supersample": supersample}
     cam = sc.camera.build()
     start = time.perf_counter()
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
