@@ -1,4 +1,4 @@
-"""Tests of vergence.rig.stereo_pair: S0 Eq. (1a) disparity, zero parallax at H, bad input."""
+"""Tests of vergence.rigs.stereo_pair: S0 Eq. (1a) disparity, zero parallax at H, bad input."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from vergence.camera import Camera, look_at
-from vergence.rig import stereo_pair
+from vergence.rigs import stereo_pair
 from vergence.viewing.geometry import Shooting, disparity
 
 # Projections go through a few float64 products: pixel coordinates agree to ~1e-12 px; a few

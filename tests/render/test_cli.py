@@ -87,7 +87,7 @@ def test_import_vergence_does_not_import_mitsuba():
     import subprocess
     import sys
 
-    code = "import sys, vergence, vergence.cli, vergence.rig; print('mitsuba' in sys.modules, 'drjit' in sys.modules)"
+    code = "import sys, vergence, vergence.cli, vergence.rigs; print('mitsuba' in sys.modules, 'drjit' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
 
@@ -111,3 +111,11 @@ def test_eye_needs_a_pinhole_camera(tmp_path, capsys):
     assert main(["render", str(scene), "--eye", "left", "--baseline", "0.1", "--convergence", "2", "--out",
                  str(tmp_path / "o")]) == 2  # fmt: skip
     assert "--eye needs a pinhole scene camera (the rig shifts the sensor); got lens 'fisheye'" in capsys.readouterr().err
+
+
+def test_render_supersampled(tmp_path, capsys):
+    assert main(["render", "tabletop", "--out", str(tmp_path), *SMALL, "--depth", "0", "--supersample", "2"]) == 0
+    with np.load(tmp_path / "render.npz") as npz:
+        assert json.loads(str(npz["settings"]))["supersample"] == 2
+    assert main(["render", "tabletop", "--out", str(tmp_path / "x"), *SMALL, "--supersample", "0"]) == 2
+    assert "supersample must be >= 1; got 0" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""Ray-tree renders checked against geometry worked out by hand (S3 §3.1, SPEC §5.1–5.2).
+"""Ray-tree renders checked against geometry worked out by hand (S3 §3.1; Whitted 1980, Schlick 1994).
 
 All renders are tiny (33 x 25 unless stated) and deterministic (no rng) so the file stays fast.
 """
@@ -28,7 +28,7 @@ from vergence.render import (
     render_stereo,
     scene_from_dict,
 )
-from vergence.rig import stereo_pair
+from vergence.rigs import stereo_pair
 from vergence.viewing.geometry import Shooting, disparity
 
 W, H = 33, 25  # odd sizes: pixel (16, 12) lies on the optical axis
@@ -399,10 +399,11 @@ def test_stereo_views_of_the_convergence_plane_coincide_off_centre():
 
 def test_out_of_memory_is_a_value_error(monkeypatch):
     from vergence.camera import Camera
+    from vergence.render import RAY_GENERATORS
 
     def boom(camera):
         raise MemoryError
 
-    monkeypatch.setattr(Camera, "ray_directions", boom)  # the first allocation of a render
+    monkeypatch.setitem(RAY_GENERATORS, Camera, boom)  # the first allocation of a render
     with pytest.raises(ValueError, match=r"width x height 33x25 with 7 layers does not fit in memory"):
         render(_scene([], {}))

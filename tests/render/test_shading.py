@@ -1,4 +1,4 @@
-"""Unit tests of the shading maths and lenses: Schlick (SPEC §5.2), Snell, IBL, AO directions, fisheye."""
+"""Unit tests of the shading maths and lenses: Schlick (Schlick 1994), Snell, IBL, AO directions, fisheye."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ IRRADIANCE_RTOL = 1e-2
 
 
 def test_schlick_spec_values():
-    # SPEC §5.2 (checked in spec/checks/verify_dibr_perception.py): R0 = 0.04 for glass n = 1.5.
+    # Schlick 1994: R0 = ((n1 - n2)/(n1 + n2))^2 = 0.04 for glass n = 1.5.
     assert float(schlick(1.0, 1.0, 1.5)) == pytest.approx(0.04, abs=EXACT)
     assert float(schlick(0.0, 1.0, 1.5)) == pytest.approx(1.0, abs=EXACT)
     # Inside glass at 60 deg: sin^2 theta_t = 1.5^2 * 0.75 = 1.6875 > 1, total internal reflection.
@@ -37,7 +37,7 @@ def test_schlick_spec_values():
 
 
 def test_schlick_matches_spec_reference_implementation():
-    # The SPEC check's scalar function, restated, against the vectorised one.
+    # A scalar restatement of Schlick 1994 (with TIR), against the vectorised one.
     def reference(cos_i, n1, n2):
         r0 = ((n1 - n2) / (n1 + n2)) ** 2
         if n1 > n2:

@@ -6,13 +6,32 @@ import re
 
 import pytest
 
+import vergence.report.demo as demo_module
 from vergence.cli import main
-from vergence.report.demo import DEMO_DISPLAY, SUBJECT_DEPTH, run_demo
+from vergence.report.demo import DEMO_DISPLAY, SUBJECT_DEPTH
 from vergence.report.html import Figure, Section, render_report, write_report
 
 
-def test_demo_writes_index_with_existing_figures(tmp_path):
-    result = run_demo(tmp_path / "out")
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    """The whole demo, run once for the module through ``vergence demo --out``; its DemoResult."""
+    seen = []
+    run = demo_module.run_demo
+
+    def recording(*args, **kwargs):
+        seen.append(run(*args, **kwargs))
+        return seen[-1]
+
+    out = tmp_path_factory.mktemp("demo") / "d"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(demo_module, "run_demo", recording)
+        assert main(["demo", "--out", str(out)]) == 0
+    assert len(seen) == 1 and seen[0].index == out / "index.html"
+    return seen[0]
+
+
+def test_demo_writes_index_with_existing_figures(demo):
+    result = demo
     html = result.index.read_text(encoding="utf-8")
     figures = re.findall(r'<img src="([^"]+)"', html)
     assert len(figures) >= 15
@@ -42,9 +61,8 @@ def test_demo_writes_index_with_existing_figures(tmp_path):
     assert result.dibr_quality.ssim > 0.95
 
 
-def test_demo_cli_and_bad_output(tmp_path, capsys):
-    assert main(["demo", "--out", str(tmp_path / "d")]) == 0
-    assert (tmp_path / "d" / "index.html").is_file()
+def test_demo_cli_and_bad_output(demo, tmp_path, capsys):
+    assert demo.index.is_file()
     blocker = tmp_path / "file"
     blocker.write_text("x")
     assert main(["demo", "--out", str(blocker)]) == 2

@@ -52,10 +52,12 @@ def render(
     depth: int = typer.Option(2, "--depth", help="Maximum specular bounces D: 2^(D+1)-1 layers."),
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
     seed: int | None = typer.Option(None, "--seed", help="Random AO directions from this seed (default: fixed lattice)."),
+    supersample: int = typer.Option(1, "--supersample", help="k: average k x k sub-pixel rays per pixel (anti-aliasing)."),
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""
     from vergence import render as vr
-    from vergence.rig import stereo_pair
+    from vergence.report.preview import save_render
+    from vergence.rigs import stereo_pair
 
     sc = vr.open_scene(scene, width=width, height=height)
     rig = _rig(sc, eye, baseline, convergence)
@@ -68,7 +70,7 @@ def render(
     if sc.environment.note:
         err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
     rng = None if seed is None else np.random.default_rng(seed)
-    options = {"max_depth": depth, "samples": samples, "rng": rng}
+    options = {"max_depth": depth, "samples": samples, "rng": rng, "supersample": supersample}
     cam = sc.camera.build()
     start = time.perf_counter()
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
@@ -85,7 +87,7 @@ def render(
             results = [vr.render(sc, camera=pair[0] if eye == "left" else pair[1], progress=report, **options)]
     elapsed = time.perf_counter() - start
     exposure = vr.auto_exposure(results[0].beauty)  # one exposure for both eyes
-    written = [p for stem, res in zip(stems, results) for p in vr.save_render(res, out, stem=stem, exposure=exposure)]
+    written = [p for stem, res in zip(stems, results) for p in save_render(res, out, stem=stem, exposure=exposure)]
     r = results[0]
     console.print(
         f"rendered {sc.name}: {len(results)} view(s) {r.camera.width}x{r.camera.height}, {r.n_layers} layers "

@@ -1,15 +1,33 @@
-"""Ray tracing into the S3 ray tree (S3 §3.1, SPEC §5.1–5.2), and the ground truth of every other part.
+"""Ray tracing into the S3 ray tree (S3 §3.1; Whitted 1980, Schlick 1994), and the ground truth of every other part.
 
 Mitsuba 3 casts the rays (``llvm_ad_rgb`` on the CPU, ``cuda_ad_rgb`` on a GPU, chosen at run
 time); the ray tree, the materials and the shading are ours. Importing this package imports Mitsuba
-(``import vergence`` alone does not). Scene format: ``docs/scenes.md``.
+(``import vergence`` alone does not; matplotlib is not imported: figures live in
+``vergence.report.preview``). Scene format: ``docs/scenes.md``.
+
+:class:`Tracer` prepares a scene once and renders any number of cameras (:meth:`Tracer.render`) or
+arbitrary rays (:meth:`Tracer.trace_rays`) through three swappable stages: ray generation
+(:func:`camera_rays`, one generator per camera type in :data:`RAY_GENERATORS`), intersection
+(:class:`Intersector`) and shading (:class:`WhittedShader`). :func:`render` and
+:func:`render_stereo` are one-call conveniences on top.
 """
 
 from vergence.render._mitsuba import select_variant
 from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.preview import auto_exposure, contact_sheet, depth_preview, save_render, tonemap
-from vergence.render.raytree import MAX_DEPTH, RenderResult, RenderSettings, layer_names, render, render_stereo
+from vergence.render.disparity import screen_disparity
+from vergence.render.intersect import Hits, Intersector
+from vergence.render.raytree import (
+    MAX_DEPTH,
+    RayTree,
+    RenderResult,
+    RenderSettings,
+    Tracer,
+    layer_names,
+    render,
+    render_stereo,
+)
+from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays, subpixel_rays
 from vergence.render.scene import (
     Checker,
     Diffuse,
@@ -25,19 +43,27 @@ from vergence.render.scene import (
     Texture,
 )
 from vergence.render.scenefile import load_scene, scene_from_dict
+from vergence.render.shader import AO_PATTERNS, WhittedShader
 from vergence.render.shading import schlick
 from vergence.render.stereo import StereoPreview, stereo_preview
+from vergence.render.tonemap import auto_exposure, tonemap
 
 __all__ = [
+    "AO_PATTERNS",
     "BUILTIN_SCENES",
     "Checker",
     "Diffuse",
     "Environment",
     "FisheyeCamera",
     "Glass",
+    "Hits",
+    "Intersector",
     "MAX_DEPTH",
     "Mesh",
     "Mirror",
+    "RAY_GENERATORS",
+    "RayBatch",
+    "RayTree",
     "Rectangle",
     "RenderResult",
     "RenderSettings",
@@ -47,19 +73,21 @@ __all__ = [
     "Stereo",
     "StereoPreview",
     "Texture",
+    "Tracer",
+    "WhittedShader",
     "auto_exposure",
     "builtin_scene",
-    "contact_sheet",
-    "depth_preview",
+    "camera_rays",
     "layer_names",
     "load_scene",
     "open_scene",
     "render",
     "render_stereo",
-    "save_render",
     "scene_from_dict",
     "schlick",
+    "screen_disparity",
     "select_variant",
     "stereo_preview",
+    "subpixel_rays",
     "tonemap",
 ]

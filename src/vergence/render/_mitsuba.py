@@ -101,8 +101,13 @@ class Caster:
         for registry_id, obj in ids:
             self._lookup[registry_id] = obj
 
-    def intersect(self, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """First hits of rays ``(M, 3)``: object id (-1 for a miss), primitive index, distance (float32 accuracy)."""
+    def intersect(
+        self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """First hits of rays ``(M, 3)``: object id (-1 for a miss), primitive index, distance (float32 accuracy).
+
+        ``maxt`` ``(M,)`` bounds each ray's search (unbounded when None; ``inf`` entries are unbounded).
+        """
         m = len(origins)
         obj = np.full(m, -1, dtype=np.int64)
         prim = np.zeros(m, dtype=np.int64)
@@ -111,6 +116,8 @@ class Caster:
             e = min(m, s + _CHUNK)
             ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(origins[s:e].T, dtype=np.float32)),
                            mi.Vector3f(np.ascontiguousarray(dirs[s:e].T, dtype=np.float32)))  # fmt: skip
+            if maxt is not None:
+                ray.maxt = mi.Float(np.ascontiguousarray(np.minimum(maxt[s:e], np.finfo(np.float32).max), dtype=np.float32))
             pi = self._scene.ray_intersect_preliminary(ray, True)
             registry = dr.reinterpret_array(mi.UInt32, pi.shape).numpy().astype(np.int64)
             obj[s:e] = self._lookup[np.minimum(registry, len(self._lookup) - 1)]

@@ -1,4 +1,4 @@
-"""Whitted ray tracing into the ray tree of S3 §3.1 (SPEC §5.1): one image layer per tree node.
+"""Whitted ray tracing into the ray tree of S3 §3.1 (Whitted 1980): one image layer per tree node.
 
 Node numbering (heap order): node 1 is the first hit; the children of node ``i`` are ``2i``
 (reflection) and ``2i + 1`` (refraction); with at most ``D`` specular bounces there are
@@ -9,7 +9,7 @@ background color when there is no local hit point"; P_i "the scene-space locatio
 intersections"):
 
 - ``radiance``: the path throughput (product of the Fresnel factors ``R`` or ``1 - R`` of glass,
-  the colours of mirrors and of glass entered, SPEC §5.1) times the **local** contribution of the
+  the colours of mirrors and of glass entered, S3 §3.1) times the **local** contribution of the
   node's hit: the diffuse radiance ``albedo/pi E(n) AO`` if the surface is diffuse, 0 if it is a
   mirror or glass (their light is carried by the children), or the environment radiance along the
   ray if it escapes. So ``beauty = sum over nodes`` exactly, and no light is counted twice.
@@ -32,21 +32,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import check_positive, check_positive_int
+from vergence._validate import as_float_array, check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.render import _kernels, surfaces
-from vergence.render._mitsuba import Caster
+from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.scene import Glass, Scene
-from vergence.render.shading import Lighting, ao_lattice, reflect, refract, schlick
+from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
+from vergence.render.scene import Scene
+from vergence.render.shader import WhittedShader, offset
 
-__all__ = ["MAX_DEPTH", "RenderResult", "RenderSettings", "layer_names", "render", "render_stereo"]
+__all__ = ["MAX_DEPTH", "RayTree", "RenderResult", "RenderSettings", "Tracer", "layer_names", "render", "render_stereo"]
 
 MAX_DEPTH = 6  # 127 layers; beyond that the arrays outgrow memory long before they help
-# Offset of secondary ray origins, relative to the coordinates' magnitude: well above the float32
-# error of Mitsuba's intersection (~1e-6 relative), well below any feature of the built-in scenes.
-_EPS_REL = 1e-4
-_AO_CHUNK = 1 << 21  # shadow rays per Mitsuba call
 
 Progress = Callable[[float, str], None]
 
@@ -68,7 +65,8 @@ class RenderSettings:
     """How a :class:`RenderResult` was made (JSON-ready through :meth:`to_dict`).
 
     ``tree_rays`` counts the rays of the tree (primary and specular), ``ao_rays`` the
-    ambient-occlusion rays: together, all the rays Mitsuba cast.
+    ambient-occlusion rays: together, all the rays Mitsuba cast. ``supersample`` k: radiance is the
+    mean of k x k sub-pixel rays per pixel (1: the pixel centre only).
     """
 
     scene: str
@@ -80,6 +78,7 @@ class RenderSettings:
     environment: str
     tree_rays: int = 0
     ao_rays: int = 0
+    supersample: int = 1
 
     def to_dict(self) -> dict:
         """Plain dictionary of the settings."""
@@ -134,130 +133,341 @@ class RenderResult:
         return self.radiance.shape[0]
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class RayTree:
+    """The ray tree of arbitrary rays (:meth:`Tracer.trace_rays`), laid out as ``shape``. Arrays are read-only.
+
+    The same nodes as :class:`RenderResult` (heap order, ``N = 2^(D+1) - 1``), over the ray grid
+    ``shape`` instead of a camera's pixels.
+
+    Attributes
+    ----------
+    radiance, position, normal : (N, *shape, 3) float32
+        As in :class:`RenderResult`.
+    distance : shape float64
+        Distance from the origin to the first hit along the unit direction, metres; NaN where the
+        primary ray hits nothing within its ``tmax``.
+    hit : shape bool
+        Whether the primary ray hit a surface within ``tmax``. A ray with a finite ``tmax`` and no
+        hit carries no radiance at all: the caller continues it from ``origin + tmax direction``
+        (curved rays cut into segments). A ray with ``tmax = inf`` and no hit escapes and takes the
+        environment radiance.
+    beauty : (*shape, 3) float32
+        ``radiance.sum(axis=0)``.
+    settings : RenderSettings
+    """
+
+    radiance: np.ndarray
+    position: np.ndarray
+    normal: np.ndarray
+    distance: np.ndarray
+    hit: np.ndarray
+    beauty: np.ndarray
+    settings: RenderSettings
+
+    def __post_init__(self) -> None:
+        for name in ("radiance", "position", "normal", "distance", "hit", "beauty"):
+            view = getattr(self, name).view()
+            view.flags.writeable = False
+            object.__setattr__(self, name, view)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The ray grid's shape."""
+        return self.hit.shape
+
+    @property
+    def n_layers(self) -> int:
+        """Number of nodes ``N = 2^(D+1) - 1``."""
+        return self.radiance.shape[0]
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
-def _offset(p: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """Move points off the surface along ``n`` (the side the new ray leaves on)."""
-    return p + (_EPS_REL * (1.0 + np.abs(p).max(axis=1)))[:, None] * n
+def _take(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``a[rows]`` for ``(M, k)`` float64 arrays, gathered by a parallel kernel."""
+    return _kernels.take_rows(np.ascontiguousarray(a, dtype=np.float64), rows)
 
 
-class _Tracer:
-    """One scene prepared for tracing: Mitsuba scenes for hits and for occlusion, packed arrays."""
+@dataclass(frozen=True, slots=True)
+class _Flat:
+    """The tree of ``n_slots`` ray slots, flat: what the stages produce before any reshaping."""
 
-    def __init__(self, scene: Scene) -> None:
+    radiance: np.ndarray  # (N, n_slots, 3) float32
+    position: np.ndarray
+    normal: np.ndarray
+    first_point: np.ndarray  # (n_slots, 3) float64, NaN without a first hit
+    first_t: np.ndarray  # (n_slots,) float64, NaN without a first hit
+    tree_rays: np.ndarray  # (views,) rays of the tree per view
+    ao_rays: np.ndarray  # (views,) AO rays per view
+
+
+class Tracer:
+    """A scene prepared once for tracing, reusable across cameras and ray sets (S3 §3.1).
+
+    Three stages, each replaceable: ray generation (``rays``: camera -> :class:`~vergence.render.rays.RayBatch`,
+    default :func:`~vergence.render.rays.camera_rays`), intersection (``intersector``: default
+    :class:`~vergence.render.intersect.Intersector`, Mitsuba's cast refined in float64) and shading
+    (``shader``: default :class:`~vergence.render.shader.WhittedShader`, IBL x AO and Schlick's
+    Fresnel split). The Mitsuba scenes are built once, here.
+
+    Parameters
+    ----------
+    scene : Scene
+    rays : callable(camera) -> RayBatch, optional
+    intersector : callable, optional
+        Called as ``intersector(origins, directions, cast_from=..., tmax=...)``, returning
+        :class:`~vergence.render.intersect.Hits`; needs a ``packed`` attribute and a ``variant``.
+    shader : object, optional
+        With the methods ``background``, ``diffuse`` and ``specular`` of :class:`WhittedShader`.
+
+    Examples
+    --------
+    >>> from vergence.render import builtin_scene
+    >>> tracer = Tracer(builtin_scene("tabletop", width=16, height=12))
+    >>> tracer.render(samples=1).beauty.shape
+    (12, 16, 3)
+    >>> tree = tracer.trace_rays([[0.0, 0.3, 1.2]], [[0.0, 0.0, -1.0]], max_depth=0, samples=1)
+    >>> tree.hit.tolist()
+    [True]
+    """
+
+    def __init__(self, scene: Scene, *, rays: Callable[..., RayBatch] | None = None, intersector=None, shader=None) -> None:  # noqa: ANN001
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
         self.scene = scene
-        self.packed = surfaces.pack_scene(scene)
-        self.caster = Caster(self.packed.shapes)
-        glass = [isinstance(scene.materials[o.material], Glass) for o in scene.objects]
-        self.occluders = Caster([s for s, g in zip(self.packed.shapes, glass) if not g]) if any(glass) else self.caster
-        self.lighting = Lighting(scene.environment)
+        self.rays = camera_rays if rays is None else rays
+        self.intersector = Intersector(scene) if intersector is None else intersector
+        self.packed = self.intersector.packed
+        caster = getattr(self.intersector, "caster", None)
+        self.shader = WhittedShader(scene, self.packed, caster) if shader is None else shader
 
-    def trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
+    # ------------------------------------------------------------------ public entry points
+    def render(self, camera: Camera | FisheyeCamera | None = None, *, max_depth: int = 2, samples: int = 16,
+               rng: np.random.Generator | None = None, ao_distance: float | None = None,
+               progress: Progress | None = None, supersample: int = 1) -> RenderResult:  # fmt: skip
+        """Ray-trace one camera's view (default: the scene's camera); parameters as :func:`render`."""
+        max_depth, samples, ao_distance = _check_options(self.scene, camera, max_depth, samples, rng, ao_distance)
+        cam = self.scene.camera.build() if camera is None else camera
+        supersample = _check_supersample(supersample, [cam])
+        return self._render_many([cam], max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                                 progress=progress, supersample=supersample)[0]  # fmt: skip
+
+    def trace_rays(
+        self, origins: object, directions: object, *, shape: tuple[int, ...] | None = None, tmax: object = None,
+        max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
+        ao_distance: float | None = None,
+    ) -> RayTree:  # fmt: skip
+        """Trace arbitrary rays into their ray tree (per-pixel camera origins, segments of curved rays).
+
+        Parameters
+        ----------
+        origins, directions : (..., 3) array
+            Finite world origins and directions, metres; the directions must be finite and non-zero
+            and are **normalised** here (distances and ``tmax`` are metres along the unit direction).
+            The two broadcast together.
+        shape : tuple of int, optional
+            Layout of the result (its size must equal the number of rays); default: the leading
+            shape of ``directions``.
+        tmax : float or array broadcasting to the leading shape, optional
+            Largest distance of each primary ray's hit (> 0, ``inf`` allowed); default: unbounded.
+            Only the primary ray is bounded; the tree below a hit is traced in full.
+        max_depth, samples, rng, ao_distance
+            As :func:`render`.
+
+        Returns
+        -------
+        RayTree
+            ``hit`` tells which rays hit within ``tmax``; rays with a finite ``tmax`` and no hit
+            carry no radiance (continue them), rays with ``tmax = inf`` and no hit escape.
+
+        Raises
+        ------
+        ValueError
+            On a malformed, non-finite or zero input, a ``shape`` of another size or ``tmax <= 0``.
+        """
+        max_depth, samples, ao_distance = _check_options(self.scene, None, max_depth, samples, rng, ao_distance)
+        d = as_float_array("directions", directions)
+        if d.ndim == 0 or d.shape[-1] != 3:
+            raise ValueError(f"directions must have shape (..., 3); got {d.shape}")
+        o = as_float_array("origins", origins)
+        if o.ndim == 0 or o.shape[-1] != 3:
+            raise ValueError(f"origins must have shape (..., 3); got {o.shape}")
         try:
-            return self._trace(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                               progress=progress)  # fmt: skip
-        except MemoryError:
-            n = 2 ** (max_depth + 1) - 1
-            gib = 3 * n * camera.height * camera.width * 3 * 4 / 2**30  # radiance, position, normal (float32)
-            raise ValueError(f"width x height {camera.width}x{camera.height} with {n} layers does not fit in memory "
-                             f"(the layer arrays alone need {gib:.3g} GiB); render a smaller image") from None
+            o, d = np.broadcast_arrays(o, d)
+        except ValueError:
+            raise ValueError(f"origins and directions must broadcast together; got {o.shape} and {d.shape}") from None
+        lead = d.shape[:-1]
+        norm = np.linalg.norm(d, axis=-1)
+        if (norm == 0).any():
+            raise ValueError(f"directions must be non-zero; got {int((norm == 0).sum())} zero rows")
+        n = int(np.prod(lead, dtype=np.int64))
+        out_shape = lead if shape is None else tuple(int(v) for v in shape)
+        if int(np.prod(out_shape, dtype=np.int64)) != n or any(v < 0 for v in out_shape):
+            raise ValueError(f"shape must hold the {n} rays; got {shape!r}")
+        bound = None
+        if tmax is not None:
+            try:
+                tm = np.asarray(tmax, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise TypeError(f"tmax must be numeric; got {type(tmax).__name__}") from None
+            if np.isnan(tm).any() or (tm <= 0).any():
+                raise ValueError("tmax must be > 0 (inf allowed) for every ray")
+            try:
+                bound = np.broadcast_to(tm, lead).reshape(n).astype(np.float64)
+            except ValueError:
+                raise ValueError(f"tmax must broadcast to the rays' shape {lead}; got {tm.shape}") from None
+        rays = RayBatch(origins=o.reshape(n, 3).copy(), directions=(d / norm[..., None]).reshape(n, 3),
+                        pixels=np.arange(n), shape=(n,))  # fmt: skip
+        flat = self._trace([rays], np.array([0, n]), tmax=bound, max_depth=max_depth, samples=samples, rng=rng,
+                           ao_distance=ao_distance, progress=None)  # fmt: skip
+        nodes = flat.radiance.shape[0]
+        settings = self._settings(max_depth, samples, rng, ao_distance, int(flat.tree_rays[0]), int(flat.ao_rays[0]))
+        rad = flat.radiance.reshape(nodes, *out_shape, 3)
+        return RayTree(radiance=rad, position=flat.position.reshape(rad.shape), normal=flat.normal.reshape(rad.shape),
+                       distance=flat.first_t.reshape(out_shape), hit=np.isfinite(flat.first_t).reshape(out_shape),
+                       beauty=rad.sum(axis=0), settings=settings)  # fmt: skip
 
-    def _trace(self, camera, *, max_depth, samples, rng, ao_distance, progress) -> RenderResult:  # noqa: ANN001
-        h, w = camera.height, camera.width
+    # ------------------------------------------------------------------ internals
+    def _settings(self, max_depth, samples, rng, ao_distance, tree_rays, ao_rays, supersample=1) -> RenderSettings:  # noqa: ANN001
+        return RenderSettings(
+            scene=self.scene.name, max_depth=max_depth, samples=samples, deterministic=rng is None,
+            ao_distance=ao_distance, variant=self.intersector.variant, environment=self.scene.environment.describe(),
+            tree_rays=tree_rays, ao_rays=ao_rays, supersample=supersample,
+        )  # fmt: skip
+
+    def _render_many(self, cameras, *, max_depth, samples, rng, ao_distance, progress,
+                     supersample=1) -> list[RenderResult]:  # noqa: ANN001  # fmt: skip
+        """Render several cameras' views with one wavefront per tree level (their rays side by side).
+
+        With ``supersample`` k > 1, each camera also casts a k x k grid of sub-pixel rays per pixel
+        (cell centres, or jittered within their cells by ``rng``); its radiance layers and beauty are
+        their mean, while position, normal and depth stay those of the pixel-centre ray (a point of
+        one surface, never an average across an edge).
+        """
+        n = 2 ** (max_depth + 1) - 1
+        k2 = supersample * supersample
+        try:
+            batches = [self.rays(c) for c in cameras]
+            sizes = [c.height * c.width for c in cameras]
+            if supersample > 1:
+                grid = (np.arange(supersample) + 0.5) / supersample - 0.5
+                for c in cameras:
+                    for gy in grid:
+                        for gx in grid:
+                            off = np.array([gx, gy])
+                            if rng is not None:
+                                off = off + (rng.random((c.height, c.width, 2)) - 0.5) / supersample
+                            batches.append(subpixel_rays(c, off))
+                            sizes.append(c.height * c.width)
+            starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+            shifted = [RayBatch(b.origins, b.directions, b.pixels + s, b.shape) for b, s in zip(batches, starts)]
+            flat = self._trace(shifted, starts, tmax=None, max_depth=max_depth, samples=samples, rng=rng,
+                               ao_distance=ao_distance, progress=progress)  # fmt: skip
+        except MemoryError:
+            c = cameras[0]
+            gib = 3 * n * c.height * c.width * 3 * 4 / 2**30  # radiance, position, normal (float32)
+            raise ValueError(f"width x height {c.width}x{c.height} with {n} layers does not fit in memory "
+                             f"(the layer arrays alone need {gib:.3g} GiB); render a smaller image") from None
+        out = []
+        nc = len(cameras)
+        for k, cam in enumerate(cameras):
+            sl = slice(starts[k], starts[k + 1])
+            h, w = cam.height, cam.width
+            rad = flat.radiance[:, sl].reshape(n, h, w, 3)
+            tree_rays, ao_rays = int(flat.tree_rays[k]), int(flat.ao_rays[k])
+            if supersample > 1:
+                subs = [nc + k * k2 + j for j in range(k2)]
+                acc = np.zeros((n, h * w, 3), dtype=np.float64)
+                for v in subs:
+                    acc += flat.radiance[:, starts[v] : starts[v + 1]]
+                rad = (acc / k2).astype(np.float32).reshape(n, h, w, 3)
+                tree_rays += int(flat.tree_rays[subs].sum())
+                ao_rays += int(flat.ao_rays[subs].sum())
+            p0 = flat.first_point[sl]
+            depth = (p0 @ cam.R[2] + cam.t[2]).astype(np.float32).reshape(h, w)
+            settings = self._settings(max_depth, samples, rng, ao_distance, tree_rays, ao_rays, supersample)
+            out.append(RenderResult(radiance=rad, position=flat.position[:, sl].reshape(rad.shape),
+                                    normal=flat.normal[:, sl].reshape(rad.shape), depth=depth,
+                                    beauty=rad.sum(axis=0), camera=cam, settings=settings))  # fmt: skip
+        return out
+
+    def _trace(self, batches, starts, *, tmax, max_depth, samples, rng, ao_distance, progress) -> _Flat:  # noqa: ANN001
         n_nodes = 2 ** (max_depth + 1) - 1
-        dirs_all = camera.ray_directions().reshape(-1, 3)  # NaN where a pixel has no ray (fisheye)
-        pix = np.flatnonzero(~np.isnan(dirs_all[:, 0]))
-        rad = np.zeros((n_nodes, h * w, 3), dtype=np.float32)
-        pos = np.full((n_nodes, h * w, 3), np.nan, dtype=np.float32)
-        nrm = np.full((n_nodes, h * w, 3), np.nan, dtype=np.float32)
-        depth = np.full(h * w, np.nan, dtype=np.float32)
+        n_slots, n_views = int(starts[-1]), len(starts) - 1
+        view_of = lambda slots: np.searchsorted(starts[1:], slots, side="right")  # noqa: E731
+        rad = np.zeros((n_nodes, n_slots, 3), dtype=np.float32)
+        pos = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
+        nrm = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
+        first_p = np.full((n_slots, 3), np.nan)
+        first_t = np.full(n_slots, np.nan)
+        pix = np.concatenate([b.pixels for b in batches])
+        o = np.concatenate([b.origins for b in batches])  # exact origins (float64 geometry)
+        d = np.concatenate([b.directions for b in batches])
         node = np.ones(len(pix), dtype=np.int64)
-        o = np.broadcast_to(camera.center, (len(pix), 3)).copy()  # exact origins (float64 geometry)
         oc = o  # origins handed to Mitsuba: moved off the surface they leave
-        d = dirs_all[pix]
         thr = np.ones((len(pix), 3))
         queue: list[tuple[np.ndarray, ...]] = []  # diffuse hits: node, pixel, p, n_geo, n_shade, albedo x throughput
         pk = self.packed
-        tree_rays = 0
+        tree_rays = np.zeros(n_views, dtype=np.int64)
         for level in range(max_depth + 1):
             if progress is not None:
                 progress(level / (max_depth + 2), f"level {level}: {len(pix):,} rays")
             if not len(pix):
                 break
-            obj, prim, t32 = self.caster.intersect(oc, d)
-            tree_rays += len(d)
-            esc = obj < 0
-            rad[node[esc] - 1, pix[esc]] = thr[esc] * self.lighting.radiance(d[esc])
-            hit = np.flatnonzero(~esc)
-            node, pix, o, d, thr, obj = node[hit], pix[hit], o[hit], d[hit], thr[hit], obj[hit]
-            p, ng, ns, uv = surfaces.refine_hits(pk, obj, prim[hit], o, d, t32[hit])
-            dn = _dot(d, ng)
-            entering = dn < 0.0
+            hits = self.intersector(o, d, cast_from=oc, tmax=tmax if level == 0 else None)
+            tree_rays += np.bincount(view_of(pix), minlength=n_views)
+            esc = np.ones(len(pix), dtype=bool)
+            esc[hits.rays] = False
+            if level == 0 and tmax is not None:
+                esc &= np.isinf(tmax)  # a bounded segment without a hit is unfinished, not escaped
+            _kernels.scatter_weighted(rad, node[esc], pix[esc], thr[esc], self.shader.background(d[esc]))
+            hit = hits.rays
+            node, pix, d, thr, obj = node[hit], pix[hit], _take(d, hit), _take(thr, hit), hits.obj
+            p, ng, ns, uv = hits.points, hits.n_geo, hits.n_shade, hits.uv
+            entering = _dot(d, ng) < 0.0
             side = np.where(entering, 1.0, -1.0)[:, None]
             ng, ns = ng * side, ns * side  # both face the arriving ray now
-            pos[node - 1, pix] = p
-            nrm[node - 1, pix] = ns
+            _kernels.scatter_nodes(pos, node, pix, p)
+            _kernels.scatter_nodes(nrm, node, pix, ns)
             if level == 0:
-                depth[pix] = p @ camera.R[2] + camera.t[2]
+                first_p[pix] = p
+                first_t[pix] = hits.t
             mat = pk.material[obj]
             kind = pk.mat_kind[mat]
             s = np.flatnonzero(kind == surfaces.DIFFUSE)
-            queue.append((node[s], pix[s], p[s], ng[s], ns[s], thr[s] * surfaces.albedo(pk, mat[s], uv[s])))
+            queue.append((node[s], pix[s], _take(p, s), _take(ng, s), _take(ns, s),
+                          _take(thr, s) * surfaces.albedo(pk, mat[s], _take(uv, s))))  # fmt: skip
             if level == max_depth:
                 break  # specular hits at the last level are cut off
-            children: list[tuple[np.ndarray, ...]] = []
             s = np.flatnonzero(kind != surfaces.DIFFUSE)
-            is_glass = kind[s] == surfaces.GLASS
-            cos_i = np.clip(-_dot(d[s], ns[s]), 0.0, 1.0)
-            ior = pk.mat_ior[mat[s]]
-            n1 = np.where(entering[s], 1.0, ior)
-            n2 = np.where(entering[s], ior, 1.0)
-            R = np.where(is_glass, schlick(cos_i, n1, n2), 1.0)  # SPEC §5.2; mirrors reflect all
-            refl_w = np.where(is_glass[:, None], R[:, None], pk.mat_color[mat[s]])
-            children.append((2 * node[s], pix[s], p[s], _offset(p[s], ng[s]), reflect(d[s], ns[s]), thr[s] * refl_w))
-            g = s[is_glass]
-            eta = n1[is_glass] / n2[is_glass]
-            tdir, tir = refract(d[g], ns[g], eta)
-            ok = ~tir & (R[is_glass] < 1.0)
-            g, tdir = g[ok], tdir[ok]
-            tint = np.where(entering[g][:, None], pk.mat_color[mat[g]], 1.0)
-            t_w = (1.0 - R[is_glass][ok])[:, None] * tint
-            children.append((2 * node[g] + 1, pix[g], p[g], _offset(p[g], -ng[g]), tdir, thr[g] * t_w))
+            rdir, rw, g, tdir, tw = self.shader.specular(_take(d, s), _take(ns, s), entering[s], mat[s])
+            ps, ngs, ts = _take(p, s), _take(ng, s), _take(thr, s)
+            pg = _take(ps, g)
+            children = [(2 * node[s], pix[s], ps, offset(ps, ngs), rdir, ts * rw),
+                        (2 * node[s][g] + 1, pix[s][g], pg, offset(pg, _take(ngs, g), -1.0), tdir, _take(ts, g) * tw)]  # fmt: skip
             node, pix, o, oc, d, thr = (np.concatenate([c[k] for c in children]) for k in range(6))
         if progress is not None:
             progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")
-        n_shade = 0
+        ao_rays = np.zeros(n_views, dtype=np.int64)
         if queue:
             qn, qpix, qp, qng, qns, qalb = (np.concatenate([q[k] for q in queue]) for k in range(6))
-            ao = self._ambient_occlusion(qp, qng, qns, samples, rng, ao_distance)
-            rad[qn - 1, qpix] = qalb / np.pi * self.lighting.irradiance(qns) * ao[:, None]
-            n_shade = len(qn)
-        rad = rad.reshape(n_nodes, h, w, 3)
-        settings = RenderSettings(
-            scene=self.scene.name, max_depth=max_depth, samples=samples, deterministic=rng is None,
-            ao_distance=ao_distance, variant=self.caster.variant, environment=self.scene.environment.describe(),
-            tree_rays=tree_rays, ao_rays=n_shade * samples,
-        )  # fmt: skip
+            light = self.shader.diffuse(qp, qng, qns, samples=samples, rng=rng, ao_distance=ao_distance)
+            _kernels.scatter_weighted(rad, qn, qpix, qalb, np.ascontiguousarray(light, dtype=np.float64))
+            ao_rays = np.bincount(view_of(qpix), minlength=n_views) * samples
         if progress is not None:
             progress(1.0, "done")
-        return RenderResult(radiance=rad, position=pos.reshape(rad.shape), normal=nrm.reshape(rad.shape),
-                            depth=depth.reshape(h, w), beauty=rad.sum(axis=0), camera=camera, settings=settings)  # fmt: skip
+        return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays)
 
-    def _ambient_occlusion(self, p, ng, ns, samples, rng, ao_distance) -> np.ndarray:  # noqa: ANN001
-        """Cosine-weighted unoccluded fraction of the hemisphere around ``ns`` at each point."""
-        out = np.empty(len(p))
-        lattice = ao_lattice(samples)
-        step = max(1, _AO_CHUNK // samples)
-        for s in range(0, len(p), step):
-            e = min(len(p), s + step)
-            shifts = np.empty((0, 2)) if rng is None else rng.random((e - s, 2))
-            orig, dirs = _kernels.ao_rays(p[s:e], ng[s:e], ns[s:e], lattice, shifts, _EPS_REL)  # as ao_directions
-            maxt = None if ao_distance is None else np.full(dirs.shape[1], ao_distance)
-            blocked = self.occluders.occluded(orig, dirs, maxt).reshape(e - s, samples)
-            out[s:e] = 1.0 - blocked.mean(axis=1)
-        return out
+
+def _check_supersample(supersample, cameras) -> int:  # noqa: ANN001
+    k = check_positive_int("supersample", supersample)
+    if k > 1 and not all(isinstance(c, Camera) for c in cameras):
+        raise TypeError("supersample > 1 needs a pinhole Camera; got "
+                        f"{next(type(c).__name__ for c in cameras if not isinstance(c, Camera))}")  # fmt: skip
+    return k
 
 
 def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
@@ -284,6 +494,7 @@ def render(
     rng: np.random.Generator | None = None,
     ao_distance: float | None = None,
     progress: Progress | None = None,
+    supersample: int = 1,
 ) -> RenderResult:
     """Ray-trace ``scene`` into its ray tree of ``2^(max_depth+1) - 1`` layers (S3 §3.1).
 
@@ -304,6 +515,10 @@ def render(
         Occluders farther than this (metres) are ignored; default: any distance.
     progress : callable(fraction, message), optional
         Called as the wavefronts advance.
+    supersample : int
+        k > 1 averages the radiance of a k x k grid of sub-pixel rays per pixel (anti-aliasing; the
+        cell centres, jittered within the cells with an ``rng``); position, normal and depth stay
+        those of the pixel-centre ray. Pinhole cameras only. Costs about ``1 + k^2`` times the rays.
 
     Returns
     -------
@@ -312,13 +527,12 @@ def render(
     Notes
     -----
     Diffuse radiance is ``albedo / pi * E(n) * AO`` (image-based lighting times ambient occlusion,
-    S3 §3.1); glass splits by Schlick's ``R`` (SPEC §5.2) with total internal reflection; an escaping
-    ray takes the environment radiance. ``beauty == radiance.sum(axis=0)`` (SPEC §5.1).
+    S3 §3.1); glass splits by Schlick's ``R`` (Schlick 1994) with total internal reflection; an escaping
+    ray takes the environment radiance. ``beauty == radiance.sum(axis=0)`` (S3 §3.1: ``L = sum_i L_i``).
     """
     max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
-    cam = scene.camera.build() if camera is None else camera
-    return _Tracer(scene).trace(cam, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                                progress=progress)  # fmt: skip
+    return Tracer(scene).render(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                                progress=progress, supersample=supersample)  # fmt: skip
 
 
 def render_stereo(
@@ -332,26 +546,23 @@ def render_stereo(
     rng: np.random.Generator | None = None,
     ao_distance: float | None = None,
     progress: Progress | None = None,
+    supersample: int = 1,
 ) -> tuple[RenderResult, RenderResult]:
     """Render the left and right views of the shifted-sensor rig on ``camera`` (S0 §2).
 
-    The rig is :func:`vergence.rig.stereo_pair` (``baseline`` b, convergence distance H, metres);
-    ``camera`` defaults to the scene's (pinhole only). Other parameters as :func:`render`; with an
-    ``rng``, the left view draws first. ``progress`` fractions run 0..0.5 (left), 0.5..1 (right).
+    The rig is :func:`vergence.rigs.stereo_pair` (``baseline`` b, convergence distance H, metres);
+    ``camera`` defaults to the scene's (pinhole only). Other parameters as :func:`render`. Both eyes
+    are traced through one :class:`Tracer`, their rays side by side in one wavefront per tree level;
+    with an ``rng`` the AO draws follow that joint order (left pixels before right ones within a
+    level). ``progress`` reports the joint wavefronts.
     """
-    from vergence.rig import stereo_pair
+    from vergence.rigs import stereo_pair
 
     max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
     cam = scene.camera.build() if camera is None else camera
     if not isinstance(cam, Camera):
         raise TypeError(f"render_stereo needs a pinhole Camera; got {type(cam).__name__}")
+    supersample = check_positive_int("supersample", supersample)
     left, right = stereo_pair(cam, baseline=baseline, convergence=convergence)
-    tracer = _Tracer(scene)
-    out = []
-    for k, (eye, c) in enumerate((("left", left), ("right", right))):
-        report = None
-        if progress is not None:
-            report = lambda f, m, k=k, eye=eye: progress((k + f) / 2.0, f"{eye}: {m}")  # noqa: E731
-        out.append(tracer.trace(c, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                                progress=report))  # fmt: skip
-    return out[0], out[1]
+    return tuple(Tracer(scene)._render_many([left, right], max_depth=max_depth, samples=samples, rng=rng,
+                                            ao_distance=ao_distance, progress=progress, supersample=supersample))  # fmt: skip

@@ -1,6 +1,6 @@
 """Shading of the ray tree: Schlick Fresnel, mirror and refraction directions, image-based lighting.
 
-- Fresnel: Schlick's approximation (SPEC §5.2, S3 §3.1), ``R = R0 + (1 - R0)(1 - cos)^5`` with
+- Fresnel: Schlick's approximation (Schlick 1994, as S3 §3.1 uses it), ``R = R0 + (1 - R0)(1 - cos)^5`` with
   ``R0 = ((n1 - n2)/(n1 + n2))^2``; going into a less dense medium the cosine of the transmitted
   angle is used, and ``sin^2 theta_t > 1`` is total internal reflection (``R = 1``).
 - Diffuse radiance: image-based lighting times ambient occlusion (S3 §3.1):
@@ -36,7 +36,7 @@ _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def schlick(cos_i: np.ndarray | float, n1: np.ndarray | float, n2: np.ndarray | float) -> np.ndarray:
-    """Schlick's reflectance for a ray in medium ``n1`` meeting medium ``n2`` (SPEC §5.2).
+    """Schlick's reflectance for a ray in medium ``n1`` meeting medium ``n2`` (Schlick 1994).
 
     Parameters
     ----------
@@ -58,7 +58,7 @@ def schlick(cos_i: np.ndarray | float, n1: np.ndarray | float, n2: np.ndarray | 
     cos_i = np.asarray(cos_i, dtype=np.float64)
     n1 = np.asarray(n1, dtype=np.float64)
     n2 = np.asarray(n2, dtype=np.float64)
-    r0 = ((n1 - n2) / (n1 + n2)) ** 2  # SPEC §5.2
+    r0 = ((n1 - n2) / (n1 + n2)) ** 2  # Schlick 1994
     sin2_t = (n1 / n2) ** 2 * (1.0 - cos_i**2)
     tir = (n1 > n2) & (sin2_t > 1.0)
     cos = np.where(n1 > n2, np.sqrt(np.clip(1.0 - sin2_t, 0.0, 1.0)), cos_i)
@@ -144,20 +144,10 @@ class Lighting:
         return np.stack([st * np.sin(phi)[None], np.cos(theta)[:, None] * np.ones((1, w)), -st * np.cos(phi)[None]], axis=-1)
 
     def _lookup(self, table: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-        h, w = table.shape[:2]
-        phi = np.arctan2(dirs[:, 0], -dirs[:, 2]) - self._rot  # 0 faces -z; rotation about +y
-        u = (0.5 + phi / (2 * np.pi)) % 1.0
-        v = np.arccos(np.clip(dirs[:, 1], -1.0, 1.0)) / np.pi
-        x = u * w - 0.5
-        y = np.clip(v * h - 0.5, 0.0, h - 1.0)
-        x0, y0 = np.floor(x), np.floor(y)
-        fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-        x0 = x0.astype(np.int64) % w
-        y0 = y0.astype(np.int64)
-        x1, y1 = (x0 + 1) % w, np.minimum(y0 + 1, h - 1)
-        top = table[y0, x0] * (1 - fx) + table[y0, x1] * fx
-        bottom = table[y1, x0] * (1 - fx) + table[y1, x1] * fx
-        return top * (1 - fy) + bottom * fy
+        """Bilinear lookup of an equirectangular table at unit directions (``_kernels.equirect_lookup``)."""
+        from vergence.render import _kernels
+
+        return _kernels.equirect_lookup(table, np.ascontiguousarray(dirs, dtype=np.float64), self._rot)
 
     def radiance(self, dirs: np.ndarray) -> np.ndarray:
         """Environment radiance ``(M, 3)`` arriving along unit directions ``(M, 3)`` (looked up at ``dirs``)."""

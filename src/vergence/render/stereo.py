@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from vergence.render.builtin import open_scene
-from vergence.render.preview import auto_exposure, tonemap
+from vergence.render.tonemap import auto_exposure, tonemap
 from vergence.render.raytree import Progress, RenderResult, render_stereo
 from vergence.render.scene import Scene
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from vergence.render.scene import Checker, Diffuse, Glass, Mesh, Mirror, Rectangle, Scene, Sphere, Texture
 
-__all__ = ["DIFFUSE", "GLASS", "MIRROR", "PackedScene", "albedo", "pack_scene", "refine_hits"]
+__all__ = ["DIFFUSE", "GLASS", "MIRROR", "PackedScene", "albedo", "pack_scene", "refine_hits", "refine_hits_fast"]
 
 SPHERE, RECTANGLE, MESH = 0, 1, 2
 DIFFUSE, MIRROR, GLASS = 0, 1, 2
@@ -154,6 +154,26 @@ def refine_hits(
     return p, ng, ns, uv
 
 
+def refine_hits_fast(
+    packed: PackedScene, obj: np.ndarray, prim: np.ndarray, origins: np.ndarray, dirs: np.ndarray, t_approx: np.ndarray,
+    rows: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`refine_hits` as one Numba kernel (the renderer's path); also returns the distance ``t``.
+
+    With ``rows``, hit ``i`` is that of the ray ``rows[i]`` of ``origins`` and ``dirs`` (default: ray ``i``).
+
+    :func:`refine_hits` stays as the vectorised numpy reference the tests compare against.
+    """
+    from vergence.render import _kernels
+
+    f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    pk = packed
+    return _kernels.refine_hits(pk.kind, pk.center, pk.radius, pk.normal, pk.right, pk.up, pk.size, pk.tri_offset,
+                                pk.tri_v, pk.tri_n, pk.tri_uv, np.ascontiguousarray(obj, dtype=np.int64),
+                                np.ascontiguousarray(prim, dtype=np.int64), f64(origins), f64(dirs), f64(t_approx),
+                                np.arange(len(obj)) if rows is None else np.ascontiguousarray(rows, dtype=np.int64))  # fmt: skip
+
+
 def albedo(packed: PackedScene, mat: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """Diffuse albedo ``(M, 3)`` of material indices ``mat`` at texture coordinates ``uv``."""
     out = np.zeros((len(mat), 3))
@@ -172,12 +192,8 @@ def albedo(packed: PackedScene, mat: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 
 def _bilinear_wrap(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Bilinear lookup with periodic wrap in both axes (texture repeat)."""
-    h, w = img.shape[:2]
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    x0, y0 = x0.astype(np.int64) % w, y0.astype(np.int64) % h
-    x1, y1 = (x0 + 1) % w, (y0 + 1) % h
-    top = img[y0, x0] * (1 - fx) + img[y0, x1] * fx
-    bottom = img[y1, x0] * (1 - fx) + img[y1, x1] * fx
-    return top * (1 - fy) + bottom * fy
+    """Bilinear lookup with periodic wrap in both axes (texture repeat), as a Numba kernel."""
+    from vergence.render import _kernels
+
+    f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    return _kernels.bilinear_wrap(np.ascontiguousarray(img), f64(x), f64(y))

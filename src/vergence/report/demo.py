@@ -144,7 +144,7 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
         "through a disparity mapping psi fixed by constraints. Here, S0 Fig. 8 (right): the player on the "
         f"screen (z' = {display.distance:g} m) with roundness 1, and infinity seen at infinity (psi reaches the "
         "divergence limit b'/W' only at infinite depth). psi is the Gregory–Delbourgo monotone rational "
-        "Hermite interpolant of the control points (S0 Eq. 7–9, SPEC §1.8), reference rig b_round: it keeps "
+        "Hermite interpolant of the control points (S0 §6, Eq. 7–9), reference rig b_round: it keeps "
         "the player's disparities and compresses the background's. "
         f"The bleachers at {bleachers:g} m are then seen at {float(tri.perceived_depth(bleachers)):.1f} m with "
         f"roundness {float(tri.roundness(bleachers)):.2f} (b_div: 0.25, b_round: divergence). "
@@ -155,20 +155,10 @@ def _section_tri_rig(out: Path, progress: Progress) -> tuple[Section, Constraine
     return Section("2. The Tri-Rig's disparity mapping (S0 §6)", text, (fig,), table), tri
 
 
-def _measured_screen_disparity(pair, display: Display) -> np.ndarray:
-    """Screen disparity (px, x_r - x_l) of every first-hit point, measured by projecting it into both views."""
-    left, right = pair.left_result, pair.right_result
-    points = left.position[0]  # node 1: the first hit seen through each left pixel
-    valid = np.isfinite(points).all(axis=-1)
-    x_left = left.camera.pixel_grid()[..., 0][valid]
-    x_right, _ = right.camera.project(points[valid])
-    return (x_right[:, 0] - x_left) / left.camera.width * display.resolution
-
-
 def _section_stadium(out: Path, progress: Progress) -> tuple[Section, dict[str, tuple[float, float]]]:
     from vergence.display import anaglyph, side_by_side
     from vergence.io import write_image
-    from vergence.render import builtin_scene, stereo_preview
+    from vergence.render import builtin_scene, screen_disparity, stereo_preview
 
     display = DEMO_DISPLAY
     scene = builtin_scene("stadium", width=RENDER_WIDTH, height=RENDER_HEIGHT)
@@ -189,7 +179,9 @@ def _section_stadium(out: Path, progress: Progress) -> tuple[Section, dict[str, 
         if name == "b_div":
             write_image(out / "stadium_b_div_sbs.png", side_by_side(pair.left, pair.right, half=True))
             figures.append(Figure("stadium_b_div_sbs.png", "The b_div pair, half side-by-side (for 3D TVs)."))
-        disp = _measured_screen_disparity(pair, display)
+        # Screen disparity x_r - x_l of every first hit, scaled from the render's width to the display's.
+        disp_px = -screen_disparity(pair.left_result, pair.right_result)
+        disp = disp_px[np.isfinite(disp_px)] / pair.left_result.camera.width * display.resolution
         measured[name] = (float(disp.min()), float(disp.max()))
         rows.append((name, f"{baseline:.3f}", f"{disp.min():+.1f}", f"{disp.max():+.1f}", f"{limit_px:.1f}"))
     text = (

@@ -1,4 +1,4 @@
-"""Figure of a constraint-built disparity mapping psi (S0 §6, Eq. 7–9; SPEC §1.8).
+"""Figure of a constraint-built disparity mapping psi (S0 §6, Eq. 7–9).
 
 Three panels: psi against the reference disparity d with the identity and the divergence limit
 ``b'/W'`` (S0 Eq. 8); the mapped perceived depth (Eq. 7) and the mapped roundness (Eq. 9) against

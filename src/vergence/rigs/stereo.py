@@ -1,4 +1,4 @@
-"""The parallel, shifted-sensor stereo rig of S0 §2 (SPEC §1.1) built on one camera.
+"""The parallel, shifted-sensor stereo rig of S0 §2 built on one camera.
 
 Two cameras with the orientation and intrinsics of ``camera``, their centres ``b/2`` to the left
 and right of its centre along its x axis, and their principal points shifted horizontally so that
@@ -23,7 +23,7 @@ __all__ = ["stereo_pair"]
 
 
 def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple[Camera, Camera]:
-    """Left and right cameras of a shifted-sensor rig centred on ``camera`` (S0 §2, SPEC §1.1).
+    """Left and right cameras of a shifted-sensor rig centred on ``camera`` (S0 §2).
 
     Parameters
     ----------
@@ -68,7 +68,7 @@ def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple
     b = check_positive("baseline", baseline)
     H = check_positive("convergence", convergence)
     right_axis = camera.R[0]
-    shift_px = camera.K[0, 0] * b / (2.0 * H)  # sensor shift fx b / (2H), SPEC §1.1
+    shift_px = camera.K[0, 0] * b / (2.0 * H)  # sensor shift fx b / (2H), S0 §2
     cams = []
     for sign in (-1.0, 1.0):
         center = camera.center + sign * (b / 2.0) * right_axis

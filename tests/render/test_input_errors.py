@@ -1,0 +1,108 @@
+"""User-input errors of the renderer that no other test reaches: scene files, meshes, scene classes, figures.
+
+Each is one line naming the argument (or the file and entry), the expectation and what came.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import struct
+
+import numpy as np
+import pytest
+
+from vergence.render import Checker, Environment, Mesh, Scene, load_scene, scene_from_dict, tonemap
+from vergence.render.meshio import read_mesh
+
+MINIMAL = {
+    "camera": {"position": [0, 1, 4], "look_at": [0, 1, 0], "up": [0, 1, 0], "fov_deg": 40, "width": 8, "height": 6},
+    "environment": {"color": [1, 1, 1]},
+    "materials": {"m": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}},
+    "objects": [{"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "m"}],
+}
+PLY_HEAD = ["ply", "format ascii 1.0", "element vertex 3", "property float x", "property float y", "property float z",
+            "element face 1", "property list uchar int vertex_indices", "end_header"]  # fmt: skip
+PLY_BODY = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+
+
+def _ply(tmp_path, head=PLY_HEAD, body=PLY_BODY, name="m.ply"):
+    p = tmp_path / name
+    p.write_bytes(("\n".join(head) + "\n").encode() + (body.encode() if isinstance(body, str) else body))
+    return p
+
+
+def test_a_valid_ply_reads(tmp_path):
+    assert read_mesh(_ply(tmp_path)).faces.tolist() == [[0, 1, 2]]
+
+
+@pytest.mark.parametrize(
+    ("head", "body", "match"),
+    [
+        (["plx", *PLY_HEAD[1:]], PLY_BODY, r"not a PLY file \(no 'ply' magic or no end_header\)"),
+        (PLY_HEAD[:-1], PLY_BODY, r"not a PLY file \(no 'ply' magic or no end_header\)"),
+        (["ply", "format binary_middle_endian 1.0", *PLY_HEAD[2:]], PLY_BODY, "unsupported PLY format 'binary_middle_endian'"),
+        ([*PLY_HEAD[:3], "property quad x", *PLY_HEAD[4:]], PLY_BODY, "unknown PLY property type 'quad'"),
+        ([*PLY_HEAD[:7], "property list uchar int corners", "end_header"], PLY_BODY,
+         "the face element has no vertex_indices list"),
+        (PLY_HEAD[:6] + ["end_header"], "0 0 0\n1 0 0\n0 1 0\n", "needs a 'vertex' element with x, y, z and a 'face'"),
+        (PLY_HEAD, "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "face indices out of range or no faces"),
+        (PLY_HEAD, "0 0 0\n1 0 0\n0 1\n", "truncated or malformed ASCII body"),
+        (PLY_HEAD, "0 0 0\n1 0 zero\n0 1 0\n3 0 1 2\n", "truncated or malformed ASCII body"),
+        (PLY_HEAD, "0 0 0\n1 0 nan\n0 1 0\n3 0 1 2\n", "vertex coordinates must be finite"),
+        (["ply", "format binary_little_endian 1.0", *PLY_HEAD[2:]], struct.pack("<5f", 0, 0, 0, 1, 0),
+         "truncated binary body"),
+    ],
+)
+def test_bad_ply_files(tmp_path, head, body, match):
+    path = _ply(tmp_path, head, body)
+    with pytest.raises(ValueError, match=f"cannot read mesh .*m.ply: {match}"):
+        read_mesh(path)
+
+
+def test_bad_scene_files_beyond_json(tmp_path):
+    p = tmp_path / "latin.json"
+    p.write_bytes('{"name": "caf\u00e9"}'.encode("latin-1"))
+    with pytest.raises(ValueError, match=r"scene file .*latin.json is not UTF-8 text"):
+        load_scene(p)
+    named = copy.deepcopy(MINIMAL) | {"name": 7}
+    p.write_text(json.dumps(named))
+    with pytest.raises(TypeError, match="^latin.json: name must be a string; got int$"):
+        load_scene(p)  # the file's name leads the message
+    with pytest.raises(TypeError, match="materials must be a JSON object of named materials; got list"):
+        scene_from_dict(copy.deepcopy(MINIMAL) | {"materials": []})
+    textured = copy.deepcopy(MINIMAL)
+    textured["materials"]["t"] = {"type": "texture", "path": "missing.png"}
+    with pytest.raises((OSError, ValueError), match=r"materials\['t'\]: .*missing.png"):
+        scene_from_dict(textured, base_dir=tmp_path)
+
+
+def test_scene_classes_refuse_bad_values():
+    with pytest.raises(ValueError, match=r"environment needs exactly one of color or image \(an .hdr map\)"):
+        Environment()
+    with pytest.raises(ValueError, match=r"image must have shape \(h, w, 3\) with h, w >= 2; got \(1, 4, 3\)"):
+        Environment(image=np.ones((1, 4, 3)))
+    with pytest.raises(ValueError, match="image must be radiance >= 0; got min -1"):
+        Environment(image=-np.ones((2, 4, 3)))
+    with pytest.raises(ValueError, match=r"squares must be a pair \[nu, nv\]; got 8"):
+        Checker(colors=[[1, 1, 1], [0, 0, 0]], squares=8)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"faces must be a non-empty \(F, 3\) integer array; got \(1, 3\) float64"):
+        Mesh(vertices=np.eye(3), faces=[[0.0, 1.0, 2.0]], material="m")
+    with pytest.raises(ValueError, match="normals must be non-zero vectors"):
+        Mesh(vertices=np.eye(3), faces=[[0, 1, 2]], material="m", normals=np.zeros((3, 3)))
+    scene = scene_from_dict(MINIMAL)
+    with pytest.raises(TypeError, match="stereo must be a Stereo or None; got tuple"):
+        Scene(camera=scene.camera, environment=scene.environment, materials={}, objects=(), stereo=(0.1, 2.0))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="material names must be non-empty strings; got ''"):
+        Scene(camera=scene.camera, environment=scene.environment, materials={"": scene.materials["m"]}, objects=())
+
+
+def test_figures_refuse_bad_input(tmp_path):
+    from vergence.render import render
+    from vergence.report.preview import save_render
+
+    with pytest.raises(ValueError, match=r"radiance must have shape \(H, W, 3\); got \(4, 4\)"):
+        tonemap(np.zeros((4, 4)))
+    result = render(scene_from_dict(MINIMAL), max_depth=0, samples=1)
+    with pytest.raises(FileNotFoundError, match="output folder does not exist: .*nowhere"):
+        save_render(result, tmp_path / "nowhere")
