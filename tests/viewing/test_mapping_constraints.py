@@ -266,6 +266,9 @@ def _scenes(draw):
     n = draw(st.integers(1, 4))
     span = 50.0 * near if math.isinf(far) else far - near
     fracs = sorted(draw(st.lists(st.floats(0.0, 1.0), min_size=n, max_size=n, unique=True)))
+    # Distinct floats can still be one depth to psi (51 and 51 - 1 ulp have one disparity, and
+    # psi_from_constraints refuses them as too close): keep the constraints a millionth of the span apart.
+    assume(all(b - a > 1e-6 for a, b in zip(fracs, fracs[1:])))
     depths = [near + f * span for f in fracs]
     if math.isinf(far) and draw(st.booleans()):
         depths[-1] = math.inf  # the background at infinity

@@ -1,4 +1,4 @@
-"""Bundler v0.3 ``bundle.out`` camera sets (Snavely, Seitz, Szeliski 2006), read and written in our conventions.
+"""Bundler v0.3 ``bundle.out`` camera sets (Snavely et al. 2006), read and written in our conventions.
 
 Bundler's camera looks down -z with y up: ``x_cam = R_b X + t_b``, ``p = -x_cam[:2] / x_cam[2]``,
 pixel ``f (1 + k1 |p|^2 + k2 |p|^4) p`` with the origin at the image centre and y up. We flip the y

@@ -1,4 +1,4 @@
-"""Viewing geometry (S0 §2), comfort zone, depth budget and disparity mapping (S0 Eq. 7–9, Lang 2010)."""
+"""Viewing geometry (S0 §2), comfort zone, depth budget and disparity mapping (S0 Eq. 7–9, Lang et al. 2010)."""
 
 from vergence.viewing.budget import DepthBudget, DepthSample, default_depths, depth_budget
 from vergence.viewing.comfort import (
