@@ -17,17 +17,9 @@ from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
 from vergence.render.lenses import FisheyeCamera
 from vergence.render.disparity import screen_disparity
 from vergence.render.intersect import Hits, Intersector
-from vergence.render.raytree import (
-    MAX_DEPTH,
-    RayTree,
-    RenderResult,
-    RenderSettings,
-    Tracer,
-    layer_names,
-    render,
-    render_stereo,
-)
 from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays, subpixel_rays
+from vergence.render.raytree import MAX_DEPTH, Tracer, render, render_stereo
+from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
 from vergence.render.scene import (
     Checker,
     Diffuse,

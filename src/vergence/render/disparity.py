@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.render.raytree import RenderResult
+from vergence.render.results import RenderResult
 
 __all__ = ["screen_disparity"]
 

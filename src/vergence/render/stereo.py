@@ -9,7 +9,8 @@ import numpy as np
 
 from vergence.render.builtin import open_scene
 from vergence.render.tonemap import auto_exposure, tonemap
-from vergence.render.raytree import Progress, RenderResult, render_stereo
+from vergence.render.raytree import Progress, render_stereo
+from vergence.render.results import RenderResult
 from vergence.render.scene import Scene
 
 __all__ = ["StereoPreview", "stereo_preview"]

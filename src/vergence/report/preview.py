@@ -15,7 +15,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from vergence._validate import check_positive
-from vergence.render.raytree import RenderResult, layer_names
+from vergence.render.results import RenderResult, layer_names
 from vergence.render.tonemap import auto_exposure, tonemap
 
 __all__ = ["contact_sheet", "depth_preview", "save_render"]
