@@ -30,3 +30,44 @@ def shared_data() -> Path:
 if os.environ.get("CI"):
     settings.register_profile("ci", derandomize=True, print_blob=True)
     settings.load_profile("ci")
+
+
+# --- image files whose header declares a huge size over a few bytes of data (fuzzer cases) ---
+
+
+def _huge_png(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    chunk = lambda tag, body: (  # noqa: E731
+        struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body) & 0xFFFFFFFF)
+    )
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b"")
+
+
+def _huge_jpeg(width: int, height: int) -> bytes:
+    import io as _io
+
+    from PIL import Image
+
+    buf = _io.BytesIO()
+    Image.new("L", (8, 8)).save(buf, format="JPEG")
+    data = bytearray(buf.getvalue())
+    sof = data.find(b"\xff\xc0")
+    data[sof + 5 : sof + 9] = height.to_bytes(2, "big") + width.to_bytes(2, "big")
+    return bytes(data)
+
+
+
+
+def _huge_hdr(width: int, height: int) -> bytes:
+    return f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {height} +X {width}\n".encode() + b"\0" * 64
+
+
+@pytest.fixture
+def huge_image():
+    """``huge_image(name)``: bytes of a .png/.hdr (100000 x 100000) or .jpg (60000 x 60000) file."""
+    makers = {".png": lambda: _huge_png(100_000, 100_000), ".hdr": lambda: _huge_hdr(100_000, 100_000),
+              ".jpg": lambda: _huge_jpeg(60_000, 60_000)}
+    return lambda name: makers[name[name.rindex("."):]]()

@@ -481,3 +481,13 @@ def test_a_better_match_farther_away_beats_a_near_one_unless_tied():
     reference = np.roll(image, 2, axis=1)  # image(p) = reference(p + (0, 2))
     result = registration_error(image, reference, radius=3.0)
     assert_array_equal(result.distance[3:-3, 3:-5], 2.0)
+
+
+def test_registration_radius_past_the_limit_is_refused_before_any_allocation():
+    from vergence.metrics import MAX_REGISTRATION_RADIUS
+
+    img = np.random.default_rng(0).random((12, 12))
+    with pytest.raises(ValueError, match=rf"radius must be at most {MAX_REGISTRATION_RADIUS} px.*got 1e\+06"):
+        registration_error(img, img, radius=1e6)
+    # the limit itself is accepted on the arithmetic (no allocation of the offsets at 1e6)
+    assert registration_error(img, img, radius=20, min_contrast=0).rms == 0.0

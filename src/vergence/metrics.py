@@ -19,6 +19,7 @@ from vergence._metrics_kernels import SIMILARITY_SSD, SIMILARITY_ZNCC, patch_sum
 from vergence._validate import as_image_pair, check_finite, check_in_range, check_positive, check_positive_int
 
 __all__ = [
+    "MAX_REGISTRATION_RADIUS",
     "MIN_CONTRAST",
     "RegistrationError",
     "dssim",
@@ -38,6 +39,9 @@ TIE_TOLERANCE = 1e-9
 # (no misregistration) gets d = r (ZNCC < 0.8) on 86 % of the pixels of patch contrast 1-2 levels,
 # 5 % at 2-3 levels and none from 3 levels on; 3 levels keeps 76 % of view3's pixels.
 MIN_CONTRAST = 3.0 / 255.0
+# Largest registration search radius: (2 r + 1)^2 = 4.2 million candidate offsets, about 100 MB of
+# offset tables, and already 3.3 million patch comparisons per pixel. A radius of 1e6 would need 58 TiB.
+MAX_REGISTRATION_RADIUS = 1024
 _SIMILARITIES = {"ssd": SIMILARITY_SSD, "zncc": SIMILARITY_ZNCC}
 _DEFAULT_RANKS = (0.8, 0.95, 1.0)
 # The largest RMS deviation of values in [0, 1]: half of them 0, half 1.
@@ -432,6 +436,11 @@ def registration_error(
     """
     a, b = _pair(image, reference)
     r = check_positive("radius", radius)
+    if r > MAX_REGISTRATION_RADIUS:
+        raise ValueError(
+            f"radius must be at most {MAX_REGISTRATION_RADIUS} px (MAX_REGISTRATION_RADIUS: the search "
+            f"tables grow as radius^2); got {r:g}"
+        )
     k = _check_window("patch_size", patch_size, a.shape[:2])
     if similarity not in _SIMILARITIES:
         raise ValueError(f"similarity must be one of {', '.join(sorted(_SIMILARITIES))}; got {similarity!r}")

@@ -172,6 +172,13 @@ def test_match_keeps_zero_disparities_in_pfm_and_refuses_them_in_png(capsys, tsu
         (["stereo/tsukuba/im3.png", "GREY", "--max-disparity", "15"], "both be grey or both colour"),
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "400"], "wider than the image"),
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--method", "census"], "method must be one of"),
+        # ranges OpenCV cannot allocate (overflows inside StereoSGBM): refused against the width first
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "15", "--min-disparity", "-10000"],
+         "leaves no column to match"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "0", "--min-disparity", "-383"],
+         "leaves no column to match"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "-900", "--min-disparity", "-1000"],
+         "leaves no column to match"),
     ],
 )
 def test_match_errors(capsys, shared_data, tmp_path, args, message):

@@ -314,3 +314,9 @@ def test_synthesize_accepts_every_display_layout(tmp_path, capsys, layout):
     assert code == 0 and json.loads(stdout)["format"] == layout
     expected = pack(read_image(out / "left.png"), read_image(out / "right.png"), layout=layout)
     np.testing.assert_allclose(read_image(out / f"stereo_{layout}.png"), expected, atol=PNG_ATOL)
+
+
+def test_compare_huge_radius_is_exit_2_naming_the_option(tmp_path, capsys):
+    write_image(tmp_path / "a.png", np.random.default_rng(2).random((16, 16)))
+    code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "a.png"), "--radius", "1e6"])
+    assert code == 2 and "--radius must be a number in (0, 1024] px; got 1e+06" in err and len(err.strip().splitlines()) == 1

@@ -329,3 +329,20 @@ def test_truncated_json(tmp_path):
     (tmp_path / "c.json").write_text('{"format": "vergence-cameras", "cameras": [')
     with pytest.raises(ValueError, match="not valid JSON"):
         read_cameras_json(tmp_path / "c.json")
+
+
+def test_camera_image_size_of_a_huge_jpeg_is_an_error_naming_the_limit(shared_data, tmp_path, huge_image):
+    src = shared_data / "collections" / "dino" / "dino_par.txt"
+    lines = src.read_text().splitlines()
+    (tmp_path / "one_par.txt").write_text("\n".join(["1", lines[1].replace("dino0001.png", "big.jpg")]) + "\n")
+    (tmp_path / "big.jpg").write_bytes(huge_image("big.jpg"))
+    with pytest.raises(ValueError, match=r"big.jpg.*declares.*limit of 80,000,000"):
+        read_middlebury_par(tmp_path / "one_par.txt")
+
+
+def test_disparity_png_declaring_too_many_pixels_is_refused(tmp_path, huge_image):
+    from vergence.io import read_disparity  # noqa: PLC0415
+
+    (tmp_path / "d.png").write_bytes(huge_image("d.png"))
+    with pytest.raises(ValueError, match=r"declares 100000 x 100000"):
+        read_disparity(tmp_path / "d.png", scale=1)

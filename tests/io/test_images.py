@@ -389,3 +389,17 @@ def test_input_is_not_modified(tmp_path):
     write_image(tmp_path / "a.png", image)
     write_image(tmp_path / "a.hdr", image)
     assert_array_equal(image, before)
+
+
+# --- declared sizes past the limit are refused before decoding -------------------------------
+
+
+@pytest.mark.parametrize("name", ["big.png", "big.hdr", "big.jpg"])
+def test_images_declaring_too_many_pixels_are_refused_before_decoding(tmp_path, huge_image, name):
+    from vergence.io.images import MAX_IMAGE_PIXELS
+
+    path = tmp_path / name
+    path.write_bytes(huge_image(name))
+    with pytest.raises(ValueError, match=rf"declares .* pixels; the limit is {MAX_IMAGE_PIXELS:,}") as info:
+        read_image(path)
+    assert "\n" not in str(info.value)

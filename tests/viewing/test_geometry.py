@@ -550,3 +550,38 @@ def test_shift_sensor_rejects_depth_behind_camera_and_mismatched_shapes():
 
 def test_cardboard_threshold_is_the_papers():
     assert CARDBOARD_ROUNDNESS == 0.3  # S0 §2: roundness below 0.3 looks like a cardboard cut-out
+
+
+@pytest.mark.parametrize(
+    ("build", "message"),
+    [
+        (lambda: Shooting(1e308, 2.0, 1.0), r"baseline must lie in \[1e-06, 1e\+06\] m; got 1e\+308"),
+        (lambda: Shooting(0.1, 2.0, 5e-324), r"window must lie in \[1e-06, 1e\+06\] m; got 4.94066e-324"),
+        (lambda: Shooting.from_focal(baseline=0.1, convergence=2.0, focal_mm=5e-324, sensor_mm=36.0),
+         r"focal_mm must lie in \[0.001, 1e\+09\] mm; got 4.94066e-324"),
+        (lambda: Display(0.065, 1e9, 1.0), r"distance must lie in \[1e-06, 1e\+06\] m; got 1e\+09"),
+    ],
+)
+def test_lengths_outside_the_representable_range_are_refused(build, message):
+    with pytest.raises(ValueError, match=message):
+        build()
+
+
+def test_depths_outside_the_range_are_refused_and_extremes_stay_consistent():
+    import warnings
+
+    from vergence.viewing.geometry import LENGTH_RANGE, MAX_SCENE_DEPTH
+
+    with pytest.raises(ValueError, match=r"z must lie in \[1e-06, 1e\+20\] m"):
+        disparity(1e-300, Shooting(0.1, 2.0, 1.0))
+    # the extreme rig and display the limits allow: every figure finite, no numpy warning
+    lo, hi = LENGTH_RANGE
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for b, H, W in ((hi, lo, lo), (lo, hi, hi), (hi, hi, lo), (lo, lo, hi)):
+            shooting, display = Shooting(b, H, W), Display(lo, hi, lo, resolution=10**6)
+            for z in (lo, H, MAX_SCENE_DEPTH):
+                d = disparity(z, shooting)
+                zp = perceived_depth_from_depth(z, shooting, display)
+                assert math.isfinite(d) and math.isfinite(d * display.resolution)
+                assert math.isnan(zp) or zp > 0

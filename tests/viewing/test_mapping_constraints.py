@@ -222,7 +222,7 @@ def test_samples_cover_near_to_far_and_inverse_round_trips():
         (["z=300,perceived=3"], 10, 100, ValueError,
          "constraint z=300,perceived=3 lies outside the scene: near = 10, far = 100"),
         (["z=30,perceived=3", "z=30,perceived=4"], 10, 100, ValueError, "are at the same depth"),
-        ([(1e20, 3.0), (2e20, 4.0)], 10, math.inf, ValueError, "their disparities d.z. coincide"),
+        ([(1e19, 3.0), (2e19, 4.0)], 10, math.inf, ValueError, "their disparities d.z. coincide"),
         ([(30.0, 3.0), (60.0, 1e15), (90.0, 1.00000000000001e15)], 10, 100, ValueError,
          r"constraints z=60,perceived=1e\+15 and z=90,perceived=1e\+15 are too close: their values psi"),
         ([(30.0, 3.0), (60.0, 1e300)], 10, 100, ValueError,

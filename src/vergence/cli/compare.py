@@ -11,7 +11,7 @@ from rich.table import Table
 
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.io import read_image, write_image
-from vergence.metrics import MIN_CONTRAST
+from vergence.metrics import MAX_REGISTRATION_RADIUS, MIN_CONTRAST
 from vergence.synthesis import assess_view, error_image
 
 __all__ = ["compare"]
@@ -45,6 +45,8 @@ def compare(
     """Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."""
     if not (math.isfinite(error_gain) and error_gain > 0):
         raise ValueError(f"--error-gain must be a finite number > 0; got {error_gain}")
+    if not (math.isfinite(radius) and 0 < radius <= MAX_REGISTRATION_RADIUS):
+        raise ValueError(f"--radius must be a number in (0, {MAX_REGISTRATION_RADIUS}] px; got {radius:g}")
     if error_path is not None:
         check_output_path(error_path, image, reference, *([mask] if mask is not None else []))
     with err_console.status("comparing", spinner="dots"):

@@ -45,6 +45,14 @@ def check_disparity_range(max_disparity: object, min_disparity: object, width: i
     if hi >= width or lo + count >= width:
         raise ValueError(f"disparity range [{lo}, {hi}] (searched as {count} disparities from {lo}) is wider than "
                          f"the image ({width} px)")
+    # OpenCV matches the columns x with x - d inside the image for every searched d: [max(lo + count, 0),
+    # width + min(lo, 0)); an empty interval overflows its buffer sizes instead of failing cleanly
+    first, end = max(lo + count, 0), width + min(lo, 0)
+    if end <= first:
+        raise ValueError(
+            f"disparity range [{lo}, {hi}] (searched as {count} disparities from {lo}) leaves no column to match "
+            f"in an image {width} px wide: it needs max(min + {count}, 0) - min(min, 0) < {width}; got {first - min(lo, 0)}"
+        )
     return lo, hi, count
 
 

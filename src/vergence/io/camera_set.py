@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,6 +23,7 @@ from PIL import Image
 from vergence.camera import Camera
 from vergence.io._files import read_bytes
 from vergence.io.atomic import atomic_write
+from vergence.io.images import MAX_IMAGE_PIXELS
 
 __all__ = ["CameraSet"]
 
@@ -144,10 +146,22 @@ def _image_size(path: Path) -> tuple[int, int]:
     if not path.is_file():
         raise FileNotFoundError(f"cannot find image {path} to read its size; pass image_size=(width, height)")
     try:
-        with Image.open(path) as im:
-            return int(im.size[0]), int(im.size[1])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the limit is checked below
+            with Image.open(path) as im:
+                width, height = int(im.size[0]), int(im.size[1])
+    except Image.DecompressionBombError as exc:
+        raise ValueError(
+            f"cannot use image {path}: its header declares more pixels than the limit of {MAX_IMAGE_PIXELS:,} ({exc})"
+        ) from exc
     except OSError as exc:
         raise ValueError(f"cannot read the size of image {path}: {exc}") from exc
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ValueError(
+            f"cannot use image {path}: its header declares {width} x {height} = {width * height:,} pixels; "
+            f"the limit is {MAX_IMAGE_PIXELS:,}"
+        )
+    return width, height
 
 
 def _check_size(image_size: object) -> tuple[int, int]:

@@ -8,6 +8,10 @@ Alpha: Vergence images carry no alpha channel. A PNG whose alpha is fully opaque
 when the channel is dropped, so it is read as RGB (or grey); a PNG with any transparent pixel is
 refused with a message saying so (flatten it onto a background first), never silently composited.
 
+Size limit: a file whose header declares more than ``MAX_IMAGE_PIXELS`` (80 million) pixels is
+refused from its header, before any decoding (a few hundred bytes can declare a 100000 x 100000
+PNG: decoding it would need tens of gigabytes).
+
 EXR is not supported: the OpenCV build this project depends on has no OpenEXR codec and imageio
 needs an extra download (the FreeImage plug-in) to read it. Convert EXR files to PFM or NPY.
 """
@@ -16,6 +20,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 from pathlib import Path
 
 import cv2
@@ -28,7 +33,11 @@ from vergence.io._pnm import decode_pnm, encode_pnm
 from vergence.io.atomic import atomic_write
 from vergence.io.pfm import read_pfm, write_pfm
 
-__all__ = ["read_image", "write_image"]
+__all__ = ["MAX_IMAGE_PIXELS", "read_image", "write_image"]
+
+#: Largest image (width x height) that ``read_image`` decodes: 80 Mpx, i.e. 960 MB as float32 RGB.
+#: Below Pillow's own decompression-bomb threshold (89.5 Mpx), so Pillow never warns first.
+MAX_IMAGE_PIXELS = 80_000_000
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _JPEG_SUFFIXES = (".jpg", ".jpeg")
@@ -67,6 +76,54 @@ def _drop_opaque_alpha(arr: np.ndarray, path: Path) -> np.ndarray:
     return arr[:, :, :3]
 
 
+def _png_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from the IHDR chunk, or None when the header is too short to say."""
+    if len(data) < 24 or data[12:16] != b"IHDR":
+        return None
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def _hdr_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from the Radiance resolution line (``-Y H +X W`` and its variants), or None."""
+    m = re.search(rb"\n\n([-+][XY]) (\d+) ([-+][XY]) (\d+)\n", data[:65536])
+    if m is None:
+        return None
+    first, second = int(m.group(2)), int(m.group(4))
+    return (second, first) if m.group(1)[1:] == b"Y" else (first, second)
+
+
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from the first start-of-frame marker, or None when none is found."""
+    i, n = 2, len(data)
+    while i + 9 <= n:
+        if data[i] != 0xFF:
+            return None
+        marker = data[i + 1]
+        if marker == 0xFF:  # fill byte
+            i += 1
+            continue
+        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:  # markers without a length
+            i += 2
+            continue
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
+        i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
+    return None
+
+
+_HEADER_SIZES = {".png": _png_size, ".hdr": _hdr_size, ".jpg": _jpeg_size, ".jpeg": _jpeg_size}
+
+
+def _check_declared_size(data: bytes, suffix: str, path: Path) -> None:
+    """Refuse a file whose header declares more than ``MAX_IMAGE_PIXELS`` pixels, before decoding."""
+    size = _HEADER_SIZES[suffix](data)
+    if size is not None and size[0] * size[1] > MAX_IMAGE_PIXELS:
+        raise ValueError(
+            f"cannot read {path}: its header declares {size[0]} x {size[1]} = {size[0] * size[1]:,} pixels; "
+            f"the limit is {MAX_IMAGE_PIXELS:,}"
+        )
+
+
 def _imdecode(data: bytes) -> np.ndarray | None:
     """``cv2.imdecode`` with OpenCV's own logging silenced: a corrupt file is reported once, by our
     ValueError, not also by OpenCV's warning lines on stderr. The previous log level is restored."""
@@ -84,6 +141,7 @@ def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
         raise ValueError(f"cannot read {path}: not a PNG file (bad signature)")
     if data.rfind(b"IEND") < 0:
         raise ValueError(f"cannot read {path}: PNG file is truncated (no IEND chunk)")
+    _check_declared_size(data, ".png", path)
     colour_type = data[25] if len(data) > 25 else -1
     arr = _imdecode(data)
     if arr is None:
@@ -100,6 +158,7 @@ def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
 
 def _decode_jpeg(data: bytes, path: Path) -> np.ndarray:
     """8-bit JPEG samples ``(H, W)`` or ``(H, W, 3)`` RGB; truncation is detected by Pillow."""
+    _check_declared_size(data, ".jpg", path)
     try:
         with Image.open(io.BytesIO(data), formats=["JPEG"]) as im:
             im.load()
@@ -116,6 +175,7 @@ def _decode_hdr(data: bytes, path: Path) -> np.ndarray:
     """Radiance RGBE to linear float32 RGB ``(H, W, 3)``."""
     if not data.startswith((b"#?RADIANCE", b"#?RGBE")):
         raise ValueError(f"cannot read {path}: not a Radiance HDR file (expected a '#?RADIANCE' header)")
+    _check_declared_size(data, ".hdr", path)
     arr = _imdecode(data)
     if arr is None or arr.ndim != 3 or arr.dtype != np.float32:
         raise ValueError(f"cannot read {path}: Radiance HDR data is corrupt or truncated")
@@ -194,7 +254,8 @@ def read_image(path: str | os.PathLike[str]) -> np.ndarray:
         If ``path`` is missing or a directory.
     ValueError
         If the extension is unknown (or .exr), or the file is empty, truncated, corrupt, of another
-        format than its extension says, transparent, or holds NaN/inf; the message names the path.
+        format than its extension says, transparent, holds NaN/inf, or its header declares more than
+        ``MAX_IMAGE_PIXELS`` pixels; the message names the path.
 
     Examples
     --------

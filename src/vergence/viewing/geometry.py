@@ -23,6 +23,8 @@ __all__ = [
     "CONTROL_EFFECTS",
     "DISPLAY_PRESETS",
     "Display",
+    "LENGTH_RANGE",
+    "MAX_SCENE_DEPTH",
     "Shooting",
     "disparity",
     "divergence_baseline",
@@ -37,8 +39,27 @@ __all__ = [
     "shift_sensor_positions",
 ]
 
+# Rig and display lengths (b, H, W, b', H', W'), metres: a micrometre to a thousand kilometres. Every
+# figure of Eq. (1)-(6) is a product or ratio of at most four lengths and one depth, so inside these
+# ranges each stays between 1e-50 and 1e50: finite and normal in float64 (no overflow to inf, no
+# underflow to 0, no numpy warnings). Lengths outside are refused, never clamped.
+LENGTH_RANGE = (1e-6, 1e6)
+# Scene depths run from LENGTH_RANGE[0] to MAX_SCENE_DEPTH (1e20 m, far beyond any scene; the budget of a
+# point at infinity is its limit, b/W).
+MAX_SCENE_DEPTH = 1e20
+# focal_mm and sensor_mm of Shooting.from_focal, millimetres: the metre range above.
+_MM_RANGE = (1e-3, 1e9)
+
 # The paper's cardboard criterion (S0 §2): roundness below this looks like a flat cut-out.
 CARDBOARD_ROUNDNESS = 0.3
+
+
+def _length(name: str, value: object, bounds: tuple[float, float] = LENGTH_RANGE, unit: str = "m") -> float:
+    """``value`` as a float in ``bounds`` (default :data:`LENGTH_RANGE`, metres), else ValueError."""
+    v = check_positive(name, value)
+    if not bounds[0] <= v <= bounds[1]:
+        raise ValueError(f"{name} must lie in [{bounds[0]:g}, {bounds[1]:g}] {unit}; got {v:g}")
+    return v
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,13 +78,13 @@ class Shooting:
 
     def __post_init__(self) -> None:
         for name in ("baseline", "convergence", "window"):
-            object.__setattr__(self, name, check_positive(name, getattr(self, name)))
+            object.__setattr__(self, name, _length(name, getattr(self, name)))
 
     @classmethod
     def from_focal(cls, *, baseline: float, convergence: float, focal_mm: float, sensor_mm: float) -> Shooting:
         """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (S0 §2)."""
-        f = check_positive("focal_mm", focal_mm) / check_positive("sensor_mm", sensor_mm)
-        return cls(baseline=baseline, convergence=convergence, window=check_positive("convergence", convergence) / f)
+        f = _length("focal_mm", focal_mm, _MM_RANGE, "mm") / _length("sensor_mm", sensor_mm, _MM_RANGE, "mm")
+        return cls(baseline=baseline, convergence=convergence, window=_length("convergence", convergence) / f)
 
     @property
     def focal(self) -> float:
@@ -90,7 +111,7 @@ class Display:
 
     def __post_init__(self) -> None:
         for name in ("eye_separation", "distance", "width"):
-            object.__setattr__(self, name, check_positive(name, getattr(self, name)))
+            object.__setattr__(self, name, _length(name, getattr(self, name)))
         if self.resolution is not None:
             object.__setattr__(self, "resolution", check_positive_int("resolution", self.resolution))
 
@@ -146,6 +167,9 @@ def _depths(name: str, z: object) -> np.ndarray:
     arr = as_float_array(name, z)
     if (arr <= 0).any():
         raise ValueError(f"{name} must be > 0 (in front of the cameras); got min {arr.min():g}")
+    if arr.size and (arr.min() < LENGTH_RANGE[0] or arr.max() > MAX_SCENE_DEPTH):
+        bad = arr.min() if arr.min() < LENGTH_RANGE[0] else arr.max()
+        raise ValueError(f"{name} must lie in [{LENGTH_RANGE[0]:g}, {MAX_SCENE_DEPTH:g}] m; got {bad:g}")
     return arr
 
 
