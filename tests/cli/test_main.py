@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from vergence.cli import main
 
 
@@ -67,3 +69,21 @@ def test_importing_vergence_leaves_the_environment_alone():
     env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
     result = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_options_named_rewrites_the_leading_parameter_name_only():
+    from vergence.cli._app import options_named
+
+    with pytest.raises(ValueError, match=r"^--viewing-distance must be > 0; got -3$"):
+        with options_named(distance="--viewing-distance"):
+            raise ValueError("distance must be > 0; got -3")
+    # a longer name that merely starts with the parameter is left alone, as are other errors
+    with pytest.raises(ValueError, match=r"^distances must be sorted$"):
+        with options_named(distance="--viewing-distance"):
+            raise ValueError("distances must be sorted")
+    with pytest.raises(TypeError, match=r"^--smooth-sigma: expected a number$"):
+        with options_named(sigma="--smooth-sigma"):
+            raise TypeError("sigma: expected a number")
+    with pytest.raises(OSError, match="distance"):
+        with options_named(distance="--viewing-distance"):
+            raise OSError("distance")

@@ -10,6 +10,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
@@ -33,6 +35,25 @@ def print_json(data: object) -> None:
     """Print ``data`` as JSON on stdout (no Rich markup, machine-readable)."""
     sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
     sys.stdout.flush()
+
+
+@contextmanager
+def options_named(**names: str) -> Iterator[None]:
+    """Let a library error name the option the user typed, not the Python parameter behind it.
+
+    The library's messages begin with the name of the argument at fault ("distance must be > 0").
+    Inside ``with options_named(distance="--viewing-distance"):`` such a ``ValueError`` or
+    ``TypeError`` is raised again, same type, with that leading name replaced by the option
+    ("--viewing-distance must be > 0"). Other errors pass unchanged.
+    """
+    try:
+        yield
+    except (ValueError, TypeError) as exc:
+        message = str(exc)
+        for param, option in names.items():
+            if message.startswith(param) and message[len(param):len(param) + 1] in (" ", ":", "="):
+                raise type(exc)(option + message[len(param):]) from exc
+        raise
 
 
 def check_output_path(out: Path, *inputs: Path) -> None:
