@@ -107,6 +107,14 @@ def _numeric_roundness(shooting: Shooting, display: Display, X: float, z: float)
 positive = st.floats(min_value=0.01, max_value=100.0, allow_nan=False, allow_infinity=False)
 
 
+def _rig(b: float, H: float, W: float) -> Shooting:
+    """A rig from a computed baseline; examples whose baseline leaves LENGTH_RANGE are not rigs."""
+    from vergence.viewing.geometry import LENGTH_RANGE
+
+    assume(LENGTH_RANGE[0] <= b <= LENGTH_RANGE[1])
+    return Shooting(b, H, W)
+
+
 # ---------------------------------------------------------------------------------------------
 # Hand-worked values
 
@@ -330,14 +338,14 @@ def test_eq6_focal_ratio_is_roundness_over_divergence_baseline(b, H, W, bp, Hp, 
     # At z = H the Eq. (4) denominator H(b'W - b_rho W') + b_rho H W' cancels down to H b'W: the
     # rounding grows with b_rho W' / (b'W) = rho f/f', so the tolerance is counted in those ulps.
     cancellation = max(1.0, b_rho * Wp / (bp * W))
-    assert roundness(H, Shooting(b_rho, H, W), display) == pytest.approx(rho, rel=16 * EPS * cancellation)
+    assert roundness(H, _rig(b_rho, H, W), display) == pytest.approx(rho, rel=16 * EPS * cancellation)
 
 
 @settings(max_examples=60, deadline=None)
 @given(H=positive, W=positive, bp=positive, Hp=positive, Wp=positive, excess=st.floats(1.01, 50.0))
 def test_divergence_depth_is_where_disparity_reaches_the_eye_limit(H, W, bp, Hp, Wp, excess):
     display = Display(bp, Hp, Wp)
-    rig = Shooting(excess * divergence_baseline(W, display), H, W)  # b > b_div
+    rig = _rig(excess * divergence_baseline(W, display), H, W)  # b > b_div
     z_div = divergence_depth(rig, display)
     assert math.isfinite(z_div) and z_div > H
     assert disparity(z_div, rig) == pytest.approx(display.divergence_disparity, rel=1e-10)  # Eq. (8) limit
@@ -355,8 +363,8 @@ def test_limits_are_exact_in_floating_point(b, H, W, bp, Hp, Wp):
     assert math.isnan(perceived_depth(math.nextafter(display.divergence_disparity, math.inf), display))
     assert scene_depth_from_disparity(b / W, rig) == math.inf  # d(inf) = b/W, Eq. (1c)
     b_div = divergence_baseline(W, display)
-    assert divergence_depth(Shooting(b_div, H, W), display) == math.inf  # b = b_div never diverges (Eq. 3)
-    assert np.all(np.isfinite(perceived_depth_from_depth(np.array([H, 1e6 * H]), Shooting(b_div, H, W), display)))
+    assert divergence_depth(_rig(b_div, H, W), display) == math.inf  # b = b_div never diverges (Eq. 3)
+    assert np.all(np.isfinite(perceived_depth_from_depth(np.array([H, 1e6 * H]), _rig(b_div, H, W), display)))
     z_div = divergence_depth(rig, display)
     if math.isfinite(z_div):  # parallel exactly at z_div, finite before, diverging after (consistently)
         assert perceived_depth_from_depth(z_div, rig, display) == math.inf
@@ -371,7 +379,7 @@ def test_no_divergence_under_the_divergence_baseline(H, W, bp, Hp, Wp, share):
     # (b = b_div exactly is a hand-worked case above: in floating point b'W/W' * W' may round past b'W.)
     display = Display(bp, Hp, Wp)
     b = share * divergence_baseline(W, display)
-    rig = Shooting(b, H, W)
+    rig = _rig(b, H, W)
     assert divergence_depth(rig, display) == math.inf
     z = np.geomspace(0.01 * H, 1e6 * H, 40)
     zp = perceived_depth_from_depth(z, rig, display)
