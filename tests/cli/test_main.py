@@ -87,3 +87,74 @@ def test_options_named_rewrites_the_leading_parameter_name_only():
     with pytest.raises(OSError, match="distance"):
         with options_named(distance="--viewing-distance"):
             raise OSError("distance")
+
+
+def _run_cli(*args: str, env: dict[str, str] | None = None) -> "subprocess.CompletedProcess[str]":
+    """The console script in a fresh interpreter (what a user runs), its output captured."""
+    import os
+    import subprocess
+    import sys
+
+    code = "import sys; from vergence.cli import _entry; sys.argv[0] = 'vergence'; _entry()"
+    full_env = {**os.environ, **(env or {})}
+    return subprocess.run([sys.executable, "-c", code, *args], env=full_env, capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_help_lists_the_commands_without_importing_them():
+    # issue 9, "Import takes 1.4 s ... `vergence --help` should not pay for Numba and Mitsuba"
+    import subprocess
+    import sys
+
+    code = ("import sys; from vergence.cli import main, COMMANDS; assert main(['--help']) == 0; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numba', 'mitsuba', 'drjit', 'cv2', "
+            "'scipy', 'numpy') or m.startswith('vergence.cli.') and m[13:] in {v[0] for v in COMMANDS.values()}),"
+            " file=sys.stderr)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.strip() == "[]"
+    from vergence.cli import COMMANDS
+
+    for name in COMMANDS:
+        assert name in result.stdout
+
+
+def test_commands_table_matches_the_command_modules():
+    import importlib
+    import pathlib
+
+    import vergence.cli
+    from vergence.cli import COMMANDS
+    from vergence.cli._app import app
+
+    folder = pathlib.Path(vergence.cli.__file__).parent
+    modules = {p.stem for p in folder.glob("*.py") if not p.stem.startswith("_")}
+    assert {module for module, _ in COMMANDS.values()} == modules
+    assert list(COMMANDS) == sorted(COMMANDS)
+    for name, (module, summary) in COMMANDS.items():
+        importlib.import_module(f"vergence.cli.{module}")
+        registered = {i.name for i in app.registered_commands if i.callback.__module__ == f"vergence.cli.{module}"}
+        assert registered == {name}, module
+        assert summary and "\n" not in summary
+
+
+def test_command_help_reads_as_a_usage_line(capsys):
+    # issue 9: "--help shows --json <bool>", "usage reads {image} {depth}",
+    # "the --min-contrast default prints as 0.011764705882352941"
+    assert main(["compare", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "Usage: vergence compare [OPTIONS] IMAGE REFERENCE" in out
+    assert "<bool>" not in out and "{" not in out
+    assert "0.0117647]" in out and "0.01176470588" not in out
+    assert "[default: 10.0]" in out  # --radius: a round float keeps its point
+    assert main(["--help"]) == 0
+    assert "<bool>" not in capsys.readouterr().out
+
+
+def test_an_empty_value_is_refused_naming_the_option(capsys):
+    code = main(["budget", "--baseline", "0.1", "--convergence", "3", "--window", "1", "--display", ""])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert "--display" in err and "must not be empty" in err
+    assert main(["compare", "", "b.png"]) == 2
+    assert "IMAGE" in capsys.readouterr().err
