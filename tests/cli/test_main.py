@@ -158,3 +158,74 @@ def test_an_empty_value_is_refused_naming_the_option(capsys):
     assert "--display" in err and "must not be empty" in err
     assert main(["compare", "", "b.png"]) == 2
     assert "IMAGE" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("point, args", [("START", ["--help"]), ("IMPORT", ["budget", "--help"])])
+def test_ctrl_c_at_start_up_is_one_line_and_exit_code_130(point, args):
+    # issue 9: "Ctrl-C in the first half second (imports) prints a 36-line traceback"
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    code = "import sys; from vergence.cli import _entry; sys.argv[0] = 'vergence'; _entry()"
+    env = {**os.environ, f"VERGENCE_TEST_SLEEP_{point}": "60"}
+    proc = subprocess.Popen([sys.executable, "-c", code, *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stderr.readline() == f"test: sleeping at {point.lower()}\n"
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130
+    assert err == "interrupted\n" and out == ""
+
+
+@pytest.fixture
+def sigint_flag(monkeypatch):
+    """The console script's Ctrl-C record, cleared after the test."""
+    import vergence.cli
+
+    monkeypatch.setattr(vergence.cli, "_sigint_seen", False)
+
+
+def _budget_raising(monkeypatch, action):
+    import vergence.cli.budget as budget_cli
+
+    monkeypatch.setattr(budget_cli, "depth_budget", lambda *a, **k: action())
+    return main(["budget", "--baseline", "0.1", "--convergence", "3", "--window", "1", "--display", "tv-55"])
+
+
+def test_keyboard_interrupt_in_a_command_is_one_line_and_exit_code_130(capsys, monkeypatch):
+    def interrupt():
+        raise KeyboardInterrupt
+
+    assert _budget_raising(monkeypatch, interrupt) == 130
+    captured = capsys.readouterr()
+    assert captured.err == "interrupted\n" and captured.out == ""
+
+
+def test_an_error_raised_after_ctrl_c_still_reads_interrupted(capsys, monkeypatch, sigint_flag):
+    # issue 9: Ctrl-C during imports "once became 'internal error ... SystemError'" (an extension
+    # module turned the KeyboardInterrupt into a SystemError), and the demo swallowed it and exited 0
+    from vergence.cli import _on_sigint
+
+    def systemerror():
+        try:
+            _on_sigint(2, None)
+        except KeyboardInterrupt as exc:
+            raise SystemError("<built-in function> returned a result with an exception set") from exc
+
+    assert _budget_raising(monkeypatch, systemerror) == 130
+    assert capsys.readouterr().err == "interrupted\n"
+
+    def swallowed():
+        try:
+            _on_sigint(2, None)
+        except KeyboardInterrupt:
+            pass
+        raise ValueError("baseline must be > 0")  # what the command did next must not show
+
+    assert _budget_raising(monkeypatch, swallowed) == 130
+    assert capsys.readouterr().err == "interrupted\n"

@@ -6,10 +6,9 @@ handler before anything heavy loads; Typer and the command modules load inside :
 
 from __future__ import annotations
 
+import _signal  # signal's C core: `import signal` loads enum and collections, 10-60 ms without a handler
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import MutableMapping
 
@@ -42,7 +41,13 @@ EXIT_INTERRUPTED = 130
 
 # Set by the console script's SIGINT handler: whatever happens next (an import that turns the
 # KeyboardInterrupt into a SystemError, a library that swallows it), the run ends as interrupted.
-_INTERRUPTED = threading.Event()
+# A plain flag, not a threading.Event: this module imports nothing that delays the handler.
+_sigint_seen = False
+
+
+def sigint_seen() -> bool:
+    """Whether the console script's handler saw Ctrl-C (SIGINT) in this process."""
+    return _sigint_seen
 
 
 def __getattr__(name: str) -> object:
@@ -70,10 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         code = EXIT_INTERRUPTED
     except Exception:
-        if not _INTERRUPTED.is_set():
+        if not _sigint_seen:
             raise
         code = EXIT_INTERRUPTED
-    if code == EXIT_INTERRUPTED or _INTERRUPTED.is_set():
+    if code == EXIT_INTERRUPTED or _sigint_seen:
         sys.stderr.write("interrupted\n")
         sys.stderr.flush()
         return EXIT_INTERRUPTED
@@ -96,7 +101,8 @@ def pause_for_test(point: str) -> None:
 
 def _on_sigint(signum: int, frame: object) -> None:
     """Record Ctrl-C, then raise ``KeyboardInterrupt`` so that ``finally`` blocks clean up."""
-    _INTERRUPTED.set()
+    global _sigint_seen
+    _sigint_seen = True
     raise KeyboardInterrupt
 
 
@@ -113,8 +119,8 @@ def _prefer_passive_omp_wait(environ: MutableMapping[str, str]) -> None:
 
 def _entry() -> None:
     """The console script: SIGINT handler first (before any heavy import), then :func:`main`."""
-    signal.signal(signal.SIGINT, _on_sigint)
+    _signal.signal(_signal.SIGINT, _on_sigint)
     _prefer_passive_omp_wait(os.environ)
     code = main()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C cannot turn the exit into a traceback
+    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # a second Ctrl-C cannot turn the exit into a traceback
     sys.exit(code)

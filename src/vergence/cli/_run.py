@@ -11,7 +11,7 @@ import os
 import typer
 from rich.markup import escape
 
-from vergence.cli import _INTERRUPTED, EXIT_INTERRUPTED
+from vergence.cli import EXIT_INTERRUPTED, sigint_seen
 from vergence.cli._app import app, console, err_console
 
 __all__ = ["run"]
@@ -27,7 +27,7 @@ def run(argv: list[str] | None) -> int:
     try:
         result = app(args=argv, prog_name="vergence", standalone_mode=False)
     except Exception as exc:
-        if _INTERRUPTED.is_set():
+        if sigint_seen():
             return EXIT_INTERRUPTED
         return _report(exc)
     return int(result) if isinstance(result, int) else 0
