@@ -313,3 +313,18 @@ def test_warnings_in_a_command_are_one_line_each(capsys, monkeypatch):
         assert _budget_raising(monkeypatch, overflow) == 2
     assert capsys.readouterr().err.splitlines() == [
         "warning: overflow encountered in scalar multiply", "warning: the second line", "error: baseline too large"]
+
+
+def test_a_repeatable_option_shows_its_element_type(capsys):
+    assert main(["budget", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "list[" not in out and "<float>" in out
+
+
+def test_python_dash_m_vergence_is_the_command():
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-m", "vergence", "budget", "--baseline"], capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 2 and result.stderr == "error: --baseline: needs a value\n"

@@ -6,7 +6,8 @@ commands that use them (measured on 2 shared cores, load 6: ``vergence --help`` 
 ``import vergence.cli`` 3.2 s -> 0.04 s).
 
 Parameters read as in POSIX usage lines (IEEE Std 1003.1, 12.1 "Utility Argument Syntax"): a flag
-shows no value type (``--json``, not ``--json <bool>``), arguments are upper-case (``IMAGE DEPTH``),
+shows no value type (``--json``, not ``--json <bool>``), a repeatable option its element type
+(``--depth <float>``, not ``<list[float]>``), arguments are upper-case (``IMAGE DEPTH``),
 and a float default shows at most :data:`DEFAULT_DIGITS` significant digits. An empty value
 (``--out ""``) is refused, naming the option.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 import copy
 import difflib
 import importlib
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -47,7 +49,12 @@ def _refuse_empty(param: TyperOption | TyperArgument, ctx: Any, value: object) -
 
 class _TidyOption(TyperOption):
     def display_type_rich(self, ctx: Any) -> str | None:
-        return None if self.is_flag else super().display_type_rich(ctx)
+        if self.is_flag:
+            return None
+        text = super().display_type_rich(ctx)
+        if self.multiple and text is not None:  # one value per use; the help says "repeat"
+            text = re.sub(r"^<list\[(.*)\]>$", r"<\1>", text)
+        return text
 
     def _get_default_string(self, *, ctx: Any, show_default_is_str: bool, default_value: Any) -> str:
         text = None if show_default_is_str else _default_text(default_value)
