@@ -328,3 +328,17 @@ def test_python_dash_m_vergence_is_the_command():
     result = subprocess.run([sys.executable, "-m", "vergence", "budget", "--baseline"], capture_output=True,
                             text=True, timeout=120)
     assert result.returncode == 2 and result.stderr == "error: --baseline: needs a value\n"
+
+
+def test_a_folder_given_as_an_image_or_disparity_file_says_so():
+    # kin of issue 9 "a folder given as a scene says 'not found'": here it said "unknown extension ''"
+    import pathlib
+    import tempfile
+
+    from vergence.io import read_disparity, read_image, write_image
+
+    folder = pathlib.Path(tempfile.mkdtemp())
+    for call in (lambda: read_image(folder), lambda: read_disparity(folder),
+                 lambda: write_image(folder, __import__("numpy").zeros((2, 2), "float32"))):
+        with pytest.raises((ValueError, OSError), match=rf"^(cannot read )?{folder}(: it)? is a (folder|directory)"):
+            call()
