@@ -260,6 +260,7 @@ def test_display_lengths_are_named_as_options(capsys):
     (OSError(28, "No space left on device", "/data/.left.tmp-0123456789ab.png", "/data/left.png"),
      "cannot write /data/left.png: no space left on device"),
     (PermissionError(13, "Permission denied", "scene.json"), "cannot open scene.json: permission denied"),
+    (PermissionError(13, "Permission denied", "o/.v.tmp-0123456789ab.png", "o/v.png"), "cannot write o/v.png: permission denied"),
     (IsADirectoryError(21, "Is a directory", "views"), "views is a folder"),
     (FileNotFoundError(2, "No such file or directory", "a/.x.tmp-0123456789ab.pfm", "a/x.pfm"),
      "cannot write a/x.pfm: no such file or directory"),
@@ -342,3 +343,15 @@ def test_a_folder_given_as_an_image_or_disparity_file_says_so():
                  lambda: write_image(folder, __import__("numpy").zeros((2, 2), "float32"))):
         with pytest.raises((ValueError, OSError), match=rf"^(cannot read )?{folder}(: it)? is a (folder|directory)"):
             call()
+
+
+@pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs Linux sysfs, where no file can be made")
+def test_a_real_failed_atomic_write_names_the_target_not_the_temporary_file():
+    from vergence.cli._run import describe_os_error
+    from vergence.io import write_json
+
+    with pytest.raises(OSError) as info:
+        write_json("/sys/kernel/vergence-test.json", {"a": 1})
+    message = describe_os_error(info.value)
+    assert message.startswith("cannot write /sys/kernel/vergence-test.json: ") and ".tmp-" not in message
+    assert "Errno" not in message
