@@ -25,6 +25,8 @@ def test_unknown_command_and_no_arguments(capsys):
 def test_help_exits_zero(capsys):
     assert main(["budget", "--help"]) == 0
     assert "--baseline" in capsys.readouterr().out
+    assert main(["budget", "-h"]) == 0
+    assert "--baseline" in capsys.readouterr().out
 
 
 def test_library_error_is_one_line(capsys):
@@ -239,6 +241,9 @@ def test_an_error_raised_after_ctrl_c_still_reads_interrupted(capsys, monkeypatc
     (["budget", "--baseline"], "error: --baseline: needs a value"),
     (["compare"], "error: missing argument IMAGE (usage: vergence compare [OPTIONS] IMAGE REFERENCE)"),
     (["budget", "--baseline", "1"], "error: missing option --convergence"),
+    (["mapping", "--nea", "1"], "error: no such option --nea (did you mean --far or --near? vergence mapping --help "
+                                "lists the options)"),
+    (["compare", "a", "b", "c"], "error: unexpected argument c (usage: vergence compare [OPTIONS] IMAGE REFERENCE)"),
 ])
 def test_usage_errors_begin_with_the_option_as_typed(capsys, tmp_path, args, message):
     assert main([a.format(tmp=tmp_path / "out") for a in args]) == 2

@@ -31,6 +31,7 @@ app = typer.Typer(
     cls=LazyGroup,
     help="Stereoscopic 3D images that look right on a given display.",
     no_args_is_help=True,
+    context_settings={"help_option_names": ["-h", "--help"]},  # no command uses -h for anything else
     add_completion=False,
     pretty_exceptions_enable=False,
 )

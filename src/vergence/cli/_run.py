@@ -17,7 +17,7 @@ from pathlib import Path
 
 import typer
 from rich.markup import escape
-from typer._click.exceptions import BadOptionUsage, BadParameter, MissingParameter, UsageError
+from typer._click.exceptions import BadOptionUsage, BadParameter, MissingParameter, NoSuchOption, UsageError
 
 from vergence.cli import EXIT_INTERRUPTED, sigint_seen
 from vergence.cli._app import app, console, err_console
@@ -138,6 +138,15 @@ def usage_message(exc: UsageError) -> str:
         return f"{_param_name(param)}: {_reason(exc)}"
     if isinstance(exc, BadOptionUsage) and re.fullmatch(r"Option '.*' requires an argument\.", exc.message):
         return f"{exc.option_name}: needs a value"
+    command = exc.ctx.command_path if exc.ctx is not None else "vergence"
+    if isinstance(exc, NoSuchOption):
+        close = f"did you mean {' or '.join(sorted(exc.possibilities))}? " if exc.possibilities else ""
+        return f"no such option {exc.option_name} ({close}{command} --help lists the options)"
+    extra = re.fullmatch(r"Got unexpected extra argument\(s\) \((.*)\)", exc.message)
+    if extra is not None and exc.ctx is not None:
+        usage = " ".join(exc.ctx.get_usage().split()).removeprefix("Usage: ")
+        plural = "s" if len(extra[1].split()) > 1 else ""
+        return f"unexpected argument{plural} {extra[1]} (usage: {usage})"
     return exc.format_message()
 
 
