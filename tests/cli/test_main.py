@@ -360,3 +360,17 @@ def test_a_real_failed_atomic_write_names_the_target_not_the_temporary_file():
     message = describe_os_error(info.value)
     assert message.startswith("cannot write /sys/kernel/vergence-test.json: ") and ".tmp-" not in message
     assert "Errno" not in message
+
+
+def test_budget_help_does_not_load_scipy_numba_or_opencv():
+    # issue 9 "Import takes 1.4 s before any command runs": budget and mapping are closed formulas
+    # (S0 Eq. 1-9); SciPy is for the gradient-domain mapping's solve only
+    import subprocess
+    import sys
+
+    code = ("import sys; from vergence.cli import main; assert main(['budget', '--help']) == 0; "
+            "assert main(['mapping', '--help']) == 0; "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'scipy', 'numba', 'cv2', 'mitsuba'}), "
+            "file=sys.stderr)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0 and result.stderr.strip() == "[]", result.stderr
