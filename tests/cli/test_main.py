@@ -321,6 +321,19 @@ def test_warnings_in_a_command_are_one_line_each(capsys, monkeypatch):
         "warning: overflow encountered in scalar multiply", "warning: the second line", "error: baseline too large"]
 
 
+def test_log_warnings_in_a_command_are_one_line_each(capsys, monkeypatch):
+    # render logs a missing HDR map; Python's last-resort handler printed the bare message
+    import logging
+
+    def logs():
+        logging.getLogger("vergence.render").warning("glasses scene: %s", "HDR map sky.hdr not found")
+        raise ValueError("baseline too large")
+
+    assert _budget_raising(monkeypatch, logs) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "warning: glasses scene: HDR map sky.hdr not found", "error: baseline too large"]
+
+
 def test_a_repeatable_option_shows_its_element_type(capsys):
     assert main(["budget", "--help"]) == 0
     out = capsys.readouterr().out

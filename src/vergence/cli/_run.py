@@ -4,12 +4,14 @@ A ``ValueError``/``TypeError``/``OSError`` from the library, or a usage error, i
 one line naming the option or file, exit code 2. Anything else is a bug of ours: one line, exit
 code 1. Messages speak the user's language: the option as typed (``--seed: must be >= 0 (got
 -1)``), the file the user named (never our hidden temporary name), the reason in words (never an
-errno). Python warnings raised while a command runs print as one ``warning: ...`` line each.
+errno). Python warnings and ``vergence`` log records raised while a command runs print as one
+``warning: ...`` line each.
 """
 
 from __future__ import annotations
 
 import errno
+import logging
 import os
 import re
 import warnings
@@ -32,22 +34,39 @@ EXIT_INTERNAL = 1
 
 def run(argv: list[str] | None) -> int:
     """Run the command line ``argv`` (``sys.argv[1:]`` when None) and return its exit code."""
-    with warnings.catch_warnings():
-        warnings.showwarning = _show_warning  # restored when the block ends
-        try:
-            result = app(args=argv, prog_name="vergence", standalone_mode=False)
-        except Exception as exc:
-            if sigint_seen():
-                return EXIT_INTERRUPTED
-            return _report(exc)
+    log = logging.getLogger("vergence")
+    handler = _WarningLines(logging.WARNING)
+    log.addHandler(handler)  # Python's last-resort handler would print the bare message
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning  # restored when the block ends
+            try:
+                result = app(args=argv, prog_name="vergence", standalone_mode=False)
+            except Exception as exc:
+                if sigint_seen():
+                    return EXIT_INTERRUPTED
+                return _report(exc)
+    finally:
+        log.removeHandler(handler)
     return int(result) if isinstance(result, int) else 0
+
+
+def _warning_line(message: object) -> None:
+    err_console.print(f"[yellow]warning:[/] {escape(' '.join(str(message).split()))}", highlight=False,
+                      soft_wrap=True)
 
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                   file: object = None, line: str | None = None) -> None:
     """``warnings.showwarning`` for the CLI: ``warning: <message>``, one line, no source line."""
-    err_console.print(f"[yellow]warning:[/] {escape(' '.join(str(message).split()))}", highlight=False,
-                      soft_wrap=True)
+    _warning_line(message)
+
+
+class _WarningLines(logging.Handler):
+    """Log records of the ``vergence`` loggers as ``warning: <message>`` lines, like Python warnings."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        _warning_line(record.getMessage())
 
 
 def _report(exc: Exception) -> int:
