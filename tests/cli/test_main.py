@@ -387,3 +387,11 @@ def test_budget_help_does_not_load_scipy_numba_or_opencv():
             "file=sys.stderr)")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0 and result.stderr.strip() == "[]", result.stderr
+
+
+def test_value_types_read_in_a_users_words(capsys):
+    # kin of issue 9 "--help shows --json <bool>": Python's <str> and typer's <int range> [x>=0]
+    assert main(["render", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "<str>" not in out and "<text>" in out
+    assert "range>" not in out and "[x >= 0]" in out

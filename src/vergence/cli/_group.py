@@ -7,7 +7,7 @@ commands that use them (measured on 2 shared cores, load 6: ``vergence --help`` 
 
 Parameters read as in POSIX usage lines (IEEE Std 1003.1, 12.1 "Utility Argument Syntax"): a flag
 shows no value type (``--json``, not ``--json <bool>``), a repeatable option its element type
-(``--depth <float>``, not ``<list[float]>``), arguments are upper-case (``IMAGE DEPTH``),
+(``--depth <float>``, not ``<list[float]>``), text is ``<text>`` (not Python's ``<str>``), arguments are upper-case (``IMAGE DEPTH``),
 and a float default shows at most :data:`DEFAULT_DIGITS` significant digits. An empty value
 (``--out ""``) is refused, naming the option.
 """
@@ -47,14 +47,22 @@ def _refuse_empty(param: TyperOption | TyperArgument, ctx: Any, value: object) -
         raise typer.BadParameter("must not be empty", ctx=ctx, param=param)
 
 
+def _plain_type(text: str | None) -> str | None:
+    """A value type in a user's words: ``<list[float]>`` (one value per use) -> ``<float>``, ``<str>`` -> ``<text>``."""
+    if text is None:
+        return None
+    text = re.sub(r"^<list\[(.*)\]>$", r"<\1>", text)
+    text = re.sub(r"^<(int|float) range>$", r"<\1>", text)  # the range itself follows: [x >= 0]
+    return "<text>" if text == "<str>" else text
+
+
 class _TidyOption(TyperOption):
     def display_type_rich(self, ctx: Any) -> str | None:
-        if self.is_flag:
-            return None
-        text = super().display_type_rich(ctx)
-        if self.multiple and text is not None:  # one value per use; the help says "repeat"
-            text = re.sub(r"^<list\[(.*)\]>$", r"<\1>", text)
-        return text
+        return None if self.is_flag else _plain_type(super().display_type_rich(ctx))
+
+    def _get_number_range_help_str(self) -> str | None:
+        text = super()._get_number_range_help_str()
+        return None if text is None else re.sub(r"\s*(<=|>=|<|>)\s*", r" \1 ", text)
 
     def _get_default_string(self, *, ctx: Any, show_default_is_str: bool, default_value: Any) -> str:
         text = None if show_default_is_str else _default_text(default_value)
@@ -69,6 +77,9 @@ class _TidyOption(TyperOption):
 
 
 class _TidyArgument(TyperArgument):
+    def display_type_rich(self, ctx: Any) -> str | None:
+        return _plain_type(super().display_type_rich(ctx))
+
     @property
     def display_name_raw(self) -> str:
         return self.metavar if self.metavar is not None else self.name.upper()
