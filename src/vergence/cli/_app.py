@@ -2,7 +2,7 @@
 
 Commands parse arguments, call one public function, write output atomically and show progress.
 A ``ValueError``/``TypeError``/``OSError`` from the library is a user mistake: one line on stderr
-and exit code 2, never a traceback.
+and exit code 2, never a traceback (``vergence.cli._run``).
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-
 from typing import TYPE_CHECKING
 
 import typer
@@ -40,6 +39,7 @@ app = typer.Typer(
 @app.callback()
 def _root() -> None:
     """The group itself: no options of its own (a callback makes Typer build a group, always)."""
+
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True)
