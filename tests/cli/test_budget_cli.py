@@ -128,7 +128,7 @@ def test_plot_with_a_single_depth(capsys, tmp_path):
     (["--baseline", "nan", "--convergence", "8", "--window", "2.4", *DISPLAY_ARGS],
      "error: baseline must be finite; got nan"),
     ([*RIG_ARGS, "--eye-separation", "0", "--viewing-distance", "2.2", "--screen-width", "1.1"],
-     "error: eye_separation must be > 0; got 0"),
+     "error: --eye-separation must be > 0; got 0"),
     ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "-5"],
      "error: depths must be > 0 (in front of the cameras); got -5"),
     ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "nan"], "error: depths must be finite (no NaN or inf)"),

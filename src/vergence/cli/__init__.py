@@ -1,67 +1,109 @@
-"""``vergence`` command line: each command lives in its own module and registers on ``app``."""
+"""``vergence`` command line: one module per command, listed in :data:`COMMANDS`, loaded on demand.
+
+This module imports only the standard library, so that the console script installs its Ctrl-C
+handler before anything heavy loads; Typer and the command modules load inside :func:`main`.
+"""
 
 from __future__ import annotations
 
+import _signal  # signal's C core: `import signal` loads enum and collections, 10-60 ms without a handler
 import os
 import sys
+import time
 from collections.abc import MutableMapping
 
-import typer
-from rich.markup import escape
+__all__ = ["COMMANDS", "EXIT_INTERRUPTED", "app", "main"]
 
-from vergence.cli._app import app, console, err_console
+# name -> (module in vergence.cli, one-line summary for ``vergence --help``). A new command is one
+# row here and a module that registers it with ``@app.command(name)``; keep the rows sorted.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "budget": ("budget", "Depth budget of a rig on a display: divergence and roundness baselines, z' and "
+               "roundness per depth (S0 §2)."),
+    "compare": ("compare", "Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."),
+    "demo": ("demo", "Run the main job on built-in data and write OUT/index.html."),
+    "evaluate-disparity": ("evaluate_disparity", "Score ESTIMATE against TRUTH: % bad pixels and RMS over "
+                           "nonocc / all / disc (/ textureless)."),
+    "interpolate": ("interpolate", "Synthesize the view at position T between two rectified references "
+                    "(view interpolation)."),
+    "mapping": ("mapping", "Build the disparity mapping psi from director constraints and report it "
+                "(S0 §6, Eq. 7–9)."),
+    "match": ("match", "Compute the disparity map of LEFT (x_left - x_right, px) and write it to --out."),
+    "rectify": ("rectify", "Rectify LEFT and RIGHT with their calibrated cameras: row-aligned images, cameras, "
+                "homographies."),
+    "render": ("render", "Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; "
+               "previews."),
+    "synthesize": ("synthesize", "Make the views a display needs from one image and its depth (writes views, "
+                   "layout, JSON)."),
+}
 
-# Command modules register themselves on import (one per line, keep sorted).
-from vergence.cli import budget as _budget  # noqa: E402,F401
-from vergence.cli import compare as _compare  # noqa: E402,F401
-from vergence.cli import demo as _demo  # noqa: E402,F401
-from vergence.cli import evaluate_disparity as _evaluate_disparity  # noqa: E402,F401
-from vergence.cli import interpolate as _interpolate  # noqa: E402,F401
-from vergence.cli import mapping as _mapping  # noqa: E402,F401
-from vergence.cli import match as _match  # noqa: E402,F401
-from vergence.cli import rectify as _rectify  # noqa: E402,F401
-from vergence.cli import render as _render  # noqa: E402,F401
-from vergence.cli import synthesize as _synthesize  # noqa: E402,F401
+# Exit status after Ctrl-C: 128 + SIGINT (2), as POSIX shells report a process killed by SIGINT.
+EXIT_INTERRUPTED = 130
 
-__all__ = ["app", "main"]
+# Set by the console script's SIGINT handler: whatever happens next (an import that turns the
+# KeyboardInterrupt into a SystemError, a library that swallows it), the run ends as interrupted.
+# A plain flag, not a threading.Event: this module imports nothing that delays the handler.
+_sigint_seen = False
+
+
+def sigint_seen() -> bool:
+    """Whether the console script's handler saw Ctrl-C (SIGINT) in this process."""
+    return _sigint_seen
+
+
+def __getattr__(name: str) -> object:
+    if name == "app":  # the Typer application; loads Typer, not the commands
+        from vergence.cli._app import app
+
+        return app
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI and return its exit code.
 
     Library errors (``ValueError``, ``TypeError``, ``OSError``) and command-line usage errors become
-    one line on stderr and exit code 2; any other exception is a bug of ours: one line and exit code 1
-    (set ``VERGENCE_DEBUG=1`` for the traceback). ``KeyboardInterrupt`` is left alone.
+    one line on stderr naming the option and exit code 2; any other exception is a bug of ours: one
+    line and exit code 1 (set ``VERGENCE_DEBUG=1`` for the traceback). Ctrl-C
+    (``KeyboardInterrupt``, or any error raised once the console script saw SIGINT) prints
+    ``interrupted`` and returns :data:`EXIT_INTERRUPTED`.
     """
     try:
-        result = app(args=argv, standalone_mode=False)
-    except typer.Exit as exc:
-        return int(exc.exit_code)
-    except typer.Abort:
-        err_console.print("[bold red]error:[/] aborted", highlight=False)
-        return 130
-    except typer.TyperException as exc:  # click's usage errors (bad option, wrong type, missing value)
-        if type(exc).__name__ == "NoArgsIsHelpError":
-            console.print(exc.format_message())  # type: ignore[attr-defined]
-            return 0
-        message = exc.format_message() if hasattr(exc, "format_message") else str(exc)
-        _one_line_error(message)
-        return int(getattr(exc, "exit_code", 2) or 2)
-    except (ValueError, TypeError, OSError) as exc:
-        _one_line_error(str(exc) or type(exc).__name__)
-        return 2
-    except Exception as exc:  # a bug of ours, not a user mistake: still one line, exit code 1
-        if os.environ.get("VERGENCE_DEBUG"):
+        pause_for_test("START")
+        from vergence.cli._run import run
+
+        code = run(argv)
+    except KeyboardInterrupt:
+        code = EXIT_INTERRUPTED
+    except Exception:
+        if not _sigint_seen:
             raise
-        _one_line_error(f"internal error, please report it (VERGENCE_DEBUG=1 shows the traceback): "
-                        f"{type(exc).__name__}: {exc}")
-        return 1
-    return int(result) if isinstance(result, int) else 0
+        code = EXIT_INTERRUPTED
+    if code == EXIT_INTERRUPTED or _sigint_seen:
+        sys.stderr.write("interrupted\n")
+        sys.stderr.flush()
+        return EXIT_INTERRUPTED
+    return code
 
 
-def _one_line_error(message: str) -> None:
-    line = " ".join(message.split())
-    err_console.print(f"[bold red]error:[/] {escape(line)}", highlight=False, soft_wrap=True)
+def pause_for_test(point: str) -> None:
+    """Sleep at a named point when ``VERGENCE_TEST_SLEEP_<POINT>`` (seconds) is set: a test hook.
+
+    A test sets the variable, waits for the line ``test: sleeping at <point>`` on stderr and sends
+    SIGINT, so that Ctrl-C arrives at a known stage: ``START`` (before Typer loads) or ``IMPORT``
+    (before a command module loads).
+    """
+    seconds = os.environ.get(f"VERGENCE_TEST_SLEEP_{point}")
+    if seconds:
+        sys.stderr.write(f"test: sleeping at {point.lower()}\n")
+        sys.stderr.flush()
+        time.sleep(float(seconds))
+
+
+def _on_sigint(signum: int, frame: object) -> None:
+    """Record Ctrl-C, then raise ``KeyboardInterrupt`` so that ``finally`` blocks clean up."""
+    global _sigint_seen
+    _sigint_seen = True
+    raise KeyboardInterrupt
 
 
 def _prefer_passive_omp_wait(environ: MutableMapping[str, str]) -> None:
@@ -75,6 +117,10 @@ def _prefer_passive_omp_wait(environ: MutableMapping[str, str]) -> None:
     environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
-def _entry() -> None:  # pragma: no cover - console script shim
+def _entry() -> None:
+    """The console script: SIGINT handler first (before any heavy import), then :func:`main`."""
+    _signal.signal(_signal.SIGINT, _on_sigint)
     _prefer_passive_omp_wait(os.environ)
-    sys.exit(main())
+    code = main()
+    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # a second Ctrl-C cannot turn the exit into a traceback
+    sys.exit(code)

@@ -2,7 +2,7 @@
 
 Commands parse arguments, call one public function, write output atomically and show progress.
 A ``ValueError``/``TypeError``/``OSError`` from the library is a user mistake: one line on stderr
-and exit code 2, never a traceback.
+and exit code 2, never a traceback (``vergence.cli._run``).
 """
 
 from __future__ import annotations
@@ -13,19 +13,33 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
 
-from vergence.viewing.geometry import Display
+from vergence.cli._group import LazyGroup
 
+if TYPE_CHECKING:
+    from vergence.viewing.geometry import Display
+
+# Commands register here with ``@app.command(name)``; LazyGroup imports a command's module (listed
+# in vergence.cli.COMMANDS) only when that command runs or shows its help.
 app = typer.Typer(
     name="vergence",
+    cls=LazyGroup,
     help="Stereoscopic 3D images that look right on a given display.",
     no_args_is_help=True,
+    context_settings={"help_option_names": ["-h", "--help"]},  # no command uses -h for anything else
     add_completion=False,
     pretty_exceptions_enable=False,
 )
+
+
+@app.callback()
+def _root() -> None:
+    """The group itself: no options of its own (a callback makes Typer build a group, always)."""
+
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True)
@@ -78,8 +92,11 @@ def display_from_options(
 ) -> Display:
     """The display from ``--display PRESET`` or from the three lengths (exactly one of the two).
 
-    ``pixels`` (``--screen-pixels``) sets or overrides the horizontal resolution.
+    ``pixels`` (``--screen-pixels``) sets or overrides the horizontal resolution. A length the
+    library refuses is reported under the option that gave it (``--viewing-distance must be > 0``).
     """
+    from vergence.viewing.geometry import Display  # SciPy loads with vergence.viewing: not for --help
+
     if pixels is not None and pixels < 1:  # the library would name it "resolution"
         raise ValueError(f"--screen-pixels must be >= 1 (the screen width in pixels); got {pixels}")
     given = [n for n, v in zip(_DISPLAY_LENGTHS, (eye_separation, distance, width)) if v is not None]
@@ -93,4 +110,6 @@ def display_from_options(
     if len(given) < 3:
         missing = ", ".join(n for n in _DISPLAY_LENGTHS if n not in given)
         raise ValueError(f"the display is incomplete: give --display PRESET or all three lengths (missing {missing})")
-    return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)
+    with options_named(eye_separation="--eye-separation", distance="--viewing-distance", width="--screen-width",
+                       resolution="--screen-pixels"):
+        return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)

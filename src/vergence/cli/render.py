@@ -51,7 +51,7 @@ def render(
     height: int | None = typer.Option(None, "--height", help="Image height in pixels (default: the scene's)."),
     depth: int = typer.Option(2, "--depth", help="Maximum specular bounces D: 2^(D+1)-1 layers."),
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
-    seed: int | None = typer.Option(None, "--seed", help="Random AO directions from this seed (default: fixed lattice)."),
+    seed: int | None = typer.Option(None, "--seed", min=0, help="Random AO directions from this seed (default: fixed lattice)."),
     supersample: int = typer.Option(1, "--supersample", help="k: average k x k sub-pixel rays per pixel (anti-aliasing)."),
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""

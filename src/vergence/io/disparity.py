@@ -45,6 +45,8 @@ _SUPPORTED = ", ".join((*_FLOAT_SUFFIXES, *_INTEGER_SUFFIXES))
 
 
 def _unknown_suffix(path: Path) -> ValueError:
+    if path.is_dir():  # a folder has no extension to report: say what it is
+        return ValueError(f"{path} is a folder; expected a disparity file ({_SUPPORTED})")
     return ValueError(
         f"cannot handle {path}: unknown disparity extension {path.suffix!r}; expected one of {_SUPPORTED}"
     )

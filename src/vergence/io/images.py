@@ -52,6 +52,8 @@ _EXR_MESSAGE = (
 
 
 def _unknown_suffix(path: Path) -> ValueError:
+    if path.is_dir():  # a folder has no extension to report: say what it is
+        return ValueError(f"{path} is a folder; expected an image file ({_SUPPORTED})")
     if suffix_of(path) == ".exr":
         return ValueError(f"cannot handle {path}: {_EXR_MESSAGE}")
     return ValueError(

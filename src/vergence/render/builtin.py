@@ -191,6 +191,8 @@ def open_scene(spec: str | Path, *, width: int | None = None, height: int | None
         scene = load_scene(path)
     elif str(spec) in BUILTIN_SCENES:
         scene = builtin_scene(str(spec))
+    elif path.is_dir():
+        raise IsADirectoryError(f"{path} is a folder; a scene is a .json file or one of {', '.join(BUILTIN_SCENES)}")
     elif path.suffix or len(path.parts) > 1:
         raise FileNotFoundError(f"scene file not found: {path}")
     else:

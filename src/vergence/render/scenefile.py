@@ -189,6 +189,8 @@ def scene_from_dict(data: object, *, base_dir: str | Path | None = None, name: s
 def load_scene(path: str | Path) -> Scene:
     """Read a JSON scene file (``docs/scenes.md``); errors name the file and the bad entry."""
     p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p} is a folder, not a scene file")
     if not p.is_file():
         raise FileNotFoundError(f"scene file not found: {p}")
     try:

@@ -9,10 +9,6 @@ per connected region of valid pixels.
 from __future__ import annotations
 
 import numpy as np
-import scipy.fft
-import scipy.ndimage
-import scipy.sparse
-import scipy.sparse.linalg
 
 from vergence._validate import as_float_array, check_positive
 
@@ -101,6 +97,8 @@ def _compress(g: np.ndarray, tau: float, factor: float) -> np.ndarray:
 def _solve_full_grid(grid: np.ndarray, tau: float, factor: float) -> np.ndarray:
     """Exact solve on a grid with no invalid pixel: the normal equations are the Neumann Laplacian,
     diagonalised by the orthonormal DCT-II (eigenvalues ``4 sin^2(pi k / 2n)`` per axis)."""
+    import scipy.fft  # here, not at the top: SciPy costs ~1 s to import, and only this solve needs it
+
     h, w = grid.shape
     gx = _compress(np.diff(grid, axis=1), tau, factor)
     gy = _compress(np.diff(grid, axis=0), tau, factor)
@@ -119,6 +117,10 @@ def _solve_full_grid(grid: np.ndarray, tau: float, factor: float) -> np.ndarray:
 
 def _solve_sparse(grid: np.ndarray, valid: np.ndarray, tau: float, factor: float) -> np.ndarray:
     """Sparse least squares on the valid pixels, one pinned pixel and a mean anchor per region."""
+    import scipy.ndimage  # here, not at the top: SciPy costs ~1 s to import, and only the solves need it
+    import scipy.sparse
+    import scipy.sparse.linalg
+
     n = int(valid.sum())
     out = np.full(grid.shape, np.nan)
     if n == 0:
