@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from vergence._validate import check_positive
-from vergence.viewing.geometry import Display, Shooting, _out, _perceived_depth, disparity
+from vergence.viewing.geometry import Display, Shooting, _out, _perceived_depth, _real_array, disparity
 from vergence.viewing.mapping_operators import DisparityMapping
 
 __all__ = [
@@ -71,10 +71,7 @@ def psi_slope_for_roundness(
 
 
 def _scene_depths(name: str, z: object) -> np.ndarray:
-    try:
-        arr = np.asarray(z, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be numeric; got {type(z).__name__}") from exc
+    arr = _real_array(name, z, allow_nan=True, allow_inf=True)
     if np.isnan(arr).any() or (arr <= 0).any():
         bad = arr[np.isnan(arr) | (arr <= 0)].flat[0]
         raise ValueError(f"{name} must be > 0 (in front of the camera; inf allowed); got {bad:g}")
