@@ -83,15 +83,20 @@ def test_exactly_parallel_eyes_give_null_depth_and_roundness_without_divergence(
 @settings(max_examples=40, deadline=None)
 @given(b_over_b_div=st.floats(1.001, 100.0), H=st.floats(0.5, 100.0), W=st.floats(0.1, 50.0))
 def test_the_reported_divergence_depth_is_where_the_samples_turn_parallel(b_over_b_div, H, W):
-    # The depth the budget prints ("eyes diverge beyond z") is reported as parallel eyes (z' = inf ->
-    # null, not diverging), the float below it as a finite depth and the float above as diverging.
+    # The depth the budget prints ("eyes diverge beyond z") is where the samples turn: finite before,
+    # diverging after. Within an ulp of it the flag follows the reported disparity (Eq. 8 on d, issue 9)
+    # and nothing is perceived there (parallel eyes or divergence: z' null).
     rig = Shooting(b_over_b_div * 0.065 * W / 1.2, H, W)
     z_div = depth_budget(rig, TV, [H]).divergence_depth
-    depths = [math.nextafter(z_div, 0.0), z_div, math.nextafter(z_div, math.inf)]
-    below, at, above = depth_budget(rig, TV, depths).samples
-    assert below.perceived_depth is not None and below.perceived_depth > 0 and not below.diverges
-    assert at.perceived_depth is None and at.roundness is None and not at.diverges
-    assert above.perceived_depth is None and above.diverges
+    limit = TV.divergence_disparity
+    depths = [z_div * (1 - 1e-9), math.nextafter(z_div, 0.0), z_div, math.nextafter(z_div, math.inf),
+              z_div * (1 + 1e-9)]
+    far_below, below, at, above, far_above = samples = depth_budget(rig, TV, depths).samples
+    assert far_below.perceived_depth is not None and far_below.perceived_depth > 0 and not far_below.diverges
+    assert far_above.perceived_depth is None and far_above.diverges and far_above.roundness < 0
+    assert at.perceived_depth is None and above.perceived_depth is None
+    for s in samples:
+        assert s.diverges == (s.disparity > limit)
 
 
 def test_baseline_equal_to_the_reported_divergence_baseline_never_diverges():

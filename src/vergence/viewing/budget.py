@@ -186,8 +186,24 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
         if (z <= 0).any():
             raise ValueError(f"depths must be > 0 (in front of the cameras); got {z.min():g}")
     d = np.atleast_1d(disparity(z, shooting))  # Eq. (1a)
-    zp = np.atleast_1d(perceived_depth_from_depth(z, shooting, display))  # Eq. (2): NaN diverges, inf parallel
-    rho = np.atleast_1d(roundness(z, shooting, display))  # Eq. (4)
+    # Eq. (2) and (4) in the form that is exact where it is used (issue 9: at extreme set-ups the
+    # z-form cancelled, giving d = 0 a perceived depth of 0 or a divergence). With
+    # gap = 1 - d/(b'/W') = (b' - W'd)/b', the denominator of Eq. (2) and (4) is z W b' gap, so
+    # z' = H'/gap (Eq. 1b of Eq. 1a) and rho = b H'/(b' z gap): exact while gap >= 1/2 (d <= b'/(2W'),
+    # no cancellation). Nearer the limit, the z-forms of geometry (exact sign at divergence_depth).
+    limit = display.divergence_disparity
+    gap = 1.0 - d / limit
+    near = gap >= 0.5
+    zp = np.where(near, display.distance / np.where(near, gap, 1.0), perceived_depth_from_depth(z, shooting, display))
+    with np.errstate(divide="ignore"):
+        rho_gap = shooting.baseline * display.distance / (display.eye_separation * z * np.where(near, gap, 1.0))
+    rho = np.where(near, rho_gap, roundness(z, shooting, display))
+    # The flag is Eq. (8) on the reported disparity. Within an ulp or two of divergence_depth the two
+    # roundings may disagree: a flagged depth is never perceived, and where the z-form says
+    # "diverges" but d <= b'/W' the eyes are parallel to rounding (z' and rho null).
+    diverges = d > limit
+    zp = np.where(diverges | ~np.isfinite(zp), np.nan, zp)
+    rho = np.where((diverges & (rho > 0)) | (~diverges & (rho < 0)), np.nan, rho)
     samples = tuple(
         DepthSample(
             depth=float(z[i]),
@@ -195,7 +211,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
             parallax_px=None if display.resolution is None else float(d[i] * display.resolution),
             perceived_depth=float(zp[i]) if math.isfinite(zp[i]) else None,
             roundness=float(rho[i]) if math.isfinite(rho[i]) else None,
-            diverges=bool(np.isnan(zp[i])),
+            diverges=bool(diverges[i]),
         )
         for i in range(z.size)
     )
