@@ -13,7 +13,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from vergence._validate import as_float_array, check_finite
+from vergence._validate import check_finite
+from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import (
     Display,
     Shooting,
@@ -25,6 +26,7 @@ from vergence.viewing.geometry import (
     roundness,
     roundness_baseline,
 )
+from vergence.viewing.geometry import _depth_ratio, _depths, _real_array
 
 __all__ = ["DEFAULT_DEPTH_FACTORS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
 
@@ -41,7 +43,8 @@ class DepthSample:
     Attributes
     ----------
     depth : float
-        Scene depth z in metres.
+        Scene depth z in metres; ``inf`` for a point at infinity (``null`` in :meth:`to_dict`, as JSON
+        has no infinity).
     disparity : float
         Normalised disparity d, a fraction of W (S0 Eq. 1a).
     parallax_px : float or None
@@ -66,8 +69,8 @@ class DepthSample:
     diverges: bool
 
     def __post_init__(self) -> None:
-        if check_finite("depth", self.depth) <= 0:
-            raise ValueError(f"depth must be > 0; got {self.depth:g}")
+        if isinstance(self.depth, bool) or not isinstance(self.depth, float | int) or not self.depth > 0:
+            raise ValueError(f"depth must be > 0 (inf allowed); got {self.depth!r}")
         check_finite("disparity", self.disparity)
         for name in ("parallax_px", "perceived_depth", "roundness"):
             if getattr(self, name) is not None:
@@ -77,7 +80,8 @@ class DepthSample:
 
     def to_dict(self) -> dict[str, float | bool | None]:
         """The JSON object of one depth; ``parallax_px`` is left out when the resolution is unknown."""
-        out: dict[str, float | bool | None] = {"depth": self.depth, "disparity": self.disparity}
+        depth = self.depth if math.isfinite(self.depth) else None  # JSON has no inf: null is infinity
+        out: dict[str, float | bool | None] = {"depth": depth, "disparity": self.disparity}
         if self.parallax_px is not None:
             out["parallax_px"] = self.parallax_px
         out.update(perceived_depth=self.perceived_depth, roundness=self.roundness, diverges=self.diverges)
@@ -100,6 +104,9 @@ class DepthBudget:
         Scene depth beyond which the eyes diverge with this baseline, ``inf`` if none.
     samples : tuple of DepthSample
         One per requested depth, in the order given.
+    warnings : tuple of str
+        One line each: samples where the eyes diverge (S0 Eq. 8), samples outside the default
+        :class:`~vergence.viewing.comfort.ComfortZone` (±60 arcmin). Empty when all is well.
     """
 
     divergence_baseline: float
@@ -107,6 +114,7 @@ class DepthBudget:
     focal_ratio: float
     divergence_depth: float
     samples: tuple[DepthSample, ...]
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         for f in fields(self)[:3]:
@@ -117,6 +125,9 @@ class DepthBudget:
         object.__setattr__(self, "samples", tuple(self.samples))
         if not self.samples or not all(isinstance(s, DepthSample) for s in self.samples):
             raise ValueError("samples must be a non-empty sequence of DepthSample")
+        object.__setattr__(self, "warnings", tuple(self.warnings))
+        if not all(isinstance(w, str) for w in self.warnings):
+            raise TypeError("warnings must be a sequence of str")
 
     def to_dict(self) -> dict[str, object]:
         """The JSON of ``vergence budget --json`` (issue 2): baselines, focal ratio and the depths."""
@@ -125,6 +136,7 @@ class DepthBudget:
             "roundness_baseline": self.roundness_baseline,
             "focal_ratio": self.focal_ratio,
             "depths": [s.to_dict() for s in self.samples],
+            "warnings": list(self.warnings),
         }
 
 
@@ -143,7 +155,8 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     display : Display
         The viewing set-up: eye separation b', distance H', screen width W' (resolution optional).
     depths : array_like of float, optional
-        Scene depths in metres, each finite and > 0 (a scalar or 1-D, any order, kept as given). Default:
+        Scene depths in metres, each > 0 and at most :data:`~vergence.viewing.geometry.MAX_SCENE_DEPTH`,
+        or ``inf`` (a point at infinity: d = b/W, roundness 0); a scalar or 1-D, any order, kept as given. Default:
         :func:`default_depths`, i.e. 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H.
 
     Returns
@@ -156,7 +169,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     TypeError
         If ``shooting`` or ``display`` has the wrong type.
     ValueError
-        If ``depths`` is empty, not 1-D, or holds a value that is not finite and > 0.
+        If ``depths`` is empty, not 1-D, or holds NaN, -inf, a value <= 0 or out of range.
 
     Notes
     -----
@@ -180,12 +193,19 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     if depths is None:
         z = np.array(default_depths(shooting))
     else:
-        z = np.atleast_1d(as_float_array("depths", depths))
+        z = np.atleast_1d(_real_array("depths", depths, allow_inf=True))
         if z.ndim != 1 or z.size == 0:
             raise ValueError(f"depths must be a non-empty 1-D sequence of metres; got shape {z.shape}")
+        bad = np.isnan(z) | np.isneginf(z)
+        if bad.any():
+            raise ValueError(f"depths must be > 0 metres or inf (a point at infinity); got {z[bad][0]}")
         if (z <= 0).any():
             raise ValueError(f"depths must be > 0 (in front of the cameras); got {z.min():g}")
-    d = np.atleast_1d(disparity(z, shooting))  # Eq. (1a)
+    finite = np.isfinite(z)
+    z_fin = np.where(finite, z, shooting.convergence)  # the z-forms below only see finite depths
+    _depths("depths", z_fin)  # the documented range of a finite depth
+    # Eq. (1a); at z = inf its limit b/W.
+    d = np.where(finite, np.atleast_1d(disparity(z_fin, shooting)), shooting.baseline / shooting.window)
     # Eq. (2) and (4) in the form that is exact where it is used (issue 9: at extreme set-ups the
     # z-form cancelled, giving d = 0 a perceived depth of 0 or a divergence). With
     # gap = 1 - d/(b'/W') = (b' - W'd)/b', the denominator of Eq. (2) and (4) is z W b' gap, so
@@ -194,16 +214,19 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     limit = display.divergence_disparity
     gap = 1.0 - d / limit
     near = gap >= 0.5
-    zp = np.where(near, display.distance / np.where(near, gap, 1.0), perceived_depth_from_depth(z, shooting, display))
-    with np.errstate(divide="ignore"):
+    # At z = inf only the gap form applies (z' of Eq. 1b at d = b/W; rho -> 0, Eq. 4's limit).
+    use_gap = near | ~finite
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zp_gap = _depth_ratio(display.distance, gap)
         rho_gap = shooting.baseline * display.distance / (display.eye_separation * z * np.where(near, gap, 1.0))
-    rho = np.where(near, rho_gap, roundness(z, shooting, display))
+    zp = np.where(use_gap, zp_gap, perceived_depth_from_depth(z_fin, shooting, display))
+    rho = np.where(use_gap, np.where(finite, rho_gap, 0.0), roundness(z_fin, shooting, display))
     # The flag is Eq. (8) on the reported disparity. Within an ulp or two of divergence_depth the two
     # roundings may disagree: a flagged depth is never perceived, and where the z-form says
     # "diverges" but d <= b'/W' the eyes are parallel to rounding (z' and rho null).
     diverges = d > limit
     zp = np.where(diverges | ~np.isfinite(zp), np.nan, zp)
-    rho = np.where((diverges & (rho > 0)) | (~diverges & (rho < 0)), np.nan, rho)
+    rho = np.where((diverges & (rho >= 0)) | (~diverges & (rho < 0)), np.nan, rho)
     samples = tuple(
         DepthSample(
             depth=float(z[i]),
@@ -215,10 +238,39 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
         )
         for i in range(z.size)
     )
+    b_div = divergence_baseline(shooting.window, display)  # Eq. (3)
+    z_div = divergence_depth(shooting, display)
     return DepthBudget(
-        divergence_baseline=divergence_baseline(shooting.window, display),  # Eq. (3)
+        divergence_baseline=b_div,
         roundness_baseline=roundness_baseline(shooting.convergence, display),  # Eq. (5)
         focal_ratio=focal_ratio(shooting, display),  # Eq. (6)
-        divergence_depth=divergence_depth(shooting, display),
+        divergence_depth=z_div,
         samples=samples,
+        warnings=_warnings(samples, shooting, display, b_div, z_div),
     )
+
+
+def _depth_list(samples: list[DepthSample]) -> str:
+    return ", ".join("inf" if math.isinf(s.depth) else f"{s.depth:.4g}" for s in samples) + " m"
+
+
+def _warnings(samples: tuple[DepthSample, ...], shooting: Shooting, display: Display, b_div: float,
+              z_div: float) -> tuple[str, ...]:
+    """The lines of :attr:`DepthBudget.warnings`: divergence (S0 Eq. 3, 8), then the comfort zone."""
+    out = []
+    diverging = [s for s in samples if s.diverges]
+    if diverging:
+        beyond = f"beyond z = {z_div:.4g} m" if math.isfinite(z_div) else "at infinity"
+        out.append(f"the eyes diverge at z = {_depth_list(diverging)} ({beyond}): baseline b = {shooting.baseline:.4g} m "
+                   f"exceeds b_div = {b_div:.4g} m (S0 Eq. 3)")
+    zone = ComfortZone()
+    try:
+        lo, hi = zone.disparities(display)
+    except ValueError as exc:  # a display whose eyes already converge near 180 degrees
+        out.append(f"the comfort zone (±{zone.crossed_arcmin:g} arcmin) does not exist on this display: {exc}")
+        return tuple(out)
+    outside = [s for s in samples if not s.diverges and not lo <= s.disparity <= hi]
+    if outside:
+        out.append(f"outside the comfort zone (±{zone.crossed_arcmin:g} arcmin of vergence: d from {lo:+.4g} to "
+                   f"{hi:+.4g} of the screen width): z = {_depth_list(outside)}")
+    return tuple(out)
