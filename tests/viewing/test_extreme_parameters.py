@@ -78,3 +78,31 @@ def test_issue9_fuzz_case_d_zero_flagged_as_diverging():
     (s,) = depth_budget(rig, display, [rig.convergence]).samples
     assert s.disparity == 0.0 and not s.diverges and s.perceived_depth == display.distance
     assert np.isclose(s.roundness, rig.baseline * display.distance / (display.eye_separation * rig.convergence))
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(b=length, H=length, W=length, bp=length, Hp=length, Wp=length,
+       z=st.one_of(depth, st.just(math.inf)), zp=st.one_of(depth, st.just(math.inf)),
+       rho=st.one_of(st.none(), _log_uniform(-3.0, 3.0)), near_share=st.floats(1e-3, 1.0))
+def test_mapping_inside_the_ranges_is_finite_and_consistent_or_refused(b, H, W, bp, Hp, Wp, z, zp, rho, near_share):
+    import json
+
+    from vergence.viewing.mapping import psi_from_constraints
+
+    rig, display = Shooting(b, H, W), Display(bp, Hp, Wp)
+    near = max(LENGTH_RANGE[0], near_share * (z if math.isfinite(z) else MAX_SCENE_DEPTH))
+    try:
+        m = psi_from_constraints(rig, display, [(z, zp, rho)], near=near, far=math.inf)
+    except ValueError as exc:  # an unsatisfiable constraint: one line naming what is wrong
+        assert "\n" not in str(exc)
+        return
+    report = m.to_dict(samples=33)
+    json.dumps(report, allow_nan=False)  # finite or null, nothing else
+    mapped = np.array([s["mapped"] for s in report["samples"]])
+    limit = display.divergence_disparity
+    if np.any(mapped > limit):
+        assert report["diverges"], report  # the flag agrees with the disparities reported
+    for s in report["samples"]:
+        if s["perceived_depth"] is not None:
+            assert s["perceived_depth"] > 0 and s["mapped"] < limit
+    assert isinstance(report["warnings"], list)

@@ -23,7 +23,6 @@ from vergence.viewing.geometry import (
     _perceived_depth,
     _real_array,
     _roundness,
-    disparity,
 )
 from vergence.viewing.mapping_operators import DisparityMapping
 
@@ -98,8 +97,9 @@ def _disparity_of(z: np.ndarray, reference: Shooting) -> np.ndarray:
     """S0 Eq. (1a) with ``d(inf) = b/W``."""
     finite = np.isfinite(z)
     d = np.full(z.shape, reference.baseline / reference.window)
-    if finite.any():
-        d[finite] = disparity(z[finite], reference)
+    # Eq. (1a) as b/W (1 - H/z)-like ratio (z - H)/z: finite for every z > 0, including the depths past
+    # MAX_SCENE_DEPTH that inverting a grid of disparities near b/W produces (no range check here).
+    d[finite] = (reference.baseline / reference.window) * ((z[finite] - reference.convergence) / z[finite])
     return d
 
 
