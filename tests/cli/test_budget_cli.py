@@ -211,3 +211,20 @@ def test_depth_inf_is_accepted_like_mapping(capsys):
     assert far["roundness"] == 0.0 and far["diverges"] is False
     code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--depth", "inf")
     assert code == 0 and "∞" in out
+
+
+def test_table_rows_match_the_json_and_name_parallel_eyes(capsys):
+    # Issue 9 (demo page): the table hid the roundness past divergence ("—") while the JSON gave -0.25,
+    # and printed nothing for parallel eyes. Dyadic set-up: b = 1, H = 4, W = 1 on b' = 0.5, H' = 2, W' = 1:
+    # d(8) = 0.5 = b'/W' exactly (parallel eyes); d(16) = 0.75 > 0.5 diverges, rho = bH'W/(z(b'W - bW') + bHW')
+    # = 2/(16*(-0.5) + 4) = -0.5 (S0 Eq. 4).
+    args = ["--baseline", "1", "--convergence", "4", "--window", "1", "--eye-separation", "0.5",
+            "--viewing-distance", "2", "--screen-width", "1", "--depth", "8", "--depth", "16"]
+    code, out, _ = _run(capsys, *args)
+    assert code == 0
+    rows = [line for line in out.splitlines() if line.startswith("│")]
+    assert [cell.strip() for cell in rows[0].split("│")[1:-1]] == ["8", "+50.000", "∞", "—", "eyes parallel"]
+    assert [cell.strip() for cell in rows[1].split("│")[1:-1]] == ["16", "+75.000", "—", "-0.500", "eyes diverge"]
+    code, out, _ = _run(capsys, *args, "--json")
+    parallel, diverging = json.loads(out)["depths"]
+    assert parallel["roundness"] is None and diverging["roundness"] == -0.5

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from vergence.cli._app import app, console, display_from_options, err_console, options_named, print_json
 from vergence.viewing.budget import DepthBudget, depth_budget
-from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, DISPLAY_PRESETS, Display, Shooting
+from vergence.viewing.geometry import DISPLAY_PRESETS, Display, Shooting
 
 __all__ = ["OPTION_NAMES", "budget"]
 
@@ -84,18 +84,16 @@ def _table(result: DepthBudget, shooting: Shooting, display: Display) -> None:
     table.add_column("perceived z' (m)", justify="right")
     table.add_column("roundness ρ", justify="right")
     table.add_column("note")
+    styles = {"eyes diverge": "red", "eyes parallel": "red", "cardboard": "yellow"}
     for s in result.samples:
-        if s.diverges:
-            note = "[red]eyes diverge[/]"
-        elif s.roundness is not None and s.roundness < CARDBOARD_ROUNDNESS:
-            note = "[yellow]cardboard[/]"
-        else:
-            note = ""
-        row = [_fmt(s.depth, ".4g") if math.isfinite(s.depth) else "∞", f"{100 * s.disparity:+.3f}"]
+        note = f"[{styles[s.note]}]{s.note}[/]" if s.note else ""
+        row = [f"{s.depth:.4g}" if math.isfinite(s.depth) else "∞", f"{100 * s.disparity:+.3f}"]
         if with_px:
             row.append(_fmt(s.parallax_px, "+.1f"))
-        # Eq. (4) is negative past the divergence limit: nothing is perceived there, show a dash.
-        row += [_fmt(s.perceived_depth, ".4g"), _fmt(None if s.diverges else s.roundness, ".3f"), note]
+        # z' is null where the eyes diverge or are parallel (infinite); rho as in the JSON: Eq. (4) as is,
+        # negative past divergence, null only where infinite (parallel eyes).
+        perceived = "∞" if s.note == "eyes parallel" else _fmt(s.perceived_depth, ".4g")
+        row += [perceived, _fmt(s.roundness, ".3f"), note]
         table.add_row(*row)
     console.print(table)
 

@@ -16,6 +16,7 @@ import numpy as np
 from vergence._validate import check_finite
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import (
+    CARDBOARD_ROUNDNESS,
     Display,
     Shooting,
     disparity,
@@ -77,6 +78,19 @@ class DepthSample:
                 check_finite(name, getattr(self, name))
         if self.diverges and self.perceived_depth is not None:
             raise ValueError(f"perceived_depth must be None where the eyes diverge; got {self.perceived_depth:g}")
+
+    @property
+    def note(self) -> str:
+        """What a viewer meets at this depth, as ``vergence budget`` and the demo page print it:
+        ``"eyes diverge"`` (S0 Eq. 8), ``"eyes parallel"`` (z' infinite, at the divergence limit),
+        ``"cardboard"`` (roundness below :data:`~vergence.viewing.geometry.CARDBOARD_ROUNDNESS`), or ``""``."""
+        if self.diverges:
+            return "eyes diverge"
+        if self.perceived_depth is None:
+            return "eyes parallel"
+        if self.roundness is not None and self.roundness < CARDBOARD_ROUNDNESS:
+            return "cardboard"
+        return ""
 
     def to_dict(self) -> dict[str, float | bool | None]:
         """The JSON object of one depth; ``parallax_px`` is left out when the resolution is unknown."""
