@@ -196,3 +196,36 @@ def test_issue9_api_refuses_nan_text_wrong_objects_and_overflow(call, error, mes
 def test_nan_pixels_of_a_map_still_pass_through_beside_valid_ones():
     out = arcmin_from_pixels(np.array([math.nan, 2.0]), TV_PX)
     assert math.isnan(out[0]) and out[1] > 0
+
+
+# Kin found by the issue-9 sweep (1,965 wrong-type and extreme calls over every public viewing function).
+from vergence.viewing import default_depths  # noqa: E402
+from vergence.viewing.mapping import temporal_weights  # noqa: E402
+from vergence.viewing.mapping_hermite import pchip_slopes  # noqa: E402
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: default_depths("rig"), TypeError, "^shooting must be a Shooting; got str$"),
+        (lambda: ComfortZone().pixels(TV_PX, exact="yes"), TypeError, "^exact must be True or False; got str$"),
+        (lambda: ComfortZone().disparities(TV_PX, exact=None), TypeError, "^exact must be True or False; got NoneType$"),
+        (lambda: ID("30"), TypeError, "^d must be numeric; got str$"),
+        (lambda: ID.inverse(["0.5"]), TypeError, "^value must be numeric; got list$"),
+        (lambda: mapped_perceived_depth(5e-324, ID, RIG, TV), ValueError,
+         r"^z must be >= 1e-06 m \(LENGTH_RANGE; inf allowed\); got 4.94066e-324$"),
+        (lambda: pchip_slopes([0.0, 5e-324, 1.0], [-1e308, 1e308, 1e308]), ValueError, "^values must not rise faster"),
+    ],
+)
+def test_issue9_sweep_kin(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_subnormal_ranges_and_ramps_give_exact_results_without_overflow_warnings():
+    # Warnings are errors in the suite: these overflowed (1/5e-324) before.
+    assert temporal_weights(10.5, [10.0], transition=5e-324).tolist() == [0.0, 1.0]
+    slopes = pchip_slopes([0.0, 1.0, 2.0], [0.0, 5e-324, 1e-323])
+    assert np.all(slopes >= 0) and np.all(np.isfinite(slopes))
+    with pytest.raises(ValueError, match=r"^target_max - target_min = 4.94066e-324 is too narrow to give each of the 2 bins"):
+        SaliencyMapping([0.0, 1.0, 2.0], [1.0, 1.0], 0.0, 5e-324)

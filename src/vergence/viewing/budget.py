@@ -27,7 +27,7 @@ from vergence.viewing.geometry import (
     roundness,
     roundness_baseline,
 )
-from vergence.viewing.geometry import _depth_ratio, _depths, _real_array
+from vergence.viewing.geometry import _check_type, _depth_ratio, _depths, _real_array
 
 __all__ = ["DEFAULT_DEPTH_FACTORS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
 
@@ -156,6 +156,7 @@ class DepthBudget:
 
 def default_depths(shooting: Shooting) -> tuple[float, ...]:
     """Scene depths used when none are given: :data:`DEFAULT_DEPTH_FACTORS` times ``H``."""
+    _check_type("shooting", shooting, Shooting)
     return tuple(k * shooting.convergence for k in DEFAULT_DEPTH_FACTORS)
 
 

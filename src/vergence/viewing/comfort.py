@@ -82,6 +82,11 @@ def _parallax_from_arcmin(theta_arcmin: np.ndarray, display: Display, exact: boo
     return e - 2.0 * D * np.tan(half)
 
 
+def _check_exact(exact: object) -> None:
+    if not isinstance(exact, bool | np.bool_):
+        raise TypeError(f"exact must be True or False; got {type(exact).__name__}")
+
+
 def _checked(name: str, values: object, display: object, exact: object) -> np.ndarray:
     """The common checks of the two conversions: real values, NaN only beside a valid one, the display
     with its resolution, ``exact`` a bool."""
@@ -90,8 +95,7 @@ def _checked(name: str, values: object, display: object, exact: object) -> np.nd
         raise ValueError(f"{name} must hold at least one value that is not NaN (NaN marks an invalid pixel "
                          f"of a map); got {arr.size} value(s), none valid")
     _check_type("display", display, Display)
-    if not isinstance(exact, bool | np.bool_):
-        raise TypeError(f"exact must be True or False; got {type(exact).__name__}")
+    _check_exact(exact)
     display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
     return arr
 
@@ -240,6 +244,7 @@ class ComfortZone:
 
     def _parallax(self, display: Display, exact: bool) -> tuple[float, float]:
         _check_type("display", display, Display)
+        _check_exact(exact)
         s = _parallax_from_arcmin(np.array([self.min_arcmin, self.max_arcmin]), display, exact)
         return float(s[0]), float(s[1])
 

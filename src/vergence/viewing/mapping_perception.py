@@ -90,6 +90,9 @@ def _scene_depths(name: str, z: object) -> np.ndarray:
     if np.isnan(arr).any() or (arr <= 0).any():
         bad = arr[np.isnan(arr) | (arr <= 0)].flat[0]
         raise ValueError(f"{name} must be > 0 (in front of the camera; inf allowed); got {bad:g}")
+    if (arr < LENGTH_RANGE[0]).any():  # 1/z of Eq. (9) would overflow near 5e-324
+        raise ValueError(f"{name} must be >= {LENGTH_RANGE[0]:g} m (LENGTH_RANGE; inf allowed); "
+                         f"got {arr[arr < LENGTH_RANGE[0]].flat[0]:g}")
     return arr
 
 
