@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vergence.viewing.budget import (
+    DIVERGENCE_FLAG_ULPS,
     DEFAULT_DEPTH_FACTORS,
     DepthBudget,
     DepthSample,
@@ -23,6 +24,7 @@ from vergence.viewing.geometry import Display, Shooting
 # Hand values are short decimal products: a few roundings.
 RTOL = 1e-12
 
+EPS = float(np.finfo(float).eps)
 RIG = Shooting(baseline=0.26, convergence=30.0, window=3.0)  # f = 10
 TV = Display(eye_separation=0.065, distance=3.0, width=1.2, resolution=1920)  # f' = 2.5
 
@@ -87,20 +89,27 @@ def test_exactly_parallel_eyes_give_null_depth_and_roundness_without_divergence(
 @settings(max_examples=40, deadline=None)
 @given(b_over_b_div=st.floats(1.001, 100.0), H=st.floats(0.5, 100.0), W=st.floats(0.1, 50.0))
 def test_the_reported_divergence_depth_is_where_the_samples_turn_parallel(b_over_b_div, H, W):
-    # The depth the budget prints ("eyes diverge beyond z") is where the samples turn: finite before,
-    # diverging after. Within an ulp of it the flag follows the reported disparity (Eq. 8 on d, issue 9)
-    # and nothing is perceived there (parallel eyes or divergence: z' null).
+    # The depth the budget prints ("eyes diverge beyond z") is reported as parallel eyes (z' = inf ->
+    # null, not diverging), the float below it as a finite depth and the float above as diverging, even
+    # where the reported disparity rounds an ulp past b'/W' (40 m in the README: d = 0.054166666666666675).
     rig = Shooting(b_over_b_div * 0.065 * W / 1.2, H, W)
     z_div = depth_budget(rig, TV, [H]).divergence_depth
-    limit = TV.divergence_disparity
-    depths = [z_div * (1 - 1e-9), math.nextafter(z_div, 0.0), z_div, math.nextafter(z_div, math.inf),
-              z_div * (1 + 1e-9)]
-    far_below, below, at, above, far_above = samples = depth_budget(rig, TV, depths).samples
-    assert far_below.perceived_depth is not None and far_below.perceived_depth > 0 and not far_below.diverges
-    assert far_above.perceived_depth is None and far_above.diverges and far_above.roundness < 0
-    assert at.perceived_depth is None and above.perceived_depth is None
-    for s in samples:
-        assert s.diverges == (s.disparity > limit)
+    depths = [math.nextafter(z_div, 0.0), z_div, math.nextafter(z_div, math.inf)]
+    below, at, above = depth_budget(rig, TV, depths).samples
+    assert below.perceived_depth is not None and below.perceived_depth > 0 and not below.diverges
+    assert at.perceived_depth is None and at.roundness is None and not at.diverges
+    assert above.perceived_depth is None and above.diverges
+    assert DIVERGENCE_FLAG_ULPS * EPS * z_div >= math.nextafter(z_div, math.inf) - z_div  # the band holds them
+
+
+def test_the_flag_follows_the_reported_disparity_away_from_the_limit():
+    # Issue 9: b/W = 6e8 against b'/W' = 9.2e-9 put divergence within an ulp of H, and the z-form flagged
+    # z = H (d = 0) as diverging. Away from the limit the flag is d > b'/W' (S0 Eq. 8) on the reported d.
+    rig = Shooting(1088.2641991636679, 1.4329443467964356, 1.8137187195233712e-06)
+    display = Display(0.0004698117716817455, 0.0003132103786608234, 51027.87555034109)
+    depths = [rig.convergence, math.nextafter(rig.convergence, math.inf), 2 * rig.convergence]
+    for s in depth_budget(rig, display, depths).samples:
+        assert s.diverges == (s.disparity > display.divergence_disparity)
 
 
 def test_baseline_equal_to_the_reported_divergence_baseline_never_diverges():

@@ -29,12 +29,18 @@ from vergence.viewing.geometry import (
 )
 from vergence.viewing.geometry import _check_type, _depth_ratio, _depths, _real_array
 
-__all__ = ["DEFAULT_DEPTH_FACTORS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
+__all__ = ["DEFAULT_DEPTH_FACTORS", "DIVERGENCE_FLAG_ULPS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
 
 # Scene depths sampled when none are given, as multiples of the convergence distance H: the
 # foreground at H/2, the subject on the convergence plane (d = 0), and a background out to 10 H
 # (where d is 90 % of its limit b/W, so divergence, if the rig has any, usually shows).
 DEFAULT_DEPTH_FACTORS: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0)
+
+# Half-width, in machine epsilons of divergence_depth, of the band of depths around it where the reported
+# disparity is the limit b'/W' to its rounding (z_div itself is rounded, and d amplifies that by
+# H/(z_div - H)): there the ``diverges`` flag follows the exact sign of Eq. (2) at divergence_depth; elsewhere
+# it is d > b'/W' on the reported d. 4 covers z_div and its neighbouring floats.
+DIVERGENCE_FLAG_ULPS = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,9 +63,10 @@ class DepthSample:
         rho of S0 Eq. (4) as is (negative where the eyes diverge); None only where it is infinite
         (the eyes exactly parallel at this depth).
     diverges : bool
-        Whether the eyes diverge at this depth (``d > b'/W'``, S0 Eq. 3 and 8): exactly the depths
-        beyond :attr:`DepthBudget.divergence_depth`; at that depth itself the eyes are parallel
-        (``perceived_depth`` and ``roundness`` None, ``diverges`` False).
+        Whether the eyes diverge at this depth: ``d > b'/W'`` on the reported ``disparity`` (S0 Eq. 3
+        and 8), except within :data:`DIVERGENCE_FLAG_ULPS` of :attr:`DepthBudget.divergence_depth`, where
+        d is the limit to its rounding and the exact sign of Eq. (2) decides: at that depth itself the
+        eyes are parallel (``perceived_depth`` and ``roundness`` None, ``diverges`` False).
     """
 
     depth: float
@@ -234,12 +241,20 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     with np.errstate(divide="ignore", invalid="ignore"):
         zp_gap = _depth_ratio(display.distance, gap)
         rho_gap = shooting.baseline * display.distance / (display.eye_separation * z * np.where(near, gap, 1.0))
-    zp = np.where(use_gap, zp_gap, perceived_depth_from_depth(z_fin, shooting, display))
+    zp_z = np.asarray(perceived_depth_from_depth(z_fin, shooting, display))  # NaN exactly past divergence_depth
+    zp = np.where(use_gap, zp_gap, zp_z)
     rho = np.where(use_gap, np.where(finite, rho_gap, 0.0), roundness(z_fin, shooting, display))
-    # The flag is Eq. (8) on the reported disparity. Within an ulp or two of divergence_depth the two
-    # roundings may disagree: a flagged depth is never perceived, and where the z-form says
-    # "diverges" but d <= b'/W' the eyes are parallel to rounding (z' and rho null).
-    diverges = d > limit
+    # The flag is Eq. (8) on the reported disparity, d > b'/W', except within DIVERGENCE_FLAG_ULPS of
+    # divergence_depth, where d is the limit to its rounding and the exact sign of the z-form decides (the
+    # eyes are parallel at that depth: 40 m in the README, whose d rounds an ulp past b'/W'). A z_div at or
+    # below H is a rounded one (mathematically z_div > H, as d(z_div) = b'/W' > 0): d decides everywhere.
+    # A flagged depth is never perceived; where the z-form says "diverges" but the flag does not, the
+    # eyes are parallel to rounding (z' and rho null).
+    z_div = divergence_depth(shooting, display)
+    band = DIVERGENCE_FLAG_ULPS * np.finfo(float).eps * z_div
+    at_limit = finite & (np.abs(z_fin - z_div) <= band) if math.isfinite(z_div) and z_div > shooting.convergence \
+        else np.zeros(z.shape, dtype=bool)
+    diverges = np.where(at_limit, np.isnan(zp_z), d > limit)
     zp = np.where(diverges | ~np.isfinite(zp), np.nan, zp)
     rho = np.where((diverges & (rho >= 0)) | (~diverges & (rho < 0)), np.nan, rho)
     samples = tuple(
@@ -254,7 +269,6 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
         for i in range(z.size)
     )
     b_div = divergence_baseline(shooting.window, display)  # Eq. (3)
-    z_div = divergence_depth(shooting, display)
     return DepthBudget(
         divergence_baseline=b_div,
         roundness_baseline=roundness_baseline(shooting.convergence, display),  # Eq. (5)
