@@ -97,6 +97,8 @@ def mapping(
 ) -> None:
     """Build the disparity mapping psi from director constraints and report it (S0 §6, Eq. 7–9)."""
     depths = list(depth) if depth else None
+    if near >= far:  # the library would say "far must be > near": name both options
+        raise ValueError(f"--far must be > --near {near:g}; got {far:g}")
     with options_named(**OPTION_NAMES):
         reference = Shooting(baseline=reference_baseline, convergence=convergence, window=window)
         display = display_from_options(display_preset, eye_separation, viewing_distance, screen_width)
