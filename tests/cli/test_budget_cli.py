@@ -35,9 +35,13 @@ def _hand(z: float, b=0.12, H=8.0, W=2.4, bp=0.063, Hp=2.2, Wp=1.1, N=1280) -> d
 def test_json_matches_hand_computation(capsys):
     code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--screen-pixels", "1280",
                           "--depth", "4", "--depth", "8", "--depth", "20", "--depth", "100", "--json")
-    assert code == 0 and err == ""
+    # The +-60 arcmin zone at 2.2 m is +-2.2 tan(1 deg)/1.1 = +-0.0349 of the width: d(4) = -0.05 and
+    # d(100) = +0.046 lie outside (issue 9: leaving the comfort zone is a warning, on stderr and in the JSON).
+    zone = "outside the comfort zone (±60 arcmin of vergence: d from -0.03492 to +0.03491 of the screen width)"
+    assert code == 0 and err == f"warning: {zone}: z = 4, 100 m\n"
     data = json.loads(out)
-    assert list(data) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "depths"]
+    assert list(data) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "depths", "warnings"]
+    assert data["warnings"] == [f"{zone}: z = 4, 100 m"]
     assert data["divergence_baseline"] == pytest.approx(0.063 * 2.4 / 1.1, rel=RTOL)
     assert data["roundness_baseline"] == pytest.approx(0.063 * 8 / 2.2, rel=RTOL)
     assert data["focal_ratio"] == pytest.approx((8 / 2.4) / (2.2 / 1.1), rel=RTOL)
@@ -96,7 +100,9 @@ def test_table_output(capsys):
     code, out, err = _run(capsys, "--baseline", "0.65", "--convergence", "30", "--window", "3",
                           "--eye-separation", "0.065", "--viewing-distance", "3", "--screen-width", "1.2",
                           "--depth", "30", "--depth", "60")
-    assert code == 0 and err == ""
+    assert code == 0
+    assert err == ("warning: the eyes diverge at z = 60 m (beyond z = 40 m): baseline b = 0.65 m exceeds "
+                   "b_div = 0.1625 m (S0 Eq. 3)\n")
     assert "divergence baseline b_div = 0.1625 m" in out
     assert "roundness baseline b_round = 0.65 m" in out
     assert "focal ratio f/f' = 4" in out
@@ -124,14 +130,14 @@ def test_plot_with_a_single_depth(capsys, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--baseline", "-0.1", "--convergence", "8", "--window", "2.4", *DISPLAY_ARGS],
-     "error: baseline must be > 0; got -0.1"),
+     "error: --baseline must be > 0; got -0.1"),
     (["--baseline", "nan", "--convergence", "8", "--window", "2.4", *DISPLAY_ARGS],
-     "error: baseline must be finite; got nan"),
+     "error: --baseline must be finite; got nan"),
     ([*RIG_ARGS, "--eye-separation", "0", "--viewing-distance", "2.2", "--screen-width", "1.1"],
      "error: --eye-separation must be > 0; got 0"),
     ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "-5"],
-     "error: depths must be > 0 (in front of the cameras); got -5"),
-    ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "nan"], "error: depths must be finite (no NaN or inf)"),
+     "error: --depth must be > 0 (in front of the cameras); got -5"),
+    ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "nan"], "error: --depth must be > 0 metres or inf (a point at infinity); got nan"),
     ([*RIG_ARGS, "--display", "imax"], "error: unknown display preset 'imax'; valid presets: cinema, desktop-24,"),
     (["--baseline", "0.1", "--convergence", "8", "--focal-mm", "50", *DISPLAY_ARGS],
      "error: --sensor-mm (sensor width in mm) is required with --focal-mm"),
@@ -151,13 +157,24 @@ def test_plot_with_a_single_depth(capsys, tmp_path):
      "error: --screen-pixels must be >= 1 (the screen width in pixels); got 0"),
     ([*RIG_ARGS, "--display", "phone", "--screen-pixels", "-3"],
      "error: --screen-pixels must be >= 1 (the screen width in pixels); got -3"),
-    ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "inf"], "error: depths must be finite (no NaN or inf)"),
+    ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "1e21"], "error: --depth must lie in [1e-06, 1e+20] m; got 1e+21"),
     (["--baseline", "0.1", "--convergence", "inf", "--window", "2.4", *DISPLAY_ARGS],
-     "error: convergence must be finite; got inf"),
+     "error: --convergence must be finite; got inf"),
     (["--baseline", "0.1", "--convergence", "8", "--focal-mm", "0", "--sensor-mm", "36", *DISPLAY_ARGS],
-     "error: focal_mm must be > 0; got 0"),
+     "error: --focal-mm must be > 0; got 0"),
     (["--baseline", "0.1", "--convergence", "8", "--focal-mm", "50", "--sensor-mm", "-36", *DISPLAY_ARGS],
-     "error: sensor_mm must be > 0; got -36"),
+     "error: --sensor-mm must be > 0; got -36"),
+    # issue 9: ZeroDivisionError before, then Python's names; overflow warnings at 1e308
+    (["--baseline", "0.1", "--convergence", "8", "--focal-mm", "5e-324", "--sensor-mm", "36", *DISPLAY_ARGS],
+     "error: --focal-mm must lie in [0.001, 1e+09] mm; got 4.94066e-324"),
+    (["--baseline", "1e308", "--convergence", "8", "--window", "2.4", *DISPLAY_ARGS],
+     "error: --baseline must lie in [1e-06, 1e+06] m; got 1e+308"),
+    ([*RIG_ARGS, "--eye-separation", "0.063", "--viewing-distance", "-3", "--screen-width", "1.1"],
+     "error: --viewing-distance must be > 0; got -3"),
+    ([*RIG_ARGS, "--eye-separation", "0.063", "--viewing-distance", "2", "--screen-width", "inf"],
+     "error: --screen-width must be finite; got inf"),
+    (["--baseline", "0.1", "--convergence", "8", "--focal-mm", "0.001", "--sensor-mm", "1e9", *DISPLAY_ARGS],
+     "error: the convergence window H S/F from --convergence, --sensor-mm and --focal-mm must lie in [1e-06, 1e+06] m; got 8e+12"),
 ])
 def test_bad_input_is_one_line_and_exit_code_2(capsys, args, message):
     code, out, err = _run(capsys, *args, "--json")
@@ -168,7 +185,7 @@ def test_bad_input_is_one_line_and_exit_code_2(capsys, args, message):
 
 def test_bad_plot_path(capsys, tmp_path):
     code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--plot", str(tmp_path / "budget.jpg"))
-    assert code == 2 and err.startswith("error: path must end in .png; got ") and err.count("\n") == 1
+    assert code == 2 and err.startswith("error: --plot must end in .png; got ") and err.count("\n") == 1
     code, _, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--plot", str(tmp_path / "missing" / "budget.png"))
     assert code == 2 and "does not exist" in err and err.count("\n") == 1
 
@@ -180,3 +197,34 @@ def test_help_lists_the_options(capsys):
                    "--screen-width", "--screen-pixels", "--depth", "--focal-mm", "--sensor-mm", "--display",
                    "--json", "--plot"):
         assert option in text
+
+
+def test_depth_inf_is_accepted_like_mapping(capsys):
+    # Issue 9: `budget --depth inf` was refused while `mapping` takes it. At infinity d = b/W = 0.05,
+    # z' = b'H'W/(b'W - bW') = 0.063*2.2*2.4/(0.063*2.4 - 0.12*1.1) = 17.42 m (S0 Eq. 2), rho -> 0.
+    code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--depth", "8", "--depth", "inf", "--json")
+    assert code == 0
+    far = json.loads(out)["depths"][1]
+    assert far["depth"] is None  # JSON has no infinity: null
+    assert far["disparity"] == pytest.approx(0.05, rel=RTOL)
+    assert far["perceived_depth"] == pytest.approx(0.063 * 2.2 * 2.4 / (0.063 * 2.4 - 0.12 * 1.1), rel=1e-12)
+    assert far["roundness"] == 0.0 and far["diverges"] is False
+    code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--depth", "inf")
+    assert code == 0 and "∞" in out
+
+
+def test_table_rows_match_the_json_and_name_parallel_eyes(capsys):
+    # Issue 9 (demo page): the table hid the roundness past divergence ("—") while the JSON gave -0.25,
+    # and printed nothing for parallel eyes. Dyadic set-up: b = 1, H = 4, W = 1 on b' = 0.5, H' = 2, W' = 1:
+    # d(8) = 0.5 = b'/W' exactly (parallel eyes); d(16) = 0.75 > 0.5 diverges, rho = bH'W/(z(b'W - bW') + bHW')
+    # = 2/(16*(-0.5) + 4) = -0.5 (S0 Eq. 4).
+    args = ["--baseline", "1", "--convergence", "4", "--window", "1", "--eye-separation", "0.5",
+            "--viewing-distance", "2", "--screen-width", "1", "--depth", "8", "--depth", "16"]
+    code, out, _ = _run(capsys, *args)
+    assert code == 0
+    rows = [line for line in out.splitlines() if line.startswith("│")]
+    assert [cell.strip() for cell in rows[0].split("│")[1:-1]] == ["8", "+50.000", "∞", "—", "eyes parallel"]
+    assert [cell.strip() for cell in rows[1].split("│")[1:-1]] == ["16", "+75.000", "—", "-0.500", "eyes diverge"]
+    code, out, _ = _run(capsys, *args, "--json")
+    parallel, diverging = json.loads(out)["depths"]
+    assert parallel["roundness"] is None and diverging["roundness"] == -0.5

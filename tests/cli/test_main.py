@@ -32,7 +32,7 @@ def test_help_exits_zero(capsys):
 def test_library_error_is_one_line(capsys):
     code = main(["budget", "--baseline", "-1", "--convergence", "3", "--window", "1", "--display", "tv-55"])
     err = capsys.readouterr().err.strip()
-    assert code == 2 and err == "error: baseline must be > 0; got -1"
+    assert code == 2 and err == "error: --baseline must be > 0; got -1"  # the option typed (issue 9)
 
 
 def test_unexpected_exception_is_one_line_with_exit_code_1(capsys, monkeypatch):

@@ -60,9 +60,18 @@ def _psi(d: np.ndarray, cps: list[dict]) -> np.ndarray:
 def test_json_schema_and_values_match_independent_computation(capsys):
     code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1",
                           "--constraint", "z=50,perceived=4", "--near", "10", "--far", "inf", "--json")
-    assert code == 0 and err == ""
+    # psi(d(10)) = psi(-0.2) = -0.2291: 23 % of the screen width crossed, far outside +-60 arcmin at 2.2 m
+    # (+-2.2 tan(1 deg)/1.1 = +-0.0349): a warning on stderr and in the JSON (issue 9).
+    warning = ("mapped disparities from -0.2291 to +0.03902 screen widths leave the comfort zone "
+               "(±60 arcmin of vergence: -0.03492 to +0.03491)")
+    assert code == 0 and err == f"warning: {warning}\n"
     data = json.loads(out)
-    assert list(data) == ["control_points", "samples", "monotone", "diverges"]
+    assert list(data) == ["reference", "display", "near", "far", "control_points", "samples", "monotone",
+                          "diverges", "warnings"]
+    assert data["reference"] == {"baseline": B, "convergence": H, "window": W}
+    assert data["display"] == {"eye_separation": BP, "distance": HP, "width": WP}
+    assert data["near"] == 10.0 and data["far"] is None  # null: infinitely far
+    assert data["warnings"] == [warning]
     assert data["monotone"] is True and data["diverges"] is False
     cps = data["control_points"]
     assert [list(c) for c in cps] == [["disparity", "value", "slope"]] * 2
@@ -74,7 +83,11 @@ def test_json_schema_and_values_match_independent_computation(capsys):
     assert cps[1]["value"] == pytest.approx(BP / WP * (1 - HP / 4), rel=RTOL)
     samples = data["samples"]
     assert len(samples) >= 100
-    assert all(list(s) == ["disparity", "mapped", "perceived_depth", "roundness"] for s in samples)
+    assert all(list(s) == ["depth", "disparity", "mapped", "perceived_depth", "roundness"] for s in samples)
+    # The scene depth of each sample (issue 9: omitted before): S0 Eq. (1a) inverted, null at infinity.
+    assert samples[0]["depth"] == 10.0 and samples[-1]["depth"] is None
+    for s in samples[1:-1]:
+        assert B / W * (1 - H / s["depth"]) == pytest.approx(s["disparity"], rel=1e-9, abs=1e-15)
     d = np.array([s["disparity"] for s in samples])
     assert d[0] == pytest.approx(-0.2, rel=RTOL) and d[-1] == pytest.approx(0.2, rel=RTOL)
     assert np.all(np.diff(d) > 0)
@@ -123,7 +136,7 @@ def test_summary_and_plot(capsys, tmp_path):
     plot = tmp_path / "psi.png"
     code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1",
                           "--constraint", "z=50,perceived=4", "--near", "10", "--far", "200", "--plot", str(plot))
-    assert code == 0 and err == ""
+    assert code == 0 and err.startswith("warning: mapped disparities from -0.2291") and err.count("\n") == 1
     assert "monotone: yes" in out and "control points" in out and f"plot written to {plot}" in out
     data = plot.read_bytes()
     assert data[:8] == PNG_SIGNATURE and len(data) > 20_000
@@ -139,7 +152,7 @@ def test_summary_shows_the_lowest_roundness(capsys):
     cons = ["z=20,perceived=2.2,roundness=1", "z=60,perceived=6,roundness=1"]
     code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", cons[0], "--constraint", cons[1],
                           "--near", "10", "--far", "100")
-    assert code == 0 and err == ""
+    assert code == 0 and err.startswith("warning: mapped disparities from -0.2291") and err.count("\n") == 1
     m = psi_from_constraints(Shooting(B, H, W), Display(BP, HP, WP), cons, near=10.0, far=100.0)
     z = np.geomspace(10.0, 100.0, 100_001)
     rho = m.roundness(z)
@@ -159,7 +172,7 @@ def test_summary_shows_the_lowest_roundness(capsys):
          "perceived depths must increase with scene depth"),
         (["--constraint", "z=20,perceived=2,roundness=0"], "roundness must be > 0"),
         (["--constraint", "z=20,perceived=inf", "--constraint", "z=40,perceived=9"], "past the divergence limit"),
-        (["--constraint", "z=-5,perceived=2"], "depth must be > 0"),
+        (["--constraint", "z=-5,perceived=2"], "--constraint 'z=-5,perceived=2': z must be > 0"),
         (["--constraint", "z=500,perceived=9"], "lies outside the scene: near = 10, far = 100"),
     ],
 )
@@ -176,7 +189,7 @@ def test_bad_constraints_exit_2_with_one_line(capsys, args, message):
         (["--display", "tv-55", "--screen-width", "1"], ["--near", "10", "--far", "100"], "give either --display"),
         (["--eye-separation", "0.065"], ["--near", "10", "--far", "100"], "the display is incomplete"),
         (["--display", "imax"], ["--near", "10", "--far", "100"], "unknown display preset 'imax'"),
-        (DISPLAY_ARGS, ["--near", "100", "--far", "10"], "far must be > near 100; got 10"),
+        (DISPLAY_ARGS, ["--near", "100", "--far", "10"], "error: --far must be > --near 100; got 10"),
     ],
 )
 def test_bad_options_exit_2(capsys, display, near_far, message):
@@ -187,5 +200,64 @@ def test_bad_options_exit_2(capsys, display, near_far, message):
 def test_plot_must_be_png(capsys, tmp_path):
     code, _, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2", "--near", "10",
                         "--far", "100", "--plot", str(tmp_path / "psi.jpg"))
-    assert code == 2 and "path must end in .png" in err
+    assert code == 2 and err.startswith("error: --plot must end in .png")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_depth_option_answers_for_given_depths(capsys):
+    # Issue 9: `mapping --depth 80` could not be asked. Identity-slope psi through (d(20), 0): the subject
+    # at H on the screen; z = 20 gives d = 0, psi = 0, z' = H' (S0 Eq. 7); inf gives d = b_r/W = 0.2.
+    code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2", "--near", "10",
+                        "--far", "inf", "--depth", "20", "--depth", "80", "--depth", "inf", "--json")
+    assert code == 0
+    samples = json.loads(out)["samples"]
+    assert [s["depth"] for s in samples] == [20.0, 80.0, None]
+    assert samples[0]["disparity"] == 0.0 and samples[0]["perceived_depth"] == pytest.approx(HP, rel=RTOL)
+    assert samples[1]["disparity"] == pytest.approx(B / W * (1 - H / 80), rel=RTOL)
+    assert samples[2]["disparity"] == pytest.approx(B / W, rel=RTOL)
+    code, out, _ = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2", "--near", "10",
+                        "--far", "inf", "--depth", "80")
+    assert code == 0 and "mapped depth at the given depths" in out and "80" in out
+    code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2", "--near", "10",
+                          "--far", "100", "--depth", "500")
+    assert code == 2 and out == "" and err == "error: --depth must lie in the scene [10, 100] m (near, far); got 500\n"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        # issue 9: ZeroDivisionError, then "values must be finite"; Python's names instead of the options
+        (["--window", "5e-324", "--constraint", "z=20,perceived=5e-324"],
+         "error: --window must lie in [1e-06, 1e+06] m; got 4.94066e-324"),
+        (["--window", str(W), "--constraint", "z=20,perceived=5e-324"],
+         "error: --constraint 'z=20,perceived=5e-324': perceived must lie in [1e-06, 1e+20] m or be inf; "
+         "got 4.94066e-324"),
+        (["--window", str(W), "--constraint", "z=20,perceived=3,roundness=1e9"],
+         "error: --constraint 'z=20,perceived=3,roundness=1e9': roundness must lie in [0.001, 1000]; got 1e+09 "
+         "(psi' = roundness z b'/(b_r z'))"),
+        (["--window", str(W), "--constraint", "z=20,perceived=3", "--viewing-distance", "-3"],
+         "error: --viewing-distance must be > 0; got -3"),
+        (["--window", str(W), "--constraint", "z=20,perceived=3", "--near", "1e-300"],
+         "error: --near must lie in [1e-06, 1e+20] m; got 1e-300"),
+    ],
+)
+def test_issue9_errors_name_the_options(capsys, args, message):
+    base = ["--reference-baseline", str(B), "--convergence", str(H), "--eye-separation", str(BP),
+            "--screen-width", str(WP)]
+    if "--viewing-distance" not in args:
+        base += ["--viewing-distance", str(HP)]
+    if "--near" not in args:
+        base += ["--near", "10"]
+    code, out, err = _run(capsys, *base, *args, "--far", "100", "--json")
+    assert code == 2 and out == "" and err == message + "\n"
+
+
+def test_issue9_huge_roundness_is_refused_and_a_large_one_warns(capsys):
+    # roundness=1e9 gave crossed disparities of -3e8 image widths, reported as fine. 1e3 is allowed
+    # (ROUNDNESS_RANGE) but its mapped disparities leave the comfort zone: warned.
+    code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--constraint", "z=20,perceived=2.2,roundness=1000",
+                          "--near", "10", "--far", "100", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["warnings"] and data["warnings"][0].startswith("mapped disparities from -")
+    assert err == "".join(f"warning: {w}\n" for w in data["warnings"])

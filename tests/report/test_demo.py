@@ -75,3 +75,94 @@ def test_report_escapes_text_and_checks_figures(tmp_path):
     assert "a &lt; b" in html and "&lt;script&gt;" in html and "<script>" not in html
     with pytest.raises(ValueError, match="missing.png does not exist"):
         write_report(tmp_path / "i.html", title="t", intro="i", sections=[Section("s", "p", (Figure("missing.png", "c"),))])
+
+
+# --- issue 9, "The demo page": a gallery, not a 9,000-px column -------------------------------------
+
+
+def test_page_is_a_gallery_with_captions_under_each_figure_and_no_backticks(demo):
+    html = demo.index.read_text(encoding="utf-8")
+    assert "`" not in html  # `vergence demo` is rendered as <code>
+    assert "<code>vergence demo</code>" in html
+    grids = re.findall(r'<div class="grid"[^>]*>(.*?)</div>', html, flags=re.S)
+    assert len(grids) >= 4
+    for grid in grids:  # side by side, each caption right under its own image
+        cells = re.findall(r"<figure>(.*?)</figure>", grid, flags=re.S)
+        assert len(cells) >= 2
+        assert all(re.fullmatch(r'<a href="[^"]+"><img [^>]+></a><figcaption>.+</figcaption>', c) for c in cells)
+    # The DIBR view stands beside its truth, in one grid row.
+    truth_grid = next(g for g in grids if "tabletop_right_traced.png" in g)
+    assert "tabletop_right_dibr.png" in truth_grid and 'repeat(2' in html
+    # ... and the two plain rigs' plots, and the two stadium anaglyphs.
+    assert any("budget_b_div.png" in g and "budget_b_round.png" in g for g in grids)
+    assert any("stadium_b_div_anaglyph.png" in g and "stadium_b_round_anaglyph.png" in g for g in grids)
+
+
+def test_page_rows_read_as_the_cli_prints_them(demo, capsys):
+    # 80 m with b_round diverges: roundness -0.25 as in `budget --json`, not "-" (S0 Eq. 4 as is:
+    # rho = b H' W / (z (b'W - bW') + bHW') = 0.65*3*3/(80*(0.195 - 0.78) + 23.4) = -0.25).
+    html = demo.index.read_text(encoding="utf-8")
+    row = re.search(r"<tr><td>b_round = 0.650 m</td><td>80</td><td>([^<]*)</td><td>([^<]*)</td><td>([^<]*)</td>"
+                    r"<td>([^<]*)</td></tr>", html)
+    assert row is not None
+    assert row.group(2) == "-" and row.group(3) == "-0.25" and row.group(4) == "eyes diverge"
+    assert main(["budget", "--baseline", "0.65", "--convergence", "30", "--window", "3", "--eye-separation", "0.065",
+                 "--viewing-distance", "3", "--screen-width", "1.2", "--depth", "80", "--json"]) == 0
+    import json
+
+    (sample,) = json.loads(capsys.readouterr().out)["depths"]
+    assert f"{sample['roundness']:.2g}" == row.group(3)
+    # The notes are DepthSample.note, the very strings of the CLI table.
+    for s in demo.roundness_rig.samples:
+        assert s.note in html
+
+
+def test_page_explains_the_two_divergence_baselines(demo):
+    html = demo.index.read_text(encoding="utf-8")
+    # Section 1: W = H/f = 30/10 = 3 m -> b_div = 0.065*3/1.2 = 0.1625 m. The stadium's lens gives a wider
+    # window at the player, hence a larger b_div (S0 Eq. 3, same display): the page says so with numbers.
+    text = re.sub(r"<[^>]+>", "", html)
+    assert "Why b_div is 0.2273 m here but 0.1625 m in section 1" in text
+    assert "0.065 x 3 / 1.2 = 0.1625 m" in text and "= 0.2273 m" in text
+
+
+# --- issue 9, "Ctrl-C during Numba's cache write: the demo swallows it and exits 0" -----------------
+
+
+def _quick_tail(monkeypatch, stadium):
+    """Replace the two rendering sections (tens of seconds) by ``stadium`` and a stub."""
+    monkeypatch.setattr(demo_module, "_section_stadium", stadium)
+    monkeypatch.setattr(demo_module, "_section_dibr", lambda out, say: (Section("4", "p"), None))
+
+
+def test_ctrl_c_swallowed_by_a_library_still_exits_130_and_writes_nothing(monkeypatch, tmp_path, capsys):
+    import signal
+
+    def swallowing(out, say):  # what Numba's cache write did: catch the KeyboardInterrupt and go on
+        try:
+            signal.raise_signal(signal.SIGINT)
+        except KeyboardInterrupt:
+            pass
+        return Section("3", "p"), {}
+
+    _quick_tail(monkeypatch, swallowing)
+    out = tmp_path / "demo-output"
+    assert main(["demo", "--out", str(out)]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []  # no demo-output, no temporary folder
+
+
+def test_ctrl_c_leaves_an_existing_output_folder_as_it_was(monkeypatch, tmp_path, capsys):
+    def interrupted(out, say):
+        raise KeyboardInterrupt
+
+    _quick_tail(monkeypatch, interrupted)
+    out = tmp_path / "demo-output"
+    out.mkdir()
+    (out / "index.html").write_text("old report")
+    assert main(["demo", "--out", str(out)]) == 130
+    assert [p.name for p in tmp_path.iterdir()] == ["demo-output"]
+    assert [p.name for p in out.iterdir()] == ["index.html"] and (out / "index.html").read_text() == "old report"
+    import signal
+
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vergence.viewing.budget import (
+    DIVERGENCE_FLAG_ULPS,
     DEFAULT_DEPTH_FACTORS,
     DepthBudget,
     DepthSample,
@@ -23,6 +24,7 @@ from vergence.viewing.geometry import Display, Shooting
 # Hand values are short decimal products: a few roundings.
 RTOL = 1e-12
 
+EPS = float(np.finfo(float).eps)
 RIG = Shooting(baseline=0.26, convergence=30.0, window=3.0)  # f = 10
 TV = Display(eye_separation=0.065, distance=3.0, width=1.2, resolution=1920)  # f' = 2.5
 
@@ -31,7 +33,11 @@ def test_json_matches_hand_computation():
     # b_div = b'W/W' = 0.065*3/1.2; b_round = b'H/H' = 0.065*30/3; f/f' = 10/2.5.
     # b'W - bW' = -0.117, bHW' = 9.36, b'H'W = 0.585, bH'W = 2.34; divergence beyond 80 m.
     out = depth_budget(RIG, TV, [30.0, 60.0, 90.0]).to_dict()
-    assert list(out) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "depths"]
+    assert list(out) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "depths", "warnings"]
+    # d(60) = (0.26/3)(1/2) = 0.0433 lies inside the +-60 arcmin zone at 3 m (+-3 tan(1 deg)/1.2 = 0.0436);
+    # 90 m diverges (issue 9: divergence is a warning in the JSON and on stderr).
+    assert out["warnings"] == ["the eyes diverge at z = 90 m (beyond z = 80 m): baseline b = 0.26 m exceeds "
+                               "b_div = 0.1625 m (S0 Eq. 3)"]
     assert out["divergence_baseline"] == pytest.approx(0.1625, rel=RTOL)
     assert out["roundness_baseline"] == pytest.approx(0.65, rel=RTOL)
     assert out["focal_ratio"] == pytest.approx(4.0, rel=RTOL)
@@ -84,7 +90,8 @@ def test_exactly_parallel_eyes_give_null_depth_and_roundness_without_divergence(
 @given(b_over_b_div=st.floats(1.001, 100.0), H=st.floats(0.5, 100.0), W=st.floats(0.1, 50.0))
 def test_the_reported_divergence_depth_is_where_the_samples_turn_parallel(b_over_b_div, H, W):
     # The depth the budget prints ("eyes diverge beyond z") is reported as parallel eyes (z' = inf ->
-    # null, not diverging), the float below it as a finite depth and the float above as diverging.
+    # null, not diverging), the float below it as a finite depth and the float above as diverging, even
+    # where the reported disparity rounds an ulp past b'/W' (40 m in the README: d = 0.054166666666666675).
     rig = Shooting(b_over_b_div * 0.065 * W / 1.2, H, W)
     z_div = depth_budget(rig, TV, [H]).divergence_depth
     depths = [math.nextafter(z_div, 0.0), z_div, math.nextafter(z_div, math.inf)]
@@ -92,6 +99,17 @@ def test_the_reported_divergence_depth_is_where_the_samples_turn_parallel(b_over
     assert below.perceived_depth is not None and below.perceived_depth > 0 and not below.diverges
     assert at.perceived_depth is None and at.roundness is None and not at.diverges
     assert above.perceived_depth is None and above.diverges
+    assert DIVERGENCE_FLAG_ULPS * EPS * z_div >= math.nextafter(z_div, math.inf) - z_div  # the band holds them
+
+
+def test_the_flag_follows_the_reported_disparity_away_from_the_limit():
+    # Issue 9: b/W = 6e8 against b'/W' = 9.2e-9 put divergence within an ulp of H, and the z-form flagged
+    # z = H (d = 0) as diverging. Away from the limit the flag is d > b'/W' (S0 Eq. 8) on the reported d.
+    rig = Shooting(1088.2641991636679, 1.4329443467964356, 1.8137187195233712e-06)
+    display = Display(0.0004698117716817455, 0.0003132103786608234, 51027.87555034109)
+    depths = [rig.convergence, math.nextafter(rig.convergence, math.inf), 2 * rig.convergence]
+    for s in depth_budget(rig, display, depths).samples:
+        assert s.diverges == (s.disparity > display.divergence_disparity)
 
 
 def test_baseline_equal_to_the_reported_divergence_baseline_never_diverges():
@@ -146,7 +164,9 @@ def test_budget_is_consistent_with_eq1b_and_eq8(b, H, W, z):
     ([[10.0, 20.0]], ValueError, r"^depths must be a non-empty 1-D sequence of metres; got shape \(1, 2\)"),
     ([10.0, -5.0], ValueError, r"^depths must be > 0 \(in front of the cameras\); got -5"),
     ([0.0], ValueError, r"^depths must be > 0 \(in front of the cameras\); got 0"),
-    ([10.0, math.nan], ValueError, r"^depths must be finite \(no NaN or inf\)"),
+    ([10.0, math.nan], ValueError, r"^depths must be > 0 metres or inf \(a point at infinity\); got nan$"),
+    ([-math.inf], ValueError, r"^depths must be > 0 metres or inf \(a point at infinity\); got -inf$"),
+    ([1e21], ValueError, r"^depths must lie in \[1e-06, 1e\+20\] m; got 1e\+21$"),
     (["far"], TypeError, "^depths must be numeric; got list"),
 ])
 def test_bad_depths(depths, error, match):
@@ -165,7 +185,7 @@ def test_result_validation():
     s = depth_budget(RIG, TV, [30.0]).samples[0]
     with pytest.raises(ValueError, match="^perceived_depth must be None where the eyes diverge; got 3"):
         dataclasses.replace(s, diverges=True)
-    with pytest.raises(ValueError, match="^depth must be > 0; got -1"):
+    with pytest.raises(ValueError, match=r"^depth must be > 0 \(inf allowed\); got -1.0$"):
         dataclasses.replace(s, depth=-1.0)
     budget = depth_budget(RIG, TV, [30.0])
     with pytest.raises(ValueError, match="^samples must be a non-empty sequence of DepthSample"):
@@ -174,3 +194,17 @@ def test_result_validation():
         dataclasses.replace(budget, focal_ratio=0.0)
     with pytest.raises(ValueError, match=r"^divergence_depth must be > 0 \(inf if none\); got nan$"):
         dataclasses.replace(budget, divergence_depth=math.nan)
+
+
+def test_a_point_at_infinity_has_the_limit_figures():
+    # Issue 9: `budget --depth inf` was refused while `mapping` takes it. At z = inf, S0 Eq. (1a) gives
+    # d = b/W, Eq. (2) z' = b'H'W/(b'W - bW') (finite below b_div), Eq. (4) rho -> 0.
+    rig = Shooting(0.1, 30.0, 3.0)  # b/W = 1/30 < b'/W' = 0.054: no divergence
+    far, = depth_budget(rig, TV, [math.inf]).samples
+    assert far.disparity == pytest.approx(0.1 / 3.0, rel=RTOL)
+    assert far.perceived_depth == pytest.approx(0.065 * 3.0 * 3.0 / (0.065 * 3.0 - 0.1 * 1.2), rel=1e-12)
+    assert far.roundness == 0.0 and not far.diverges
+    assert far.to_dict()["depth"] is None  # JSON has no infinity
+    beyond, = depth_budget(RIG, TV, [math.inf]).samples  # b = 0.26 > b_div = 0.1625: diverges
+    assert beyond.diverges and beyond.perceived_depth is None and beyond.roundness is None
+    json.dumps(depth_budget(RIG, TV, [30.0, math.inf]).to_dict(), allow_nan=False)

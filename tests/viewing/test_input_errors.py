@@ -119,3 +119,113 @@ def test_cuts_may_be_exactly_one_transition_apart():
     assert temporal_weights(0.5, [0.0, 1.0], transition=1.0).tolist() == [0.0, 1.0, 0.0]
     with pytest.raises(ValueError, match=r"^cuts must increase by at least transition 1; got \[0.0, 0.5\]$"):
         temporal_weights(0.5, [0.0, 0.5], transition=1.0)
+
+
+# Issue 9, "Python: values instead of errors": NaN, text and wrong objects given to the public viewing
+# functions, and inputs near 1e308 (numpy overflow warnings before; warnings are errors in the suite).
+from vergence.viewing import (  # noqa: E402
+    ComfortZone,
+    arcmin_from_pixels,
+    check_disparity_range,
+    depth_budget,
+    disparity,
+    divergence_baseline,
+    divergence_depth,
+    focal_ratio,
+    perceived_depth,
+    perceived_depth_from_depth,
+    pixels_from_arcmin,
+    roundness,
+    roundness_baseline,
+    scene_depth_from_disparity,
+    shift_sensor_parallax,
+)
+
+TV_PX = Display(eye_separation=0.065, distance=3.0, width=1.2, resolution=1920)
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: arcmin_from_pixels(math.nan, TV_PX), ValueError,
+         r"^parallax_px must hold at least one value that is not NaN .*; got 1 value\(s\), none valid$"),
+        (lambda: pixels_from_arcmin(math.nan, TV_PX), ValueError,
+         "^disparity_arcmin must hold at least one value that is not NaN"),
+        (lambda: pixels_from_arcmin([math.nan, math.nan], TV_PX, exact=False), ValueError,
+         "^disparity_arcmin must hold at least one value that is not NaN"),
+        (lambda: roundness("30", RIG, TV), TypeError, "^z must be numeric; got str$"),
+        (lambda: disparity(["30"], RIG), TypeError, "^z must be numeric; got list$"),
+        (lambda: arcmin_from_pixels("1", TV_PX), TypeError, "^parallax_px must be numeric; got str$"),
+        (lambda: arcmin_from_pixels(1.0, TV_PX, exact="no"), TypeError, "^exact must be True or False; got str$"),
+        (lambda: mapped_roundness("30", ID, RIG, TV), TypeError, "^z must be numeric; got str$"),
+        # wrong objects: TypeError naming the argument, never AttributeError
+        (lambda: roundness(30.0, TV, RIG), TypeError, "^shooting must be a Shooting; got Display$"),
+        (lambda: disparity(30.0, "rig"), TypeError, "^shooting must be a Shooting; got str$"),
+        (lambda: perceived_depth(0.0, "tv"), TypeError, "^display must be a Display; got str$"),
+        (lambda: perceived_depth_from_depth(30.0, RIG, None), TypeError, "^display must be a Display; got NoneType$"),
+        (lambda: scene_depth_from_disparity(0.1, "rig"), TypeError, "^shooting must be a Shooting; got str$"),
+        (lambda: divergence_baseline(1.0, "tv"), TypeError, "^display must be a Display; got str$"),
+        (lambda: roundness_baseline(1.0, None), TypeError, "^display must be a Display; got NoneType$"),
+        (lambda: focal_ratio(1, 2), TypeError, "^shooting must be a Shooting; got int$"),
+        (lambda: divergence_depth(RIG, 1), TypeError, "^display must be a Display; got int$"),
+        (lambda: arcmin_from_pixels(1.0, "tv"), TypeError, "^display must be a Display; got str$"),
+        (lambda: ComfortZone().pixels("tv"), TypeError, "^display must be a Display; got str$"),
+        (lambda: check_disparity_range([0.0, 1.0], "tv"), TypeError, "^display must be a Display; got str$"),
+        (lambda: depth_budget(RIG, TV, "far"), TypeError, "^depths must be numeric; got str$"),
+        # 1e308: a clean error, not an overflow warning
+        (lambda: scene_depth_from_disparity(1e308, RIG), ValueError,
+         r"^d must lie in \[-1e\+30, 1e\+30\] image widths; got 1e\+308$"),
+        (lambda: perceived_depth(-1e308, TV), ValueError, r"^d must lie in \[-1e\+30, 1e\+30\] image widths"),
+        (lambda: pixels_from_arcmin(1e308, TV_PX, exact=False), ValueError,
+         r"^disparity_arcmin must lie in \[-10800, 10800\] arcmin"),
+        (lambda: arcmin_from_pixels(1e308, Display(0.065, 3.0, 1e6, resolution=1)), ValueError,
+         r"^parallax_px must lie in \[-1e\+30, 1e\+30\]"),
+        (lambda: roundness_baseline(1e308, TV), ValueError, r"^convergence must lie in \[1e-06, 1e\+06\] m; got 1e\+308$"),
+        (lambda: roundness_baseline(1.0, TV, roundness=1e9), ValueError,
+         r"^roundness must lie in \[0.001, 1000\]; got 1e\+09$"),
+        (lambda: divergence_baseline(1e308, TV), ValueError, r"^window must lie in \[1e-06, 1e\+06\] m"),
+        (lambda: shift_sensor_parallax(1.0, focal_px=1e300, interaxial=1e3, convergence=1.0), ValueError,
+         "^focal_px must be <= .* with interaxial 1000 m"),
+    ],
+)
+def test_issue9_api_refuses_nan_text_wrong_objects_and_overflow(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_nan_pixels_of_a_map_still_pass_through_beside_valid_ones():
+    out = arcmin_from_pixels(np.array([math.nan, 2.0]), TV_PX)
+    assert math.isnan(out[0]) and out[1] > 0
+
+
+# Kin found by the issue-9 sweep (1,965 wrong-type and extreme calls over every public viewing function).
+from vergence.viewing import default_depths  # noqa: E402
+from vergence.viewing.mapping import temporal_weights  # noqa: E402
+from vergence.viewing.mapping_hermite import pchip_slopes  # noqa: E402
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: default_depths("rig"), TypeError, "^shooting must be a Shooting; got str$"),
+        (lambda: ComfortZone().pixels(TV_PX, exact="yes"), TypeError, "^exact must be True or False; got str$"),
+        (lambda: ComfortZone().disparities(TV_PX, exact=None), TypeError, "^exact must be True or False; got NoneType$"),
+        (lambda: ID("30"), TypeError, "^d must be numeric; got str$"),
+        (lambda: ID.inverse(["0.5"]), TypeError, "^value must be numeric; got list$"),
+        (lambda: mapped_perceived_depth(5e-324, ID, RIG, TV), ValueError,
+         r"^z must be >= 1e-06 m \(LENGTH_RANGE; inf allowed\); got 4.94066e-324$"),
+        (lambda: pchip_slopes([0.0, 5e-324, 1.0], [-1e308, 1e308, 1e308]), ValueError, "^values must not rise faster"),
+    ],
+)
+def test_issue9_sweep_kin(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_subnormal_ranges_and_ramps_give_exact_results_without_overflow_warnings():
+    # Warnings are errors in the suite: these overflowed (1/5e-324) before.
+    assert temporal_weights(10.5, [10.0], transition=5e-324).tolist() == [0.0, 1.0]
+    slopes = pchip_slopes([0.0, 1.0, 2.0], [0.0, 5e-324, 1e-323])
+    assert np.all(slopes >= 0) and np.all(np.isfinite(slopes))
+    with pytest.raises(ValueError, match=r"^target_max - target_min = 4.94066e-324 is too narrow to give each of the 2 bins"):
+        SaliencyMapping([0.0, 1.0, 2.0], [1.0, 1.0], 0.0, 5e-324)

@@ -225,10 +225,20 @@ def test_samples_cover_near_to_far_and_inverse_round_trips():
         ([(1e19, 3.0), (2e19, 4.0)], 10, math.inf, ValueError, "their disparities d.z. coincide"),
         ([(30.0, 3.0), (60.0, 1e15), (90.0, 1.00000000000001e15)], 10, 100, ValueError,
          r"constraints z=60,perceived=1e\+15 and z=90,perceived=1e\+15 are too close: their values psi"),
-        ([(30.0, 3.0), (60.0, 1e300)], 10, 100, ValueError,
-         (r"^constraint z=60,perceived=1e\+300: the perceived depth is so far that psi rounds to the divergence "
+        ([(30.0, 3.0), (60.0, 1e20)], 10, 100, ValueError,
+         (r"^constraint z=60,perceived=1e\+20: the perceived depth is so far that psi rounds to the divergence "
           r"limit b'/W' = 0.0541667; ask for perceived=inf instead$")),
         (["z=30,perceived=inf"], 10, 100, ValueError, "the nearest constraint cannot be perceived at infinity"),
+        # issue 9: perceived=5e-324 made psi -inf ("values must be finite"), roundness=1e9 crossed disparities
+        # of -3e8 image widths reported as fine, 1e300 perceived depths
+        (["z=30,perceived=5e-324"], 10, 100, ValueError,
+         r"^constraint 'z=30,perceived=5e-324': perceived must lie in \[1e-06, 1e\+20\] m or be inf; got 4.94066e-324$"),
+        (["z=30,perceived=3,roundness=1e9"], 10, 100, ValueError,
+         r"^constraint 'z=30,perceived=3,roundness=1e9': roundness must lie in \[0.001, 1000\]; got 1e\+09"),
+        ([(30.0, 3.0), (60.0, 1e300)], 10, 100, ValueError,
+         r"^constraints\[1\] \(60.0, 1e\+300\): perceived_depth must lie in \[1e-06, 1e\+20\] m or be inf"),
+        (["z=30,perceived=3"], 5e-324, 100, ValueError, r"^near must lie in \[1e-06, 1e\+20\] m; got 4.94066e-324$"),
+        (["z=30,perceived=3"], math.inf, math.inf, ValueError, "^near must be finite; got inf$"),
         (["z=30,perceived=inf,roundness=1"], 10, 100, ValueError, "roundness cannot be prescribed where perceived"),
         (["z=30,perceived=3", "z=inf,perceived=9,roundness=1"], 10, math.inf, ValueError,
          "roundness cannot be prescribed at depth inf"),

@@ -70,7 +70,6 @@ def test_shape_dtype_and_isolated_pixel():
     out = gradient_domain_mapping(d, threshold=1.0, scale=0.2)
     assert out.shape == (2, 2) and out.dtype == np.float64
     assert_allclose(out[[0, 1], [0, 1]], [1.0, 3.0])  # lone pixels keep their value
-    assert np.isnan(gradient_domain_mapping(np.full((2, 3), np.nan), threshold=1.0, scale=0.2)).all()
 
 
 @pytest.mark.parametrize(
@@ -81,9 +80,18 @@ def test_shape_dtype_and_isolated_pixel():
         (np.array([0.0, np.inf]), {}, "must not contain inf"),
         (np.zeros(3), {"threshold": 0.0}, "threshold must be > 0"),
         (np.zeros(3), {"scale": -1.0}, "scale must be > 0"),
+        # issue 9: an all-NaN map gave an all-NaN map back, a 1e308 one numpy overflow warnings
+        (np.full((2, 3), np.nan), {}, r"^disparity must hold at least one valid \(not NaN\) value; got 6 NaN$"),
+        (np.array([0.0, 1e308, -1e308]), {}, r"^disparity must lie in \[-1e\+30, 1e\+30\]; got 1e\+308$"),
+        (np.zeros(3), {"scale": 1e308}, r"^scale must lie in \[1e-06, 1e\+06\]; got 1e\+308$"),
     ],
 )
 def test_bad_input(disparity, kwargs, match):
     args = {"threshold": 1.0, "scale": 0.2} | kwargs
     with pytest.raises(ValueError, match=match):
         gradient_domain_mapping(disparity, **args)
+
+
+def test_text_is_not_a_disparity_map():
+    with pytest.raises(TypeError, match="^disparity must be numeric; got list$"):
+        gradient_domain_mapping(["1", "2"], threshold=1.0, scale=0.2)

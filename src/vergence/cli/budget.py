@@ -8,11 +8,32 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, console, display_from_options, err_console, print_json
+from vergence.cli._app import app, console, display_from_options, err_console, options_named, print_json
 from vergence.viewing.budget import DepthBudget, depth_budget
-from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, DISPLAY_PRESETS, Display, Shooting
+from vergence.viewing.geometry import DISPLAY_PRESETS, Display, Shooting
 
-__all__ = ["budget"]
+__all__ = ["OPTION_NAMES", "budget"]
+
+# The library's argument names and the options that set them: errors name what the user typed.
+OPTION_NAMES = {
+    "baseline": "--baseline",
+    "convergence": "--convergence",
+    "window": "--window",
+    "focal_mm": "--focal-mm",
+    "sensor_mm": "--sensor-mm",
+    "eye_separation": "--eye-separation",
+    "distance": "--viewing-distance",
+    "width": "--screen-width",
+    "resolution": "--screen-pixels",
+    "depths": "--depth",
+    "path": "--plot",
+}
+
+
+def print_warnings(warnings: tuple[str, ...] | list[str]) -> None:
+    """Each warning as one line on stderr (they are in the JSON too)."""
+    for line in warnings:
+        err_console.print(f"[bold yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
 
 
 def _shooting(baseline: float, convergence: float, window: float | None, focal_mm: float | None,
@@ -28,7 +49,14 @@ def _shooting(baseline: float, convergence: float, window: float | None, focal_m
         raise ValueError("--sensor-mm (sensor width in mm) is required with --focal-mm")
     if focal_mm is None:
         raise ValueError("--focal-mm (focal length in mm) is required with --sensor-mm")
-    return Shooting.from_focal(baseline=baseline, convergence=convergence, focal_mm=focal_mm, sensor_mm=sensor_mm)
+    try:
+        return Shooting.from_focal(baseline=baseline, convergence=convergence, focal_mm=focal_mm, sensor_mm=sensor_mm)
+    except ValueError as exc:
+        if not str(exc).startswith("window "):
+            raise
+        # The window was not typed: it is H S / F (S0 §2); say which options made it.
+        raise ValueError(f"the convergence window H S/F from --convergence, --sensor-mm and --focal-mm "
+                         f"{str(exc).removeprefix('window ')}") from None
 
 
 def _fmt(value: float | None, spec: str) -> str:
@@ -56,18 +84,16 @@ def _table(result: DepthBudget, shooting: Shooting, display: Display) -> None:
     table.add_column("perceived z' (m)", justify="right")
     table.add_column("roundness ρ", justify="right")
     table.add_column("note")
+    styles = {"eyes diverge": "red", "eyes parallel": "red", "cardboard": "yellow"}
     for s in result.samples:
-        if s.diverges:
-            note = "[red]eyes diverge[/]"
-        elif s.roundness is not None and s.roundness < CARDBOARD_ROUNDNESS:
-            note = "[yellow]cardboard[/]"
-        else:
-            note = ""
-        row = [f"{s.depth:.4g}", f"{100 * s.disparity:+.3f}"]
+        note = f"[{styles[s.note]}]{s.note}[/]" if s.note else ""
+        row = [f"{s.depth:.4g}" if math.isfinite(s.depth) else "∞", f"{100 * s.disparity:+.3f}"]
         if with_px:
             row.append(_fmt(s.parallax_px, "+.1f"))
-        # Eq. (4) is negative past the divergence limit: nothing is perceived there, show a dash.
-        row += [_fmt(s.perceived_depth, ".4g"), _fmt(None if s.diverges else s.roundness, ".3f"), note]
+        # z' is null where the eyes diverge or are parallel (infinite); rho as in the JSON: Eq. (4) as is,
+        # negative past divergence, null only where infinite (parallel eyes).
+        perceived = "∞" if s.note == "eyes parallel" else _fmt(s.perceived_depth, ".4g")
+        row += [perceived, _fmt(s.roundness, ".3f"), note]
         table.add_row(*row)
     console.print(table)
 
@@ -91,7 +117,7 @@ def budget(
         None, "--display", help=f"Display preset instead of the three lengths: {', '.join(sorted(DISPLAY_PRESETS))}."
     ),
     depth: list[float] | None = typer.Option(
-        None, "--depth", help="Scene depth z (m); repeat. Default: 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H."
+        None, "--depth", help="Scene depth z (m), inf allowed; repeat. Default: 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H."
     ),
     as_json: bool = typer.Option(False, "--json", help="Print only the JSON on stdout."),
     plot: Path | None = typer.Option(
@@ -99,17 +125,19 @@ def budget(
     ),
 ) -> None:
     """Depth budget of a rig on a display: divergence and roundness baselines, z' and roundness per depth (S0 §2)."""
-    shooting = _shooting(baseline, convergence, window, focal_mm, sensor_mm)
-    display = display_from_options(display_preset, eye_separation, viewing_distance, screen_width, screen_pixels)
-    result = depth_budget(shooting, display, depth if depth else None)
-    if plot is not None:
-        from vergence.report.budget_plot import plot_budget  # matplotlib only when a plot is asked for
+    with options_named(**OPTION_NAMES):
+        shooting = _shooting(baseline, convergence, window, focal_mm, sensor_mm)
+        display = display_from_options(display_preset, eye_separation, viewing_distance, screen_width, screen_pixels)
+        result = depth_budget(shooting, display, depth if depth else None)
+        if plot is not None:
+            from vergence.report.budget_plot import plot_budget  # matplotlib only when a plot is asked for
 
-        depths = [s.depth for s in result.samples]
-        near, far = min(depths), max(depths)
-        if near == far:  # a single depth: show a range around it
-            near, far = near / 2.0, far * 2.0
-        plot_budget(shooting, display, near=near, far=far, path=plot)
+            depths = [s.depth for s in result.samples if math.isfinite(s.depth)] or [shooting.convergence]
+            near, far = min(depths), max(depths)
+            if near == far:  # a single depth: show a range around it
+                near, far = near / 2.0, far * 2.0
+            plot_budget(shooting, display, near=near, far=far, path=plot)
+    print_warnings(result.warnings)
     if as_json:
         print_json(result.to_dict())
         if plot is not None:

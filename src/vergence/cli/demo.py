@@ -2,20 +2,48 @@
 
 from __future__ import annotations
 
+import signal
+import threading
 from pathlib import Path
 
 import typer
 
-from vergence.cli._app import app, console
+from vergence.cli._app import app, console, err_console
+
+# The exit status of a program stopped by Ctrl-C (128 + SIGINT), as shells report it.
+EXIT_INTERRUPTED = 130
 
 
 @app.command("demo")
 def demo(
     out: Path = typer.Option(Path("demo-output"), "--out", help="Folder for index.html and its figures."),
 ) -> None:
-    """Run the main job on built-in data and write OUT/index.html."""
+    """Run the main job on built-in data and write OUT/index.html (all or nothing)."""
     from vergence.report.demo import run_demo
 
-    with console.status("vergence demo") as status:
-        result = run_demo(out, progress=lambda msg: status.update(f"vergence demo: {msg}"))
+    # Ctrl-C is remembered as well as raised: a library that swallows the KeyboardInterrupt (Numba's cache
+    # write did, and the demo then exited 0) cannot hide it, the next step raises it again.
+    interrupted = threading.Event()
+
+    def on_sigint(signum: int, frame: object) -> None:
+        interrupted.set()
+        raise KeyboardInterrupt
+
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, on_sigint) if main_thread else None
+    try:
+        with console.status("vergence demo") as status:
+
+            def step(msg: str) -> None:
+                if interrupted.is_set():
+                    raise KeyboardInterrupt
+                status.update(f"vergence demo: {msg}")
+
+            result = run_demo(out, progress=step)
+    except KeyboardInterrupt:
+        err_console.print(f"[bold red]interrupted:[/] nothing was written to {out}", highlight=False)
+        raise typer.Exit(EXIT_INTERRUPTED) from None
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
     console.print(f"wrote [bold]{result.index}[/]")

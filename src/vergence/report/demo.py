@@ -10,13 +10,16 @@ mapping psi (S0 §6) does both.
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from vergence.report.html import Figure, Section, write_report
+from vergence.report.html import Figure, Grid, Section, write_report
 from vergence.viewing.budget import DepthBudget, depth_budget
 from vergence.viewing.geometry import (
     CARDBOARD_ROUNDNESS,
@@ -71,16 +74,12 @@ def _fmt(v: float | None, digits: int = 3) -> str:
 
 
 def _budget_table(name: str, budget: DepthBudget) -> list[tuple[str, ...]]:
+    """Rows as ``vergence budget`` prints them: z' infinite where the eyes are parallel, null where they
+    diverge; roundness as in ``budget --json`` (S0 Eq. 4 as is: negative past divergence); the same notes."""
     rows = []
     for s in budget.samples:
-        if s.diverges:
-            perceived, rho, flag = "-", "-", "eyes diverge"
-        elif s.perceived_depth is None:
-            perceived, rho, flag = "inf", "-", "eyes parallel"
-        else:
-            perceived, rho = _fmt(s.perceived_depth, 3), _fmt(s.roundness, 2)
-            flag = "cardboard" if s.roundness is not None and s.roundness < CARDBOARD_ROUNDNESS else ""
-        rows.append((name, f"{s.depth:g}", _fmt(s.parallax_px, 3), perceived, rho, flag))
+        perceived = "inf" if s.note == "eyes parallel" else _fmt(s.perceived_depth, 3)
+        rows.append((name, f"{s.depth:g}", _fmt(s.parallax_px, 3), perceived, _fmt(s.roundness, 2), s.note))
     return rows
 
 
@@ -107,14 +106,20 @@ def _section_budget(out: Path, progress: Progress) -> tuple[Section, DepthBudget
         f"b = b_round = {b_round:.3f} m the player is round (1.0) but everything beyond "
         f"{round_rig.divergence_depth:.1f} m, the bleachers included, asks the eyes to diverge. "
         "(With b = b_div the roundness is the same at every depth: Eq. (4)'s z term vanishes.) "
-        "Disparities are in screen pixels (positive = behind the screen)."
+        "Disparities are in screen pixels (positive = behind the screen). Past the divergence depth nothing "
+        "is perceived (z' is empty) and the roundness is S0 Eq. (4) as is, negative, as `vergence budget "
+        "--json` reports it."
     )
     table = (("rig", "depth z (m)", "disparity (px)", "perceived z' (m)", "roundness", "problem"),)
     table += tuple(_budget_table(f"b_div = {b_div:.3f} m", div_rig))
     table += tuple(_budget_table(f"b_round = {b_round:.3f} m", round_rig))
     figures = (
-        Figure("budget_b_div.png", "b = b_div: perceived depth and roundness against scene depth (cardboard subject)."),
-        Figure("budget_b_round.png", "b = b_round: round subject, but the eyes diverge beyond the marked depth."),
+        Grid((
+            Figure("budget_b_div.png", f"b = b_div = {b_div:.4f} m: perceived depth and roundness against scene depth "
+                   "(cardboard subject)."),
+            Figure("budget_b_round.png", f"b = b_round = {b_round:.3f} m: round subject, but the eyes diverge beyond "
+                   "the marked depth."),
+        )),
     )
     return Section("1. One rig cannot do both (S0 §2)", text, figures, table), div_rig, round_rig
 
@@ -165,6 +170,8 @@ def _section_stadium(out: Path, progress: Progress) -> tuple[Section, dict[str, 
     window = 2.0 * SUBJECT_DEPTH * math.tan(math.radians(scene.camera.fov_deg) / 2.0)
     b_div = divergence_baseline(window, display)  # S0 Eq. (3)
     b_round = roundness_baseline(SUBJECT_DEPTH, display)  # S0 Eq. (5)
+    section1_window = SUBJECT_DEPTH / SHOOTING_FOCAL  # section 1 frames the player with f = 10
+    section1_b_div = divergence_baseline(section1_window, display)
     limit_px = display.divergence_disparity * display.resolution
     rows: list[tuple[str, ...]] = [("rig", "baseline (m)", "nearest (px)", "farthest (px)", "divergence limit (px)")]
     figures = []
@@ -175,10 +182,9 @@ def _section_stadium(out: Path, progress: Progress) -> tuple[Section, dict[str, 
             scene, baseline=baseline, convergence=SUBJECT_DEPTH, samples=RENDER_SAMPLES, rng=np.random.default_rng(0)
         )
         write_image(out / f"stadium_{name}_anaglyph.png", anaglyph(pair.left, pair.right, method="dubois"))
-        figures.append(Figure(f"stadium_{name}_anaglyph.png", f"Dubois anaglyph, b = {name} = {baseline:.3f} m."))
+        figures.append(Figure(f"stadium_{name}_anaglyph.png", f"Dubois anaglyph, b = {name} = {baseline:.4f} m."))
         if name == "b_div":
             write_image(out / "stadium_b_div_sbs.png", side_by_side(pair.left, pair.right, half=True))
-            figures.append(Figure("stadium_b_div_sbs.png", "The b_div pair, half side-by-side (for 3D TVs)."))
         # Screen disparity x_r - x_l of every first hit, scaled from the render's width to the display's.
         disp_px = -screen_disparity(pair.left_result, pair.right_result)
         disp = disp_px[np.isfinite(disp_px)] / pair.left_result.camera.width * display.resolution
@@ -190,8 +196,18 @@ def _section_stadium(out: Path, progress: Progress) -> tuple[Section, dict[str, 
         f"with the two plain rigs above, {RENDER_WIDTH}x{RENDER_HEIGHT} px. The table gives the screen "
         "disparity measured on the rendered geometry (every first-hit point projected into both views, "
         f"scaled to the {display.resolution}-px television): with b_round the bleachers' disparity passes "
-        "the divergence limit b'/W' (S0 Eq. 8), with b_div it never does but the player looks flat."
+        "the divergence limit b'/W' (S0 Eq. 8), with b_div it never does but the player looks flat. "
+        f"Why b_div is {b_div:.4f} m here but {section1_b_div:.4f} m in section 1: b_div = b'W/W' (S0 Eq. 3) "
+        "grows with the convergence window W, and the two sections frame the player differently. Section 1 "
+        f"uses f = H/W = {SHOOTING_FOCAL:g}, so W = {SUBJECT_DEPTH:g}/{SHOOTING_FOCAL:g} = {section1_window:g} m; "
+        f"the stadium's camera has a {scene.camera.fov_deg:g} degree lens, so W = 2 H tan(fov/2) = "
+        f"{window:.3f} m (f = {SUBJECT_DEPTH / window:.2f}). On the same television (b' = {display.eye_separation:g} m, "
+        f"W' = {display.width:g} m): {display.eye_separation:g} x {section1_window:g} / {display.width:g} = "
+        f"{section1_b_div:.4f} m against {display.eye_separation:g} x {window:.3f} / {display.width:g} = {b_div:.4f} m. "
+        f"b_round = b'H/H' = {b_round:.2f} m depends on H and H' only: the same in both."
     )
+    figures = [Grid(tuple(figures)),
+               Figure("stadium_b_div_sbs.png", "The b_div pair, half side-by-side (for 3D TVs).")]
     section = Section("3. Rendered: the stadium pair (S0 §4, S3 §3.1 ray tree)", text, tuple(figures), tuple(rows))
     return section, measured
 
@@ -233,7 +249,8 @@ def _section_dibr(out: Path, progress: Progress) -> tuple[Section, object]:
         f"the ray-traced right eye: PSNR {quality.psnr_db:.2f} dB, SSIM {quality.ssim:.4f}, DSSIM "
         f"{quality.dssim:.4f}; registration error (S1 Eq. 11–13, over the {reg_pct:.0f} % of pixels with texture) "
         f"RMS {quality.registration_rms_px:.2f} px, 95th percentile {quality.registration_ranked_px[0.95]:.2f} px. "
-        "The error image is 4x the mean absolute difference; the pair is also shown in display formats."
+        "The DIBR view stands beside its truth; under them the input, the error (4x the mean absolute "
+        "difference) and the disoccluded pixels; last, the pair in display formats."
     )
     table = (
         ("view", "PSNR (dB)", "SSIM", "DSSIM", "registration RMS (px)", "registration 95 % (px)", "disoccluded (%)"),
@@ -248,15 +265,21 @@ def _section_dibr(out: Path, progress: Progress) -> tuple[Section, object]:
         ),
     )
     figures = (
-        Figure("tabletop_left.png", "Left eye, ray-traced (the DIBR input, with its depth)."),
-        Figure("tabletop_right_traced.png", "Right eye, ray-traced (the truth)."),
-        Figure("tabletop_right_dibr.png", "Right eye, synthesized by DIBR from the left eye + depth."),
-        Figure("tabletop_error_x4.png", "|DIBR - truth| x 4 (mean over channels)."),
-        Figure("tabletop_holes.png", "Disoccluded pixels (white), filled from the background side."),
-        Figure("tabletop_anaglyph.png", "Left + DIBR right: Dubois anaglyph."),
-        Figure("tabletop_sbs_half.png", "Half side-by-side."),
-        Figure("tabletop_top_bottom_half.png", "Half top-bottom."),
-        Figure("tabletop_row_interleaved.png", "Row-interleaved (passive polarised screens)."),
+        Grid((
+            Figure("tabletop_right_traced.png", "Right eye, ray-traced (the truth)."),
+            Figure("tabletop_right_dibr.png", "Right eye, synthesized by DIBR from the left eye + depth."),
+        )),
+        Grid((
+            Figure("tabletop_left.png", "Left eye, ray-traced (the DIBR input, with its depth)."),
+            Figure("tabletop_error_x4.png", "|DIBR - truth| x 4 (mean over channels)."),
+            Figure("tabletop_holes.png", "Disoccluded pixels (white), filled from the background side."),
+        ), columns=3),
+        Grid((
+            Figure("tabletop_anaglyph.png", "Left + DIBR right: Dubois anaglyph."),
+            Figure("tabletop_sbs_half.png", "Half side-by-side."),
+            Figure("tabletop_top_bottom_half.png", "Half top-bottom."),
+            Figure("tabletop_row_interleaved.png", "Row-interleaved (passive polarised screens)."),
+        )),
     )
     return Section("4. View synthesis against the truth (S1)", text, figures, table), quality
 
@@ -264,39 +287,65 @@ def _section_dibr(out: Path, progress: Progress) -> tuple[Section, object]:
 def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoResult:
     """Run the main job on built-in data and write ``out_dir/index.html`` with its figures.
 
+    All or nothing: everything is written into a hidden temporary folder beside ``out_dir`` and moved
+    into place only once complete (a new ``out_dir`` by one rename; into an existing one file by file,
+    ``index.html`` last). On any error or interruption (``KeyboardInterrupt``) the temporary folder is
+    removed and ``out_dir`` is left as it was.
+
     Parameters
     ----------
     out_dir : str or Path
-        Output folder; created if missing. Existing demo files in it are replaced.
+        Output folder; created if missing. Existing demo files in it are replaced, other files kept.
     progress : callable, optional
-        Called with a short message before each step.
+        Called with a short message before each step and once more just before the output is moved into
+        place; an exception it raises (a ``KeyboardInterrupt`` the caller noticed) aborts the demo cleanly.
     """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out must be a folder; {out} is a file")
-    out.mkdir(parents=True, exist_ok=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
     say = progress or (lambda _msg: None)
-    say("depth budget of the two plain rigs")
-    budget_section, div_rig, round_rig = _section_budget(out, say)
-    tri_section, tri = _section_tri_rig(out, say)
-    stadium_section, stadium_disparity = _section_stadium(out, say)
-    dibr_section, dibr_quality = _section_dibr(out, say)
-    sections = [budget_section, tri_section, stadium_section, dibr_section]
-    say("writing index.html")
-    index = write_report(
-        out / "index.html",
-        title="Vergence demo: a stereoscopic long-lens shot",
-        intro=(
-            "Everything on this page was computed by `vergence demo` from built-in data; "
-            "each figure is a PNG beside this file."
-        ),
-        sections=sections,
-    )
+    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        say("depth budget of the two plain rigs")
+        budget_section, div_rig, round_rig = _section_budget(work, say)
+        say("the Tri-Rig mapping")
+        tri_section, tri = _section_tri_rig(work, say)
+        say("the stadium pair")
+        stadium_section, stadium_disparity = _section_stadium(work, say)
+        say("view synthesis")
+        dibr_section, dibr_quality = _section_dibr(work, say)
+        sections = [budget_section, tri_section, stadium_section, dibr_section]
+        say("writing index.html")
+        write_report(
+            work / "index.html",
+            title="Vergence demo: a stereoscopic long-lens shot",
+            intro=(
+                "Everything on this page was computed by `vergence demo` from built-in data; "
+                "each figure is a PNG beside this file."
+            ),
+            sections=sections,
+        )
+        say("moving the report into place")
+        _publish(work, out)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
     return DemoResult(
-        index=index,
+        index=out / "index.html",
         divergence_rig=div_rig,
         roundness_rig=round_rig,
         tri_rig=tri,
         stadium_disparity_px=stadium_disparity,
         dibr_quality=dibr_quality,
     )
+
+
+def _publish(work: Path, out: Path) -> None:
+    """Move the finished report from ``work`` to ``out``: one rename for a new folder, else file by file
+    with ``index.html`` last (a reader never sees a page whose figures are missing)."""
+    if not out.exists():
+        os.replace(work, out)
+        return
+    names = sorted(p.name for p in work.iterdir() if p.name != "index.html") + ["index.html"]
+    for name in names:
+        os.replace(work / name, out / name)

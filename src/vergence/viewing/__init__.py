@@ -2,6 +2,7 @@
 
 from vergence.viewing.budget import DepthBudget, DepthSample, default_depths, depth_budget
 from vergence.viewing.comfort import (
+    MAX_VERGENCE_ARCMIN,
     ComfortReport,
     ComfortZone,
     arcmin_from_pixels,
@@ -13,7 +14,9 @@ from vergence.viewing.geometry import (
     CONTROL_EFFECTS,
     DISPLAY_PRESETS,
     LENGTH_RANGE,
+    MAX_ABS_DISPARITY,
     MAX_SCENE_DEPTH,
+    ROUNDNESS_RANGE,
     Display,
     Shooting,
     disparity,
@@ -61,8 +64,11 @@ __all__ = [
     "LENGTH_RANGE",
     "LinearMapping",
     "LogMapping",
+    "MAX_ABS_DISPARITY",
     "MAX_SCENE_DEPTH",
+    "MAX_VERGENCE_ARCMIN",
     "PiecewiseMapping",
+    "ROUNDNESS_RANGE",
     "RationalHermiteMapping",
     "SaliencyMapping",
     "Shooting",

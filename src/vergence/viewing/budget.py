@@ -13,8 +13,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from vergence._validate import as_float_array, check_finite
+from vergence._validate import check_finite
+from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import (
+    CARDBOARD_ROUNDNESS,
     Display,
     Shooting,
     disparity,
@@ -25,13 +27,20 @@ from vergence.viewing.geometry import (
     roundness,
     roundness_baseline,
 )
+from vergence.viewing.geometry import _check_type, _depth_ratio, _depths, _real_array
 
-__all__ = ["DEFAULT_DEPTH_FACTORS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
+__all__ = ["DEFAULT_DEPTH_FACTORS", "DIVERGENCE_FLAG_ULPS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
 
 # Scene depths sampled when none are given, as multiples of the convergence distance H: the
 # foreground at H/2, the subject on the convergence plane (d = 0), and a background out to 10 H
 # (where d is 90 % of its limit b/W, so divergence, if the rig has any, usually shows).
 DEFAULT_DEPTH_FACTORS: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0)
+
+# Half-width, in machine epsilons of divergence_depth, of the band of depths around it where the reported
+# disparity is the limit b'/W' to its rounding (z_div itself is rounded, and d amplifies that by
+# H/(z_div - H)): there the ``diverges`` flag follows the exact sign of Eq. (2) at divergence_depth; elsewhere
+# it is d > b'/W' on the reported d. 4 covers z_div and its neighbouring floats.
+DIVERGENCE_FLAG_ULPS = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,7 +50,8 @@ class DepthSample:
     Attributes
     ----------
     depth : float
-        Scene depth z in metres.
+        Scene depth z in metres; ``inf`` for a point at infinity (``null`` in :meth:`to_dict`, as JSON
+        has no infinity).
     disparity : float
         Normalised disparity d, a fraction of W (S0 Eq. 1a).
     parallax_px : float or None
@@ -53,9 +63,10 @@ class DepthSample:
         rho of S0 Eq. (4) as is (negative where the eyes diverge); None only where it is infinite
         (the eyes exactly parallel at this depth).
     diverges : bool
-        Whether the eyes diverge at this depth (``d > b'/W'``, S0 Eq. 3 and 8): exactly the depths
-        beyond :attr:`DepthBudget.divergence_depth`; at that depth itself the eyes are parallel
-        (``perceived_depth`` and ``roundness`` None, ``diverges`` False).
+        Whether the eyes diverge at this depth: ``d > b'/W'`` on the reported ``disparity`` (S0 Eq. 3
+        and 8), except within :data:`DIVERGENCE_FLAG_ULPS` of :attr:`DepthBudget.divergence_depth`, where
+        d is the limit to its rounding and the exact sign of Eq. (2) decides: at that depth itself the
+        eyes are parallel (``perceived_depth`` and ``roundness`` None, ``diverges`` False).
     """
 
     depth: float
@@ -66,8 +77,8 @@ class DepthSample:
     diverges: bool
 
     def __post_init__(self) -> None:
-        if check_finite("depth", self.depth) <= 0:
-            raise ValueError(f"depth must be > 0; got {self.depth:g}")
+        if isinstance(self.depth, bool) or not isinstance(self.depth, float | int) or not self.depth > 0:
+            raise ValueError(f"depth must be > 0 (inf allowed); got {self.depth!r}")
         check_finite("disparity", self.disparity)
         for name in ("parallax_px", "perceived_depth", "roundness"):
             if getattr(self, name) is not None:
@@ -75,9 +86,23 @@ class DepthSample:
         if self.diverges and self.perceived_depth is not None:
             raise ValueError(f"perceived_depth must be None where the eyes diverge; got {self.perceived_depth:g}")
 
+    @property
+    def note(self) -> str:
+        """What a viewer meets at this depth, as ``vergence budget`` and the demo page print it:
+        ``"eyes diverge"`` (S0 Eq. 8), ``"eyes parallel"`` (z' infinite, at the divergence limit),
+        ``"cardboard"`` (roundness below :data:`~vergence.viewing.geometry.CARDBOARD_ROUNDNESS`), or ``""``."""
+        if self.diverges:
+            return "eyes diverge"
+        if self.perceived_depth is None:
+            return "eyes parallel"
+        if self.roundness is not None and self.roundness < CARDBOARD_ROUNDNESS:
+            return "cardboard"
+        return ""
+
     def to_dict(self) -> dict[str, float | bool | None]:
         """The JSON object of one depth; ``parallax_px`` is left out when the resolution is unknown."""
-        out: dict[str, float | bool | None] = {"depth": self.depth, "disparity": self.disparity}
+        depth = self.depth if math.isfinite(self.depth) else None  # JSON has no inf: null is infinity
+        out: dict[str, float | bool | None] = {"depth": depth, "disparity": self.disparity}
         if self.parallax_px is not None:
             out["parallax_px"] = self.parallax_px
         out.update(perceived_depth=self.perceived_depth, roundness=self.roundness, diverges=self.diverges)
@@ -100,6 +125,9 @@ class DepthBudget:
         Scene depth beyond which the eyes diverge with this baseline, ``inf`` if none.
     samples : tuple of DepthSample
         One per requested depth, in the order given.
+    warnings : tuple of str
+        One line each: samples where the eyes diverge (S0 Eq. 8), samples outside the default
+        :class:`~vergence.viewing.comfort.ComfortZone` (±60 arcmin). Empty when all is well.
     """
 
     divergence_baseline: float
@@ -107,6 +135,7 @@ class DepthBudget:
     focal_ratio: float
     divergence_depth: float
     samples: tuple[DepthSample, ...]
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         for f in fields(self)[:3]:
@@ -117,6 +146,9 @@ class DepthBudget:
         object.__setattr__(self, "samples", tuple(self.samples))
         if not self.samples or not all(isinstance(s, DepthSample) for s in self.samples):
             raise ValueError("samples must be a non-empty sequence of DepthSample")
+        object.__setattr__(self, "warnings", tuple(self.warnings))
+        if not all(isinstance(w, str) for w in self.warnings):
+            raise TypeError("warnings must be a sequence of str")
 
     def to_dict(self) -> dict[str, object]:
         """The JSON of ``vergence budget --json`` (issue 2): baselines, focal ratio and the depths."""
@@ -125,11 +157,13 @@ class DepthBudget:
             "roundness_baseline": self.roundness_baseline,
             "focal_ratio": self.focal_ratio,
             "depths": [s.to_dict() for s in self.samples],
+            "warnings": list(self.warnings),
         }
 
 
 def default_depths(shooting: Shooting) -> tuple[float, ...]:
     """Scene depths used when none are given: :data:`DEFAULT_DEPTH_FACTORS` times ``H``."""
+    _check_type("shooting", shooting, Shooting)
     return tuple(k * shooting.convergence for k in DEFAULT_DEPTH_FACTORS)
 
 
@@ -143,7 +177,8 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     display : Display
         The viewing set-up: eye separation b', distance H', screen width W' (resolution optional).
     depths : array_like of float, optional
-        Scene depths in metres, each finite and > 0 (a scalar or 1-D, any order, kept as given). Default:
+        Scene depths in metres, each > 0 and at most :data:`~vergence.viewing.geometry.MAX_SCENE_DEPTH`,
+        or ``inf`` (a point at infinity: d = b/W, roundness 0); a scalar or 1-D, any order, kept as given. Default:
         :func:`default_depths`, i.e. 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H.
 
     Returns
@@ -156,7 +191,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     TypeError
         If ``shooting`` or ``display`` has the wrong type.
     ValueError
-        If ``depths`` is empty, not 1-D, or holds a value that is not finite and > 0.
+        If ``depths`` is empty, not 1-D, or holds NaN, -inf, a value <= 0 or out of range.
 
     Notes
     -----
@@ -180,14 +215,48 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     if depths is None:
         z = np.array(default_depths(shooting))
     else:
-        z = np.atleast_1d(as_float_array("depths", depths))
+        z = np.atleast_1d(_real_array("depths", depths, allow_inf=True))
         if z.ndim != 1 or z.size == 0:
             raise ValueError(f"depths must be a non-empty 1-D sequence of metres; got shape {z.shape}")
+        bad = np.isnan(z) | np.isneginf(z)
+        if bad.any():
+            raise ValueError(f"depths must be > 0 metres or inf (a point at infinity); got {z[bad][0]}")
         if (z <= 0).any():
             raise ValueError(f"depths must be > 0 (in front of the cameras); got {z.min():g}")
-    d = np.atleast_1d(disparity(z, shooting))  # Eq. (1a)
-    zp = np.atleast_1d(perceived_depth_from_depth(z, shooting, display))  # Eq. (2): NaN diverges, inf parallel
-    rho = np.atleast_1d(roundness(z, shooting, display))  # Eq. (4)
+    finite = np.isfinite(z)
+    z_fin = np.where(finite, z, shooting.convergence)  # the z-forms below only see finite depths
+    _depths("depths", z_fin)  # the documented range of a finite depth
+    # Eq. (1a); at z = inf its limit b/W.
+    d = np.where(finite, np.atleast_1d(disparity(z_fin, shooting)), shooting.baseline / shooting.window)
+    # Eq. (2) and (4) in the form that is exact where it is used (issue 9: at extreme set-ups the
+    # z-form cancelled, giving d = 0 a perceived depth of 0 or a divergence). With
+    # gap = 1 - d/(b'/W') = (b' - W'd)/b', the denominator of Eq. (2) and (4) is z W b' gap, so
+    # z' = H'/gap (Eq. 1b of Eq. 1a) and rho = b H'/(b' z gap): exact while gap >= 1/2 (d <= b'/(2W'),
+    # no cancellation). Nearer the limit, the z-forms of geometry (exact sign at divergence_depth).
+    limit = display.divergence_disparity
+    gap = 1.0 - d / limit
+    near = gap >= 0.5
+    # At z = inf only the gap form applies (z' of Eq. 1b at d = b/W; rho -> 0, Eq. 4's limit).
+    use_gap = near | ~finite
+    with np.errstate(divide="ignore", invalid="ignore"):
+        zp_gap = _depth_ratio(display.distance, gap)
+        rho_gap = shooting.baseline * display.distance / (display.eye_separation * z * np.where(near, gap, 1.0))
+    zp_z = np.asarray(perceived_depth_from_depth(z_fin, shooting, display))  # NaN exactly past divergence_depth
+    zp = np.where(use_gap, zp_gap, zp_z)
+    rho = np.where(use_gap, np.where(finite, rho_gap, 0.0), roundness(z_fin, shooting, display))
+    # The flag is Eq. (8) on the reported disparity, d > b'/W', except within DIVERGENCE_FLAG_ULPS of
+    # divergence_depth, where d is the limit to its rounding and the exact sign of the z-form decides (the
+    # eyes are parallel at that depth: 40 m in the README, whose d rounds an ulp past b'/W'). A z_div at or
+    # below H is a rounded one (mathematically z_div > H, as d(z_div) = b'/W' > 0): d decides everywhere.
+    # A flagged depth is never perceived; where the z-form says "diverges" but the flag does not, the
+    # eyes are parallel to rounding (z' and rho null).
+    z_div = divergence_depth(shooting, display)
+    band = DIVERGENCE_FLAG_ULPS * np.finfo(float).eps * z_div
+    at_limit = finite & (np.abs(z_fin - z_div) <= band) if math.isfinite(z_div) and z_div > shooting.convergence \
+        else np.zeros(z.shape, dtype=bool)
+    diverges = np.where(at_limit, np.isnan(zp_z), d > limit)
+    zp = np.where(diverges | ~np.isfinite(zp), np.nan, zp)
+    rho = np.where((diverges & (rho >= 0)) | (~diverges & (rho < 0)), np.nan, rho)
     samples = tuple(
         DepthSample(
             depth=float(z[i]),
@@ -195,14 +264,42 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
             parallax_px=None if display.resolution is None else float(d[i] * display.resolution),
             perceived_depth=float(zp[i]) if math.isfinite(zp[i]) else None,
             roundness=float(rho[i]) if math.isfinite(rho[i]) else None,
-            diverges=bool(np.isnan(zp[i])),
+            diverges=bool(diverges[i]),
         )
         for i in range(z.size)
     )
+    b_div = divergence_baseline(shooting.window, display)  # Eq. (3)
     return DepthBudget(
-        divergence_baseline=divergence_baseline(shooting.window, display),  # Eq. (3)
+        divergence_baseline=b_div,
         roundness_baseline=roundness_baseline(shooting.convergence, display),  # Eq. (5)
         focal_ratio=focal_ratio(shooting, display),  # Eq. (6)
-        divergence_depth=divergence_depth(shooting, display),
+        divergence_depth=z_div,
         samples=samples,
+        warnings=_warnings(samples, shooting, display, b_div, z_div),
     )
+
+
+def _depth_list(samples: list[DepthSample]) -> str:
+    return ", ".join("inf" if math.isinf(s.depth) else f"{s.depth:.4g}" for s in samples) + " m"
+
+
+def _warnings(samples: tuple[DepthSample, ...], shooting: Shooting, display: Display, b_div: float,
+              z_div: float) -> tuple[str, ...]:
+    """The lines of :attr:`DepthBudget.warnings`: divergence (S0 Eq. 3, 8), then the comfort zone."""
+    out = []
+    diverging = [s for s in samples if s.diverges]
+    if diverging:
+        beyond = f"beyond z = {z_div:.4g} m" if math.isfinite(z_div) else "at infinity"
+        out.append(f"the eyes diverge at z = {_depth_list(diverging)} ({beyond}): baseline b = {shooting.baseline:.4g} m "
+                   f"exceeds b_div = {b_div:.4g} m (S0 Eq. 3)")
+    zone = ComfortZone()
+    try:
+        lo, hi = zone.disparities(display)
+    except ValueError as exc:  # a display whose eyes already converge near 180 degrees
+        out.append(f"the comfort zone (±{zone.crossed_arcmin:g} arcmin) does not exist on this display: {exc}")
+        return tuple(out)
+    outside = [s for s in samples if not s.diverges and not lo <= s.disparity <= hi]
+    if outside:
+        out.append(f"outside the comfort zone (±{zone.crossed_arcmin:g} arcmin of vergence: d from {lo:+.4g} to "
+                   f"{hi:+.4g} of the screen width): z = {_depth_list(outside)}")
+    return tuple(out)

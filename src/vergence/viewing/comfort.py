@@ -22,11 +22,12 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from vergence._validate import as_float_array, check_finite, check_in_range
-from vergence.viewing.geometry import Display, _out
+from vergence._validate import check_finite, check_in_range
+from vergence.viewing.geometry import MAX_ABS_DISPARITY, Display, _check_type, _out, _real_array
 
 __all__ = [
     "ARCMIN_PER_RADIAN",
+    "MAX_VERGENCE_ARCMIN",
     "ComfortReport",
     "ComfortZone",
     "arcmin_from_pixels",
@@ -35,6 +36,11 @@ __all__ = [
 ]
 
 ARCMIN_PER_RADIAN = 180.0 * 60.0 / math.pi
+
+# Largest |vergence change| the small-angle form accepts, arcminutes: 180 degrees. The exact form is
+# undefined past about that (its own domain, checked there, depends on the display), and the small-angle
+# form has no viewing meaning past it either (it would overflow at 1e308).
+MAX_VERGENCE_ARCMIN = 180.0 * 60.0
 
 # A zone limit is a vergence change; beyond 90 degrees the exact inverse leaves its domain for
 # ordinary displays and the figure has no viewing meaning.
@@ -76,6 +82,24 @@ def _parallax_from_arcmin(theta_arcmin: np.ndarray, display: Display, exact: boo
     return e - 2.0 * D * np.tan(half)
 
 
+def _check_exact(exact: object) -> None:
+    if not isinstance(exact, bool | np.bool_):
+        raise TypeError(f"exact must be True or False; got {type(exact).__name__}")
+
+
+def _checked(name: str, values: object, display: object, exact: object) -> np.ndarray:
+    """The common checks of the two conversions: real values, NaN only beside a valid one, the display
+    with its resolution, ``exact`` a bool."""
+    arr = _real_array(name, values, allow_nan=True)
+    if arr.size == 0 or np.isnan(arr).all():
+        raise ValueError(f"{name} must hold at least one value that is not NaN (NaN marks an invalid pixel "
+                         f"of a map); got {arr.size} value(s), none valid")
+    _check_type("display", display, Display)
+    _check_exact(exact)
+    display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
+    return arr
+
+
 def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
     """Vergence change in arcminutes of a screen disparity in pixels (S3 §3 works in arcmin).
 
@@ -83,7 +107,8 @@ def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = T
     ----------
     parallax_px : float or array_like
         Screen parallax ``x_r - x_l`` in display pixels, positive (uncrossed) behind the screen.
-        NaN (invalid) passes through as NaN; inf is refused.
+        NaN (an invalid pixel of a map) passes through as NaN, but at least one value must be valid;
+        inf, and more than :data:`~vergence.viewing.geometry.MAX_ABS_DISPARITY` screen widths, are refused.
     display : Display
         The viewing set-up; its ``resolution`` must be known.
     exact : bool, keyword-only
@@ -98,7 +123,10 @@ def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = T
     Raises
     ------
     ValueError
-        If ``parallax_px`` holds inf, or the display resolution is unknown.
+        If ``parallax_px`` holds inf or is all NaN, or the display resolution is unknown.
+    TypeError
+        If ``parallax_px`` is not numeric (text included), ``display`` is not a Display or ``exact``
+        not a bool.
 
     Notes
     -----
@@ -114,7 +142,14 @@ def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = T
     >>> round(arcmin_from_pixels(1.0, samsung), 3), round(arcmin_from_pixels(1.0, samsung, exact=False), 3)
     (1.611, 1.616)
     """
-    s = as_float_array("parallax_px", parallax_px, allow_nan=True) * display.pixel_pitch
+    px = _checked("parallax_px", parallax_px, display, exact)
+    limit = MAX_ABS_DISPARITY * display.resolution  # d = parallax_px / N screen widths
+    with np.errstate(invalid="ignore"):
+        too_far = np.abs(px) > limit
+    if too_far.any():
+        raise ValueError(f"parallax_px must lie in [-{limit:g}, {limit:g}] (MAX_ABS_DISPARITY screen widths); "
+                         f"got {px[too_far].flat[0]:g}")
+    s = px * display.pixel_pitch
     return _out(_arcmin_from_parallax(s, display, exact))
 
 
@@ -126,7 +161,8 @@ def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: boo
     Parameters
     ----------
     disparity_arcmin : float or array_like
-        Vergence change in arcminutes, positive (uncrossed) behind the screen. NaN passes through.
+        Vergence change in arcminutes, positive (uncrossed) behind the screen, at most
+        :data:`MAX_VERGENCE_ARCMIN` in magnitude. NaN passes through beside at least one valid value.
     display : Display
         The viewing set-up; its ``resolution`` must be known.
     exact : bool, keyword-only
@@ -140,8 +176,10 @@ def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: boo
     Raises
     ------
     ValueError
-        If an angle is inf, lies outside the exact form's domain (a vergence outside ±180°), or the
-        display resolution is unknown.
+        If an angle is inf, past :data:`MAX_VERGENCE_ARCMIN`, outside the exact form's domain (a
+        vergence outside ±180°), if all are NaN, or if the display resolution is unknown.
+    TypeError
+        If ``disparity_arcmin`` is not numeric, ``display`` is not a Display or ``exact`` not a bool.
 
     Notes
     -----
@@ -152,7 +190,12 @@ def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: boo
     >>> round(pixels_from_arcmin(60.0, Display.preset("samsung-2233rz"), exact=False), 2)
     37.13
     """
-    theta = as_float_array("disparity_arcmin", disparity_arcmin, allow_nan=True)
+    theta = _checked("disparity_arcmin", disparity_arcmin, display, exact)
+    with np.errstate(invalid="ignore"):
+        too_wide = np.abs(theta) > MAX_VERGENCE_ARCMIN
+    if too_wide.any() and not exact:  # the exact form checks its own (display-dependent) domain
+        raise ValueError(f"disparity_arcmin must lie in [-{MAX_VERGENCE_ARCMIN:g}, {MAX_VERGENCE_ARCMIN:g}] arcmin "
+                         f"(a vergence change of at most 180 degrees); got {theta[too_wide].flat[0]:g}")
     pitch = display.pixel_pitch
     return _out(_parallax_from_arcmin(theta, display, exact) / pitch)
 
@@ -200,6 +243,8 @@ class ComfortZone:
         return self.uncrossed_arcmin
 
     def _parallax(self, display: Display, exact: bool) -> tuple[float, float]:
+        _check_type("display", display, Display)
+        _check_exact(exact)
         s = _parallax_from_arcmin(np.array([self.min_arcmin, self.max_arcmin]), display, exact)
         return float(s[0]), float(s[1])
 
@@ -321,7 +366,8 @@ def check_disparity_range(
     >>> r.inside, round(r.far_margin_px, 1), round(r.divergence_px, 1)
     (True, 7.2, 230.5)
     """
-    values = as_float_array("parallax_px", parallax_px, allow_nan=True)
+    values = _real_array("parallax_px", parallax_px, allow_nan=True)
+    _check_type("display", display, Display)
     finite = values[np.isfinite(values)]
     if finite.size == 0:
         raise ValueError(f"parallax_px must hold at least one finite value; got {values.size} values, none finite")

@@ -10,6 +10,7 @@ the convergence plane. All lengths are in metres.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -24,7 +25,9 @@ __all__ = [
     "DISPLAY_PRESETS",
     "Display",
     "LENGTH_RANGE",
+    "MAX_ABS_DISPARITY",
     "MAX_SCENE_DEPTH",
+    "ROUNDNESS_RANGE",
     "Shooting",
     "disparity",
     "divergence_baseline",
@@ -47,9 +50,18 @@ LENGTH_RANGE = (1e-6, 1e6)
 # Scene depths run from LENGTH_RANGE[0] to MAX_SCENE_DEPTH (1e20 m, far beyond any scene; the budget of a
 # point at infinity is its limit, b/W).
 MAX_SCENE_DEPTH = 1e20
+# Largest |d| accepted as an input disparity, in image widths (S0's normalised disparity). A rig inside
+# LENGTH_RANGE gives |d(z)| = (b/W)|1 - H/z| <= 1e24 at the depths allowed, so 1e30 refuses no real
+# disparity, and it keeps 1 - d/(b/W) and Eq. (1b) finite (|d| W/b <= 1e42): no overflow warnings.
+MAX_ABS_DISPARITY = 1e30
 # focal_mm and sensor_mm of Shooting.from_focal, millimetres: the metre range above.
 _MM_RANGE = (1e-3, 1e9)
 
+# Roundness factors rho (S0 Eq. 4 and 9) a user may ask for: 1 is round, CARDBOARD_ROUNDNESS flat. A
+# thousandth to a thousand times round covers every look a director wants (S0 §6 uses 0.5 to 2); past
+# it, psi' = rho z b'/(b_r z') sends the mapped disparities to thousands of image widths (issue 9:
+# roundness 1e9 gave crossed disparities of -3e8 widths). Outside is refused, never clamped.
+ROUNDNESS_RANGE = (1e-3, 1e3)
 # The paper's cardboard criterion (S0 §2): roundness below this looks like a flat cut-out.
 CARDBOARD_ROUNDNESS = 0.3
 
@@ -58,8 +70,13 @@ def _length(name: str, value: object, bounds: tuple[float, float] = LENGTH_RANGE
     """``value`` as a float in ``bounds`` (default :data:`LENGTH_RANGE`, metres), else ValueError."""
     v = check_positive(name, value)
     if not bounds[0] <= v <= bounds[1]:
-        raise ValueError(f"{name} must lie in [{bounds[0]:g}, {bounds[1]:g}] {unit}; got {v:g}")
+        raise ValueError(f"{name} must lie in [{bounds[0]:g}, {bounds[1]:g}]{' ' + unit if unit else ''}; got {v:g}")
     return v
+
+
+def _roundness(name: str, value: object) -> float:
+    """``value`` as a float in :data:`ROUNDNESS_RANGE`, else ValueError (TypeError for a non-number)."""
+    return _length(name, value, ROUNDNESS_RANGE, "")
 
 
 @dataclass(frozen=True, slots=True)
@@ -163,8 +180,38 @@ DISPLAY_PRESETS: Mapping[str, Display] = MappingProxyType({
 })
 
 
+def _real_array(name: str, value: object, *, allow_nan: bool = False, allow_inf: bool = False) -> np.ndarray:
+    """:func:`as_float_array` that also refuses text (numpy would read ``'30'`` as 30.0): TypeError.
+
+    ``allow_inf`` lets +-inf (and NaN) through unchecked, for callers that check them themselves."""
+    try:
+        kind = np.asarray(value).dtype.kind
+    except (TypeError, ValueError):  # ragged nesting and the like
+        kind = "O"
+    if isinstance(value, str | bytes) or kind in "USO":
+        raise TypeError(f"{name} must be numeric; got {type(value).__name__}")
+    if allow_inf:
+        return np.asarray(value, dtype=np.float64)
+    return as_float_array(name, value, allow_nan=allow_nan)
+
+
+def _check_type(name: str, value: object, cls: type) -> None:
+    """TypeError naming the argument unless ``value`` is a ``cls`` (never an AttributeError later)."""
+    if not isinstance(value, cls):
+        raise TypeError(f"{name} must be a {cls.__name__}; got {type(value).__name__}")
+
+
+def _disparities(name: str, d: object, unit: str = " image widths") -> np.ndarray:
+    """Finite disparities (image widths) with ``|d| <=`` :data:`MAX_ABS_DISPARITY`."""
+    arr = _real_array(name, d)
+    if arr.size and np.abs(arr).max() > MAX_ABS_DISPARITY:
+        raise ValueError(f"{name} must lie in [-{MAX_ABS_DISPARITY:g}, {MAX_ABS_DISPARITY:g}]{unit}; "
+                         f"got {arr.flat[np.abs(arr).argmax()]:g}")
+    return arr
+
+
 def _depths(name: str, z: object) -> np.ndarray:
-    arr = as_float_array(name, z)
+    arr = _real_array(name, z)
     if (arr <= 0).any():
         raise ValueError(f"{name} must be > 0 (in front of the cameras); got min {arr.min():g}")
     if arr.size and (arr.min() < LENGTH_RANGE[0] or arr.max() > MAX_SCENE_DEPTH):
@@ -200,6 +247,7 @@ def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
     0.05
     """
     z_ = _depths("z", z)
+    _check_type("shooting", shooting, Shooting)
     return _out((shooting.baseline / shooting.window) * (z_ - shooting.convergence) / z_)
 
 
@@ -208,7 +256,8 @@ def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndar
 
     Disparities at or beyond ``b/W`` have no depth in front of the cameras: NaN there (inf at equality).
     """
-    d_ = as_float_array("d", d)
+    d_ = _disparities("d", d)
+    _check_type("shooting", shooting, Shooting)
     # Eq. (1c) as H / (1 - d/(b/W)): the gap is exactly 0 at d == b/W, so z = inf there
     # (b - W(b/W) need not round to 0).
     gap = 1.0 - d_ / (shooting.baseline / shooting.window)
@@ -226,7 +275,9 @@ def perceived_depth(d: object, display: Display) -> float | np.ndarray:
     >>> perceived_depth(0.0, Display(eye_separation=0.065, distance=3.0, width=1.2))
     3.0
     """
-    return _out(_perceived_depth(as_float_array("d", d), display))
+    d_ = _disparities("d", d)
+    _check_type("display", display, Display)
+    return _out(_perceived_depth(d_, display))
 
 
 def _perceived_depth(d: np.ndarray, display: Display) -> np.ndarray:
@@ -242,6 +293,7 @@ def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) 
     ``z'(z) = z b'H'W / (z (b'W - bW') + bHW')``.
     """
     z_ = _depths("z", z)
+    _check_rig(shooting, display)
     den = _eq2_denominator(z_, shooting, display)
     return _out(_depth_ratio(z_ * display.eye_separation * display.distance * shooting.window, den))
 
@@ -259,6 +311,7 @@ def roundness(z: object, shooting: Shooting, display: Display) -> float | np.nda
     1.0
     """
     z_ = _depths("z", z)
+    _check_rig(shooting, display)
     den = _eq2_denominator(z_, shooting, display)  # Eq. (4) shares Eq. (2)'s denominator
     with np.errstate(divide="ignore"):
         rho = shooting.baseline * display.distance * shooting.window / den
@@ -267,17 +320,22 @@ def roundness(z: object, shooting: Shooting, display: Display) -> float | np.nda
 
 def divergence_baseline(window: float, display: Display) -> float:
     """Largest baseline with no ocular divergence at any depth: ``b_div = b'W / W'`` (S0 Eq. 3)."""
-    return display.eye_separation * check_positive("window", window) / display.width
+    w = _length("window", window)
+    _check_type("display", display, Display)
+    return display.eye_separation * w / display.width
 
 
 def roundness_baseline(convergence: float, display: Display, *, roundness: float = 1.0) -> float:
     """Baseline giving roundness ``rho`` on the convergence plane: ``b = rho b' H / H'`` (S0 Eq. 5)."""
-    rho = check_positive("roundness", roundness)
-    return rho * display.eye_separation * check_positive("convergence", convergence) / display.distance
+    rho = _roundness("roundness", roundness)
+    h = _length("convergence", convergence)
+    _check_type("display", display, Display)
+    return rho * display.eye_separation * h / display.distance
 
 
 def focal_ratio(shooting: Shooting, display: Display) -> float:
     """``f / f' = (H/W) / (H'/W')``, which equals ``b_round / b_div`` (S0 Eq. 6)."""
+    _check_rig(shooting, display)
     return shooting.focal / display.focal
 
 
@@ -305,8 +363,14 @@ def divergence_depth(shooting: Shooting, display: Display) -> float:
     >>> round(divergence_depth(Shooting(0.26, 30.0, 3.0), Display(0.065, 3.0, 1.2)), 9)
     80.0
     """
+    _check_rig(shooting, display)
     excess = _excess(shooting, display)
     return math.inf if excess == 0 else shooting.baseline * shooting.convergence * display.width / excess
+
+
+def _check_rig(shooting: object, display: object) -> None:
+    _check_type("shooting", shooting, Shooting)
+    _check_type("display", display, Display)
 
 
 def _eq2_denominator(z: np.ndarray, shooting: Shooting, display: Display) -> np.ndarray:
@@ -352,8 +416,11 @@ def shift_sensor_parallax(
     """
     z = _depths("depth", depth)
     a = check_positive("focal_px", focal_px)
-    tc = check_positive("interaxial", interaxial)
-    zc = check_positive("convergence", convergence)
+    tc = _length("interaxial", interaxial)
+    zc = _length("convergence", convergence)
+    if not math.isfinite(a * tc / LENGTH_RANGE[0] ** 2):  # |P| <= alpha t_c (1/Z_c + 1/Z): keep it finite
+        raise ValueError(f"focal_px must be <= {sys.float_info.max * LENGTH_RANGE[0] ** 2 / tc:g} with interaxial "
+                         f"{tc:g} m (the parallax would overflow); got {a:g}")
     return _out(a * tc * (1.0 / zc - 1.0 / z))
 
 
@@ -364,7 +431,7 @@ def shift_sensor_positions(
 
     ``x_l = x_c + (alpha_u t_c / 2)(1/Z - 1/Z_c)``, ``x_r = x_c - (alpha_u t_c / 2)(1/Z - 1/Z_c)``.
     """
-    xc = as_float_array("x_center", x_center)
+    xc = _real_array("x_center", x_center)
     p = np.asarray(shift_sensor_parallax(depth, focal_px=focal_px, interaxial=interaxial, convergence=convergence))
     if p.shape != xc.shape and p.ndim and xc.ndim:
         raise ValueError(f"depth must have shape {xc.shape} matching x_center; got {p.shape}")

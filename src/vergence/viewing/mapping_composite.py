@@ -211,7 +211,8 @@ def temporal_weights(t: float, cuts: object, *, transition: float) -> np.ndarray
     if width == 0:
         r = (time >= c).astype(np.float64)
     else:
-        r = np.clip((time - c + 0.5 * width) / width, 0.0, 1.0)
+        with np.errstate(over="ignore"):  # a ramp shorter than a float step: +-inf, clipped to 0 or 1 (exact)
+            r = np.clip((time - c + 0.5 * width) / width, 0.0, 1.0)
     return np.concatenate([[1.0 - r[0]] if r.size else [1.0], r[:-1] - r[1:], r[-1:]])
 
 

@@ -24,14 +24,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import check_positive
-from vergence.viewing.geometry import Display, Shooting, _perceived_depth, scene_depth_from_disparity
+from vergence.viewing.comfort import ComfortZone
+from vergence.viewing.geometry import (
+    LENGTH_RANGE,
+    MAX_SCENE_DEPTH,
+    Display,
+    Shooting,
+    _length,
+    _perceived_depth,
+    _roundness,
+    scene_depth_from_disparity,
+)
 from vergence.viewing.mapping_hermite import pchip_slopes
 from vergence.viewing.mapping_operators import DisparityMapping, RationalHermiteMapping
 from vergence.viewing.mapping_perception import (
     _VIEWER,
     _disparity_of,
     _length_or_inf,
+    _scene_depths,
     mapped_perceived_depth,
     mapped_roundness,
     psi_slope_for_roundness,
@@ -84,9 +94,9 @@ class DirectorConstraint:
         )
         if self.roundness is not None:
             try:
-                rho = check_positive("roundness", self.roundness)
+                rho = _roundness("roundness", self.roundness)
             except ValueError as exc:
-                raise ValueError(f"{exc} (psi' = roundness z b'/(b_r z') must be positive)") from None
+                raise ValueError(f"{exc} (psi' = roundness z b'/(b_r z'))") from None
             if math.isinf(self.perceived_depth):
                 raise ValueError("roundness cannot be prescribed where perceived_depth is inf (psi' must be 0 there)")
             if math.isinf(self.depth):
@@ -120,7 +130,12 @@ class DirectorConstraint:
         try:
             return cls(fields["z"], fields["perceived"], fields.get("roundness"))
         except ValueError as exc:
-            raise ValueError(f"constraint {text!r}: {exc}") from None
+            # Name the keys of the string, not the fields behind them.
+            message = str(exc)
+            for field, key in (("perceived_depth", "perceived"), ("depth", "z")):
+                if message.startswith(field + " "):
+                    message = key + message[len(field):]
+            raise ValueError(f"constraint {text!r}: {message}") from None
 
 
 @dataclass(frozen=True, slots=True)
@@ -268,6 +283,26 @@ class ConstrainedMapping:
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 2:
             raise ValueError(f"n must be an integer >= 2; got {n!r}")
         d, z = self._grid(int(n))
+        return self._samples(d, z)
+
+    def at_depths(self, depths: object) -> MappingSamples:
+        """psi, perceived depth and roundness at the given scene depths (metres, inf allowed), in order.
+
+        Raises
+        ------
+        ValueError
+            If a depth is not > 0, is NaN, or lies outside ``[near, far]``.
+        """
+        z = np.atleast_1d(_scene_depths("depths", depths))
+        if z.ndim != 1 or z.size == 0:
+            raise ValueError(f"depths must be a non-empty 1-D sequence of metres; got shape {z.shape}")
+        outside = (z < self.near) | (z > self.far)
+        if outside.any():
+            raise ValueError(f"depths must lie in the scene [{self.near:g}, {_num(self.far)}] m (near, far); "
+                             f"got {_num(float(z[outside][0]))}")
+        return self._samples(_disparity_of(z, self.reference), z)
+
+    def _samples(self, d: np.ndarray, z: np.ndarray) -> MappingSamples:
         mapped = np.asarray(self.psi(d))
         return MappingSamples(
             disparity=d,
@@ -277,29 +312,64 @@ class ConstrainedMapping:
             roundness=np.asarray(self.roundness(z)),  # Eq. (9)
         )
 
-    def to_dict(self, *, samples: int = 201) -> dict[str, object]:
-        """The JSON report of ``vergence mapping --json``; non-finite depths and roundness become None.
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line per problem a viewer would meet: divergence (S0 Eq. 8), psi not monotone, mapped
+        disparities outside the default :class:`~vergence.viewing.comfort.ComfortZone` (±60 arcmin)."""
+        out = []
+        limit = self.divergence_limit
+        if self.diverges:
+            out.append(f"psi passes the divergence limit b'/W' = {limit:.4g} inside [near, far]: the eyes diverge "
+                       f"there (S0 Eq. 8)")
+        if not self.monotone:
+            out.append("psi is not monotone: depth order is reversed somewhere in [near, far]")
+        lo, hi = (float(v) for v in np.asarray(self.psi(np.array(self.disparity_range))))
+        zone = ComfortZone()
+        try:
+            zone_lo, zone_hi = zone.disparities(self.display)
+        except ValueError as exc:  # a display whose eyes already converge near 180 degrees
+            out.append(f"the comfort zone (±{zone.crossed_arcmin:g} arcmin) does not exist on this display: {exc}")
+            return tuple(out)
+        if lo < zone_lo or min(hi, limit) > zone_hi:
+            out.append(f"mapped disparities from {lo:+.4g} to {hi:+.4g} screen widths leave the comfort zone "
+                       f"(±{zone.crossed_arcmin:g} arcmin of vergence: {zone_lo:+.4g} to {zone_hi:+.4g})")
+        return tuple(out)
 
-        ``samples`` disparities evenly spaced over ``[d(near), d(far)]`` (201 for the CLI).
+    def to_dict(self, *, samples: int = 201, depths: object = None) -> dict[str, object]:
+        """The JSON report of ``vergence mapping --json``; infinite depths and non-finite figures become None.
 
-        ``{"control_points": [{"disparity", "value", "slope"}...], "samples": [{"disparity", "mapped",
-        "perceived_depth", "roundness"}...], "monotone": bool, "diverges": bool}``.
+        ``samples`` disparities evenly spaced over ``[d(near), d(far)]`` (201 for the CLI); with
+        ``depths``, the samples are those scene depths instead (``--depth``).
+
+        ``{"reference": {"baseline", "convergence", "window"}, "display": {"eye_separation", "distance",
+        "width"}, "near", "far", "control_points": [{"disparity", "value", "slope"}...], "samples":
+        [{"depth", "disparity", "mapped", "perceived_depth", "roundness"}...], "monotone": bool,
+        "diverges": bool, "warnings": [str...]}``. JSON has no infinity: a ``null`` depth (``far``
+        included) is infinitely far, a ``null`` perceived depth is at or past the divergence limit.
         """
-        s = self.sample(samples)
+        s = self.sample(samples) if depths is None else self.at_depths(depths)
 
         def num(v: float) -> float | None:
             return float(v) if math.isfinite(v) else None
 
+        ref, display = self.reference, self.display
         return {
+            "reference": {"baseline": ref.baseline, "convergence": ref.convergence, "window": ref.window},
+            "display": {"eye_separation": display.eye_separation, "distance": display.distance,
+                        "width": display.width},
+            "near": self.near,
+            "far": num(self.far),
             "control_points": [
                 {"disparity": cp.disparity, "value": cp.value, "slope": cp.slope} for cp in self.control_points
             ],
             "samples": [
-                {"disparity": float(d), "mapped": float(m), "perceived_depth": num(zp), "roundness": num(r)}
-                for d, m, zp, r in zip(s.disparity, s.mapped, s.perceived_depth, s.roundness)
+                {"depth": num(z), "disparity": float(d), "mapped": float(m), "perceived_depth": num(zp),
+                 "roundness": num(r)}
+                for z, d, m, zp, r in zip(s.depth, s.disparity, s.mapped, s.perceived_depth, s.roundness)
             ],
             "monotone": bool(self.monotone),
             "diverges": bool(self.diverges),
+            "warnings": list(self.warnings),
         }
 
 
@@ -390,7 +460,7 @@ def psi_from_constraints(
         raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
     if not isinstance(display, Display):
         raise TypeError(f"display must be a Display; got {type(display).__name__}")
-    z_near = check_positive("near", near)
+    z_near = _length("near", near, (LENGTH_RANGE[0], MAX_SCENE_DEPTH))
     z_far = _length_or_inf("far", far)
     if not z_near < z_far:
         raise ValueError(f"far must be > near {z_near:g}; got {z_far:g}")

@@ -10,9 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from vergence._validate import as_float_array, check_positive
+from vergence._validate import check_positive
+from vergence.viewing.geometry import MAX_ABS_DISPARITY, _disparities, _real_array
 
-__all__ = ["gradient_domain_mapping"]
+__all__ = ["SCALE_RANGE", "gradient_domain_mapping"]
+
+# The jump factor ``scale``: a millionth to a million. Lang et al. 2010 compress jumps by factors near
+# 0.1-0.5; the bounds keep ``scale * g`` finite for any map of |d| <= MAX_ABS_DISPARITY (no overflow).
+SCALE_RANGE = (1e-6, 1e6)
 
 
 def _edges(valid: np.ndarray, d: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -60,8 +65,11 @@ def gradient_domain_mapping(disparity: object, *, threshold: float, scale: float
     Raises
     ------
     ValueError
-        If ``disparity`` is not 1-D or 2-D, is empty or holds inf, or ``threshold``/``scale`` are
-        not positive.
+        If ``disparity`` is not 1-D or 2-D, is empty, all NaN, holds inf or a value past
+        :data:`~vergence.viewing.geometry.MAX_ABS_DISPARITY`; if ``threshold`` is not positive or
+        ``scale`` lies outside :data:`SCALE_RANGE`.
+    TypeError
+        If ``disparity`` is not numeric (text included).
 
     Notes
     -----
@@ -76,11 +84,16 @@ def gradient_domain_mapping(disparity: object, *, threshold: float, scale: float
     >>> np.round(gradient_domain_mapping(profile, threshold=1.0, scale=0.2), 6).tolist()
     [3.2, 3.3, 3.4, 5.4, 5.5]
     """
-    d = as_float_array("disparity", disparity, allow_nan=True)
+    d = _real_array("disparity", disparity, allow_nan=True)
     if d.ndim not in (1, 2) or d.size == 0:
         raise ValueError(f"disparity must have shape (N,) or (H, W) and not be empty; got {d.shape}")
+    if np.isnan(d).all():
+        raise ValueError(f"disparity must hold at least one valid (not NaN) value; got {d.size} NaN")
+    _disparities("disparity", d[~np.isnan(d)], unit="")  # |d| <= MAX_ABS_DISPARITY: differences stay finite
     tau = check_positive("threshold", threshold)
     factor = check_positive("scale", scale)
+    if not SCALE_RANGE[0] <= factor <= SCALE_RANGE[1]:
+        raise ValueError(f"scale must lie in [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]; got {factor:g}")
     grid = d.reshape(1, -1) if d.ndim == 1 else d
     valid = ~np.isnan(grid)
     if valid.all():

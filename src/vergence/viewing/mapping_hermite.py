@@ -185,16 +185,22 @@ def pchip_slopes(knots: object, values: object) -> np.ndarray:
     h = np.diff(x)
     if (h <= 0).any():
         raise ValueError("knots must be strictly increasing")
-    delta = np.diff(y) / h
+    with np.errstate(over="ignore"):
+        delta = np.diff(y) / h
+    if not np.isfinite(delta).all():
+        raise ValueError("values must not rise faster than float64 allows between knots (a secant overflows)")
     if x.size == 2:
         return np.array([delta[0], delta[0]])
     s = np.zeros_like(x)
-    d0, d1 = delta[:-1], delta[1:]
+    # The harmonic mean in units of the largest secant, as d0 d1 (w1 + w2)/(w1 d1 + w2 d0): nothing is
+    # divided by a secant, so subnormal secants (a range of 1e-323) cannot overflow it.
+    unit = float(np.abs(delta).max()) or 1.0
+    d0, d1 = delta[:-1] / unit, delta[1:] / unit
     w1 = 2.0 * h[1:] + h[:-1]
     w2 = h[1:] + 2.0 * h[:-1]
     same = (np.sign(d0) * np.sign(d1)) > 0
     with np.errstate(divide="ignore", invalid="ignore"):
-        harmonic = (w1 + w2) / (w1 / d0 + w2 / d1)
+        harmonic = unit * (d0 * d1 * (w1 + w2) / (w1 * d1 + w2 * d0))
     s[1:-1] = np.where(same, harmonic, 0.0)
     s[0] = _edge_slope(h[0], h[1], delta[0], delta[1])
     s[-1] = _edge_slope(h[-1], h[-2], delta[-1], delta[-2])

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range, check_positive, check_positive_int
-from vergence.viewing.geometry import _out
+from vergence.viewing.geometry import _out, _real_array
 from vergence.viewing.mapping_hermite import (
     gregory_delbourgo,
     gregory_delbourgo_derivative,
@@ -69,7 +69,7 @@ class DisparityMapping(ABC):
         return bisect_inverse(self._value, value, *self.domain())
 
     def _checked(self, name: str, d: object) -> np.ndarray:
-        arr = as_float_array(name, d, allow_nan=True)
+        arr = _real_array(name, d, allow_nan=True)
         lo, hi = self.domain()
         bad = ~np.isnan(arr) & ((arr <= lo) | (arr >= hi))
         if bad.any():
@@ -102,7 +102,7 @@ class DisparityMapping(ABC):
         ValueError
             If a value lies outside the range of psi.
         """
-        y = as_float_array("value", value, allow_nan=True)
+        y = _real_array("value", value, allow_nan=True)
         with np.errstate(all="ignore"):
             d = np.asarray(self._inverse(y), dtype=np.float64)
             lo, hi = self.domain()
@@ -417,6 +417,9 @@ class SaliencyMapping(DisparityMapping):
         mass = h / h.sum()
         values = lo + (hi - lo) * np.concatenate([[0.0], np.cumsum(mass)])
         values[-1] = hi  # the cumulative sum ends at 1 up to rounding; the range end is exact
+        if (np.diff(values) <= 0).any():
+            raise ValueError(f"target_max - target_min = {hi - lo:g} is too narrow to give each of the "
+                             f"{h.size} bins a rising share of it in float64")
         secants = np.diff(values) / np.diff(x)
         slopes = pchip_slopes(x, values)
         slopes[0], slopes[-1] = secants[0], secants[-1]

@@ -13,8 +13,17 @@ import math
 
 import numpy as np
 
-from vergence._validate import check_positive
-from vergence.viewing.geometry import Display, Shooting, _out, _perceived_depth, disparity
+from vergence.viewing.geometry import (
+    LENGTH_RANGE,
+    MAX_SCENE_DEPTH,
+    Display,
+    Shooting,
+    _check_type,
+    _out,
+    _perceived_depth,
+    _real_array,
+    _roundness,
+)
 from vergence.viewing.mapping_operators import DisparityMapping
 
 __all__ = [
@@ -26,12 +35,14 @@ __all__ = [
 
 
 def _length_or_inf(name: str, value: object, *, where: str = "in front of the camera") -> float:
-    """A length > 0 that may be +inf (an infinitely far point)."""
+    """A length > 0 in ``[LENGTH_RANGE[0], MAX_SCENE_DEPTH]`` metres, or +inf (an infinitely far point)."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise TypeError(f"{name} must be a real number; got {type(value).__name__}")
     v = float(value)
     if math.isnan(v) or v <= 0:
         raise ValueError(f"{name} must be > 0 ({where}); got {v:g}")
+    if math.isfinite(v) and not LENGTH_RANGE[0] <= v <= MAX_SCENE_DEPTH:
+        raise ValueError(f"{name} must lie in [{LENGTH_RANGE[0]:g}, {MAX_SCENE_DEPTH:g}] m or be inf; got {v:g}")
     return v
 
 
@@ -50,6 +61,7 @@ def psi_value_for_depth(perceived: float, display: Display) -> float:
     0.0
     """
     zp = _length_or_inf("perceived", perceived, where=_VIEWER)
+    _check_type("display", display, Display)
     limit = display.divergence_disparity
     return limit if math.isinf(zp) else limit * (1.0 - display.distance / zp)
 
@@ -64,20 +76,23 @@ def psi_slope_for_roundness(
     >>> psi_slope_for_roundness(1.0, 30.0, 3.0, Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2))
     1.0
     """
-    rho = check_positive("roundness", roundness)
-    z = check_positive("depth", depth)
-    zp = check_positive("perceived", perceived)
+    rho = _roundness("roundness", roundness)
+    z = _length_or_inf("depth", depth)
+    zp = _length_or_inf("perceived", perceived, where=_VIEWER)
+    if math.isinf(z) or math.isinf(zp):
+        raise ValueError(f"depth and perceived must be finite for a roundness (psi' = rho z b'/(b_r z')); got {z:g}, {zp:g}")
+    _check_setup(None, reference, display)
     return rho * z * display.eye_separation / (reference.baseline * zp)
 
 
 def _scene_depths(name: str, z: object) -> np.ndarray:
-    try:
-        arr = np.asarray(z, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be numeric; got {type(z).__name__}") from exc
+    arr = _real_array(name, z, allow_nan=True, allow_inf=True)
     if np.isnan(arr).any() or (arr <= 0).any():
         bad = arr[np.isnan(arr) | (arr <= 0)].flat[0]
         raise ValueError(f"{name} must be > 0 (in front of the camera; inf allowed); got {bad:g}")
+    if (arr < LENGTH_RANGE[0]).any():  # 1/z of Eq. (9) would overflow near 5e-324
+        raise ValueError(f"{name} must be >= {LENGTH_RANGE[0]:g} m (LENGTH_RANGE; inf allowed); "
+                         f"got {arr[arr < LENGTH_RANGE[0]].flat[0]:g}")
     return arr
 
 
@@ -85,13 +100,14 @@ def _disparity_of(z: np.ndarray, reference: Shooting) -> np.ndarray:
     """S0 Eq. (1a) with ``d(inf) = b/W``."""
     finite = np.isfinite(z)
     d = np.full(z.shape, reference.baseline / reference.window)
-    if finite.any():
-        d[finite] = disparity(z[finite], reference)
+    # Eq. (1a) as b/W (1 - H/z)-like ratio (z - H)/z: finite for every z > 0, including the depths past
+    # MAX_SCENE_DEPTH that inverting a grid of disparities near b/W produces (no range check here).
+    d[finite] = (reference.baseline / reference.window) * ((z[finite] - reference.convergence) / z[finite])
     return d
 
 
 def _check_setup(psi: object, reference: object, display: object) -> None:
-    if not isinstance(psi, DisparityMapping):
+    if psi is not None and not isinstance(psi, DisparityMapping):
         raise TypeError(f"psi must be a DisparityMapping; got {type(psi).__name__}")
     if not isinstance(reference, Shooting):
         raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
