@@ -312,13 +312,13 @@ def test_warnings_in_a_command_are_one_line_each(capsys, monkeypatch):
         with np.errstate(over="warn"):
             np.float64(1e308) * 10
         warnings.warn("the second\nline", UserWarning)
-        raise ValueError("baseline too large")
+        raise ValueError("the rig is too large")
 
     with warnings.catch_warnings():
         warnings.simplefilter("always")  # the project's tests turn warnings into errors; a user sees them
         assert _budget_raising(monkeypatch, overflow) == 2
     assert capsys.readouterr().err.splitlines() == [
-        "warning: overflow encountered in scalar multiply", "warning: the second line", "error: baseline too large"]
+        "warning: overflow encountered in scalar multiply", "warning: the second line", "error: the rig is too large"]
 
 
 def test_log_warnings_in_a_command_are_one_line_each(capsys, monkeypatch):
@@ -327,11 +327,11 @@ def test_log_warnings_in_a_command_are_one_line_each(capsys, monkeypatch):
 
     def logs():
         logging.getLogger("vergence.render").warning("glasses scene: %s", "HDR map sky.hdr not found")
-        raise ValueError("baseline too large")
+        raise ValueError("the rig is too large")
 
     assert _budget_raising(monkeypatch, logs) == 2
     assert capsys.readouterr().err.splitlines() == [
-        "warning: glasses scene: HDR map sky.hdr not found", "error: baseline too large"]
+        "warning: glasses scene: HDR map sky.hdr not found", "error: the rig is too large"]
 
 
 def test_a_repeatable_option_shows_its_element_type(capsys):
