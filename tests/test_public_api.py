@@ -11,7 +11,7 @@ import pytest
 
 PUBLIC_API = {   'vergence': ['__version__'],
     'vergence.camera': ['Camera', 'interpolate', 'look_at'],
-    'vergence.depth': [   'MATCHERS', 'Rectification', 'RectifiedPair', 'RefinedDisparity', 'RegionScore',
+    'vergence.depth': [   'MATCHERS', 'MAX_BLOCK_SIZE', 'Rectification', 'RectifiedPair', 'RefinedDisparity', 'RegionScore',
                           'RowAlignment', 'SMOOTHING_METHODS', 'compute_disparity', 'confidence_map',
                           'depth_from_disparity', 'disparity_from_depth', 'disparity_preview', 'evaluate_disparity', 'fill_occlusions', 'left_right_check',
                           'mask_agreement', 'match_blocks', 'match_bm', 'match_sgbm', 'measure_row_alignment',

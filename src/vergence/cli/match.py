@@ -7,8 +7,8 @@ from pathlib import Path
 
 import typer
 
-from vergence.cli._app import app, check_output_path, console, err_console, print_json
-from vergence.depth import MATCHERS, SMOOTHING_METHODS, compute_disparity, disparity_preview
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
+from vergence.depth import MATCHERS, MAX_BLOCK_SIZE, SMOOTHING_METHODS, compute_disparity, disparity_preview
 from vergence.io import read_image, stores_integers, write_disparity, write_image
 
 __all__ = ["match"]
@@ -40,7 +40,9 @@ def match(
         "median", "--smoothing", help=f"Edge-aware smoothing: {', '.join(SMOOTHING_METHODS)}."
     ),
     keep_invalid: bool = typer.Option(False, "--keep-invalid", help="Keep unmatched pixels as NaN (0 in PNG)."),
-    block_size: int | None = typer.Option(None, "--block-size", help="Matching window (odd, px)."),
+    block_size: int | None = typer.Option(
+        None, "--block-size", help=f"Matching window (odd, px, at most {MAX_BLOCK_SIZE} and the image's smaller side)."
+    ),
     out: Path = typer.Option(..., "--out", help="Disparity output: .pfm, .npy, or .png with --scale."),
     scale: float | None = typer.Option(None, "--scale", help="PNG: stored value = disparity x scale (16-bit)."),
     preview: Path | None = typer.Option(None, "--preview", help="Also write a colour preview image here."),
@@ -48,12 +50,16 @@ def match(
     as_json: bool = typer.Option(False, "--json", help="Print a summary as JSON."),
 ) -> None:
     """Compute the disparity map of LEFT (x_left - x_right, px) and write it to --out."""
+    if block_size is not None and not (1 <= block_size <= MAX_BLOCK_SIZE and block_size % 2 == 1):
+        raise ValueError(f"--block-size must be an odd number of pixels in [1, {MAX_BLOCK_SIZE}]; got {block_size}")
     extra = [p for p in (preview, confidence) if p is not None]
     _check_outputs(out, scale, extra)
     for o in (out, *extra):
         check_output_path(o, left, right)
     start = time.perf_counter()
-    with err_console.status(f"matching ({method})", spinner="dots"):
+    names = {"block_size": "--block-size", "max_disparity": "--max-disparity", "min_disparity": "--min-disparity",
+             "method": "--method", "smoothing": "--smoothing"}
+    with err_console.status(f"matching ({method})", spinner="dots"), options_named(**names):
         a, b = read_image(left), read_image(right)
         result = compute_disparity(a, b, max_disparity=max_disparity, min_disparity=min_disparity, method=method,
                                    smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size)

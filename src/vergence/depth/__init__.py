@@ -7,6 +7,7 @@
 - :mod:`~vergence.depth.conversion`: depth from disparity and back (S1 Eq. 7).
 """
 
+from vergence.depth._pair import MAX_BLOCK_SIZE
 from vergence.depth.block import match_blocks
 from vergence.depth.conversion import depth_from_disparity, disparity_from_depth
 from vergence.depth.evaluate import (
@@ -47,6 +48,7 @@ from vergence.depth.refine import (
 
 __all__ = [
     "MATCHERS",
+    "MAX_BLOCK_SIZE",
     "Rectification",
     "RectifiedPair",
     "RefinedDisparity",

@@ -80,7 +80,7 @@ def match_sgbm(
     lo, hi, count = check_disparity_range(max_disparity, min_disparity, a.shape[1])
     channels = 1 if a.ndim == 2 else 3
     prm = sgbm_parameters(a.shape[0], a.shape[1], count, channels)
-    prm.update(_block_and_penalties(check_block_size(block_size, prm["blockSize"]), channels))
+    prm.update(_block_and_penalties(check_block_size(block_size, prm["blockSize"], shape=a.shape), channels))
     matcher = cv2.StereoSGBM_create(minDisparity=lo, **prm)
     return _from_fixed(matcher.compute(a, b), lo, hi)
 
@@ -97,7 +97,8 @@ def match_bm(
     if a.ndim == 3:
         a, b = cv2.cvtColor(a, cv2.COLOR_RGB2GRAY), cv2.cvtColor(b, cv2.COLOR_RGB2GRAY)
     lo, hi, count = check_disparity_range(max_disparity, min_disparity, a.shape[1])
-    bs = check_block_size(block_size, 9 if max(a.shape) <= 1000 else 15, minimum=5, matcher="StereoBM")
+    bs = check_block_size(block_size, 9 if max(a.shape) <= 1000 else 15, shape=a.shape, minimum=5,
+                          matcher="StereoBM")
     bm = cv2.StereoBM_create(numDisparities=count, blockSize=bs)
     bm.setMinDisparity(lo)
     bm.setPreFilterCap(31)
