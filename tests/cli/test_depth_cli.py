@@ -246,3 +246,26 @@ def test_evaluate_errors(capsys, tsukuba, tmp_path):
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
                         "--masks", str(tsukuba), "--image", str(tsukuba / "im3.png"))
     assert code == 2 and "--masks replaces the computed regions; do not combine it with --truth-right or --image" in err
+
+
+def test_match_refuses_a_uniform_pair_and_warns_on_a_mostly_flat_one(capsys, tmp_path):
+    """Issue 9: "match on a black or uniform-grey pair: matched_percent 75, an all-zero map", exit 0."""
+    import cv2
+
+    for level in (0, 128):
+        flat = tmp_path / f"flat{level}.png"
+        cv2.imwrite(str(flat), np.full((100, 200), level, np.uint8))
+        code, stdout, err = _run(capsys, "match", str(flat), str(flat), "--max-disparity", "15", "--out",
+                                 str(tmp_path / "d.pfm"), "--json")
+        assert code == 2 and stdout == "" and len(err.strip().splitlines()) == 1
+        assert err.startswith("error: left has no texture to match: 0 % of its pixels")
+        assert not (tmp_path / "d.pfm").exists()
+    spot = np.full((100, 200), 128, np.uint8)
+    spot[30:60, 60:110] = np.random.default_rng(0).integers(0, 256, (30, 50))
+    cv2.imwrite(str(tmp_path / "spot.png"), spot)
+    code, stdout, err = _run(capsys, "match", str(tmp_path / "spot.png"), str(tmp_path / "spot.png"), "--max-disparity",
+                             "15", "--out", str(tmp_path / "d.pfm"), "--json")
+    assert code == 0, err
+    summary = json.loads(stdout)
+    assert len(summary["warnings"]) == 2 and summary["textured_percent"] < 10.0
+    assert err.splitlines() == [f"warning: {w}" for w in summary["warnings"]]

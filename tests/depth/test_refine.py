@@ -94,7 +94,9 @@ def test_refined_disparity_to_dict_by_hand():
     d = np.array([[1.0, np.nan], [3.0, 2.0]], np.float32)
     res = RefinedDisparity(d, np.zeros_like(d), np.array([[True, False], [False, False]]))
     assert res.to_dict() == {"width": 2, "height": 2, "matched_percent": 25.0, "known_percent": 75.0,
-                             "disparity_min": 1.0, "disparity_max": 3.0}
+                             "disparity_min": 1.0, "disparity_max": 3.0, "textured_percent": None, "warnings": []}
+    warned = RefinedDisparity(d, np.zeros_like(d), np.ones((2, 2), bool), textured_percent=5.0, warnings=("w",))
+    assert warned.to_dict()["textured_percent"] == 5.0 and warned.to_dict()["warnings"] == ["w"]
     none = RefinedDisparity(np.full((1, 2), np.nan, np.float32), np.zeros((1, 2), np.float32), np.zeros((1, 2), bool))
     assert none.to_dict()["disparity_min"] is None and none.to_dict()["known_percent"] == 0.0
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -64,6 +65,8 @@ def match(
         result = compute_disparity(a, b, max_disparity=max_disparity, min_disparity=min_disparity, method=method,
                                    smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size)
     seconds = time.perf_counter() - start
+    for warning in result.warnings:
+        sys.stderr.write(f"warning: {warning}\n")
     write_disparity(out, result.disparity, scale=scale)
     if preview is not None:
         write_image(preview, disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity)))

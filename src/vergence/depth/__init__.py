@@ -2,6 +2,7 @@
 
 - :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000).
 - :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
+- :mod:`~vergence.depth.texture`: where an image has texture to match (uniform pairs are refused).
 - :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
 - :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
 - :mod:`~vergence.depth.conversion`: depth from disparity and back (S1 Eq. 7).
@@ -45,10 +46,13 @@ from vergence.depth.refine import (
     unreliable_pixels,
     weighted_median_filter,
 )
+from vergence.depth.texture import MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_pixels
 
 __all__ = [
     "MATCHERS",
     "MAX_BLOCK_SIZE",
+    "MIN_TEXTURE",
+    "MIN_TEXTURED_PERCENT",
     "Rectification",
     "RectifiedPair",
     "RefinedDisparity",
@@ -76,6 +80,7 @@ __all__ = [
     "remove_speckles",
     "sgbm_parameters",
     "smooth_wls",
+    "textured_pixels",
     "unreliable_pixels",
     "weighted_median_filter",
 ]

@@ -8,6 +8,7 @@ S1 §III.B: local (window) matching and global matching minimising ``E(d) = E_da
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from functools import partial
 from types import MappingProxyType
@@ -19,6 +20,7 @@ from vergence._validate import as_image, check_positive_int
 from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
 from vergence.depth.block import COSTS, match_blocks
 from vergence.depth.refine import RefinedDisparity, refine_disparity
+from vergence.depth.texture import LOW_TEXTURED_PERCENT, MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_pixels
 
 __all__ = ["MATCHERS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
 
@@ -150,13 +152,17 @@ def compute_disparity(
     Returns
     -------
     RefinedDisparity
-        ``disparity`` (float32, pixels), ``confidence`` in [0, 1] and the ``matched`` mask.
+        ``disparity`` (float32, pixels), ``confidence`` in [0, 1], the ``matched`` mask, the
+        ``textured_percent`` of the left image and ``warnings`` (a pair with less than
+        :data:`~vergence.depth.texture.LOW_TEXTURED_PERCENT` % of textured pixels).
 
     Raises
     ------
     ValueError
         On pairs of different sizes, grey/colour mixes, a disparity range wider than the image, an
-        unknown method (the message lists them), or when no pixel could be matched.
+        unknown method (the message lists them), an image with less than
+        :data:`~vergence.depth.texture.MIN_TEXTURED_PERCENT` % of textured pixels (checked before
+        matching: a uniform pair has no disparity to find), or when no pixel could be matched.
 
     Examples
     --------
@@ -169,6 +175,24 @@ def compute_disparity(
     """
     if method not in MATCHERS:
         raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
+    a, _ = stereo_pair_u8(left, right)  # the arguments' errors before the texture's
+    check_disparity_range(max_disparity, min_disparity, a.shape[1])
+    check_block_size(block_size, 1, shape=a.shape)
+    textured = {}
+    for name, image in (("left", left), ("right", right)):
+        textured[name] = 100.0 * float(textured_pixels(as_image(name, image)).mean())
+        if textured[name] < MIN_TEXTURED_PERCENT:
+            raise ValueError(
+                f"{name} has no texture to match: {textured[name]:.2g} % of its pixels have a local contrast of "
+                f"at least {MIN_TEXTURE * 255:g}/255 (MIN_TEXTURE); at least {MIN_TEXTURED_PERCENT:g} % "
+                "(MIN_TEXTURED_PERCENT) are needed: a uniform image has no disparity to find"
+            )
+    warnings = tuple(
+        f"only {textured[name]:.1f} % of {name} has texture to match (below {LOW_TEXTURED_PERCENT:g} %): "
+        "the disparity elsewhere is extrapolated from it, not measured"
+        for name in ("left", "right") if textured[name] < LOW_TEXTURED_PERCENT
+    )
     raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
                            block_size=block_size)
-    return refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
+    result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
+    return dataclasses.replace(result, textured_percent=textured["left"], warnings=warnings)

@@ -277,14 +277,22 @@ class RefinedDisparity:
         :func:`confidence_map`, in [0, 1].
     matched : (H, W) bool
         Pixels where the matcher's own answer survived its checks (the others were filled).
+    textured_percent : float or None
+        Share of the left image with texture to match (:func:`~vergence.depth.texture.textured_pixels`),
+        percent; None when not measured (:func:`refine_disparity` alone does not see the pair).
+    warnings : tuple of str
+        What the caller should know about the result (e.g. a mostly textureless pair), one line each.
     """
 
     disparity: np.ndarray
     confidence: np.ndarray
     matched: np.ndarray
+    textured_percent: float | None = None
+    warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
-        """JSON-ready summary: size, % matched, % with a disparity, known range (``None`` if none known)."""
+        """JSON-ready summary: size, % matched, % with a disparity, known range (``None`` if none known),
+        % textured (``None`` if not measured) and the warnings."""
         d = self.disparity
         known = np.isfinite(d)
         return {
@@ -293,6 +301,8 @@ class RefinedDisparity:
             "known_percent": float(100.0 * known.mean()),
             "disparity_min": float(d[known].min()) if known.any() else None,
             "disparity_max": float(d[known].max()) if known.any() else None,
+            "textured_percent": None if self.textured_percent is None else float(self.textured_percent),
+            "warnings": list(self.warnings),
         }
 
 
