@@ -269,3 +269,25 @@ def test_match_refuses_a_uniform_pair_and_warns_on_a_mostly_flat_one(capsys, tmp
     summary = json.loads(stdout)
     assert len(summary["warnings"]) == 2 and summary["textured_percent"] < 10.0
     assert err.splitlines() == [f"warning: {w}" for w in summary["warnings"]]
+
+
+def test_compare_flat_tiny_and_identical_images(capsys, tmp_path):
+    """Issue 9: compare refused flat images (PSNR and SSIM are defined), wrote PSNR as the string "inf",
+    and on a 2x2 image spoke of "win_size", a parameter the user never gave."""
+    from vergence.io import write_image
+    from vergence.metrics import SSIM_WINDOW
+
+    write_image(tmp_path / "grey.png", np.full((20, 30), 0.4))
+    write_image(tmp_path / "grey2.png", np.full((20, 30), 0.6))  # 102 and 153 of 255: a difference of 0.2
+    code, stdout, err = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey2.png"), "--json")
+    assert code == 0 and err == ""
+    data = json.loads(stdout)
+    assert data["psnr_db"] == pytest.approx(20 * np.log10(5)) and data["identical"] is False and data["ssim"] > 0.9
+    assert data["registration_pixels"] == 0 and data["registration_rms_px"] is None
+    code, stdout, _ = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey.png"), "--json")
+    assert code == 0 and '"psnr_db": null' in stdout and json.loads(stdout)["identical"] is True
+    write_image(tmp_path / "tiny.png", np.random.default_rng(0).random((2, 2)))
+    code, stdout, err = _run(capsys, "compare", str(tmp_path / "tiny.png"), str(tmp_path / "tiny.png"))
+    assert code == 2 and stdout == "" and "win_size" not in err
+    assert err.strip() == (f"error: image must be at least {SSIM_WINDOW} px on each side for SSIM's {SSIM_WINDOW} x "
+                           f"{SSIM_WINDOW} window (SSIM_WINDOW); got 2 x 2 px")
