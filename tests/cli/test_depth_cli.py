@@ -98,6 +98,11 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
         (["--out", "d.png"], "--out d.png stores integers: give --scale"),
         (["--out", "d.npy", "--scale", "16"], "--scale applies to .png/.pgm outputs only"),
         (["--out", "d.tif"], "--out must be a .pfm, .npy, or .png/.pgm"),
+        (["--out", "d.png", "--scale", "0"], "--scale must be a finite number > 0; got 0"),
+        (["--out", "d.png", "--scale", "16", "--min-disparity", "-2"],
+         "--out d.png stores disparities >= 0 only, and --min-disparity -2 searches negative ones"),
+        (["--out", "d.png", "--scale", "5000"], "--max-disparity 15 x --scale 5000 exceeds 65535"),
+        (["--out", "d.pfm", "--block-size", "257"], "--block-size must be an odd number of pixels in [1, 255]"),
     ],
 )
 def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, monkeypatch, options, message):
@@ -155,14 +160,24 @@ def test_match_png_with_scale_and_keep_invalid(capsys, tsukuba, tmp_path):
     assert np.isnan(d).any() and np.nanmax(d) <= 15.0
 
 
-def test_match_keeps_zero_disparities_in_pfm_and_refuses_them_in_png(capsys, tsukuba, tmp_path):
-    args = ("match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15")
+@pytest.mark.parametrize("keep_invalid", [False, True])
+def test_match_keeps_zero_disparities_in_pfm_and_tells_them_from_unknown_in_png(capsys, tsukuba, tmp_path, keep_invalid):
+    """Issue 9: "match --keep-invalid into a 16-bit PNG when a true zero disparity exists" was refused
+    (after the matching), although the help said invalid pixels become 0 there."""
+    args = ("match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
+            *(["--keep-invalid"] if keep_invalid else []))
     code, _, err = _run(capsys, *args, "--out", str(tmp_path / "d.pfm"))
     assert code == 0, err
     d = read_disparity(tmp_path / "d.pfm")
-    assert np.isfinite(d).all() and (d == 0).any()  # every pixel gets a disparity; 0 is a real value in PFM
-    code, _, err = _run(capsys, *args, "--out", str(tmp_path / "d.png"), "--scale", "16")
-    assert code == 2 and "0 means unknown there; use .pfm or .npy" in err and len(err.strip().splitlines()) == 1
+    zero = d == 0
+    assert zero.any() and np.isnan(d).any() == keep_invalid  # 0 is a real value in PFM, unknown is inf
+    code, stdout, err = _run(capsys, *args, "--out", str(tmp_path / "d.png"), "--scale", "16", "--json")
+    assert code == 0, err
+    warning = f"{int(zero.sum())} pixels of disparity 0 (below 0.03125 px) are stored as 1/16 px"
+    assert err.startswith(f"warning: {warning}") and json.loads(stdout)["warnings"][0].startswith(warning)
+    stored = read_disparity(tmp_path / "d.png", scale=16)
+    np.testing.assert_array_equal(np.isnan(stored), np.isnan(d))  # unknown stays unknown, zero stays known
+    assert (stored[zero] == 1 / 16).all()
 
 
 @pytest.mark.parametrize(

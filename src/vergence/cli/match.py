@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
@@ -15,8 +17,12 @@ from vergence.io import read_image, stores_integers, write_disparity, write_imag
 __all__ = ["match"]
 
 
-def _check_outputs(out: Path, scale: float | None, extra: list[Path]) -> None:
-    """Refuse, before any matching, an output that cannot be written as asked."""
+# The largest value of a 16-bit PNG/PGM sample: stored disparity x scale must not exceed it.
+_MAX_SAMPLE = 65535
+
+
+def _check_outputs(out: Path, scale: float | None, extra: list[Path], min_disparity: int, max_disparity: int) -> bool:
+    """Refuse, before any matching, an output that cannot be written as asked; whether it stores integers."""
     try:
         integers = stores_integers(out)
     except ValueError:
@@ -25,9 +31,36 @@ def _check_outputs(out: Path, scale: float | None, extra: list[Path]) -> None:
         raise ValueError(f"--out {out.name} stores integers: give --scale (stored value = disparity x scale; 0 = unknown)")
     if not integers and scale is not None:
         raise ValueError(f"--scale applies to .png/.pgm outputs only; {out.name} stores float disparity")
+    if integers:
+        if not (math.isfinite(scale) and scale > 0):
+            raise ValueError(f"--scale must be a finite number > 0; got {scale:g}")
+        if min_disparity < 0:
+            raise ValueError(f"--out {out.name} stores disparities >= 0 only, and --min-disparity {min_disparity} "
+                             "searches negative ones: write .pfm or .npy")
+        if max_disparity * scale > _MAX_SAMPLE + 0.5:
+            raise ValueError(f"--max-disparity {max_disparity} x --scale {scale:g} exceeds {_MAX_SAMPLE}, the largest "
+                             f"16-bit value of {out.name}: lower --scale, or write .pfm or .npy")
     resolved = [p.resolve() for p in (out, *extra)]
     if len(set(resolved)) != len(resolved):
         raise ValueError("--out, --preview and --confidence must name different files")
+    return integers
+
+
+def _storable(disparity: np.ndarray, scale: float) -> tuple[np.ndarray, str | None]:
+    """The map a 16-bit PNG/PGM can hold (0 = unknown there), and a warning when it had to differ.
+
+    A known disparity that rounds to 0 at ``scale`` (a point at infinity, or one within half a step of
+    it) would read back as unknown: it is stored as 1, the smallest known value (1/scale px).
+    """
+    zero = np.isfinite(disparity) & (np.rint(np.nan_to_num(disparity) * scale) == 0)
+    count = int(np.count_nonzero(zero))
+    if not count:
+        return disparity, None
+    stored = disparity.copy()
+    stored[zero] = 1.0 / scale
+    return stored, (f"{count} pixels of disparity 0 (below {0.5 / scale:g} px) are stored as 1/{scale:g} px, the "
+                    "smallest value a PNG/PGM disparity can hold (0 means unknown there); write .pfm or .npy "
+                    "to keep them exact")
 
 
 @app.command("match")
@@ -40,7 +73,10 @@ def match(
     smoothing: str = typer.Option(
         "median", "--smoothing", help=f"Edge-aware smoothing: {', '.join(SMOOTHING_METHODS)}."
     ),
-    keep_invalid: bool = typer.Option(False, "--keep-invalid", help="Keep unmatched pixels as NaN (0 in PNG)."),
+    keep_invalid: bool = typer.Option(
+        False, "--keep-invalid", help="Leave unmatched pixels unknown: NaN in .npy, inf in .pfm, 0 in .png/.pgm "
+        "(there a true disparity 0 is stored as 1/scale px, with a warning)."
+    ),
     block_size: int | None = typer.Option(
         None, "--block-size", help=f"Matching window (odd, px, at most {MAX_BLOCK_SIZE} and the image's smaller side)."
     ),
@@ -54,7 +90,7 @@ def match(
     if block_size is not None and not (1 <= block_size <= MAX_BLOCK_SIZE and block_size % 2 == 1):
         raise ValueError(f"--block-size must be an odd number of pixels in [1, {MAX_BLOCK_SIZE}]; got {block_size}")
     extra = [p for p in (preview, confidence) if p is not None]
-    _check_outputs(out, scale, extra)
+    integers = _check_outputs(out, scale, extra, min_disparity, max_disparity)
     for o in (out, *extra):
         check_output_path(o, left, right)
     start = time.perf_counter()
@@ -65,15 +101,17 @@ def match(
         result = compute_disparity(a, b, max_disparity=max_disparity, min_disparity=min_disparity, method=method,
                                    smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size)
     seconds = time.perf_counter() - start
-    for warning in result.warnings:
+    disparity, stored_warning = _storable(result.disparity, scale) if integers else (result.disparity, None)
+    warnings = [*result.warnings, *([stored_warning] if stored_warning else [])]
+    for warning in warnings:
         sys.stderr.write(f"warning: {warning}\n")
-    write_disparity(out, result.disparity, scale=scale)
+    write_disparity(out, disparity, scale=scale)
     if preview is not None:
         write_image(preview, disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity)))
     if confidence is not None:
         write_image(confidence, result.confidence)
     summary = {"left": str(left), "right": str(right), "out": str(out), "method": method, "smoothing": smoothing,
-               **result.to_dict(), "seconds": seconds}
+               **result.to_dict(), "warnings": warnings, "seconds": seconds}
     if as_json:
         print_json(summary)
         return
