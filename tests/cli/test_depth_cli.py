@@ -44,6 +44,14 @@ def test_rectify_writes_images_and_json(capsys, dino, tmp_path):
     assert left.shape == right.shape == (data["left_camera"]["height"], data["left_camera"]["width"], 3)
     assert data["baseline"] > 0 and np.asarray(data["left_homography"]).shape == (3, 3)
     assert data["row_alignment"]["median_abs_dy_px"] < MAX_MEDIAN_DY_PX and data["row_alignment"]["matches"] > 50
+    # the validity masks: 255 where the rectified pixel comes from the image, 0 in the black borders
+    for side, image in (("left", left), ("right", right)):
+        valid = read_image(out / f"{side}_valid.png")
+        assert valid.shape == image.shape[:2] and set(np.unique(valid)) == {0.0, 1.0}
+        border = image[valid == 0]  # black, but for a rim of pixels blended with it by the bilinear resampling
+        assert (border == 0).all(axis=-1).mean() > 0.9 and 0.01 < (valid == 0).mean() < 0.5  # measured 1.7 %, 1.8 %
+    assert sorted(p.name for p in out.iterdir()) == ["left.png", "left_valid.png", "rectification.json", "right.png",
+                                                     "right_valid.png"]
 
 
 def test_rectify_prints_a_summary_without_json(capsys, dino, tmp_path):
@@ -306,3 +314,38 @@ def test_compare_flat_tiny_and_identical_images(capsys, tmp_path):
     assert code == 2 and stdout == "" and "win_size" not in err
     assert err.strip() == (f"error: image must be at least {SSIM_WINDOW} px on each side for SSIM's {SSIM_WINDOW} x "
                            f"{SSIM_WINDOW} window (SSIM_WINDOW); got 2 x 2 px")
+
+
+def test_rectify_refuses_an_image_of_another_size_than_its_cameras(capsys, dino, tmp_path):
+    """Issue 9: "rectify accepts an image whose size differs from its camera's (garbage out)"."""
+    import cv2
+
+    from vergence.io import read_cameras, write_cameras
+
+    for name in ("dino0001.png", "dino0002.png"):
+        cv2.imwrite(str(tmp_path / name), cv2.resize(cv2.imread(str(dino / name)), (320, 240)))
+    code, stdout, err = _run(capsys, "rectify", str(tmp_path / "dino0002.png"), str(tmp_path / "dino0001.png"),
+                             "--cameras", str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and stdout == "" and len(err.strip().splitlines()) == 1
+    assert err.startswith("error: LEFT dino0002.png is 320x240 px, but its camera in dino_par.txt belongs to the "
+                          f"640x480 image {dino / 'dino0002.png'}")
+    # a camera file that stores the size (ours, COLMAP)
+    (tmp_path / "cams").mkdir()
+    write_cameras(tmp_path / "cams" / "cams.json", read_cameras(dino / "dino_par.txt", image_size=(640, 480)))
+    code, _, err = _run(capsys, "rectify", str(tmp_path / "dino0002.png"), str(tmp_path / "dino0001.png"),
+                        "--cameras", str(tmp_path / "cams" / "cams.json"), "--out", str(tmp_path / "o"))
+    assert code == 2 and err.strip() == "error: LEFT must have shape (480, 640) to match its camera; got (240, 320)"
+    assert not (tmp_path / "o").exists()
+
+
+def test_rectify_writes_all_or_nothing(capsys, dino, tmp_path, monkeypatch):
+    import vergence.cli.rectify as rectify_cli
+
+    def fail(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(rectify_cli, "write_json", fail)  # the last file of five
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
+                        str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "disk full" in err
+    assert list(tmp_path.iterdir()) == []  # no output folder, no hidden staging folder
