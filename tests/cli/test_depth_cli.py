@@ -349,3 +349,37 @@ def test_rectify_writes_all_or_nothing(capsys, dino, tmp_path, monkeypatch):
                         str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
     assert code == 2 and "disk full" in err
     assert list(tmp_path.iterdir()) == []  # no output folder, no hidden staging folder
+
+
+def test_match_mask_leaves_the_rectification_borders_unknown(capsys, tsukuba, tmp_path):
+    """Issue 9: match filled the black borders rectify adds with streaky values; --mask takes left_valid.png."""
+    from vergence.io import write_image
+
+    left = read_image(tsukuba / "im3.png")
+    left[:, :40] = 0.0  # a black rectification border and its mask
+    write_image(tmp_path / "left.png", left)
+    valid = np.ones(left.shape[:2])
+    valid[:, :40] = 0.0
+    write_image(tmp_path / "left_valid.png", valid)
+    args = ["match", str(tmp_path / "left.png"), str(tsukuba / "im4.png"), "--max-disparity", "15"]
+    code, _, err = _run(capsys, *args, "--out", str(tmp_path / "plain.pfm"))
+    assert code == 0, err
+    assert np.isfinite(read_disparity(tmp_path / "plain.pfm")[:, :40]).all()  # the border got extrapolated values
+    code, stdout, err = _run(capsys, *args, "--mask", str(tmp_path / "left_valid.png"), "--out", str(tmp_path / "d.pfm"),
+                             "--json")
+    assert code == 0, err
+    d = read_disparity(tmp_path / "d.pfm")
+    assert np.isnan(d[:, :40]).all() and np.isfinite(d[:, 40:]).all()
+    summary = json.loads(stdout)
+    assert summary["mask"] == str(tmp_path / "left_valid.png")
+    assert summary["known_percent"] == pytest.approx(100.0 * (384 - 40) / 384)
+    # a mask of another size, a colour one, an empty one
+    write_image(tmp_path / "small.png", valid[:, :-1])
+    write_image(tmp_path / "colour.png", np.dstack([valid] * 3))
+    write_image(tmp_path / "empty.png", np.zeros_like(valid))
+    for name, message in (("small.png", "--mask small.png must have the size of LEFT (384x288); got 383x288"),
+                          ("colour.png", "--mask colour.png must be a grey image; got 3 channels"),
+                          ("empty.png", "--mask empty.png selects no pixel")):
+        code, _, err = _run(capsys, *args, "--mask", str(tmp_path / name), "--out", str(tmp_path / "e.pfm"))
+        assert code == 2 and err.startswith(f"error: {message}") and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "e.pfm").exists()

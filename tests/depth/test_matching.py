@@ -197,3 +197,33 @@ def test_block_size_limits_are_refused_before_matching(method):
     with pytest.raises(ValueError, match=r"block_size must not exceed the image's smaller side \(60 px\); got 61"):
         compute_disparity(left, right, max_disparity=20, method=method, block_size=61)
     assert np.isfinite(compute_disparity(left, right, max_disparity=20, method=method, block_size=21).disparity).all()
+
+
+def test_a_validity_mask_leaves_the_black_borders_of_a_rectified_pair_unknown():
+    """Issue 9: "match fills the black borders rectify adds with streaky values (rectify exports no
+    validity mask, match takes none)"."""
+    left, right = _shifted_pair(6.0, h=60, w=160)
+    left[:, :24] = 0.0  # a rectification border: no image content
+    left[:8] = 0.0
+    valid = np.ones(left.shape[:2], bool)
+    valid[:, :24] = False
+    valid[:8] = False
+    filled = compute_disparity(left, right, max_disparity=20)
+    assert np.isfinite(filled.disparity[~valid]).all()  # without the mask the border gets extrapolated values
+    for keep_invalid in (False, True):
+        res = compute_disparity(left, right, max_disparity=20, valid=valid, keep_invalid=keep_invalid)
+        assert np.isnan(res.disparity[~valid]).all() and (res.confidence[~valid] == 0).all()
+        assert not res.matched[~valid].any()
+        assert abs(float(np.nanmedian(res.disparity[valid])) - 6.0) < SUBPIXEL_TOL_PX
+    assert np.isfinite(res.disparity[valid]).mean() > 0.5
+    assert np.isfinite(compute_disparity(left, right, max_disparity=20, valid=valid).disparity[valid]).all()
+
+
+def test_validity_mask_errors():
+    left, right = _shifted_pair(6.0)
+    with pytest.raises(TypeError, match="valid must be a boolean array; got dtype float64"):
+        compute_disparity(left, right, max_disparity=20, valid=np.ones(left.shape[:2]))
+    with pytest.raises(ValueError, match=r"valid must have the shape \(H, W\) of left \(60, 120\); got \(60, 119\)"):
+        compute_disparity(left, right, max_disparity=20, valid=np.ones((60, 119), bool))
+    with pytest.raises(ValueError, match="valid must select at least one pixel of left"):
+        compute_disparity(left, right, max_disparity=20, valid=np.zeros((60, 120), bool))

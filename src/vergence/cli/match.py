@@ -63,6 +63,18 @@ def _storable(disparity: np.ndarray, scale: float) -> tuple[np.ndarray, str | No
                     "to keep them exact")
 
 
+def _mask(path: Path, hw: tuple[int, ...]) -> np.ndarray:
+    """The ``--mask`` image as a boolean (H, W) mask of LEFT's size: True above one half (255 of 8 bits)."""
+    m = read_image(path)
+    if m.ndim != 2:
+        raise ValueError(f"--mask {path.name} must be a grey image; got {m.shape[2]} channels")
+    if m.shape != hw:
+        raise ValueError(f"--mask {path.name} must have the size of LEFT ({hw[1]}x{hw[0]}); got {m.shape[1]}x{m.shape[0]}")
+    if not (m > 0.5).any():
+        raise ValueError(f"--mask {path.name} selects no pixel (all below one half)")
+    return m > 0.5
+
+
 @app.command("match")
 def match(
     left: Path = typer.Argument(..., help="Left image of a rectified pair."),
@@ -82,6 +94,10 @@ def match(
     ),
     out: Path = typer.Option(..., "--out", help="Disparity output: .pfm, .npy, or .png with --scale."),
     scale: float | None = typer.Option(None, "--scale", help="PNG: stored value = disparity x scale (16-bit)."),
+    mask: Path | None = typer.Option(
+        None, "--mask", help="Validity mask of LEFT (rectify's left_valid.png): where it is below one half "
+        "(the black borders of a rectified image) the disparity is unknown, not extrapolated."
+    ),
     preview: Path | None = typer.Option(None, "--preview", help="Also write a colour preview image here."),
     confidence: Path | None = typer.Option(None, "--confidence", help="Also write the confidence map (grey image)."),
     as_json: bool = typer.Option(False, "--json", help="Print a summary as JSON."),
@@ -92,14 +108,15 @@ def match(
     extra = [p for p in (preview, confidence) if p is not None]
     integers = _check_outputs(out, scale, extra, min_disparity, max_disparity)
     for o in (out, *extra):
-        check_output_path(o, left, right)
+        check_output_path(o, left, right, *([mask] if mask is not None else []))
     start = time.perf_counter()
     names = {"block_size": "--block-size", "max_disparity": "--max-disparity", "min_disparity": "--min-disparity",
              "method": "--method", "smoothing": "--smoothing"}
     with err_console.status(f"matching ({method})", spinner="dots"), options_named(**names):
         a, b = read_image(left), read_image(right)
+        valid = _mask(mask, a.shape[:2]) if mask is not None else None
         result = compute_disparity(a, b, max_disparity=max_disparity, min_disparity=min_disparity, method=method,
-                                   smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size)
+                                   smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size, valid=valid)
     seconds = time.perf_counter() - start
     disparity, stored_warning = _storable(result.disparity, scale) if integers else (result.disparity, None)
     warnings = [*result.warnings, *([stored_warning] if stored_warning else [])]
@@ -110,7 +127,8 @@ def match(
         write_image(preview, disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity)))
     if confidence is not None:
         write_image(confidence, result.confidence)
-    summary = {"left": str(left), "right": str(right), "out": str(out), "method": method, "smoothing": smoothing,
+    summary = {"left": str(left), "right": str(right), "mask": None if mask is None else str(mask), "out": str(out),
+               "method": method, "smoothing": smoothing,
                **result.to_dict(), "warnings": warnings, "seconds": seconds}
     if as_json:
         print_json(summary)

@@ -128,6 +128,7 @@ def compute_disparity(
     smoothing: str = "median",
     keep_invalid: bool = False,
     block_size: int | None = None,
+    valid: object = None,
 ) -> RefinedDisparity:
     """Disparity of a rectified pair: matching then refinement (our default pipeline).
 
@@ -148,6 +149,10 @@ def compute_disparity(
         (background extrapolation, S1 §III.B).
     block_size : int, optional
         Matching window, pixels (odd); default from the image size.
+    valid : (H, W) bool array, optional
+        The pixels of ``left`` that hold image content, e.g. :attr:`~vergence.depth.RectifiedPair.left_valid`
+        (rectification leaves black borders). Outside it the disparity is NaN whatever ``keep_invalid``:
+        nothing is matched there, no pixel is filled from there, and the texture share counts inside only.
 
     Returns
     -------
@@ -178,9 +183,11 @@ def compute_disparity(
     a, _ = stereo_pair_u8(left, right)  # the arguments' errors before the texture's
     check_disparity_range(max_disparity, min_disparity, a.shape[1])
     check_block_size(block_size, 1, shape=a.shape)
+    inside = _valid_mask(valid, a.shape[:2])
     textured = {}
     for name, image in (("left", left), ("right", right)):
-        textured[name] = 100.0 * float(textured_pixels(as_image(name, image)).mean())
+        texture = textured_pixels(as_image(name, image))
+        textured[name] = 100.0 * float(texture[inside].mean() if name == "left" else texture.mean())
         if textured[name] < MIN_TEXTURED_PERCENT:
             raise ValueError(
                 f"{name} has no texture to match: {textured[name]:.2g} % of its pixels have a local contrast of "
@@ -194,5 +201,24 @@ def compute_disparity(
     )
     raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
                            block_size=block_size)
+    raw[~inside] = np.nan
     result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
-    return dataclasses.replace(result, textured_percent=textured["left"], warnings=warnings)
+    disparity, confidence = result.disparity.copy(), result.confidence.copy()
+    disparity[~inside] = np.nan
+    confidence[~inside] = 0.0
+    return dataclasses.replace(result, disparity=disparity, confidence=confidence, matched=result.matched & inside,
+                               textured_percent=textured["left"], warnings=warnings)
+
+
+def _valid_mask(valid: object, hw: tuple[int, int]) -> np.ndarray:
+    """``valid`` as a boolean (H, W) mask selecting at least one pixel; all True when None."""
+    if valid is None:
+        return np.ones(hw, bool)
+    m = np.asarray(valid)
+    if m.dtype != bool:
+        raise TypeError(f"valid must be a boolean array; got dtype {m.dtype}")
+    if m.shape != hw:
+        raise ValueError(f"valid must have the shape (H, W) of left {hw}; got {m.shape}")
+    if not m.any():
+        raise ValueError("valid must select at least one pixel of left; got an all-False mask")
+    return m
