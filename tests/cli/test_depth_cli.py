@@ -145,7 +145,9 @@ def test_match_then_evaluate(capsys, tsukuba, tmp_path):
     assert code == 0, err
     summary = json.loads(stdout)
     assert summary["known_percent"] == 100.0 and summary["width"] == 384
-    assert read_image(tmp_path / "p.png").shape == (288, 384, 3) and read_image(tmp_path / "c.png").shape == (288, 384)
+    preview = read_image(tmp_path / "p.png")  # the map, then its colour bar and labels
+    assert preview.shape[1:] == (384, 3) and 288 + 14 < preview.shape[0] < 288 + 60
+    assert read_image(tmp_path / "c.png").shape == (288, 384)
     code, stdout, err = _run(capsys, "evaluate-disparity", str(out), str(tsukuba / "groundtruth.png"),
                              "--truth-scale", "16", "--masks", str(tsukuba), "--json")
     assert code == 0, err

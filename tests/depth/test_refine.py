@@ -241,3 +241,21 @@ def test_disparity_preview():
         disparity_preview(np.zeros((2, 2)), lo=1.0, hi=1.0)
     with pytest.raises(ValueError, match=r"disparity must have shape \(H, W\); got \(4,\)"):
         disparity_preview(np.zeros(4), lo=0.0, hi=1.0)
+
+
+def test_disparity_preview_colour_bar_reads_like_the_map():
+    """Issue 9: "match ... its preview has no colour bar". The bar's ends are the map's colours of lo and
+    hi, it spans the width, and its labels (white text on black) sit under it."""
+    from vergence.depth import disparity_preview
+
+    d = np.tile(np.linspace(2.0, 18.0, 160, dtype=np.float32), (100, 1))
+    plain = disparity_preview(d, lo=2.0, hi=18.0)
+    rgb = disparity_preview(d, lo=2.0, hi=18.0, colour_bar=True)
+    np.testing.assert_array_equal(rgb[:100], plain)
+    bar = rgb[100]  # first row under the map: the ramp lo -> hi
+    np.testing.assert_array_equal(bar, plain[0])  # this map is the same ramp
+    rows = int(np.argmin((rgb[100:] == bar).all(axis=(1, 2))))  # the bar's height
+    assert rows >= 5  # at least 5 % of the map's height
+    labels = rgb[100 + rows:]
+    assert labels.shape[0] >= 10 and 0.01 < (labels.max(axis=2) > 0.5).mean() < 0.3
+    assert (labels[:, :, 0] == labels[:, :, 1]).all()  # grey text: not a colour of the map

@@ -98,7 +98,10 @@ def match(
         None, "--mask", help="Validity mask of LEFT (rectify's left_valid.png): where it is below one half "
         "(the black borders of a rectified image) the disparity is unknown, not extrapolated."
     ),
-    preview: Path | None = typer.Option(None, "--preview", help="Also write a colour preview image here."),
+    preview: Path | None = typer.Option(
+        None, "--preview", help="Also write a colour preview here (turbo, --min-disparity to --max-disparity, with its "
+        "colour bar; black = unknown)."
+    ),
     confidence: Path | None = typer.Option(None, "--confidence", help="Also write the confidence map (grey image)."),
     as_json: bool = typer.Option(False, "--json", help="Print a summary as JSON."),
 ) -> None:
@@ -124,7 +127,8 @@ def match(
         sys.stderr.write(f"warning: {warning}\n")
     write_disparity(out, disparity, scale=scale)
     if preview is not None:
-        write_image(preview, disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity)))
+        write_image(preview, disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity),
+                                               colour_bar=True))
     if confidence is not None:
         write_image(confidence, result.confidence)
     summary = {"left": str(left), "right": str(right), "mask": None if mask is None else str(mask), "out": str(out),
