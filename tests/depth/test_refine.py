@@ -16,15 +16,12 @@ from vergence.depth import (
     read_middlebury_masks,
     refine_disparity,
     remove_speckles,
-    smooth_wls,
     unreliable_pixels,
     weighted_median_filter,
 )
 from vergence.depth.refine import default_radius
 from vergence.io import read_disparity, read_image
 
-# WLS works at 1/16 px (OpenCV fixed point): a constant map comes back within one step.
-WLS_ATOL = 1.0 / 16.0
 # The median bin's mean of equal float32 values, accumulated with float32 weights: a few ulps.
 WM_RTOL = 1e-6
 # Probability that a correct pixel gets a higher confidence than a wrong one (measured 0.90 on tsukuba).
@@ -81,7 +78,7 @@ def test_outlier_rule_is_more_than_one_pixel_off_the_3x3_median():
 
 
 def test_smoothing_table_names_every_stage():
-    assert tuple(SMOOTHING_METHODS) == ("median", "wls", "none")
+    assert tuple(SMOOTHING_METHODS) == ("median", "none")
     d = np.full((12, 12), 5.0, np.float32)
     d[:, :3] = np.nan
     img = np.zeros((12, 12), np.float32)
@@ -158,11 +155,12 @@ def test_weighted_median_snaps_a_disparity_edge_to_the_image_edge():
     np.testing.assert_allclose(out[:, 20:], 12.0, rtol=WM_RTOL)
 
 
-def test_smooth_wls_keeps_a_constant_map():
-    img = np.random.default_rng(1).random((20, 30)).astype(np.float32)
-    np.testing.assert_allclose(smooth_wls(np.full((20, 30), 7.25, np.float32), img), 7.25, atol=WLS_ATOL)
-    with pytest.raises(ValueError, match="must be complete"):
-        smooth_wls(np.full((20, 30), np.nan, np.float32), img)
+def test_wls_smoothing_was_dropped():
+    """Issue 9: "--smoothing wls scores worse than no smoothing ... fix it or drop it". Dropped: on the
+    sixteen held-out scenes of benchmarks/smoothing.py it left 27.2 % bad nonocc pixels against 13.2 %."""
+    d = np.full((12, 12), 5.0, np.float32)
+    with pytest.raises(ValueError, match="^smoothing must be one of median, none; got 'wls'$"):
+        refine_disparity(d, np.zeros((12, 12), np.float32), smoothing="wls")
 
 
 def test_refine_fills_everything_unless_asked(shared_data):
@@ -175,8 +173,7 @@ def test_refine_fills_everything_unless_asked(shared_data):
     assert np.isfinite(full.disparity).all()
     np.testing.assert_array_equal(np.isnan(kept.disparity), ~kept.matched)
     assert kept.matched.mean() > 0.8 and (full.confidence[~full.matched] == 0).all()
-    for smoothing in ("wls", "none"):
-        assert np.isfinite(refine_disparity(raw, left, smoothing=smoothing).disparity).all()
+    assert np.isfinite(refine_disparity(raw, left, smoothing="none").disparity).all()
 
 
 def test_confidence_is_lower_on_wrong_pixels(shared_data):
@@ -203,7 +200,7 @@ def test_bad_input():
         weighted_median_filter(d, img, radius=0)
     with pytest.raises(ValueError, match="disparity must be known"):
         weighted_median_filter(np.full((10, 12), np.nan, np.float32), img, radius=2, support=np.ones((10, 12), bool))
-    with pytest.raises(ValueError, match="smoothing must be one of median, wls, none; got 'gauss'"):
+    with pytest.raises(ValueError, match="smoothing must be one of median, none; got 'gauss'"):
         refine_disparity(d, img, smoothing="gauss")
     with pytest.raises(ValueError, match="the matcher found no reliable disparity"):
         refine_disparity(np.full((10, 12), np.nan, np.float32), img)
@@ -224,10 +221,6 @@ def test_more_bad_input():
         weighted_median_filter(d, img, radius=2, update=np.ones((6, 7), bool))
     no_votes = weighted_median_filter(d + 3, img, radius=2, support=np.zeros((6, 8), bool))
     np.testing.assert_array_equal(no_votes, d + 3)  # nobody may vote: unchanged
-    with pytest.raises(ValueError, match=r"disparity must stay within \+-2047 px for WLS smoothing"):
-        smooth_wls(d + 2047.0, img)
-    with pytest.raises(ValueError, match=r"disparity must be complete \(no NaN\) for WLS smoothing"):
-        smooth_wls(np.where(d == 0, np.nan, d), img)
 
 
 def test_disparity_preview():

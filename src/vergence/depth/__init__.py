@@ -42,7 +42,6 @@ from vergence.depth.refine import (
     left_right_check,
     refine_disparity,
     remove_speckles,
-    smooth_wls,
     unreliable_pixels,
     weighted_median_filter,
 )
@@ -79,7 +78,6 @@ __all__ = [
     "refine_disparity",
     "remove_speckles",
     "sgbm_parameters",
-    "smooth_wls",
     "textured_pixels",
     "unreliable_pixels",
     "weighted_median_filter",

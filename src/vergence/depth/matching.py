@@ -142,7 +142,7 @@ def compute_disparity(
         A name of :data:`MATCHERS`: ``sgbm``: :func:`match_sgbm` (default); ``bm``: :func:`match_bm`;
         ``sad``/``ssd``/``ncc``: :func:`~vergence.depth.block.match_blocks` with that window cost.
     smoothing : str
-        A name of :data:`~vergence.depth.refine.SMOOTHING_METHODS` (``median``, ``wls``, ``none``):
+        A name of :data:`~vergence.depth.refine.SMOOTHING_METHODS` (``median``, ``none``):
         the edge-aware smoothing of :func:`~vergence.depth.refine.refine_disparity`.
     keep_invalid : bool
         Keep NaN where the matcher gave no answer; by default every pixel gets a disparity
