@@ -264,7 +264,17 @@ def test_rectify_errors(capsys, dino, tmp_path):
 def test_evaluate_errors(capsys, tsukuba, tmp_path):
     gt = str(tsukuba / "groundtruth.png")
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt)
-    assert code == 2 and "scale is required" in err
+    assert code == 2 and err.startswith("error: --estimate-scale is required for a .png disparity map")
+    # issue 9, "the CLI speaks Python": every message names the option the user typed
+    scaled = ["evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16"]
+    np.save(tmp_path / "small.npy", np.ones((10, 10), np.float32))
+    for extra, message in ((["--threshold", "-1"], "--threshold must be > 0; got -1"),
+                           (["--truth-scale", "0"], "--truth-scale must be > 0; got 0"),
+                           (["--estimate-scale", "0"], "--estimate-scale must be > 0; got 0"),
+                           (["--truth-right", str(tmp_path / "small.npy")],
+                            "--truth-right must have shape (H, W) matching truth (288, 384); got (10, 10)")):
+        code, _, err = _run(capsys, *scaled, *extra)
+        assert code == 2 and err.strip() == f"error: {message}"
     np.save(tmp_path / "small.npy", np.ones((10, 10), np.float32))
     code, _, err = _run(capsys, "evaluate-disparity", str(tmp_path / "small.npy"), gt, "--truth-scale", "16")
     assert code == 2 and "estimate must have shape (288, 384) matching truth" in err
@@ -388,3 +398,22 @@ def test_match_mask_leaves_the_rectification_borders_unknown(capsys, tsukuba, tm
         code, _, err = _run(capsys, *args, "--mask", str(tmp_path / name), "--out", str(tmp_path / "e.pfm"))
         assert code == 2 and err.startswith(f"error: {message}") and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "e.pfm").exists()
+
+
+def test_match_writes_all_or_nothing(capsys, tsukuba, tmp_path, monkeypatch):
+    """The disparity, preview and confidence files appear together or not at all."""
+    import vergence.cli.match as match_cli
+
+    real = match_cli.write_image
+
+    def fail_on_confidence(path, image, **kwargs):
+        if image.ndim == 2:  # the confidence map, written last
+            raise OSError("disk full")
+        real(path, image, **kwargs)
+
+    monkeypatch.setattr(match_cli, "write_image", fail_on_confidence)
+    code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
+                        "--out", str(tmp_path / "d.pfm"), "--preview", str(tmp_path / "p.png"), "--confidence",
+                        str(tmp_path / "c.png"))
+    assert code == 2 and "disk full" in err
+    assert list(tmp_path.iterdir()) == []

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.depth import MATCHERS, MAX_BLOCK_SIZE, SMOOTHING_METHODS, compute_disparity, disparity_preview
-from vergence.io import read_image, stores_integers, write_disparity, write_image
+from vergence.io import atomic_write, read_image, stores_integers, write_disparity, write_image
 
 __all__ = ["match"]
 
@@ -125,12 +126,16 @@ def match(
     warnings = [*result.warnings, *([stored_warning] if stored_warning else [])]
     for warning in warnings:
         sys.stderr.write(f"warning: {warning}\n")
-    write_disparity(out, disparity, scale=scale)
+    pictures = {}
     if preview is not None:
-        write_image(preview, disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity),
-                                               colour_bar=True))
+        pictures[preview] = disparity_preview(result.disparity, lo=float(min_disparity), hi=float(max_disparity),
+                                              colour_bar=True)
     if confidence is not None:
-        write_image(confidence, result.confidence)
+        pictures[confidence] = result.confidence
+    with ExitStack() as stack:  # all outputs or none: each is renamed into place only once every one is written
+        write_disparity(stack.enter_context(atomic_write(out)), disparity, scale=scale)
+        for path, picture in pictures.items():
+            write_image(stack.enter_context(atomic_write(path)), picture)
     summary = {"left": str(left), "right": str(right), "mask": None if mask is None else str(mask), "out": str(out),
                "method": method, "smoothing": smoothing,
                **result.to_dict(), "warnings": warnings, "seconds": seconds}
