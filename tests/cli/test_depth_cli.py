@@ -111,6 +111,11 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
          "--out d.png stores disparities >= 0 only, and --min-disparity -2 searches negative ones"),
         (["--out", "d.png", "--scale", "5000"], "--max-disparity 15 x --scale 5000 exceeds 65535"),
         (["--out", "d.pfm", "--block-size", "257"], "--block-size must be an odd number of pixels in [1, 255]"),
+        (["--out", "d.png", "--scale", "1e-300"], "--scale 1e-300 stores the whole range up to --max-disparity 15 in "
+         "less than one step"),
+        (["--out", "d.pfm", "--preview", "p.txt"], "--preview must be a .png, .jpg, .jpeg, .ppm, .pfm, .npy, .hdr file"),
+        (["--out", "d.pfm", "--confidence", "c.ppm"], "--confidence must be a .png, .pgm, .jpg, .jpeg, .pfm, .npy file"),
+        (["--out", "d.pfm", "--confidence", "no/c.png"], "cannot write no/c.png: folder no does not exist"),
     ],
 )
 def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, monkeypatch, options, message):
@@ -412,8 +417,20 @@ def test_match_writes_all_or_nothing(capsys, tsukuba, tmp_path, monkeypatch):
         real(path, image, **kwargs)
 
     monkeypatch.setattr(match_cli, "write_image", fail_on_confidence)
+    assert ".tmp-" not in str(tmp_path)
     code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
                         "--out", str(tmp_path / "d.pfm"), "--preview", str(tmp_path / "p.png"), "--confidence",
                         str(tmp_path / "c.png"))
-    assert code == 2 and "disk full" in err
+    assert code == 2 and "disk full" in err and ".tmp-" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_match_bm_default_block_on_a_tiny_image_is_refused_by_name(capsys, tmp_path):
+    """Found by our sweep: StereoBM's default 9 px block on an 8-row pair was an internal error (exit 1)."""
+    import cv2
+
+    cv2.imwrite(str(tmp_path / "small.png"), np.random.default_rng(0).integers(0, 256, (8, 40), np.uint8))
+    code, _, err = _run(capsys, "match", str(tmp_path / "small.png"), str(tmp_path / "small.png"), "--max-disparity",
+                        "7", "--method", "bm", "--out", str(tmp_path / "d.pfm"))
+    assert code == 2 and err.strip() == ("error: --block-size (default 9 px for StereoBM) must not exceed the image's "
+                                         "smaller side (8 px): give a smaller one")

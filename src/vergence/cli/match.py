@@ -20,10 +20,15 @@ __all__ = ["match"]
 
 # The largest value of a 16-bit PNG/PGM sample: stored disparity x scale must not exceed it.
 _MAX_SAMPLE = 65535
+# The formats write_image takes for an RGB preview and for a grey confidence map.
+_PREVIEW_SUFFIXES = (".png", ".jpg", ".jpeg", ".ppm", ".pfm", ".npy", ".hdr")
+_CONFIDENCE_SUFFIXES = (".png", ".pgm", ".jpg", ".jpeg", ".pfm", ".npy")
 
 
-def _check_outputs(out: Path, scale: float | None, extra: list[Path], min_disparity: int, max_disparity: int) -> bool:
+def _check_outputs(out: Path, scale: float | None, preview: Path | None, confidence: Path | None, min_disparity: int,
+                   max_disparity: int) -> bool:
     """Refuse, before any matching, an output that cannot be written as asked; whether it stores integers."""
+    extra = [p for p in (preview, confidence) if p is not None]
     try:
         integers = stores_integers(out)
     except ValueError:
@@ -41,6 +46,19 @@ def _check_outputs(out: Path, scale: float | None, extra: list[Path], min_dispar
         if max_disparity * scale > _MAX_SAMPLE + 0.5:
             raise ValueError(f"--max-disparity {max_disparity} x --scale {scale:g} exceeds {_MAX_SAMPLE}, the largest "
                              f"16-bit value of {out.name}: lower --scale, or write .pfm or .npy")
+    for option, path, suffixes in (("--preview", preview, _PREVIEW_SUFFIXES),
+                                   ("--confidence", confidence, _CONFIDENCE_SUFFIXES)):
+        if path is not None and path.suffix.lower() not in suffixes:
+            raise ValueError(f"{option} must be a {', '.join(suffixes)} file; got {path.name!r}")
+    if integers and max_disparity * scale < 1:
+        raise ValueError(f"--scale {scale:g} stores the whole range up to --max-disparity {max_disparity} in less than "
+                         "one step: give a scale of at least 1 / max disparity")
+    for path in (out, *extra):
+        folder = path.parent if str(path.parent) else Path(".")
+        if not folder.is_dir():
+            raise FileNotFoundError(f"cannot write {path}: folder {folder} does not exist")
+        if path.is_dir():
+            raise IsADirectoryError(f"cannot write {path}: it is a folder")
     resolved = [p.resolve() for p in (out, *extra)]
     if len(set(resolved)) != len(resolved):
         raise ValueError("--out, --preview and --confidence must name different files")
@@ -62,6 +80,26 @@ def _storable(disparity: np.ndarray, scale: float) -> tuple[np.ndarray, str | No
     return stored, (f"{count} pixels of disparity 0 (below {0.5 / scale:g} px) are stored as 1/{scale:g} px, the "
                     "smallest value a PNG/PGM disparity can hold (0 means unknown there); write .pfm or .npy "
                     "to keep them exact")
+
+
+def _write_all(out: Path, disparity: np.ndarray, scale: float | None, pictures: dict[Path, np.ndarray]) -> None:
+    """Write the disparity and the pictures into hidden temporary files, then rename them all into place.
+
+    All outputs or none. An error names the file the user asked for, never the temporary one.
+    """
+    temporary: dict[Path, Path] = {}
+    try:
+        with ExitStack() as stack:
+            temporary[out] = stack.enter_context(atomic_write(out))
+            write_disparity(temporary[out], disparity, scale=scale)
+            for path, picture in pictures.items():
+                temporary[path] = stack.enter_context(atomic_write(path))
+                write_image(temporary[path], picture)
+    except (ValueError, OSError) as exc:
+        message = str(exc)
+        for final, tmp in temporary.items():
+            message = message.replace(str(tmp), str(final)).replace(tmp.name, final.name)
+        raise type(exc)(message) from exc
 
 
 def _mask(path: Path, hw: tuple[int, ...]) -> np.ndarray:
@@ -110,7 +148,7 @@ def match(
     if block_size is not None and not (1 <= block_size <= MAX_BLOCK_SIZE and block_size % 2 == 1):
         raise ValueError(f"--block-size must be an odd number of pixels in [1, {MAX_BLOCK_SIZE}]; got {block_size}")
     extra = [p for p in (preview, confidence) if p is not None]
-    integers = _check_outputs(out, scale, extra, min_disparity, max_disparity)
+    integers = _check_outputs(out, scale, preview, confidence, min_disparity, max_disparity)
     for o in (out, *extra):
         check_output_path(o, left, right, *([mask] if mask is not None else []))
     start = time.perf_counter()
@@ -132,10 +170,7 @@ def match(
                                               colour_bar=True)
     if confidence is not None:
         pictures[confidence] = result.confidence
-    with ExitStack() as stack:  # all outputs or none: each is renamed into place only once every one is written
-        write_disparity(stack.enter_context(atomic_write(out)), disparity, scale=scale)
-        for path, picture in pictures.items():
-            write_image(stack.enter_context(atomic_write(path)), picture)
+    _write_all(out, disparity, scale, pictures)
     summary = {"left": str(left), "right": str(right), "mask": None if mask is None else str(mask), "out": str(out),
                "method": method, "smoothing": smoothing,
                **result.to_dict(), "warnings": warnings, "seconds": seconds}

@@ -71,6 +71,9 @@ def check_block_size(
     ``matcher`` names the matcher that needs a ``minimum`` above 1, for the message.
     """
     if block_size is None:
+        if shape is not None and default > min(shape[:2]):
+            raise ValueError(f"block_size (default {default} px{' for ' + matcher if matcher else ''}) must not exceed "
+                             f"the image's smaller side ({min(shape[:2])} px): give a smaller one")
         return default
     bs = check_positive_int("block_size", block_size)
     if bs % 2 == 0 or bs < minimum:
