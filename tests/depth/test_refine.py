@@ -230,7 +230,7 @@ def test_disparity_preview():
     assert rgb.shape == (1, 4, 3) and rgb.dtype == np.float32
     np.testing.assert_array_equal(rgb[0, 2], 0.0)  # unknown: black
     np.testing.assert_array_equal(rgb[0, 3], rgb[0, 1])  # clipped at hi
-    with pytest.raises(ValueError, match="hi must be finite and greater than lo; got lo=1.0, hi=1.0"):
+    with pytest.raises(ValueError, match="hi must be finite and greater than lo, hi - lo finite; got lo=1.0, hi=1.0"):
         disparity_preview(np.zeros((2, 2)), lo=1.0, hi=1.0)
     with pytest.raises(ValueError, match=r"disparity must have shape \(H, W\); got \(4,\)"):
         disparity_preview(np.zeros(4), lo=0.0, hi=1.0)
@@ -252,3 +252,31 @@ def test_disparity_preview_colour_bar_reads_like_the_map():
     labels = rgb[100 + rows:]
     assert labels.shape[0] >= 10 and 0.01 < (labels.max(axis=2) > 0.5).mean() < 0.3
     assert (labels[:, :, 0] == labels[:, :, 1]).all()  # grey text: not a colour of the map
+
+
+def test_sweep_kin_refusals():
+    """Found by our sweep of the Python API: a weighted-median radius of 1e12 ran for ever, a tiny
+    bin_width overflowed (OverflowError), a list as method or smoothing was "unhashable type", a
+    preview over [-1e308, 1e308] printed numpy overflow warnings."""
+    from vergence.depth import compute_disparity, disparity_preview
+    from vergence.depth.refine import MAX_MEDIAN_BINS
+
+    d = np.tile(np.linspace(0.0, 30.0, 20, dtype=np.float32), (10, 1))
+    img = np.zeros((10, 20), np.float32)
+    with pytest.raises(ValueError, match=r"^radius must not exceed the image's larger side \(20 px\); got 21$"):
+        weighted_median_filter(d, img, radius=21)
+    assert weighted_median_filter(d, img, radius=20).shape == d.shape
+    with pytest.raises(ValueError, match=rf"^bin_width must split the disparity range \[0, 30\] into at most "
+                                         rf"{MAX_MEDIAN_BINS} bins \(MAX_MEDIAN_BINS\); got 1e-300 px$"):
+        weighted_median_filter(d, img, radius=2, bin_width=1e-300)
+    assert weighted_median_filter(d, img, radius=2, bin_width=30.0 / (MAX_MEDIAN_BINS - 1)).shape == d.shape
+    with pytest.raises(ValueError, match=r"^smoothing must be one of median, none; got \['median'\]$"):
+        refine_disparity(d, img, smoothing=["median"])
+    pair = np.random.default_rng(0).random((20, 60)).astype(np.float32)
+    with pytest.raises(ValueError, match=r"^method must be one of bm, ncc, sad, sgbm, ssd; got \['sgbm'\]$"):
+        compute_disparity(pair, pair, max_disparity=15, method=["sgbm"])
+    with pytest.raises(ValueError, match=r"hi - lo finite; got lo=-1e\+308, hi=1e\+308"):
+        disparity_preview(d, lo=-1e308, hi=1e308)
+    with pytest.raises(TypeError, match="^lo must be a real number of pixels; got str$"):
+        disparity_preview(d, lo="0", hi=1.0)
+    assert disparity_preview(np.full((2, 2), np.nan), lo=-1e300, hi=0.0).max() == 0.0  # no overflow warning

@@ -88,7 +88,7 @@ def match_blocks(
     -----
     Sub-pixel: ``d + (c_- - c_+) / (2 (c_- - 2 c_0 + c_+))`` when the parabola opens upwards.
     """
-    if cost not in COSTS:
+    if not isinstance(cost, str) or cost not in COSTS:
         raise ValueError(f"cost must be one of {', '.join(COSTS)}; got {cost!r}")
     a, b = stereo_pair_u8(left, right)
     lo, hi, _ = check_disparity_range(max_disparity, min_disparity, a.shape[1])

@@ -178,7 +178,7 @@ def compute_disparity(
     >>> float(np.median(res.disparity[:, 20:]))
     5.0
     """
-    if method not in MATCHERS:
+    if not isinstance(method, str) or method not in MATCHERS:
         raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
     a, _ = stereo_pair_u8(left, right)  # the arguments' errors before the texture's
     check_disparity_range(max_disparity, min_disparity, a.shape[1])

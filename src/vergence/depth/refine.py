@@ -24,6 +24,7 @@ from vergence._validate import (
 from vergence.depth import _kernels
 
 __all__ = [
+    "MAX_MEDIAN_BINS",
     "RefinedDisparity",
     "SMOOTHING_METHODS",
     "confidence_map",
@@ -43,6 +44,10 @@ _OUTLIER_PX = 1.0
 _FIXED = 16.0
 # |disparity| limit that fits int16 at 1/16 px.
 _FIXED_MAX = 2047.0
+# Most histogram bins of the weighted median: each worker holds two float32 histograms of this many
+# bins per row (512 KiB); the default 1/4 px bins cover 16384 px of disparity range, 8 times the
+# OpenCV limit above. More bins (a tiny bin_width) only cost memory and time.
+MAX_MEDIAN_BINS = 65536
 
 
 def _disparity(name: str, value: object) -> np.ndarray:
@@ -201,6 +206,8 @@ def weighted_median_filter(
     s = check_positive_int("step", step)
     sig = check_positive("sigma_color", sigma_color)
     bw = check_positive("bin_width", bin_width)
+    if r > max(d.shape):
+        raise ValueError(f"radius must not exceed the image's larger side ({max(d.shape)} px); got {r}")
     upd = np.ones(d.shape, bool) if update is None else np.asarray(update, bool)
     sup = np.isfinite(d) if support is None else np.asarray(support, bool)
     for name, m in (("update", upd), ("support", sup)):
@@ -211,7 +218,11 @@ def weighted_median_filter(
     if not sup.any():
         return d.copy()
     d_min, d_max = float(d[sup].min()), float(d[sup].max())
-    nbins = int((d_max - d_min) / bw) + 1
+    span_bins = (d_max - d_min) / bw
+    if not span_bins < MAX_MEDIAN_BINS:
+        raise ValueError(f"bin_width must split the disparity range [{d_min:g}, {d_max:g}] into at most "
+                         f"{MAX_MEDIAN_BINS} bins (MAX_MEDIAN_BINS); got {bw:g} px")
+    nbins = int(span_bins) + 1
     lut = np.exp(-np.arange(g.shape[2] * 255 * 255 + 1, dtype=np.float64) / (2.0 * sig * sig)).astype(np.float32)
     return _kernels.weighted_median(np.ascontiguousarray(d), g, np.ascontiguousarray(upd), np.ascontiguousarray(sup),
                                     lut, r, s, d_min, bw, nbins)
@@ -363,7 +374,7 @@ def refine_disparity(
     """
     d = _disparity("disparity", disparity)
     _guide_u8("guide", guide, d)
-    if smoothing not in SMOOTHING_METHODS:
+    if not isinstance(smoothing, str) or smoothing not in SMOOTHING_METHODS:
         raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_METHODS)}; got {smoothing!r}")
     h, w = d.shape
     size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
