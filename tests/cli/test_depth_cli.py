@@ -329,6 +329,10 @@ def test_compare_flat_tiny_and_identical_images(capsys, tmp_path):
     assert data["registration_pixels"] == 0 and data["registration_rms_px"] is None
     code, stdout, _ = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey.png"), "--json")
     assert code == 0 and '"psnr_db": null' in stdout and json.loads(stdout)["identical"] is True
+    write_image(tmp_path / "rgb.png", np.zeros((20, 30, 3)))
+    code, _, err = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey2.png"), "--mask",
+                        str(tmp_path / "rgb.png"))
+    assert code == 2 and err.startswith(f"error: --mask {tmp_path / 'rgb.png'} must be a single-channel (grey) image")
     write_image(tmp_path / "tiny.png", np.random.default_rng(0).random((2, 2)))
     code, stdout, err = _run(capsys, "compare", str(tmp_path / "tiny.png"), str(tmp_path / "tiny.png"))
     assert code == 2 and stdout == "" and "win_size" not in err

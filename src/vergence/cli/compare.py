@@ -21,7 +21,7 @@ def _mask(path: Path) -> np.ndarray:
     """A mask image: grey, True where the value is above one half (255 in an 8-bit mask)."""
     m = read_image(path)
     if m.ndim != 2:
-        raise ValueError(f"mask {path} must be a single-channel image; got shape {m.shape}")
+        raise ValueError(f"--mask {path} must be a single-channel (grey) image; got shape {m.shape}")
     return m > 0.5
 
 
