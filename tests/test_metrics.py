@@ -16,9 +16,12 @@ from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 from vergence.metrics import (
     FLAT_VARIANCE,
     MIN_CONTRAST,
+    REGISTRATION_PATCH,
+    SSIM_WINDOW,
     TIE_TOLERANCE,
     RegistrationError,
     dssim,
+    patch_contrast,
     psnr,
     registration_error,
     ssim,
@@ -491,3 +494,30 @@ def test_registration_radius_past_the_limit_is_refused_before_any_allocation():
         registration_error(img, img, radius=1e6)
     # the limit itself is accepted on the arithmetic (no allocation of the offsets at 1e6)
     assert registration_error(img, img, radius=20, min_contrast=0).rms == 0.0
+
+
+def test_patch_contrast_by_hand_and_as_the_registration_gate_reads_it():
+    # 5 x 5 checkerboard of +-a: RMS deviation a sqrt(1 - 1/25^2) (13 of one sign, 12 of the other)
+    a = 3.5 / 255.0
+    board = _checkerboard((12, 12), 0.5, a)
+    assert_allclose(patch_contrast(board)[2:-2, 2:-2], a * math.sqrt(1.0 - 1.0 / 25**2), atol=FLOAT32_TOL)
+    assert_array_equal(patch_contrast(np.full((9, 9, 3), 0.25)), 0.0)
+    result = registration_error(board, board, radius=2.0, min_contrast=float(patch_contrast(board).min()))
+    assert result.evaluated_fraction == 1.0
+    assert REGISTRATION_PATCH == result.patch_size == 5
+
+
+def test_patch_contrast_refuses_bad_patches():
+    with pytest.raises(ValueError, match="patch_size must be an odd integer >= 3; got 4"):
+        patch_contrast(np.zeros((8, 8)), patch_size=4)
+    with pytest.raises(ValueError, match="patch_size must not exceed the image's smaller side 2; got 5"):
+        patch_contrast(np.zeros((2, 8)))
+    with pytest.raises(ValueError, match=r"image values must lie in \[0, 1\]"):
+        patch_contrast(np.full((8, 8), 2.0))
+
+
+def test_ssim_window_is_scikit_images_default():
+    a, b = _noise((16, 16), 1), _noise((16, 16), 2)
+    assert SSIM_WINDOW == 7
+    reference = structural_similarity(a.astype(np.float64), b.astype(np.float64), data_range=1.0)
+    assert ssim(a, b) == pytest.approx(reference, abs=FLOAT64_TOL)

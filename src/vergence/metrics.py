@@ -21,8 +21,11 @@ from vergence._validate import as_image_pair, check_finite, check_in_range, chec
 __all__ = [
     "MAX_REGISTRATION_RADIUS",
     "MIN_CONTRAST",
+    "REGISTRATION_PATCH",
     "RegistrationError",
+    "SSIM_WINDOW",
     "dssim",
+    "patch_contrast",
     "psnr",
     "registration_error",
     "ssim",
@@ -42,6 +45,12 @@ MIN_CONTRAST = 3.0 / 255.0
 # Largest registration search radius: (2 r + 1)^2 = 4.2 million candidate offsets, about 100 MB of
 # offset tables, and already 3.3 million patch comparisons per pixel. A radius of 1e6 would need 58 TiB.
 MAX_REGISTRATION_RADIUS = 1024
+# Side of SSIM's uniform window, pixels: scikit-image's default (Wang et al. 2004 use an 11 x 11
+# Gaussian of sigma 1.5, whose weights fall below 5 % outside the central 7 x 7). An image must be
+# at least this large on each side to have an SSIM.
+SSIM_WINDOW = 7
+# Side of the registration error's patch, pixels (S1 leaves it open; 5 x 5 is our choice).
+REGISTRATION_PATCH = 5
 _SIMILARITIES = {"ssd": SIMILARITY_SSD, "zncc": SIMILARITY_ZNCC}
 _DEFAULT_RANKS = (0.8, 0.95, 1.0)
 # The largest RMS deviation of values in [0, 1]: half of them 0, half 1.
@@ -121,7 +130,7 @@ def _check_window(name: str, value: object, hw: tuple[int, ...]) -> int:
     return w
 
 
-def ssim(image: object, reference: object, *, mask: object = None, win_size: int = 7) -> float:
+def ssim(image: object, reference: object, *, mask: object = None, win_size: int = SSIM_WINDOW) -> float:
     """Mean structural similarity (Wang et al. 2004) through scikit-image, data range 1.
 
     Parameters
@@ -134,7 +143,7 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
         the window leaves the image, is left out in both cases; so an all-True mask gives the
         unmasked value.
     win_size : int, optional
-        Side of the uniform window (odd, >= 3); scikit-image's default 7.
+        Side of the uniform window (odd, >= 3); default ``SSIM_WINDOW`` (7, scikit-image's default).
 
     Returns
     -------
@@ -178,7 +187,7 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
     return float(smap[sel].mean())
 
 
-def dssim(image: object, reference: object, *, mask: object = None, win_size: int = 7) -> float:
+def dssim(image: object, reference: object, *, mask: object = None, win_size: int = SSIM_WINDOW) -> float:
     """Structural dissimilarity ``(1 - SSIM) / 2``, in [0, 1]; 0 for identical images.
 
     Parameters
@@ -343,12 +352,51 @@ def _patch_contrast(sums: np.ndarray, squares: np.ndarray, k: int) -> np.ndarray
     return np.sqrt(np.maximum(deviation, 0.0) / (n * nc))
 
 
+def patch_contrast(image: object, *, patch_size: int = REGISTRATION_PATCH) -> np.ndarray:
+    """RMS contrast of the ``patch_size`` x ``patch_size`` patch around each pixel, channels pooled.
+
+    The quantity the registration error's ``min_contrast`` gate compares (:func:`registration_error`).
+
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)`` or ``(H, W, 3)`` in [0, 1], each side >= ``patch_size``.
+    patch_size : int, optional
+        Odd patch side k >= 3 (default ``REGISTRATION_PATCH``); patches that leave the image read it
+        mirrored (reflect-101).
+
+    Returns
+    -------
+    (H, W) float64
+        ``sqrt(sum_c sum_q (I_c(q) - mean_c)^2 / (k^2 C))``, [0, 1] intensity units, in [0, 0.5].
+
+    Raises
+    ------
+    ValueError
+        On an invalid image, or an even, too small or too large ``patch_size``.
+
+    Examples
+    --------
+    >>> float(patch_contrast(np.full((5, 5), 0.5)).max())
+    0.0
+    >>> stripes = np.tile([0.0, 1.0], (5, 3))[:, :5]  # columns 0 1 0 1 0: 2 of 5 are 1
+    >>> round(float(patch_contrast(stripes)[2, 2]), 6)  # sqrt(0.4 * 0.6)
+    0.489898
+    """
+    a, _ = _pair(image, image)
+    k = _check_window("patch_size", patch_size, a.shape[:2])
+    h = k // 2
+    a3 = a[:, :, None] if a.ndim == 2 else a
+    sums, squares = patch_sums(np.ascontiguousarray(np.pad(a3, ((h, h), (h, h), (0, 0)), mode="reflect")), k)
+    return _patch_contrast(sums, squares, k)
+
+
 def registration_error(
     image: object,
     reference: object,
     *,
     radius: float = 10.0,
-    patch_size: int = 5,
+    patch_size: int = REGISTRATION_PATCH,
     similarity: str = "zncc",
     threshold: float | None = None,
     ranks: Sequence[float] = _DEFAULT_RANKS,

@@ -44,6 +44,14 @@ def test_rectify_writes_images_and_json(capsys, dino, tmp_path):
     assert left.shape == right.shape == (data["left_camera"]["height"], data["left_camera"]["width"], 3)
     assert data["baseline"] > 0 and np.asarray(data["left_homography"]).shape == (3, 3)
     assert data["row_alignment"]["median_abs_dy_px"] < MAX_MEDIAN_DY_PX and data["row_alignment"]["matches"] > 50
+    # the validity masks: 255 where the rectified pixel comes from the image, 0 in the black borders
+    for side, image in (("left", left), ("right", right)):
+        valid = read_image(out / f"{side}_valid.png")
+        assert valid.shape == image.shape[:2] and set(np.unique(valid)) == {0.0, 1.0}
+        border = image[valid == 0]  # black, but for a rim of pixels blended with it by the bilinear resampling
+        assert (border == 0).all(axis=-1).mean() > 0.9 and 0.01 < (valid == 0).mean() < 0.5  # measured 1.7 %, 1.8 %
+    assert sorted(p.name for p in out.iterdir()) == ["left.png", "left_valid.png", "rectification.json", "right.png",
+                                                     "right_valid.png"]
 
 
 def test_rectify_prints_a_summary_without_json(capsys, dino, tmp_path):
@@ -98,6 +106,16 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
         (["--out", "d.png"], "--out d.png stores integers: give --scale"),
         (["--out", "d.npy", "--scale", "16"], "--scale applies to .png/.pgm outputs only"),
         (["--out", "d.tif"], "--out must be a .pfm, .npy, or .png/.pgm"),
+        (["--out", "d.png", "--scale", "0"], "--scale must be a finite number > 0; got 0"),
+        (["--out", "d.png", "--scale", "16", "--min-disparity", "-2"],
+         "--out d.png stores disparities >= 0 only, and --min-disparity -2 searches negative ones"),
+        (["--out", "d.png", "--scale", "5000"], "--max-disparity 15 x --scale 5000 exceeds 65535"),
+        (["--out", "d.pfm", "--block-size", "257"], "--block-size must be an odd number of pixels in [1, 255]"),
+        (["--out", "d.png", "--scale", "1e-300"], "--scale 1e-300 stores the whole range up to --max-disparity 15 in "
+         "less than one step"),
+        (["--out", "d.pfm", "--preview", "p.txt"], "--preview must be a .png, .jpg, .jpeg, .ppm, .pfm, .npy, .hdr file"),
+        (["--out", "d.pfm", "--confidence", "c.ppm"], "--confidence must be a .png, .pgm, .jpg, .jpeg, .pfm, .npy file"),
+        (["--out", "d.pfm", "--confidence", "no/c.png"], "cannot write no/c.png: folder no does not exist"),
     ],
 )
 def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, monkeypatch, options, message):
@@ -132,7 +150,9 @@ def test_match_then_evaluate(capsys, tsukuba, tmp_path):
     assert code == 0, err
     summary = json.loads(stdout)
     assert summary["known_percent"] == 100.0 and summary["width"] == 384
-    assert read_image(tmp_path / "p.png").shape == (288, 384, 3) and read_image(tmp_path / "c.png").shape == (288, 384)
+    preview = read_image(tmp_path / "p.png")  # the map, then its colour bar and labels
+    assert preview.shape[1:] == (384, 3) and 288 + 14 < preview.shape[0] < 288 + 60
+    assert read_image(tmp_path / "c.png").shape == (288, 384)
     code, stdout, err = _run(capsys, "evaluate-disparity", str(out), str(tsukuba / "groundtruth.png"),
                              "--truth-scale", "16", "--masks", str(tsukuba), "--json")
     assert code == 0, err
@@ -155,14 +175,24 @@ def test_match_png_with_scale_and_keep_invalid(capsys, tsukuba, tmp_path):
     assert np.isnan(d).any() and np.nanmax(d) <= 15.0
 
 
-def test_match_keeps_zero_disparities_in_pfm_and_refuses_them_in_png(capsys, tsukuba, tmp_path):
-    args = ("match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15")
+@pytest.mark.parametrize("keep_invalid", [False, True])
+def test_match_keeps_zero_disparities_in_pfm_and_tells_them_from_unknown_in_png(capsys, tsukuba, tmp_path, keep_invalid):
+    """Issue 9: "match --keep-invalid into a 16-bit PNG when a true zero disparity exists" was refused
+    (after the matching), although the help said invalid pixels become 0 there."""
+    args = ("match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
+            *(["--keep-invalid"] if keep_invalid else []))
     code, _, err = _run(capsys, *args, "--out", str(tmp_path / "d.pfm"))
     assert code == 0, err
     d = read_disparity(tmp_path / "d.pfm")
-    assert np.isfinite(d).all() and (d == 0).any()  # every pixel gets a disparity; 0 is a real value in PFM
-    code, _, err = _run(capsys, *args, "--out", str(tmp_path / "d.png"), "--scale", "16")
-    assert code == 2 and "0 means unknown there; use .pfm or .npy" in err and len(err.strip().splitlines()) == 1
+    zero = d == 0
+    assert zero.any() and np.isnan(d).any() == keep_invalid  # 0 is a real value in PFM, unknown is inf
+    code, stdout, err = _run(capsys, *args, "--out", str(tmp_path / "d.png"), "--scale", "16", "--json")
+    assert code == 0, err
+    warning = f"{int(zero.sum())} pixels of disparity 0 (below 0.03125 px) are stored as 1/16 px"
+    assert err.startswith(f"warning: {warning}") and json.loads(stdout)["warnings"][0].startswith(warning)
+    stored = read_disparity(tmp_path / "d.png", scale=16)
+    np.testing.assert_array_equal(np.isnan(stored), np.isnan(d))  # unknown stays unknown, zero stays known
+    assert (stored[zero] == 1 / 16).all()
 
 
 @pytest.mark.parametrize(
@@ -171,7 +201,22 @@ def test_match_keeps_zero_disparities_in_pfm_and_refuses_them_in_png(capsys, tsu
         (["stereo/tsukuba/im3.png", "stereo/venus/im6.ppm"], "right must have the size of left"),
         (["stereo/tsukuba/im3.png", "GREY", "--max-disparity", "15"], "both be grey or both colour"),
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "400"], "wider than the image"),
-        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--method", "census"], "method must be one of"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--method", "census"], "--method must be one of"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--smoothing", "x"], "--smoothing must be one of"),
+        # issue 9: "--smoothing wls scores worse than no smoothing": dropped (benchmarks/smoothing.py)
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--smoothing", "wls"],
+         "--smoothing must be one of median, none; got 'wls'"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "3", "--min-disparity", "3"],
+         "--max-disparity must exceed the smallest disparity searched (3); got 3"),
+        # issue 9: "--block-size 1001" said "no reliable disparity" (SGBM), an internal error (BM), 1e20 overflowed
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--block-size", "1001"],
+         "--block-size must be an odd number of pixels in [1, 255]; got 1001"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--block-size", "1001", "--method", "bm"],
+         "--block-size must be an odd number of pixels in [1, 255]; got 1001"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--block-size", str(10**20)],
+         f"--block-size must be an odd number of pixels in [1, 255]; got {10**20}"),
+        (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--block-size", "3", "--method", "bm"],
+         "--block-size must be odd and >= 5 for StereoBM; got 3"),
         # ranges OpenCV cannot allocate (overflows inside StereoSGBM): refused against the width first
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "15", "--min-disparity", "-10000"],
          "leaves no column to match"),
@@ -190,7 +235,7 @@ def test_match_errors(capsys, shared_data, tmp_path, args, message):
     if "--max-disparity" not in paths:
         paths += ["--max-disparity", "15"]
     code, _, err = _run(capsys, "match", *paths, "--out", str(tmp_path / "d.pfm"))
-    assert code == 2 and message in err and "Traceback" not in err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "d.pfm").exists()
 
 
@@ -224,7 +269,17 @@ def test_rectify_errors(capsys, dino, tmp_path):
 def test_evaluate_errors(capsys, tsukuba, tmp_path):
     gt = str(tsukuba / "groundtruth.png")
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt)
-    assert code == 2 and "scale is required" in err
+    assert code == 2 and err.startswith("error: --estimate-scale is required for a .png disparity map")
+    # issue 9, "the CLI speaks Python": every message names the option the user typed
+    scaled = ["evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16"]
+    np.save(tmp_path / "small.npy", np.ones((10, 10), np.float32))
+    for extra, message in ((["--threshold", "-1"], "--threshold must be > 0; got -1"),
+                           (["--truth-scale", "0"], "--truth-scale must be > 0; got 0"),
+                           (["--estimate-scale", "0"], "--estimate-scale must be > 0; got 0"),
+                           (["--truth-right", str(tmp_path / "small.npy")],
+                            "--truth-right must have shape (H, W) matching truth (288, 384); got (10, 10)")):
+        code, _, err = _run(capsys, *scaled, *extra)
+        assert code == 2 and err.strip() == f"error: {message}"
     np.save(tmp_path / "small.npy", np.ones((10, 10), np.float32))
     code, _, err = _run(capsys, "evaluate-disparity", str(tmp_path / "small.npy"), gt, "--truth-scale", "16")
     assert code == 2 and "estimate must have shape (288, 384) matching truth" in err
@@ -234,3 +289,152 @@ def test_evaluate_errors(capsys, tsukuba, tmp_path):
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
                         "--masks", str(tsukuba), "--image", str(tsukuba / "im3.png"))
     assert code == 2 and "--masks replaces the computed regions; do not combine it with --truth-right or --image" in err
+
+
+def test_match_refuses_a_uniform_pair_and_warns_on_a_mostly_flat_one(capsys, tmp_path):
+    """Issue 9: "match on a black or uniform-grey pair: matched_percent 75, an all-zero map", exit 0."""
+    import cv2
+
+    for level in (0, 128):
+        flat = tmp_path / f"flat{level}.png"
+        cv2.imwrite(str(flat), np.full((100, 200), level, np.uint8))
+        code, stdout, err = _run(capsys, "match", str(flat), str(flat), "--max-disparity", "15", "--out",
+                                 str(tmp_path / "d.pfm"), "--json")
+        assert code == 2 and stdout == "" and len(err.strip().splitlines()) == 1
+        assert err.startswith("error: left has no texture to match: 0 % of its pixels")
+        assert not (tmp_path / "d.pfm").exists()
+    spot = np.full((100, 200), 128, np.uint8)
+    spot[30:60, 60:110] = np.random.default_rng(0).integers(0, 256, (30, 50))
+    cv2.imwrite(str(tmp_path / "spot.png"), spot)
+    code, stdout, err = _run(capsys, "match", str(tmp_path / "spot.png"), str(tmp_path / "spot.png"), "--max-disparity",
+                             "15", "--out", str(tmp_path / "d.pfm"), "--json")
+    assert code == 0, err
+    summary = json.loads(stdout)
+    assert len(summary["warnings"]) == 2 and summary["textured_percent"] < 10.0
+    assert err.splitlines() == [f"warning: {w}" for w in summary["warnings"]]
+
+
+def test_compare_flat_tiny_and_identical_images(capsys, tmp_path):
+    """Issue 9: compare refused flat images (PSNR and SSIM are defined), wrote PSNR as the string "inf",
+    and on a 2x2 image spoke of "win_size", a parameter the user never gave."""
+    from vergence.io import write_image
+    from vergence.metrics import SSIM_WINDOW
+
+    write_image(tmp_path / "grey.png", np.full((20, 30), 0.4))
+    write_image(tmp_path / "grey2.png", np.full((20, 30), 0.6))  # 102 and 153 of 255: a difference of 0.2
+    code, stdout, err = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey2.png"), "--json")
+    assert code == 0 and err == ""
+    data = json.loads(stdout)
+    assert data["psnr_db"] == pytest.approx(20 * np.log10(5)) and data["identical"] is False and data["ssim"] > 0.9
+    assert data["registration_pixels"] == 0 and data["registration_rms_px"] is None
+    code, stdout, _ = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey.png"), "--json")
+    assert code == 0 and '"psnr_db": null' in stdout and json.loads(stdout)["identical"] is True
+    write_image(tmp_path / "rgb.png", np.zeros((20, 30, 3)))
+    code, _, err = _run(capsys, "compare", str(tmp_path / "grey.png"), str(tmp_path / "grey2.png"), "--mask",
+                        str(tmp_path / "rgb.png"))
+    assert code == 2 and err.startswith(f"error: --mask {tmp_path / 'rgb.png'} must be a single-channel (grey) image")
+    write_image(tmp_path / "tiny.png", np.random.default_rng(0).random((2, 2)))
+    code, stdout, err = _run(capsys, "compare", str(tmp_path / "tiny.png"), str(tmp_path / "tiny.png"))
+    assert code == 2 and stdout == "" and "win_size" not in err
+    assert err.strip() == (f"error: image must be at least {SSIM_WINDOW} px on each side for SSIM's {SSIM_WINDOW} x "
+                           f"{SSIM_WINDOW} window (SSIM_WINDOW); got 2 x 2 px")
+
+
+def test_rectify_refuses_an_image_of_another_size_than_its_cameras(capsys, dino, tmp_path):
+    """Issue 9: "rectify accepts an image whose size differs from its camera's (garbage out)"."""
+    import cv2
+
+    from vergence.io import read_cameras, write_cameras
+
+    for name in ("dino0001.png", "dino0002.png"):
+        cv2.imwrite(str(tmp_path / name), cv2.resize(cv2.imread(str(dino / name)), (320, 240)))
+    code, stdout, err = _run(capsys, "rectify", str(tmp_path / "dino0002.png"), str(tmp_path / "dino0001.png"),
+                             "--cameras", str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and stdout == "" and len(err.strip().splitlines()) == 1
+    assert err.startswith("error: LEFT dino0002.png is 320x240 px, but its camera in dino_par.txt belongs to the "
+                          f"640x480 image {dino / 'dino0002.png'}")
+    # a camera file that stores the size (ours, COLMAP)
+    (tmp_path / "cams").mkdir()
+    write_cameras(tmp_path / "cams" / "cams.json", read_cameras(dino / "dino_par.txt", image_size=(640, 480)))
+    code, _, err = _run(capsys, "rectify", str(tmp_path / "dino0002.png"), str(tmp_path / "dino0001.png"),
+                        "--cameras", str(tmp_path / "cams" / "cams.json"), "--out", str(tmp_path / "o"))
+    assert code == 2 and err.strip() == "error: LEFT must have shape (480, 640) to match its camera; got (240, 320)"
+    assert not (tmp_path / "o").exists()
+
+
+def test_rectify_writes_all_or_nothing(capsys, dino, tmp_path, monkeypatch):
+    import vergence.cli.rectify as rectify_cli
+
+    def fail(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(rectify_cli, "write_json", fail)  # the last file of five
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
+                        str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "disk full" in err
+    assert list(tmp_path.iterdir()) == []  # no output folder, no hidden staging folder
+
+
+def test_match_mask_leaves_the_rectification_borders_unknown(capsys, tsukuba, tmp_path):
+    """Issue 9: match filled the black borders rectify adds with streaky values; --mask takes left_valid.png."""
+    from vergence.io import write_image
+
+    left = read_image(tsukuba / "im3.png")
+    left[:, :40] = 0.0  # a black rectification border and its mask
+    write_image(tmp_path / "left.png", left)
+    valid = np.ones(left.shape[:2])
+    valid[:, :40] = 0.0
+    write_image(tmp_path / "left_valid.png", valid)
+    args = ["match", str(tmp_path / "left.png"), str(tsukuba / "im4.png"), "--max-disparity", "15"]
+    code, _, err = _run(capsys, *args, "--out", str(tmp_path / "plain.pfm"))
+    assert code == 0, err
+    assert np.isfinite(read_disparity(tmp_path / "plain.pfm")[:, :40]).all()  # the border got extrapolated values
+    code, stdout, err = _run(capsys, *args, "--mask", str(tmp_path / "left_valid.png"), "--out", str(tmp_path / "d.pfm"),
+                             "--json")
+    assert code == 0, err
+    d = read_disparity(tmp_path / "d.pfm")
+    assert np.isnan(d[:, :40]).all() and np.isfinite(d[:, 40:]).all()
+    summary = json.loads(stdout)
+    assert summary["mask"] == str(tmp_path / "left_valid.png")
+    assert summary["known_percent"] == pytest.approx(100.0 * (384 - 40) / 384)
+    # a mask of another size, a colour one, an empty one
+    write_image(tmp_path / "small.png", valid[:, :-1])
+    write_image(tmp_path / "colour.png", np.dstack([valid] * 3))
+    write_image(tmp_path / "empty.png", np.zeros_like(valid))
+    for name, message in (("small.png", "--mask small.png must have the size of LEFT (384x288); got 383x288"),
+                          ("colour.png", "--mask colour.png must be a grey image; got 3 channels"),
+                          ("empty.png", "--mask empty.png selects no pixel")):
+        code, _, err = _run(capsys, *args, "--mask", str(tmp_path / name), "--out", str(tmp_path / "e.pfm"))
+        assert code == 2 and err.startswith(f"error: {message}") and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "e.pfm").exists()
+
+
+def test_match_writes_all_or_nothing(capsys, tsukuba, tmp_path, monkeypatch):
+    """The disparity, preview and confidence files appear together or not at all."""
+    import vergence.cli.match as match_cli
+
+    real = match_cli.write_image
+
+    def fail_on_confidence(path, image, **kwargs):
+        if image.ndim == 2:  # the confidence map, written last
+            raise OSError("disk full")
+        real(path, image, **kwargs)
+
+    monkeypatch.setattr(match_cli, "write_image", fail_on_confidence)
+    assert ".tmp-" not in str(tmp_path)
+    code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
+                        "--out", str(tmp_path / "d.pfm"), "--preview", str(tmp_path / "p.png"), "--confidence",
+                        str(tmp_path / "c.png"))
+    assert code == 2 and "disk full" in err and ".tmp-" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_match_bm_default_block_on_a_tiny_image_is_refused_by_name(capsys, tmp_path):
+    """Found by our sweep: StereoBM's default 9 px block on an 8-row pair was an internal error (exit 1)."""
+    import cv2
+
+    cv2.imwrite(str(tmp_path / "small.png"), np.random.default_rng(0).integers(0, 256, (8, 40), np.uint8))
+    code, _, err = _run(capsys, "match", str(tmp_path / "small.png"), str(tmp_path / "small.png"), "--max-disparity",
+                        "7", "--method", "bm", "--out", str(tmp_path / "d.pfm"))
+    assert code == 2 and err.strip() == ("error: --block-size (default 9 px for StereoBM) must not exceed the image's "
+                                         "smaller side (8 px): give a smaller one")

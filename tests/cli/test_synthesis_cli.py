@@ -246,7 +246,8 @@ def test_compare_identical_and_masked(tmp_path, capsys):
     code, stdout, _ = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "a.png"), "--json"])
     assert code == 0
     data = json.loads(stdout)
-    assert data["psnr_db"] == "inf" and data["ssim"] == 1.0 and data["registration_rms_px"] == 0.0
+    assert data["psnr_db"] is None and data["identical"] is True
+    assert data["ssim"] == 1.0 and data["registration_rms_px"] == 0.0
     # uniform noise: every 5x5 patch is far above the default contrast of 3/255
     assert data["registration_pixels"] == data["pixels"] == 24 * 24 and data["registration_fraction"] == 1.0
     assert data["registration_min_contrast"] == pytest.approx(3 / 255)
@@ -261,7 +262,7 @@ def test_compare_identical_and_masked(tmp_path, capsys):
                                     str(tmp_path / "mask.png"), "--json", "--error-image", str(tmp_path / "err.png")])
     assert code == 0
     data = json.loads(stdout)
-    assert data["psnr_db"] == "inf" and data["pixels"] == 24 * 12
+    assert data["psnr_db"] is None and data["identical"] is True and data["pixels"] == 24 * 12
     err = read_image(tmp_path / "err.png")
     assert err[:, :12].max() == 0.0 and err[:, 14:].min() > 0.0
 
@@ -270,14 +271,14 @@ def test_compare_table_and_bad_input(tmp_path, capsys):
     write_image(tmp_path / "a.png", np.zeros((16, 16)))
     write_image(tmp_path / "b.png", np.full((16, 16), 0.4))  # 102 / 255 exactly
     write_image(tmp_path / "c.png", np.zeros((16, 20)))
-    # flat images: no structure to register, so the default contrast gate leaves no pixel
-    code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png")])
-    assert code == 2 and "min_contrast must be at most the largest patch contrast of image (0)" in err
+    # flat images: PSNR and SSIM are defined; no structure to register, so no registration figure
+    code, stdout, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png")])
+    assert code == 0 and err == "" and "7.959" in stdout and "no textured pixel to register" in stdout
     code, stdout, _ = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--min-contrast", "0"])
     assert code == 0 and "PSNR" in stdout and "7.959" in stdout  # MSE 0.16: 10 log10(6.25) = 7.959 dB
     assert "256 (100.0 %)" in stdout  # registration pixels: all of them with --min-contrast 0
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--min-contrast", "-1"])
-    assert code == 2 and "min_contrast must lie in [0, 0.5]; got -1" in err
+    assert code == 2 and "--min-contrast must lie in [0, 0.5]; got -1" in err
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "c.png")])
     assert code == 2 and "reference must have the same shape as image" in err
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "missing.png")])

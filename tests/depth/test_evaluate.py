@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import cv2
 import numpy as np
 import pytest
@@ -187,6 +189,20 @@ def test_bad_input():
         evaluate_disparity(t, t, masks={})
     with pytest.raises(ValueError, match=r"mask must have the shape of reference \(30, 30\); got \(30, 29\)"):
         mask_agreement(np.ones((30, 29), bool), np.ones((30, 30), bool))
+
+
+def test_mask_agreement_refuses_empty_and_non_boolean_masks():
+    """Issue 9: "mask_agreement of empty masks" returned NaN (with a numpy warning) instead of an error."""
+    for empty in (np.ones((0, 0), bool), np.ones((0, 5), bool)):
+        message = r"^mask must be a non-empty \(H, W\) array; got shape " + re.escape(str(empty.shape))
+        with pytest.raises(ValueError, match=message):
+            mask_agreement(empty, empty)
+    with pytest.raises(ValueError, match=r"^reference must be a non-empty \(H, W\) array; got shape \(4,\)"):
+        mask_agreement(np.ones((1, 4), bool), np.ones(4, bool))
+    with pytest.raises(TypeError, match="^mask must be a boolean array; got dtype uint8"):
+        mask_agreement(np.full((2, 2), 255, np.uint8), np.ones((2, 2), bool))
+    agree = np.array([[True, False], [False, False]])
+    assert mask_agreement(agree, np.zeros((2, 2), bool)) == 75.0
 
 
 def test_bad_mask_folders(tmp_path):

@@ -8,6 +8,7 @@ import pytest
 
 from vergence.depth import (
     MATCHERS,
+    MAX_BLOCK_SIZE,
     compute_disparity,
     evaluate_disparity,
     match_blocks,
@@ -166,7 +167,7 @@ def test_bad_input():
         compute_disparity(img, img, max_disparity=70)
     with pytest.raises(ValueError, match=r"range \[0, 50\] \(searched as 64 disparities from 0\) is wider"):
         compute_disparity(img, img, max_disparity=50)
-    with pytest.raises(ValueError, match=r"max_disparity must exceed min_disparity \(5\); got 5"):
+    with pytest.raises(ValueError, match=r"max_disparity must exceed the smallest disparity searched \(5\); got 5"):
         compute_disparity(img, img, max_disparity=5, min_disparity=5)
     with pytest.raises(TypeError, match="max_disparity must be an integer number of pixels; got float"):
         compute_disparity(img, img, max_disparity=10.5)
@@ -182,3 +183,47 @@ def test_bad_input():
         compute_disparity(np.full_like(img, np.nan), img, max_disparity=10)
     with pytest.raises(ValueError, match=r"left values must lie in \[0, 1\]"):
         compute_disparity(img + 2, img, max_disparity=10)
+
+
+@pytest.mark.parametrize("method", MATCHERS)
+def test_block_size_limits_are_refused_before_matching(method):
+    """Issue 9: ``--block-size 1001`` said "no reliable disparity" (SGBM), was an internal error (BM),
+    ``1e20`` an OverflowError; now MAX_BLOCK_SIZE and the image's smaller side bound every matcher."""
+    left, right = _shifted_pair(6.0, h=60, w=300)
+    with pytest.raises(ValueError, match=rf"block_size must be at most {MAX_BLOCK_SIZE} px \(MAX_BLOCK_SIZE\); got 1001"):
+        compute_disparity(left, right, max_disparity=20, method=method, block_size=1001)
+    with pytest.raises(ValueError, match=rf"block_size must be at most {MAX_BLOCK_SIZE} px"):
+        compute_disparity(left, right, max_disparity=20, method=method, block_size=10**20 + 1)
+    with pytest.raises(ValueError, match=r"block_size must not exceed the image's smaller side \(60 px\); got 61"):
+        compute_disparity(left, right, max_disparity=20, method=method, block_size=61)
+    assert np.isfinite(compute_disparity(left, right, max_disparity=20, method=method, block_size=21).disparity).all()
+
+
+def test_a_validity_mask_leaves_the_black_borders_of_a_rectified_pair_unknown():
+    """Issue 9: "match fills the black borders rectify adds with streaky values (rectify exports no
+    validity mask, match takes none)"."""
+    left, right = _shifted_pair(6.0, h=60, w=160)
+    left[:, :24] = 0.0  # a rectification border: no image content
+    left[:8] = 0.0
+    valid = np.ones(left.shape[:2], bool)
+    valid[:, :24] = False
+    valid[:8] = False
+    filled = compute_disparity(left, right, max_disparity=20)
+    assert np.isfinite(filled.disparity[~valid]).all()  # without the mask the border gets extrapolated values
+    for keep_invalid in (False, True):
+        res = compute_disparity(left, right, max_disparity=20, valid=valid, keep_invalid=keep_invalid)
+        assert np.isnan(res.disparity[~valid]).all() and (res.confidence[~valid] == 0).all()
+        assert not res.matched[~valid].any()
+        assert abs(float(np.nanmedian(res.disparity[valid])) - 6.0) < SUBPIXEL_TOL_PX
+    assert np.isfinite(res.disparity[valid]).mean() > 0.5
+    assert np.isfinite(compute_disparity(left, right, max_disparity=20, valid=valid).disparity[valid]).all()
+
+
+def test_validity_mask_errors():
+    left, right = _shifted_pair(6.0)
+    with pytest.raises(TypeError, match="valid must be a boolean array; got dtype float64"):
+        compute_disparity(left, right, max_disparity=20, valid=np.ones(left.shape[:2]))
+    with pytest.raises(ValueError, match=r"valid must have the shape \(H, W\) of left \(60, 120\); got \(60, 119\)"):
+        compute_disparity(left, right, max_disparity=20, valid=np.ones((60, 119), bool))
+    with pytest.raises(ValueError, match="valid must select at least one pixel of left"):
+        compute_disparity(left, right, max_disparity=20, valid=np.zeros((60, 120), bool))

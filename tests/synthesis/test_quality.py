@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pytest
 from scipy import ndimage
 
-from vergence.metrics import MIN_CONTRAST
+from vergence.metrics import MIN_CONTRAST, SSIM_WINDOW, psnr, ssim
 from vergence.synthesis import assess_view
 
 
@@ -17,7 +18,7 @@ def test_identical_views():
     q = assess_view(ref, ref)
     assert q.psnr_db == math.inf and q.ssim == 1.0 and q.dssim == 0.0
     assert q.registration_rms_px == 0.0 and q.registration_ranked_px[1.0] == 0.0
-    assert q.to_dict()["psnr_db"] == "inf" and q.pixels == 400
+    assert q.to_dict()["psnr_db"] is None and q.to_dict()["identical"] is True and q.pixels == 400
     assert q.registration_pixels == 400 and q.registration_min_contrast == MIN_CONTRAST
     assert q.to_dict()["registration_fraction"] == 1.0
 
@@ -50,10 +51,35 @@ def test_registration_skips_flat_noisy_pixels():
     # syn's texture spans columns 2..31 after the shift; 5x5 patches centred up to column 33 reach it
     assert q.pixels == 24 * 44 and q.registration_pixels == 24 * (33 - 8 + 1)
     assert q.registration_ranked_px[0.95] == pytest.approx(math.sqrt(5))
-    with pytest.raises(ValueError, match="min_contrast must leave at least one pixel inside mask to evaluate"):
-        flat_mask = np.zeros((40, 60), bool)
-        flat_mask[:, 40:] = True
-        assess_view(syn, ref, mask=flat_mask)
+    flat_mask = np.zeros((40, 60), bool)
+    flat_mask[:, 40:] = True  # only flat pixels: nothing to register, PSNR and SSIM still defined
+    flat = assess_view(syn, ref, mask=flat_mask)
+    assert flat.registration_pixels == 0 and flat.registration_rms_px is None and flat.pixels == 40 * 20
+    assert flat.psnr_db == pytest.approx(psnr(syn, ref, mask=flat_mask))
+
+
+@pytest.mark.parametrize("levels", [(0.0, 0.0), (0.4, 0.45), (0.5, 0.5)])
+def test_flat_views_have_psnr_and_ssim_but_no_registration(levels):
+    """Issue 9: "compare refuses flat images outright (PSNR and SSIM are still defined) and writes PSNR
+    as the string "inf" in JSON"."""
+    image, reference = np.full((20, 30), levels[0]), np.full((20, 30), levels[1])
+    q = assess_view(image, reference)
+    assert q.ssim == pytest.approx(ssim(image, reference)) and q.psnr_db == psnr(image, reference)
+    assert q.registration_pixels == 0 and q.registration_median_px is None and dict(q.registration_ranked_px) == {}
+    data = q.to_dict()
+    assert data["identical"] is (levels[0] == levels[1])
+    assert data["psnr_db"] == (None if levels[0] == levels[1] else pytest.approx(20 * math.log10(1 / 0.05)))
+    assert data["registration_rms_px"] is None and data["registration_fraction"] == 0.0
+    json.dumps(data, allow_nan=False)  # no infinity, no NaN
+
+
+def test_images_smaller_than_the_ssim_window_are_refused_by_name():
+    """Issue 9: "compare on a 2x2 image: win_size ..." (a parameter the user never gave)."""
+    for h, w in ((2, 2), (6, 40), (40, 6)):
+        with pytest.raises(ValueError, match=rf"^image must be at least {SSIM_WINDOW} px on each side for SSIM's "
+                                             rf"{SSIM_WINDOW} x {SSIM_WINDOW} window \(SSIM_WINDOW\); got {w} x {h} px"):
+            assess_view(np.zeros((h, w)), np.zeros((h, w)))
+    assert assess_view(np.zeros((7, 7)), np.zeros((7, 7))).pixels == 49
 
 
 def test_mask_restricts_psnr():

@@ -9,7 +9,7 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, check_output_path, console, err_console, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.io import read_image, write_image
 from vergence.metrics import MAX_REGISTRATION_RADIUS, MIN_CONTRAST
 from vergence.synthesis import assess_view, error_image
@@ -21,7 +21,7 @@ def _mask(path: Path) -> np.ndarray:
     """A mask image: grey, True where the value is above one half (255 in an 8-bit mask)."""
     m = read_image(path)
     if m.ndim != 2:
-        raise ValueError(f"mask {path} must be a single-channel image; got shape {m.shape}")
+        raise ValueError(f"--mask {path} must be a single-channel (grey) image; got shape {m.shape}")
     return m > 0.5
 
 
@@ -52,7 +52,8 @@ def compare(
     with err_console.status("comparing", spinner="dots"):
         a, b = read_image(image), read_image(reference)
         m = _mask(mask) if mask is not None else None
-        quality = assess_view(a, b, mask=m, radius=radius, min_contrast=min_contrast)
+        with options_named(min_contrast="--min-contrast", radius="--radius", mask="--mask"):
+            quality = assess_view(a, b, mask=m, radius=radius, min_contrast=min_contrast)
     if error_path is not None:
         write_image(error_path, error_image(a, b, gain=error_gain))
     data = {"image": str(image), "reference": str(reference), "mask": None if mask is None else str(mask), **quality.to_dict()}
@@ -62,13 +63,16 @@ def compare(
     table = Table(title=f"{image.name} vs {reference.name}")
     table.add_column("metric")
     table.add_column("value", justify="right")
-    table.add_row("PSNR (dB)", f"{quality.psnr_db:.3f}")
+    table.add_row("PSNR (dB)", "inf (identical)" if quality.identical else f"{quality.psnr_db:.3f}")
     table.add_row("SSIM", f"{quality.ssim:.4f}")
     table.add_row("DSSIM", f"{quality.dssim:.4f}")
-    table.add_row("registration RMS (px)", f"{quality.registration_rms_px:.3f}")
-    table.add_row("registration median (px)", f"{quality.registration_median_px:.3f}")
-    for k, v in quality.registration_ranked_px.items():
-        table.add_row(f"registration d^{k:g} (px)" + (" = Hausdorff" if k == 1.0 else ""), f"{v:.3f}")
+    if quality.registration_pixels:
+        table.add_row("registration RMS (px)", f"{quality.registration_rms_px:.3f}")
+        table.add_row("registration median (px)", f"{quality.registration_median_px:.3f}")
+        for k, v in quality.registration_ranked_px.items():
+            table.add_row(f"registration d^{k:g} (px)" + (" = Hausdorff" if k == 1.0 else ""), f"{v:.3f}")
+    else:
+        table.add_row("registration error", "- (no textured pixel to register)")
     table.add_row("pixels", str(quality.pixels))
     table.add_row(
         f"registration pixels (contrast >= {quality.registration_min_contrast:.4g})",

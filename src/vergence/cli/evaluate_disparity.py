@@ -7,10 +7,10 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, console, print_json
+from vergence.cli._app import app, console, options_named, print_json
 from vergence.depth import evaluate_disparity as evaluate
 from vergence.depth import read_middlebury_masks
-from vergence.io import read_disparity, read_image
+from vergence.io import read_disparity, read_image, stores_integers
 
 __all__ = ["evaluate_disparity"]
 
@@ -30,12 +30,17 @@ def evaluate_disparity(
     """Score ESTIMATE against TRUTH: % bad pixels and RMS over nonocc / all / disc (/ textureless)."""
     if masks is not None and (truth_right is not None or image is not None):
         raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right or --image")
-    est = read_disparity(estimate, scale=estimate_scale)
-    gt = read_disparity(truth, scale=truth_scale)
+    with options_named(scale="--estimate-scale"):
+        est = read_disparity(estimate, scale=estimate_scale)
+    with options_named(scale="--truth-scale"):
+        gt = read_disparity(truth, scale=truth_scale)
+        # --truth-scale reads both truths; a float right truth beside an integer left one takes none
+        right = (read_disparity(truth_right, scale=truth_scale if stores_integers(truth_right) else None)
+                 if truth_right is not None else None)
     official = read_middlebury_masks(masks) if masks is not None else None
-    right = read_disparity(truth_right, scale=truth_scale) if truth_right is not None else None
     img = read_image(image) if image is not None else None
-    scores = evaluate(est, gt, masks=official, image=img, truth_right=right, threshold=threshold)
+    with options_named(threshold="--threshold", image="--image", truth_right="--truth-right"):
+        scores = evaluate(est, gt, masks=official, image=img, truth_right=right, threshold=threshold)
     data = {name: s.to_dict() for name, s in scores.items()}
     if as_json:
         print_json(data)

@@ -1,20 +1,93 @@
 """``vergence rectify``: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000; S2 §3.2).
 
-Writes ``DIR/left.png``, ``DIR/right.png`` and ``DIR/rectification.json`` (rectified cameras,
-homographies, baseline, focal length, doffs and, with ``--check``, the measured row alignment).
+Writes ``DIR/left.png``, ``DIR/right.png``, their validity masks ``DIR/left_valid.png`` and
+``DIR/right_valid.png`` (255 where the rectified pixel comes from inside the original image, 0 in the
+black borders; ``vergence match --mask`` takes the left one) and ``DIR/rectification.json`` (rectified
+cameras, homographies, baseline, focal length, doffs and, with ``--check``, the measured row alignment).
+All five files or none: they are written into a hidden folder beside DIR and moved in at the end.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import uuid
 from pathlib import Path
 
+import numpy as np
 import typer
+from PIL import Image
 
-from vergence.cli._app import app, check_output_path, console, err_console, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
 from vergence.io import cameras_for_images, read_image, write_image, write_json
 
 __all__ = ["rectify"]
+
+_OUTPUTS = ("left.png", "right.png", "left_valid.png", "right_valid.png", "rectification.json")
+
+
+def _calibrated_size(image: Path, cameras: Path) -> tuple[Path, tuple[int, int]] | None:
+    """The image of ``image``'s name beside the camera file, when it is another file, and its (width, height).
+
+    Middlebury ``*_par.txt`` and Bundler ``bundle.out`` store no image size: their ``K`` holds for the
+    images they name, which sit beside them. Another image of that name and a different size would
+    be rectified with a ``K`` that is not its own (garbage out).
+    """
+    folder = cameras if cameras.is_dir() else cameras.parent
+    sibling = folder / image.name
+    try:
+        if not sibling.is_file() or sibling.resolve() == image.resolve():
+            return None
+        with Image.open(sibling) as im:
+            return sibling, (int(im.size[0]), int(im.size[1]))
+    except (OSError, ValueError, Image.DecompressionBombError):
+        return None  # not an image we can read the header of: nothing to compare with
+
+
+def _check_sizes(images: list[tuple[str, Path, np.ndarray]], cameras: Path) -> None:
+    """Refuse an image whose size differs from the calibrated image of its name beside ``cameras``."""
+    for option, path, img in images:
+        found = _calibrated_size(path, cameras)
+        if found is None:
+            continue
+        sibling, (w, h) = found
+        if (w, h) != (img.shape[1], img.shape[0]):
+            raise ValueError(
+                f"{option} {path.name} is {img.shape[1]}x{img.shape[0]} px, but its camera in {cameras.name} "
+                f"belongs to the {w}x{h} image {sibling}: rectify the images at the size they were calibrated at"
+            )
+
+
+def _write_all(out: Path, files: dict[str, object]) -> None:
+    """Write every output into a hidden folder beside ``out``, then move them into ``out`` (created if missing).
+
+    On any error or interruption before the moves nothing is left behind, not even an empty ``out``.
+    """
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"cannot write {out}: folder {parent} does not exist")
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"--out {out} is a file, not a folder")
+    stage = parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
+    stage.mkdir()
+    try:
+        for name, content in files.items():
+            if name.endswith(".json"):
+                write_json(stage / name, content)
+            else:
+                write_image(stage / name, content)
+        created = not out.exists()
+        out.mkdir(exist_ok=True)
+        try:
+            for name in files:
+                os.replace(stage / name, out / name)
+        except BaseException:
+            if created:
+                shutil.rmtree(out, ignore_errors=True)
+            raise
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 @app.command("rectify")
@@ -25,7 +98,10 @@ def rectify(
         ..., "--cameras", help="Camera file: *_par.txt (Middlebury), bundle.out, COLMAP cameras.txt/images.txt "
         "or their folder, *.json (vergence)."
     ),
-    out: Path = typer.Option(..., "--out", help="Output folder (created if missing)."),
+    out: Path = typer.Option(
+        ..., "--out", help="Output folder (created if missing): left.png, right.png, left_valid.png, right_valid.png "
+        "(255 = image, 0 = border), rectification.json."
+    ),
     image_list: Path | None = typer.Option(
         None, "--image-list", help="Bundler list.txt naming the images of bundle.out (default: list.txt beside it)."
     ),
@@ -36,25 +112,24 @@ def rectify(
     as_json: bool = typer.Option(False, "--json", help="Print rectification.json on stdout."),
 ) -> None:
     """Rectify LEFT and RIGHT with their calibrated cameras: row-aligned images, cameras, homographies."""
-    outputs = [out / "left.png", out / "right.png", out / "rectification.json"]
-    for o in outputs:
-        check_output_path(o, left, right, cameras)
+    for name in _OUTPUTS:
+        check_output_path(out / name, left, right, cameras)
     with err_console.status("rectifying", spinner="dots"):
         a, b = read_image(left), read_image(right)
+        _check_sizes([("LEFT", left, a), ("RIGHT", right, b)], cameras)
         try:
             (cam_l, dist_l), (cam_r, dist_r) = cameras_for_images(
                 cameras, [(left, (a.shape[1], a.shape[0])), (right, (b.shape[1], b.shape[0]))], image_list=image_list)
         except ValueError as exc:  # the library names its argument; here it is an option
             raise ValueError(str(exc).replace("pass image_list", "pass --image-list")) from exc
-        pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
-                            common_principal_point=common_principal_point)
+        with options_named(left_image="LEFT", right_image="RIGHT"):
+            pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
+                                common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
         if check:
             data["row_alignment"] = measure_row_alignment(pair.left, pair.right).to_dict()
-    out.mkdir(parents=True, exist_ok=True)
-    write_image(outputs[0], pair.left)
-    write_image(outputs[1], pair.right)
-    write_json(outputs[2], data)
+    images = (pair.left, pair.right, pair.left_valid.astype(np.float32), pair.right_valid.astype(np.float32))
+    _write_all(out, {**dict(zip(_OUTPUTS, images)), _OUTPUTS[-1]: data})
     if as_json:
         print_json(data)
         return

@@ -2,11 +2,13 @@
 
 - :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000).
 - :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
+- :mod:`~vergence.depth.texture`: where an image has texture to match (uniform pairs are refused).
 - :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
 - :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
 - :mod:`~vergence.depth.conversion`: depth from disparity and back (S1 Eq. 7).
 """
 
+from vergence.depth._pair import MAX_BLOCK_SIZE
 from vergence.depth.block import match_blocks
 from vergence.depth.conversion import depth_from_disparity, disparity_from_depth
 from vergence.depth.evaluate import (
@@ -40,13 +42,16 @@ from vergence.depth.refine import (
     left_right_check,
     refine_disparity,
     remove_speckles,
-    smooth_wls,
     unreliable_pixels,
     weighted_median_filter,
 )
+from vergence.depth.texture import MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_pixels
 
 __all__ = [
     "MATCHERS",
+    "MAX_BLOCK_SIZE",
+    "MIN_TEXTURE",
+    "MIN_TEXTURED_PERCENT",
     "Rectification",
     "RectifiedPair",
     "RefinedDisparity",
@@ -73,7 +78,7 @@ __all__ = [
     "refine_disparity",
     "remove_speckles",
     "sgbm_parameters",
-    "smooth_wls",
+    "textured_pixels",
     "unreliable_pixels",
     "weighted_median_filter",
 ]

@@ -8,7 +8,13 @@ import numpy as np
 
 from vergence._validate import as_image, check_positive_int
 
-__all__ = ["check_block_size", "check_disparity_range", "stereo_pair_u8"]
+__all__ = ["MAX_BLOCK_SIZE", "check_block_size", "check_disparity_range", "stereo_pair_u8"]
+
+# Largest matching window side, pixels: OpenCV's StereoBM refuses more ("SADWindowSize must be ...
+# within 5..255"), StereoSGBM finds no disparity at all with such windows on Middlebury-size pairs
+# (and crashed at 1001 in OpenCV 4), and the window matchers' cost of a 255 px window already
+# averages away every depth edge of a 1000 px image. One limit for every matcher.
+MAX_BLOCK_SIZE = 255
 
 
 def stereo_pair_u8(left: object, right: object) -> tuple[np.ndarray, np.ndarray]:
@@ -40,7 +46,7 @@ def check_disparity_range(max_disparity: object, min_disparity: object, width: i
             raise TypeError(f"{name} must be an integer number of pixels; got {type(v).__name__}")
     lo, hi = int(min_disparity), int(max_disparity)
     if hi <= lo:
-        raise ValueError(f"max_disparity must exceed min_disparity ({lo}); got {hi}")
+        raise ValueError(f"max_disparity must exceed the smallest disparity searched ({lo}); got {hi}")
     count = 16 * math.ceil((hi - lo + 1) / 16)
     if hi >= width or lo + count >= width:
         raise ValueError(f"disparity range [{lo}, {hi}] (searched as {count} disparities from {lo}) is wider than "
@@ -56,15 +62,25 @@ def check_disparity_range(max_disparity: object, min_disparity: object, width: i
     return lo, hi, count
 
 
-def check_block_size(block_size: object, default: int, *, minimum: int = 1, matcher: str = "") -> int:
-    """``block_size`` (an odd number of pixels, at least ``minimum``), or ``default`` when it is None.
+def check_block_size(
+    block_size: object, default: int, *, shape: tuple[int, ...] | None = None, minimum: int = 1, matcher: str = ""
+) -> int:
+    """``block_size`` (an odd number of pixels in ``[minimum, MAX_BLOCK_SIZE]``, at most the smaller
+    side of an image of ``shape``), or ``default`` when it is None.
 
     ``matcher`` names the matcher that needs a ``minimum`` above 1, for the message.
     """
     if block_size is None:
+        if shape is not None and default > min(shape[:2]):
+            raise ValueError(f"block_size (default {default} px{' for ' + matcher if matcher else ''}) must not exceed "
+                             f"the image's smaller side ({min(shape[:2])} px): give a smaller one")
         return default
     bs = check_positive_int("block_size", block_size)
     if bs % 2 == 0 or bs < minimum:
         need = "odd" if minimum <= 1 else f"odd and >= {minimum} for {matcher}"
         raise ValueError(f"block_size must be {need}; got {bs}")
+    if bs > MAX_BLOCK_SIZE:
+        raise ValueError(f"block_size must be at most {MAX_BLOCK_SIZE} px (MAX_BLOCK_SIZE); got {bs}")
+    if shape is not None and bs > min(shape[:2]):
+        raise ValueError(f"block_size must not exceed the image's smaller side ({min(shape[:2])} px); got {bs}")
     return bs

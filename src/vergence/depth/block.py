@@ -88,11 +88,11 @@ def match_blocks(
     -----
     Sub-pixel: ``d + (c_- - c_+) / (2 (c_- - 2 c_0 + c_+))`` when the parabola opens upwards.
     """
-    if cost not in COSTS:
+    if not isinstance(cost, str) or cost not in COSTS:
         raise ValueError(f"cost must be one of {', '.join(COSTS)}; got {cost!r}")
     a, b = stereo_pair_u8(left, right)
     lo, hi, _ = check_disparity_range(max_disparity, min_disparity, a.shape[1])
-    bs = check_block_size(block_size, 7 if max(a.shape[:2]) <= 1000 else 11)
+    bs = check_block_size(block_size, 7 if max(a.shape[:2]) <= 1000 else 11, shape=a.shape)
     L = a.astype(np.float32).reshape(a.shape[0], a.shape[1], -1)
     R = b.astype(np.float32).reshape(L.shape)
     h, w, _ = L.shape

@@ -204,9 +204,38 @@ def read_middlebury_masks(folder: str | os.PathLike[str]) -> dict[str, np.ndarra
 
 
 def mask_agreement(mask: object, reference: object) -> float:
-    """Percentage of pixels on which two boolean masks agree."""
-    a, b = np.asarray(mask, bool), np.asarray(reference, bool)
-    if a.shape != b.shape or a.ndim != 2:
+    """Percentage of pixels on which two boolean masks agree.
+
+    Parameters
+    ----------
+    mask, reference : (H, W) bool arrays
+        Same shape, not empty (an agreement over no pixel is undefined).
+
+    Returns
+    -------
+    float
+        ``100 * mean(mask == reference)``, in [0, 100].
+
+    Raises
+    ------
+    TypeError
+        If either is not a boolean array (a 0/255 image must be thresholded by the caller).
+    ValueError
+        If either is not 2-D, is empty, or the shapes differ.
+
+    Examples
+    --------
+    >>> mask_agreement(np.array([[True, False]]), np.array([[True, True]]))
+    50.0
+    """
+    arrays = {"mask": np.asarray(mask), "reference": np.asarray(reference)}
+    for name, arr in arrays.items():
+        if arr.dtype != bool:
+            raise TypeError(f"{name} must be a boolean array; got dtype {arr.dtype}")
+        if arr.ndim != 2 or arr.size == 0:
+            raise ValueError(f"{name} must be a non-empty (H, W) array; got shape {arr.shape}")
+    a, b = arrays["mask"], arrays["reference"]
+    if a.shape != b.shape:
         raise ValueError(f"mask must have the shape of reference {b.shape}; got {a.shape}")
     return float(100.0 * np.mean(a == b))
 

@@ -8,6 +8,7 @@ S1 §III.B: local (window) matching and global matching minimising ``E(d) = E_da
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from functools import partial
 from types import MappingProxyType
@@ -19,6 +20,7 @@ from vergence._validate import as_image, check_positive_int
 from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
 from vergence.depth.block import COSTS, match_blocks
 from vergence.depth.refine import RefinedDisparity, refine_disparity
+from vergence.depth.texture import LOW_TEXTURED_PERCENT, MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_pixels
 
 __all__ = ["MATCHERS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
 
@@ -80,7 +82,7 @@ def match_sgbm(
     lo, hi, count = check_disparity_range(max_disparity, min_disparity, a.shape[1])
     channels = 1 if a.ndim == 2 else 3
     prm = sgbm_parameters(a.shape[0], a.shape[1], count, channels)
-    prm.update(_block_and_penalties(check_block_size(block_size, prm["blockSize"]), channels))
+    prm.update(_block_and_penalties(check_block_size(block_size, prm["blockSize"], shape=a.shape), channels))
     matcher = cv2.StereoSGBM_create(minDisparity=lo, **prm)
     return _from_fixed(matcher.compute(a, b), lo, hi)
 
@@ -97,7 +99,8 @@ def match_bm(
     if a.ndim == 3:
         a, b = cv2.cvtColor(a, cv2.COLOR_RGB2GRAY), cv2.cvtColor(b, cv2.COLOR_RGB2GRAY)
     lo, hi, count = check_disparity_range(max_disparity, min_disparity, a.shape[1])
-    bs = check_block_size(block_size, 9 if max(a.shape) <= 1000 else 15, minimum=5, matcher="StereoBM")
+    bs = check_block_size(block_size, 9 if max(a.shape) <= 1000 else 15, shape=a.shape, minimum=5,
+                          matcher="StereoBM")
     bm = cv2.StereoBM_create(numDisparities=count, blockSize=bs)
     bm.setMinDisparity(lo)
     bm.setPreFilterCap(31)
@@ -125,6 +128,7 @@ def compute_disparity(
     smoothing: str = "median",
     keep_invalid: bool = False,
     block_size: int | None = None,
+    valid: object = None,
 ) -> RefinedDisparity:
     """Disparity of a rectified pair: matching then refinement (our default pipeline).
 
@@ -138,24 +142,32 @@ def compute_disparity(
         A name of :data:`MATCHERS`: ``sgbm``: :func:`match_sgbm` (default); ``bm``: :func:`match_bm`;
         ``sad``/``ssd``/``ncc``: :func:`~vergence.depth.block.match_blocks` with that window cost.
     smoothing : str
-        A name of :data:`~vergence.depth.refine.SMOOTHING_METHODS` (``median``, ``wls``, ``none``):
+        A name of :data:`~vergence.depth.refine.SMOOTHING_METHODS` (``median``, ``none``):
         the edge-aware smoothing of :func:`~vergence.depth.refine.refine_disparity`.
     keep_invalid : bool
         Keep NaN where the matcher gave no answer; by default every pixel gets a disparity
         (background extrapolation, S1 §III.B).
     block_size : int, optional
         Matching window, pixels (odd); default from the image size.
+    valid : (H, W) bool array, optional
+        The pixels of ``left`` that hold image content, e.g. :attr:`~vergence.depth.RectifiedPair.left_valid`
+        (rectification leaves black borders). Outside it the disparity is NaN whatever ``keep_invalid``:
+        nothing is matched there, no pixel is filled from there, and the texture share counts inside only.
 
     Returns
     -------
     RefinedDisparity
-        ``disparity`` (float32, pixels), ``confidence`` in [0, 1] and the ``matched`` mask.
+        ``disparity`` (float32, pixels), ``confidence`` in [0, 1], the ``matched`` mask, the
+        ``textured_percent`` of the left image and ``warnings`` (a pair with less than
+        :data:`~vergence.depth.texture.LOW_TEXTURED_PERCENT` % of textured pixels).
 
     Raises
     ------
     ValueError
         On pairs of different sizes, grey/colour mixes, a disparity range wider than the image, an
-        unknown method (the message lists them), or when no pixel could be matched.
+        unknown method (the message lists them), an image with less than
+        :data:`~vergence.depth.texture.MIN_TEXTURED_PERCENT` % of textured pixels (checked before
+        matching: a uniform pair has no disparity to find), or when no pixel could be matched.
 
     Examples
     --------
@@ -166,8 +178,47 @@ def compute_disparity(
     >>> float(np.median(res.disparity[:, 20:]))
     5.0
     """
-    if method not in MATCHERS:
+    if not isinstance(method, str) or method not in MATCHERS:
         raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
+    a, _ = stereo_pair_u8(left, right)  # the arguments' errors before the texture's
+    check_disparity_range(max_disparity, min_disparity, a.shape[1])
+    check_block_size(block_size, 1, shape=a.shape)
+    inside = _valid_mask(valid, a.shape[:2])
+    textured = {}
+    for name, image in (("left", left), ("right", right)):
+        texture = textured_pixels(as_image(name, image))
+        textured[name] = 100.0 * float(texture[inside].mean() if name == "left" else texture.mean())
+        if textured[name] < MIN_TEXTURED_PERCENT:
+            raise ValueError(
+                f"{name} has no texture to match: {textured[name]:.2g} % of its pixels have a local contrast of "
+                f"at least {MIN_TEXTURE * 255:g}/255 (MIN_TEXTURE); at least {MIN_TEXTURED_PERCENT:g} % "
+                "(MIN_TEXTURED_PERCENT) are needed: a uniform image has no disparity to find"
+            )
+    warnings = tuple(
+        f"only {textured[name]:.1f} % of {name} has texture to match (below {LOW_TEXTURED_PERCENT:g} %): "
+        "the disparity elsewhere is extrapolated from it, not measured"
+        for name in ("left", "right") if textured[name] < LOW_TEXTURED_PERCENT
+    )
     raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
                            block_size=block_size)
-    return refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
+    raw[~inside] = np.nan
+    result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
+    disparity, confidence = result.disparity.copy(), result.confidence.copy()
+    disparity[~inside] = np.nan
+    confidence[~inside] = 0.0
+    return dataclasses.replace(result, disparity=disparity, confidence=confidence, matched=result.matched & inside,
+                               textured_percent=textured["left"], warnings=warnings)
+
+
+def _valid_mask(valid: object, hw: tuple[int, int]) -> np.ndarray:
+    """``valid`` as a boolean (H, W) mask selecting at least one pixel; all True when None."""
+    if valid is None:
+        return np.ones(hw, bool)
+    m = np.asarray(valid)
+    if m.dtype != bool:
+        raise TypeError(f"valid must be a boolean array; got dtype {m.dtype}")
+    if m.shape != hw:
+        raise ValueError(f"valid must have the shape (H, W) of left {hw}; got {m.shape}")
+    if not m.any():
+        raise ValueError("valid must select at least one pixel of left; got an all-False mask")
+    return m

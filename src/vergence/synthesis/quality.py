@@ -15,8 +15,18 @@ from types import MappingProxyType
 
 import numpy as np
 
-from vergence._validate import as_image_pair, check_finite
-from vergence.metrics import MIN_CONTRAST, _summaries, psnr, registration_error, ssim
+from vergence._validate import as_image_pair, check_finite, check_in_range, check_positive
+from vergence.metrics import (
+    MAX_REGISTRATION_RADIUS,
+    MIN_CONTRAST,
+    REGISTRATION_PATCH,
+    SSIM_WINDOW,
+    _summaries,
+    patch_contrast,
+    psnr,
+    registration_error,
+    ssim,
+)
 
 __all__ = ["ViewQuality", "assess_view", "error_image"]
 
@@ -33,19 +43,20 @@ class ViewQuality:
         PSNR in dB (``inf`` for identical images).
     ssim, dssim : float
         Mean SSIM and ``(1 - SSIM) / 2``.
-    registration_rms_px, registration_median_px : float
+    registration_rms_px, registration_median_px : float or None
         RMS and median of the registration error ``d(p, I')`` (S1 Eq. 11) over the
-        ``registration_pixels`` evaluated pixels, pixels.
+        ``registration_pixels`` evaluated pixels, pixels; None when no pixel was evaluated (a flat view).
     registration_ranked_px : read-only mapping of float to float
         ``k -> d^k(I, I')`` (Eq. 13) for k in 0.5, 0.8, 0.95 and 1 (the Hausdorff distance, Eq. 12),
-        over the evaluated pixels.
+        over the evaluated pixels; empty when none was evaluated.
     registration_radius_px : float
         Search radius of the registration error (its largest possible value).
     pixels : int
         Number of pixels compared (the mask's, or all).
     registration_pixels : int
         Number of those pixels where the registration error was evaluated: the view's patch
-        contrast is at least ``registration_min_contrast`` (1 to ``pixels``).
+        contrast is at least ``registration_min_contrast`` (0 to ``pixels``; 0 for a flat view, which
+        has no structure to register).
     registration_min_contrast : float
         The contrast threshold, [0, 1] intensity units (0: every pixel).
     """
@@ -53,8 +64,8 @@ class ViewQuality:
     psnr_db: float
     ssim: float
     dssim: float
-    registration_rms_px: float
-    registration_median_px: float
+    registration_rms_px: float | None
+    registration_median_px: float | None
     registration_ranked_px: Mapping[float, float]
     registration_radius_px: float
     pixels: int
@@ -65,18 +76,29 @@ class ViewQuality:
         if self.pixels < 1:
             raise ValueError(f"pixels must be >= 1; got {self.pixels}")
         object.__setattr__(self, "registration_ranked_px", MappingProxyType(dict(self.registration_ranked_px)))
-        if not 1 <= self.registration_pixels <= self.pixels:
-            raise ValueError(f"registration_pixels must lie in [1, pixels {self.pixels}]; got {self.registration_pixels}")
-        if not 0.0 <= self.registration_median_px <= self.registration_radius_px:
+        if not 0 <= self.registration_pixels <= self.pixels:
+            raise ValueError(f"registration_pixels must lie in [0, pixels {self.pixels}]; got {self.registration_pixels}")
+        figures = (self.registration_rms_px, self.registration_median_px)
+        if (self.registration_pixels == 0) != (figures == (None, None)):
+            raise ValueError("registration_rms_px and registration_median_px must be None exactly when "
+                             f"registration_pixels is 0; got {figures} over {self.registration_pixels} pixels")
+        if self.registration_pixels and not 0.0 <= self.registration_median_px <= self.registration_radius_px:
             raise ValueError(
                 f"registration_median_px must lie in [0, radius {self.registration_radius_px:g}]; "
                 f"got {self.registration_median_px:g}"
             )
 
+    @property
+    def identical(self) -> bool:
+        """Whether the view equals its reference (over the mask): MSE 0, PSNR infinite."""
+        return self.psnr_db == math.inf
+
     def to_dict(self) -> dict:
-        """JSON-ready dictionary; an infinite PSNR becomes the string ``"inf"``."""
+        """JSON-ready dictionary; an infinite PSNR (identical images) is ``None`` with ``identical: True``
+        (JSON has no infinity); the registration figures are ``None`` when no pixel was evaluated."""
         return {
-            "psnr_db": self.psnr_db if math.isfinite(self.psnr_db) else "inf",
+            "psnr_db": self.psnr_db if math.isfinite(self.psnr_db) else None,
+            "identical": self.identical,
             "ssim": self.ssim,
             "dssim": self.dssim,
             "registration_rms_px": self.registration_rms_px,
@@ -120,8 +142,10 @@ def assess_view(
     Raises
     ------
     ValueError, TypeError
-        As the metrics in :mod:`vergence.metrics` (shapes, ranges, masks); also when no pixel
-        (inside the mask) reaches ``min_contrast``.
+        As the metrics in :mod:`vergence.metrics` (shapes, ranges, masks); also for images smaller
+        than SSIM's window (``SSIM_WINDOW`` px on a side). A view with no pixel (inside the mask)
+        of contrast ``min_contrast`` is not refused: PSNR and SSIM are defined, the registration
+        figures are None (a flat view has nothing to register).
 
     Notes
     -----
@@ -138,17 +162,24 @@ def assess_view(
     >>> q.psnr_db, q.ssim, q.registration_rms_px, q.registration_pixels
     (inf, 1.0, 0.0, 256)
     """
+    a, _ = as_image_pair("image", image, "reference", reference)
+    if min(a.shape[:2]) < SSIM_WINDOW:
+        raise ValueError(f"image must be at least {SSIM_WINDOW} px on each side for SSIM's {SSIM_WINDOW} x "
+                         f"{SSIM_WINDOW} window (SSIM_WINDOW); got {a.shape[1]} x {a.shape[0]} px")
     p = psnr(image, reference, mask=mask)
     s = ssim(image, reference, mask=mask)
-    reg = registration_error(image, reference, radius=radius, min_contrast=min_contrast)
-    dist = reg.distance if mask is None else reg.distance[np.asarray(mask)]
-    evaluated = dist[~np.isnan(dist)]
-    if evaluated.size == 0:
-        raise ValueError(
-            f"min_contrast must leave at least one pixel inside mask to evaluate; got {reg.min_contrast:g}"
-        )
-    # Eq. (13), nearest rank; k = 1 is the Hausdorff distance of Eq. (12).
-    rms, median, ranked = _summaries(evaluated, _RANKS)
+    selected = np.ones(a.shape[:2], bool) if mask is None else np.asarray(mask)
+    c_min = check_in_range("min_contrast", min_contrast, 0.0, 0.5)
+    if (patch_contrast(a, patch_size=REGISTRATION_PATCH)[selected] >= c_min).any():
+        reg = registration_error(image, reference, radius=radius, min_contrast=c_min)
+        dist = reg.distance[selected]
+        evaluated = dist[~np.isnan(dist)]
+        # Eq. (13), nearest rank; k = 1 is the Hausdorff distance of Eq. (12).
+        rms, median, ranked = _summaries(evaluated, _RANKS)
+    else:  # a flat view (inside the mask): nothing to register, and the search would be wasted
+        if not check_positive("radius", radius) <= MAX_REGISTRATION_RADIUS:
+            raise ValueError(f"radius must be at most {MAX_REGISTRATION_RADIUS} px (MAX_REGISTRATION_RADIUS); got {radius:g}")
+        evaluated, rms, median, ranked = np.empty(0), None, None, {}
     return ViewQuality(
         psnr_db=p,
         ssim=s,
@@ -156,10 +187,10 @@ def assess_view(
         registration_rms_px=rms,
         registration_median_px=median,
         registration_ranked_px=ranked,
-        registration_radius_px=reg.radius,
-        pixels=int(dist.size),
+        registration_radius_px=float(radius),
+        pixels=int(np.count_nonzero(selected)),
         registration_pixels=int(evaluated.size),
-        registration_min_contrast=reg.min_contrast,
+        registration_min_contrast=c_min,
     )
 
 
