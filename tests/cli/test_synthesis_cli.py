@@ -115,7 +115,7 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
     ("extra", "depth_name", "message"),
     [
         (["--budget-px", "4", "--format", "sbs", "--views", "3"], "depth.npy", "--format sbs shows a stereo pair"),
-        (["--views", "1", "--format", "views"], "depth.npy", "views must be >= 2; got 1"),
+        (["--views", "1", "--format", "views"], "depth.npy", r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"),
         (["--budget-px", "4"], "zero.npy", r"depth must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
         (["--budget-px", "4", "--depth-scale", "2"], "depth.npy", "scale applies to .png/.pgm disparity maps only"),
         (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-half-color, .*, tb, views"),
@@ -123,6 +123,13 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
         (["--budget-px", "4"], "small.npy", r"depth must have shape \(H, W\) matching image \(16, 48\)"),
         (["--budget-px", "4", "--display", "imax"], "depth.npy", "unknown display preset 'imax'"),
+        # Issue 9: the message names the option, not the Python parameter ("sigma ...").
+        (["--budget-px", "4", "--smooth-sigma", "-1"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\] pixels"),
+        # Issue 9 kin: OverflowError (internal error) and float32 overflow warnings before.
+        (["--budget-px", "4", "--smooth-sigma", "1e308"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\]"),
+        (["--budget-px", "4", "--depth-scale", "1e308"], "depth_mm.png", r"^error: --depth-scale must be <= 3.403e\+38"),
+        (["--views", "1000", "--format", "views"], "depth.npy", r"^error: --views must lie in \[2, 128\]"),
+        (["--budget-px", "4", "--fill", "blur"], "depth.npy", r"^error: --fill must be one of background"),
     ],
 )
 def test_synthesize_bad_input_is_one_line_and_exit_2(tmp_path, capsys, extra, depth_name, message):
@@ -320,3 +327,24 @@ def test_compare_huge_radius_is_exit_2_naming_the_option(tmp_path, capsys):
     write_image(tmp_path / "a.png", np.random.default_rng(2).random((16, 16)))
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "a.png"), "--radius", "1e6"])
     assert code == 2 and "--radius must be a number in (0, 1024] px; got 1e+06" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        # Issue 9 kin: a huge radius was a Numba TypingError (internal error) before.
+        (["--edge-dilation", "100000000000000000000"], r"^error: --edge-dilation must lie in \[0, 64\] pixels"),
+        (["--position", "2"], r"^error: --position must lie in \[0, 1\]; got 2"),
+        (["--disparity-scale", "1e308"], r"^error: --disparity-scale must be <= 3.403e\+38"),
+    ],
+)
+def test_interpolate_bad_options_name_the_option(tmp_path, capsys, extra, message):
+    img, _ = _scene(tmp_path)
+    write_disparity(tmp_path / "disp.png", np.full(img.shape[:2], 2.0, np.float32), scale=1.0)
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "disp.png"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "disp.png"), "--position", "0.5",
+                                 "--disparity-scale", "1", "--out", str(tmp_path / "v.png"), *extra])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(message, err)
+    assert not (tmp_path / "v.png").exists()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from vergence.synthesis import nearness_from_depth, plan_parallax, views_offsets
+from vergence.synthesis import MAX_VIEWS, nearness_from_depth, plan_parallax, views_offsets
 from vergence.viewing.comfort import arcmin_from_pixels
 from vergence.viewing.geometry import Display, shift_sensor_parallax
 from vergence.viewing.mapping import LogMapping
@@ -106,6 +106,11 @@ def test_views_offsets():
         (np.ones(3), {"budget_px": 5.0}, ValueError, r"depth must have shape \(H, W\); got \(3,\)"),
         (DEPTH, {"kind": "sonar", "budget_px": 5.0}, ValueError, "kind must be one of disparity, inverse, metric; got 'sonar'"),
         (DEPTH, {"budget_px": 5.0, "display": "tv"}, TypeError, "display must be a Display; got str"),
+        # Issue 9: inverse depth outside [0, 1] (MPEG's normalised 1/Z) is not a depth.
+        (np.array([[0.5, 2.0]]), {"kind": "inverse", "budget_px": 5.0}, ValueError, r"depth must lie in \[0, 1\] for inverse depth .*got \[0.5, 2\]"),
+        (np.array([[-0.5, 1.0]]), {"kind": "inverse", "budget_px": 5.0}, ValueError, r"depth must lie in \[0, 1\] for inverse depth .*got \[-0.5, 1\]"),
+        # Issue 9 kin: 1/depth would overflow float32 (RuntimeWarning before).
+        (np.array([[1e-40, 1.0]], np.float32), {"budget_px": 5.0}, ValueError, r"depth must be >= 1.18e-38 \(MIN_METRIC_DEPTH"),
     ],
 )
 def test_plan_parallax_bad_input(depth, kwargs, error, match):
@@ -114,7 +119,11 @@ def test_plan_parallax_bad_input(depth, kwargs, error, match):
 
 
 def test_views_offsets_bad_input():
-    with pytest.raises(ValueError, match="views must be >= 2; got 1"):
+    with pytest.raises(ValueError, match=r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"):
         views_offsets(1)
+    # Issue 9 kin: a huge view count is refused before any view is allocated.
+    with pytest.raises(ValueError, match=r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 129"):
+        views_offsets(MAX_VIEWS + 1)
+    assert len(views_offsets(MAX_VIEWS)) == MAX_VIEWS
     with pytest.raises(ValueError, match="origin must be one of center, left; got 'right'"):
         views_offsets(2, origin="right")

@@ -98,7 +98,7 @@ def test_interpolation_input_types():
         ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 1.5), {}, ValueError, r"position must lie in \[0, 1\]; got 1.5"),
         ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), -0.1), {}, ValueError, r"position must lie in \[0, 1\]; got -0.1"),
         ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 0.5), {"fill": "blur"}, ValueError, "fill must be one of background, inpaint, mirror; got 'blur'"),
-        ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 0.5), {"edge_dilation": -1}, ValueError, "edge_dilation must be >= 0"),
+        ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 0.5), {"edge_dilation": -1}, ValueError, r"edge_dilation must lie in \[0, 64\] pixels"),
     ],
 )
 def test_interpolation_bad_input(args, kwargs, error, match):
@@ -161,7 +161,7 @@ def test_synthesize_stereo_depth_controls_and_bad_input():
     img, depth = _square_scene()
     with pytest.raises(ValueError, match=r"depth must have shape \(H, W\) matching image \(10, 40\); got \(10, 41\)"):
         synthesize_stereo(img, np.ones((10, 41)), budget_px=3.0)
-    with pytest.raises(ValueError, match="views must be >= 2; got 1"):
+    with pytest.raises(ValueError, match=r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"):
         synthesize_stereo(img, depth, budget_px=3.0, views=1)
     with pytest.raises(ValueError, match="depth must be > 0 metres"):
         synthesize_stereo(img, -depth, budget_px=3.0)
@@ -221,7 +221,7 @@ def test_synthesize_view_shift_sensor_pair_uses_the_principal_point():
 @pytest.mark.parametrize("kind", ["metric", "disparity", "inverse"])
 def test_pipelines_never_modify_their_inputs(kind):
     img, depth = _square_scene()
-    depth = depth.astype(np.float32)
+    depth = (1.0 / depth if kind == "inverse" else depth).astype(np.float32)  # inverse depth lies in [0, 1]
     img0, depth0 = img.copy(), depth.copy()
     synthesize_stereo(img, depth, kind=kind, budget_px=3.0, fill="inpaint")
     assert_array_equal(img, img0)

@@ -12,9 +12,11 @@ from vergence.synthesis import (
     StereoResult,
     WarpedView,
     baseline_weights,
+    epipole,
     fill_disparity,
     fill_holes,
     forward_warp,
+    interpolate_view,
     median_refine,
     plan_parallax,
     refine_camera_warp,
@@ -28,6 +30,8 @@ from vergence.viewing.mapping import LinearMapping
 IMG = np.zeros((2, 3), np.float32)
 MAP = np.ones((2, 3), np.float32)
 HOLES = np.zeros((2, 3), bool)
+DEPTH = np.array([[1.0, 2.0, 4.0], [1.0, 2.0, 4.0]])
+CAM = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=2)
 
 
 @pytest.mark.parametrize(
@@ -95,7 +99,7 @@ def test_synthesize_stereo_and_views_bad_arguments():
         synthesize_views(IMG, MAP, offsets=())
     with pytest.raises(ValueError, match=r"offsets\[1\] must be finite"):
         synthesize_views(IMG, MAP, offsets=(0.0, np.nan))
-    with pytest.raises(ValueError, match="smooth_sigma must be > 0"):
+    with pytest.raises(ValueError, match=r"smooth_sigma must lie in \(0, 1024\] pixels \(MAX_SMOOTH_SIGMA\); got 0"):
         synthesize_stereo(IMG, np.array([[1.0, 2, 3], [1, 2, 3]]), budget_px=1.0, smooth_sigma=0.0)
     with pytest.raises(ValueError, match="fill must be one of background, inpaint, mirror; got 'blur'"):
         synthesize_views(IMG, MAP, fill="blur")
@@ -116,3 +120,27 @@ def test_plan_parallax_and_results_refuse_inconsistent_parts():
     plan = plan_parallax(depth, budget_px=2.0)
     with pytest.raises(ValueError, match="views, holes and offsets must have one length; got 2, 1, 2"):
         StereoResult(views=(IMG, IMG), holes=(HOLES,), offsets=(0.0, 1.0), plan=plan)
+
+
+# Issue 9: API calls that returned values (or raised an internal error) instead of a one-line error.
+@pytest.mark.parametrize(
+    ("call", "error", "match"),
+    [
+        (lambda: fill_disparity(np.full((2, 3), np.nan)), ValueError, r"disparity must have at least one known value"),
+        (lambda: forward_warp(np.zeros((2, 3, 4), np.float32), MAP), ValueError, r"image must be grey .*got shape \(2, 3, 4\) \(an alpha channel"),
+        (lambda: forward_warp(np.zeros((2, 3, 4), np.uint8), MAP), ValueError, r"image must be grey .*an alpha channel"),
+        (lambda: epipole(CAM, CAM), ValueError, r"target must not share the source's centre \[0.0, 0.0, 0.0\]"),
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, smooth_sigma=1e308), ValueError, r"smooth_sigma must lie in \(0, 1024\] pixels"),
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, edge_dilation=10**20), ValueError, r"edge_dilation must lie in \[0, 64\] pixels \(MAX_FILTER_RADIUS\)"),
+        (lambda: interpolate_view(IMG, MAP, IMG, MAP, 0.5, contour_width=10**9), ValueError, r"contour_width must lie in \[0, 64\]"),
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, views=10**9), ValueError, r"views must lie in \[2, 128\] \(MAX_VIEWS\)"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0,), None), ValueError, r"range_px must be a pair \(min, max\); got \(0.0,\)"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), None, None), ValueError, r"range_px must be a pair"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0, np.nan), None), ValueError, r"range_px\[1\] must be finite"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), "linear", (0.0, 1.0), None), TypeError, r"mapping must be a DisparityMapping; got str"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0, 1.0), (1.0,)), ValueError, r"range_arcmin must be a pair"),
+    ],
+)
+def test_issue9_bad_api_calls_raise_one_line_errors(call, error, match):
+    with pytest.raises(error, match=match):
+        call()

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from vergence.cli._app import app, check_output_path, console, err_console, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
+from vergence.cli.synthesize import check_scale
 from vergence.io import read_disparity, read_image, stores_integers, write_image, write_json
 from vergence.synthesis import FILL_METHODS, interpolate_view
 
@@ -49,6 +50,8 @@ def interpolate(
     is a real disparity (a point at infinity). Unknown pixels take the disparity of their
     background neighbour on the row.
     """
+    if disparity_scale is not None:
+        check_scale("--disparity-scale", disparity_scale)
     inputs = (left, left_disparity, right, right_disparity)
     check_output_path(out, *inputs)
     if json_out is not None:
@@ -56,7 +59,8 @@ def interpolate(
     with err_console.status("reading inputs", spinner="dots"):
         views = read_image(left), read_image(right)
         disparities = _disparity(left_disparity, disparity_scale), _disparity(right_disparity, disparity_scale)
-    with err_console.status(f"interpolating T = {position:g}", spinner="dots"):
+    names = options_named(position="--position", fill="--fill", edge_dilation="--edge-dilation")
+    with err_console.status(f"interpolating T = {position:g}", spinner="dots"), names:
         result = interpolate_view(
             views[0], disparities[0], views[1], disparities[1], position, fill=fill, edge_dilation=edge_dilation
         )

@@ -5,10 +5,11 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from vergence._validate import check_positive
-from vergence.cli._app import app, check_output_path, console, err_console, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.display import LAYOUTS, pack, tile_views
 from vergence.io import DEPTH_KINDS, read_depth, read_image, write_image, write_json
 from vergence.synthesis import FILL_METHODS, synthesize_stereo
@@ -22,6 +23,31 @@ FORMATS = (*LAYOUTS, "views")
 # the usual +-1 degree comfort zone (vergence.viewing.comfort.ComfortZone), a safe start.
 DEFAULT_DISPLAY = "desktop-24"
 DEFAULT_BUDGET_ARCMIN = 30.0
+# The library's argument names and the options that set them (its messages begin with the name).
+_OPTIONS = {
+    "budget_arcmin": "--budget-arcmin",
+    "budget_px": "--budget-px",
+    "convergence": "--convergence",
+    "focal_px": "--focal-px",
+    "interaxial": "--interaxial",
+    "kind": "--depth-kind",
+    "views": "--views",
+    "origin": "--origin",
+    "smooth_sigma": "--smooth-sigma",
+    "fill": "--fill",
+}
+# A scale divides float32 values, so it must be a finite float32 itself (a larger one overflowed to
+# inf with numpy warnings).
+MAX_SCALE = float(np.finfo(np.float32).max)
+
+
+def check_scale(option: str, scale: float) -> float:
+    """A ``--*-scale`` value: > 0 and at most ``MAX_SCALE``."""
+    check_positive(option, scale)
+    if scale > MAX_SCALE:
+        raise ValueError(f"{option} must be <= {MAX_SCALE:.4g} (it divides float32 values); got {scale:g}")
+    return scale
+
 
 
 @app.command("synthesize")
@@ -85,12 +111,13 @@ def synthesize(
         budget_arcmin = DEFAULT_BUDGET_ARCMIN
     display_preset = display_preset or DEFAULT_DISPLAY  # the arcminute range is always reported
     display = Display.preset(display_preset)
+    if depth_scale is not None:
+        check_scale("--depth-scale", depth_scale)
     with err_console.status("reading inputs", spinner="dots"):
         picture = read_image(image)
-        if depth_scale is not None:
-            check_positive("--depth-scale", depth_scale)
-        depth_map = read_depth(depth, kind=depth_kind, scale=depth_scale)
-    with err_console.status("synthesizing views", spinner="dots"):
+        with options_named(kind="--depth-kind", scale="--depth-scale"):
+            depth_map = read_depth(depth, kind=depth_kind, scale=depth_scale)
+    with err_console.status("synthesizing views", spinner="dots"), options_named(**_OPTIONS):
         result = synthesize_stereo(
             picture,
             depth_map,

@@ -17,12 +17,22 @@ from typing import TYPE_CHECKING
 from vergence.synthesis.blend import baseline_weights, blend_views
 from vergence.synthesis.controls import (
     DEPTH_KINDS,
+    INVERSE_DEPTH_RANGE,
+    MAX_VIEWS,
+    MIN_METRIC_DEPTH,
     ParallaxPlan,
     nearness_from_depth,
     plan_parallax,
     views_offsets,
 )
-from vergence.synthesis.filters import contour_mask, dilate_foreground, median_refine, smooth_depth
+from vergence.synthesis.filters import (
+    MAX_FILTER_RADIUS,
+    MAX_SMOOTH_SIGMA,
+    contour_mask,
+    dilate_foreground,
+    median_refine,
+    smooth_depth,
+)
 from vergence.synthesis.holes import FILL_METHODS, fill_disparity, fill_holes
 from vergence.synthesis.quality import ViewQuality, assess_view, error_image
 from vergence.synthesis.view import NEARNESS_UNITS, WarpedView
@@ -63,6 +73,11 @@ def __dir__() -> list[str]:
 __all__ = [
     "DEPTH_KINDS",
     "FILL_METHODS",
+    "INVERSE_DEPTH_RANGE",
+    "MAX_FILTER_RADIUS",
+    "MAX_SMOOTH_SIGMA",
+    "MAX_VIEWS",
+    "MIN_METRIC_DEPTH",
     "NEARNESS_UNITS",
     "ParallaxPlan",
     "StereoResult",

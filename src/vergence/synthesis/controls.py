@@ -32,9 +32,26 @@ from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping, LinearMapping
 
-__all__ = ["DEPTH_KINDS", "ParallaxPlan", "nearness_from_depth", "plan_parallax", "views_offsets"]
+__all__ = [
+    "DEPTH_KINDS",
+    "INVERSE_DEPTH_RANGE",
+    "MAX_VIEWS",
+    "MIN_METRIC_DEPTH",
+    "ParallaxPlan",
+    "nearness_from_depth",
+    "plan_parallax",
+    "views_offsets",
+]
 
-
+# Inverse depth is MPEG's normalised 1/Z (Fehn 2004): 0 is the far clipping plane, 1 the near one;
+# a value outside is not a depth between the two planes.
+INVERSE_DEPTH_RANGE = (0.0, 1.0)
+# Smallest metric depth: the nearness 1/Z is float32, and 1/Z must stay finite (1 / 1.18e-38 =
+# 8.5e37 < 3.4e38, float32's largest value); a smaller depth is a unit mistake, not a scene.
+MIN_METRIC_DEPTH = float(np.finfo(np.float32).tiny)
+# Most views synthesize_stereo renders: a multi-view autostereoscopic screen takes 8 to 64, and
+# each view is a full image in memory.
+MAX_VIEWS = 128
 
 def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     """Nearness ``q`` (larger = nearer) of a depth map, NaN where unknown.
@@ -55,7 +72,8 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     Raises
     ------
     ValueError
-        Not 2-D, inf values, no known value, or metric depth <= 0.
+        Not 2-D, inf values, no known value, metric depth below ``MIN_METRIC_DEPTH`` (or <= 0),
+        inverse depth outside ``INVERSE_DEPTH_RANGE`` [0, 1].
 
     Notes
     -----
@@ -70,11 +88,20 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     if kind not in DEPTH_KINDS:
         raise ValueError(f"kind must be one of {', '.join(DEPTH_KINDS)}; got {kind!r}")
     d = check_map("depth", depth)
+    lo = float(np.nanmin(d))
+    if kind == "inverse":
+        hi = float(np.nanmax(d))
+        if lo < INVERSE_DEPTH_RANGE[0] or hi > INVERSE_DEPTH_RANGE[1]:
+            raise ValueError(
+                f"depth must lie in [0, 1] for inverse depth (0 = the far plane, 1 = the near one; Fehn 2004); "
+                f"got [{lo:g}, {hi:g}]"
+            )
     if kind != "metric":
         return d.copy() if d is depth else d
-    lo = float(np.nanmin(d))
     if lo <= 0:
         raise ValueError(f"depth must be > 0 metres where known (metric depth; NaN = unknown); got min {lo:g}")
+    if lo < MIN_METRIC_DEPTH:
+        raise ValueError(f"depth must be >= {MIN_METRIC_DEPTH:.3g} (MIN_METRIC_DEPTH: 1/depth must be a finite float32); got min {lo:g}")
     return np.float32(1.0) / d
 
 
@@ -103,8 +130,23 @@ class ParallaxPlan:
     def __post_init__(self) -> None:
         if np.ndim(self.parallax_px) != 2:
             raise ValueError(f"parallax_px must have shape (H, W); got {np.shape(self.parallax_px)}")
-        if not self.range_px[0] <= self.range_px[1]:
-            raise ValueError(f"range_px must be (min, max) with min <= max; got {self.range_px}")
+        if not isinstance(self.mapping, DisparityMapping):
+            raise TypeError(f"mapping must be a DisparityMapping; got {type(self.mapping).__name__}")
+        for name in ("range_px", "range_arcmin"):
+            value = getattr(self, name)
+            if value is None and name == "range_arcmin":
+                continue
+            pair = _finite_pair(name, value)
+            if not pair[0] <= pair[1]:
+                raise ValueError(f"{name} must be (min, max) with min <= max; got {value}")
+            object.__setattr__(self, name, pair)
+
+
+def _finite_pair(name: str, value: object) -> tuple[float, float]:
+    """``value`` as a pair of finite floats ``(a, b)``."""
+    if not isinstance(value, tuple | list) or len(value) != 2:
+        raise ValueError(f"{name} must be a pair (min, max); got {value!r}")
+    return check_finite(f"{name}[0]", value[0]), check_finite(f"{name}[1]", value[1])
 
 
 def _display_px(display: Display, image_width: int) -> float:
@@ -269,8 +311,8 @@ def views_offsets(views: int, *, origin: str = "center") -> tuple[float, ...]:
     ``"center"``: symmetric about the original image (which is the middle view for odd counts);
     ``"left"``: the original image is view 0.
     """
-    if isinstance(views, int | np.integer) and not isinstance(views, bool) and views < 2:
-        raise ValueError(f"views must be >= 2; got {views}")
+    if isinstance(views, int | np.integer) and not isinstance(views, bool) and not 2 <= views <= MAX_VIEWS:
+        raise ValueError(f"views must lie in [2, {MAX_VIEWS}] (MAX_VIEWS); got {views}")
     n = check_positive_int("views", views)
     if origin == "center":
         return tuple(i - (n - 1) / 2.0 for i in range(n))

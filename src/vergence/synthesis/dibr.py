@@ -35,6 +35,7 @@ from vergence.synthesis._checks import (
     check_method,
     check_nonnegative,
     check_radius,
+    check_sigma,
     check_source_image,
 )
 from vergence.synthesis.blend import baseline_weights
@@ -388,7 +389,7 @@ def synthesize_stereo(
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     p = plan.parallax_px
     if smooth_sigma is not None:
-        sigma = check_positive("smooth_sigma", smooth_sigma)
+        sigma = check_sigma("smooth_sigma", smooth_sigma)
         p = _stages.smooth_depth(p, sigma, sigma)
     rendered, holes = _render(_stages.as_hwc(img), np.negative(p, dtype=np.float32), offsets, limit, radius, fill, img)
     return StereoResult(views=rendered, holes=holes, offsets=offsets, plan=plan)

@@ -17,10 +17,26 @@ import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int, check_same_hw
 from vergence.synthesis import _stages
-from vergence.synthesis._checks import check_image, check_map, check_nonnegative, check_radius
+from vergence.synthesis._checks import (
+    MAX_FILTER_RADIUS,
+    MAX_SMOOTH_SIGMA,
+    check_image,
+    check_map,
+    check_nonnegative,
+    check_radius,
+    check_sigma,
+)
 from vergence.synthesis.view import WarpedView
 
-__all__ = ["CONTOUR_SIDES", "contour_mask", "dilate_foreground", "median_refine", "smooth_depth"]
+__all__ = [
+    "CONTOUR_SIDES",
+    "MAX_FILTER_RADIUS",
+    "MAX_SMOOTH_SIGMA",
+    "contour_mask",
+    "dilate_foreground",
+    "median_refine",
+    "smooth_depth",
+]
 
 # Sides of a depth edge that contour_mask can mark.
 CONTOUR_SIDES = ("both", "near", "far")
@@ -34,9 +50,9 @@ def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = 
     depth : (H, W) array
         Depth, inverse depth or disparity; NaN = unknown (stays NaN).
     sigma : float
-        Horizontal standard deviation in pixels, > 0.
+        Horizontal standard deviation in pixels, in (0, MAX_SMOOTH_SIGMA].
     vertical_sigma : float, optional
-        Vertical standard deviation; defaults to ``sigma``. ATTEST used a larger vertical one
+        Vertical standard deviation (same range); defaults to ``sigma``. ATTEST used a larger vertical one
         (asymmetric smoothing) to keep vertical edges straight.
 
     Returns
@@ -56,8 +72,8 @@ def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = 
     [2.0, 2.0, 2.0]
     """
     d = check_map("depth", depth)
-    sx = check_positive("sigma", sigma)
-    sy = sx if vertical_sigma is None else check_positive("vertical_sigma", vertical_sigma)
+    sx = check_sigma("sigma", sigma)
+    sy = sx if vertical_sigma is None else check_sigma("vertical_sigma", vertical_sigma)
     return _stages.smooth_depth(d, sx, sy)
 
 
@@ -131,6 +147,7 @@ def contour_mask(disparity: object, *, width: int = 1, threshold: float = 1.0, s
     """
     d = check_map("disparity", disparity)
     w = check_positive_int("width", width)
+    check_radius("width", w)
     thr = check_nonnegative("threshold", threshold)
     if side not in CONTOUR_SIDES:
         raise ValueError(f"side must be one of {', '.join(CONTOUR_SIDES)}; got {side!r}")
