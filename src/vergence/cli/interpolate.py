@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
-from vergence.cli.synthesize import check_scale
+from vergence.cli._scales import check_scale
 from vergence.io import read_disparity, read_image, stores_integers, write_image, write_json
 from vergence.synthesis import FILL_METHODS, interpolate_view
 

@@ -5,11 +5,10 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-import numpy as np
 import typer
 
-from vergence._validate import check_positive
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
+from vergence.cli._scales import check_scale
 from vergence.display import LAYOUTS, pack, tile_views
 from vergence.io import DEPTH_KINDS, read_depth, read_image, write_image, write_json
 from vergence.synthesis import FILL_METHODS, synthesize_stereo
@@ -36,18 +35,6 @@ _OPTIONS = {
     "smooth_sigma": "--smooth-sigma",
     "fill": "--fill",
 }
-# A scale divides float32 values, so it must be a finite float32 itself (a larger one overflowed to
-# inf with numpy warnings).
-MAX_SCALE = float(np.finfo(np.float32).max)
-
-
-def check_scale(option: str, scale: float) -> float:
-    """A ``--*-scale`` value: > 0 and at most ``MAX_SCALE``."""
-    check_positive(option, scale)
-    if scale > MAX_SCALE:
-        raise ValueError(f"{option} must be <= {MAX_SCALE:.4g} (it divides float32 values); got {scale:g}")
-    return scale
-
 
 
 @app.command("synthesize")
