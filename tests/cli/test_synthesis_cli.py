@@ -233,7 +233,7 @@ def test_interpolate_float_disparity_zero_is_a_real_disparity(tmp_path, capsys, 
         (lambda p: _interp_args(p, out="left.png"), "would overwrite input"),
         (lambda p: [a if a != "4" else "0" for a in _interp_args(p)], "scale must be > 0"),
         (lambda p: [a.replace("right_disp.png", "small_disp.png") for a in _interp_args(p)],
-         r"right_disparity must have shape \(H, W\) matching right \(12, 40\)"),
+         r"--right-disparity must have shape \(H, W\) matching right \(12, 40\)"),
     ],
 )
 def test_interpolate_bad_input(tmp_path, capsys, args_fn, message):
@@ -347,4 +347,54 @@ def test_interpolate_bad_options_name_the_option(tmp_path, capsys, extra, messag
                                  "--disparity-scale", "1", "--out", str(tmp_path / "v.png"), *extra])
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert re.search(message, err)
+    assert not (tmp_path / "v.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        # Issue 9: these rendered black or mostly-hole views with exit 0; --budget-arcmin 1e6 was refused
+        # by another rule. One rule now, naming the option the user typed.
+        (["--budget-px", "1e6"], r"^error: --budget-px must be < 48 px, 1 image width \(MAX_PARALLAX_WIDTHS\) of a 48-px-wide image"),
+        (["--budget-px", "200"], r"^error: --budget-px must be < 48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)"),
+        (["--focal-px", "5000", "--interaxial", "1", "--convergence", "3"],
+         r"^error: --focal-px 5000 with interaxial 1 and convergence 3 gives parallaxes of -3333 \.\. 416\.7 px, which must stay within \+-48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)"),
+        (["--budget-arcmin", "1e6"], r"^error: --budget-arcmin must be < \d+\.?\d* arcmin on this display, 48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)"),
+        (["--budget-px", "3", "--views", "17", "--format", "views"], r"^error: --views 17 at up to 3 px of parallax between neighbours span 48 px"),
+    ],
+)
+def test_synthesize_refuses_parallax_that_cannot_fit_the_image(tmp_path, capsys, extra, message):
+    _scene(tmp_path)
+    code, _, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"),
+                                 "--out", str(tmp_path / "out"), *extra])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(message, err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_synthesize_warns_on_stderr_and_in_json(tmp_path, capsys):
+    # Issue 9: leaving the comfort zone or passing divergence gave no warning. 48 image px fill the
+    # 1920-px desktop-24: 40 display px per image px; divergence at 234.9 display px = 5.9 image px.
+    _scene(tmp_path)
+    args = ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"), "--json"]
+    code, stdout, err = _run(capsys, [*args, "--out", str(tmp_path / "calm"), "--budget-px", "0.5"])
+    assert code == 0 and err == "" and json.loads(stdout)["warnings"] == []
+    code, stdout, err = _run(capsys, [*args, "--out", str(tmp_path / "wild"), "--budget-px", "8"])
+    assert code == 0
+    warnings = json.loads(stdout)["warnings"]
+    assert len(warnings) == 2 and "the eyes would diverge" in warnings[0] and "leaves the comfort zone" in warnings[1]
+    assert err.splitlines() == [f"warning: {w}" for w in warnings]
+    assert json.loads((tmp_path / "wild" / "synthesis.json").read_text())["warnings"] == warnings
+
+
+def test_interpolate_refuses_disparities_wider_than_the_image(tmp_path, capsys):
+    # Issue 9: an all-black view with exit 0 before.
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "wide.npy", np.full(img.shape[:2], 60.0, np.float32))
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "wide.npy"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "wide.npy"), "--position", "0.5",
+                                 "--out", str(tmp_path / "v.png")])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(r"^error: --left-disparity must lie within \+-48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)", err)
     assert not (tmp_path / "v.png").exists()

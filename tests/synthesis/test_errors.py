@@ -112,12 +112,12 @@ def test_plan_parallax_and_results_refuse_inconsistent_parts():
     with pytest.raises(ValueError, match="display resolution is unknown"):
         plan_parallax(depth, budget_arcmin=10.0, display=Display(0.065, 0.6, 0.5))
     with pytest.raises(ValueError, match="depth must not be flat at the convergence depth"):
-        plan_parallax(np.full((1, 2), 2.0), budget_px=4.0, convergence=2.0)
+        plan_parallax(np.full((1, 8), 2.0), budget_px=4.0, convergence=2.0)
     with pytest.raises(ValueError, match=r"parallax_px must have shape \(H, W\); got \(2,\)"):
         ParallaxPlan(np.zeros(2), LinearMapping(0, 1, 0, 1), (0.0, 1.0), None)
     with pytest.raises(ValueError, match=r"range_px must be \(min, max\) with min <= max; got \(1.0, 0.0\)"):
         ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (1.0, 0.0), None)
-    plan = plan_parallax(depth, budget_px=2.0)
+    plan = plan_parallax(depth, budget_px=1.0)
     with pytest.raises(ValueError, match="views, holes and offsets must have one length; got 2, 1, 2"):
         StereoResult(views=(IMG, IMG), holes=(HOLES,), offsets=(0.0, 1.0), plan=plan)
 

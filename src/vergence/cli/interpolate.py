@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import typer
@@ -9,7 +10,7 @@ import typer
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.cli._scales import check_scale
 from vergence.io import read_disparity, read_image, stores_integers, write_image, write_json
-from vergence.synthesis import FILL_METHODS, interpolate_view
+from vergence.synthesis import FILL_METHODS, holes_warnings, interpolate_view
 
 __all__ = ["interpolate"]
 
@@ -59,7 +60,13 @@ def interpolate(
     with err_console.status("reading inputs", spinner="dots"):
         views = read_image(left), read_image(right)
         disparities = _disparity(left_disparity, disparity_scale), _disparity(right_disparity, disparity_scale)
-    names = options_named(position="--position", fill="--fill", edge_dilation="--edge-dilation")
+    names = options_named(
+        position="--position",
+        fill="--fill",
+        edge_dilation="--edge-dilation",
+        left_disparity="--left-disparity",
+        right_disparity="--right-disparity",
+    )
     with err_console.status(f"interpolating T = {position:g}", spinner="dots"), names:
         result = interpolate_view(
             views[0], disparities[0], views[1], disparities[1], position, fill=fill, edge_dilation=edge_dilation
@@ -75,8 +82,11 @@ def interpolate(
         "fill": fill,
         "edge_dilation": edge_dilation,
         **result.to_dict(),
+        "warnings": list(holes_warnings([result.holes])),
         "output": str(out),
     }
+    for line in report["warnings"]:
+        sys.stderr.write(f"warning: {line}\n")
     if json_out is not None:
         write_json(json_out, report)
     if as_json:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 
 import typer
@@ -85,7 +86,10 @@ def synthesize(
     Exactly one depth control: --budget-arcmin (on --display), --budget-px, or --focal-px with
     --interaxial and --convergence. Without any, +-30 arcmin on the display (desktop-24 unless
     given) is used. The JSON gives the parallax range between adjacent views in pixels and in
-    arcminutes of vergence on the display.
+    arcminutes of vergence on the display. Parallax that cannot fit the image (the outer views a
+    whole image width apart, MAX_PARALLAX_WIDTHS) is refused; a result that leaves the display's
+    comfort zone (+-60 arcmin), passes divergence or is mostly filled-in holes gets a warning on
+    stderr and in the JSON.
     """
     if fmt not in FORMATS:
         raise ValueError(f"--format must be one of {', '.join(FORMATS)}; got {fmt!r}")
@@ -153,6 +157,8 @@ def synthesize(
         "outputs": [str(t) for t in targets],
     }
     write_json(out / "synthesis.json", params)
+    for line in result.warnings:  # also in the JSON ("warnings")
+        sys.stderr.write(f"warning: {line}\n")
     if as_json:
         print_json(params)
         return

@@ -14,10 +14,12 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from vergence.synthesis.advice import MOSTLY_HOLES_FRACTION, holes_warnings, stereo_warnings
 from vergence.synthesis.blend import baseline_weights, blend_views
 from vergence.synthesis.controls import (
     DEPTH_KINDS,
     INVERSE_DEPTH_RANGE,
+    MAX_PARALLAX_WIDTHS,
     MAX_VIEWS,
     MIN_METRIC_DEPTH,
     ParallaxPlan,
@@ -75,9 +77,11 @@ __all__ = [
     "FILL_METHODS",
     "INVERSE_DEPTH_RANGE",
     "MAX_FILTER_RADIUS",
+    "MAX_PARALLAX_WIDTHS",
     "MAX_SMOOTH_SIGMA",
     "MAX_VIEWS",
     "MIN_METRIC_DEPTH",
+    "MOSTLY_HOLES_FRACTION",
     "NEARNESS_UNITS",
     "ParallaxPlan",
     "StereoResult",
@@ -95,12 +99,14 @@ __all__ = [
     "fill_disparity",
     "fill_holes",
     "forward_warp",
+    "holes_warnings",
     "interpolate_view",
     "median_refine",
     "nearness_from_depth",
     "plan_parallax",
     "refine_camera_warp",
     "smooth_depth",
+    "stereo_warnings",
     "synthesize_stereo",
     "synthesize_view",
     "synthesize_views",
