@@ -398,3 +398,65 @@ def test_interpolate_refuses_disparities_wider_than_the_image(tmp_path, capsys):
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert re.search(r"^error: --left-disparity must lie within \+-48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)", err)
     assert not (tmp_path / "v.png").exists()
+
+
+def _interrupt_on_call(n, real):
+    """A stand-in for a writer that raises KeyboardInterrupt (Ctrl-C) on its n-th call."""
+    calls = []
+
+    def writer(*args, **kwargs):
+        calls.append(args[0])
+        if len(calls) == n:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    return writer
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_synthesize_interrupted_leaves_nothing(tmp_path, capsys, monkeypatch, existing):
+    # Issue 9: `synthesize --views 100` interrupted left 81 view files and no JSON. Now the outputs
+    # appear together or not at all; a folder the command created is removed again.
+    import vergence.cli.synthesize as command
+
+    _scene(tmp_path)
+    out = tmp_path / "out"
+    if existing:
+        out.mkdir()
+        (out / "notes.txt").write_text("mine")
+    monkeypatch.setattr(command, "write_image", _interrupt_on_call(9, command.write_image))
+    try:  # click turns Ctrl-C into an abort, exit code 130
+        code = main(["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"), "--out", str(out),
+                     "--budget-px", "0.5", "--views", "12", "--format", "views"])
+    except KeyboardInterrupt:
+        code = 130
+    assert code == 130
+    if existing:
+        assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+    else:
+        assert not out.exists()
+    monkeypatch.undo()
+    code, _, _ = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"), "--out",
+                               str(out), "--budget-px", "0.5", "--views", "12", "--format", "views"])
+    assert code == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted([*(f"view_{k:02d}.png" for k in range(12)), "views_tiled.png", "synthesis.json",
+                            *(["notes.txt"] if existing else [])])
+
+
+def test_interpolate_failing_json_leaves_no_view(tmp_path, capsys, monkeypatch):
+    import vergence.cli.interpolate as command
+
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "disp.npy", np.full(img.shape[:2], 2.0, np.float32))
+
+    def full_disk(path, obj):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(command, "write_json", full_disk)
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "disp.npy"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "disp.npy"), "--position", "0.5",
+                                 "--out", str(tmp_path / "v.png"), "--json-out", str(tmp_path / "v.json")])
+    assert code == 2 and "No space left on device" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["depth.npy", "depth_mm.png", "disp.npy", "image.png"]

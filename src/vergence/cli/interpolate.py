@@ -9,6 +9,7 @@ import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.cli._scales import check_scale
+from vergence.cli._staged import staged_outputs
 from vergence.io import read_disparity, read_image, stores_integers, write_image, write_json
 from vergence.synthesis import FILL_METHODS, holes_warnings, interpolate_view
 
@@ -54,9 +55,16 @@ def interpolate(
     if disparity_scale is not None:
         check_scale("--disparity-scale", disparity_scale)
     inputs = (left, left_disparity, right, right_disparity)
-    check_output_path(out, *inputs)
-    if json_out is not None:
-        check_output_path(json_out, *inputs)
+    for option, target in (("--out", out), ("--json-out", json_out)):
+        if target is None:
+            continue
+        check_output_path(target, *inputs)
+        if target.is_dir():
+            raise ValueError(f"{option} {target} is a folder; give a file")
+        if not target.parent.is_dir():
+            raise ValueError(f"{option} {target}: folder {target.parent} does not exist")
+    if json_out is not None and json_out.resolve() == out.resolve():
+        raise ValueError(f"--json-out must differ from --out; got {json_out} for both")
     with err_console.status("reading inputs", spinner="dots"):
         views = read_image(left), read_image(right)
         disparities = _disparity(left_disparity, disparity_scale), _disparity(right_disparity, disparity_scale)
@@ -71,7 +79,6 @@ def interpolate(
         result = interpolate_view(
             views[0], disparities[0], views[1], disparities[1], position, fill=fill, edge_dilation=edge_dilation
         )
-    write_image(out, result.image, bit_depth=bit_depth)
     report = {
         "left": str(left),
         "left_disparity": str(left_disparity),
@@ -85,10 +92,14 @@ def interpolate(
         "warnings": list(holes_warnings([result.holes])),
         "output": str(out),
     }
+    # All or nothing: the view and its JSON appear together, or not at all.
+    targets = [out] if json_out is None else [out, json_out]
+    with staged_outputs(targets) as temps:
+        write_image(temps[0], result.image, bit_depth=bit_depth)
+        if json_out is not None:
+            write_json(temps[1], report)
     for line in report["warnings"]:
         sys.stderr.write(f"warning: {line}\n")
-    if json_out is not None:
-        write_json(json_out, report)
     if as_json:
         print_json(report)
         return

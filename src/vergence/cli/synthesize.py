@@ -10,9 +10,10 @@ import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.cli._scales import check_scale
+from vergence.cli._staged import staged_outputs
 from vergence.display import LAYOUTS, pack, tile_views
 from vergence.io import DEPTH_KINDS, read_depth, read_image, write_image, write_json
-from vergence.synthesis import FILL_METHODS, synthesize_stereo
+from vergence.synthesis import FILL_METHODS, synthesize_stereo, views_offsets
 from vergence.viewing.geometry import DISPLAY_PRESETS, Display
 
 __all__ = ["synthesize"]
@@ -104,6 +105,15 @@ def synthesize(
     display = Display.preset(display_preset)
     if depth_scale is not None:
         check_scale("--depth-scale", depth_scale)
+    with options_named(views="--views"):
+        views_offsets(views)  # before naming that many outputs
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder")
+    names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
+    layout = {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(fmt, f"stereo_{fmt}.png")
+    targets = [out / n for n in [*names, layout, "synthesis.json"]]
+    for target in targets:
+        check_output_path(target, image, depth)
     with err_console.status("reading inputs", spinner="dots"):
         picture = read_image(image)
         with options_named(kind="--depth-kind", scale="--depth-scale"):
@@ -124,18 +134,6 @@ def synthesize(
             smooth_sigma=smooth_sigma,
             fill=fill,
         )
-    out.mkdir(parents=True, exist_ok=True)
-    names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
-    layout = {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(fmt, f"stereo_{fmt}.png")
-    targets = [out / n for n in [*names, layout, "synthesis.json"]]
-    for target in targets:
-        check_output_path(target, image, depth)
-    with err_console.status("writing outputs", spinner="dots"):
-        for name, view in zip(names, result.views):
-            write_image(out / name, view, bit_depth=bit_depth)
-        packed = tile_views(result.views) if fmt == "views" else pack(result.left, result.right, layout=fmt)
-        write_image(out / layout, packed, bit_depth=bit_depth)
-    plan = result.plan
     params = {
         "image": str(image),
         "depth": str(depth),
@@ -156,7 +154,15 @@ def synthesize(
         **result.to_dict(),
         "outputs": [str(t) for t in targets],
     }
-    write_json(out / "synthesis.json", params)
+    # All or nothing: the views, the layout and the JSON appear together, or not at all.
+    staging = staged_outputs(targets, folder=out)
+    with err_console.status("writing outputs", spinner="dots"), staging as temps:
+        for temp, view in zip(temps, result.views):
+            write_image(temp, view, bit_depth=bit_depth)
+        packed = tile_views(result.views) if fmt == "views" else pack(result.left, result.right, layout=fmt)
+        write_image(temps[len(names)], packed, bit_depth=bit_depth)
+        write_json(temps[-1], params)
+    plan = result.plan
     for line in result.warnings:  # also in the JSON ("warnings")
         sys.stderr.write(f"warning: {line}\n")
     if as_json:
