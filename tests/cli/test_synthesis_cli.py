@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from vergence.cli import main
+from vergence.display import LAYOUTS
 from vergence.io import read_image, write_disparity, write_image
 
 # Outputs are 8-bit PNGs: half a grey level of quantisation.
@@ -118,7 +119,7 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         (["--views", "1", "--format", "views"], "depth.npy", r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"),
         (["--budget-px", "4"], "zero.npy", r"depth must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
         (["--budget-px", "4", "--depth-scale", "2"], "depth.npy", "scale applies to .png/.pgm disparity maps only"),
-        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-half-color, .*, tb, views"),
+        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-amber-blue, .*, tb, views"),
         (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "depth must be > 0 metres where known"),
         (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
         (["--budget-px", "4"], "small.npy", r"depth must have shape \(H, W\) matching image \(16, 48\)"),
@@ -310,8 +311,9 @@ def test_scales_that_cannot_apply_are_refused(tmp_path, capsys):
         assert code == 2 and "--depth-scale must be > 0" in err
 
 
-@pytest.mark.parametrize("layout", ["half-sbs", "cross-eyed"])
+@pytest.mark.parametrize("layout", list(LAYOUTS))
 def test_synthesize_accepts_every_display_layout(tmp_path, capsys, layout):
+    # Issue 9: half SBS, interleave, checkerboard, cross-eyed and seven anaglyph kinds in the CLI.
     from vergence.display import pack
 
     _scene(tmp_path)
@@ -320,7 +322,8 @@ def test_synthesize_accepts_every_display_layout(tmp_path, capsys, layout):
                                     "--out", str(out), "--budget-px", "4", "--format", layout, "--json"])
     assert code == 0 and json.loads(stdout)["format"] == layout
     expected = pack(read_image(out / "left.png"), read_image(out / "right.png"), layout=layout)
-    np.testing.assert_allclose(read_image(out / f"stereo_{layout}.png"), expected, atol=PNG_ATOL)
+    name = "anaglyph.png" if layout == "anaglyph" else f"stereo_{layout}.png"
+    np.testing.assert_allclose(read_image(out / name), expected, atol=PNG_ATOL)
 
 
 def test_compare_huge_radius_is_exit_2_naming_the_option(tmp_path, capsys):
