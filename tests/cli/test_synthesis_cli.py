@@ -463,3 +463,37 @@ def test_interpolate_failing_json_leaves_no_view(tmp_path, capsys, monkeypatch):
                                  "--out", str(tmp_path / "v.png"), "--json-out", str(tmp_path / "v.json")])
     assert code == 2 and "No space left on device" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["depth.npy", "depth_mm.png", "disp.npy", "image.png"]
+
+
+def test_interpolate_writes_16_bit_png_by_default(tmp_path, capsys):
+    # Issue 9: interpolate wrote 8-bit PNGs, so the README's Dolls figure (37.11 dB) came out 37.05.
+    import cv2
+
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "disp.npy", np.full(img.shape[:2], 2.0, np.float32))
+    args = ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity", str(tmp_path / "disp.npy"),
+            "--right", str(tmp_path / "image.png"), "--right-disparity", str(tmp_path / "disp.npy"),
+            "--position", "0.5"]
+    for name, depth in (("v.png", np.uint16), ("v8.png", np.uint8), ("v.jpg", np.uint8)):
+        extra = ["--bit-depth", "8"] if name == "v8.png" else []
+        code, _, err = _run(capsys, [*args, "--out", str(tmp_path / name), *extra])
+        assert code == 0, err
+        assert cv2.imread(str(tmp_path / name), cv2.IMREAD_UNCHANGED).dtype == depth, name
+    code, _, err = _run(capsys, [*args, "--out", str(tmp_path / "w.png"), "--bit-depth", "12"])
+    assert code == 2 and "--bit-depth must be 8 or 16; got 12" in err
+
+
+@pytest.mark.slow
+def test_readme_dolls_commands_reproduce_the_readme_figures(shared_data, tmp_path, capsys):
+    # Issue 9: the README's commands must give the README's numbers (37.11 dB, SSIM 0.981).
+    dolls = shared_data / "multiview" / "dolls"
+    out = tmp_path / "view3_dibr.png"
+    code, _, err = _run(capsys, ["interpolate", "--left", str(dolls / "view1.png"), "--left-disparity",
+                                 str(dolls / "disp1.png"), "--right", str(dolls / "view5.png"), "--right-disparity",
+                                 str(dolls / "disp5.png"), "--disparity-scale", "2", "--position", "0.5",
+                                 "--out", str(out)])
+    assert code == 0, err
+    code, stdout, err = _run(capsys, ["compare", str(out), str(dolls / "view3.png"), "--json"])
+    assert code == 0, err
+    scores = json.loads(stdout)
+    assert round(scores["psnr_db"], 2) == 37.11 and round(scores["ssim"], 3) == 0.981
