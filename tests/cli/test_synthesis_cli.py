@@ -497,3 +497,18 @@ def test_readme_dolls_commands_reproduce_the_readme_figures(shared_data, tmp_pat
     assert code == 0, err
     scores = json.loads(stdout)
     assert round(scores["psnr_db"], 2) == 37.11 and round(scores["ssim"], 3) == 0.981
+
+
+def test_synthesize_refuses_a_colour_pfm_as_depth(tmp_path, capsys):
+    # Issue 9: a 3-channel PFM (equal channels) was taken as depth, exit 0.
+    from vergence.io import write_pfm
+
+    _, depth = _scene(tmp_path)
+    write_pfm(tmp_path / "depth_rgb.pfm", np.stack([depth] * 3, axis=2))
+    write_pfm(tmp_path / "depth.pfm", depth)
+    args = ["synthesize", str(tmp_path / "image.png"), "--budget-px", "2", "--out"]
+    code, _, err = _run(capsys, [*args, str(tmp_path / "o1"), str(tmp_path / "depth_rgb.pfm")])
+    assert code == 2 and re.search(r"^error: depth .*depth_rgb.pfm must be a single-channel PFM \('Pf' header\)", err)
+    assert not (tmp_path / "o1").exists()
+    code, _, err = _run(capsys, [*args, str(tmp_path / "o2"), str(tmp_path / "depth.pfm")])
+    assert code == 0, err
