@@ -13,6 +13,7 @@ from vergence.synthesis import (
     WarpedView,
     baseline_weights,
     epipole,
+    error_image,
     fill_disparity,
     fill_holes,
     forward_warp,
@@ -21,6 +22,7 @@ from vergence.synthesis import (
     plan_parallax,
     refine_camera_warp,
     synthesize_stereo,
+    synthesize_view,
     synthesize_views,
     warp_to_camera,
 )
@@ -32,6 +34,7 @@ MAP = np.ones((2, 3), np.float32)
 HOLES = np.zeros((2, 3), bool)
 DEPTH = np.array([[1.0, 2.0, 4.0], [1.0, 2.0, 4.0]])
 CAM = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=2)
+CAM_RIGHT = look_at([0.1, 0, 0], [0.1, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=2)
 
 
 @pytest.mark.parametrize(
@@ -139,6 +142,16 @@ def test_plan_parallax_and_results_refuse_inconsistent_parts():
         (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0, np.nan), None), ValueError, r"range_px\[1\] must be finite"),
         (lambda: ParallaxPlan(np.zeros((1, 2)), "linear", (0.0, 1.0), None), TypeError, r"mapping must be a DisparityMapping; got str"),
         (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0, 1.0), (1.0,)), ValueError, r"range_arcmin must be a pair"),
+        # Our own sweep (1106 bad arguments to every synthesis and display function): float32
+        # overflow warnings on huge tolerances, ComplexWarning on complex arrays.
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, gradient_limit=1e308), ValueError, r"gradient_limit must be at most 3.403e\+38 in magnitude \(a float32\); got 1e\+308"),
+        (lambda: interpolate_view(IMG, MAP, IMG, MAP, 0.5, depth_tolerance=1e308), ValueError, r"depth_tolerance must be at most 3.403e\+38"),
+        (lambda: error_image(IMG, IMG, gain=1e308), ValueError, r"gain must be at most 3.403e\+38"),
+        (lambda: forward_warp(IMG, MAP.astype(np.complex64)), TypeError, r"disparity must be real; got a complex array"),
+        (lambda: forward_warp(IMG.astype(np.complex64), MAP), TypeError, r"image must be a numeric image .*got complex64"),
+        (lambda: fill_holes(IMG, MAP.astype(np.complex64), HOLES), TypeError, r"disparity must be real"),
+        (lambda: baseline_weights(np.array([0, 1], np.complex64), 0.5), TypeError, r"positions must be real"),
+        (lambda: synthesize_view(IMG, np.full((2, 3), 1e-40), CAM, CAM_RIGHT), ValueError, r"depth must be >= .* m for these cameras \(its disparity f b / Z must be a float32\)"),
     ],
 )
 def test_issue9_bad_api_calls_raise_one_line_errors(call, error, match):

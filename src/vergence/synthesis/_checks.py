@@ -20,6 +20,8 @@ MAX_FILTER_RADIUS = 64
 # px (an 8193-tap kernel) already flattens any map of a few thousand pixels; past it the kernel size
 # overflows or takes minutes for no visible change.
 MAX_SMOOTH_SIGMA = 1024.0
+# The kernels take their tolerances and limits as float32: a larger magnitude would overflow to inf.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def rows(arr: np.ndarray) -> np.ndarray:
@@ -59,12 +61,19 @@ def check_image(name: str, image: object) -> np.ndarray:
     return arr
 
 
+def within_float32(name: str, value: float) -> float:
+    """Return ``value``, or raise if its magnitude exceeds ``FLOAT32_MAX`` (the kernels' float32)."""
+    if abs(value) > FLOAT32_MAX:
+        raise ValueError(f"{name} must be at most {FLOAT32_MAX:.4g} in magnitude (a float32); got {value:g}")
+    return value
+
+
 def check_nonnegative(name: str, value: object) -> float:
-    """Return ``value`` as a float, or raise if it is not finite and >= 0."""
+    """Return ``value`` as a float, or raise if it is not finite, >= 0 and a float32."""
     v = check_finite(name, value)
     if v < 0:
         raise ValueError(f"{name} must be >= 0; got {v:g}")
-    return v
+    return within_float32(name, v)
 
 
 def check_radius(name: str, value: object) -> int:
@@ -87,6 +96,8 @@ def check_sigma(name: str, value: object) -> float:
 def check_map(name: str, value: object, ref_name: str | None = None, ref: np.ndarray | None = None) -> np.ndarray:
     """Validate a depth or disparity map as C-contiguous float32: ``(H, W)`` (like ``ref`` when
     given), not empty, NaN for unknown, no inf, not all unknown (one Numba pass)."""
+    if np.iscomplexobj(value):
+        raise TypeError(f"{name} must be real; got a complex array")
     try:
         d = np.ascontiguousarray(value, dtype=np.float32)
     except (TypeError, ValueError) as exc:
@@ -123,6 +134,8 @@ def check_holes(holes: object, ref: np.ndarray) -> np.ndarray:
 
 def check_known_disparity(disparity: object, holes: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """A float32 ``(H, W)`` disparity, finite outside ``holes`` (0 in them)."""
+    if np.iscomplexobj(disparity):
+        raise TypeError("disparity must be real; got a complex array")
     d = np.asarray(disparity, dtype=np.float32)
     if d.ndim != 2:
         raise ValueError(f"disparity must have shape (H, W); got {d.shape}")
@@ -149,6 +162,8 @@ def check_source_image(image: object, source: Camera) -> np.ndarray:
 
 def check_depth(depth: object, source: Camera) -> np.ndarray:
     """Metric depth (float64) the size of ``source``: > 0 where known, NaN unknown, no inf."""
+    if np.iscomplexobj(depth):
+        raise TypeError("depth must be real; got a complex array")
     z = np.asarray(depth, dtype=np.float64)
     if z.shape != (source.height, source.width):
         raise ValueError(f"depth must have shape {(source.height, source.width)} matching the source camera; got {z.shape}")

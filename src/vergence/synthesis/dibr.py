@@ -28,6 +28,7 @@ from vergence._validate import check_finite, check_in_range, check_positive
 from vergence.camera import Camera
 from vergence.synthesis import _stages, _stages3d
 from vergence.synthesis._checks import (
+    FLOAT32_MAX,
     check_camera,
     check_depth,
     check_image,
@@ -37,6 +38,7 @@ from vergence.synthesis._checks import (
     check_radius,
     check_sigma,
     check_source_image,
+    within_float32,
 )
 from vergence.synthesis.advice import holes_warnings, stereo_warnings
 from vergence.synthesis.blend import baseline_weights
@@ -245,7 +247,7 @@ def interpolate_view(
         _check_fits(name, d)
     t = check_in_range("position", position, 0.0, 1.0)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
-    tol = check_positive("depth_tolerance", depth_tolerance)
+    tol = within_float32("depth_tolerance", check_positive("depth_tolerance", depth_tolerance))
     contour = check_radius("contour_width", contour_width)
     nc = lft.shape[2] if lft.ndim == 3 else 1
     views = []
@@ -499,7 +501,13 @@ def synthesize_view(
     pair = _rectified_pair(source, target)
     if pair is not None:
         fb, cx_s, cx_t = pair
-        d = (fb / z + cx_s - cx_t).astype(np.float32)  # S1 Eq. (7): d = f b / Z
+        d64 = fb / z + cx_s - cx_t  # S1 Eq. (7): d = f b / Z
+        if np.nanmax(np.abs(d64)) > FLOAT32_MAX:
+            raise ValueError(
+                f"depth must be >= {abs(fb) / FLOAT32_MAX:.3g} m for these cameras (its disparity f b / Z must be a float32); "
+                f"got min {np.nanmin(z):g}"
+            )
+        d = d64.astype(np.float32)
         prepared, original = _stages.prepare_disparity(d, radius, limit)
         image_w, near, holes = _warp_reference(_stages.as_hwc(img), prepared, 1.0, limit, True)
         guide = _stages.fill_guide(near, prepared, original, 1.0, limit)

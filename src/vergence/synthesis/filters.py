@@ -25,6 +25,7 @@ from vergence.synthesis._checks import (
     check_nonnegative,
     check_radius,
     check_sigma,
+    within_float32,
 )
 from vergence.synthesis.view import WarpedView
 
@@ -204,8 +205,8 @@ def median_refine(
         raise ValueError(f"source_image must have the channels of the warped image {warped.image.shape}; got {img.shape}")
     d_src = check_map("source_disparity", source_disparity, "source_image", img)
     s = check_finite("scale", scale)
-    tol = check_positive("tolerance", tolerance)
-    cons = check_positive("consistency", consistency)
+    tol = within_float32("tolerance", check_positive("tolerance", tolerance))
+    cons = within_float32("consistency", check_positive("consistency", consistency))
     image, disparity, holes = _stages.median_refine(
         _stages.as_hwc(img), d_src, _stages.as_hwc(warped.image), warped.nearness, warped.holes, s, tol, cons
     )

@@ -17,6 +17,7 @@ import numpy as np
 
 from vergence._validate import as_image_pair, check_finite
 from vergence.metrics import MIN_CONTRAST, _summaries, psnr, registration_error, ssim
+from vergence.synthesis._checks import within_float32
 
 __all__ = ["ViewQuality", "assess_view", "error_image"]
 
@@ -184,7 +185,7 @@ def error_image(image: object, reference: object, *, gain: float = 4.0) -> np.nd
     [[0.0, 0.4]]
     """
     a, b = as_image_pair("image", image, "reference", reference)
-    g = check_finite("gain", gain)
+    g = within_float32("gain", check_finite("gain", gain))
     if g <= 0:
         raise ValueError(f"gain must be > 0; got {g:g}")
     err = np.abs(a - b)

@@ -22,7 +22,7 @@ import numpy as np
 from vergence._validate import check_finite, check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.synthesis import _stages3d
-from vergence.synthesis._checks import check_camera, check_depth, check_source_image
+from vergence.synthesis._checks import check_camera, check_depth, check_source_image, within_float32
 from vergence.synthesis.view import WarpedView
 
 __all__ = ["WARP_ORDERS", "epipole", "refine_camera_warp", "warp_to_camera"]
@@ -188,6 +188,6 @@ def refine_camera_warp(
         raise ValueError(
             f"warped.image must have shape {(target.height, target.width) + img.shape[2:]} (target size, image channels); got {warped.image.shape}"
         )
-    tol = check_positive("consistency", consistency)
+    tol = within_float32("consistency", check_positive("consistency", consistency))
     n = check_positive_int("iterations", iterations)
     return _stages3d.refine_camera_warp(warped, img, z, source, target, tol, n)
