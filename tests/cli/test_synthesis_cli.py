@@ -128,7 +128,8 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         (["--budget-px", "4", "--smooth-sigma", "-1"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\] pixels"),
         # Issue 9 kin: OverflowError (internal error) and float32 overflow warnings before.
         (["--budget-px", "4", "--smooth-sigma", "1e308"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\]"),
-        (["--budget-px", "4", "--depth-scale", "1e308"], "depth_mm.png", r"^error: --depth-scale must be <= 3.403e\+38"),
+        (["--budget-px", "4", "--depth-scale", "1e-320"], "depth_mm.png", r"^error: --depth-scale must lie in \[1e-30, 1e\+30\]"),
+        (["--budget-px", "4", "--depth-scale", "1e308"], "depth_mm.png", r"^error: --depth-scale must lie in \[1e-30, 1e\+30\] \(it divides float32 values\); got 1e\+308"),
         (["--views", "1000", "--format", "views"], "depth.npy", r"^error: --views must lie in \[2, 128\]"),
         (["--budget-px", "4", "--fill", "blur"], "depth.npy", r"^error: --fill must be one of background"),
     ],
@@ -338,7 +339,7 @@ def test_compare_huge_radius_is_exit_2_naming_the_option(tmp_path, capsys):
         # Issue 9 kin: a huge radius was a Numba TypingError (internal error) before.
         (["--edge-dilation", "100000000000000000000"], r"^error: --edge-dilation must lie in \[0, 64\] pixels"),
         (["--position", "2"], r"^error: --position must lie in \[0, 1\]; got 2"),
-        (["--disparity-scale", "1e308"], r"^error: --disparity-scale must be <= 3.403e\+38"),
+        (["--disparity-scale", "1e308"], r"^error: --disparity-scale must lie in \[1e-30, 1e\+30\]"),
     ],
 )
 def test_interpolate_bad_options_name_the_option(tmp_path, capsys, extra, message):

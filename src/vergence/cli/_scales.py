@@ -2,20 +2,21 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from vergence._validate import check_positive
 
-__all__ = ["MAX_SCALE", "check_scale"]
+__all__ = ["SCALE_RANGE", "check_scale"]
 
-# A scale divides float32 values, so it must be a finite float32 itself (a larger one overflowed to
-# inf with numpy warnings).
-MAX_SCALE = float(np.finfo(np.float32).max)
+# A scale divides the stored values in float32: over this range every value of a 16-bit file over the
+# scale stays a normal float32 (65535 / 1e-30 = 6.6e34 < 3.4e38; 1 / 1e30 = 1e-30 > 1.2e-38). Outside
+# it the division overflowed or underflowed with numpy warnings; Middlebury and KITTI use 1 to 256,
+# millimetre depth 1000.
+SCALE_RANGE = (1e-30, 1e30)
 
 
 def check_scale(option: str, scale: float) -> float:
-    """A ``--*-scale`` value: > 0 and at most ``MAX_SCALE``."""
+    """A ``--*-scale`` value within ``SCALE_RANGE``."""
     check_positive(option, scale)
-    if scale > MAX_SCALE:
-        raise ValueError(f"{option} must be <= {MAX_SCALE:.4g} (it divides float32 values); got {scale:g}")
+    lo, hi = SCALE_RANGE
+    if not lo <= scale <= hi:
+        raise ValueError(f"{option} must lie in [{lo:g}, {hi:g}] (it divides float32 values); got {scale:g}")
     return scale
