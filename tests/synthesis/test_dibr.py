@@ -11,6 +11,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import look_at
 from vergence.metrics import psnr
 from vergence.synthesis import (
+    MAX_SYNTHESIS_BYTES,
     MOSTLY_HOLES_FRACTION,
     holes_warnings,
     interpolate_view,
@@ -361,3 +362,14 @@ def test_interpolate_view_refuses_disparities_of_an_image_width():
         interpolate_view(img, wide, img, ok, 0.5)
     with pytest.raises(ValueError, match=r"right_disparity must lie within \+-20 px.*got \|d\| up to 100"):
         interpolate_view(img, ok, img, -5 * wide, 0.5)
+
+
+def test_synthesize_stereo_refuses_results_past_max_synthesis_bytes_before_any_work():
+    # Issue 9 kin (render grew to 24 GB): 128 views of an 8000 x 10000 RGB image would need
+    # 128 x (8e7 x 3 x 4 + 8e7) bytes = 124 GiB.
+    # The check reads only the shapes: a broadcast image of that size costs no memory.
+    assert MAX_SYNTHESIS_BYTES == 4 * 2**30
+    img = np.broadcast_to(np.float32(0.5), (10000, 8000, 3))
+    depth = np.broadcast_to(2.0, (10000, 8000))
+    with pytest.raises(ValueError, match=r"views 128 of a 8000x10000 image would take 124 GiB, more than MAX_SYNTHESIS_BYTES 4 GiB"):
+        synthesize_stereo(img, depth, budget_px=1.0, views=128)

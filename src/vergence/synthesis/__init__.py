@@ -43,6 +43,7 @@ from vergence.synthesis.warp3d import WARP_ORDERS, epipole, refine_camera_warp, 
 
 if TYPE_CHECKING:
     from vergence.synthesis.dibr import (
+        MAX_SYNTHESIS_BYTES,
         StereoResult,
         interpolate_view,
         synthesize_stereo,
@@ -52,6 +53,7 @@ if TYPE_CHECKING:
 
 # Pipelines, loaded on first attribute access (PEP 562).
 _LAZY = {
+    "MAX_SYNTHESIS_BYTES": "vergence.synthesis.dibr",
     "StereoResult": "vergence.synthesis.dibr",
     "interpolate_view": "vergence.synthesis.dibr",
     "synthesize_stereo": "vergence.synthesis.dibr",
@@ -79,6 +81,7 @@ __all__ = [
     "MAX_FILTER_RADIUS",
     "MAX_PARALLAX_WIDTHS",
     "MAX_SMOOTH_SIGMA",
+    "MAX_SYNTHESIS_BYTES",
     "MAX_VIEWS",
     "MIN_METRIC_DEPTH",
     "MOSTLY_HOLES_FRACTION",

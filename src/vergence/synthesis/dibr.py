@@ -20,6 +20,7 @@ background-directed hole filling steered by the original, undilated disparity (s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +49,7 @@ from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping
 
 __all__ = [
+    "MAX_SYNTHESIS_BYTES",
     "StereoResult",
     "interpolate_view",
     "synthesize_stereo",
@@ -55,6 +57,10 @@ __all__ = [
     "synthesize_views",
 ]
 
+# Most memory synthesize_stereo's results may take (the views as float32 and their hole masks),
+# checked before any work: 4 GiB holds 128 views of a 1080p RGB image (3.5 GB), while 128 views of
+# the largest image read_image decodes (80 Mpx) would need 120 GB.
+MAX_SYNTHESIS_BYTES = 4 * 2**30
 # Median refinement: a warped disparity that differs from its 3x3 median by more than this (pixels)
 # is re-sampled by inverse warping, if the reference agrees within the consistency tolerance.
 _MEDIAN_TOLERANCE_PX = 0.5
@@ -391,7 +397,8 @@ def synthesize_stereo(
     Raises
     ------
     ValueError
-        Bad arguments (see :func:`~vergence.synthesis.plan_parallax`), or views that cannot fit the
+        Bad arguments (see :func:`~vergence.synthesis.plan_parallax`), results larger than
+        ``MAX_SYNTHESIS_BYTES`` (checked first), or views that cannot fit the
         image: the outer views lie ``(views - 1)`` adjacent parallaxes apart, and that span must
         stay below ``MAX_PARALLAX_WIDTHS`` image widths (checked before any view is rendered).
 
@@ -404,6 +411,16 @@ def synthesize_stereo(
     >>> res.plan.range_px, len(res.views), res.left.shape
     ((-4.0, 4.0), 2, (4, 16))
     """
+    offsets = views_offsets(views, origin=origin)
+    image_shape = np.shape(image)
+    if len(image_shape) in (2, 3):  # from the shape alone, before any copy (check_image follows)
+        per_view = math.prod(image_shape) * 4 + math.prod(image_shape[:2])  # float32 view + bool holes
+        if len(offsets) * per_view > MAX_SYNTHESIS_BYTES:
+            raise ValueError(
+                f"views {len(offsets)} of a {image_shape[1]}x{image_shape[0]} image would take "
+                f"{len(offsets) * per_view / 2**30:.3g} GiB, more than MAX_SYNTHESIS_BYTES "
+                f"{MAX_SYNTHESIS_BYTES / 2**30:g} GiB: use fewer views or a smaller image"
+            )
     img = check_image("image", image)
     shape = np.shape(depth)
     if len(shape) != 2 or shape != img.shape[:2]:
@@ -419,7 +436,6 @@ def synthesize_stereo(
         interaxial=interaxial,
         mapping=mapping,
     )
-    offsets = views_offsets(views, origin=origin)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     sigma = None if smooth_sigma is None else check_sigma("smooth_sigma", smooth_sigma)
     widest = max(-plan.range_px[0], plan.range_px[1])
