@@ -49,7 +49,10 @@ def check_image(name: str, image: object) -> np.ndarray:
     if arr.ndim == 3 and arr.shape[2] == 4:
         # Warping and blending mix colours by weight: a straight alpha channel would be averaged as
         # a colour, not composited, so RGBA is refused rather than silently mis-blended.
-        raise ValueError(f"{name} must be grey (H, W) or colour (H, W, 1 or 3); got shape {arr.shape} (an alpha channel: composite or drop it first)")
+        raise ValueError(
+            f"{name} must be grey (H, W) or colour (H, W, 1 or 3); got shape {arr.shape} "
+            "(an alpha channel: composite or drop it first)"
+        )
     if arr.dtype != np.float32 or arr.ndim not in (2, 3) or arr.size == 0 or (arr.ndim == 3 and arr.shape[2] not in (1, 3)):
         return as_image(name, image)  # converts, or raises its own message
     arr = np.ascontiguousarray(arr)

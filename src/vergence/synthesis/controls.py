@@ -108,7 +108,9 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     if lo <= 0:
         raise ValueError(f"depth must be > 0 metres where known (metric depth; NaN = unknown); got min {lo:g}")
     if lo < MIN_METRIC_DEPTH:
-        raise ValueError(f"depth must be >= {MIN_METRIC_DEPTH:.3g} (MIN_METRIC_DEPTH: 1/depth must be a finite float32); got min {lo:g}")
+        raise ValueError(
+            f"depth must be >= {MIN_METRIC_DEPTH:.3g} (MIN_METRIC_DEPTH: 1/depth must be a finite float32); got min {lo:g}"
+        )
     return np.float32(1.0) / d
 
 
@@ -326,9 +328,13 @@ def _budget_mapping(
         per_px = _display_px(display, width)
         # The budget is the smaller side of the exact conversion (below), so it fits while either
         # side's angle at the limit is larger than a.
-        a_max = max(float(arcmin_from_pixels(limit * per_px, display)), -float(arcmin_from_pixels(-limit * per_px, display)))
+        a_max = max(
+            float(arcmin_from_pixels(limit * per_px, display)), -float(arcmin_from_pixels(-limit * per_px, display))
+        )
         if a >= a_max:
-            raise ValueError(f"budget_arcmin must be < {a_max:.4g} arcmin on this display, {limit:g} px, {fit}; got {a:g}")
+            raise ValueError(
+                f"budget_arcmin must be < {a_max:.4g} arcmin on this display, {limit:g} px, {fit}; got {a:g}"
+            )
         b = float(pixels_from_arcmin(a, display)) / per_px
         # Crossed side: the exact conversion is not symmetric; keep the smaller magnitude.
         b = min(b, -float(pixels_from_arcmin(-a, display)) / per_px)
