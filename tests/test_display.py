@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from vergence.display import anaglyph, checkerboard, interleave, side_by_side, tile_views, top_bottom
+from vergence.display import ANAGLYPH_METHODS, anaglyph, checkerboard, interleave, side_by_side, tile_views, top_bottom
 
 # Float64 arithmetic of the same formulas, compared in float32: a few float32 ulps.
 FLOAT32_TOL = 1e-6
@@ -74,6 +74,51 @@ def test_dubois_on_pure_colours_by_hand(left, right, linear):
     assert_allclose(out[0, 0], expected, atol=FLOAT32_TOL)
 
 
+# Issue 9: iw3 offers seven anaglyph kinds; so does ANAGLYPH_METHODS. Green-magenta and amber-blue
+# Dubois matrices, typed again from Dubois's anaglyph web page (rows = output R, G, B).
+M_GREEN_MAGENTA = (
+    [[-0.062, -0.158, -0.039], [0.284, 0.668, 0.143], [-0.015, -0.027, 0.021]],
+    [[0.529, 0.705, 0.024], [-0.016, -0.015, -0.065], [0.009, 0.075, 0.937]],
+)
+M_AMBER_BLUE = (
+    [[1.062, -0.205, 0.299], [-0.026, 0.908, 0.068], [-0.038, -0.173, 0.022]],
+    [[-0.016, -0.123, -0.017], [0.006, 0.062, -0.017], [0.094, 0.185, 0.911]],
+)
+
+
+def test_seven_anaglyph_methods():
+    assert list(ANAGLYPH_METHODS) == [
+        "amber-blue", "dubois", "dubois-amber-blue", "dubois-green-magenta", "green-magenta", "half-color", "red-cyan",
+    ]
+    left = np.array([[[0.9, 0.2, 0.3]]], np.float32)
+    right = np.array([[[0.4, 0.6, 0.7]]], np.float32)
+    # Plain anaglyphs by hand: the left eye's filter passes the left view's channels.
+    assert_array_equal(anaglyph(left, right, method="green-magenta"), np.float32([[[0.4, 0.2, 0.7]]]))
+    assert_array_equal(anaglyph(left, right, method="amber-blue"), np.float32([[[0.9, 0.2, 0.7]]]))
+
+
+@pytest.mark.parametrize(("method", "matrices"), [("dubois-green-magenta", M_GREEN_MAGENTA), ("dubois-amber-blue", M_AMBER_BLUE)])
+@pytest.mark.parametrize(("left", "right"), [((1, 0, 0), (0, 0, 0)), ((0, 0, 0), (0, 1, 0)), ((0.5, 0.5, 0.5), (0.2, 0.9, 0.4))])
+def test_dubois_green_magenta_and_amber_blue_by_hand(method, matrices, left, right):
+    def linear(v):
+        return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+
+    m_left, m_right = matrices
+    expected = [
+        _encode(min(max(sum(ml[c] * linear(left[c]) + mr[c] * linear(right[c]) for c in range(3)), 0.0), 1.0))
+        for ml, mr in zip(m_left, m_right, strict=True)
+    ]
+    out = anaglyph(np.array([[left]], float), np.array([[right]], float), method=method)
+    assert_allclose(out[0, 0], expected, atol=FLOAT32_TOL)
+
+
+@pytest.mark.parametrize("method", ["dubois", "dubois-green-magenta", "dubois-amber-blue"])
+def test_a_white_pair_stays_white_within_the_matrices_rounding(method):
+    # Each matrix pair's row sums are 1 within 0.001 (three printed decimals): white stays white.
+    out = anaglyph(np.ones((1, 1, 3)), np.ones((1, 1, 3)), method=method)
+    assert_allclose(out[0, 0], 1.0, atol=2e-3)
+
+
 def test_dubois_works_in_linear_light():
     grey = 0.5  # sRGB 0.5 is linear 0.21404
     lin = ((grey + 0.055) / 1.055) ** 2.4
@@ -87,7 +132,7 @@ def test_dubois_works_in_linear_light():
 def test_anaglyph_shapes_dtype_and_uint8_input():
     left = np.zeros((4, 5, 3), np.uint8)
     right = np.full((4, 5, 3), 255, np.uint8)
-    for method in ("dubois", "half-color", "red-cyan"):
+    for method in ANAGLYPH_METHODS:
         out = anaglyph(left, right, method=method)
         assert out.shape == (4, 5, 3) and out.dtype == np.float32
         assert out.min() >= 0 and out.max() <= 1
@@ -95,7 +140,7 @@ def test_anaglyph_shapes_dtype_and_uint8_input():
 
 def test_anaglyph_bad_input():
     a = np.zeros((2, 2, 3))
-    with pytest.raises(ValueError, match="method must be one of dubois, half-color, red-cyan; got 'green'"):
+    with pytest.raises(ValueError, match="method must be one of amber-blue, dubois, dubois-amber-blue, dubois-green-magenta, green-magenta, half-color, red-cyan; got 'green'"):
         anaglyph(a, a, method="green")
     with pytest.raises(ValueError, match=r"right must have the same shape as left \(2, 2, 3\); got \(2, 3, 3\)"):
         anaglyph(a, np.zeros((2, 3, 3)))
@@ -236,7 +281,7 @@ def test_pack_dispatches_every_layout_of_the_table():
     shapes = {
         "sbs": (2, 8, 3), "half-sbs": (2, 4, 3), "tb": (4, 4, 3), "half-tb": (2, 4, 3), "cross-eyed": (2, 8, 3),
         "rows": (2, 4, 3), "columns": (2, 4, 3), "checkerboard": (2, 4, 3),
-        "anaglyph": (2, 4, 3), "anaglyph-half-color": (2, 4, 3), "anaglyph-red-cyan": (2, 4, 3),
+        "anaglyph": (2, 4, 3), **{f"anaglyph-{m}": (2, 4, 3) for m in ANAGLYPH_METHODS if m != "dubois"},
     }
     assert set(LAYOUTS) == set(shapes)
     for name, shape in shapes.items():

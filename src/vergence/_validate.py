@@ -109,7 +109,7 @@ def as_image(name: str, image: object) -> np.ndarray:
         return arr.astype(np.float32) / np.float32(255.0)
     if arr.dtype == np.uint16:
         return arr.astype(np.float32) / np.float32(65535.0)
-    if arr.dtype == bool or not np.issubdtype(arr.dtype, np.number):
+    if arr.dtype == bool or not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
         raise TypeError(f"{name} must be a numeric image (float in [0, 1], uint8 or uint16); got {arr.dtype}")
     if np.issubdtype(arr.dtype, np.integer):
         raise TypeError(f"{name} must be float in [0, 1], uint8 or uint16; got {arr.dtype}")

@@ -7,7 +7,8 @@ image in [0, 1]. ``left`` and ``right`` must have the same shape. Pixel conventi
 
 Layouts (``left`` = L, ``right`` = R):
 
-- ``anaglyph``: one RGB image for coloured glasses, red filter on the left eye.
+- ``anaglyph``: one RGB image for coloured glasses (red-cyan, green-magenta or amber-blue; the
+  methods of :data:`ANAGLYPH_METHODS`).
 - ``side_by_side`` / ``top_bottom``: L then R, next to each other or stacked; ``half=True`` squeezes
   each view to half the width (height) with area averaging so the frame keeps the size of one view
   (frame-compatible 3D broadcasts).
@@ -20,6 +21,7 @@ Layouts (``left`` = L, ``right`` = R):
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from types import MappingProxyType
@@ -30,6 +32,7 @@ import numpy as np
 from vergence._validate import as_image_pair, as_view, check_positive_int
 
 __all__ = [
+    "ANAGLYPH_METHODS",
     "LAYOUTS",
     "anaglyph",
     "checkerboard",
@@ -40,19 +43,42 @@ __all__ = [
     "top_bottom",
 ]
 
-# Dubois least-squares red-cyan matrices (rows: output R, G, B; columns: input R, G, B), for
-# linear RGB. E. Dubois, "Conversion of a stereo pair to anaglyph with the least-squares projection
-# method", March 2009 (www.site.uottawa.ca/~edubois/anaglyph/LeastSquaresHowToPhotoshop.pdf);
-# method: E. Dubois, "A projection method to generate anaglyph stereo images", ICASSP 2001.
+# Dubois least-squares anaglyph matrices (rows: output R, G, B; columns: input R, G, B), for
+# linear RGB; left eye behind the first-named filter. Method: E. Dubois, "A projection method to
+# generate anaglyph stereo images", ICASSP 2001. Red-cyan: his March 2009 note "Conversion of a stereo
+# pair to anaglyph with the least-squares projection method"; green-magenta and amber-blue: the
+# matrices published on his anaglyph web page (www.site.uottawa.ca/~edubois/anaglyph/). In each pair
+# the row sums of M_L + M_R are 1 within 0.001: a white pair stays white.
 DUBOIS_RED_CYAN_LEFT = np.array(
     [[0.437, 0.449, 0.164], [-0.062, -0.062, -0.024], [-0.048, -0.050, -0.017]]
 )
 DUBOIS_RED_CYAN_RIGHT = np.array(
     [[-0.011, -0.032, -0.007], [0.377, 0.761, 0.009], [-0.026, -0.093, 1.234]]
 )
+DUBOIS_GREEN_MAGENTA_LEFT = np.array(
+    [[-0.062, -0.158, -0.039], [0.284, 0.668, 0.143], [-0.015, -0.027, 0.021]]
+)
+DUBOIS_GREEN_MAGENTA_RIGHT = np.array(
+    [[0.529, 0.705, 0.024], [-0.016, -0.015, -0.065], [0.009, 0.075, 0.937]]
+)
+DUBOIS_AMBER_BLUE_LEFT = np.array(
+    [[1.062, -0.205, 0.299], [-0.026, 0.908, 0.068], [-0.038, -0.173, 0.022]]
+)
+DUBOIS_AMBER_BLUE_RIGHT = np.array(
+    [[-0.016, -0.123, -0.017], [0.006, 0.062, -0.017], [0.094, 0.185, 0.911]]
+)
+for _m in (
+    DUBOIS_RED_CYAN_LEFT,
+    DUBOIS_RED_CYAN_RIGHT,
+    DUBOIS_GREEN_MAGENTA_LEFT,
+    DUBOIS_GREEN_MAGENTA_RIGHT,
+    DUBOIS_AMBER_BLUE_LEFT,
+    DUBOIS_AMBER_BLUE_RIGHT,
+):
+    _m.flags.writeable = False  # published constants: no caller can change them for everyone
+del _m
 # Rec. 601 luma weights for the half-colour anaglyph's left (red) channel.
 _LUMA_601 = np.array([0.299, 0.587, 0.114])
-_ANAGLYPH_METHODS = ("dubois", "half-color", "red-cyan")
 _ORIENTATIONS = ("columns", "rows")
 
 
@@ -78,24 +104,70 @@ def _linear_to_srgb(linear: np.ndarray) -> np.ndarray:
     return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(np.maximum(v, 0.0031308), 1 / 2.4) - 0.055)
 
 
-def anaglyph(left: object, right: object, *, method: str = "dubois") -> np.ndarray:
-    """Combine a stereo pair into one red-cyan anaglyph (red filter on the left eye).
+def _channels(left_from: tuple[int, ...]) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Plain colour anaglyph: the output channels ``left_from`` from the left view, the rest from the right."""
 
-    Methods (``L``, ``R`` the views' RGB, grey views replicated to three channels):
+    def combine(lc: np.ndarray, rc: np.ndarray) -> np.ndarray:
+        out = rc.copy()
+        out[:, :, list(left_from)] = lc[:, :, list(left_from)]
+        return out
+
+    return combine
+
+
+def _half_color(lc: np.ndarray, rc: np.ndarray) -> np.ndarray:
+    """``(Y(L), R_g, R_b)`` with the Rec. 601 luma of the left view."""
+    luma = lc.astype(np.float64) @ _LUMA_601
+    out = np.concatenate([luma[:, :, None], rc[:, :, 1:]], axis=2)
+    return np.clip(out, 0.0, 1.0)  # luma weights sum to 1: only float rounding (< 1e-15) removed
+
+
+def _dubois(m_left: np.ndarray, m_right: np.ndarray) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Dubois's projection ``A = M_L L + M_R R`` in linear light, clipped to the gamut, sRGB encoded."""
+
+    def combine(lc: np.ndarray, rc: np.ndarray) -> np.ndarray:
+        lin = _srgb_to_linear(lc) @ m_left.T + _srgb_to_linear(rc) @ m_right.T
+        return _linear_to_srgb(np.clip(lin, 0.0, 1.0))  # Dubois: clip to the display gamut
+
+    return combine
+
+
+# Anaglyph methods, name -> function of the two RGB views (the left eye behind the first-named
+# filter). One table: anaglyph's dispatch, its error message and the "anaglyph-*" LAYOUTS read it.
+ANAGLYPH_METHODS: MappingProxyType[str, Callable[[np.ndarray, np.ndarray], np.ndarray]] = MappingProxyType(
+    {
+        "amber-blue": _channels((0, 1)),
+        "dubois": _dubois(DUBOIS_RED_CYAN_LEFT, DUBOIS_RED_CYAN_RIGHT),
+        "dubois-amber-blue": _dubois(DUBOIS_AMBER_BLUE_LEFT, DUBOIS_AMBER_BLUE_RIGHT),
+        "dubois-green-magenta": _dubois(DUBOIS_GREEN_MAGENTA_LEFT, DUBOIS_GREEN_MAGENTA_RIGHT),
+        "green-magenta": _channels((1,)),
+        "half-color": _half_color,
+        "red-cyan": _channels((0,)),
+    }
+)
+
+
+def anaglyph(left: object, right: object, *, method: str = "dubois") -> np.ndarray:
+    """Combine a stereo pair into one anaglyph for coloured glasses.
+
+    Methods (``L``, ``R`` the views' RGB, grey views replicated to three channels), a key of
+    :data:`ANAGLYPH_METHODS`; the left eye looks through the first-named filter:
 
     - ``"red-cyan"``: the plain colour anaglyph, ``(L_r, R_g, R_b)``; grey views give the grey
-      anaglyph.
-    - ``"half-color"``: ``(Y(L), R_g, R_b)`` with the Rec. 601 luma ``Y = 0.299 r + 0.587 g + 0.114 b``
-      of the left view (less retinal rivalry on saturated reds).
-    - ``"dubois"``: Dubois's least-squares projection, ``A = M_L L + M_R R`` computed in **linear
-      light** (sRGB decoded, the matrices applied, the result clipped to [0, 1] and sRGB encoded).
+      anaglyph. ``"green-magenta"``: ``(R_r, L_g, R_b)``. ``"amber-blue"`` (ColorCode 3-D):
+      ``(L_r, L_g, R_b)``.
+    - ``"half-color"`` (red-cyan): ``(Y(L), R_g, R_b)`` with the Rec. 601 luma
+      ``Y = 0.299 r + 0.587 g + 0.114 b`` of the left view (less retinal rivalry on saturated reds).
+    - ``"dubois"`` (red-cyan, the default), ``"dubois-green-magenta"``, ``"dubois-amber-blue"``:
+      Dubois's least-squares projection, ``A = M_L L + M_R R`` computed in **linear light** (sRGB
+      decoded, the matrices applied, the result clipped to [0, 1] and sRGB encoded).
 
     Parameters
     ----------
     left, right : array_like
         Views, ``(H, W)`` or ``(H, W, 3)``, float in [0, 1] (sRGB-encoded) or uint8/uint16; same shape.
-    method : {"dubois", "half-color", "red-cyan"}, optional
-        Which anaglyph.
+    method : str, optional
+        A key of :data:`ANAGLYPH_METHODS`.
 
     Returns
     -------
@@ -112,35 +184,29 @@ def anaglyph(left: object, right: object, *, method: str = "dubois") -> np.ndarr
 
     Notes
     -----
-    Dubois's matrices (2009 red-cyan set, rows = output R, G, B) are
+    Dubois's red-cyan matrices (2009 set, rows = output R, G, B) are
     ``M_L = [[0.437, 0.449, 0.164], [-0.062, -0.062, -0.024], [-0.048, -0.050, -0.017]]`` and
     ``M_R = [[-0.011, -0.032, -0.007], [0.377, 0.761, 0.009], [-0.026, -0.093, 1.234]]``, for linear
     RGB (E. Dubois, "A projection method to generate anaglyph stereo images", ICASSP 2001; the
     matrices from his 2009 note "Conversion of a stereo pair to anaglyph with the least-squares
-    projection method"). The least-squares solution can leave the display gamut; the method clips
-    it to [0, 1] before encoding, as Dubois does. The other two methods work on encoded values.
+    projection method"); the green-magenta and amber-blue ones (``DUBOIS_*`` constants) from his
+    anaglyph web page. The least-squares solution can leave the display gamut; the method clips
+    it to [0, 1] before encoding, as Dubois does. The other methods work on encoded values.
 
     Examples
     --------
     >>> white, black = np.ones((1, 1, 3)), np.zeros((1, 1, 3))
     >>> anaglyph(white, black, method="red-cyan")[0, 0]
     array([1., 0., 0.], dtype=float32)
+    >>> anaglyph(white, black, method="green-magenta")[0, 0]
+    array([0., 1., 0.], dtype=float32)
     >>> anaglyph(white, white, method="dubois")[0, 0].round(3)  # a white pair stays white
     array([1., 1., 1.], dtype=float32)
     """
-    if method not in _ANAGLYPH_METHODS:
-        raise ValueError(f"method must be one of {', '.join(_ANAGLYPH_METHODS)}; got {method!r}")
+    if not isinstance(method, str) or method not in ANAGLYPH_METHODS:
+        raise ValueError(f"method must be one of {', '.join(ANAGLYPH_METHODS)}; got {method!r}")
     lv, rv = _pair(left, right)
-    lc, rc = _rgb(lv), _rgb(rv)
-    if method == "red-cyan":
-        out = np.concatenate([lc[:, :, :1], rc[:, :, 1:]], axis=2)
-    elif method == "half-color":
-        luma = lc.astype(np.float64) @ _LUMA_601
-        out = np.concatenate([luma[:, :, None], rc[:, :, 1:]], axis=2)
-        out = np.clip(out, 0.0, 1.0)  # luma weights sum to 1: only float rounding (< 1e-15) removed
-    else:
-        lin = _srgb_to_linear(lc) @ DUBOIS_RED_CYAN_LEFT.T + _srgb_to_linear(rc) @ DUBOIS_RED_CYAN_RIGHT.T
-        out = _linear_to_srgb(np.clip(lin, 0.0, 1.0))  # Dubois: clip to the display gamut
+    out = ANAGLYPH_METHODS[method](_rgb(lv), _rgb(rv))
     return np.ascontiguousarray(out, dtype=np.float32)
 
 
@@ -362,8 +428,7 @@ def _cross_eyed(left: object, right: object) -> np.ndarray:
 LAYOUTS: MappingProxyType[str, Callable[[object, object], np.ndarray]] = MappingProxyType(
     {
         "anaglyph": anaglyph,
-        "anaglyph-half-color": lambda left, right: anaglyph(left, right, method="half-color"),
-        "anaglyph-red-cyan": lambda left, right: anaglyph(left, right, method="red-cyan"),
+        **{f"anaglyph-{m}": functools.partial(anaglyph, method=m) for m in ANAGLYPH_METHODS if m != "dubois"},
         "checkerboard": checkerboard,
         "columns": lambda left, right: interleave(left, right, orientation="columns"),
         "cross-eyed": _cross_eyed,
@@ -384,8 +449,8 @@ def pack(left: object, right: object, *, layout: str = "sbs") -> np.ndarray:
     left, right : (H, W) or (H, W, 3) arrays
         The views, one shape (float in [0, 1], uint8 or uint16).
     layout : str
-        A key of :data:`LAYOUTS`: ``"anaglyph"`` (Dubois), ``"anaglyph-half-color"``,
-        ``"anaglyph-red-cyan"``, ``"sbs"`` / ``"half-sbs"``, ``"tb"`` / ``"half-tb"``, ``"rows"`` /
+        A key of :data:`LAYOUTS`: ``"anaglyph"`` (Dubois red-cyan), ``"anaglyph-METHOD"`` for the
+        other :data:`ANAGLYPH_METHODS`, ``"sbs"`` / ``"half-sbs"``, ``"tb"`` / ``"half-tb"``, ``"rows"`` /
         ``"columns"`` (interleaved), ``"checkerboard"``, ``"cross-eyed"`` (R then L).
 
     Returns

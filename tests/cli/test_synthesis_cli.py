@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from vergence.cli import main
+from vergence.display import LAYOUTS
 from vergence.io import read_image, write_disparity, write_image
 
 # Outputs are 8-bit PNGs: half a grey level of quantisation.
@@ -115,14 +116,22 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
     ("extra", "depth_name", "message"),
     [
         (["--budget-px", "4", "--format", "sbs", "--views", "3"], "depth.npy", "--format sbs shows a stereo pair"),
-        (["--views", "1", "--format", "views"], "depth.npy", "views must be >= 2; got 1"),
+        (["--views", "1", "--format", "views"], "depth.npy", r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"),
         (["--budget-px", "4"], "zero.npy", r"depth must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
         (["--budget-px", "4", "--depth-scale", "2"], "depth.npy", "scale applies to .png/.pgm disparity maps only"),
-        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-half-color, .*, tb, views"),
+        (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-amber-blue, .*, tb, views"),
         (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "depth must be > 0 metres where known"),
         (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
         (["--budget-px", "4"], "small.npy", r"depth must have shape \(H, W\) matching image \(16, 48\)"),
         (["--budget-px", "4", "--display", "imax"], "depth.npy", "unknown display preset 'imax'"),
+        # Issue 9: the message names the option, not the Python parameter ("sigma ...").
+        (["--budget-px", "4", "--smooth-sigma", "-1"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\] pixels"),
+        # Issue 9 kin: OverflowError (internal error) and float32 overflow warnings before.
+        (["--budget-px", "4", "--smooth-sigma", "1e308"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\]"),
+        (["--budget-px", "4", "--depth-scale", "1e-320"], "depth_mm.png", r"^error: --depth-scale must lie in \[1e-30, 1e\+30\]"),
+        (["--budget-px", "4", "--depth-scale", "1e308"], "depth_mm.png", r"^error: --depth-scale must lie in \[1e-30, 1e\+30\] \(it divides float32 values\); got 1e\+308"),
+        (["--views", "1000", "--format", "views"], "depth.npy", r"^error: --views must lie in \[2, 128\]"),
+        (["--budget-px", "4", "--fill", "blur"], "depth.npy", r"^error: --fill must be one of background"),
     ],
 )
 def test_synthesize_bad_input_is_one_line_and_exit_2(tmp_path, capsys, extra, depth_name, message):
@@ -226,7 +235,7 @@ def test_interpolate_float_disparity_zero_is_a_real_disparity(tmp_path, capsys, 
         (lambda p: _interp_args(p, out="left.png"), "would overwrite input"),
         (lambda p: [a if a != "4" else "0" for a in _interp_args(p)], "scale must be > 0"),
         (lambda p: [a.replace("right_disp.png", "small_disp.png") for a in _interp_args(p)],
-         r"right_disparity must have shape \(H, W\) matching right \(12, 40\)"),
+         r"--right-disparity must have shape \(H, W\) matching right \(12, 40\)"),
     ],
 )
 def test_interpolate_bad_input(tmp_path, capsys, args_fn, message):
@@ -304,8 +313,9 @@ def test_scales_that_cannot_apply_are_refused(tmp_path, capsys):
         assert code == 2 and "--depth-scale must be > 0" in err
 
 
-@pytest.mark.parametrize("layout", ["half-sbs", "cross-eyed"])
+@pytest.mark.parametrize("layout", list(LAYOUTS))
 def test_synthesize_accepts_every_display_layout(tmp_path, capsys, layout):
+    # Issue 9: half SBS, interleave, checkerboard, cross-eyed and seven anaglyph kinds in the CLI.
     from vergence.display import pack
 
     _scene(tmp_path)
@@ -314,10 +324,193 @@ def test_synthesize_accepts_every_display_layout(tmp_path, capsys, layout):
                                     "--out", str(out), "--budget-px", "4", "--format", layout, "--json"])
     assert code == 0 and json.loads(stdout)["format"] == layout
     expected = pack(read_image(out / "left.png"), read_image(out / "right.png"), layout=layout)
-    np.testing.assert_allclose(read_image(out / f"stereo_{layout}.png"), expected, atol=PNG_ATOL)
+    name = "anaglyph.png" if layout == "anaglyph" else f"stereo_{layout}.png"
+    np.testing.assert_allclose(read_image(out / name), expected, atol=PNG_ATOL)
 
 
 def test_compare_huge_radius_is_exit_2_naming_the_option(tmp_path, capsys):
     write_image(tmp_path / "a.png", np.random.default_rng(2).random((16, 16)))
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "a.png"), "--radius", "1e6"])
     assert code == 2 and "--radius must be a number in (0, 1024] px; got 1e+06" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        # Issue 9 kin: a huge radius was a Numba TypingError (internal error) before.
+        (["--edge-dilation", "100000000000000000000"], r"^error: --edge-dilation must lie in \[0, 64\] pixels"),
+        (["--position", "2"], r"^error: --position must lie in \[0, 1\]; got 2"),
+        (["--disparity-scale", "1e308"], r"^error: --disparity-scale must lie in \[1e-30, 1e\+30\]"),
+    ],
+)
+def test_interpolate_bad_options_name_the_option(tmp_path, capsys, extra, message):
+    img, _ = _scene(tmp_path)
+    write_disparity(tmp_path / "disp.png", np.full(img.shape[:2], 2.0, np.float32), scale=1.0)
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "disp.png"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "disp.png"), "--position", "0.5",
+                                 "--disparity-scale", "1", "--out", str(tmp_path / "v.png"), *extra])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(message, err)
+    assert not (tmp_path / "v.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        # Issue 9: these rendered black or mostly-hole views with exit 0; --budget-arcmin 1e6 was refused
+        # by another rule. One rule now, naming the option the user typed.
+        (["--budget-px", "1e6"], r"^error: --budget-px must be < 48 px, 1 image width \(MAX_PARALLAX_WIDTHS\) of a 48-px-wide image"),
+        (["--budget-px", "200"], r"^error: --budget-px must be < 48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)"),
+        (["--focal-px", "5000", "--interaxial", "1", "--convergence", "3"],
+         r"^error: --focal-px 5000 with interaxial 1 and convergence 3 gives parallaxes of -3333 \.\. 416\.7 px, which must stay within \+-48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)"),
+        (["--budget-arcmin", "1e6"], r"^error: --budget-arcmin must be < \d+\.?\d* arcmin on this display, 48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)"),
+        (["--budget-px", "3", "--views", "17", "--format", "views"], r"^error: --views 17 at up to 3 px of parallax between neighbours span 48 px"),
+    ],
+)
+def test_synthesize_refuses_parallax_that_cannot_fit_the_image(tmp_path, capsys, extra, message):
+    _scene(tmp_path)
+    code, _, err = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"),
+                                 "--out", str(tmp_path / "out"), *extra])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(message, err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_synthesize_warns_on_stderr_and_in_json(tmp_path, capsys):
+    # Issue 9: leaving the comfort zone or passing divergence gave no warning. 48 image px fill the
+    # 1920-px desktop-24: 40 display px per image px; divergence at 234.9 display px = 5.9 image px.
+    _scene(tmp_path)
+    args = ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"), "--json"]
+    code, stdout, err = _run(capsys, [*args, "--out", str(tmp_path / "calm"), "--budget-px", "0.5"])
+    assert code == 0 and err == "" and json.loads(stdout)["warnings"] == []
+    code, stdout, err = _run(capsys, [*args, "--out", str(tmp_path / "wild"), "--budget-px", "8"])
+    assert code == 0
+    warnings = json.loads(stdout)["warnings"]
+    assert len(warnings) == 2 and "the eyes would diverge" in warnings[0] and "leaves the comfort zone" in warnings[1]
+    assert err.splitlines() == [f"warning: {w}" for w in warnings]
+    assert json.loads((tmp_path / "wild" / "synthesis.json").read_text())["warnings"] == warnings
+
+
+def test_interpolate_refuses_disparities_wider_than_the_image(tmp_path, capsys):
+    # Issue 9: an all-black view with exit 0 before.
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "wide.npy", np.full(img.shape[:2], 60.0, np.float32))
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "wide.npy"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "wide.npy"), "--position", "0.5",
+                                 "--out", str(tmp_path / "v.png")])
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert re.search(r"^error: --left-disparity must lie within \+-48 px, 1 image width \(MAX_PARALLAX_WIDTHS\)", err)
+    assert not (tmp_path / "v.png").exists()
+
+
+def _interrupt_on_call(n, real):
+    """A stand-in for a writer that raises KeyboardInterrupt (Ctrl-C) on its n-th call."""
+    calls = []
+
+    def writer(*args, **kwargs):
+        calls.append(args[0])
+        if len(calls) == n:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    return writer
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_synthesize_interrupted_leaves_nothing(tmp_path, capsys, monkeypatch, existing):
+    # Issue 9: `synthesize --views 100` interrupted left 81 view files and no JSON. Now the outputs
+    # appear together or not at all; a folder the command created is removed again.
+    import vergence.cli.synthesize as command
+
+    _scene(tmp_path)
+    out = tmp_path / "out"
+    if existing:
+        out.mkdir()
+        (out / "notes.txt").write_text("mine")
+    monkeypatch.setattr(command, "write_image", _interrupt_on_call(9, command.write_image))
+    try:  # click turns Ctrl-C into an abort, exit code 130
+        code = main(["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"), "--out", str(out),
+                     "--budget-px", "0.5", "--views", "12", "--format", "views"])
+    except KeyboardInterrupt:
+        code = 130
+    assert code == 130
+    if existing:
+        assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+    else:
+        assert not out.exists()
+    monkeypatch.undo()
+    code, _, _ = _run(capsys, ["synthesize", str(tmp_path / "image.png"), str(tmp_path / "depth.npy"), "--out",
+                               str(out), "--budget-px", "0.5", "--views", "12", "--format", "views"])
+    assert code == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted([*(f"view_{k:02d}.png" for k in range(12)), "views_tiled.png", "synthesis.json",
+                            *(["notes.txt"] if existing else [])])
+
+
+def test_interpolate_failing_json_leaves_no_view(tmp_path, capsys, monkeypatch):
+    import vergence.cli.interpolate as command
+
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "disp.npy", np.full(img.shape[:2], 2.0, np.float32))
+
+    def full_disk(path, obj):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(command, "write_json", full_disk)
+    code, _, err = _run(capsys, ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity",
+                                 str(tmp_path / "disp.npy"), "--right", str(tmp_path / "image.png"),
+                                 "--right-disparity", str(tmp_path / "disp.npy"), "--position", "0.5",
+                                 "--out", str(tmp_path / "v.png"), "--json-out", str(tmp_path / "v.json")])
+    assert code == 2 and "no space left on device" in err.lower()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["depth.npy", "depth_mm.png", "disp.npy", "image.png"]
+
+
+def test_interpolate_writes_16_bit_png_by_default(tmp_path, capsys):
+    # Issue 9: interpolate wrote 8-bit PNGs, so the README's Dolls figure (37.11 dB) came out 37.05.
+    import cv2
+
+    img, _ = _scene(tmp_path)
+    np.save(tmp_path / "disp.npy", np.full(img.shape[:2], 2.0, np.float32))
+    args = ["interpolate", "--left", str(tmp_path / "image.png"), "--left-disparity", str(tmp_path / "disp.npy"),
+            "--right", str(tmp_path / "image.png"), "--right-disparity", str(tmp_path / "disp.npy"),
+            "--position", "0.5"]
+    for name, depth in (("v.png", np.uint16), ("v8.png", np.uint8), ("v.jpg", np.uint8)):
+        extra = ["--bit-depth", "8"] if name == "v8.png" else []
+        code, _, err = _run(capsys, [*args, "--out", str(tmp_path / name), *extra])
+        assert code == 0, err
+        assert cv2.imread(str(tmp_path / name), cv2.IMREAD_UNCHANGED).dtype == depth, name
+    code, _, err = _run(capsys, [*args, "--out", str(tmp_path / "w.png"), "--bit-depth", "12"])
+    assert code == 2 and "--bit-depth must be 8 or 16; got 12" in err
+
+
+@pytest.mark.slow
+def test_readme_dolls_commands_reproduce_the_readme_figures(shared_data, tmp_path, capsys):
+    # Issue 9: the README's commands must give the README's numbers (37.11 dB, SSIM 0.981).
+    dolls = shared_data / "multiview" / "dolls"
+    out = tmp_path / "view3_dibr.png"
+    code, _, err = _run(capsys, ["interpolate", "--left", str(dolls / "view1.png"), "--left-disparity",
+                                 str(dolls / "disp1.png"), "--right", str(dolls / "view5.png"), "--right-disparity",
+                                 str(dolls / "disp5.png"), "--disparity-scale", "2", "--position", "0.5",
+                                 "--out", str(out)])
+    assert code == 0, err
+    code, stdout, err = _run(capsys, ["compare", str(out), str(dolls / "view3.png"), "--json"])
+    assert code == 0, err
+    scores = json.loads(stdout)
+    assert round(scores["psnr_db"], 2) == 37.11 and round(scores["ssim"], 3) == 0.981
+
+
+def test_synthesize_refuses_a_colour_pfm_as_depth(tmp_path, capsys):
+    # Issue 9: a 3-channel PFM (equal channels) was taken as depth, exit 0.
+    from vergence.io import write_pfm
+
+    _, depth = _scene(tmp_path)
+    write_pfm(tmp_path / "depth_rgb.pfm", np.stack([depth] * 3, axis=2))
+    write_pfm(tmp_path / "depth.pfm", depth)
+    args = ["synthesize", str(tmp_path / "image.png"), "--budget-px", "2", "--out"]
+    code, _, err = _run(capsys, [*args, str(tmp_path / "o1"), str(tmp_path / "depth_rgb.pfm")])
+    assert code == 2 and re.search(r"^error: depth .*depth_rgb.pfm must be a single-channel PFM \('Pf' header\)", err)
+    assert not (tmp_path / "o1").exists()
+    code, _, err = _run(capsys, [*args, str(tmp_path / "o2"), str(tmp_path / "depth.pfm")])
+    assert code == 0, err

@@ -2,13 +2,24 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import look_at
 from vergence.metrics import psnr
-from vergence.synthesis import interpolate_view, synthesize_stereo, synthesize_view, synthesize_views
+from vergence.synthesis import (
+    MAX_SYNTHESIS_BYTES,
+    MOSTLY_HOLES_FRACTION,
+    holes_warnings,
+    interpolate_view,
+    synthesize_stereo,
+    synthesize_view,
+    synthesize_views,
+)
+from vergence.viewing.geometry import Display
 
 # Layered scene (fronto-parallel layers with smooth textures, exact disparities): linear resampling
 # of textures of period >= 30 px is accurate to ~1e-3 (measured 59.1 / inf / 60.0 dB at T = 0.3 /
@@ -98,7 +109,7 @@ def test_interpolation_input_types():
         ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 1.5), {}, ValueError, r"position must lie in \[0, 1\]; got 1.5"),
         ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), -0.1), {}, ValueError, r"position must lie in \[0, 1\]; got -0.1"),
         ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 0.5), {"fill": "blur"}, ValueError, "fill must be one of background, inpaint, mirror; got 'blur'"),
-        ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 0.5), {"edge_dilation": -1}, ValueError, "edge_dilation must be >= 0"),
+        ((np.zeros((4, 5)), np.ones((4, 5)), np.zeros((4, 5)), np.ones((4, 5)), 0.5), {"edge_dilation": -1}, ValueError, r"edge_dilation must lie in \[0, 64\] pixels"),
     ],
 )
 def test_interpolation_bad_input(args, kwargs, error, match):
@@ -161,7 +172,7 @@ def test_synthesize_stereo_depth_controls_and_bad_input():
     img, depth = _square_scene()
     with pytest.raises(ValueError, match=r"depth must have shape \(H, W\) matching image \(10, 40\); got \(10, 41\)"):
         synthesize_stereo(img, np.ones((10, 41)), budget_px=3.0)
-    with pytest.raises(ValueError, match="views must be >= 2; got 1"):
+    with pytest.raises(ValueError, match=r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"):
         synthesize_stereo(img, depth, budget_px=3.0, views=1)
     with pytest.raises(ValueError, match="depth must be > 0 metres"):
         synthesize_stereo(img, -depth, budget_px=3.0)
@@ -221,7 +232,7 @@ def test_synthesize_view_shift_sensor_pair_uses_the_principal_point():
 @pytest.mark.parametrize("kind", ["metric", "disparity", "inverse"])
 def test_pipelines_never_modify_their_inputs(kind):
     img, depth = _square_scene()
-    depth = depth.astype(np.float32)
+    depth = (1.0 / depth if kind == "inverse" else depth).astype(np.float32)  # inverse depth lies in [0, 1]
     img0, depth0 = img.copy(), depth.copy()
     synthesize_stereo(img, depth, kind=kind, budget_px=3.0, fill="inpaint")
     assert_array_equal(img, img0)
@@ -297,3 +308,68 @@ def test_synthesize_view_reports_target_depth_on_both_paths():
     general = synthesize_view(img, depth, a, ahead)
     assert general.nearness_unit == "1/m"
     assert_allclose(general.depth[~general.holes], 1.9, rtol=1e-6)
+
+
+def test_synthesize_stereo_refuses_views_that_cannot_fit_the_image():
+    # Issue 9: the outer views lie (views - 1) adjacent parallaxes apart; a whole image width (40 px
+    # here) or more is refused before any view is rendered.
+    img, depth = _square_scene()
+    assert len(synthesize_stereo(img, depth, budget_px=2.0, views=20).views) == 20  # 19 x 2 = 38 px
+    with pytest.raises(ValueError, match=r"views 21 at up to 2 px of parallax between neighbours span 40 px between the outer views, which must stay below 40 px"):
+        synthesize_stereo(img, depth, budget_px=2.0, views=21)
+
+
+def test_synthesize_stereo_warns_outside_the_comfort_zone_past_divergence_and_on_mostly_holes():
+    # Issue 9: a result that leaves the comfort zone or passes divergence comes with a warning.
+    # desktop-24: 1920 display px for 40 image px, 48 per image pixel; the divergence limit is
+    # 0.065 m / 0.5313 m x 1920 = 234.9 display px = 4.89 image px; +-60 arcmin is about +-0.8 image px.
+    img, depth = _square_scene()
+    desk = Display.preset("desktop-24")
+    assert synthesize_stereo(img, depth, budget_px=0.5, display=desk).warnings == ()
+    assert synthesize_stereo(img, depth, budget_px=2.0).warnings == ()  # no display: nothing to check
+    (comfort,) = synthesize_stereo(img, depth, budget_px=2.0, display=desk).warnings
+    assert re.fullmatch(r"the parallax range -\d+\.?\d* \.\. \+\d+\.?\d* arcmin leaves the comfort zone -60 \.\. \+60 arcmin by \d+\.?\d* arcmin", comfort)
+    found = synthesize_stereo(img, depth, budget_px=5.0, display=desk).warnings
+    assert len(found) == 2
+    assert found[0] == "the parallax reaches +240 display px behind the screen, past the divergence limit 234.9 px of this display (S0 Eq. 8): the eyes would diverge"
+    res = synthesize_stereo(img, depth, budget_px=39.0, origin="left")  # view 1 moves by P: up to 39 px
+    shares = [float(h.mean()) for h in res.holes]
+    assert res.warnings == tuple(
+        f"view {k} is {100 * s:.1f} % filled-in holes (more than MOSTLY_HOLES_FRACTION 50 %): most of it was not seen; lower the parallax"
+        for k, s in enumerate(shares) if s > 0.5
+    ) and res.warnings
+    assert res.to_dict()["warnings"] == list(res.warnings)
+
+
+def test_holes_warnings_threshold():
+    half = np.zeros((2, 2), bool)
+    half[0] = True
+    assert MOSTLY_HOLES_FRACTION == 0.5
+    assert holes_warnings([half]) == ()  # exactly half: not more than half
+    half[1, 0] = True
+    assert holes_warnings([half]) == ("the view is 75.0 % filled-in holes (more than MOSTLY_HOLES_FRACTION 50 %): most of it was not seen; lower the parallax",)
+    with pytest.raises(TypeError, match="holes must be a sequence"):
+        holes_warnings(half)
+
+
+def test_interpolate_view_refuses_disparities_of_an_image_width():
+    # Issue 9: disparities wider than the image gave an all-black view.
+    img = np.random.default_rng(1).random((6, 20), dtype=np.float32)
+    ok = np.full((6, 20), 19.5)
+    assert interpolate_view(img, ok, img, ok, 0.5).image.shape == (6, 20)
+    wide = np.full((6, 20), 20.0)
+    with pytest.raises(ValueError, match=r"left_disparity must lie within \+-20 px, 1 image width \(MAX_PARALLAX_WIDTHS\).*got \|d\| up to 20"):
+        interpolate_view(img, wide, img, ok, 0.5)
+    with pytest.raises(ValueError, match=r"right_disparity must lie within \+-20 px.*got \|d\| up to 100"):
+        interpolate_view(img, ok, img, -5 * wide, 0.5)
+
+
+def test_synthesize_stereo_refuses_results_past_max_synthesis_bytes_before_any_work():
+    # Issue 9 kin (render grew to 24 GB): 128 views of an 8000 x 10000 RGB image would need
+    # 128 x (8e7 x 3 x 4 + 8e7) bytes = 124 GiB.
+    # The check reads only the shapes: a broadcast image of that size costs no memory.
+    assert MAX_SYNTHESIS_BYTES == 4 * 2**30
+    img = np.broadcast_to(np.float32(0.5), (10000, 8000, 3))
+    depth = np.broadcast_to(2.0, (10000, 8000))
+    with pytest.raises(ValueError, match=r"views 128 of a 8000x10000 image would take 124 GiB, more than MAX_SYNTHESIS_BYTES 4 GiB"):
+        synthesize_stereo(img, depth, budget_px=1.0, views=128)

@@ -12,13 +12,17 @@ from vergence.synthesis import (
     StereoResult,
     WarpedView,
     baseline_weights,
+    epipole,
+    error_image,
     fill_disparity,
     fill_holes,
     forward_warp,
+    interpolate_view,
     median_refine,
     plan_parallax,
     refine_camera_warp,
     synthesize_stereo,
+    synthesize_view,
     synthesize_views,
     warp_to_camera,
 )
@@ -28,6 +32,9 @@ from vergence.viewing.mapping import LinearMapping
 IMG = np.zeros((2, 3), np.float32)
 MAP = np.ones((2, 3), np.float32)
 HOLES = np.zeros((2, 3), bool)
+DEPTH = np.array([[1.0, 2.0, 4.0], [1.0, 2.0, 4.0]])
+CAM = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=2)
+CAM_RIGHT = look_at([0.1, 0, 0], [0.1, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=2)
 
 
 @pytest.mark.parametrize(
@@ -95,7 +102,7 @@ def test_synthesize_stereo_and_views_bad_arguments():
         synthesize_views(IMG, MAP, offsets=())
     with pytest.raises(ValueError, match=r"offsets\[1\] must be finite"):
         synthesize_views(IMG, MAP, offsets=(0.0, np.nan))
-    with pytest.raises(ValueError, match="smooth_sigma must be > 0"):
+    with pytest.raises(ValueError, match=r"smooth_sigma must lie in \(0, 1024\] pixels \(MAX_SMOOTH_SIGMA\); got 0"):
         synthesize_stereo(IMG, np.array([[1.0, 2, 3], [1, 2, 3]]), budget_px=1.0, smooth_sigma=0.0)
     with pytest.raises(ValueError, match="fill must be one of background, inpaint, mirror; got 'blur'"):
         synthesize_views(IMG, MAP, fill="blur")
@@ -108,11 +115,45 @@ def test_plan_parallax_and_results_refuse_inconsistent_parts():
     with pytest.raises(ValueError, match="display resolution is unknown"):
         plan_parallax(depth, budget_arcmin=10.0, display=Display(0.065, 0.6, 0.5))
     with pytest.raises(ValueError, match="depth must not be flat at the convergence depth"):
-        plan_parallax(np.full((1, 2), 2.0), budget_px=4.0, convergence=2.0)
+        plan_parallax(np.full((1, 8), 2.0), budget_px=4.0, convergence=2.0)
     with pytest.raises(ValueError, match=r"parallax_px must have shape \(H, W\); got \(2,\)"):
         ParallaxPlan(np.zeros(2), LinearMapping(0, 1, 0, 1), (0.0, 1.0), None)
     with pytest.raises(ValueError, match=r"range_px must be \(min, max\) with min <= max; got \(1.0, 0.0\)"):
         ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (1.0, 0.0), None)
-    plan = plan_parallax(depth, budget_px=2.0)
+    plan = plan_parallax(depth, budget_px=1.0)
     with pytest.raises(ValueError, match="views, holes and offsets must have one length; got 2, 1, 2"):
         StereoResult(views=(IMG, IMG), holes=(HOLES,), offsets=(0.0, 1.0), plan=plan)
+
+
+# Issue 9: API calls that returned values (or raised an internal error) instead of a one-line error.
+@pytest.mark.parametrize(
+    ("call", "error", "match"),
+    [
+        (lambda: fill_disparity(np.full((2, 3), np.nan)), ValueError, r"disparity must have at least one known value"),
+        (lambda: forward_warp(np.zeros((2, 3, 4), np.float32), MAP), ValueError, r"image must be grey .*got shape \(2, 3, 4\) \(an alpha channel"),
+        (lambda: forward_warp(np.zeros((2, 3, 4), np.uint8), MAP), ValueError, r"image must be grey .*an alpha channel"),
+        (lambda: epipole(CAM, CAM), ValueError, r"target must not share the source's centre \[0.0, 0.0, 0.0\]"),
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, smooth_sigma=1e308), ValueError, r"smooth_sigma must lie in \(0, 1024\] pixels"),
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, edge_dilation=10**20), ValueError, r"edge_dilation must lie in \[0, 64\] pixels \(MAX_FILTER_RADIUS\)"),
+        (lambda: interpolate_view(IMG, MAP, IMG, MAP, 0.5, contour_width=10**9), ValueError, r"contour_width must lie in \[0, 64\]"),
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, views=10**9), ValueError, r"views must lie in \[2, 128\] \(MAX_VIEWS\)"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0,), None), ValueError, r"range_px must be a pair \(min, max\); got \(0.0,\)"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), None, None), ValueError, r"range_px must be a pair"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0, np.nan), None), ValueError, r"range_px\[1\] must be finite"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), "linear", (0.0, 1.0), None), TypeError, r"mapping must be a DisparityMapping; got str"),
+        (lambda: ParallaxPlan(np.zeros((1, 2)), LinearMapping(0, 1, 0, 1), (0.0, 1.0), (1.0,)), ValueError, r"range_arcmin must be a pair"),
+        # Our own sweep (1106 bad arguments to every synthesis and display function): float32
+        # overflow warnings on huge tolerances, ComplexWarning on complex arrays.
+        (lambda: synthesize_stereo(IMG, DEPTH, budget_px=1.0, gradient_limit=1e308), ValueError, r"gradient_limit must be at most 3.403e\+38 in magnitude \(a float32\); got 1e\+308"),
+        (lambda: interpolate_view(IMG, MAP, IMG, MAP, 0.5, depth_tolerance=1e308), ValueError, r"depth_tolerance must be at most 3.403e\+38"),
+        (lambda: error_image(IMG, IMG, gain=1e308), ValueError, r"gain must be at most 3.403e\+38"),
+        (lambda: forward_warp(IMG, MAP.astype(np.complex64)), TypeError, r"disparity must be real; got a complex array"),
+        (lambda: forward_warp(IMG.astype(np.complex64), MAP), TypeError, r"image must be a numeric image .*got complex64"),
+        (lambda: fill_holes(IMG, MAP.astype(np.complex64), HOLES), TypeError, r"disparity must be real"),
+        (lambda: baseline_weights(np.array([0, 1], np.complex64), 0.5), TypeError, r"positions must be real"),
+        (lambda: synthesize_view(IMG, np.full((2, 3), 1e-40), CAM, CAM_RIGHT), ValueError, r"depth must be >= .* m for these cameras \(its disparity f b / Z must be a float32\)"),
+    ],
+)
+def test_issue9_bad_api_calls_raise_one_line_errors(call, error, match):
+    with pytest.raises(error, match=match):
+        call()

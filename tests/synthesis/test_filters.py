@@ -114,9 +114,12 @@ def test_median_refine_leaves_true_disocclusions():
 @pytest.mark.parametrize(
     ("fn", "kwargs", "error", "match"),
     [
-        (smooth_depth, {"depth": np.ones((3, 3)), "sigma": 0.0}, ValueError, "sigma must be > 0; got 0"),
+        (smooth_depth, {"depth": np.ones((3, 3)), "sigma": 0.0}, ValueError, r"sigma must lie in \(0, 1024\] pixels \(MAX_SMOOTH_SIGMA\); got 0"),
+        # Issue 9 kin: a huge sigma overflowed SciPy's kernel size (OverflowError).
+        (smooth_depth, {"depth": np.ones((3, 3)), "sigma": 1e308}, ValueError, r"sigma must lie in \(0, 1024\] pixels"),
+        (contour_mask, {"disparity": np.ones((3, 3)), "width": 10**9}, ValueError, r"width must lie in \[0, 64\] pixels \(MAX_FILTER_RADIUS\); got 1000000000"),
         (smooth_depth, {"depth": np.ones(3), "sigma": 1.0}, ValueError, r"depth must have shape \(H, W\); got \(3,\)"),
-        (dilate_foreground, {"disparity": np.ones((3, 3)), "radius": -1}, ValueError, "radius must be >= 0; got -1"),
+        (dilate_foreground, {"disparity": np.ones((3, 3)), "radius": -1}, ValueError, r"radius must lie in \[0, 64\] pixels \(MAX_FILTER_RADIUS\); got -1"),
         (dilate_foreground, {"disparity": np.ones((3, 3)), "radius": 1.5}, TypeError, "radius must be an integer; got float"),
         (dilate_foreground, {"disparity": np.full((3, 3), np.inf)}, ValueError, "disparity must not contain inf"),
         (contour_mask, {"disparity": np.ones((3, 3)), "side": "left"}, ValueError, "side must be one of both, near, far; got 'left'"),

@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 
 import typer
 
-from vergence._validate import check_positive
-from vergence.cli._app import app, check_output_path, console, err_console, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
+from vergence.cli._scales import check_scale
+from vergence.cli._staged import staged_outputs
 from vergence.display import LAYOUTS, pack, tile_views
 from vergence.io import DEPTH_KINDS, read_depth, read_image, write_image, write_json
-from vergence.synthesis import FILL_METHODS, synthesize_stereo
+from vergence.synthesis import FILL_METHODS, synthesize_stereo, views_offsets
 from vergence.viewing.geometry import DISPLAY_PRESETS, Display
 
 __all__ = ["synthesize"]
@@ -22,6 +24,19 @@ FORMATS = (*LAYOUTS, "views")
 # the usual +-1 degree comfort zone (vergence.viewing.comfort.ComfortZone), a safe start.
 DEFAULT_DISPLAY = "desktop-24"
 DEFAULT_BUDGET_ARCMIN = 30.0
+# The library's argument names and the options that set them (its messages begin with the name).
+_OPTIONS = {
+    "budget_arcmin": "--budget-arcmin",
+    "budget_px": "--budget-px",
+    "convergence": "--convergence",
+    "focal_px": "--focal-px",
+    "interaxial": "--interaxial",
+    "kind": "--depth-kind",
+    "views": "--views",
+    "origin": "--origin",
+    "smooth_sigma": "--smooth-sigma",
+    "fill": "--fill",
+}
 
 
 @app.command("synthesize")
@@ -72,7 +87,10 @@ def synthesize(
     Exactly one depth control: --budget-arcmin (on --display), --budget-px, or --focal-px with
     --interaxial and --convergence. Without any, +-30 arcmin on the display (desktop-24 unless
     given) is used. The JSON gives the parallax range between adjacent views in pixels and in
-    arcminutes of vergence on the display.
+    arcminutes of vergence on the display. Parallax that cannot fit the image (the outer views a
+    whole image width apart, MAX_PARALLAX_WIDTHS) is refused; a result that leaves the display's
+    comfort zone (+-60 arcmin), passes divergence or is mostly filled-in holes gets a warning on
+    stderr and in the JSON.
     """
     if fmt not in FORMATS:
         raise ValueError(f"--format must be one of {', '.join(FORMATS)}; got {fmt!r}")
@@ -85,12 +103,22 @@ def synthesize(
         budget_arcmin = DEFAULT_BUDGET_ARCMIN
     display_preset = display_preset or DEFAULT_DISPLAY  # the arcminute range is always reported
     display = Display.preset(display_preset)
+    if depth_scale is not None:
+        check_scale("--depth-scale", depth_scale)
+    with options_named(views="--views"):
+        views_offsets(views)  # before naming that many outputs
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder")
+    names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
+    layout = {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(fmt, f"stereo_{fmt}.png")
+    targets = [out / n for n in [*names, layout, "synthesis.json"]]
+    for target in targets:
+        check_output_path(target, image, depth)
     with err_console.status("reading inputs", spinner="dots"):
         picture = read_image(image)
-        if depth_scale is not None:
-            check_positive("--depth-scale", depth_scale)
-        depth_map = read_depth(depth, kind=depth_kind, scale=depth_scale)
-    with err_console.status("synthesizing views", spinner="dots"):
+        with options_named(kind="--depth-kind", scale="--depth-scale"):
+            depth_map = read_depth(depth, kind=depth_kind, scale=depth_scale)
+    with err_console.status("synthesizing views", spinner="dots"), options_named(**_OPTIONS):
         result = synthesize_stereo(
             picture,
             depth_map,
@@ -106,18 +134,6 @@ def synthesize(
             smooth_sigma=smooth_sigma,
             fill=fill,
         )
-    out.mkdir(parents=True, exist_ok=True)
-    names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
-    layout = {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(fmt, f"stereo_{fmt}.png")
-    targets = [out / n for n in [*names, layout, "synthesis.json"]]
-    for target in targets:
-        check_output_path(target, image, depth)
-    with err_console.status("writing outputs", spinner="dots"):
-        for name, view in zip(names, result.views):
-            write_image(out / name, view, bit_depth=bit_depth)
-        packed = tile_views(result.views) if fmt == "views" else pack(result.left, result.right, layout=fmt)
-        write_image(out / layout, packed, bit_depth=bit_depth)
-    plan = result.plan
     params = {
         "image": str(image),
         "depth": str(depth),
@@ -138,7 +154,17 @@ def synthesize(
         **result.to_dict(),
         "outputs": [str(t) for t in targets],
     }
-    write_json(out / "synthesis.json", params)
+    # All or nothing: the views, the layout and the JSON appear together, or not at all.
+    staging = staged_outputs(targets, folder=out)
+    with err_console.status("writing outputs", spinner="dots"), staging as temps:
+        for temp, view in zip(temps, result.views):
+            write_image(temp, view, bit_depth=bit_depth)
+        packed = tile_views(result.views) if fmt == "views" else pack(result.left, result.right, layout=fmt)
+        write_image(temps[len(names)], packed, bit_depth=bit_depth)
+        write_json(temps[-1], params)
+    plan = result.plan
+    for line in result.warnings:  # also in the JSON ("warnings")
+        sys.stderr.write(f"warning: {line}\n")
     if as_json:
         print_json(params)
         return

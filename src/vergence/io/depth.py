@@ -9,12 +9,13 @@ length unit), ``"inverse"`` inverse depth (MPEG's 8-bit convention: 0 is the far
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 
 from vergence._validate import check_positive
-from vergence.io._files import input_path
+from vergence.io._files import input_path, suffix_of
 from vergence.io.disparity import read_disparity, stores_integers
 from vergence.io.images import read_image
 
@@ -28,6 +29,15 @@ DEPTH_KINDS = MappingProxyType(
         "metric": "camera-frame z, > 0",
     }
 )
+
+def _pfm_magic(path: Path) -> bytes:
+    """The first two bytes of a PFM file: ``PF`` (colour) or ``Pf`` (grey)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(2)
+    except OSError as exc:
+        raise OSError(f"cannot read {path}: {exc.strerror or exc}") from exc
+
 
 def read_depth(path: str | os.PathLike[str], *, kind: str = "metric", scale: float | None = None) -> np.ndarray:
     """Read a depth map of ``kind`` as float32 ``(H, W)``, NaN where unknown.
@@ -53,7 +63,7 @@ def read_depth(path: str | os.PathLike[str], *, kind: str = "metric", scale: flo
     ------
     ValueError
         An unknown kind, a scale that is not > 0 or is given for a float file, a colour image for
-        inverse depth, or any error of :func:`~vergence.io.read_disparity`.
+        inverse depth, a colour (``PF``) PFM, or any error of :func:`~vergence.io.read_disparity`.
 
     Examples
     --------
@@ -70,6 +80,9 @@ def read_depth(path: str | os.PathLike[str], *, kind: str = "metric", scale: flo
         check_positive("scale", scale)
     p = input_path(path)
     integer = stores_integers(p)  # a scale turns their values into the map's unit, 0 = unknown
+    if suffix_of(p) == ".pfm" and _pfm_magic(p) == b"PF":
+        # A colour PFM is an image, not a depth map (read_disparity would take equal channels as grey).
+        raise ValueError(f"depth {p} must be a single-channel PFM ('Pf' header); got a colour 'PF' file")
     if kind == "inverse" and integer:
         depth = read_image(p)
         if depth.ndim != 2:

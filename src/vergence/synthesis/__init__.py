@@ -14,15 +14,27 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from vergence.synthesis.advice import MOSTLY_HOLES_FRACTION, holes_warnings, stereo_warnings
 from vergence.synthesis.blend import baseline_weights, blend_views
 from vergence.synthesis.controls import (
     DEPTH_KINDS,
+    INVERSE_DEPTH_RANGE,
+    MAX_PARALLAX_WIDTHS,
+    MAX_VIEWS,
+    MIN_METRIC_DEPTH,
     ParallaxPlan,
     nearness_from_depth,
     plan_parallax,
     views_offsets,
 )
-from vergence.synthesis.filters import contour_mask, dilate_foreground, median_refine, smooth_depth
+from vergence.synthesis.filters import (
+    MAX_FILTER_RADIUS,
+    MAX_SMOOTH_SIGMA,
+    contour_mask,
+    dilate_foreground,
+    median_refine,
+    smooth_depth,
+)
 from vergence.synthesis.holes import FILL_METHODS, fill_disparity, fill_holes
 from vergence.synthesis.quality import ViewQuality, assess_view, error_image
 from vergence.synthesis.view import NEARNESS_UNITS, WarpedView
@@ -31,6 +43,7 @@ from vergence.synthesis.warp3d import WARP_ORDERS, epipole, refine_camera_warp, 
 
 if TYPE_CHECKING:
     from vergence.synthesis.dibr import (
+        MAX_SYNTHESIS_BYTES,
         StereoResult,
         interpolate_view,
         synthesize_stereo,
@@ -40,6 +53,7 @@ if TYPE_CHECKING:
 
 # Pipelines, loaded on first attribute access (PEP 562).
 _LAZY = {
+    "MAX_SYNTHESIS_BYTES": "vergence.synthesis.dibr",
     "StereoResult": "vergence.synthesis.dibr",
     "interpolate_view": "vergence.synthesis.dibr",
     "synthesize_stereo": "vergence.synthesis.dibr",
@@ -63,6 +77,14 @@ def __dir__() -> list[str]:
 __all__ = [
     "DEPTH_KINDS",
     "FILL_METHODS",
+    "INVERSE_DEPTH_RANGE",
+    "MAX_FILTER_RADIUS",
+    "MAX_PARALLAX_WIDTHS",
+    "MAX_SMOOTH_SIGMA",
+    "MAX_SYNTHESIS_BYTES",
+    "MAX_VIEWS",
+    "MIN_METRIC_DEPTH",
+    "MOSTLY_HOLES_FRACTION",
     "NEARNESS_UNITS",
     "ParallaxPlan",
     "StereoResult",
@@ -80,12 +102,14 @@ __all__ = [
     "fill_disparity",
     "fill_holes",
     "forward_warp",
+    "holes_warnings",
     "interpolate_view",
     "median_refine",
     "nearness_from_depth",
     "plan_parallax",
     "refine_camera_warp",
     "smooth_depth",
+    "stereo_warnings",
     "synthesize_stereo",
     "synthesize_view",
     "synthesize_views",

@@ -16,6 +16,7 @@ import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_positive
 from vergence.synthesis import _stages
+from vergence.synthesis._checks import within_float32
 from vergence.synthesis.view import WarpedView
 
 __all__ = ["baseline_weights", "blend_views"]
@@ -48,6 +49,8 @@ def baseline_weights(positions: object, target: float) -> np.ndarray:
     >>> baseline_weights([0.0, 1.0], 0.25).tolist()
     [0.75, 0.25]
     """
+    if np.iscomplexobj(positions):
+        raise TypeError("positions must be real; got a complex array")
     p = as_float_array("positions", positions)
     if p.ndim != 1 or p.size == 0:
         raise ValueError(f"positions must have shape (N,) with N >= 1; got {p.shape}")
@@ -148,6 +151,6 @@ def blend_views(
         raise ValueError(f"weights must have shape ({n},) or {(n, *hw)}; got {w.shape}")
     if (w < 0).any() or not (w.sum(axis=0) > 0).any():
         raise ValueError("weights must be >= 0 and not all zero")
-    tol = check_positive("depth_tolerance", depth_tolerance)
+    tol = within_float32("depth_tolerance", check_positive("depth_tolerance", depth_tolerance))
     rtol = check_positive("depth_rtol", depth_rtol)
     return _stages.blend(list(views), w, tol, rtol)

@@ -21,6 +21,7 @@ Three ways to choose psi, one per call:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,9 +33,32 @@ from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping, LinearMapping
 
-__all__ = ["DEPTH_KINDS", "ParallaxPlan", "nearness_from_depth", "plan_parallax", "views_offsets"]
+__all__ = [
+    "DEPTH_KINDS",
+    "INVERSE_DEPTH_RANGE",
+    "MAX_PARALLAX_WIDTHS",
+    "MAX_VIEWS",
+    "MIN_METRIC_DEPTH",
+    "ParallaxPlan",
+    "nearness_from_depth",
+    "plan_parallax",
+    "views_offsets",
+]
 
-
+# Inverse depth is MPEG's normalised 1/Z (Fehn 2004): 0 is the far clipping plane, 1 the near one;
+# a value outside is not a depth between the two planes.
+INVERSE_DEPTH_RANGE = (0.0, 1.0)
+# Smallest metric depth: the nearness 1/Z is float32, and 1/Z must stay finite (1 / 1.18e-38 =
+# 8.5e37 < 3.4e38, float32's largest value); a smaller depth is a unit mistake, not a scene.
+MIN_METRIC_DEPTH = float(np.finfo(np.float32).tiny)
+# Largest parallax between two views, in image widths: view k sees a pixel at x + o_k P (S1 Eq. 7),
+# so a point whose parallax between two views is a whole width or more cannot lie inside both (its
+# two images are W or more apart, and both must be in [0, W)); those views share nothing at that
+# depth. One rule for every depth control and for interpolation: refused, not rendered black.
+MAX_PARALLAX_WIDTHS = 1.0
+# Most views synthesize_stereo renders: a multi-view autostereoscopic screen takes 8 to 64, and
+# each view is a full image in memory.
+MAX_VIEWS = 128
 
 def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     """Nearness ``q`` (larger = nearer) of a depth map, NaN where unknown.
@@ -55,7 +79,8 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     Raises
     ------
     ValueError
-        Not 2-D, inf values, no known value, or metric depth <= 0.
+        Not 2-D, inf values, no known value, metric depth below ``MIN_METRIC_DEPTH`` (or <= 0),
+        inverse depth outside ``INVERSE_DEPTH_RANGE`` [0, 1].
 
     Notes
     -----
@@ -70,11 +95,22 @@ def nearness_from_depth(depth: object, *, kind: str = "metric") -> np.ndarray:
     if kind not in DEPTH_KINDS:
         raise ValueError(f"kind must be one of {', '.join(DEPTH_KINDS)}; got {kind!r}")
     d = check_map("depth", depth)
+    lo = float(np.nanmin(d))
+    if kind == "inverse":
+        hi = float(np.nanmax(d))
+        if lo < INVERSE_DEPTH_RANGE[0] or hi > INVERSE_DEPTH_RANGE[1]:
+            raise ValueError(
+                f"depth must lie in [0, 1] for inverse depth (0 = the far plane, 1 = the near one; Fehn 2004); "
+                f"got [{lo:g}, {hi:g}]"
+            )
     if kind != "metric":
         return d.copy() if d is depth else d
-    lo = float(np.nanmin(d))
     if lo <= 0:
         raise ValueError(f"depth must be > 0 metres where known (metric depth; NaN = unknown); got min {lo:g}")
+    if lo < MIN_METRIC_DEPTH:
+        raise ValueError(
+            f"depth must be >= {MIN_METRIC_DEPTH:.3g} (MIN_METRIC_DEPTH: 1/depth must be a finite float32); got min {lo:g}"
+        )
     return np.float32(1.0) / d
 
 
@@ -103,8 +139,23 @@ class ParallaxPlan:
     def __post_init__(self) -> None:
         if np.ndim(self.parallax_px) != 2:
             raise ValueError(f"parallax_px must have shape (H, W); got {np.shape(self.parallax_px)}")
-        if not self.range_px[0] <= self.range_px[1]:
-            raise ValueError(f"range_px must be (min, max) with min <= max; got {self.range_px}")
+        if not isinstance(self.mapping, DisparityMapping):
+            raise TypeError(f"mapping must be a DisparityMapping; got {type(self.mapping).__name__}")
+        for name in ("range_px", "range_arcmin"):
+            value = getattr(self, name)
+            if value is None and name == "range_arcmin":
+                continue
+            pair = _finite_pair(name, value)
+            if not pair[0] <= pair[1]:
+                raise ValueError(f"{name} must be (min, max) with min <= max; got {value}")
+            object.__setattr__(self, name, pair)
+
+
+def _finite_pair(name: str, value: object) -> tuple[float, float]:
+    """``value`` as a pair of finite floats ``(a, b)``."""
+    if not isinstance(value, tuple | list) or len(value) != 2:
+        raise ValueError(f"{name} must be a pair (min, max); got {value!r}")
+    return check_finite(f"{name}[0]", value[0]), check_finite(f"{name}[1]", value[1])
 
 
 def _display_px(display: Display, image_width: int) -> float:
@@ -158,7 +209,9 @@ def plan_parallax(
     ValueError
         Bad depth (see :func:`nearness_from_depth`), no or several modes, missing parameters, a
         budget arcmin without a display, shift-sensor mode on non-metric depth, a flat depth map
-        in budget mode without a convergence depth.
+        in budget mode without a convergence depth, or a parallax that cannot fit the image:
+        ``|P|`` must stay below ``MAX_PARALLAX_WIDTHS`` image widths (checked on the budget, or on
+        the range a shift-sensor set-up or mapping gives, before the map is computed).
 
     Notes
     -----
@@ -168,8 +221,8 @@ def plan_parallax(
     Examples
     --------
     >>> import numpy as np
-    >>> plan = plan_parallax(np.array([[1.0, 2.0, 4.0]]), budget_px=10.0)
-    >>> [round(float(v), 3) for v in plan.parallax_px[0]], plan.range_px
+    >>> plan = plan_parallax(np.tile([[1.0, 2.0, 4.0]], (1, 8)), budget_px=10.0)  # 24 px wide
+    >>> [round(float(v), 3) for v in plan.parallax_px[0, :3]], plan.range_px
     ([-10.0, 3.333, 10.0], (-10.0, 10.0))
     """
     q = nearness_from_depth(depth, kind=kind)
@@ -200,6 +253,7 @@ def plan_parallax(
         else:
             p_c = -c
     width = q.shape[1]
+    limit = MAX_PARALLAX_WIDTHS * width
     if modes == ["budget"]:
         psi = _budget_mapping(p_min, p_max, p_c, budget_px, budget_arcmin, display, width)
     elif modes == ["shift-sensor"]:
@@ -207,21 +261,42 @@ def plan_parallax(
             raise ValueError(f"focal_px and interaxial need metric depth (kind='metric'); got kind={kind!r}")
         if focal_px is None or interaxial is None or p_c is None:
             raise ValueError("the shift-sensor control needs focal_px, interaxial and convergence together")
-        gain = check_positive("focal_px", focal_px) * check_positive("interaxial", interaxial)
-        # P = alpha_u t_c (1/Z_c - 1/Z) = gain (p - p_c) (Fehn 2004).
+        f, t = check_positive("focal_px", focal_px), check_positive("interaxial", interaxial)
+        gain = f * t
+        # P = alpha_u t_c (1/Z_c - 1/Z) = gain (p - p_c) (Fehn 2004), at the two ends of the range.
+        ends = (gain * (p_min - p_c), gain * (p_max - p_c))
+        if not all(math.isfinite(e) and abs(e) < limit for e in ends):
+            raise ValueError(
+                f"focal_px {f:g} with interaxial {t:g} and convergence {convergence:g} gives parallaxes of "
+                f"{ends[0]:.4g} .. {ends[1]:.4g} px, which must stay within +-{limit:g} px, "
+                f"{MAX_PARALLAX_WIDTHS:g} image width (MAX_PARALLAX_WIDTHS): a point with a parallax of a "
+                "whole width cannot appear in both views; lower the focal length or the interaxial"
+            )
         psi = LinearMapping(p_c, p_c + 1.0, 0.0, gain)
     else:
         if not isinstance(mapping, DisparityMapping):
             raise TypeError(f"mapping must be a DisparityMapping; got {type(mapping).__name__}")
         psi = mapping
+    # psi(-q) in float64 (a steep psi on a narrow nearness range overflows float32 before the
+    # offset brings it back), the fit checked, then stored as float32.
+    with np.errstate(over="ignore", invalid="ignore"):
+        if isinstance(psi, LinearMapping):
+            parallax64 = q.astype(np.float64)
+            parallax64 *= -psi.gain
+            parallax64 += psi.target_min - psi.gain * psi.source_min
+        else:
+            parallax64 = np.asarray(psi(-q.astype(np.float64)), dtype=np.float64)
     if isinstance(psi, LinearMapping):
-        # psi(-q) = gain (-q - s_min) + t_min, evaluated in place in float32 (two passes).
-        parallax = np.multiply(q, np.float32(-psi.gain), out=q)
-        parallax += np.float32(psi.target_min - psi.gain * psi.source_min)
-        lo, hi = float(psi(p_min)), float(psi(p_max))
+        lo, hi = float(psi(p_min)), float(psi(p_max))  # exact ends (the budget itself)
     else:
-        parallax = np.asarray(psi(-q.astype(np.float64)), dtype=np.float32)
-        lo, hi = float(np.nanmin(parallax)), float(np.nanmax(parallax))
+        lo, hi = float(np.nanmin(parallax64)), float(np.nanmax(parallax64))
+    if not (math.isfinite(lo) and math.isfinite(hi) and max(-lo, hi) < limit):
+        raise ValueError(
+            f"mapping gives parallaxes of {lo:.4g} .. {hi:.4g} px, which must stay within +-{limit:g} px, "
+            f"{MAX_PARALLAX_WIDTHS:g} image width (MAX_PARALLAX_WIDTHS): a point with a parallax of a whole "
+            "width cannot appear in both views"
+        )
+    parallax = parallax64.astype(np.float32)
     arcmin = None
     if display is not None:
         scale = _display_px(display, width)
@@ -241,15 +316,32 @@ def _budget_mapping(
     """Linear psi fitting ``[p_min, p_max]`` into ``[-B, B]`` (zero at ``p_c`` when given)."""
     if budget_px is not None and budget_arcmin is not None:
         raise ValueError("give budget_px or budget_arcmin, not both")
+    limit = MAX_PARALLAX_WIDTHS * width
+    fit = (
+        f"{MAX_PARALLAX_WIDTHS:g} image width (MAX_PARALLAX_WIDTHS) of a {width}-px-wide image: a point "
+        "with a parallax of a whole width cannot appear in both views"
+    )
     if budget_arcmin is not None:
         if display is None:
             raise ValueError("budget_arcmin needs a display (pixels per arcminute depend on it)")
         a = check_positive("budget_arcmin", budget_arcmin)
-        b = float(pixels_from_arcmin(a, display)) / _display_px(display, width)
+        per_px = _display_px(display, width)
+        # The budget is the smaller side of the exact conversion (below), so it fits while either
+        # side's angle at the limit is larger than a.
+        a_max = max(
+            float(arcmin_from_pixels(limit * per_px, display)), -float(arcmin_from_pixels(-limit * per_px, display))
+        )
+        if a >= a_max:
+            raise ValueError(
+                f"budget_arcmin must be < {a_max:.4g} arcmin on this display, {limit:g} px, {fit}; got {a:g}"
+            )
+        b = float(pixels_from_arcmin(a, display)) / per_px
         # Crossed side: the exact conversion is not symmetric; keep the smaller magnitude.
-        b = min(b, -float(pixels_from_arcmin(-a, display)) / _display_px(display, width))
+        b = min(b, -float(pixels_from_arcmin(-a, display)) / per_px)
     else:
         b = check_positive("budget_px", budget_px)
+        if b >= limit:
+            raise ValueError(f"budget_px must be < {limit:g} px, {fit}; got {b:g}")
     if p_c is None:
         if p_max == p_min:
             raise ValueError(
@@ -269,8 +361,8 @@ def views_offsets(views: int, *, origin: str = "center") -> tuple[float, ...]:
     ``"center"``: symmetric about the original image (which is the middle view for odd counts);
     ``"left"``: the original image is view 0.
     """
-    if isinstance(views, int | np.integer) and not isinstance(views, bool) and views < 2:
-        raise ValueError(f"views must be >= 2; got {views}")
+    if isinstance(views, int | np.integer) and not isinstance(views, bool) and not 2 <= views <= MAX_VIEWS:
+        raise ValueError(f"views must lie in [2, {MAX_VIEWS}] (MAX_VIEWS); got {views}")
     n = check_positive_int("views", views)
     if origin == "center":
         return tuple(i - (n - 1) / 2.0 for i in range(n))

@@ -20,6 +20,7 @@ background-directed hole filling steered by the original, undilated disparity (s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,7 @@ from vergence._validate import check_finite, check_in_range, check_positive
 from vergence.camera import Camera
 from vergence.synthesis import _stages, _stages3d
 from vergence.synthesis._checks import (
+    FLOAT32_MAX,
     check_camera,
     check_depth,
     check_image,
@@ -35,15 +37,19 @@ from vergence.synthesis._checks import (
     check_method,
     check_nonnegative,
     check_radius,
+    check_sigma,
     check_source_image,
+    within_float32,
 )
+from vergence.synthesis.advice import holes_warnings, stereo_warnings
 from vergence.synthesis.blend import baseline_weights
-from vergence.synthesis.controls import ParallaxPlan, plan_parallax, views_offsets
+from vergence.synthesis.controls import MAX_PARALLAX_WIDTHS, ParallaxPlan, plan_parallax, views_offsets
 from vergence.synthesis.view import WarpedView
 from vergence.viewing.geometry import Display
 from vergence.viewing.mapping import DisparityMapping
 
 __all__ = [
+    "MAX_SYNTHESIS_BYTES",
     "StereoResult",
     "interpolate_view",
     "synthesize_stereo",
@@ -51,6 +57,10 @@ __all__ = [
     "synthesize_views",
 ]
 
+# Most memory synthesize_stereo's results may take (the views as float32 and their hole masks),
+# checked before any work: 4 GiB holds 128 views of a 1080p RGB image (3.5 GB), while 128 views of
+# the largest image read_image decodes (80 Mpx) would need 120 GB.
+MAX_SYNTHESIS_BYTES = 4 * 2**30
 # Median refinement: a warped disparity that differs from its 3x3 median by more than this (pixels)
 # is re-sampled by inverse warping, if the reference agrees within the consistency tolerance.
 _MEDIAN_TOLERANCE_PX = 0.5
@@ -76,23 +86,29 @@ class StereoResult:
         Position of each view in units of the pair parallax (adjacent views differ by 1).
     plan : ParallaxPlan
         The parallax map, psi and the parallax range between adjacent views in pixels and arcmin.
+    warnings : tuple of str
+        What may not look right (:func:`~vergence.synthesis.stereo_warnings`,
+        :func:`~vergence.synthesis.holes_warnings`), one line each; empty when all is well.
     """
 
     views: tuple[np.ndarray, ...]
     holes: tuple[np.ndarray, ...]
     offsets: tuple[float, ...]
     plan: ParallaxPlan
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not len(self.views) == len(self.holes) == len(self.offsets):
             raise ValueError(
                 f"views, holes and offsets must have one length; got {len(self.views)}, {len(self.holes)}, {len(self.offsets)}"
             )
+        if not isinstance(self.warnings, tuple) or not all(isinstance(w, str) for w in self.warnings):
+            raise TypeError(f"warnings must be a tuple of str; got {self.warnings!r}")
 
     def to_dict(self) -> dict:
         """JSON-ready summary: view offsets, size, parallax range between adjacent views (pixels,
-        arcmin when a display was given; ``x_r - x_l``, positive behind the screen) and the share of
-        each view that hole filling made up (percent, 4 decimals)."""
+        arcmin when a display was given; ``x_r - x_l``, positive behind the screen), the share of
+        each view that hole filling made up (percent, 4 decimals) and the warnings."""
         h, w = self.views[0].shape[:2]
         return {
             "offsets": list(self.offsets),
@@ -100,6 +116,7 @@ class StereoResult:
             "parallax_range_px": list(self.plan.range_px),
             "parallax_range_arcmin": None if self.plan.range_arcmin is None else list(self.plan.range_arcmin),
             "holes_percent": [round(100.0 * float(m.mean()), 4) for m in self.holes],
+            "warnings": list(self.warnings),
         }
 
     @property
@@ -118,6 +135,18 @@ def _check_options(gradient_limit: float, edge_dilation: int, fill: str) -> tupl
     r = check_radius("edge_dilation", edge_dilation)
     check_method("fill", fill, _stages.FILL_METHODS)
     return limit, r
+
+
+def _check_fits(name: str, d: np.ndarray) -> None:
+    """Refuse a disparity map with a value of ``MAX_PARALLAX_WIDTHS`` image widths or more."""
+    limit = MAX_PARALLAX_WIDTHS * d.shape[1]
+    widest = float(np.nanmax(np.abs(d)))
+    if widest >= limit:
+        raise ValueError(
+            f"{name} must lie within +-{limit:g} px, {MAX_PARALLAX_WIDTHS:g} image width (MAX_PARALLAX_WIDTHS): "
+            f"a point cannot be seen by both references that far apart; got |d| up to {widest:g} "
+            "(a disparity file's scale?)"
+        )
 
 
 def _warp_reference(
@@ -194,7 +223,9 @@ def interpolate_view(
     Raises
     ------
     ValueError
-        Shapes differ, disparity with inf or all unknown, position outside [0, 1], bad options.
+        Shapes differ, disparity with inf or all unknown, position outside [0, 1], bad options, or
+        a disparity of ``MAX_PARALLAX_WIDTHS`` image widths or more (no point can be seen by both
+        references that far apart: the view would be all holes).
 
     Notes
     -----
@@ -218,9 +249,11 @@ def interpolate_view(
         raise ValueError(f"right must have shape {lft.shape} like left; got {rgt.shape}")
     dl = check_map("left_disparity", left_disparity, "left", lft)
     dr = check_map("right_disparity", right_disparity, "right", rgt)
+    for name, d in (("left_disparity", dl), ("right_disparity", dr)):
+        _check_fits(name, d)
     t = check_in_range("position", position, 0.0, 1.0)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
-    tol = check_positive("depth_tolerance", depth_tolerance)
+    tol = within_float32("depth_tolerance", check_positive("depth_tolerance", depth_tolerance))
     contour = check_radius("contour_width", contour_width)
     nc = lft.shape[2] if lft.ndim == 3 else 1
     views = []
@@ -358,7 +391,16 @@ def synthesize_stereo(
     -------
     StereoResult
         ``.left`` and ``.right`` are the outer views; ``.plan.range_px`` / ``.range_arcmin`` the
-        parallax range between adjacent views.
+        parallax range between adjacent views; ``.warnings`` the comfort and divergence findings on
+        ``display`` (when given) and the views that are mostly filled-in holes.
+
+    Raises
+    ------
+    ValueError
+        Bad arguments (see :func:`~vergence.synthesis.plan_parallax`), results larger than
+        ``MAX_SYNTHESIS_BYTES`` (checked first), or views that cannot fit the
+        image: the outer views lie ``(views - 1)`` adjacent parallaxes apart, and that span must
+        stay below ``MAX_PARALLAX_WIDTHS`` image widths (checked before any view is rendered).
 
     Examples
     --------
@@ -369,6 +411,16 @@ def synthesize_stereo(
     >>> res.plan.range_px, len(res.views), res.left.shape
     ((-4.0, 4.0), 2, (4, 16))
     """
+    offsets = views_offsets(views, origin=origin)
+    image_shape = np.shape(image)
+    if len(image_shape) in (2, 3):  # from the shape alone, before any copy (check_image follows)
+        per_view = math.prod(image_shape) * 4 + math.prod(image_shape[:2])  # float32 view + bool holes
+        if len(offsets) * per_view > MAX_SYNTHESIS_BYTES:
+            raise ValueError(
+                f"views {len(offsets)} of a {image_shape[1]}x{image_shape[0]} image would take "
+                f"{len(offsets) * per_view / 2**30:.3g} GiB, more than MAX_SYNTHESIS_BYTES "
+                f"{MAX_SYNTHESIS_BYTES / 2**30:g} GiB: use fewer views or a smaller image"
+            )
     img = check_image("image", image)
     shape = np.shape(depth)
     if len(shape) != 2 or shape != img.shape[:2]:
@@ -384,14 +436,23 @@ def synthesize_stereo(
         interaxial=interaxial,
         mapping=mapping,
     )
-    offsets = views_offsets(views, origin=origin)
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
+    sigma = None if smooth_sigma is None else check_sigma("smooth_sigma", smooth_sigma)
+    widest = max(-plan.range_px[0], plan.range_px[1])
+    span = (max(offsets) - min(offsets)) * widest
+    width = img.shape[1]
+    if span >= MAX_PARALLAX_WIDTHS * width:
+        raise ValueError(
+            f"views {len(offsets)} at up to {widest:.4g} px of parallax between neighbours span {span:.4g} px "
+            f"between the outer views, which must stay below {MAX_PARALLAX_WIDTHS * width:g} px, "
+            f"{MAX_PARALLAX_WIDTHS:g} image width (MAX_PARALLAX_WIDTHS): use fewer views or less parallax"
+        )
     p = plan.parallax_px
-    if smooth_sigma is not None:
-        sigma = check_positive("smooth_sigma", smooth_sigma)
+    if sigma is not None:
         p = _stages.smooth_depth(p, sigma, sigma)
     rendered, holes = _render(_stages.as_hwc(img), np.negative(p, dtype=np.float32), offsets, limit, radius, fill, img)
-    return StereoResult(views=rendered, holes=holes, offsets=offsets, plan=plan)
+    found = (() if display is None else stereo_warnings(plan, display)) + holes_warnings(holes)
+    return StereoResult(views=rendered, holes=holes, offsets=offsets, plan=plan, warnings=found)
 
 
 def _rectified_pair(source: Camera, target: Camera) -> tuple[float, float, float] | None:
@@ -456,7 +517,13 @@ def synthesize_view(
     pair = _rectified_pair(source, target)
     if pair is not None:
         fb, cx_s, cx_t = pair
-        d = (fb / z + cx_s - cx_t).astype(np.float32)  # S1 Eq. (7): d = f b / Z
+        d64 = fb / z + cx_s - cx_t  # S1 Eq. (7): d = f b / Z
+        if np.nanmax(np.abs(d64)) > FLOAT32_MAX:
+            raise ValueError(
+                f"depth must be >= {abs(fb) / FLOAT32_MAX:.3g} m for these cameras (its disparity f b / Z must be a float32); "
+                f"got min {np.nanmin(z):g}"
+            )
+        d = d64.astype(np.float32)
         prepared, original = _stages.prepare_disparity(d, radius, limit)
         image_w, near, holes = _warp_reference(_stages.as_hwc(img), prepared, 1.0, limit, True)
         guide = _stages.fill_guide(near, prepared, original, 1.0, limit)

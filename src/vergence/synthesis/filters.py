@@ -17,10 +17,27 @@ import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int, check_same_hw
 from vergence.synthesis import _stages
-from vergence.synthesis._checks import check_image, check_map, check_nonnegative, check_radius
+from vergence.synthesis._checks import (
+    MAX_FILTER_RADIUS,
+    MAX_SMOOTH_SIGMA,
+    check_image,
+    check_map,
+    check_nonnegative,
+    check_radius,
+    check_sigma,
+    within_float32,
+)
 from vergence.synthesis.view import WarpedView
 
-__all__ = ["CONTOUR_SIDES", "contour_mask", "dilate_foreground", "median_refine", "smooth_depth"]
+__all__ = [
+    "CONTOUR_SIDES",
+    "MAX_FILTER_RADIUS",
+    "MAX_SMOOTH_SIGMA",
+    "contour_mask",
+    "dilate_foreground",
+    "median_refine",
+    "smooth_depth",
+]
 
 # Sides of a depth edge that contour_mask can mark.
 CONTOUR_SIDES = ("both", "near", "far")
@@ -34,9 +51,9 @@ def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = 
     depth : (H, W) array
         Depth, inverse depth or disparity; NaN = unknown (stays NaN).
     sigma : float
-        Horizontal standard deviation in pixels, > 0.
+        Horizontal standard deviation in pixels, in (0, MAX_SMOOTH_SIGMA].
     vertical_sigma : float, optional
-        Vertical standard deviation; defaults to ``sigma``. ATTEST used a larger vertical one
+        Vertical standard deviation (same range); defaults to ``sigma``. ATTEST used a larger vertical one
         (asymmetric smoothing) to keep vertical edges straight.
 
     Returns
@@ -56,8 +73,8 @@ def smooth_depth(depth: object, *, sigma: float, vertical_sigma: float | None = 
     [2.0, 2.0, 2.0]
     """
     d = check_map("depth", depth)
-    sx = check_positive("sigma", sigma)
-    sy = sx if vertical_sigma is None else check_positive("vertical_sigma", vertical_sigma)
+    sx = check_sigma("sigma", sigma)
+    sy = sx if vertical_sigma is None else check_sigma("vertical_sigma", vertical_sigma)
     return _stages.smooth_depth(d, sx, sy)
 
 
@@ -131,6 +148,7 @@ def contour_mask(disparity: object, *, width: int = 1, threshold: float = 1.0, s
     """
     d = check_map("disparity", disparity)
     w = check_positive_int("width", width)
+    check_radius("width", w)
     thr = check_nonnegative("threshold", threshold)
     if side not in CONTOUR_SIDES:
         raise ValueError(f"side must be one of {', '.join(CONTOUR_SIDES)}; got {side!r}")
@@ -187,8 +205,8 @@ def median_refine(
         raise ValueError(f"source_image must have the channels of the warped image {warped.image.shape}; got {img.shape}")
     d_src = check_map("source_disparity", source_disparity, "source_image", img)
     s = check_finite("scale", scale)
-    tol = check_positive("tolerance", tolerance)
-    cons = check_positive("consistency", consistency)
+    tol = within_float32("tolerance", check_positive("tolerance", tolerance))
+    cons = within_float32("consistency", check_positive("consistency", consistency))
     image, disparity, holes = _stages.median_refine(
         _stages.as_hwc(img), d_src, _stages.as_hwc(warped.image), warped.nearness, warped.holes, s, tol, cons
     )

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from vergence.synthesis import _stages
-from vergence.synthesis._checks import check_holes, check_image, check_known_disparity, check_method, count_nonfinite
+from vergence.synthesis._checks import check_holes, check_image, check_known_disparity, check_map, check_method
 
 __all__ = ["FILL_METHODS", "fill_disparity", "fill_holes"]
 
@@ -36,7 +36,8 @@ def fill_disparity(disparity: object) -> np.ndarray:
     Parameters
     ----------
     disparity : (H, W) array
-        Pixels, larger = nearer; NaN = unknown; no inf.
+        Pixels, larger = nearer; NaN = unknown; no inf; at least one known value (an all-unknown
+        map has no background to fill from).
 
     Returns
     -------
@@ -53,12 +54,7 @@ def fill_disparity(disparity: object) -> np.ndarray:
     >>> fill_disparity(np.array([[5.0, np.nan, np.nan, 2.0]])).tolist()
     [[5.0, 2.0, 2.0, 2.0]]
     """
-    d = np.ascontiguousarray(disparity, dtype=np.float32)
-    if d.ndim != 2 or d.size == 0:
-        raise ValueError(f"disparity must have shape (H, W); got {d.shape}")
-    if count_nonfinite(d)[1]:
-        raise ValueError("disparity must not contain inf (use NaN for unknown)")
-    return _stages.fill_disparity(d)
+    return _stages.fill_disparity(check_map("disparity", disparity))
 
 
 def fill_holes(

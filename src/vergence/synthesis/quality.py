@@ -27,6 +27,7 @@ from vergence.metrics import (
     registration_error,
     ssim,
 )
+from vergence.synthesis._checks import within_float32
 
 __all__ = ["ViewQuality", "assess_view", "error_image"]
 
@@ -215,7 +216,7 @@ def error_image(image: object, reference: object, *, gain: float = 4.0) -> np.nd
     [[0.0, 0.4]]
     """
     a, b = as_image_pair("image", image, "reference", reference)
-    g = check_finite("gain", gain)
+    g = within_float32("gain", check_finite("gain", gain))
     if g <= 0:
         raise ValueError(f"gain must be > 0; got {g:g}")
     err = np.abs(a - b)

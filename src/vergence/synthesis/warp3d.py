@@ -22,12 +22,15 @@ import numpy as np
 from vergence._validate import check_finite, check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.synthesis import _stages3d
-from vergence.synthesis._checks import check_camera, check_depth, check_source_image
+from vergence.synthesis._checks import check_camera, check_depth, check_source_image, within_float32
 from vergence.synthesis.view import WarpedView
 
 __all__ = ["WARP_ORDERS", "epipole", "refine_camera_warp", "warp_to_camera"]
 
 WARP_ORDERS = ("mcmillan", "zbuffer")
+# Two camera centres closer than this, relative to their distance from the origin (at least 1 m),
+# are one centre: float64 round-off of a camera pose stays below 1e-12.
+_SAME_CENTRE_RTOL = 1e-12
 
 
 def epipole(source: Camera, target: Camera) -> np.ndarray:
@@ -36,6 +39,14 @@ def epipole(source: Camera, target: Camera) -> np.ndarray:
     ``e = K_s (R_s C_t + t_s)``. ``e_w > 0``: the target centre lies in front of the source camera
     (the epipole ``(e_x/e_w, e_y/e_w)`` is a point); ``e_w < 0``: behind it; ``e_w = 0``: at infinity
     in the direction ``(e_x, e_y)`` (a sideways move, as in a rectified pair).
+
+    Raises
+    ------
+    TypeError
+        If a camera is not a :class:`~vergence.camera.Camera`.
+    ValueError
+        If the two centres coincide (a pure rotation): every ray through the source centre is then
+        an epipolar line and ``e`` is the zero vector, no point.
 
     Examples
     --------
@@ -47,6 +58,9 @@ def epipole(source: Camera, target: Camera) -> np.ndarray:
     """
     check_camera("source", source)
     check_camera("target", target)
+    baseline = float(np.linalg.norm(target.center - source.center))
+    if baseline <= _SAME_CENTRE_RTOL * max(1.0, float(np.linalg.norm(source.center))):
+        raise ValueError(f"target must not share the source's centre {source.center.tolist()}: the epipole of a pure rotation is undefined")
     return _stages3d.epipole(source, target)
 
 
@@ -174,6 +188,6 @@ def refine_camera_warp(
         raise ValueError(
             f"warped.image must have shape {(target.height, target.width) + img.shape[2:]} (target size, image channels); got {warped.image.shape}"
         )
-    tol = check_positive("consistency", consistency)
+    tol = within_float32("consistency", check_positive("consistency", consistency))
     n = check_positive_int("iterations", iterations)
     return _stages3d.refine_camera_warp(warped, img, z, source, target, tol, n)
