@@ -346,3 +346,9 @@ def test_disparity_png_declaring_too_many_pixels_is_refused(tmp_path, huge_image
     (tmp_path / "d.png").write_bytes(huge_image("d.png"))
     with pytest.raises(ValueError, match=r"declares 100000 x 100000"):
         read_disparity(tmp_path / "d.png", scale=1)
+
+
+def test_deeply_nested_camera_json_is_one_line_error(tmp_path):
+    (tmp_path / "c.json").write_text("[" * 50_000 + "]" * 50_000)
+    with pytest.raises(ValueError, match="camera file .*c.json nests arrays/objects more than 64 levels deep"):
+        read_cameras_json(tmp_path / "c.json")

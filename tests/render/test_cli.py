@@ -119,3 +119,16 @@ def test_render_supersampled(tmp_path, capsys):
         assert json.loads(str(npz["settings"]))["supersample"] == 2
     assert main(["render", "tabletop", "--out", str(tmp_path / "x"), *SMALL, "--supersample", "0"]) == 2
     assert "supersample must be >= 1; got 0" in capsys.readouterr().err
+
+
+# Issue 9: a 100,000-level scene JSON was "internal error ... RecursionError" (exit 1); a folder "not found".
+def test_deep_scene_and_folder_scene_are_one_line_exit_2(tmp_path, capsys):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    assert main(["render", str(deep), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nests arrays/objects more than 64 levels deep (MAX_JSON_DEPTH)" in err
+    assert main(["render", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "is a folder; give a scene file (.json)" in err and "not found" not in err
+    assert not (tmp_path / "o").exists()

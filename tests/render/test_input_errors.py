@@ -106,3 +106,54 @@ def test_figures_refuse_bad_input(tmp_path):
     result = render(scene_from_dict(MINIMAL), max_depth=0, samples=1)
     with pytest.raises(FileNotFoundError, match="output folder does not exist: .*nowhere"):
         save_render(result, tmp_path / "nowhere")
+
+
+# Issue 9: a scene JSON nested 100,000 levels deep raised RecursionError ("internal error").
+def test_deeply_nested_scene_is_refused_before_parsing(tmp_path):
+    from vergence.io import MAX_JSON_DEPTH
+
+    p = tmp_path / "deep.json"
+    p.write_text('{"camera": ' + "[" * 100_000 + "]" * 100_000 + "}")
+    with pytest.raises(ValueError, match=rf"scene file .*deep.json nests arrays/objects more than {MAX_JSON_DEPTH} "):
+        load_scene(p)
+
+
+def test_scene_nesting_limit_is_exact(tmp_path):
+    from vergence.io import MAX_JSON_DEPTH, read_json
+
+    ok, deep = tmp_path / "ok.json", tmp_path / "deep.json"
+    ok.write_text("[" * MAX_JSON_DEPTH + "]" * MAX_JSON_DEPTH)
+    deep.write_text("[" * (MAX_JSON_DEPTH + 1) + "]" * (MAX_JSON_DEPTH + 1))
+    assert read_json(ok) is not None
+    with pytest.raises(ValueError, match="MAX_JSON_DEPTH"):
+        read_json(deep)
+    # brackets inside strings (with escaped quotes) do not count as nesting
+    strings = tmp_path / "strings.json"
+    strings.write_text(json.dumps({"name": "\"[" * 200}))
+    assert read_json(strings) == {"name": "\"[" * 200}
+
+
+def test_oversized_json_is_refused_before_reading(tmp_path, monkeypatch):
+    from vergence.io import jsonfile, read_json
+
+    p = tmp_path / "big.json"
+    p.write_text(json.dumps(MINIMAL))
+    monkeypatch.setattr(jsonfile, "MAX_JSON_BYTES", 100)
+    with pytest.raises(ValueError, match=r"big.json is \d+ bytes; the limit is 100 \(MAX_JSON_BYTES\)"):
+        read_json(p)
+
+
+def test_scene_file_with_byte_order_mark_loads(tmp_path):
+    p = tmp_path / "bom.json"
+    p.write_bytes(b"\xef\xbb\xbf" + json.dumps(MINIMAL).encode())
+    assert load_scene(p).name == "bom"
+
+
+# Issue 9: a folder given as a scene said "scene file not found".
+def test_folder_as_scene_says_folder(tmp_path):
+    from vergence.render import open_scene
+
+    with pytest.raises(IsADirectoryError, match=r"scene .* is a folder; give a scene file \(\.json\)"):
+        open_scene(tmp_path)
+    with pytest.raises(IsADirectoryError, match=r"is a folder"):
+        load_scene(tmp_path)
