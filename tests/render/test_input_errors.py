@@ -157,3 +157,54 @@ def test_folder_as_scene_says_folder(tmp_path):
         open_scene(tmp_path)
     with pytest.raises(IsADirectoryError, match=r"is a folder"):
         load_scene(tmp_path)
+
+
+def test_render_cost_bounds_by_hand():
+    from vergence.render.limits import LAYER_BYTES, RAY_BYTES, render_cost
+
+    # 4 x 3 pixels, D = 1 (N = 3 nodes, 2 leaves), 5 AO samples, stereo, supersample 2 (1 + 4 trees per pixel)
+    c = render_cost(4, 3, max_depth=1, samples=5, supersample=2, views=2)
+    assert c.trees == 4 * 3 * 2 * 5
+    assert c.rays == c.trees * (3 + 2 * 5)
+    assert c.bytes == c.trees * (RAY_BYTES + 3 * LAYER_BYTES)
+    assert c.problem() is None
+
+
+def test_render_cost_limits_fire_at_their_values(monkeypatch):
+    from vergence.render import limits
+
+    c = limits.render_cost(100, 100, max_depth=0, samples=1)  # 10,000 trees, 20,000 rays
+    monkeypatch.setattr(limits, "MAX_RENDER_RAYS", 20_000)
+    assert c.problem() is None
+    monkeypatch.setattr(limits, "MAX_RENDER_RAYS", 19_999)
+    assert "MAX_RENDER_RAYS" in c.problem()
+    monkeypatch.setattr(limits, "MAX_RENDER_BYTES", c.bytes - 1)
+    assert "MAX_RENDER_BYTES" in c.problem()
+
+
+# Issue 9 (kin): the library refuses an oversized render before allocating, in its own words.
+def test_library_render_refuses_past_the_limits():
+    from dataclasses import replace
+
+    from vergence.camera import look_at
+    from vergence.render import builtin_scene, render
+
+    sc = builtin_scene("tabletop")
+    with pytest.raises(ValueError, match=r"width must be <= 32768 pixels \(MAX_RENDER_SIDE\); got 40000"):
+        replace(sc, camera=sc.camera.resized(width=40000))
+    big = look_at([0, 0, 0], [0, 0, -1], [0, 1, 0], fov_deg=40, width=30000, height=30000)
+    with pytest.raises(ValueError, match=r"a render of 1 view\(s\) of 30000x30000 pixels .* \(MAX_RENDER_BYTES\)"):
+        render(sc, camera=big)
+    with pytest.raises(ValueError, match=r"may cast up to .* \(MAX_RENDER_RAYS\)"):
+        render(sc, samples=100_000_000)
+
+
+# Issue 9: contact_sheet([]) raised AttributeError.
+@pytest.mark.parametrize("bad", [[], None, "render.npz"])
+def test_figures_of_a_non_result_are_type_errors(bad, tmp_path):
+    from vergence.report.preview import contact_sheet, save_render
+
+    with pytest.raises(TypeError, match=r"^result must be a vergence.render.RenderResult; got "):
+        contact_sheet(bad)
+    with pytest.raises(TypeError, match=r"^result must be a vergence.render.RenderResult; got "):
+        save_render(bad, tmp_path)

@@ -6,7 +6,7 @@ linear from float files; disparity maps are float32 ``(H, W)`` with NaN for unkn
 :class:`vergence.camera.Camera`s. Conventions: ``docs/conventions.md``.
 """
 
-from vergence.io.atomic import atomic_write, write_json
+from vergence.io.atomic import atomic_folder, atomic_write, write_json
 from vergence.io.bundler import read_bundler, write_bundler
 from vergence.io.camera_set import CameraSet
 from vergence.io.cameras import CAMERA_FORMATS, CameraFormat, cameras_for_images, read_cameras, write_cameras
@@ -26,6 +26,7 @@ __all__ = [
     "DEPTH_KINDS",
     "MAX_JSON_BYTES",
     "MAX_JSON_DEPTH",
+    "atomic_folder",
     "atomic_write",
     "cameras_for_images",
     "read_bundler",

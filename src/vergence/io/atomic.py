@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_write", "write_json"]
+__all__ = ["atomic_folder", "atomic_write", "write_json"]
 
 
 def _output_path(path: object) -> Path:
@@ -84,6 +85,59 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+@contextmanager
+def atomic_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a hidden temporary folder beside ``path``; its files appear in ``path`` only if the block succeeds.
+
+    All or nothing: when the block raises (an error, ``KeyboardInterrupt``), the temporary folder is
+    removed and ``path`` is left as it was; no empty output folder is created. On success a new
+    ``path`` is the temporary folder renamed; an existing one receives each file by ``os.replace``
+    (files of the same names are replaced, others are kept).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output folder. Missing parent folders are created.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary folder to write into (flat: files only).
+
+    Raises
+    ------
+    NotADirectoryError
+        If ``path`` exists and is not a folder.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "out"
+    >>> with atomic_folder(target) as tmp:
+    ...     _ = (tmp / "a.txt").write_text("done")
+    >>> sorted(p.name for p in target.iterdir())
+    ['a.txt']
+    """
+    if not isinstance(path, str | os.PathLike):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"cannot write into {out}: it exists and is not a folder")
+    out.absolute().parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.absolute().parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
+    tmp.mkdir()
+    try:
+        yield tmp
+        if not out.exists():
+            os.rename(tmp, out)
+        else:
+            for f in sorted(tmp.iterdir()):
+                os.replace(f, out / f.name)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def _json_default(obj: object) -> Any:

@@ -15,6 +15,7 @@ import numpy as np
 from vergence import camera as _camera
 from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
 from vergence.render.lenses import FisheyeCamera
+from vergence.render.limits import MAX_RENDER_SIDE
 
 __all__ = [
     "Checker",
@@ -96,6 +97,9 @@ class SceneCamera:
         object.__setattr__(self, "up", _vec3("up", self.up))
         object.__setattr__(self, "width", check_positive_int("width", self.width))
         object.__setattr__(self, "height", check_positive_int("height", self.height))
+        for name in ("width", "height"):
+            if getattr(self, name) > MAX_RENDER_SIDE:
+                raise ValueError(f"{name} must be <= {MAX_RENDER_SIDE} pixels (MAX_RENDER_SIDE); got {getattr(self, name)}")
         if self.lens not in LENSES:
             raise ValueError(f"lens must be one of {', '.join(LENSES)}; got {self.lens!r}")
         if self.principal_point is not None:
