@@ -208,3 +208,24 @@ def test_figures_of_a_non_result_are_type_errors(bad, tmp_path):
         contact_sheet(bad)
     with pytest.raises(TypeError, match=r"^result must be a vergence.render.RenderResult; got "):
         save_render(bad, tmp_path)
+
+
+# Issue 9: tonemap of NaN or negative radiance returned values (NaN became black) instead of an error.
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [(np.nan, r"radiance must be finite; got 1 NaN or inf value\(s\)"), (np.inf, "radiance must be finite"),
+     (-0.5, "radiance must be >= 0; got min -0.5")],
+)
+def test_tonemap_refuses_nan_and_negative_radiance(value, message):
+    from vergence.render import auto_exposure
+
+    radiance = np.full((2, 2, 3), 0.25)
+    radiance[1, 0, 2] = value
+    with pytest.raises(ValueError, match=message):
+        tonemap(radiance)
+    with pytest.raises(ValueError, match=message):
+        auto_exposure(radiance)
+    with pytest.raises(ValueError, match="exposure must be finite"):
+        tonemap(np.zeros((2, 2, 3)), exposure=float("nan"))
+    with pytest.raises(TypeError, match="radiance must be a real-valued array; got list"):
+        tonemap([["a", "b", "c"]])
