@@ -352,3 +352,15 @@ def test_deeply_nested_camera_json_is_one_line_error(tmp_path):
     (tmp_path / "c.json").write_text("[" * 50_000 + "]" * 50_000)
     with pytest.raises(ValueError, match="camera file .*c.json nests arrays/objects more than 64 levels deep"):
         read_cameras_json(tmp_path / "c.json")
+
+
+# Issue 9: a _par.txt with a byte-order mark and CRLF line ends was refused.
+@pytest.mark.parametrize("newline", [b"\r\n", b"\r"])
+def test_middlebury_par_with_bom_and_crlf_reads_like_the_plain_file(tmp_path, newline):
+    few = CameraSet(names=("a.png", "b.png"), cameras=(
+        look_at([0, 0, 0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=640, height=480),
+        look_at([0.1, 0, 0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=640, height=480)))  # fmt: skip
+    write_middlebury_par(tmp_path / "x_par.txt", few)
+    plain = (tmp_path / "x_par.txt").read_bytes()
+    (tmp_path / "bom_par.txt").write_bytes(b"\xef\xbb\xbf" + plain.replace(b"\n", newline))
+    _sets_equal(read_middlebury_par(tmp_path / "bom_par.txt", image_size=(640, 480)), few)

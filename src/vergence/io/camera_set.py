@@ -125,8 +125,9 @@ class CameraSet:
 
 # ---------------------------------------------------------------------------------------- helpers
 def _text_lines(path: Path) -> list[str]:
+    """The lines of a UTF-8 text file; a byte-order mark and CRLF or CR line ends are accepted."""
     try:
-        return read_bytes(path).decode("utf-8").splitlines()
+        return read_bytes(path).decode("utf-8-sig").splitlines()
     except UnicodeDecodeError as exc:
         raise ValueError(f"cannot read {path}: not a UTF-8 text file") from exc
 
