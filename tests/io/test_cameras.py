@@ -301,7 +301,7 @@ def test_dispatcher_picks_the_format(dino, kermit, tmp_path):
     _sets_equal(read_cameras(tmp_path / "cameras.txt"), few, atol=FILE_ROTATION_ATOL)
     _sets_equal(read_cameras(tmp_path / "c_par.txt", image_size=(640, 480)), few)
     assert read_cameras(tmp_path / "c.out", image_size=(65, 49)).names == ("0",)
-    with pytest.raises(ValueError, match=r"no known format; expected \*_par.txt"):
+    with pytest.raises(ValueError, match=r"no known format by its name or content; expected \*_par.txt"):
         read_cameras(tmp_path / "cams.yaml")
 
 
