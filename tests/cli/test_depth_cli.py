@@ -85,9 +85,18 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
                              "--check", "--json")
     assert code == 0, err
     assert json.loads(stdout)["row_alignment"]["median_abs_dy_px"] < MAX_MEDIAN_DY_PX
-    # without a list, bundle.out names its cameras 0, 1, ...: say what to pass
+    # without a list, the cameras are paired with the sorted images of the folder, and the user is told
+    # (issue 9: the shared kermit has no list.txt; the user had to write one)
+    code, stdout, err = _run(capsys, "rectify", str(kermit / "kermit000.jpg"), str(kermit / "kermit001.jpg"),
+                             "--cameras", str(kermit / "bundle.out"), "--out", str(tmp_path / "o2"), "--json")
+    assert code == 0, err
+    assert "note: bundle.out has no list.txt: its 11 cameras were paired with the 11 JPEG images" in " ".join(err.split())
+    assert json.loads(stdout)["notes"][0].startswith("bundle.out has no list.txt")
+    # a bundle whose folder does not hold its images: say what to pass
+    (tmp_path / "x" / "b").mkdir(parents=True)
+    (tmp_path / "x" / "b" / "bundle.out").write_bytes((kermit / "bundle.out").read_bytes())
     code, _, err = _run(capsys, "rectify", str(kermit / "kermit000.jpg"), str(kermit / "kermit001.jpg"), "--cameras",
-                        str(kermit / "bundle.out"), "--out", str(tmp_path / "o2"))
+                        str(tmp_path / "x" / "b" / "bundle.out"), "--out", str(tmp_path / "o3"))
     assert code == 2 and "pass --image-list" in err and len(err.strip().splitlines()) == 1
 
 

@@ -57,7 +57,7 @@ def test_cameras_for_images_reads_once_per_size_and_names_the_missing(tmp_path):
     with pytest.raises(ValueError, match="no camera named 'c.png'"):
         cameras_for_images(tmp_path / "c_par.txt", [("c.png", (64, 48))])
     (tmp_path / "b.out").write_text("# Bundle file v0.3\n1 0\n100 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n")
-    with pytest.raises(ValueError, match="does not name its images and no list.txt was found beside it; pass image_list"):
+    with pytest.raises(ValueError, match="does not name its images: no list.txt was found beside it and its folder does not hold one JPEG image per camera; pass image_list"):
         cameras_for_images(tmp_path / "b.out", [("a.png", (64, 48))])
 
 

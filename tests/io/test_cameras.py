@@ -66,7 +66,9 @@ def dino(shared_data):
 
 @pytest.fixture(scope="module")
 def kermit(shared_data):
-    return read_bundler(shared_data / "collections" / "kermit" / "bundle.out", image_size=(640, 480))
+    # cameras named by their index (the folder's images would name them kermit000.jpg, ...)
+    return read_bundler(shared_data / "collections" / "kermit" / "bundle.out", image_size=(640, 480),
+                        image_list=[str(i) for i in range(11)])  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------- Middlebury
@@ -364,3 +366,28 @@ def test_middlebury_par_with_bom_and_crlf_reads_like_the_plain_file(tmp_path, ne
     plain = (tmp_path / "x_par.txt").read_bytes()
     (tmp_path / "bom_par.txt").write_bytes(b"\xef\xbb\xbf" + plain.replace(b"\n", newline))
     _sets_equal(read_middlebury_par(tmp_path / "bom_par.txt", image_size=(640, 480)), few)
+
+
+# Issue 9: Bundler output without its list.txt (the shared kermit has none): the user had to write one.
+def test_bundler_without_list_pairs_cameras_with_the_sorted_images_of_its_folder(shared_data, tmp_path):
+    src = shared_data / "collections" / "kermit"
+    names = [f"kermit{i:03d}.jpg" for i in range(11)]
+    got = read_bundler(src / "bundle.out")
+    assert got.names == tuple(names) and got.cameras[0].width == 640
+    assert len(got.notes) == 1 and "has no list.txt: its 11 cameras were paired with the 11 JPEG images of" in got.notes[0]
+    assert "kermit000.jpg .. kermit010.jpg" in got.notes[0]
+    (tmp_path / "list.txt").write_text("".join(f"{src / n} 0 670\n" for n in names))
+    (tmp_path / "bundle.out").write_bytes((src / "bundle.out").read_bytes())
+    listed = read_bundler(tmp_path / "bundle.out")
+    _sets_equal(got, listed)
+    assert listed.notes == ()
+    # Bundler's layout: bundle/bundle.out below the images; images in reverse creation order still sort by name
+    (tmp_path / "list.txt").unlink()
+    (tmp_path / "bundle").mkdir()
+    (tmp_path / "bundle.out").rename(tmp_path / "bundle" / "bundle.out")
+    for n in reversed(names):
+        (tmp_path / n).write_bytes((src / n).read_bytes())
+    _sets_equal(read_bundler(tmp_path / "bundle" / "bundle.out"), listed)
+    # a folder whose JPEG count differs from the camera count is not guessed at
+    (tmp_path / names[0]).unlink()
+    assert read_bundler(tmp_path / "bundle" / "bundle.out", image_size=(640, 480)).names[:2] == ("0", "1")

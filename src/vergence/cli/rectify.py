@@ -12,7 +12,7 @@ import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
-from vergence.io import cameras_for_images, read_image, write_image, write_json
+from vergence.io import cameras_for_images, read_cameras, read_image, write_image, write_json
 
 __all__ = ["rectify"]
 
@@ -46,9 +46,15 @@ def rectify(
                 cameras, [(left, (a.shape[1], a.shape[0])), (right, (b.shape[1], b.shape[0]))], image_list=image_list)
         except ValueError as exc:  # the library names its argument; here it is an option
             raise ValueError(str(exc).replace("pass image_list", "pass --image-list")) from exc
+        # What the reader assumed (a Bundler set without list.txt paired with the folder's images)
+        notes = read_cameras(cameras, image_size=(a.shape[1], a.shape[0]), image_list=image_list).notes
+        for note in notes:
+            err_console.print(f"[yellow]note:[/] {note}", highlight=False, soft_wrap=True)
         pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
                             common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
+        if notes:
+            data["notes"] = list(notes)
         if check:
             data["row_alignment"] = measure_row_alignment(pair.left, pair.right).to_dict()
     out.mkdir(parents=True, exist_ok=True)

@@ -193,7 +193,8 @@ def cameras_for_images(
         key = Path(os.fspath(name)).name
         if (image_list is None and fmt is CAMERA_FORMATS["bundler"] and key not in cams.names
                 and cams.names == tuple(str(i) for i in range(len(cams)))):
-            raise ValueError(f"{p.name} does not name its images and no list.txt was found beside it; "
+            raise ValueError(f"{p.name} does not name its images: no list.txt was found beside it and its folder "
+                             "does not hold one JPEG image per camera; "
                              "pass image_list (Bundler's list.txt)")
         out.append((cams.camera(key), cams.distortion[cams.index(key)]))
     return out
