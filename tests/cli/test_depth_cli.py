@@ -243,3 +243,23 @@ def test_evaluate_errors(capsys, tsukuba, tmp_path):
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
                         "--masks", str(tsukuba), "--image", str(tsukuba / "im3.png"))
     assert code == 2 and "--masks replaces the computed regions; do not combine it with --truth-right or --image" in err
+
+
+def test_rectify_writes_all_files_or_none(capsys, shared_data, tmp_path, monkeypatch):
+    import vergence.cli.rectify as cli_rectify
+
+    dino = shared_data / "collections" / "dino"
+
+    def full_disk(path, obj):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(cli_rectify, "write_json", full_disk)
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
+                        str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "No space left on device" in err
+    assert list(tmp_path.iterdir()) == []  # neither left.png nor an empty folder
+    (tmp_path / "o").write_text("a file")
+    monkeypatch.undo()
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
+                        str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "it exists and is not a folder" in err and "Errno" not in err

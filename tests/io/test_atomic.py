@@ -99,3 +99,29 @@ def test_atomic_folder_all_or_nothing(tmp_path):
     with pytest.raises(NotADirectoryError, match="it exists and is not a folder"):
         with atomic_folder(tmp_path / "file"):
             pass
+
+
+# Issue 9: filesystem errors leaked errno text and our hidden temporary names
+# ("Read-only file system: '.b.tmp-7564498b5275.png'", "[Errno 17] File exists").
+def test_filesystem_errors_name_the_output_not_the_temporary_file(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    from vergence.io import atomic_folder, write_image
+
+    def read_only(src, dst):
+        raise OSError(errno.EROFS, "Read-only file system", str(src))
+
+    monkeypatch.setattr(os, "replace", read_only)
+    with pytest.raises(OSError) as info:
+        write_image(tmp_path / "b.png", np.zeros((2, 2)))
+    assert str(info.value) == f"cannot write {tmp_path / 'b.png'}: Read-only file system"
+    assert info.value.errno == errno.EROFS
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OSError) as info:
+        with atomic_folder(tmp_path / "file" / "out"):
+            pass
+    assert str(info.value).startswith(f"cannot create the output folder {tmp_path / 'file' / 'out'}: ")
+    assert "Errno" not in str(info.value) and ".tmp-" not in str(info.value)

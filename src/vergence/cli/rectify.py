@@ -1,7 +1,8 @@
 """``vergence rectify``: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000; S2 §3.2).
 
 Writes ``DIR/left.png``, ``DIR/right.png`` and ``DIR/rectification.json`` (rectified cameras,
-homographies, baseline, focal length, doffs and, with ``--check``, the measured row alignment).
+homographies, baseline, focal length, doffs and, with ``--check``, the measured row alignment):
+all three or none.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import typer
 
 from vergence.cli._app import app, check_output_path, console, err_console, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
-from vergence.io import cameras_for_images, read_cameras, read_image, write_image, write_json
+from vergence.io import atomic_folder, cameras_for_images, read_cameras, read_image, write_image, write_json
 
 __all__ = ["rectify"]
 
@@ -57,10 +58,10 @@ def rectify(
             data["notes"] = list(notes)
         if check:
             data["row_alignment"] = measure_row_alignment(pair.left, pair.right).to_dict()
-    out.mkdir(parents=True, exist_ok=True)
-    write_image(outputs[0], pair.left)
-    write_image(outputs[1], pair.right)
-    write_json(outputs[2], data)
+    with atomic_folder(out) as tmp:  # the three files or none
+        write_image(tmp / outputs[0].name, pair.left)
+        write_image(tmp / outputs[1].name, pair.right)
+        write_json(tmp / outputs[2].name, data)
     if as_json:
         print_json(data)
         return

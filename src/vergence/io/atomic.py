@@ -82,9 +82,22 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
         if not tmp.is_file():
             raise FileNotFoundError(f"cannot write {out}: the writer created no file")
         os.replace(tmp, out)
+    except OSError as exc:
+        raise _os_error(exc, out, tmp) from None
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+def _os_error(exc: OSError, out: Path, tmp: Path) -> OSError:
+    """``exc`` told about ``out``: one line, the system's reason, no errno and no temporary name."""
+    if str(exc).startswith(f"cannot write {out}"):
+        return exc
+    reason = exc.strerror or str(exc)
+    reason = reason.replace(str(tmp), str(out)).replace(tmp.name, out.name)
+    error = OSError(f"cannot write {out}: {reason}")
+    error.errno = exc.errno
+    return error
 
 
 @contextmanager
@@ -125,16 +138,22 @@ def atomic_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"cannot write into {out}: it exists and is not a folder")
-    out.absolute().parent.mkdir(parents=True, exist_ok=True)
     tmp = out.absolute().parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
-    tmp.mkdir()
+    try:
+        out.absolute().parent.mkdir(parents=True, exist_ok=True)
+        tmp.mkdir()
+    except OSError as exc:  # a parent that is a file, a read-only file system, no permission
+        raise OSError(f"cannot create the output folder {out}: {exc.strerror or exc}") from None
     try:
         yield tmp
-        if not out.exists():
-            os.rename(tmp, out)
-        else:
-            for f in sorted(tmp.iterdir()):
-                os.replace(f, out / f.name)
+        try:
+            if not out.exists():
+                os.rename(tmp, out)
+            else:
+                for f in sorted(tmp.iterdir()):
+                    os.replace(f, out / f.name)
+        except OSError as exc:
+            raise OSError(f"cannot write into {out}: {exc.strerror or exc}") from None
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
