@@ -229,3 +229,88 @@ def test_tonemap_refuses_nan_and_negative_radiance(value, message):
         tonemap(np.zeros((2, 2, 3)), exposure=float("nan"))
     with pytest.raises(TypeError, match="radiance must be a real-valued array; got list"):
         tonemap([["a", "b", "c"]])
+
+
+# Issue 9 (kin, the old sweep): wrong-typed arguments raised AttributeError deep inside.
+def test_wrong_types_to_the_render_stages_are_type_errors():
+    from vergence.render import Intersector, RayTree, RenderResult, RenderSettings, WhittedShader, builtin_scene
+
+    with pytest.raises(TypeError, match="^scene must be a vergence.render.Scene; got NoneType"):
+        Intersector(None)
+    with pytest.raises(TypeError, match="^scene must be a vergence.render.Scene; got list"):
+        WhittedShader([])
+    sc = builtin_scene("tabletop", width=4, height=3)
+    with pytest.raises(TypeError, match="^packed must be a PackedScene or None; got str"):
+        WhittedShader(sc, "packed")
+    with pytest.raises(ValueError, match=r"^origins must have shape"):
+        Intersector(sc)(np.zeros((2, 2)), np.zeros((2, 2)))
+    with pytest.raises((TypeError, ValueError), match="^origins"):
+        Intersector(sc)("a", "b")
+    with pytest.raises(TypeError, match="^settings must be a RenderSettings; got NoneType"):
+        RenderResult(None, None, None, None, None, None, None)
+    with pytest.raises(TypeError, match="^settings must be a RenderSettings; got NoneType"):
+        RayTree(None, None, None, None, None, None, None)
+    settings = RenderSettings(scene="s", max_depth=0, samples=1, deterministic=True, ao_distance=None,
+                              variant="v", environment="e")  # fmt: skip
+    z = np.zeros((1, 2, 3))
+    with pytest.raises(TypeError, match="^radiance must be a numpy array; got list"):
+        RayTree([], z, z, np.zeros(2), np.zeros(2, bool), np.zeros((2, 3)), settings)
+    with pytest.raises(ValueError, match=r"^position must have shape \(1, 2, 3\); got \(1, 3, 3\)"):
+        RayTree(z, np.zeros((1, 3, 3)), z, np.zeros(2), np.zeros(2, bool), np.zeros((2, 3)), settings)
+    with pytest.raises(TypeError, match="^camera must be a Camera or a FisheyeCamera; got str"):
+        RenderResult(z[None], z[None], z[None], np.zeros((1, 2)), z, "camera", settings)
+
+
+@pytest.mark.parametrize(
+    ("args", "exc", "message"),
+    [
+        (("a", 1.0, 1.5), TypeError, "^cos_i must be"),
+        ((None, 1.0, 1.5), (TypeError, ValueError), "^cos_i must be"),
+        ((np.nan, 1.0, 1.5), ValueError, "^cos_i must be finite"),
+        ((2.0, 1.0, 1.5), ValueError, r"^cos_i must be in \[0, 1\]; got 2..2"),
+        ((0.5, -1.0, 1.5), ValueError, "^n1 must be > 0; got min -1"),
+        (([0.5, 0.2, 0.1], 1.0, [1.0, 2.0]), ValueError, "^cos_i, n1 and n2 must broadcast together"),
+    ],
+)
+def test_schlick_refuses_bad_arguments(args, exc, message):
+    from vergence.render import schlick
+
+    with pytest.raises(exc, match=message):
+        schlick(*args)
+
+
+# Scene limits (the old sweep): a scene past float32 precision, an overflowing sky, an unphysical glass.
+@pytest.mark.parametrize(
+    ("path", "value", "message"),
+    [
+        ("objects.0.center", [2e5, 0, 0], r"objects\[0\] \(sphere\): center must lie within 100000 m of the origin "
+                                          r"\(MAX_SCENE_EXTENT\); reaches 200000 m"),
+        ("objects.0.radius", 1e300, r"sphere must lie within 100000 m .*reaches 1e\+300 m"),
+        ("camera.position", [0, 1, 1e6], r"camera: position must lie within 100000 m"),
+        ("environment.color", [1e300, 1, 1], r"environment: color x intensity must be <= 1e\+07 \(MAX_RADIANCE\); "
+                                             r"got 1e\+300"),
+        ("materials.m", {"type": "glass", "ior": 1e9}, r"materials\['m'\]: ior must be in \[1, 4\] \(IOR_RANGE\); "
+                                                       r"got 1e\+09"),
+        ("materials.m", {"type": "glass", "ior": 0.5}, r"ior must be in \[1, 4\] \(IOR_RANGE\); got 0.5"),
+    ],
+)
+def test_scene_limits(path, value, message):
+    data = copy.deepcopy(MINIMAL)
+    *keys, last = path.split(".")
+    node = data
+    for k in keys:
+        node = node[int(k)] if k.isdigit() else node[k]
+    node[int(last) if last.isdigit() else last] = value
+    with pytest.raises(ValueError, match=message):
+        scene_from_dict(data)
+
+
+def test_scene_limits_admit_their_bounds():
+    from vergence.render import IOR_RANGE, MAX_RADIANCE, Environment, Glass, Sphere
+
+    assert Glass(ior=IOR_RANGE[0]).ior == 1.0 and Glass(ior=IOR_RANGE[1]).ior == 4.0
+    assert Environment(color=[MAX_RADIANCE, 0, 0]).color[0] == MAX_RADIANCE
+    assert Environment(color=[1, 1, 1], intensity=MAX_RADIANCE).intensity == MAX_RADIANCE
+    Sphere(center=[99_999, 0, 0], radius=1.0, material="m")
+    with pytest.raises(ValueError, match="MAX_RADIANCE"):
+        Environment(image=np.full((2, 4, 3), 2.0, np.float32), intensity=MAX_RADIANCE)
