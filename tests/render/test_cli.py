@@ -65,6 +65,11 @@ def test_render_one_eye_with_explicit_rig(tmp_path):
         (["tabletop", "--seed", "-1"], "--seed must be >= 0; got -1"),
         (["tabletop", "--preview", "sbs"], "--preview needs --eye both (a stereo pair)"),
         (["glasses", "--eye", "both", "--preview", "mosaic"], "--preview must be one of anaglyph, "),
+        # the sweep: "baseline must be > 0" named the Python parameter; 1e308 printed a numpy overflow warning
+        (["glasses", "--eye", "both", "--baseline", "-1"], "--baseline must be in [1e-06, 1e+06] m (LENGTH_RANGE); got -1"),
+        (["glasses", "--eye", "left", "--baseline", "1e308", "--convergence", "1e-308"],
+         "--baseline must be in [1e-06, 1e+06] m (LENGTH_RANGE); got 1e+308"),
+        (["glasses", "--eye", "right", "--convergence", "nan"], "--convergence must be in [1e-06, 1e+06] m"),
     ],
 )
 def test_render_errors_are_one_line(tmp_path, capsys, args, message):

@@ -20,6 +20,7 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named
+from vergence.viewing import LENGTH_RANGE
 
 __all__ = ["render"]
 
@@ -41,6 +42,10 @@ def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
     h = convergence if convergence is not None else (rig.convergence if rig else None)
     if b is None or h is None:
         raise ValueError("--eye needs --baseline and --convergence (the scene has no \"stereo\" block)")
+    for option, value in (("--baseline", b), ("--convergence", h)):
+        # the rig's lengths as the viewing geometry takes them: the sensor shift fx b / (2H) stays finite
+        if not LENGTH_RANGE[0] <= value <= LENGTH_RANGE[1]:
+            raise ValueError(f"{option} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); got {value:g}")
     return b, h
 
 
