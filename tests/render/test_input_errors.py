@@ -314,3 +314,16 @@ def test_scene_limits_admit_their_bounds():
     Sphere(center=[99_999, 0, 0], radius=1.0, material="m")
     with pytest.raises(ValueError, match="MAX_RADIANCE"):
         Environment(image=np.full((2, 4, 3), 2.0, np.float32), intensity=MAX_RADIANCE)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "message"),
+    [({"width": 3.5}, TypeError, "^width must be an integer; got float"), ({"samples": 0}, ValueError, "^samples must be >= 1"),
+     ({"max_depth": -1}, ValueError, r"^max_depth must be an integer >= 0; got -1"), ({"views": None}, TypeError, "^views")],
+)
+def test_render_cost_refuses_bad_arguments(kwargs, exc, message):
+    from vergence.render import render_cost
+
+    args = {"width": 4, "height": 3, "max_depth": 1, "samples": 1, **kwargs}
+    with pytest.raises(exc, match=message):
+        render_cost(args.pop("width"), args.pop("height"), **args)

@@ -16,6 +16,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
+from vergence._validate import check_positive_int
+
 __all__ = ["MAX_RENDER_BYTES", "MAX_RENDER_RAYS", "MAX_RENDER_SIDE", "RenderCost", "render_cost"]
 
 #: Largest estimated memory of one render call, bytes (8 GiB): a stereo pair at 1920 x 1080 with
@@ -91,6 +95,10 @@ def render_cost(width: int, height: int, *, max_depth: int, samples: int, supers
     >>> c.trees, c.rays
     (307200, 21811200)
     """
+    width, height, samples, supersample, views = (check_positive_int(name, value) for name, value in (
+        ("width", width), ("height", height), ("samples", samples), ("supersample", supersample), ("views", views)))
+    if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer) or max_depth < 0:
+        raise ValueError(f"max_depth must be an integer >= 0; got {max_depth!r}")
     n = 2 ** (max_depth + 1) - 1
     trees = int(width) * int(height) * int(views) * (1 + supersample**2 if supersample > 1 else 1)
     return RenderCost(trees=trees, rays=trees * (n + 2**max_depth * samples), bytes=trees * (RAY_BYTES + n * LAYER_BYTES))
