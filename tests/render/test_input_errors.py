@@ -327,3 +327,12 @@ def test_render_cost_refuses_bad_arguments(kwargs, exc, message):
     args = {"width": 4, "height": 3, "max_depth": 1, "samples": 1, **kwargs}
     with pytest.raises(exc, match=message):
         render_cost(args.pop("width"), args.pop("height"), **args)
+
+
+def test_trace_rays_refuses_past_the_ray_limit():
+    from vergence.render import Tracer, builtin_scene
+
+    tracer = Tracer(builtin_scene("tabletop", width=4, height=3))
+    with pytest.raises(ValueError, match=r"^tracing 2 rays with max_depth 2, samples 200000000 may cast up to 1.6e\+09 "
+                                         r"rays; the limit is 1e\+09 \(MAX_RENDER_RAYS\)"):  # fmt: skip
+        tracer.trace_rays(np.zeros((2, 3)), [[0, 0, -1], [0, 0, -1]], samples=200_000_000)
