@@ -63,7 +63,8 @@ def render(
     seed: int | None = typer.Option(None, "--seed", help="Random AO directions from this seed (default: fixed lattice)."),
     supersample: int = typer.Option(1, "--supersample", help="k: average k x k sub-pixel rays per pixel (anti-aliasing)."),
     preview: str | None = typer.Option(
-        None, "--preview", help="With --eye both: also write the pair packed as LAYOUT (anaglyph, sbs, half-sbs, tb, ...)."
+        None, "--preview", metavar="LAYOUT",
+        help="With --eye both: also write the pair packed as LAYOUT (anaglyph, sbs, half-sbs, tb, ...).",
     ),
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""
@@ -76,9 +77,9 @@ def render(
 
     if seed is not None and seed < 0:
         raise ValueError(f"--seed must be >= 0; got {seed}")
-    if preview is not None and (eye != "both" or preview not in LAYOUTS):
-        if eye != "both":
-            raise ValueError("--preview needs --eye both (a stereo pair)")
+    if preview is not None and eye != "both":
+        raise ValueError("--preview needs --eye both (a stereo pair)")
+    if preview is not None and preview not in LAYOUTS:
         raise ValueError(f"--preview must be one of {', '.join(LAYOUTS)}; got {preview!r}")
     options_cli = {"max_depth": "--depth", "samples": "--samples", "supersample": "--supersample",
                    "width": "--width", "height": "--height"}  # fmt: skip
