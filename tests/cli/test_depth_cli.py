@@ -93,9 +93,18 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
                              "--check", "--json")
     assert code == 0, err
     assert json.loads(stdout)["row_alignment"]["median_abs_dy_px"] < MAX_MEDIAN_DY_PX
-    # without a list, bundle.out names its cameras 0, 1, ...: say what to pass
+    # without a list, the cameras are paired with the sorted images of the folder, and the user is told
+    # (issue 9: the shared kermit has no list.txt; the user had to write one)
+    code, stdout, err = _run(capsys, "rectify", str(kermit / "kermit000.jpg"), str(kermit / "kermit001.jpg"),
+                             "--cameras", str(kermit / "bundle.out"), "--out", str(tmp_path / "o2"), "--json")
+    assert code == 0, err
+    assert "note: bundle.out has no list.txt: its 11 cameras were paired with the 11 JPEG images" in " ".join(err.split())
+    assert json.loads(stdout)["notes"][0].startswith("bundle.out has no list.txt")
+    # a bundle whose folder does not hold its images: say what to pass
+    (tmp_path / "x" / "b").mkdir(parents=True)
+    (tmp_path / "x" / "b" / "bundle.out").write_bytes((kermit / "bundle.out").read_bytes())
     code, _, err = _run(capsys, "rectify", str(kermit / "kermit000.jpg"), str(kermit / "kermit001.jpg"), "--cameras",
-                        str(kermit / "bundle.out"), "--out", str(tmp_path / "o2"))
+                        str(tmp_path / "x" / "b" / "bundle.out"), "--out", str(tmp_path / "o3"))
     assert code == 2 and "pass --image-list" in err and len(err.strip().splitlines()) == 1
 
 
@@ -438,3 +447,23 @@ def test_match_bm_default_block_on_a_tiny_image_is_refused_by_name(capsys, tmp_p
                         "7", "--method", "bm", "--out", str(tmp_path / "d.pfm"))
     assert code == 2 and err.strip() == ("error: --block-size (default 9 px for StereoBM) must not exceed the image's "
                                          "smaller side (8 px): give a smaller one")
+
+
+def test_rectify_writes_all_files_or_none(capsys, shared_data, tmp_path, monkeypatch):
+    import vergence.cli.rectify as cli_rectify
+
+    dino = shared_data / "collections" / "dino"
+
+    def full_disk(path, obj):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(cli_rectify, "write_json", full_disk)
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
+                        str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "no space left on device" in err.lower()
+    assert list(tmp_path.iterdir()) == []  # neither left.png nor an empty folder
+    (tmp_path / "o").write_text("a file")
+    monkeypatch.undo()
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
+                        str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "it exists and is not a folder" in err and "Errno" not in err

@@ -298,7 +298,7 @@ def test_a_folder_given_as_a_scene_says_so(capsys, tmp_path):
     # issue 9: "a folder given as a scene says 'not found'"
     assert main(["render", str(tmp_path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"error: {tmp_path} is a folder") and len(err.splitlines()) == 1
+    assert err.startswith(f"error: scene {tmp_path} is a folder") and len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()
 
 

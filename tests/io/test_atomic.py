@@ -76,3 +76,52 @@ def test_write_json_refuses_non_finite_numbers(tmp_path, bad):
 def test_write_json_refuses_unserialisable_objects(tmp_path):
     with pytest.raises(TypeError, match="object of type set is not JSON serialisable"):
         write_json(tmp_path / "r.json", {"x": {1, 2}})
+
+
+def test_atomic_folder_all_or_nothing(tmp_path):
+    from vergence.io import atomic_folder
+
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_folder(tmp_path / "new" / "out") as tmp:
+            (tmp / "a.txt").write_text("half")
+            raise KeyboardInterrupt
+    assert list((tmp_path / "new").iterdir()) == []  # neither the folder nor its temporary twin
+    with atomic_folder(tmp_path / "new" / "out") as tmp:
+        (tmp / "a.txt").write_text("one")
+    existing = tmp_path / "new" / "out"
+    (existing / "keep.txt").write_text("mine")
+    with atomic_folder(existing) as tmp:
+        (tmp / "a.txt").write_text("two")
+    assert sorted(p.name for p in existing.iterdir()) == ["a.txt", "keep.txt"]
+    assert (existing / "a.txt").read_text() == "two"
+    assert [p.name for p in (tmp_path / "new").iterdir()] == ["out"]
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(NotADirectoryError, match="it exists and is not a folder"):
+        with atomic_folder(tmp_path / "file"):
+            pass
+
+
+# Issue 9: filesystem errors leaked errno text and our hidden temporary names
+# ("Read-only file system: '.b.tmp-7564498b5275.png'", "[Errno 17] File exists").
+def test_filesystem_errors_name_the_output_not_the_temporary_file(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    from vergence.io import atomic_folder, write_image
+
+    def read_only(src, dst):
+        raise OSError(errno.EROFS, "Read-only file system", str(src))
+
+    monkeypatch.setattr(os, "replace", read_only)
+    with pytest.raises(OSError) as info:
+        write_image(tmp_path / "b.png", np.zeros((2, 2)))
+    assert str(info.value) == f"cannot write {tmp_path / 'b.png'}: Read-only file system"
+    assert info.value.errno == errno.EROFS
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OSError) as info:
+        with atomic_folder(tmp_path / "file" / "out"):
+            pass
+    assert str(info.value).startswith(f"cannot create the output folder {tmp_path / 'file' / 'out'}: ")
+    assert "Errno" not in str(info.value) and ".tmp-" not in str(info.value)

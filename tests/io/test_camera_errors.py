@@ -41,7 +41,7 @@ def test_format_table_dispatches_both_ways(tmp_path):
     assert tuple(CAMERA_FORMATS) == ("middlebury", "bundler", "colmap", "json")
     with pytest.raises(ValueError, match="format must be one of middlebury, bundler, colmap, json; got 'yaml'"):
         read_cameras(tmp_path / "c.json", format="yaml")
-    with pytest.raises(ValueError, match=r"no known format; expected \*_par.txt \(middlebury\), \*.out \(bundler\)"):
+    with pytest.raises(ValueError, match=r"no known format by its name or content; expected \*_par.txt \(middlebury\), \*.out \(bundler\)"):
         write_cameras(tmp_path / "c.yaml", s)
     with pytest.raises(TypeError, match="path must be a str or os.PathLike; got int"):
         read_cameras(3)
@@ -57,7 +57,7 @@ def test_cameras_for_images_reads_once_per_size_and_names_the_missing(tmp_path):
     with pytest.raises(ValueError, match="no camera named 'c.png'"):
         cameras_for_images(tmp_path / "c_par.txt", [("c.png", (64, 48))])
     (tmp_path / "b.out").write_text("# Bundle file v0.3\n1 0\n100 0 0\n1 0 0\n0 1 0\n0 0 1\n0 0 0\n")
-    with pytest.raises(ValueError, match="does not name its images and no list.txt was found beside it; pass image_list"):
+    with pytest.raises(ValueError, match="does not name its images: no list.txt was found beside it and its folder does not hold one JPEG image per camera; pass image_list"):
         cameras_for_images(tmp_path / "b.out", [("a.png", (64, 48))])
 
 
@@ -200,3 +200,21 @@ def test_camera_set_more_validation():
         CameraSet(names=("a",), cameras=(a,), points=[[0, 0, 1]], colors=[[1, 2, 3]], observations=[[0, 0, 0]])
     with pytest.raises(ValueError, match="camera 'b' is not registered in the reconstruction"):
         CameraSet(names=("a", "b"), cameras=(a, None)).camera("b")
+
+
+# Issue 9: a valid Middlebury par file not named *_par.txt was refused (the name alone decided).
+def test_camera_files_are_recognised_by_content_when_the_name_says_nothing(tmp_path):
+    s = CameraSet(names=("a.png", "b.png"), cameras=(_cam(), _cam()))
+    write_middlebury_par(tmp_path / "c_par.txt", s)
+    (tmp_path / "cameras.txt.bak").write_bytes((tmp_path / "c_par.txt").read_bytes())
+    got = read_cameras(tmp_path / "cameras.txt.bak", image_size=(64, 48))
+    assert got.names == s.names
+    np.testing.assert_allclose(got.cameras[1].K, s.cameras[1].K)
+    (cam, _), = cameras_for_images(tmp_path / "cameras.txt.bak", [("b.png", (64, 48))])
+    np.testing.assert_allclose(cam.R, s.cameras[1].R)
+    write_bundler(tmp_path / "b.out", s)
+    (tmp_path / "reconstruction").write_bytes((tmp_path / "b.out").read_bytes())
+    assert len(read_cameras(tmp_path / "reconstruction", image_size=(64, 48))) == 2
+    (tmp_path / "notes.txt").write_text("2\nthis is not a camera line\n")
+    with pytest.raises(ValueError, match="camera file 'notes.txt' has no known format by its name or content"):
+        read_cameras(tmp_path / "notes.txt")

@@ -66,7 +66,9 @@ def dino(shared_data):
 
 @pytest.fixture(scope="module")
 def kermit(shared_data):
-    return read_bundler(shared_data / "collections" / "kermit" / "bundle.out", image_size=(640, 480))
+    # cameras named by their index (the folder's images would name them kermit000.jpg, ...)
+    return read_bundler(shared_data / "collections" / "kermit" / "bundle.out", image_size=(640, 480),
+                        image_list=[str(i) for i in range(11)])  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------- Middlebury
@@ -301,7 +303,7 @@ def test_dispatcher_picks_the_format(dino, kermit, tmp_path):
     _sets_equal(read_cameras(tmp_path / "cameras.txt"), few, atol=FILE_ROTATION_ATOL)
     _sets_equal(read_cameras(tmp_path / "c_par.txt", image_size=(640, 480)), few)
     assert read_cameras(tmp_path / "c.out", image_size=(65, 49)).names == ("0",)
-    with pytest.raises(ValueError, match=r"no known format; expected \*_par.txt"):
+    with pytest.raises(ValueError, match=r"no known format by its name or content; expected \*_par.txt"):
         read_cameras(tmp_path / "cams.yaml")
 
 
@@ -346,3 +348,46 @@ def test_disparity_png_declaring_too_many_pixels_is_refused(tmp_path, huge_image
     (tmp_path / "d.png").write_bytes(huge_image("d.png"))
     with pytest.raises(ValueError, match=r"declares 100000 x 100000"):
         read_disparity(tmp_path / "d.png", scale=1)
+
+
+def test_deeply_nested_camera_json_is_one_line_error(tmp_path):
+    (tmp_path / "c.json").write_text("[" * 50_000 + "]" * 50_000)
+    with pytest.raises(ValueError, match="camera file .*c.json nests arrays/objects more than 64 levels deep"):
+        read_cameras_json(tmp_path / "c.json")
+
+
+# Issue 9: a _par.txt with a byte-order mark and CRLF line ends was refused.
+@pytest.mark.parametrize("newline", [b"\r\n", b"\r"])
+def test_middlebury_par_with_bom_and_crlf_reads_like_the_plain_file(tmp_path, newline):
+    few = CameraSet(names=("a.png", "b.png"), cameras=(
+        look_at([0, 0, 0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=640, height=480),
+        look_at([0.1, 0, 0], [0, 0, 5], [0, -1, 0], fov_deg=60, width=640, height=480)))  # fmt: skip
+    write_middlebury_par(tmp_path / "x_par.txt", few)
+    plain = (tmp_path / "x_par.txt").read_bytes()
+    (tmp_path / "bom_par.txt").write_bytes(b"\xef\xbb\xbf" + plain.replace(b"\n", newline))
+    _sets_equal(read_middlebury_par(tmp_path / "bom_par.txt", image_size=(640, 480)), few)
+
+
+# Issue 9: Bundler output without its list.txt (the shared kermit has none): the user had to write one.
+def test_bundler_without_list_pairs_cameras_with_the_sorted_images_of_its_folder(shared_data, tmp_path):
+    src = shared_data / "collections" / "kermit"
+    names = [f"kermit{i:03d}.jpg" for i in range(11)]
+    got = read_bundler(src / "bundle.out")
+    assert got.names == tuple(names) and got.cameras[0].width == 640
+    assert len(got.notes) == 1 and "has no list.txt: its 11 cameras were paired with the 11 JPEG images of" in got.notes[0]
+    assert "kermit000.jpg .. kermit010.jpg" in got.notes[0]
+    (tmp_path / "list.txt").write_text("".join(f"{src / n} 0 670\n" for n in names))
+    (tmp_path / "bundle.out").write_bytes((src / "bundle.out").read_bytes())
+    listed = read_bundler(tmp_path / "bundle.out")
+    _sets_equal(got, listed)
+    assert listed.notes == ()
+    # Bundler's layout: bundle/bundle.out below the images; images in reverse creation order still sort by name
+    (tmp_path / "list.txt").unlink()
+    (tmp_path / "bundle").mkdir()
+    (tmp_path / "bundle.out").rename(tmp_path / "bundle" / "bundle.out")
+    for n in reversed(names):
+        (tmp_path / n).write_bytes((src / n).read_bytes())
+    _sets_equal(read_bundler(tmp_path / "bundle" / "bundle.out"), listed)
+    # a folder whose JPEG count differs from the camera count is not guessed at
+    (tmp_path / names[0]).unlink()
+    assert read_bundler(tmp_path / "bundle" / "bundle.out", image_size=(640, 480)).names[:2] == ("0", "1")

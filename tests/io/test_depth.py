@@ -50,3 +50,16 @@ def test_inverse_depth_must_be_single_channel(tmp_path):
     write_image(path, np.zeros((2, 2, 3), np.float32))
     with pytest.raises(ValueError, match="must be a single-channel image"):
         read_depth(path, kind="inverse")
+
+
+# Issue 9: synthesize refused a render's .npz as "unknown disparity extension" (calling depth a disparity).
+def test_unknown_depth_extension_speaks_of_depth(tmp_path):
+    p = tmp_path / "left.npz"
+    p.write_bytes(b"PK")
+    with pytest.raises(ValueError, match=r"cannot read depth .*left.npz: unknown depth-map extension '.npz'; expected "
+                                         r"one of .pfm, .npy, .png, .pgm \(a vergence render writes its depth as "
+                                         r"\*_depth.pfm beside the .npz\)"):  # fmt: skip
+        read_depth(p)
+    (tmp_path / "d.tif").write_bytes(b"II")
+    with pytest.raises(ValueError, match=r"unknown depth-map extension '.tif'; expected one of .pfm, .npy, .png, .pgm$"):
+        read_depth(tmp_path / "d.tif")

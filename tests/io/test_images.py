@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import cv2
 import numpy as np
 import pytest
@@ -403,3 +405,34 @@ def test_images_declaring_too_many_pixels_are_refused_before_decoding(tmp_path, 
     with pytest.raises(ValueError, match=rf"declares .* pixels; the limit is {MAX_IMAGE_PIXELS:,}") as info:
         read_image(path)
     assert "\n" not in str(info.value)
+
+
+# Issue 9: a truncated PNG printed libpng's own line ("libpng error: IDAT: CRC error") before ours.
+@pytest.mark.parametrize("where", ["ihdr", "idat", "cut"])
+def test_corrupt_png_is_one_error_and_nothing_on_stderr(tmp_path, capfd, where):
+    path = tmp_path / "c.png"
+    write_image(path, _ramp_rgb(20, 30))
+    data = bytearray(path.read_bytes())
+    if where == "ihdr":
+        data[29] ^= 0xFF  # a byte of the IHDR CRC
+    elif where == "idat":
+        data[data.index(b"IDAT") + 10] ^= 0xFF
+    else:
+        data = data[: data.index(b"IDAT") + 60] + data[-12:]  # IDAT cut short, IEND kept
+    path.write_bytes(bytes(data))
+    capfd.readouterr()
+    with pytest.raises(ValueError, match=r"c\.png: PNG data is corrupt or truncated") as info:
+        read_image(path)
+    assert "libpng" not in str(info.value)
+    if where != "cut":
+        assert re.search(r"\((IHDR|IDAT): [^()]+\)$", str(info.value))  # libpng's reason, in our one line
+    out, err = capfd.readouterr()
+    assert (out, err) == ("", "")
+
+
+def test_codec_refusal_on_write_is_one_line_error(tmp_path, capfd):
+    capfd.readouterr()
+    with pytest.raises(ValueError, match=r"cannot write .*wide\.png: the \.png encoder refused a 1000001 x 1 image"):
+        write_image(tmp_path / "wide.png", np.zeros((1, 1_000_001), np.float32))
+    assert capfd.readouterr().err == ""
+    assert list(tmp_path.iterdir()) == []

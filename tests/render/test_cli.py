@@ -58,14 +58,25 @@ def test_render_one_eye_with_explicit_rig(tmp_path):
         (["moon"], "scene must be a scene file or one of glasses, stadium, tabletop; got 'moon'"),
         (["tabletop", "--baseline", "0.1"], "--baseline and --convergence need --eye left, right or both"),
         (["tabletop", "--eye", "up"], "--eye must be one of left, right, both; got 'up'"),
-        (["tabletop", "--depth", "9"], r"max_depth must be an integer in [0, 6]; got 9"),
-        (["tabletop", "--samples", "0"], "samples must be >= 1; got 0"),
+        (["tabletop", "--depth", "9"], r"--depth must be an integer in [0, 6]; got 9"),
+        (["tabletop", "--samples", "0"], "--samples must be >= 1; got 0"),
+        (["tabletop", "--supersample", "0"], "--supersample must be >= 1; got 0"),
+        # issue 9: "expected non-negative integer" without naming the option
+        (["tabletop", "--seed", "-1"], "--seed: must be >= 0 (got -1)"),
+        (["tabletop", "--preview", "sbs"], "--preview needs --eye both (a stereo pair)"),
+        (["glasses", "--eye", "both", "--preview", "mosaic"], "--preview must be one of anaglyph, "),
+        # the sweep: "baseline must be > 0" named the Python parameter; 1e308 printed a numpy overflow warning
+        (["glasses", "--eye", "both", "--baseline", "-1"], "--baseline must be in [1e-06, 1e+06] m (LENGTH_RANGE); got -1"),
+        (["glasses", "--eye", "left", "--baseline", "1e308", "--convergence", "1e-308"],
+         "--baseline must be in [1e-06, 1e+06] m (LENGTH_RANGE); got 1e+308"),
+        (["glasses", "--eye", "right", "--convergence", "nan"], "--convergence must be in [1e-06, 1e+06] m"),
     ],
 )
 def test_render_errors_are_one_line(tmp_path, capsys, args, message):
-    assert main(["render", *args, "--out", str(tmp_path), "--width", "8", "--height", "6"]) == 2
+    assert main(["render", *args, "--out", str(tmp_path / "o"), "--width", "8", "--height", "6"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and message in err
+    assert not (tmp_path / "o").exists()
 
 
 def test_bad_scene_file_is_one_line_exit_2(tmp_path, capsys):
@@ -119,3 +130,84 @@ def test_render_supersampled(tmp_path, capsys):
         assert json.loads(str(npz["settings"]))["supersample"] == 2
     assert main(["render", "tabletop", "--out", str(tmp_path / "x"), *SMALL, "--supersample", "0"]) == 2
     assert "supersample must be >= 1; got 0" in capsys.readouterr().err
+
+
+# Issue 9: a 100,000-level scene JSON was "internal error ... RecursionError" (exit 1); a folder "not found".
+def test_deep_scene_and_folder_scene_are_one_line_exit_2(tmp_path, capsys):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    assert main(["render", str(deep), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nests arrays/objects more than 64 levels deep (MAX_JSON_DEPTH)" in err
+    assert main(["render", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "is a folder; give a scene file (.json)" in err and "not found" not in err
+    assert not (tmp_path / "o").exists()
+
+
+# Issue 9: `--samples 100000000` ran for hours; `--width 1000000 --height 24` grew to 24 GB; `--width 1e20`
+# (as an integer) was a Numba TypingError. Refused from the estimate, before any folder or allocation.
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--samples", "100000000"], "--samples 100000000, --supersample 1 may cast up to 3.07e+13 rays; "
+                                     "the limit is 1e+09 (MAX_RENDER_RAYS)"),
+        (["--width", "1000000", "--height", "24"], "--width must be <= 32768 pixels (MAX_RENDER_SIDE); got 1000000"),
+        (["--width", "100000000000000000000"], "--width must be <= 32768 pixels (MAX_RENDER_SIDE)"),
+        (["--width", "30000", "--height", "30000"], "needs an estimated 1.05e+03 GiB of memory; the limit is 8 GiB "
+                                                    "(MAX_RENDER_BYTES)"),
+        (["--width", "8000", "--height", "8000", "--eye", "both"], "x 2 view(s)"),
+    ],
+)
+def test_render_past_the_limits_is_refused_before_starting(tmp_path, capsys, args, message):
+    import time
+
+    start = time.perf_counter()
+    assert main(["render", "glasses", "--out", str(tmp_path / "o"), *args]) == 2
+    assert time.perf_counter() - start < 5.0  # refused from the estimate, not after tracing
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and message in err, err
+    assert list(tmp_path.iterdir()) == []  # no output folder, no temporary folder
+
+
+def test_render_output_is_all_or_nothing(tmp_path, monkeypatch):
+    import vergence.report.preview as preview
+
+    real = preview.save_render
+
+    def interrupted(result, folder, **kw):  # a Ctrl-C after the first view's files
+        real(result, folder, **kw)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(preview, "save_render", interrupted)
+    assert main(["render", "glasses", "--eye", "both", "--out", str(tmp_path / "o"), *SMALL, "--depth", "0"]) == 130
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "kept").mkdir()
+    (tmp_path / "kept" / "notes.txt").write_text("mine")
+    assert main(["render", "glasses", "--out", str(tmp_path / "kept"), *SMALL, "--depth", "0"]) == 130
+    assert [p.name for p in tmp_path.iterdir()] == ["kept"]
+    assert [p.name for p in (tmp_path / "kept").iterdir()] == ["notes.txt"]
+
+
+# Issue 9: render wrote depth only inside .npz, which synthesize refused: the chain needed Python.
+def test_render_depth_pfm_feeds_synthesize(tmp_path, capsys):
+    from vergence.io import read_pfm
+
+    assert main(["render", "tabletop", "--out", str(tmp_path / "r"), *SMALL, "--depth", "0"]) == 0
+    with np.load(tmp_path / "r" / "render.npz") as npz:
+        np.testing.assert_array_equal(read_pfm(tmp_path / "r" / "render_depth.pfm"), npz["depth"])
+    code = main(["synthesize", str(tmp_path / "r" / "render_beauty.png"), str(tmp_path / "r" / "render_depth.pfm"),
+                 "--out", str(tmp_path / "s"), "--budget-px", "2"])  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    assert read_image(tmp_path / "s" / "left.png").shape == (12, 16, 3)
+
+
+# Issue 9: no anaglyph/SBS preview for --eye both.
+def test_render_both_eyes_preview_layout(tmp_path):
+    assert main(["render", "glasses", "--eye", "both", "--preview", "sbs", "--out", str(tmp_path), *SMALL,
+                 "--depth", "0"]) == 0  # fmt: skip
+    left, right = read_image(tmp_path / "left_beauty.png"), read_image(tmp_path / "right_beauty.png")
+    np.testing.assert_array_equal(read_image(tmp_path / "stereo_sbs.png"), np.concatenate([left, right], axis=1))
+    assert main(["render", "glasses", "--eye", "both", "--preview", "anaglyph", "--out", str(tmp_path), *SMALL,
+                 "--depth", "0"]) == 0  # fmt: skip
+    assert read_image(tmp_path / "stereo_anaglyph.png").shape == (12, 16, 3)

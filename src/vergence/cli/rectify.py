@@ -9,9 +9,6 @@ All five files or none: they are written into a hidden folder beside DIR and mov
 
 from __future__ import annotations
 
-import os
-import shutil
-import uuid
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +17,7 @@ from PIL import Image
 
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
-from vergence.io import cameras_for_images, read_image, write_image, write_json
+from vergence.io import atomic_folder, cameras_for_images, read_cameras, read_image, write_image, write_json
 
 __all__ = ["rectify"]
 
@@ -59,37 +56,6 @@ def _check_sizes(images: list[tuple[str, Path, np.ndarray]], cameras: Path) -> N
             )
 
 
-def _write_all(out: Path, files: dict[str, object]) -> None:
-    """Write every output into a hidden folder beside ``out``, then move them into ``out`` (created if missing).
-
-    On any error or interruption before the moves nothing is left behind, not even an empty ``out``.
-    """
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise FileNotFoundError(f"cannot write {out}: folder {parent} does not exist")
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out} is a file, not a folder")
-    stage = parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
-    stage.mkdir()
-    try:
-        for name, content in files.items():
-            if name.endswith(".json"):
-                write_json(stage / name, content)
-            else:
-                write_image(stage / name, content)
-        created = not out.exists()
-        out.mkdir(exist_ok=True)
-        try:
-            for name in files:
-                os.replace(stage / name, out / name)
-        except BaseException:
-            if created:
-                shutil.rmtree(out, ignore_errors=True)
-            raise
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
-
-
 @app.command("rectify")
 def rectify(
     left: Path = typer.Argument(..., help="Left image; its file name names its camera in the camera file."),
@@ -122,14 +88,23 @@ def rectify(
                 cameras, [(left, (a.shape[1], a.shape[0])), (right, (b.shape[1], b.shape[0]))], image_list=image_list)
         except ValueError as exc:  # the library names its argument; here it is an option
             raise ValueError(str(exc).replace("pass image_list", "pass --image-list")) from exc
+        # What the reader assumed (a Bundler set without list.txt paired with the folder's images)
+        notes = read_cameras(cameras, image_size=(a.shape[1], a.shape[0]), image_list=image_list).notes
+        for note in notes:
+            err_console.print(f"[yellow]note:[/] {note}", highlight=False, soft_wrap=True)
         with options_named(left_image="LEFT", right_image="RIGHT"):
             pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
                                 common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
+        if notes:
+            data["notes"] = list(notes)
         if check:
             data["row_alignment"] = measure_row_alignment(pair.left, pair.right).to_dict()
     images = (pair.left, pair.right, pair.left_valid.astype(np.float32), pair.right_valid.astype(np.float32))
-    _write_all(out, {**dict(zip(_OUTPUTS, images)), _OUTPUTS[-1]: data})
+    with atomic_folder(out) as tmp:  # the five files or none
+        for name, image in zip(_OUTPUTS, images):
+            write_image(tmp / name, image)
+        write_json(tmp / _OUTPUTS[-1], data)
     if as_json:
         print_json(data)
         return

@@ -1,9 +1,13 @@
 """``vergence render``: ray-trace a scene file or a built-in scene into its S3 ray tree (S3 §3.1).
 
 Writes ``render.npz`` (or ``left.npz`` / ``right.npz`` for ``--eye``) with the arrays radiance,
-position, normal (N, H, W, 3), depth (H, W), beauty (H, W, 3); the camera(s) as JSON; PNG previews
-(tone-mapped beauty, depth with a colour bar, contact sheet of the layers). Mitsuba is imported
-only when the command runs.
+position, normal (N, H, W, 3), depth (H, W), beauty (H, W, 3); the depth alone as ``*_depth.pfm``
+(metric, NaN where nothing was hit: ``vergence synthesize *_beauty.png *_depth.pfm`` takes it); the
+camera(s) as JSON; PNG previews (tone-mapped beauty, depth with a colour bar, contact sheet of the
+layers) and, with ``--eye both --preview LAYOUT``, the pair packed for a display
+(:data:`vergence.display.LAYOUTS`). The cost is estimated and checked against the documented limits
+(:mod:`vergence.render.limits`) before anything is traced; the output folder receives all files or
+none. Mitsuba is imported only when the command runs.
 """
 
 from __future__ import annotations
@@ -15,7 +19,8 @@ import numpy as np
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from vergence.cli._app import app, check_output_path, console, err_console
+from vergence.cli._app import app, check_output_path, console, err_console, options_named
+from vergence.viewing import LENGTH_RANGE
 
 __all__ = ["render"]
 
@@ -37,6 +42,10 @@ def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
     h = convergence if convergence is not None else (rig.convergence if rig else None)
     if b is None or h is None:
         raise ValueError("--eye needs --baseline and --convergence (the scene has no \"stereo\" block)")
+    for option, value in (("--baseline", b), ("--convergence", h)):
+        # the rig's lengths as the viewing geometry takes them: the sensor shift fx b / (2H) stays finite
+        if not LENGTH_RANGE[0] <= value <= LENGTH_RANGE[1]:
+            raise ValueError(f"{option} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); got {value:g}")
     return b, h
 
 
@@ -53,19 +62,43 @@ def render(
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
     seed: int | None = typer.Option(None, "--seed", min=0, help="Random AO directions from this seed (default: fixed lattice)."),
     supersample: int = typer.Option(1, "--supersample", help="k: average k x k sub-pixel rays per pixel (anti-aliasing)."),
+    preview: str | None = typer.Option(
+        None, "--preview", metavar="LAYOUT",
+        help="With --eye both: also write the pair packed as LAYOUT (anaglyph, sbs, half-sbs, tb, ...).",
+    ),
 ) -> None:
     """Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; previews."""
     from vergence import render as vr
+    from vergence.display import LAYOUTS, pack
+    from vergence.io import atomic_folder, write_image
+    from vergence.render.limits import render_cost
     from vergence.report.preview import save_render
     from vergence.rigs import stereo_pair
 
-    sc = vr.open_scene(scene, width=width, height=height)
-    rig = _rig(sc, eye, baseline, convergence)
-    out.mkdir(parents=True, exist_ok=True)
-    stems = ["render"] if rig is None else (["left", "right"] if eye == "both" else [eye])
+    if preview is not None and eye != "both":
+        raise ValueError("--preview needs --eye both (a stereo pair)")
+    if preview is not None and preview not in LAYOUTS:
+        raise ValueError(f"--preview must be one of {', '.join(LAYOUTS)}; got {preview!r}")
+    options_cli = {"max_depth": "--depth", "samples": "--samples", "supersample": "--supersample",
+                   "width": "--width", "height": "--height"}  # fmt: skip
+    with options_named(**options_cli):
+        sc = vr.open_scene(scene, width=width, height=height)
+        rig = _rig(sc, eye, baseline, convergence)
+        stems = ["render"] if rig is None else (["left", "right"] if eye == "both" else [eye])
+        if isinstance(depth, bool) or not 0 <= depth <= vr.MAX_DEPTH:
+            raise ValueError(f"max_depth must be an integer in [0, {vr.MAX_DEPTH}]; got {depth}")
+        for name, value in (("samples", samples), ("supersample", supersample)):
+            if value < 1:
+                raise ValueError(f"{name} must be >= 1; got {value}")
+    cost = render_cost(sc.camera.width, sc.camera.height, max_depth=depth, samples=samples, supersample=supersample,
+                       views=len(stems))  # fmt: skip
+    if cost.problem() is not None:
+        raise ValueError(f"{sc.camera.width}x{sc.camera.height} pixels x {len(stems)} view(s) with --depth {depth}, "
+                         f"--samples {samples}, --supersample {supersample} {cost.problem()}: lower --width/--height, "
+                         "--depth, --samples or --supersample")  # fmt: skip
     src = Path(scene)
     for stem in stems:
-        for suffix in (".npz", "_camera.json", "_beauty.png", "_depth.png", "_layers.png"):
+        for suffix in (".npz", "_camera.json", "_beauty.png", "_depth.png", "_depth.pfm", "_layers.png"):
             check_output_path(out / f"{stem}{suffix}", src)
     if sc.environment.note:
         err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
@@ -87,7 +120,13 @@ def render(
             results = [vr.render(sc, camera=pair[0] if eye == "left" else pair[1], progress=report, **options)]
     elapsed = time.perf_counter() - start
     exposure = vr.auto_exposure(results[0].beauty)  # one exposure for both eyes
-    written = [p for stem, res in zip(stems, results) for p in save_render(res, out, stem=stem, exposure=exposure)]
+    with atomic_folder(out) as tmp:  # all files or none, even on Ctrl-C
+        names = [p.name for stem, res in zip(stems, results) for p in save_render(res, tmp, stem=stem, exposure=exposure)]
+        if preview is not None:
+            left, right = (vr.tonemap(res.beauty, exposure=exposure) for res in results)
+            write_image(tmp / f"stereo_{preview}.png", pack(left, right, layout=preview))
+            names.append(f"stereo_{preview}.png")
+    written = [out / n for n in names]
     r = results[0]
     console.print(
         f"rendered {sc.name}: {len(results)} view(s) {r.camera.width}x{r.camera.height}, {r.n_layers} layers "

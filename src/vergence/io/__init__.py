@@ -6,7 +6,7 @@ linear from float files; disparity maps are float32 ``(H, W)`` with NaN for unkn
 :class:`vergence.camera.Camera`s. Conventions: ``docs/conventions.md``.
 """
 
-from vergence.io.atomic import atomic_write, write_json
+from vergence.io.atomic import atomic_folder, atomic_write, write_json
 from vergence.io.bundler import read_bundler, write_bundler
 from vergence.io.camera_set import CameraSet
 from vergence.io.cameras import CAMERA_FORMATS, CameraFormat, cameras_for_images, read_cameras, write_cameras
@@ -15,6 +15,7 @@ from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.depth import DEPTH_KINDS, read_depth
 from vergence.io.disparity import read_disparity, stores_integers, write_disparity
 from vergence.io.images import read_image, write_image
+from vergence.io.jsonfile import MAX_JSON_BYTES, MAX_JSON_DEPTH, read_json
 from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
 from vergence.io.pfm import read_pfm, write_pfm
 
@@ -23,6 +24,9 @@ __all__ = [
     "CameraFormat",
     "CameraSet",
     "DEPTH_KINDS",
+    "MAX_JSON_BYTES",
+    "MAX_JSON_DEPTH",
+    "atomic_folder",
     "atomic_write",
     "cameras_for_images",
     "read_bundler",
@@ -32,6 +36,7 @@ __all__ = [
     "read_depth",
     "read_disparity",
     "read_image",
+    "read_json",
     "read_middlebury_par",
     "read_pfm",
     "stores_integers",

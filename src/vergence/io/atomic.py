@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_write", "write_json"]
+__all__ = ["atomic_folder", "atomic_write", "write_json"]
 
 
 def _output_path(path: object) -> Path:
@@ -81,9 +82,81 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
         if not tmp.is_file():
             raise FileNotFoundError(f"cannot write {out}: the writer created no file")
         os.replace(tmp, out)
+    except OSError as exc:
+        raise _os_error(exc, out, tmp) from None
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+def _os_error(exc: OSError, out: Path, tmp: Path) -> OSError:
+    """``exc`` told about ``out``: one line, the system's reason, no errno and no temporary name."""
+    if str(exc).startswith(f"cannot write {out}"):
+        return exc
+    reason = exc.strerror or str(exc)
+    reason = reason.replace(str(tmp), str(out)).replace(tmp.name, out.name)
+    error = OSError(f"cannot write {out}: {reason}")
+    error.errno = exc.errno
+    return error
+
+
+@contextmanager
+def atomic_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a hidden temporary folder beside ``path``; its files appear in ``path`` only if the block succeeds.
+
+    All or nothing: when the block raises (an error, ``KeyboardInterrupt``), the temporary folder is
+    removed and ``path`` is left as it was; no empty output folder is created. On success a new
+    ``path`` is the temporary folder renamed; an existing one receives each file by ``os.replace``
+    (files of the same names are replaced, others are kept).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output folder. Missing parent folders are created.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary folder to write into (flat: files only).
+
+    Raises
+    ------
+    NotADirectoryError
+        If ``path`` exists and is not a folder.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "out"
+    >>> with atomic_folder(target) as tmp:
+    ...     _ = (tmp / "a.txt").write_text("done")
+    >>> sorted(p.name for p in target.iterdir())
+    ['a.txt']
+    """
+    if not isinstance(path, str | os.PathLike):
+        raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"cannot write into {out}: it exists and is not a folder")
+    tmp = out.absolute().parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
+    try:
+        out.absolute().parent.mkdir(parents=True, exist_ok=True)
+        tmp.mkdir()
+    except OSError as exc:  # a parent that is a file, a read-only file system, no permission
+        raise OSError(f"cannot create the output folder {out}: {exc.strerror or exc}") from None
+    try:
+        yield tmp
+        try:
+            if not out.exists():
+                os.rename(tmp, out)
+            else:
+                for f in sorted(tmp.iterdir()):
+                    os.replace(f, out / f.name)
+        except OSError as exc:
+            raise OSError(f"cannot write into {out}: {exc.strerror or exc}") from None
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def _json_default(obj: object) -> Any:

@@ -43,11 +43,32 @@ _FLIP_YZ = np.diag([1.0, -1.0, -1.0])
 _PIXEL_TOL = 1e-6
 
 
-def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], list[Path] | None]:
+# Bundler's RunBundler.sh lists the images with `ls -1 *.jpg` (sorted by name): without a list.txt
+# the cameras are paired with these, in that order.
+_BUNDLER_IMAGE_SUFFIXES = (".jpg", ".jpeg")
+
+
+def _folder_images(p: Path, count: int) -> tuple[list[Path], str] | None:
+    """The sorted JPEG images of the bundle's folder or its parent, when there are exactly ``count``."""
+    for folder in (p.parent, p.parent.parent):
+        images = sorted((q for q in folder.iterdir() if q.suffix.lower() in _BUNDLER_IMAGE_SUFFIXES and q.is_file()),
+                        key=lambda q: q.name)  # fmt: skip
+        if images and len(images) == count:
+            note = (f"{p.name} has no list.txt: its {count} cameras were paired with the {count} JPEG images of "
+                    f"{folder} in sorted name order ({images[0].name} .. {images[-1].name}), as Bundler lists them; "
+                    "give a list.txt if the order differs")  # fmt: skip
+            return images, note
+    return None
+
+
+def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], list[Path] | None, tuple[str, ...]]:
     if image_list is None:
         found = [c for c in (p.parent / "list.txt", p.parent.parent / "list.txt") if c.is_file()]
         if not found:
-            return [str(i) for i in range(count)], None
+            images = _folder_images(p, count) if count else None
+            if images is None:
+                return [str(i) for i in range(count)], None, ()
+            return [q.name for q in images[0]], images[0], (images[1],)
         image_list = found[0]
     if isinstance(image_list, str | os.PathLike):
         lp = input_path(image_list)
@@ -60,7 +81,7 @@ def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], 
         raise TypeError(f"image_list must be a path to list.txt or a sequence of names; got {type(image_list).__name__}")
     if len(entries) != count:
         raise ValueError(f"image_list must name one image per camera ({count}); got {len(entries)}")
-    return [Path(e).name for e in entries], paths
+    return [Path(e).name for e in entries], paths, ()
 
 
 def read_bundler(
@@ -79,8 +100,11 @@ def read_bundler(
         Shared image size. Without it, sizes are read from the images of ``image_list``.
     image_list : path or sequence of str, optional
         Bundler's ``list.txt`` (one image per camera, in order) or the names themselves; by default
-        a ``list.txt`` beside the bundle or in its parent folder. Without one, cameras are named
-        ``"0"``, ``"1"``, ... and ``image_size`` is required.
+        a ``list.txt`` beside the bundle or in its parent folder. Without one, the cameras are
+        paired with the JPEG images of the bundle's folder (or else its parent) in sorted name
+        order, as Bundler's ``RunBundler.sh`` lists them, when their number matches; the
+        returned set's ``notes`` says so. Otherwise cameras are named ``"0"``, ``"1"``, ... and
+        ``image_size`` is required.
 
     Returns
     -------
@@ -109,7 +133,7 @@ def read_bundler(
 
     cams_read, pts_read = take(2, "the camera and point counts")
     n_cams, n_pts = _count(cams_read, "cameras", p), _count(pts_read, "points", p)
-    names, paths = _bundler_names(p, n_cams, image_list)
+    names, paths, notes = _bundler_names(p, n_cams, image_list)
     if image_size is not None:
         sizes = [_check_size(image_size)] * n_cams
     elif paths is not None:
@@ -142,7 +166,7 @@ def read_bundler(
             obs.append((j, int(cam_i), int(key)))
             pix.append((xb + (w - 1) / 2.0, (h - 1) / 2.0 - yb))
     return CameraSet(names=tuple(names), cameras=tuple(cams), distortion=dist, points=pts, colors=cols,
-                     observations=np.array(obs, np.int64).reshape(-1, 3), observation_pixels=np.array(pix).reshape(-1, 2))
+                     observations=np.array(obs, np.int64).reshape(-1, 3), observation_pixels=np.array(pix).reshape(-1, 2), notes=notes)
 
 
 def write_bundler(path: str | os.PathLike[str], cameras: CameraSet) -> None:

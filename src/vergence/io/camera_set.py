@@ -60,6 +60,9 @@ class CameraSet:
         ``(point, camera, feature)`` for each observation of a point in an image.
     observation_pixels : (M, 2) array, optional
         The observed (x, y) in our pixel convention (distorted, as measured).
+    notes : tuple of str, optional
+        What the reader assumed that the file did not say, in words (e.g. that Bundler cameras
+        were paired with the sorted image names of a folder); shown to the user by the CLI.
     """
 
     names: tuple[str, ...]
@@ -69,8 +72,12 @@ class CameraSet:
     colors: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.uint8))
     observations: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int64))
     observation_pixels: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        if isinstance(self.notes, str) or not all(isinstance(n, str) for n in self.notes):
+            raise TypeError(f"notes must be a tuple of str; got {self.notes!r}")
+        object.__setattr__(self, "notes", tuple(self.notes))
         names, cams = tuple(self.names), tuple(self.cameras)
         if len(names) != len(cams):
             raise ValueError(f"names must have one entry per camera ({len(cams)}); got {len(names)}")
@@ -125,8 +132,9 @@ class CameraSet:
 
 # ---------------------------------------------------------------------------------------- helpers
 def _text_lines(path: Path) -> list[str]:
+    """The lines of a UTF-8 text file; a byte-order mark and CRLF or CR line ends are accepted."""
     try:
-        return read_bytes(path).decode("utf-8").splitlines()
+        return read_bytes(path).decode("utf-8-sig").splitlines()
     except UnicodeDecodeError as exc:
         raise ValueError(f"cannot read {path}: not a UTF-8 text file") from exc
 

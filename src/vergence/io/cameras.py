@@ -42,6 +42,9 @@ class CameraFormat:
         ``claims(path) -> bool``: whether a file or folder name is in this format.
     pattern : str
         The file names it claims, in words, for error messages.
+    sniff : callable, optional
+        ``sniff(head) -> bool``: whether a file whose name no format claims is in this format,
+        from its first lines (text, at most ``_SNIFF_BYTES``).
     """
 
     read: Callable[..., CameraSet]
@@ -49,18 +52,38 @@ class CameraFormat:
     options: tuple[str, ...]
     claims: Callable[[Path], bool]
     pattern: str
+    sniff: Callable[[str], bool] | None = None
+
+
+# Bytes read to recognise a camera file by its content: a Middlebury header and first camera line
+# (22 numbers) or the Bundler and JSON headers fit many times over.
+_SNIFF_BYTES = 4096
+
+
+def _looks_middlebury(head: str) -> bool:
+    """A count alone on the first line, then ``name`` and 21 numbers (Seitz et al. 2006's layout)."""
+    lines = [ln.split() for ln in head.splitlines() if ln.strip()]
+    if len(lines) < 2 or len(lines[0]) != 1 or not lines[0][0].isdigit() or len(lines[1]) != 22:
+        return False
+    try:
+        [float(v) for v in lines[1][1:]]
+    except ValueError:
+        return False
+    return True
 
 
 CAMERA_FORMATS: MappingProxyType[str, CameraFormat] = MappingProxyType({
     "middlebury": CameraFormat(read_middlebury_par, write_middlebury_par, ("image_size",),
-                               lambda p: p.name.lower().endswith("_par.txt"), "*_par.txt"),
+                               lambda p: p.name.lower().endswith("_par.txt"), "*_par.txt", _looks_middlebury),
     "bundler": CameraFormat(read_bundler, write_bundler, ("image_size", "image_list"),
-                            lambda p: p.name.lower().endswith(".out"), "*.out"),
+                            lambda p: p.name.lower().endswith(".out"), "*.out",
+                            lambda head: head.startswith("# Bundle file v0.3")),
     "colmap": CameraFormat(read_colmap, write_colmap, (),
                            lambda p: p.is_dir() or p.name.lower() in ("cameras.txt", "images.txt"),
                            "cameras.txt/images.txt or their folder"),
     "json": CameraFormat(read_cameras_json, write_cameras_json, (),
-                         lambda p: p.name.lower().endswith(".json"), "*.json"),
+                         lambda p: p.name.lower().endswith(".json"), "*.json",
+                         lambda head: head.lstrip().startswith("{") and '"vergence-cameras"' in head),
 })
 """Format name -> :class:`CameraFormat`, read-only."""
 
@@ -76,8 +99,17 @@ def _format_of(path: object, format: str | None) -> tuple[Path, CameraFormat]:
     for fmt in CAMERA_FORMATS.values():
         if fmt.claims(p):
             return p, fmt
+    if p.is_file():  # a name no format claims: recognise the content
+        try:
+            with open(p, "rb") as fh:
+                head = fh.read(_SNIFF_BYTES).decode("utf-8-sig", errors="replace")
+        except OSError as exc:
+            raise OSError(f"cannot read {p}: {exc.strerror or exc}") from None
+        for fmt in CAMERA_FORMATS.values():
+            if fmt.sniff is not None and fmt.sniff(head):
+                return p, fmt
     known = ", ".join(f"{f.pattern} ({name})" for name, f in CAMERA_FORMATS.items())
-    raise ValueError(f"camera file {p.name!r} has no known format; expected {known}")
+    raise ValueError(f"camera file {p.name!r} has no known format by its name or content; expected {known}")
 
 
 def read_cameras(
@@ -90,7 +122,9 @@ def read_cameras(
     """Read any supported camera file, in the format named or the one its name implies.
 
     ``*_par.txt`` -> Middlebury, ``*.out`` -> Bundler, ``*.json`` -> ours, a folder or
-    ``cameras.txt``/``images.txt`` -> COLMAP (:data:`CAMERA_FORMATS`). ``image_size`` applies to
+    ``cameras.txt``/``images.txt`` -> COLMAP (:data:`CAMERA_FORMATS`); a file whose name no format
+    claims is recognised by its first lines (a Middlebury count and camera line, Bundler's header,
+    our JSON's ``"vergence-cameras"``). ``image_size`` applies to
     Middlebury and Bundler, ``image_list`` to Bundler only; the other readers ignore them.
 
     Raises
@@ -159,7 +193,8 @@ def cameras_for_images(
         key = Path(os.fspath(name)).name
         if (image_list is None and fmt is CAMERA_FORMATS["bundler"] and key not in cams.names
                 and cams.names == tuple(str(i) for i in range(len(cams)))):
-            raise ValueError(f"{p.name} does not name its images and no list.txt was found beside it; "
+            raise ValueError(f"{p.name} does not name its images: no list.txt was found beside it and its folder "
+                             "does not hold one JPEG image per camera; "
                              "pass image_list (Bundler's list.txt)")
         out.append((cams.camera(key), cams.distortion[cams.index(key)]))
     return out

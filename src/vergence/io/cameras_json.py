@@ -6,15 +6,15 @@ the :class:`~vergence.io.camera_set.CameraSet` holds them, so a round trip is ex
 
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.io._files import input_path, read_bytes
+from vergence.io._files import input_path
 from vergence.io.atomic import write_json
 from vergence.io.camera_set import CameraSet, _check_set
+from vergence.io.jsonfile import read_json
 
 __all__ = ["read_cameras_json", "write_cameras_json"]
 
@@ -32,10 +32,7 @@ def write_cameras_json(path: str | os.PathLike[str], cameras: CameraSet) -> None
 def read_cameras_json(path: str | os.PathLike[str]) -> CameraSet:
     """Read a file written by :func:`write_cameras_json`."""
     p = input_path(path)
-    try:
-        data = json.loads(read_bytes(p).decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"cannot read {p}: not valid JSON ({exc})") from exc
+    data = read_json(p, what="camera file")
     if not isinstance(data, dict) or data.get("format") != "vergence-cameras" or not isinstance(data.get("cameras"), list):
         raise ValueError(f"{p} is not a vergence camera file (format 'vergence-cameras' with a 'cameras' list)")
     names, cams, dists = [], [], []

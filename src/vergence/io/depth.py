@@ -30,6 +30,10 @@ DEPTH_KINDS = MappingProxyType(
     }
 )
 
+# The files a depth map can be read from: those of the disparity maps (read_disparity).
+_DEPTH_SUFFIXES = (".pfm", ".npy", ".png", ".pgm")
+
+
 def _pfm_magic(path: Path) -> bytes:
     """The first two bytes of a PFM file: ``PF`` (colour) or ``Pf`` (grey)."""
     try:
@@ -79,6 +83,10 @@ def read_depth(path: str | os.PathLike[str], *, kind: str = "metric", scale: flo
     if scale is not None:
         check_positive("scale", scale)
     p = input_path(path)
+    if p.suffix.lower() not in _DEPTH_SUFFIXES:
+        hint = " (a vergence render writes its depth as *_depth.pfm beside the .npz)" if p.suffix.lower() == ".npz" else ""
+        raise ValueError(f"cannot read depth {p}: unknown depth-map extension {p.suffix!r}; expected one of "
+                         f"{', '.join(_DEPTH_SUFFIXES)}{hint}")  # fmt: skip
     integer = stores_integers(p)  # a scale turns their values into the map's unit, 0 = unknown
     if suffix_of(p) == ".pfm" and _pfm_magic(p) == b"PF":
         # A colour PFM is an image, not a depth map (read_disparity would take equal channels as grey).

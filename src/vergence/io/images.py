@@ -21,6 +21,10 @@ from __future__ import annotations
 import io
 import os
 import re
+import sys
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import cv2
@@ -126,15 +130,49 @@ def _check_declared_size(data: bytes, suffix: str, path: Path) -> None:
         )
 
 
-def _imdecode(data: bytes) -> np.ndarray | None:
-    """``cv2.imdecode`` with OpenCV's own logging silenced: a corrupt file is reported once, by our
-    ValueError, not also by OpenCV's warning lines on stderr. The previous log level is restored."""
+@contextmanager
+def _codec_messages() -> Iterator[list[str]]:
+    """Collect what C codecs print on file descriptor 2 (libpng's "libpng error: IDAT: CRC error")
+    instead of letting it reach the user's terminal; the lines are available after the block.
+
+    OpenCV's own logging is silenced too. If descriptor 2 cannot be duplicated, nothing is collected.
+    """
+    lines: list[str] = []
     level = cv2.utils.logging.getLogLevel()
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     try:
-        return cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):
+        saved = None
+    try:
+        if saved is None:
+            yield lines
+            return
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield lines
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                sink.seek(0)
+                text = sink.read().decode("utf-8", errors="replace")
+                lines.extend(ln.removeprefix("libpng error: ").removeprefix("libpng warning: ")
+                             for ln in text.splitlines() if ln.strip())  # fmt: skip
     finally:
         cv2.utils.logging.setLogLevel(level)
+
+
+def _imdecode(data: bytes, path: Path, what: str) -> np.ndarray:
+    """``cv2.imdecode``; a corrupt file is reported once, by our ValueError naming the codec's reason,
+    not also by libpng's or OpenCV's own lines on stderr."""
+    with _codec_messages() as messages:
+        arr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if arr is None:
+        reason = f" ({'; '.join(messages)})" if messages else ""
+        raise ValueError(f"cannot read {path}: {what} data is corrupt or truncated{reason}")
+    return arr
 
 
 def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
@@ -145,9 +183,7 @@ def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
         raise ValueError(f"cannot read {path}: PNG file is truncated (no IEND chunk)")
     _check_declared_size(data, ".png", path)
     colour_type = data[25] if len(data) > 25 else -1
-    arr = _imdecode(data)
-    if arr is None:
-        raise ValueError(f"cannot read {path}: PNG data is corrupt or truncated")
+    arr = _imdecode(data, path, "PNG")
     if arr.ndim == 3 and arr.shape[2] == 4:
         arr = _drop_opaque_alpha(arr, path)
     if arr.ndim == 3:
@@ -178,8 +214,8 @@ def _decode_hdr(data: bytes, path: Path) -> np.ndarray:
     if not data.startswith((b"#?RADIANCE", b"#?RGBE")):
         raise ValueError(f"cannot read {path}: not a Radiance HDR file (expected a '#?RADIANCE' header)")
     _check_declared_size(data, ".hdr", path)
-    arr = _imdecode(data)
-    if arr is None or arr.ndim != 3 or arr.dtype != np.float32:
+    arr = _imdecode(data, path, "Radiance HDR")
+    if arr.ndim != 3 or arr.dtype != np.float32:
         raise ValueError(f"cannot read {path}: Radiance HDR data is corrupt or truncated")
     return np.ascontiguousarray(arr[:, :, ::-1])  # BGR -> RGB
 
@@ -420,7 +456,12 @@ def _bgr(samples: np.ndarray) -> np.ndarray:
 
 
 def _encode(ext: str, arr: np.ndarray, params: list[int], path: Path) -> bytes:
-    ok, buf = cv2.imencode(ext, arr, params)
-    if not ok:  # pragma: no cover - OpenCV reports failure for unsupported layouts only
-        raise OSError(f"cannot write {path}: OpenCV could not encode {ext}")
+    try:
+        with _codec_messages() as messages:
+            ok, buf = cv2.imencode(ext, arr, params)
+    except cv2.error:
+        ok = False
+    if not ok:
+        reason = f" ({'; '.join(messages)})" if messages else ""
+        raise ValueError(f"cannot write {path}: the {ext} encoder refused a {arr.shape[1]} x {arr.shape[0]} image{reason}")
     return buf.tobytes()

@@ -17,6 +17,7 @@ from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
 from vergence.render.lenses import FisheyeCamera
 from vergence.render.disparity import screen_disparity
 from vergence.render.intersect import Hits, Intersector
+from vergence.render.limits import MAX_RENDER_BYTES, MAX_RENDER_RAYS, MAX_RENDER_SIDE, RenderCost, render_cost
 from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays, subpixel_rays
 from vergence.render.raytree import MAX_DEPTH, Tracer, render, render_stereo
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
@@ -25,6 +26,9 @@ from vergence.render.scene import (
     Diffuse,
     Environment,
     Glass,
+    IOR_RANGE,
+    MAX_RADIANCE,
+    MAX_SCENE_EXTENT,
     Mesh,
     Mirror,
     Rectangle,
@@ -49,14 +53,21 @@ __all__ = [
     "FisheyeCamera",
     "Glass",
     "Hits",
+    "IOR_RANGE",
     "Intersector",
     "MAX_DEPTH",
+    "MAX_RADIANCE",
+    "MAX_RENDER_BYTES",
+    "MAX_RENDER_RAYS",
+    "MAX_RENDER_SIDE",
+    "MAX_SCENE_EXTENT",
     "Mesh",
     "Mirror",
     "RAY_GENERATORS",
     "RayBatch",
     "RayTree",
     "Rectangle",
+    "RenderCost",
     "RenderResult",
     "RenderSettings",
     "Scene",
@@ -74,6 +85,7 @@ __all__ = [
     "load_scene",
     "open_scene",
     "render",
+    "render_cost",
     "render_stereo",
     "scene_from_dict",
     "schlick",

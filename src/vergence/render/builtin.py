@@ -187,6 +187,9 @@ def open_scene(spec: str | Path, *, width: int | None = None, height: int | None
     scene camera's aspect ratio (:meth:`SceneCamera.resized`).
     """
     path = Path(spec)
+    if path.is_dir():
+        raise IsADirectoryError(f"scene {path} is a folder; give a scene file (.json) or one of "
+                                f"{', '.join(BUILTIN_SCENES)}")  # fmt: skip
     if path.is_file():
         scene = load_scene(path)
     elif str(spec) in BUILTIN_SCENES:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence._validate import as_float_array
 from vergence.render import surfaces
 from vergence.render._mitsuba import Caster
 from vergence.render.scene import Scene
@@ -48,6 +49,10 @@ class Intersector:
     """
 
     def __init__(self, scene: Scene, packed: surfaces.PackedScene | None = None) -> None:
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
+        if packed is not None and not isinstance(packed, surfaces.PackedScene):
+            raise TypeError(f"packed must be a PackedScene or None; got {type(packed).__name__}")
         self.packed = surfaces.pack_scene(scene) if packed is None else packed
         self.caster = Caster(self.packed.shapes)
 
@@ -66,6 +71,14 @@ class Intersector:
         off the surface a secondary ray leaves); the refinement starts from the exact ``origins``.
         With ``tmax`` ``(M,)``, a hit whose float64 distance exceeds ``tmax`` is not a hit.
         """
+        origins = as_float_array("origins", origins, shape=(None, 3))
+        directions = as_float_array("directions", directions, shape=(len(origins), 3))
+        if cast_from is not None:
+            cast_from = as_float_array("cast_from", cast_from, shape=(len(origins), 3))
+        if tmax is not None:  # inf allowed: an unbounded ray
+            tmax = np.asarray(tmax, dtype=np.float64)
+            if tmax.shape != (len(origins),) or np.isnan(tmax).any():
+                raise ValueError(f"tmax must have shape ({len(origins)},) without NaN; got {tmax.shape}")
         obj, prim, t32 = self.caster.intersect(origins if cast_from is None else cast_from, directions, tmax)
         rays = np.flatnonzero(obj >= 0)
         obj, prim = obj[rays], prim[rays]

@@ -37,6 +37,7 @@ from vergence.camera import Camera
 from vergence.render import _kernels, surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
+from vergence.render.limits import MAX_RENDER_SIDE, render_cost
 from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
 from vergence.render.scene import Scene
@@ -174,6 +175,9 @@ class Tracer:
         out_shape = lead if shape is None else tuple(int(v) for v in shape)
         if int(np.prod(out_shape, dtype=np.int64)) != n or any(v < 0 for v in out_shape):
             raise ValueError(f"shape must hold the {n} rays; got {shape!r}")
+        problem = render_cost(n, 1, max_depth=max_depth, samples=samples).problem()
+        if problem is not None:
+            raise ValueError(f"tracing {n:,} rays with max_depth {max_depth}, samples {samples} {problem}")
         bound = None
         if tmax is not None:
             try:
@@ -216,6 +220,7 @@ class Tracer:
         """
         n = 2 ** (max_depth + 1) - 1
         k2 = supersample * supersample
+        _check_cost(cameras, max_depth=max_depth, samples=samples, supersample=supersample)
         try:
             batches = [self.rays(c) for c in cameras]
             sizes = [c.height * c.width for c in cameras]
@@ -327,6 +332,20 @@ class Tracer:
         if progress is not None:
             progress(1.0, "done")
         return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays)
+
+
+def _check_cost(cameras, *, max_depth, samples, supersample) -> None:  # noqa: ANN001
+    """Refuse a render past MAX_RENDER_SIDE, MAX_RENDER_BYTES or MAX_RENDER_RAYS before allocating."""
+    c = cameras[0]
+    side = max(max(cam.width, cam.height) for cam in cameras)
+    if side > MAX_RENDER_SIDE:
+        raise ValueError(f"camera width and height must be <= {MAX_RENDER_SIDE} pixels (MAX_RENDER_SIDE); "
+                         f"got {c.width}x{c.height}")  # fmt: skip
+    trees = sum(cam.width * cam.height for cam in cameras)
+    problem = render_cost(trees, 1, max_depth=max_depth, samples=samples, supersample=supersample).problem()
+    if problem is not None:
+        raise ValueError(f"a render of {len(cameras)} view(s) of {c.width}x{c.height} pixels with max_depth "
+                         f"{max_depth}, samples {samples}, supersample {supersample} {problem}")  # fmt: skip
 
 
 def _check_supersample(supersample, cameras) -> int:  # noqa: ANN001

@@ -55,6 +55,15 @@ class RenderSettings:
         return {k: getattr(self, k) for k in self.__slots__}
 
 
+def _check_types(result: object, arrays: tuple[str, ...]) -> None:
+    """The settings a RenderSettings and the named fields numpy arrays (TypeError otherwise)."""
+    if not isinstance(result.settings, RenderSettings):
+        raise TypeError(f"settings must be a RenderSettings; got {type(result.settings).__name__}")
+    for name in arrays:
+        if not isinstance(getattr(result, name), np.ndarray):
+            raise TypeError(f"{name} must be a numpy array; got {type(getattr(result, name)).__name__}")
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class RenderResult:
     """The ray tree of one view (S3 §3.1). Arrays are read-only.
@@ -84,6 +93,9 @@ class RenderResult:
     settings: RenderSettings
 
     def __post_init__(self) -> None:
+        _check_types(self, ("radiance", "position", "normal", "depth", "beauty"))
+        if not isinstance(self.camera, Camera | FisheyeCamera):
+            raise TypeError(f"camera must be a Camera or a FisheyeCamera; got {type(self.camera).__name__}")
         n = 2 ** (self.settings.max_depth + 1) - 1
         shape = (n, self.camera.height, self.camera.width, 3)
         for name in ("radiance", "position", "normal"):
@@ -136,6 +148,15 @@ class RayTree:
     settings: RenderSettings
 
     def __post_init__(self) -> None:
+        _check_types(self, ("radiance", "position", "normal", "distance", "hit", "beauty"))
+        n = self.radiance.shape[0] if self.radiance.ndim else 0
+        shape = (n, *self.hit.shape, 3)
+        if self.radiance.ndim < 2 or self.radiance.shape != shape:
+            raise ValueError(f"radiance must have shape (N, *hit.shape, 3) = {shape}; got {self.radiance.shape}")
+        for name, want in (("position", shape), ("normal", shape), ("distance", self.hit.shape),
+                           ("beauty", shape[1:])):  # fmt: skip
+            if getattr(self, name).shape != want:
+                raise ValueError(f"{name} must have shape {want}; got {getattr(self, name).shape}")
         for name in ("radiance", "position", "normal", "distance", "hit", "beauty"):
             view = getattr(self, name).view()
             view.flags.writeable = False

@@ -15,13 +15,17 @@ import numpy as np
 from vergence import camera as _camera
 from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
 from vergence.render.lenses import FisheyeCamera
+from vergence.render.limits import MAX_RENDER_SIDE
 
 __all__ = [
     "Checker",
     "Diffuse",
     "Environment",
     "Glass",
+    "IOR_RANGE",
     "LENSES",
+    "MAX_RADIANCE",
+    "MAX_SCENE_EXTENT",
     "Mesh",
     "Mirror",
     "Rectangle",
@@ -34,6 +38,21 @@ __all__ = [
 
 LENSES = ("fisheye", "pinhole")
 
+#: Largest |coordinate| of any scene point (object centres and extents, mesh vertices, the
+#: camera), metres: 100 km. Mitsuba casts in float32, whose spacing at 1e5 m is 8 mm; the built-in
+#: scenes span under 100 m. Beyond, first hits lose the precision the refinement starts from.
+MAX_SCENE_EXTENT = 1e5
+
+#: Largest radiance an environment can send (colour or HDR map value, times ``intensity``): 1e7,
+#: a hundred times the sun's disc in the brightest shared HDR map (quarry_01: 8.7e4). Keeps the
+#: float32 sums of up to 127 weighted layers far from overflow.
+MAX_RADIANCE = 1e7
+
+#: Refractive indices a :class:`Glass` may have, [1, 4]: air (1) to germanium (4.0, the highest of
+#: common optical materials; diamond is 2.42). Schlick's approximation (Schlick 1994) is fitted on
+#: dielectrics in this range.
+IOR_RANGE = (1.0, 4.0)
+
 
 def _ro(arr: np.ndarray, dtype: type = np.float64) -> np.ndarray:
     out = np.array(arr, dtype=dtype, copy=True)
@@ -42,7 +61,16 @@ def _ro(arr: np.ndarray, dtype: type = np.float64) -> np.ndarray:
 
 
 def _vec3(name: str, value: object) -> np.ndarray:
-    return _ro(as_float_array(name, value, shape=(3,)))
+    return _ro(_within_extent(name, as_float_array(name, value, shape=(3,))))
+
+
+def _within_extent(name: str, points: np.ndarray, reach: float = 0.0) -> np.ndarray:
+    """``points`` (with ``reach`` around them), refused past MAX_SCENE_EXTENT metres from the origin."""
+    far = float(np.abs(points).max(initial=0.0)) + reach
+    if far > MAX_SCENE_EXTENT:
+        raise ValueError(f"{name} must lie within {MAX_SCENE_EXTENT:g} m of the origin (MAX_SCENE_EXTENT); "
+                         f"reaches {far:g} m")  # fmt: skip
+    return points
 
 
 def _unit(name: str, value: object) -> np.ndarray:
@@ -96,6 +124,9 @@ class SceneCamera:
         object.__setattr__(self, "up", _vec3("up", self.up))
         object.__setattr__(self, "width", check_positive_int("width", self.width))
         object.__setattr__(self, "height", check_positive_int("height", self.height))
+        for name in ("width", "height"):
+            if getattr(self, name) > MAX_RENDER_SIDE:
+                raise ValueError(f"{name} must be <= {MAX_RENDER_SIDE} pixels (MAX_RENDER_SIDE); got {getattr(self, name)}")
         if self.lens not in LENSES:
             raise ValueError(f"lens must be one of {', '.join(LENSES)}; got {self.lens!r}")
         if self.principal_point is not None:
@@ -167,6 +198,10 @@ class Environment:
         intensity = check_finite("intensity", self.intensity)
         if intensity < 0.0:
             raise ValueError(f"intensity must be >= 0; got {intensity:g}")
+        peak = float((self.color if self.image is None else self.image).max()) * intensity
+        if peak > MAX_RADIANCE:
+            raise ValueError(f"{'color' if self.image is None else 'image'} x intensity must be <= {MAX_RADIANCE:g} "
+                             f"(MAX_RADIANCE); got {peak:g}")  # fmt: skip
         object.__setattr__(self, "intensity", intensity)
         object.__setattr__(self, "rotation_deg", check_finite("rotation_deg", self.rotation_deg))
 
@@ -248,7 +283,10 @@ class Glass:
     color: np.ndarray = (1.0, 1.0, 1.0)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "ior", check_positive("ior", self.ior))
+        ior = check_positive("ior", self.ior)
+        if not IOR_RANGE[0] <= ior <= IOR_RANGE[1]:
+            raise ValueError(f"ior must be in [{IOR_RANGE[0]:g}, {IOR_RANGE[1]:g}] (IOR_RANGE); got {ior:g}")
+        object.__setattr__(self, "ior", ior)
         object.__setattr__(self, "color", _color("color", self.color))
 
 
@@ -268,6 +306,7 @@ class Sphere:
     def __post_init__(self) -> None:
         object.__setattr__(self, "center", _vec3("center", self.center))
         object.__setattr__(self, "radius", check_positive("radius", self.radius))
+        _within_extent("sphere", self.center, self.radius)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -294,6 +333,7 @@ class Rectangle:
         object.__setattr__(self, "up", _ro(up / np.linalg.norm(up)))
         s = as_float_array("size", self.size, shape=(2,))
         object.__setattr__(self, "size", (check_positive("size[0]", s[0]), check_positive("size[1]", s[1])))
+        _within_extent("rectangle", self.center, 0.5 * float(np.hypot(*self.size)))
 
     @property
     def right(self) -> np.ndarray:
@@ -323,7 +363,7 @@ class Mesh:
             raise ValueError(f"faces must be a non-empty (F, 3) integer array; got {f.shape} {f.dtype}")
         if f.min() < 0 or f.max() >= len(v):
             raise ValueError(f"faces must index vertices 0..{len(v) - 1}; got {f.min()}..{f.max()}")
-        object.__setattr__(self, "vertices", _ro(v))
+        object.__setattr__(self, "vertices", _ro(_within_extent("vertices", v)))
         object.__setattr__(self, "faces", _ro(f, np.int64))
         if self.normals is not None:
             n = as_float_array("normals", self.normals, shape=(len(v), 3))

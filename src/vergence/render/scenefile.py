@@ -7,7 +7,6 @@ meshes, ``.hdr`` maps) resolve against the scene file's folder.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -187,18 +186,19 @@ def scene_from_dict(data: object, *, base_dir: str | Path | None = None, name: s
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read a JSON scene file (``docs/scenes.md``); errors name the file and the bad entry."""
+    """Read a JSON scene file (``docs/scenes.md``); errors name the file and the bad entry.
+
+    The file's size and nesting are checked before parsing (:func:`vergence.io.read_json`:
+    ``MAX_JSON_BYTES``, ``MAX_JSON_DEPTH``).
+    """
+    from vergence.io import read_json
+
     p = Path(path)
     if p.is_dir():
-        raise IsADirectoryError(f"{p} is a folder, not a scene file")
+        raise IsADirectoryError(f"scene {p} is a folder; give a scene file (.json)")
     if not p.is_file():
         raise FileNotFoundError(f"scene file not found: {p}")
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"scene file {p} is not valid JSON: {exc}") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"scene file {p} is not UTF-8 text") from None
+    data = read_json(p, what="scene file")
     try:
         return scene_from_dict(data, base_dir=p.parent, name=p.stem)
     except (ValueError, TypeError, OSError) as exc:  # OSError: a missing texture, mesh or .hdr file

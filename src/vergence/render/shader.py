@@ -98,6 +98,12 @@ class WhittedShader:
 
     def __init__(self, scene: Scene, packed: surfaces.PackedScene | None = None, caster: Caster | None = None,
                  *, ao_pattern: str = "lattice") -> None:  # fmt: skip
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
+        if packed is not None and not isinstance(packed, surfaces.PackedScene):
+            raise TypeError(f"packed must be a PackedScene or None; got {type(packed).__name__}")
+        if caster is not None and not isinstance(caster, Caster):
+            raise TypeError(f"caster must be a Caster or None; got {type(caster).__name__}")
         if ao_pattern not in AO_PATTERNS:
             raise ValueError(f"ao_pattern must be one of {', '.join(AO_PATTERNS)}; got {ao_pattern!r}")
         self.ao_pattern = ao_pattern

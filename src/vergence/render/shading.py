@@ -23,6 +23,7 @@ import math
 import cv2
 import numpy as np
 
+from vergence._validate import as_float_array
 from vergence.render.scene import Environment
 
 __all__ = ["Lighting", "ao_directions", "ao_lattice", "reflect", "refract", "schlick"]
@@ -55,9 +56,17 @@ def schlick(cos_i: np.ndarray | float, n1: np.ndarray | float, n2: np.ndarray | 
     >>> round(float(schlick(1.0, 1.0, 1.5)), 12)  # normal incidence on glass: R0 = 0.04
     0.04
     """
-    cos_i = np.asarray(cos_i, dtype=np.float64)
-    n1 = np.asarray(n1, dtype=np.float64)
-    n2 = np.asarray(n2, dtype=np.float64)
+    cos_i = as_float_array("cos_i", cos_i)
+    n1, n2 = as_float_array("n1", n1), as_float_array("n2", n2)
+    if cos_i.size and (cos_i.min() < 0.0 or cos_i.max() > 1.0):
+        raise ValueError(f"cos_i must be in [0, 1]; got {cos_i.min():g}..{cos_i.max():g}")
+    for name, n in (("n1", n1), ("n2", n2)):
+        if n.size and n.min() <= 0.0:
+            raise ValueError(f"{name} must be > 0; got min {n.min():g}")
+    try:
+        np.broadcast_shapes(cos_i.shape, n1.shape, n2.shape)
+    except ValueError:
+        raise ValueError(f"cos_i, n1 and n2 must broadcast together; got {cos_i.shape}, {n1.shape}, {n2.shape}") from None
     r0 = ((n1 - n2) / (n1 + n2)) ** 2  # Schlick 1994
     sin2_t = (n1 / n2) ** 2 * (1.0 - cos_i**2)
     tir = (n1 > n2) & (sin2_t > 1.0)

@@ -20,6 +20,12 @@ from vergence.render.tonemap import auto_exposure, tonemap
 
 __all__ = ["contact_sheet", "depth_preview", "save_render"]
 
+
+def _check_result(result: object) -> RenderResult:
+    if not isinstance(result, RenderResult):
+        raise TypeError(f"result must be a vergence.render.RenderResult; got {type(result).__name__}")
+    return result
+
 def _figure_rgb(fig: Figure) -> np.ndarray:
     canvas = FigureCanvasAgg(fig)
     canvas.draw()
@@ -29,6 +35,8 @@ def _figure_rgb(fig: Figure) -> np.ndarray:
 def depth_preview(depth: np.ndarray, *, title: str = "depth (m)") -> np.ndarray:
     """Depth map ``(H, W)`` drawn with a colour bar (matplotlib, Agg); NaN (no hit) in grey."""
     d = np.asarray(depth, dtype=np.float64)
+    if d.ndim != 2 or d.size == 0:
+        raise ValueError(f"depth must have shape (H, W) and not be empty; got {d.shape}")
     h, w = d.shape
     scale = max(1.0, 480.0 / max(h, w))
     fig = Figure(figsize=(w * scale / 100.0 + 1.4, h * scale / 100.0 + 0.6), dpi=100)
@@ -51,6 +59,7 @@ def contact_sheet(result: RenderResult, *, exposure: float | None = None) -> np.
     exposure of its non-black pixels and labelled with the gain over the beauty's (x1 = as bright
     as in the image); a layer without light is labelled "empty".
     """
+    _check_result(result)
     k = auto_exposure(result.beauty) if exposure is None else check_positive("exposure", exposure)
     names = layer_names(result.settings.max_depth)
     tiles = [("beauty", tonemap(result.beauty, exposure=k))]
@@ -81,7 +90,8 @@ def save_render(result: RenderResult, folder: str | Path, *, stem: str = "render
 
     ``stem.npz`` holds ``radiance``, ``position``, ``normal``, ``depth``, ``beauty`` (float32),
     ``layer_names`` and ``settings`` (a JSON string). ``stem_camera.json`` is ``camera.to_dict()``
-    (a pinhole one loads with :meth:`vergence.camera.Camera.from_dict`). Previews:
+    (a pinhole one loads with :meth:`vergence.camera.Camera.from_dict`). ``stem_depth.pfm`` is the
+    depth alone (metres, NaN where nothing was hit), the depth ``vergence synthesize`` takes. Previews:
     ``stem_beauty.png`` (tone-mapped with ``exposure``, automatic when None: give both eyes of a
     pair the same value), ``stem_depth.png``, ``stem_layers.png``. Every file is written atomically.
 
@@ -90,8 +100,9 @@ def save_render(result: RenderResult, folder: str | Path, *, stem: str = "render
     list of pathlib.Path
         The files written.
     """
-    from vergence.io import atomic_write, write_image, write_json
+    from vergence.io import atomic_write, write_image, write_json, write_pfm
 
+    _check_result(result)
     out = Path(folder)
     if not out.is_dir():
         raise FileNotFoundError(f"output folder does not exist: {out}")
@@ -109,6 +120,9 @@ def save_render(result: RenderResult, folder: str | Path, *, stem: str = "render
     camera_json = out / f"{stem}_camera.json"
     write_json(camera_json, result.camera.to_dict())
     written.append(camera_json)
+    depth_pfm = out / f"{stem}_depth.pfm"  # metric z, NaN = no hit: what `vergence synthesize` reads as depth
+    write_pfm(depth_pfm, result.depth)
+    written.append(depth_pfm)
     for name, img in (("beauty", tonemap(result.beauty, exposure=k)), ("depth", depth_preview(result.depth)),
                       ("layers", contact_sheet(result, exposure=k))):  # fmt: skip
         path = out / f"{stem}_{name}.png"
