@@ -1,0 +1,132 @@
+"""The sweep harness (tools/sweep): its classifier on hand-made outcomes, and one tiny real run."""
+
+from __future__ import annotations
+
+import json
+import struct
+
+import numpy as np
+import pytest
+
+from tools.sweep import sweep
+from tools.sweep.api_driver import degenerate
+from tools.sweep.classify import CLASSES, Result, classify, python_name_in
+from tools.sweep.cli_cases import Case, _replace_option
+from tools.sweep.hostile import HUGE_SIDE, hostile_files
+from tools.sweep.runner import Limits, prepare, run_cli
+
+NAMES = frozenset({"distance", "width", "win_size", "min_contrast", "sigma", "image"})
+ONE_LINE = "error: --viewing-distance must be > 0; got -3\n"
+
+
+def _cli(**fields) -> Result:
+    base = dict(id="cli/x/y", kind="cli", target="budget", returncode=2, stderr=ONE_LINE, hostile=True)
+    return Result(**{**base, **fields})
+
+
+def _api(**fields) -> Result:
+    base = dict(id="api/f/p=nan", kind="api", target="vergence.viewing.f", status="raised", exc_type="ValueError",
+                expected=True, hostile=True)
+    return Result(**{**base, **fields})
+
+
+# Each class with a hand-made outcome that shows it (and only the mistake it names).
+FIRING = {
+    "internal_error": _cli(returncode=1, stderr="error: internal error, please report it: ZeroDivisionError\n"),
+    "traceback": _cli(returncode=2, stderr="Traceback (most recent call last):\n  File x\nKeyError: 1\n"),
+    "timeout": _cli(returncode=-9, timed_out=True, stderr=""),
+    "killed": _cli(returncode=-11, stderr=""),
+    "noisy_stderr": _cli(returncode=0, hostile=False,
+                         stderr="x.py:3: RuntimeWarning: overflow encountered in multiply\n"),
+    "python_name": _cli(stderr="error: distance must be > 0; got -3\n"),
+    "suspicious_ok": _cli(returncode=0, stderr="", degenerate="left.png: constant 0"),
+    "input_modified": _cli(inputs_changed=["in/image.png"]),
+    "leftovers": _cli(leftovers=[".out.tmp-1234.png"]),
+    "sigint": _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr=""),
+}
+
+
+@pytest.mark.parametrize("cls", sorted(FIRING))
+def test_each_class_fires_on_its_own_mistake(cls):
+    assert classify(FIRING[cls], names=NAMES) == [cls]
+
+
+def test_every_class_but_ok_has_a_firing_example():
+    assert set(FIRING) == set(CLASSES) - {"ok"}
+
+
+@pytest.mark.parametrize("result", [
+    _cli(),  # one line naming the option, exit 2
+    _cli(returncode=2, stderr="error: Invalid value for '--baseline': 'abc' is not a valid float.\n"),
+    _cli(returncode=0, stderr="", hostile=False),
+    _cli(returncode=0, stderr="warning: the parallax leaves the comfort zone\n", hostile=True),  # our own warning
+    _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=130, stderr="error: interrupted\n"),
+    _cli(kind="sigint", hostile=False, sigint_sent=False, returncode=0, stderr=""),  # finished before Ctrl-C
+    _cli(returncode=2, stderr="error: image must be (H, W, 3); got (4, 4, 2)\n", arguments=("image",)),
+    _api(),
+    _api(status="returned", exc_type=None, hostile=False),
+    _api(status="returned", exc_type=None, strict=False, degenerate=None),
+    _api(status="setup_error"),
+], ids=lambda r: f"{r.kind}-{r.returncode}-{r.status}-{r.stderr[:25]}")
+def test_well_handled_outcomes_stay_ok(result):
+    assert classify(result, names=NAMES) == ["ok"]
+
+
+def test_api_outcomes():
+    # An AttributeError on a string where a Display belongs is ours to fix; numpy warnings are noise;
+    # a NaN accepted with a NaN result is suspicious; a hang or crash in the driver is its own class.
+    assert classify(_api(exc_type="AttributeError", expected=False)) == ["internal_error"]
+    assert classify(_api(warnings=["RuntimeWarning: overflow encountered in cast"])) == ["noisy_stderr"]
+    assert classify(_api(status="returned", strict=True)) == ["suspicious_ok"]
+    assert classify(_api(status="returned", degenerate="no finite value in the result")) == ["suspicious_ok"]
+    assert classify(_api(status="crashed", returncode=-6)) == ["killed"]
+    assert classify(_api(status="crashed", timed_out=True, returncode=-9)) == ["timeout"]
+
+
+def test_python_name_spots_the_parameter_not_the_option():
+    assert python_name_in("distance must be > 0; got -3", NAMES) == "distance"
+    assert python_name_in("width: must be finite", NAMES) == "width"
+    assert python_name_in("win_size exceeds image extent", NAMES) == "win_size"
+    assert python_name_in("expected min_contrast in [0, 0.5]", NAMES) == "min_contrast"
+    assert python_name_in("--viewing-distance must be > 0", NAMES) is None
+    assert python_name_in("--min-contrast must lie in [0, 0.5]", NAMES) is None
+    assert python_name_in("cannot read /tmp/my_image_file.png", NAMES) is None
+    assert python_name_in("image must be RGB", NAMES, ("image",)) is None
+
+
+def test_degenerate_results():
+    assert degenerate(np.full((3, 3), np.nan)) == "no finite value in the result"
+    assert degenerate(float("nan")) == "no finite value in the result"
+    assert degenerate((np.empty((0, 0)), np.empty(0))) == "empty result"
+    assert degenerate(np.array([np.nan, 1.0])) is None
+    assert degenerate(None) is None and degenerate("text") is None
+
+
+def test_hostile_png_declares_ten_billion_pixels_in_a_few_bytes():
+    data = hostile_files()["huge_png"]
+    width, height = struct.unpack(">II", data[16:24])
+    assert (width, height) == (HUGE_SIDE, HUGE_SIDE) and len(data) < 200
+
+
+def test_replace_option_swaps_one_value_and_drops_excluded_options():
+    base = ["--a", "1", "--b", "2", "--c", "3"]
+    assert _replace_option(base, "--b", ["nan"], set()) == ["--a", "1", "--c", "3", "--b", "nan"]
+    assert _replace_option(base, "--d", ["x"], {"--a", "--c"}) == ["--b", "2", "--d", "x"]
+    assert _replace_option(base, "--b", [], set()) == ["--a", "1", "--c", "3"]
+
+
+def test_a_tiny_real_run(tmp_path):
+    # The valid base of `budget` through the whole pipeline (fixtures, subprocess, report), then a
+    # command line the CLI refuses with one line naming the option (exit 2): both stay ok.
+    totals = sweep(tmp_path, only=("budget",), limit=1, time_limit_s=60)
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert totals["cases"] == 1 and report["results"][0]["id"] == "cli/budget/base"
+    assert report["results"][0]["classes"] == ["ok"], report["results"][0]["stderr"]
+    assert "| ok | 1 |" in (tmp_path / "summary.md").read_text()
+    prepare(tmp_path)
+    case = Case(id="cli/budget/baseline=word", kind="cli", target="budget",
+                argv=("budget", "--baseline", "abc", "--convergence", "3", "--window", "1", "--display", "tv-55"))
+    result = run_cli(case, tmp_path, 1, Limits(time_limit_s=60))
+    assert result.returncode == 2 and "--baseline" in result.stderr
+    assert classify(result) == ["ok"]
+    assert not any((tmp_path / "cases").iterdir())  # the case folder is removed after the run
