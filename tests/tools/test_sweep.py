@@ -13,7 +13,7 @@ from tools.sweep.api_driver import degenerate
 from tools.sweep.classify import CLASSES, Result, classify, python_name_in
 from tools.sweep.cli_cases import Case, _replace_option
 from tools.sweep.hostile import HUGE_SIDE, hostile_files
-from tools.sweep.runner import Limits, prepare, run_cli
+from tools.sweep.runner import Limits, inconsistent_json, prepare, run_cli
 
 NAMES = frozenset({"distance", "width", "win_size", "min_contrast", "sigma", "image"})
 ONE_LINE = "error: --viewing-distance must be > 0; got -3\n"
@@ -100,6 +100,17 @@ def test_degenerate_results():
     assert degenerate((np.empty((0, 0)), np.empty(0))) == "empty result"
     assert degenerate(np.array([np.nan, 1.0])) is None
     assert degenerate(None) is None and degenerate("text") is None
+
+
+def test_inconsistent_budget_json():
+    # Issue 9: random extreme parameters gave a perceived depth of 0.0 and a "diverges" flag that
+    # contradicted the figures; a consistent sample and non-JSON output pass.
+    sample = {"depth": 5.0, "disparity": 0.04, "perceived_depth": 11.9, "roundness": 3.6, "diverges": False}
+    assert inconsistent_json(json.dumps({"depths": [sample]})) is None
+    assert inconsistent_json(json.dumps({"depths": [{**sample, "perceived_depth": None, "diverges": True}]})) is None
+    assert "perceived_depth 0.0" in inconsistent_json(json.dumps({"depths": [{**sample, "perceived_depth": 0.0}]}))
+    assert "diverges True" in inconsistent_json(json.dumps({"depths": [{**sample, "diverges": True}]}))
+    assert inconsistent_json("PSNR 30 dB") is None
 
 
 def test_hostile_png_declares_ten_billion_pixels_in_a_few_bytes():

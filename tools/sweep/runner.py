@@ -117,6 +117,33 @@ def _degenerate_file(path: Path) -> str | None:
     return None
 
 
+def inconsistent_json(stdout: str) -> str | None:
+    """Why a command's JSON contradicts itself (a perceived depth of 0 m, a divergence flag that
+    disagrees with the missing perceived depth), or None; stdout that is not JSON is not judged.
+
+    A perceived depth is finite and > 0 exactly when the eyes do not diverge (S0 Eq. (1b):
+    ``z' = b'H' / (b' - W' d)``, finite and positive for ``W' d < b'``).
+    """
+    try:
+        data = json.loads(stdout)
+    except ValueError:
+        return None
+    stack = [data]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            if "perceived_depth" in item and "diverges" in item:
+                z, diverges = item["perceived_depth"], item["diverges"]
+                if z is not None and not z > 0:
+                    return f"perceived_depth {z} at depth {item.get('depth')}"
+                if (z is None) != bool(diverges):
+                    return f"diverges {diverges} but perceived_depth {z} at depth {item.get('depth')}"
+            stack.extend(item.values())
+        elif isinstance(item, list):
+            stack.extend(item)
+    return None
+
+
 def substitute(argv: tuple[str, ...], mapping: dict[str, str]) -> list[str]:
     out = []
     for token in argv:
@@ -174,7 +201,7 @@ def run_cli(case, folder: Path, index: int, limits: Limits, arguments: tuple[str
         result.leftovers = [n for n in new if Path(n).name.startswith(".")
                             or ((case_dir / n).is_dir() and not any((case_dir / n).iterdir()))]
         files = [case_dir / n for n in new if (case_dir / n).is_file()]
-        reasons = [r for r in map(_degenerate_file, files) if r]
+        reasons = [r for r in [*map(_degenerate_file, files), inconsistent_json(result.stdout)] if r]
         result.degenerate = "; ".join(reasons) or None
     shutil.rmtree(case_dir, ignore_errors=True)
     return result
