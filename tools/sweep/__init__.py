@@ -32,8 +32,12 @@ def _selected(case_kind: str, target: str, only: tuple[str, ...]) -> bool:
 
 def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...] = (), seed: int = 9,
           time_limit_s: float = 60.0, api_time_limit_s: float = 30.0, memory_gb: float = 8.0, limit: int | None = None,
-          command: str = "") -> dict:
-    """Run the sweep into ``out`` and return the totals (cases, runs, failing, counts per class)."""
+          per_option: int | None = None, sample: int | None = None, command: str = "") -> dict:
+    """Run the sweep into ``out`` and return the totals (cases, runs, failing, counts per class).
+
+    ``per_option`` (hostile values per option and per API parameter) and ``sample`` (command-line
+    cases drawn besides the bases and the issue's cases) override the quick sweep's sizes.
+    """
     import time
 
     from tools.sweep import cli_cases, report
@@ -56,8 +60,10 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
 
     cases = []
     if _kind_wanted("cli", only):
-        cases += [c for c in cli_cases.cli_cases(quick=quick, rng=rng, per_option=QUICK_PER_OPTION,
-                                                          sample=QUICK_CLI_SAMPLE)
+        cases += [c for c in cli_cases.cli_cases(quick=quick or per_option is not None or sample is not None,
+                                                 rng=rng, per_option=per_option or QUICK_PER_OPTION,
+                                                 sample=sample if sample is not None else
+                                                 (QUICK_CLI_SAMPLE if quick else None))
                   if _selected("cli", c.target, only)]
     if _kind_wanted("sigint", only):
         cases += [c for c in cli_cases.sigint_cases(count=QUICK_SIGINT if quick else FULL_SIGINT, rng=rng)
@@ -67,7 +73,8 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
                   if _selected("random", c.target, only)]
     specs = []
     if _kind_wanted("api", only):
-        specs = [s for s in api_case_specs(quick=quick, rng=rng, per_param=QUICK_PER_PARAM)
+        specs = [s for s in api_case_specs(quick=quick or per_option is not None, rng=rng,
+                                                per_param=per_option or QUICK_PER_PARAM)
                  if _selected("api", f"{s['module']}.{s['name']}", only)]
     if limit is not None:
         cases, specs = cases[:limit], specs[: max(0, limit - len(cases))]

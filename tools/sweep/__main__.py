@@ -25,6 +25,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--time-limit", type=float, default=60.0, help="seconds per subprocess call (60)")
     parser.add_argument("--api-time-limit", type=float, default=30.0, help="seconds per API call (30)")
     parser.add_argument("--memory-gb", type=float, default=8.0, help="address-space limit per subprocess (8)")
+    parser.add_argument("--per-option", type=int, default=None,
+                        help="hostile values drawn per option and per API parameter (default: all; --quick: 1 and 2)")
+    parser.add_argument("--sample", type=int, default=None,
+                        help="command-line cases drawn besides the bases and the issue's cases (--quick: 40)")
     parser.add_argument("--limit", type=int, default=None, help="run at most this many cases (smoke tests)")
     args = parser.parse_args(argv)
     if args.jobs < 1:
@@ -32,6 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     start = time.monotonic()
     totals = sweep(args.out, quick=args.quick, jobs=args.jobs, only=tuple(args.only), seed=args.seed,
                    time_limit_s=args.time_limit, api_time_limit_s=args.api_time_limit, memory_gb=args.memory_gb, limit=args.limit,
+                   per_option=args.per_option, sample=args.sample,
                    command="python -m tools.sweep " + shlex.join(sys.argv[1:] if argv is None else argv))
     print(f"{totals['cases']} cases in {totals['runs']} runs, {totals['failing']} failing, "
           f"{time.monotonic() - start:.0f} s; see {args.out / 'summary.md'}")

@@ -9,6 +9,8 @@ from pathlib import Path
 
 from tools.sweep.classify import CLASSES, Result, error_line
 
+COMMAND_CHARS = 400  # a reproducing command line longer than this (a 5,000-character value) is cut
+
 # The part of the code base that owns a target: the lead routes failing cases by it.
 AREAS = {
     "budget": "viewing/cli", "mapping": "viewing/cli", "vergence.viewing": "viewing/cli",
@@ -78,7 +80,8 @@ def write(folder: Path, results: list[Result], *, meta: dict) -> dict:
         lines += [f"### {area} ({len(by_area[area])})", ""]
         for r in by_area[area]:
             lines.append(f"- `{r.id}` **{', '.join(r.classes)}**: {_first_line(r)}  ")
-            lines.append(f"  `{r.command_line}`")
+            shown = r.command_line if len(r.command_line) <= COMMAND_CHARS else r.command_line[:COMMAND_CHARS] + " ..."
+            lines.append(f"  `{shown}`")
         lines.append("")
     (folder / "summary.md").write_text("\n".join(lines) + "\n")
     return {"cases": len(results), "failing": len(failing), "counts": total}
