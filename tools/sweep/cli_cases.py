@@ -215,6 +215,8 @@ def cli_cases(*, quick: bool, rng: random.Random, per_option: int = 1, sample: i
             if quick and len(values) > per_option:
                 values = rng.sample(values, per_option)
             for value in values:
+                if value.name == "input_file" and not any("{fx}/" in t for t in base):
+                    continue  # the command reads no file: there is no input to overwrite
                 cases.append(_case_for(command, base, params, param, kind, value))
     if quick and sample is not None:
         bases = [c for c in cases if not c.hostile and c.id.endswith("/base")]
