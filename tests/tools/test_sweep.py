@@ -10,7 +10,7 @@ import pytest
 
 from tools.sweep import sweep
 from tools.sweep.api_driver import degenerate
-from tools.sweep.classify import CLASSES, Result, classify, python_name_in
+from tools.sweep.classify import CLASSES, Result, classify, discount_degenerate_bases, python_name_in
 from tools.sweep.cli_cases import Case, _replace_option
 from tools.sweep.hostile import HUGE_SIDE, hostile_files
 from tools.sweep.runner import Limits, inconsistent_json, prepare, run_cli
@@ -81,6 +81,16 @@ def test_api_outcomes():
     assert classify(_api(status="returned", degenerate="no finite value in the result")) == ["suspicious_ok"]
     assert classify(_api(status="crashed", returncode=-6)) == ["killed"]
     assert classify(_api(status="crashed", timed_out=True, returncode=-9)) == ["timeout"]
+
+
+def test_a_degenerate_result_counts_only_when_the_valid_call_is_not_degenerate():
+    nan = "no finite value in the result"
+    results = [_api(id="api/f/base", status="returned", hostile=False, degenerate=nan),
+               _api(id="api/f/d=one_d", status="returned", degenerate=nan),
+               _api(id="api/g/base", target="vergence.viewing.g", status="returned", hostile=False),
+               _api(id="api/g/d=all_nan", target="vergence.viewing.g", status="returned", degenerate=nan)]
+    discount_degenerate_bases(results)
+    assert [classify(r) for r in results] == [["ok"], ["ok"], ["ok"], ["suspicious_ok"]]
 
 
 def test_python_name_spots_the_parameter_not_the_option():

@@ -42,7 +42,7 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
 
     from tools.sweep import cli_cases, report
     from tools.sweep.api_cases import api_case_specs
-    from tools.sweep.classify import classify
+    from tools.sweep.classify import classify, discount_degenerate_bases
     from tools.sweep.runner import Limits, prepare, run_api_batch, run_cli
 
     start = time.monotonic()
@@ -96,6 +96,7 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
         outcomes = [f.result() for f in futures]
     results = [r for rs, _ in outcomes for r in rs]
     runs = sum(n for _, n in outcomes)
+    discount_degenerate_bases(results)
     for r in results:
         r.classes = classify(r, names=names)
     shutil.rmtree(out / "cases", ignore_errors=True)

@@ -105,3 +105,15 @@ def classify(result: Result, *, names: frozenset[str] = frozenset()) -> list[str
     if result.leftovers:
         found.append("leftovers")
     return found or ["ok"]
+
+
+def discount_degenerate_bases(results: list[Result]) -> None:
+    """Forget the ``degenerate`` of a hostile case whose target's valid base call is degenerate too.
+
+    An output that carries no information says nothing about the hostile value when the valid call
+    gives the same (our guessed valid arguments may lie past the eyes' divergence, for one).
+    """
+    degenerate_bases = {r.target for r in results if r.id.endswith("/base") and r.degenerate}
+    for r in results:
+        if r.hostile and r.degenerate and r.target in degenerate_bases:
+            r.degenerate = None
