@@ -101,7 +101,8 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
         r.classes = classify(r, names=names)
     shutil.rmtree(out / "cases", ignore_errors=True)
     meta = {"command": command, "quick": quick, "seed": seed, "jobs": jobs, "runs": runs,
-            "time_limit_s": time_limit_s, "api_time_limit_s": api_time_limit_s, "memory_gb": memory_gb, "seconds": time.monotonic() - start}
+            "time_limit_s": time_limit_s, "api_time_limit_s": api_time_limit_s, "memory_gb": memory_gb,
+            "seconds": time.monotonic() - start}
     totals = report.write(out, results, meta=meta)
     return {**totals, "runs": runs}
 

@@ -35,8 +35,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--jobs must be >= 1")
     start = time.monotonic()
     totals = sweep(args.out, quick=args.quick, jobs=args.jobs, only=tuple(args.only), seed=args.seed,
-                   time_limit_s=args.time_limit, api_time_limit_s=args.api_time_limit, memory_gb=args.memory_gb, limit=args.limit,
-                   per_option=args.per_option, sample=args.sample,
+                   time_limit_s=args.time_limit, api_time_limit_s=args.api_time_limit, memory_gb=args.memory_gb,
+                   limit=args.limit, per_option=args.per_option, sample=args.sample,
                    command="python -m tools.sweep " + shlex.join(sys.argv[1:] if argv is None else argv))
     print(f"{totals['cases']} cases in {totals['runs']} runs, {totals['failing']} failing, "
           f"{time.monotonic() - start:.0f} s; see {args.out / 'summary.md'}")

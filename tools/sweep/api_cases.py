@@ -113,7 +113,8 @@ def param_kind(func_name: str, name: str, annotation: str) -> str:
     a = annotation
     if "PathLike" in a or a in ("str | Path", "str | Path | None"):
         return "out_path" if func_name in WRITE_SUFFIX or func_name.startswith("write_") else "path"
-    if name in SEQUENCE_DEFAULTS or "Sequence" in a or a.startswith(("tuple", "list")) or name in ("views", "operators"):
+    if (name in SEQUENCE_DEFAULTS or "Sequence" in a or a.startswith(("tuple", "list"))
+            or name in ("views", "operators")):
         if name != "views" or "Sequence" in a:
             return "sequence"
     if any(k in a for k in ("Camera", "Display", "Shooting", "Scene", "Mapping", "WarpedView", "RenderResult",

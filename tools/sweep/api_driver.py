@@ -115,7 +115,8 @@ def run_case(spec: dict, values: Values) -> dict:
         capture.seek(0)
         record["stderr"] = capture.read().decode("utf-8", "replace")[-2000:]
         record["warnings"] = [f"{w.category.__name__}: {w.message}"[:300] for w in caught]
-    record["inputs_changed"] = [k for k, v in kwargs.items() if before.get(k) is not None and _fingerprint(v) != before[k]]
+    record["inputs_changed"] = [k for k, v in kwargs.items()
+                                if before.get(k) is not None and _fingerprint(v) != before[k]]
     new = sorted(_listing(values.out) - out_before)
     hidden = [n for n in new if Path(n).name.startswith(".")]
     record["leftovers"] = new if record["status"] == "raised" else hidden

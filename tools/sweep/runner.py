@@ -71,7 +71,8 @@ def prepare(folder: Path) -> None:
     write_hostile_files(folder / "hostile")
     from vergence.io import read_middlebury_par, write_cameras_json
 
-    write_cameras_json(folder / "fixtures" / "cameras.json", read_middlebury_par(folder / "fixtures" / "cameras_par.txt"))
+    fixtures = folder / "fixtures"
+    write_cameras_json(fixtures / "cameras.json", read_middlebury_par(fixtures / "cameras_par.txt"))
 
 
 def _hashes(folder: Path) -> dict[str, str]:
