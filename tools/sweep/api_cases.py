@@ -77,6 +77,11 @@ HOSTILE_TOKENS = {
 }
 
 
+# Array tokens whose degenerate result (all NaN, empty) shows a value returned instead of an error;
+# other arrays (negative, huge, of another shape) may well map to NaN by convention (invalid = NaN).
+CONTENTLESS_ARRAYS = frozenset({"all_nan", "empty"})
+
+
 def public_callables() -> list[tuple[str, str]]:
     """(module, name) of every public callable in :data:`API_MODULES`."""
     found = []
@@ -248,16 +253,18 @@ class Values:
         if kind == "sequence":
             return {"empty": [], "nan_items": [float("nan"), float("nan")]}[token]
         shape = (HEIGHT, WIDTH, 3) if image_like else (HEIGHT, WIDTH)
+        # The shape tokens keep the valid values (a scalar's value, a map's mean): only the shape is wrong.
+        fill = float(np.mean(self.valid(func_name, name, annotation))) if not image_like else 0.5
         if token == "empty":
             return np.empty((0, 0, 3) if image_like else (0, 0), np.float32)
         if token == "all_nan":
             return np.full(shape, np.nan, np.float32)
         if token == "other_shape":
-            return np.ones((5, 7, 3) if image_like else (5, 7), np.float32)
+            return np.full((5, 7, 3) if image_like else (5, 7), fill, np.float32)
         if token == "four_channels":
-            return np.ones((HEIGHT, WIDTH, 4), np.float32) * 0.5
+            return np.full((HEIGHT, WIDTH, 4), fill, np.float32)
         if token == "one_d":
-            return np.ones(WIDTH, np.float32)
+            return np.full(WIDTH, fill, np.float32)
         if token == "negative":
             return -np.ones(shape, np.float32)
         if token == "uint8":
@@ -304,5 +311,5 @@ def api_case_specs(*, quick: bool, rng, per_param: int = 2) -> list[dict]:
                 tokens = rng.sample(tokens, per_param)
             for token in tokens:
                 specs.append({"id": f"api/{name}/{pname}={token.rstrip('!')}", "module": module_name, "name": name,
-                              "param": pname, "token": token})
+                              "param": pname, "token": token, "kind": kind})
     return specs

@@ -267,7 +267,12 @@ def run_api_batch(specs: list[dict], folder: Path, batch: int, limits: Limits) -
 
 
 def _api_result(spec: dict, event: dict) -> Result:
+    from tools.sweep.api_cases import CONTENTLESS_ARRAYS
+
     token = spec.get("token") or ""
+    degenerate = event.get("degenerate")
+    if spec.get("kind") == "array" and token.rstrip("!") not in CONTENTLESS_ARRAYS:
+        degenerate = None
     call = f"{spec['module']}.{spec['name']}" + (f"({spec['param']}=<{token.rstrip('!')}>)" if spec["param"] else "()")
     return Result(id=spec["id"], kind="api", target=f"{spec['module']}.{spec['name']}", command_line=call,
                   hostile=spec["param"] is not None, strict=token.endswith("!"), status=event.get("status", ""),
@@ -275,4 +280,4 @@ def _api_result(spec: dict, event: dict) -> Result:
                   stderr=(event.get("stderr") or "") if event.get("status") != "setup_error" else "",
                   stdout=event.get("message", ""), warnings=event.get("warnings", []),
                   inputs_changed=event.get("inputs_changed", []), leftovers=event.get("leftovers", []),
-                  degenerate=event.get("degenerate"), seconds=event.get("seconds", 0.0))
+                  degenerate=degenerate, seconds=event.get("seconds", 0.0))
