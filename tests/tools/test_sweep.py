@@ -13,7 +13,7 @@ from tools.sweep.api_driver import degenerate
 from tools.sweep.classify import CLASSES, Result, classify, discount_degenerate_bases, python_name_in
 from tools.sweep.cli_cases import Case, _replace_option
 from tools.sweep.hostile import HUGE_SIDE, hostile_files
-from tools.sweep.runner import Limits, inconsistent_json, prepare, run_cli
+from tools.sweep.runner import Limits, _api_result, inconsistent_json, prepare, run_cli
 
 NAMES = frozenset({"distance", "width", "win_size", "min_contrast", "sigma", "image"})
 ONE_LINE = "error: --viewing-distance must be > 0; got -3\n"
@@ -91,6 +91,19 @@ def test_a_degenerate_result_counts_only_when_the_valid_call_is_not_degenerate()
                _api(id="api/g/d=all_nan", target="vergence.viewing.g", status="returned", degenerate=nan)]
     discount_degenerate_bases(results)
     assert [classify(r) for r in results] == [["ok"], ["ok"], ["ok"], ["suspicious_ok"]]
+
+
+def test_an_all_nan_result_of_an_array_counts_only_for_a_content_less_array():
+    # A negative depth map maps to NaN by convention (invalid = NaN); an all-NaN map or a NaN number
+    # that comes back as NaN is a value where an error belongs (issue 9: fill_disparity, arcmin_from_pixels).
+    event = {"status": "returned", "degenerate": "no finite value in the result"}
+
+    def spec(token, kind):
+        return {"id": f"api/f/x={token}", "module": "m", "name": "f", "param": "x", "token": token, "kind": kind}
+
+    assert classify(_api_result(spec("negative", "array"), event)) == ["ok"]
+    assert classify(_api_result(spec("all_nan", "array"), event)) == ["suspicious_ok"]
+    assert classify(_api_result(spec("huge", "number"), event)) == ["suspicious_ok"]
 
 
 def test_python_name_spots_the_parameter_not_the_option():
