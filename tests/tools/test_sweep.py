@@ -120,7 +120,9 @@ def test_python_name_spots_the_parameter_not_the_option():
 def test_degenerate_results():
     assert degenerate(np.full((3, 3), np.nan)) == "no finite value in the result"
     assert degenerate(float("nan")) == "no finite value in the result"
-    assert degenerate((np.empty((0, 0)), np.empty(0))) == "empty result"
+    assert degenerate((np.empty((0, 0)), np.empty(0))) is None  # elementwise on nothing: nothing
+    assert degenerate(0.5, from_empty=True) == "a number computed from an empty array"
+    assert degenerate(np.empty(0), from_empty=True) is None
     assert degenerate(np.array([np.nan, 1.0])) is None
     assert degenerate(None) is None and degenerate("text") is None
 

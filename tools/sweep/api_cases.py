@@ -65,7 +65,7 @@ WRITE_SUFFIX = {"write_image": ".png", "write_pfm": ".pfm", "write_disparity": "
 # Hostile tokens per kind of parameter; a trailing "!" marks a strict one (any normal return is suspect).
 HOSTILE_TOKENS = {
     "number": ("nan!", "inf", "neg_inf!", "negative", "zero", "subnormal", "huge", "numeric_string!", "none!"),
-    "array": ("empty!", "all_nan", "other_shape", "four_channels", "one_d", "string!", "none!", "negative",
+    "array": ("empty", "all_nan", "other_shape", "four_channels", "one_d", "string!", "none!", "negative",
               "uint8", "huge_values"),
     "object": ("none!", "string!", "number!"),
     "path": ("missing!", "folder!", "empty_file!", "truncated_png!", "huge_png!", "huge_jpeg!", "huge_hdr!",
@@ -74,6 +74,7 @@ HOSTILE_TOKENS = {
     "str": ("empty", "unknown", "none!", "number!"),  # a title may be anything; a method name may not
     "sequence": ("empty", "none!", "string!", "nan_items!"),
     "bool": ("none!", "string!"),
+    "any": (),  # an argument that may be anything (the object write_json serialises)
 }
 
 
@@ -116,6 +117,8 @@ def result_types(callables: list[tuple[str, str]]) -> frozenset[str]:
 def param_kind(func_name: str, name: str, annotation: str) -> str:
     """The kind of value a parameter takes (a key of :data:`HOSTILE_TOKENS`)."""
     a = annotation
+    if name == "obj":
+        return "any"
     if "PathLike" in a or a in ("str | Path", "str | Path | None"):
         return "out_path" if func_name in WRITE_SUFFIX or func_name.startswith("write_") else "path"
     if (name in SEQUENCE_DEFAULTS or "Sequence" in a or a.startswith(("tuple", "list"))

@@ -46,13 +46,19 @@ def _numbers(obj, depth: int = 0):
             yield from _numbers(getattr(obj, f.name, None), depth + 1)
 
 
-def degenerate(result) -> str | None:
-    """Why ``result`` carries no information (empty, or no finite number at all), or None."""
+def degenerate(result, *, from_empty: bool = False) -> str | None:
+    """Why ``result`` carries no information, or None.
+
+    No finite number at all is degenerate; so is a single number computed from an empty array
+    (``from_empty``: a mean or a score of nothing), while an empty array from an empty array is not.
+    """
     arrays = list(_numbers(result))
     if not arrays:
         return None
+    if from_empty and any(a.ndim == 0 for a in arrays):
+        return "a number computed from an empty array"
     if all(a.size == 0 for a in arrays):
-        return "empty result"
+        return None
     if not any(np.isfinite(a).any() for a in arrays if a.size):
         return "no finite value in the result"
     return None
@@ -99,7 +105,7 @@ def run_case(spec: dict, values: Values) -> dict:
         start = time.perf_counter()
         try:
             result = func(**kwargs)
-            record["degenerate"] = degenerate(result)
+            record["degenerate"] = degenerate(result, from_empty=(spec["token"] or "").rstrip("!") == "empty")
         except BaseException as exc:  # noqa: BLE001 - the harness records every exception, KeyboardInterrupt aside
             if isinstance(exc, KeyboardInterrupt):
                 raise
