@@ -123,6 +123,8 @@ def test_degenerate_results():
     assert degenerate((np.empty((0, 0)), np.empty(0))) is None  # elementwise on nothing: nothing
     assert degenerate(0.5, from_empty=True) == "a number computed from an empty array"
     assert degenerate(np.empty(0), from_empty=True) is None
+    assert degenerate(np.zeros((4, 4, 3)), from_nan=True) == "a constant 0 made of an all-NaN array"
+    assert degenerate(np.zeros((4, 4, 3))) is None
     assert degenerate(np.array([np.nan, 1.0])) is None
     assert degenerate(None) is None and degenerate("text") is None
 

@@ -81,6 +81,9 @@ HOSTILE_TOKENS = {
 # Array tokens whose degenerate result (all NaN, empty) shows a value returned instead of an error;
 # other arrays (negative, huge, of another shape) may well map to NaN by convention (invalid = NaN).
 CONTENTLESS_ARRAYS = frozenset({"all_nan", "empty"})
+# The "parameter" of a case that gives every required array argument the same hostile value (two
+# empty masks agree how well?).
+ALL_ARRAYS = "*"
 
 
 def public_callables() -> list[tuple[str, str]]:
@@ -223,9 +226,9 @@ class Values:
             return {"name": "tabletop", "material": "m", "scene": "tabletop"}.get(name, "x")
         if name in SCALAR_NAMES:
             return SCALAR_NAMES[name]
-        if name in IMAGE_NAMES:
+        if _image_like(func_name, name):
             return self.rgb.copy()
-        if name in MASK_NAMES:
+        if name in MASK_NAMES or "mask" in func_name:
             return np.ones((HEIGHT, WIDTH), bool)
         return self.map.copy()
 
@@ -233,7 +236,7 @@ class Values:
         """The hostile value ``token`` (without its "!") for that parameter."""
         kind = param_kind(func_name, name, annotation)
         token = token.rstrip("!")
-        image_like = name in IMAGE_NAMES
+        image_like = _image_like(func_name, name)
         if kind == "path":
             from tools.sweep.hostile import FILE_SUFFIX
 
@@ -277,6 +280,11 @@ class Values:
         raise KeyError(token)
 
 
+def _image_like(func_name: str, name: str) -> bool:
+    """Whether a parameter takes an RGB image (a mask function's ``reference`` is a mask)."""
+    return name in IMAGE_NAMES and "mask" not in func_name
+
+
 def annotations_of(func) -> dict[str, tuple[str, bool, object]]:
     """Parameter name -> (annotation text, required, default) of a callable (``self`` and ``**`` left out)."""
     out = {}
@@ -303,6 +311,10 @@ def api_case_specs(*, quick: bool, rng, per_param: int = 2) -> list[dict]:
             continue
         specs.append({"id": f"api/{name}/base", "module": module_name, "name": name, "param": None, "token": None})
         n_arrays = sum(param_kind(name, p, a) == "array" for p, (a, _, _) in params.items())
+        if n_arrays >= 2:
+            for token in sorted(CONTENTLESS_ARRAYS):
+                specs.append({"id": f"api/{name}/{ALL_ARRAYS}={token}", "module": module_name, "name": name,
+                              "param": ALL_ARRAYS, "token": token, "kind": "array"})
         for pname, (annotation, required, _) in params.items():
             kind = param_kind(name, pname, annotation)
             tokens = list(HOSTILE_TOKENS[kind])

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tools.sweep.api_cases import Values, annotations_of, param_kind
+from tools.sweep.api_cases import ALL_ARRAYS, Values, annotations_of, param_kind
 
 EXPECTED_ERRORS = (ValueError, TypeError, OSError)
 
@@ -46,17 +46,21 @@ def _numbers(obj, depth: int = 0):
             yield from _numbers(getattr(obj, f.name, None), depth + 1)
 
 
-def degenerate(result, *, from_empty: bool = False) -> str | None:
+def degenerate(result, *, from_empty: bool = False, from_nan: bool = False) -> str | None:
     """Why ``result`` carries no information, or None.
 
     No finite number at all is degenerate; so is a single number computed from an empty array
-    (``from_empty``: a mean or a score of nothing), while an empty array from an empty array is not.
+    (``from_empty``: a mean or a score of nothing), while an empty array from an empty array is not;
+    and so is a constant image made of an all-NaN one (``from_nan``: a black tone map of nothing).
     """
     arrays = list(_numbers(result))
     if not arrays:
         return None
     if from_empty and any(a.ndim == 0 for a in arrays):
         return "a number computed from an empty array"
+    finite = [a for a in arrays if a.size > 1 and np.isfinite(a).all()]
+    if from_nan and finite and all(a.min() == a.max() for a in finite):
+        return f"a constant {finite[0].flat[0]:g} made of an all-NaN array"
     if all(a.size == 0 for a in arrays):
         return None
     if not any(np.isfinite(a).any() for a in arrays if a.size):
@@ -86,7 +90,11 @@ def run_case(spec: dict, values: Values) -> dict:
         for pname, (annotation, required, _) in params.items():
             if required:
                 kwargs[pname] = values.valid(spec["name"], pname, annotation)
-        if spec["param"] is not None:
+        if spec["param"] == ALL_ARRAYS:  # every required array argument gets the same hostile value
+            for pname, (annotation, required, _) in params.items():
+                if required and param_kind(spec["name"], pname, annotation) == "array":
+                    kwargs[pname] = values.hostile_value(spec["name"], pname, annotation, spec["token"])
+        elif spec["param"] is not None:
             annotation = params[spec["param"]][0]
             kwargs[spec["param"]] = values.hostile_value(spec["name"], spec["param"], annotation, spec["token"])
     except Exception as exc:  # noqa: BLE001 - our guess of a valid argument failed: not a finding
@@ -105,7 +113,8 @@ def run_case(spec: dict, values: Values) -> dict:
         start = time.perf_counter()
         try:
             result = func(**kwargs)
-            record["degenerate"] = degenerate(result, from_empty=(spec["token"] or "").rstrip("!") == "empty")
+            token = (spec["token"] or "").rstrip("!")
+            record["degenerate"] = degenerate(result, from_empty=token == "empty", from_nan=token == "all_nan")
         except BaseException as exc:  # noqa: BLE001 - the harness records every exception, KeyboardInterrupt aside
             if isinstance(exc, KeyboardInterrupt):
                 raise

@@ -62,9 +62,13 @@ def write(folder: Path, results: list[Result], *, meta: dict) -> dict:
             "per_target": per_target, "results": [asdict(r) for r in results]}
     (folder / "report.json").write_text(json.dumps(data, indent=1, default=str))
 
+    api_bases = [r for r in results if r.kind == "api" and r.id.endswith("/base")]
     lines = [f"# Sweep summary: {len(results)} cases in {meta.get('runs', '?')} runs, {len(failing)} failing",
              "", f"Command: `{meta.get('command', '')}`  ", f"Duration: {meta.get('seconds', 0):.0f} s; "
-             f"kinds: {dict(Counter(r.kind for r in results))}", "",
+             f"kinds: {dict(Counter(r.kind for r in results))}  ",
+             # A hostile API argument tests that argument only where the guessed valid call succeeds.
+             f"API names whose guessed valid call returned: {sum(r.status == 'returned' for r in api_bases)} "
+             f"of {len(api_bases)} (the others raised ValueError/TypeError on our guess)", "",
              "| class | cases |", "|---|---|", *[f"| {k} | {v} |" for k, v in total.items()], "",
              "## Per target (classes other than ok)", "", "| target | area | classes |", "|---|---|---|"]
     for target, sub in per_target.items():
