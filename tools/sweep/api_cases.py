@@ -38,7 +38,7 @@ SKIPPED = frozenset({"run_demo", "DisparityMapping", "atomic_write", "select_var
 NESTED_RECORDS = frozenset({"DepthSample", "RenderSettings", "Hits", "RayTree", "CameraFormat"})
 USER_BUILT = frozenset({"Camera", "CameraSet", "Scene", "BlendedMapping"})
 
-HEIGHT, WIDTH = 12, 16
+HEIGHT, WIDTH = 24, 48  # wide enough for the matchers' smallest disparity search (16)
 IMAGE_NAMES = frozenset({"image", "left", "right", "reference", "guide", "left_image", "right_image", "source_image",
                          "radiance", "colors", "color"})
 MASK_NAMES = frozenset({"mask", "holes", "support", "update"})
@@ -46,9 +46,10 @@ SCALAR_NAMES = {"z": 5.0, "d": 0.01, "parallax_px": 4.0, "disparity_arcmin": 10.
                 "n1": 1.0, "n2": 1.5, "target": 0.5, "position": 0.5, "t": 0.5, "s": 0.5}
 NUMBER_DEFAULTS = {"baseline": 0.1, "convergence": 3.0, "window": 1.0, "focal_px": 500.0, "interaxial": 0.065,
                    "distance": 2.0, "eye_separation": 0.063, "width": 16, "height": 12, "fov_deg": 50.0,
-                   "max_disparity": 16, "radius": 2, "sigma": 1.0, "lo": 0.0, "hi": 8.0, "scale": 1.0,
+                   "max_disparity": 4, "radius": 2, "sigma": 1.0, "lo": 0.0, "hi": 8.0, "scale": 1.0,
                    "threshold": 1.0, "near": 10.0, "far": 100.0, "transition": 0.5, "max_size": 4,
-                   "max_depth": 2, "views": 2, "num_disparities": 16, "channels": 3, "ior": 1.5}
+                   "max_depth": 2, "views": 2, "num_disparities": 16, "channels": 3, "ior": 1.5,
+                   "source_min": 0.0, "source_max": 10.0, "target_min": 0.0, "target_max": 10.0}
 SEQUENCE_DEFAULTS = {"positions": [0.0, 1.0], "weights": [0.5, 0.5], "cuts": [0.5], "offsets": (-0.5, 0.5),
                      "constraints": ["z=20,perceived=2.2,roundness=1"], "squares": (8, 8), "size": (1.0, 1.0)}
 READ_FIXTURES = {"read_image": "image.png", "read_pfm": "disp_left.pfm", "read_depth": "depth.npy",
@@ -61,6 +62,30 @@ WRITE_SUFFIX = {"write_image": ".png", "write_pfm": ".pfm", "write_disparity": "
                 "write_cameras": ".json", "write_cameras_json": ".json", "write_bundler": ".out",
                 "write_colmap": "", "write_middlebury_par": "_par.txt", "plot_budget": ".png", "plot_mapping": ".png",
                 "save_render": ""}
+
+# Vectors by parameter name (scene geometry, colours); the second camera of a pair sits 0.1 m right.
+VECTOR_NAMES = {"position": (0.0, 0.0, 0.0), "target": (0.0, 0.0, 3.0), "look_at": (0.0, 0.0, 3.0),
+                "up": (0.0, -1.0, 0.0), "center": (0.0, 0.0, 3.0), "normal": (0.0, 0.0, -1.0),
+                "color": (0.5, 0.5, 0.5), "colors": ((0.2, 0.2, 0.2), (0.8, 0.8, 0.8)), "t": (0.0, 0.0, 0.0)}
+SECOND_CAMERA_NAMES = frozenset({"right", "target", "b", "right_camera"})
+# Valid values that neither the annotation nor the name gives; options a call needs (one control).
+VALID_OVERRIDES = {
+    ("Camera", "K"): lambda v: np.array([[50.0, 0, (WIDTH - 1) / 2], [0, 50.0, (HEIGHT - 1) / 2], [0, 0, 1]]),
+    ("Camera", "R"): lambda v: np.eye(3),
+    ("FisheyeCamera", "R"): lambda v: np.eye(3),
+    ("synthesize_views", "parallax_px"): lambda v: v.map - 3.0,
+    ("Mesh", "vertices"): lambda v: np.array([[0.0, 0, 3], [1, 0, 3], [0, 1, 3]]),
+    ("Mesh", "faces"): lambda v: np.array([[0, 1, 2]]),
+    ("Environment", "color"): lambda v: np.array([0.5, 0.5, 0.5]),
+    ("scene_from_dict", "data"): lambda v: {"camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "up": [0, -1, 0], "fov_deg": 50,
+                                                       "width": 8, "height": 6},
+                                            "environment": {"color": [1.0, 1.0, 1.0]},
+                                            "materials": {"m": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}},
+                                            "objects": [{"type": "sphere", "center": [0, 0, 3], "radius": 1,
+                                                         "material": "m"}]},
+}
+EXTRA_KWARGS = {"plan_parallax": {"budget_px": 4.0}, "synthesize_stereo": {"budget_px": 4.0},
+                "Environment": {"color": np.array([0.5, 0.5, 0.5])}}
 
 # Hostile tokens per kind of parameter; a trailing "!" marks a strict one (any normal return is suspect).
 HOSTILE_TOKENS = {
@@ -199,7 +224,16 @@ class Values:
 
     def valid(self, func_name: str, name: str, annotation: str) -> object:
         """A plausible valid value for parameter ``name`` of ``func_name``."""
+        if (func_name, name) in VALID_OVERRIDES:
+            return VALID_OVERRIDES[(func_name, name)](self)
         kind = param_kind(func_name, name, annotation)
+        if kind == "object" and "Camera" in annotation and name in SECOND_CAMERA_NAMES:
+            from vergence.camera import look_at
+
+            return look_at((0.1, 0.0, 0.0), (0.0, 0.0, 3.0), (0.0, -1.0, 0.0), fov_deg=50.0, width=WIDTH,
+                           height=HEIGHT)
+        if name in VECTOR_NAMES and kind == "array":
+            return np.asarray(VECTOR_NAMES[name], float)
         if kind == "path":
             fixture = READ_FIXTURES.get(func_name, "image.png")
             return fixture if fixture == "tabletop" else str(self.fixtures / fixture)

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tools.sweep.api_cases import ALL_ARRAYS, Values, annotations_of, param_kind
+from tools.sweep.api_cases import ALL_ARRAYS, EXTRA_KWARGS, Values, annotations_of, param_kind
 
 EXPECTED_ERRORS = (ValueError, TypeError, OSError)
 
@@ -90,6 +90,7 @@ def run_case(spec: dict, values: Values) -> dict:
         for pname, (annotation, required, _) in params.items():
             if required:
                 kwargs[pname] = values.valid(spec["name"], pname, annotation)
+        kwargs.update(EXTRA_KWARGS.get(spec["name"], {}))
         if spec["param"] == ALL_ARRAYS:  # every required array argument gets the same hostile value
             for pname, (annotation, required, _) in params.items():
                 if required and param_kind(spec["name"], pname, annotation) == "array":
