@@ -39,6 +39,17 @@ BASES: dict[str, list[str]] = {
 }
 # Options that exclude others: sweeping ``--display`` drops the three display lengths it replaces.
 EXCLUDES = {"--display": set(_LENGTHS[0::2])}
+# Options that need company to reach their own check: one synthesis control replaces another, and a
+# PNG disparity map needs its scale (disparity = value / scale) before it is decoded.
+CONTEXT: dict[tuple[str, str], tuple[set[str], list[str]]] = {
+    ("synthesize", "--budget-arcmin"): ({"--budget-px"}, []),
+    ("synthesize", "--focal-px"): ({"--budget-px"}, ["--interaxial", "0.065", "--convergence", "3"]),
+    ("synthesize", "--interaxial"): ({"--budget-px"}, ["--focal-px", "500", "--convergence", "3"]),
+}
+PNG_SCALE = {("evaluate-disparity", "estimate"): "--estimate-scale", ("evaluate-disparity", "truth"): "--truth-scale",
+             ("evaluate-disparity", "--truth-right"): "--truth-scale",
+             ("interpolate", "--left-disparity"): "--disparity-scale",
+             ("interpolate", "--right-disparity"): "--disparity-scale"}
 # Commands whose base is too long for a sweep (the demo runs for minutes): only hostile outputs run.
 LONG_COMMANDS = frozenset({"demo"})
 
@@ -245,16 +256,20 @@ def _case_for(command: str, base: list[str], params: list, param, kind: str, val
     elif kind == "flag":
         argv = _replace_option(base, label, [None], set())
     else:
-        argv = _replace_option(base, label, [value.text], EXCLUDES.get(label, set()))
+        drop, extra = CONTEXT.get((command, label), (set(), []))
+        argv = _replace_option(base, label, [value.text], EXCLUDES.get(label, set()) | drop) + extra
         if label == "--display":
             argv = _replace_option(argv, "--screen-pixels", [], set())
+    scale = PNG_SCALE.get((command, label))
+    if scale and kind == "input" and value.text.endswith((".png", ".jpg")) and scale not in argv:
+        argv += [scale, "16"]
     return Case(id=f"cli/{command}/{param.name}={value.name}", kind="cli", target=command, argv=(command, *argv),
                 hostile=kind != "flag", strict=value.strict, note=f"{label} {value.name}")
 
 
 def sigint_cases(*, count: int, rng: random.Random) -> list[Case]:
     """Ctrl-C at random moments (0 to 4 s, imports included) into commands that write outputs."""
-    targets = [("synthesize", [*BASES["synthesize"], "--views", "8"]), ("render", BASES["render"]),
+    targets = [("synthesize", [*BASES["synthesize"], "--views", "8", "--format", "views"]), ("render", BASES["render"]),
                ("match", BASES["match"]), ("interpolate", BASES["interpolate"]), ("budget", BASES["budget"])]
     cases = []
     for n in range(count):

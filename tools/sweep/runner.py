@@ -32,6 +32,7 @@ ENTRY = "import sys; sys.argv[0] = 'vergence'; from vergence.cli import _entry; 
 # Share of pixels exactly black above which an output image counts as empty (a valid view of a
 # textured fixture has none; issue 9 saw 84 % holes and all-black views).
 BLACK_SHARE = 0.5
+MASK_WORDS = ("hole", "error", "mask", "confidence", "invalid", "valid")
 OUTPUT_TAIL = 4000  # characters of stdout/stderr kept per case
 
 
@@ -86,7 +87,11 @@ def _listing(folder: Path, skip: tuple[str, ...]) -> set[str]:
 
 
 def _degenerate_file(path: Path) -> str | None:
-    """Why an output file is empty of content (constant, mostly black, all NaN), or None."""
+    """Why an output file is empty of content (constant, mostly black, all NaN), or None.
+
+    Masks and error images (holes, errors, confidence) are black where all is well: only their
+    readability and finiteness are judged.
+    """
     suffix = path.suffix.lower()
     try:
         if suffix in (".png", ".jpg", ".jpeg", ".tif", ".tiff"):
@@ -110,6 +115,8 @@ def _degenerate_file(path: Path) -> str | None:
     a = a.astype(np.float64)
     if not np.isfinite(a).any():
         return f"{path.name}: no finite value"
+    if any(word in path.stem.lower() for word in MASK_WORDS):
+        return None
     if np.nanmax(a) == np.nanmin(a):
         return f"{path.name}: constant {np.nanmax(a):g}"
     black = (a == 0).all(axis=-1) if a.ndim == 3 else a == 0
