@@ -13,7 +13,7 @@ from tools.sweep.api_driver import degenerate
 from tools.sweep.classify import CLASSES, Result, classify, discount_degenerate_bases, python_name_in
 from tools.sweep.cli_cases import Case, _replace_option
 from tools.sweep.hostile import HUGE_SIDE, hostile_files
-from tools.sweep.runner import Limits, _api_result, inconsistent_json, prepare, run_cli
+from tools.sweep.runner import Limits, _api_result, _degenerate_file, inconsistent_json, prepare, run_cli
 
 NAMES = frozenset({"distance", "width", "win_size", "min_contrast", "sigma", "image"})
 ONE_LINE = "error: --viewing-distance must be > 0; got -3\n"
@@ -138,6 +138,21 @@ def test_inconsistent_budget_json():
     assert "perceived_depth 0.0" in inconsistent_json(json.dumps({"depths": [{**sample, "perceived_depth": 0.0}]}))
     assert "diverges True" in inconsistent_json(json.dumps({"depths": [{**sample, "diverges": True}]}))
     assert inconsistent_json("PSNR 30 dB") is None
+
+
+def test_black_views_are_degenerate_but_black_hole_masks_are_not(tmp_path):
+    from PIL import Image
+
+    black = np.zeros((8, 8, 3), np.uint8)
+    mostly_black = black.copy()
+    mostly_black[:2] = 200  # 75 % black
+    for name, pixels in (("left.png", black), ("right.png", mostly_black), ("holes.png", black)):
+        Image.fromarray(pixels).save(tmp_path / name)
+    assert _degenerate_file(tmp_path / "left.png") == "left.png: constant 0"
+    assert _degenerate_file(tmp_path / "right.png") == "right.png: 75 % black"
+    assert _degenerate_file(tmp_path / "holes.png") is None
+    (tmp_path / "broken.png").write_bytes(b"not a png")
+    assert _degenerate_file(tmp_path / "broken.png") == "broken.png: unreadable (UnidentifiedImageError)"
 
 
 def test_hostile_png_declares_ten_billion_pixels_in_a_few_bytes():
