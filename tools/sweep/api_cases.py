@@ -345,7 +345,9 @@ def api_case_specs(*, quick: bool, rng, per_param: int = 2) -> list[dict]:
             continue
         specs.append({"id": f"api/{name}/base", "module": module_name, "name": name, "param": None, "token": None})
         n_arrays = sum(param_kind(name, p, a) == "array" for p, (a, _, _) in params.items())
-        if n_arrays >= 2:
+        n_required_arrays = sum(param_kind(name, p, a) == "array" and required
+                                for p, (a, required, _) in params.items())
+        if n_required_arrays >= 2:
             for token in sorted(CONTENTLESS_ARRAYS):
                 specs.append({"id": f"api/{name}/{ALL_ARRAYS}={token}", "module": module_name, "name": name,
                               "param": ALL_ARRAYS, "token": token, "kind": "array"})

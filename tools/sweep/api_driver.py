@@ -115,7 +115,9 @@ def run_case(spec: dict, values: Values) -> dict:
         try:
             result = func(**kwargs)
             token = (spec["token"] or "").rstrip("!")
-            record["degenerate"] = degenerate(result, from_empty=token == "empty", from_nan=token == "all_nan")
+            contentless = spec.get("kind") in ("array", "sequence")  # an empty string is not an empty array
+            record["degenerate"] = degenerate(result, from_empty=contentless and token == "empty",
+                                              from_nan=contentless and token == "all_nan")
         except BaseException as exc:  # noqa: BLE001 - the harness records every exception, KeyboardInterrupt aside
             if isinstance(exc, KeyboardInterrupt):
                 raise
