@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 PYTEST_ARGS ?= -m "not slow" -n 2
 
-.PHONY: setup demo test test-all test-fresh-seeds bench clean
+.PHONY: setup demo test test-all test-fresh-seeds bench sweep clean
 
 setup: $(STAMP)
 
@@ -43,5 +43,10 @@ test-fresh-seeds: setup
 bench: setup
 	for f in benchmarks/*.py; do $(PY) $$f || exit 1; done
 
+# The quick hostile-input sweep (tools/sweep): under 5 minutes on 2 cores; report in sweep-output/.
+SWEEP_ARGS ?= --quick --jobs 2
+sweep: setup
+	$(PY) -m tools.sweep --out sweep-output $(SWEEP_ARGS)
+
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache
+	rm -rf $(VENV) demo-output sweep-output .pytest_cache

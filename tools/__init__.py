@@ -1,0 +1,1 @@
+"""Developer tools of the Vergence repository (not installed with the package)."""

@@ -1,0 +1,119 @@
+"""Sort each run's outcome into the classes of issue 9 (a case may fall into several; none means ``ok``)."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+CLASSES = ("internal_error", "traceback", "timeout", "killed", "noisy_stderr", "python_name", "suspicious_ok",
+           "input_modified", "leftovers", "sigint", "ok")
+
+# Text that only a warning machinery or a C library prints (never one of our one-line messages).
+NOISE = re.compile(r"RuntimeWarning|UserWarning|DeprecationWarning|encountered in|libpng|Corrupt JPEG|"
+                   r"warnings\.warn|Premature end of JPEG|OpenCV\(|\[ WARN")
+# Warnings that numpy or a dependency raises, never on purpose (a library's own UserWarning is a message).
+NOISY_WARNINGS = ("RuntimeWarning", "DeprecationWarning", "FutureWarning", "ComplexWarning")
+# The one exit code of an interrupted command (128 + SIGINT).
+SIGINT_EXIT = 130
+# A message that starts with a Python identifier followed by one of these words names that identifier.
+_LEADING = re.compile(r"^([a-z][a-z0-9_]*)(?=\s+(must|should|is|has|cannot|needs|out of|=|:)|:|=)")
+_SNAKE = re.compile(r"(?<![-\w./])([a-z][a-z0-9]*_[a-z0-9_]+)(?![\w./-])")
+
+
+@dataclass
+class Result:
+    """What one case did; the runner fills it, :func:`classify` reads it."""
+
+    id: str
+    kind: str  # "cli", "sigint" or "api"
+    target: str
+    command_line: str = ""
+    hostile: bool = True
+    strict: bool = False
+    returncode: int | None = None
+    timed_out: bool = False
+    seconds: float = 0.0
+    stdout: str = ""
+    stderr: str = ""
+    inputs_changed: list[str] = field(default_factory=list)
+    leftovers: list[str] = field(default_factory=list)
+    degenerate: str | None = None
+    sigint_sent: bool = False
+    # API calls: "returned", "raised" or "setup_error", and the exception's type name.
+    status: str = ""
+    exc_type: str | None = None
+    expected: bool = True
+    warnings: list[str] = field(default_factory=list)
+    arguments: tuple[str, ...] = ()  # the command's positional argument names (allowed in messages)
+    classes: list[str] = field(default_factory=list)
+
+
+def error_line(stderr: str) -> str:
+    """The message of a one-line ``error: ...`` on stderr ("" when there is none)."""
+    for line in stderr.splitlines():
+        if line.strip().startswith("error:"):
+            return line.strip()[len("error:"):].strip()
+    return ""
+
+
+def python_name_in(message: str, names: frozenset[str], allowed: tuple[str, ...] = ()) -> str | None:
+    """The Python parameter name a CLI message speaks of instead of the option, or None."""
+    lead = _LEADING.match(message)
+    if lead and lead.group(1) in names and lead.group(1) not in allowed:
+        return lead.group(1)
+    for match in _SNAKE.finditer(message):
+        if match.group(1) in names and match.group(1) not in allowed:
+            return match.group(1)
+    return None
+
+
+def classify(result: Result, *, names: frozenset[str] = frozenset()) -> list[str]:
+    """The classes of ``result`` (``["ok"]`` when nothing is wrong); ``names`` are the Python parameter names."""
+    found: list[str] = []
+    stderr = result.stderr
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    if result.timed_out:
+        found.append("timeout")
+    if result.kind == "api":
+        if result.status == "raised" and not result.expected:
+            found.append("internal_error")
+        if result.returncode is not None and result.returncode < 0 and not result.timed_out:
+            found.append("killed")
+        if any(w.startswith(NOISY_WARNINGS) for w in result.warnings) or NOISE.search(stderr):
+            found.append("noisy_stderr")
+        if result.status == "returned" and result.hostile and (result.strict or result.degenerate):
+            found.append("suspicious_ok")
+    else:
+        rc = result.returncode
+        interrupted = result.kind == "sigint" and result.sigint_sent
+        if "Traceback (most recent call last)" in stderr:
+            found.append("traceback")
+        if rc == 1 or "please report" in stderr:
+            found.append("internal_error")
+        if rc is not None and rc < 0 and not result.timed_out and not (interrupted and rc == -2):
+            found.append("killed")
+        if NOISE.search(stderr) or (rc not in (0, None) and len(lines) > 1 and "traceback" not in found):
+            found.append("noisy_stderr")
+        if rc == 2 and python_name_in(error_line(stderr), names, result.arguments):
+            found.append("python_name")
+        if rc == 0 and result.hostile and not interrupted and (result.strict or result.degenerate):
+            found.append("suspicious_ok")
+        if interrupted and not result.timed_out and (rc != SIGINT_EXIT or len(lines) != 1):
+            found.append("sigint")
+    if result.inputs_changed:
+        found.append("input_modified")
+    if result.leftovers:
+        found.append("leftovers")
+    return found or ["ok"]
+
+
+def discount_degenerate_bases(results: list[Result]) -> None:
+    """Forget the ``degenerate`` of a hostile case whose target's valid base call is degenerate too.
+
+    An output that carries no information says nothing about the hostile value when the valid call
+    gives the same (our guessed valid arguments may lie past the eyes' divergence, for one).
+    """
+    degenerate_bases = {r.target for r in results if r.id.endswith("/base") and r.degenerate}
+    for r in results:
+        if r.hostile and r.degenerate and r.target in degenerate_bases:
+            r.degenerate = None

@@ -1,0 +1,302 @@
+"""Command-line cases: one valid base invocation per command, then one hostile value at a time.
+
+The options come from the Typer/click command tree, so a new option is swept without editing this
+file; only the base invocations (which must succeed on the small fixtures) are written by hand.
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from tools.sweep import hostile
+
+# Options whose value is a path the command writes (the rest of the path options are inputs).
+OUTPUT_OPTIONS = frozenset({"out", "plot", "error_path", "preview", "confidence", "json_out"})
+
+_LENGTHS = ["--eye-separation", "0.063", "--viewing-distance", "2.2", "--screen-width", "1.1"]
+
+# A valid invocation per command on the fixtures ({fx}) writing into the case folder ({case}).
+BASES: dict[str, list[str]] = {
+    "budget": ["--baseline", "0.1", "--convergence", "3", "--window", "1", *_LENGTHS, "--screen-pixels", "1920",
+               "--depth", "5"],
+    "mapping": ["--reference-baseline", "0.5", "--convergence", "20", "--window", "2.5", *_LENGTHS,
+                "--constraint", "z=20,perceived=2.2,roundness=1", "--near", "10", "--far", "100"],
+    "compare": ["{fx}/image.png", "{fx}/image_noisy.png"],
+    "evaluate-disparity": ["{fx}/disp_left.pfm", "{fx}/disp_left_noisy.pfm"],
+    "interpolate": ["--left", "{fx}/image.png", "--left-disparity", "{fx}/disp_left.pfm", "--right",
+                    "{fx}/image_right.png", "--right-disparity", "{fx}/disp_right.pfm", "--position", "0.5",
+                    "--out", "{case}/mid.png"],
+    "match": ["{fx}/image.png", "{fx}/image_right.png", "--max-disparity", "16", "--out", "{case}/disp.pfm"],
+    "rectify": ["{fx}/left.png", "{fx}/right.png", "--cameras", "{fx}/cameras_par.txt", "--out", "{case}/rect"],
+    "render": ["tabletop", "--out", "{case}/render", "--width", "16", "--height", "12", "--samples", "2",
+               "--depth", "1"],
+    "synthesize": ["{fx}/image.png", "{fx}/depth.npy", "--out", "{case}/synth", "--budget-px", "4"],
+    "demo": ["--out", "{case}/demo"],
+}
+# Options that exclude others: sweeping ``--display`` drops the three display lengths it replaces.
+EXCLUDES = {"--display": set(_LENGTHS[0::2])}
+# Options that need company to reach their own check: one synthesis control replaces another, and a
+# PNG disparity map needs its scale (disparity = value / scale) before it is decoded.
+CONTEXT: dict[tuple[str, str], tuple[set[str], list[str]]] = {
+    ("synthesize", "--budget-arcmin"): ({"--budget-px"}, []),
+    ("synthesize", "--focal-px"): ({"--budget-px"}, ["--interaxial", "0.065", "--convergence", "3"]),
+    ("synthesize", "--interaxial"): ({"--budget-px"}, ["--focal-px", "500", "--convergence", "3"]),
+}
+PNG_SCALE = {("evaluate-disparity", "estimate"): "--estimate-scale", ("evaluate-disparity", "truth"): "--truth-scale",
+             ("evaluate-disparity", "--truth-right"): "--truth-scale",
+             ("interpolate", "--left-disparity"): "--disparity-scale",
+             ("interpolate", "--right-disparity"): "--disparity-scale"}
+# Commands whose base is too long for a sweep (the demo runs for minutes): only hostile outputs run.
+LONG_COMMANDS = frozenset({"demo"})
+
+# The cases of issue 9 that the generic sweep reaches only by chance, kept as regression cases.
+ISSUE_CASES: tuple[tuple[str, tuple[str, ...], bool], ...] = (
+    ("compare", ("--radius", "1e6"), False),
+    ("match", ("--min-disparity", "-10000"), False),
+    ("match", ("--max-disparity", "0", "--min-disparity", "-383"), False),
+    ("match", ("--max-disparity", "-900", "--min-disparity", "-1000"), False),
+    ("match", ("--block-size", "1001"), False),
+    ("budget", ("--focal-mm", "5e-324", "--sensor-mm", "36"), False),
+    ("budget", ("--baseline", "1e308"), False),
+    ("mapping", ("--window", "5e-324", "--constraint", "z=20,perceived=5e-324"), False),
+    ("mapping", ("--constraint", "z=20,perceived=2,roundness=1e9"), False),
+    ("synthesize", ("--budget-px", "1e6"), False),
+    ("synthesize", ("--budget-px", "200"), False),
+    ("synthesize", ("--budget-px", "", "--focal-px", "5000", "--interaxial", "1", "--convergence", "3"), False),
+    ("synthesize", ("--depth-kind", "inverse"), False),
+    ("synthesize", ("--smooth-sigma", "-1"), False),
+    ("render", ("--samples", "100000000"), False),
+    ("render", ("--width", "1000000", "--height", "24"), False),
+    ("render", ("--seed", "-1"), False),
+    ("compare", ("{fx}/tiny.png", "{fx}/tiny.png"), False),
+)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One run of the harness: a command line (``kind`` "cli"/"sigint") or a batch of API calls."""
+
+    id: str
+    kind: str
+    target: str
+    argv: tuple[str, ...] = ()
+    hostile: bool = True
+    strict: bool = False
+    note: str = ""
+    sigint_after: float | None = None
+    api_cases: tuple[dict, ...] = field(default=(), compare=False)
+
+
+def write_fixtures(folder: Path) -> None:
+    """Small valid inputs for the base invocations (a textured pair with its disparities, cameras)."""
+    from vergence.camera import look_at
+    from vergence.io import CameraSet, write_image, write_middlebury_par, write_pfm
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    height, width, shift = 48, 64, 3
+    texture = rng.random((height, width + shift, 3)).astype(np.float32)
+    write_image(folder / "image.png", texture[:, shift:])
+    write_image(folder / "image_right.png", texture[:, :width])
+    noisy = np.clip(texture[:, shift:] + rng.normal(0, 0.02, (height, width, 3)), 0, 1).astype(np.float32)
+    write_image(folder / "image_noisy.png", noisy)
+    write_image(folder / "tiny.png", rng.random((2, 2, 3)).astype(np.float32))
+    disparity = np.full((height, width), float(shift), np.float32)
+    write_pfm(folder / "disp_left.pfm", disparity)
+    write_pfm(folder / "disp_right.pfm", disparity)
+    write_pfm(folder / "disp_left_noisy.pfm", disparity + rng.normal(0, 0.3, disparity.shape).astype(np.float32))
+    depth = np.full((height, width), 4.0, np.float32)
+    depth[16:32, 24:40] = 2.0
+    np.save(folder / "depth.npy", depth)
+    # A converging pair 0.1 m apart looking at a point 3 m ahead (the rectify fixture).
+    cams = tuple(look_at((x, 0.0, 0.0), (0.0, 0.0, 3.0), (0.0, -1.0, 0.0), fov_deg=50.0, width=width, height=height)
+                 for x in (-0.05, 0.05))
+    write_image(folder / "left.png", texture[:, shift:])
+    write_image(folder / "right.png", texture[:, :width])
+    write_middlebury_par(folder / "cameras_par.txt", CameraSet(names=("left.png", "right.png"), cameras=cams))
+
+
+def _option_kind(param) -> str:
+    annotation = getattr(getattr(param, "type_descriptor", None), "annotation", None)
+    text = getattr(annotation, "__name__", None) or str(annotation)
+    if getattr(param, "is_flag", False):
+        return "flag"
+    if "float" in text:
+        return "float"
+    if "int" in text:
+        return "int"
+    if "Path" in text:
+        return "output" if param.name in OUTPUT_OPTIONS else "input"
+    return "str"
+
+
+def command_tree() -> dict[str, list]:
+    """Command name -> its click parameters (options and arguments), from the Typer app."""
+    import typer
+
+    from vergence.cli import app
+
+    group = typer.main.get_command(app)
+    return {name: list(cmd.params) for name, cmd in sorted(group.commands.items())}
+
+
+def python_names(tree: dict[str, list] | None = None) -> frozenset[str]:
+    """Every Python parameter name of the public API and of the CLI functions (for ``python_name``)."""
+    import importlib
+    import inspect
+
+    from tools.sweep.api_cases import API_MODULES
+
+    names: set[str] = set()
+    for module_name in API_MODULES:
+        module = importlib.import_module(module_name)
+        for name in getattr(module, "__all__", ()):
+            obj = getattr(module, name)
+            if callable(obj):
+                try:
+                    names.update(inspect.signature(obj).parameters)
+                except (TypeError, ValueError):
+                    pass
+    for params in (tree or command_tree()).values():
+        names.update(p.name for p in params)
+    return frozenset(n for n in names if n and not n.startswith("_"))
+
+
+def _replace_option(base: list[str], option: str, values: list[str], drop: set[str]) -> list[str]:
+    """``base`` with ``option``'s value(s) replaced (or the option appended) and ``drop`` options removed."""
+    out, i = [], 0
+    while i < len(base):
+        token = base[i]
+        if token == option or token in drop:
+            i += 2
+            continue
+        out.append(token)
+        i += 1
+    for value in values:
+        out += [option] if value is None else [option, value]
+    return out
+
+
+def _hostile_values(kind: str, param) -> tuple[hostile.Hostile, ...]:
+    if kind == "float":
+        return hostile.FLOAT_VALUES
+    if kind == "int":
+        return hostile.INT_VALUES
+    if kind == "output":
+        return hostile.OUTPUT_VALUES
+    if kind == "input":
+        return tuple(hostile.Hostile(n, "{hostile}/" + n + hostile.FILE_SUFFIX[n], n in hostile.STRICT_FILES)
+                     for n in hostile.FILE_SUFFIX)
+    if kind == "flag":
+        return (hostile.Hostile("set", "", False),)
+    extra = ()
+    if param.name == "scene":  # render's scene: a name or a JSON file
+        extra = tuple(hostile.Hostile(n, "{hostile}/" + n + hostile.FILE_SUFFIX[n], True)
+                      for n in ("missing", "folder", "empty_file", "nested_json", "bom_json", "garbage"))
+    if param.name == "constraint":
+        extra = (hostile.Hostile("subnormal_constraint", "z=5e-324,perceived=5e-324", False),
+                 hostile.Hostile("nan_constraint", "z=nan,perceived=2", True),
+                 hostile.Hostile("huge_roundness", "z=20,perceived=2,roundness=1e9", False))
+    return hostile.STR_VALUES + extra
+
+
+def cli_cases(*, quick: bool, rng: random.Random, per_option: int = 1, sample: int | None = None) -> list[Case]:
+    """Every command x option x hostile value, then the issue's cases.
+
+    ``quick``: ``per_option`` values drawn per option, and of those ``sample`` cases drawn at random
+    (the bases and the issue's cases always run).
+    """
+    cases: list[Case] = []
+    for command, params in command_tree().items():
+        base = BASES.get(command)
+        if base is None:
+            continue
+        if command not in LONG_COMMANDS:
+            cases.append(Case(id=f"cli/{command}/base", kind="cli", target=command, argv=(command, *base),
+                              hostile=False, note="the valid base invocation"))
+        for param in params:
+            kind = _option_kind(param)
+            if command in LONG_COMMANDS and kind != "output":
+                continue
+            values = list(_hostile_values(kind, param))
+            if quick and len(values) > per_option:
+                values = rng.sample(values, per_option)
+            for value in values:
+                if value.name == "input_file" and not any("{fx}/" in t for t in base):
+                    continue  # the command reads no file: there is no input to overwrite
+                cases.append(_case_for(command, base, params, param, kind, value))
+    if quick and sample is not None:
+        bases = [c for c in cases if not c.hostile and c.id.endswith("/base")]
+        rest = [c for c in cases if c not in bases]
+        cases = bases + rng.sample(rest, min(sample, len(rest)))
+    for n, (command, extra, strict) in enumerate(ISSUE_CASES):
+        argv = list(BASES[command])
+        if command == "compare" and extra[0].startswith("{fx}"):
+            argv = list(extra)
+        else:
+            for option, v in zip(extra[0::2], extra[1::2]):
+                argv = _replace_option(argv, option, [] if v == "" else [v], set())
+        cases.append(Case(id=f"cli/{command}/issue9-{n}", kind="cli", target=command, argv=(command, *argv),
+                          strict=strict, note="issue 9: " + " ".join(extra)))
+    return cases
+
+
+def _case_for(command: str, base: list[str], params: list, param, kind: str, value: hostile.Hostile) -> Case:
+    label = param.opts[0]
+    if param.param_type_name == "argument":
+        index = [p.name for p in params if p.param_type_name == "argument"].index(param.name)
+        positional = [t for t in base if not t.startswith("--")]
+        # Positional arguments come first in every base invocation.
+        argv = list(base)
+        argv[argv.index(positional[index])] = value.text
+    elif kind == "flag":
+        argv = _replace_option(base, label, [None], set())
+    else:
+        drop, extra = CONTEXT.get((command, label), (set(), []))
+        argv = _replace_option(base, label, [value.text], EXCLUDES.get(label, set()) | drop) + extra
+        if label == "--display":
+            argv = _replace_option(argv, "--screen-pixels", [], set())
+    scale = PNG_SCALE.get((command, label))
+    if scale and kind == "input" and value.text.endswith((".png", ".jpg")) and scale not in argv:
+        argv += [scale, "16"]
+    return Case(id=f"cli/{command}/{param.name}={value.name}", kind="cli", target=command, argv=(command, *argv),
+                hostile=kind != "flag", strict=value.strict, note=f"{label} {value.name}")
+
+
+def sigint_cases(*, count: int, rng: random.Random) -> list[Case]:
+    """Ctrl-C at random moments (0 to 4 s, imports included) into commands that write outputs."""
+    targets = [("synthesize", [*BASES["synthesize"], "--views", "8", "--format", "views"]), ("render", BASES["render"]),
+               ("match", BASES["match"]), ("interpolate", BASES["interpolate"]), ("budget", BASES["budget"])]
+    cases = []
+    for n in range(count):
+        command, argv = targets[n % len(targets)]
+        delay = round(rng.uniform(0.0, 4.0), 2)
+        cases.append(Case(id=f"sigint/{command}/{n}@{delay}s", kind="sigint", target=command,
+                          argv=(command, *argv), hostile=False, sigint_after=delay, note=f"SIGINT after {delay} s"))
+    return cases
+
+
+def random_cases(*, count: int, rng: random.Random) -> list[Case]:
+    """Random extreme parameter sets for ``budget`` and ``mapping`` (log-uniform magnitudes, any sign)."""
+
+    def extreme() -> str:
+        magnitude = 10.0 ** rng.uniform(-320, 308)
+        return repr(magnitude if rng.random() < 0.8 else -magnitude)
+
+    cases = []
+    for n in range(count):
+        if n % 2 == 0:
+            argv = ["budget", "--baseline", extreme(), "--convergence", extreme(), "--window", extreme(),
+                    "--eye-separation", extreme(), "--viewing-distance", extreme(), "--screen-width", extreme(),
+                    "--depth", extreme(), "--json"]
+        else:
+            argv = ["mapping", "--reference-baseline", extreme(), "--convergence", extreme(), "--window", extreme(),
+                    *_LENGTHS, "--constraint", f"z={extreme()},perceived={extreme()}", "--near", extreme(),
+                    "--far", extreme(), "--json"]
+        cases.append(Case(id=f"random/{argv[0]}/{n}", kind="cli", target=argv[0], argv=tuple(argv),
+                          note="random extreme parameters"))
+    return cases
