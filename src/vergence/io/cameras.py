@@ -14,11 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
-from vergence.io.bundler import read_bundler, write_bundler
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.io.camera_set import CameraSet
+from vergence.io.bundler import _checked_image_list, read_bundler, write_bundler
+from vergence.io.camera_set import CameraSet, _check_size
 from vergence.io.cameras_json import read_cameras_json, write_cameras_json
 from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
@@ -125,14 +125,23 @@ def read_cameras(
     ``cameras.txt``/``images.txt`` -> COLMAP (:data:`CAMERA_FORMATS`); a file whose name no format
     claims is recognised by its first lines (a Middlebury count and camera line, Bundler's header,
     our JSON's ``"vergence-cameras"``). ``image_size`` applies to
-    Middlebury and Bundler, ``image_list`` to Bundler only; the other readers ignore them.
+    Middlebury and Bundler, ``image_list`` to Bundler only; the other readers ignore them, but a
+    malformed value is refused whatever the format (a mistake is not silently dropped).
 
     Raises
     ------
     ValueError
         If ``format`` is not a name of :data:`CAMERA_FORMATS`, or it is left out and the file name
-        matches no format (the message lists them).
+        matches no format (the message lists them); if ``image_size`` is not two positive integers.
+    TypeError
+        If ``image_list`` is neither a path nor a sequence of image names.
+    FileNotFoundError
+        If ``image_list`` is a path to a missing file.
     """
+    if image_size is not None:
+        _check_size(image_size)
+    if image_list is not None:
+        _checked_image_list(image_list)
     p, fmt = _format_of(path, format)
     given = {"image_size": image_size, "image_list": image_list}
     return fmt.read(p, **{k: given[k] for k in fmt.options})
