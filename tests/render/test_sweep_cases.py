@@ -1,0 +1,53 @@
+"""Issue 9, cases of our own sweep (``python -m tools.sweep``) in vergence.render, and their kin.
+
+Each wrong value is refused in one line naming the argument: a ``TypeError`` for a wrong type, a
+``ValueError`` for a value outside the documented range. Before, these returned quietly (a number
+as a material name or a file path) or failed deep inside (``ZeroDivisionError``, ``AttributeError``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vergence.render import Environment, Mesh, Rectangle, Scene, Sphere, Texture, builtin_scene
+
+TRIANGLE = {"vertices": np.eye(3), "faces": [[0, 1, 2]]}
+RECTANGLE = {"center": [0, 0, 0], "normal": [0, 0, 1], "up": [0, 1, 0], "size": (1, 1)}
+
+
+@pytest.mark.parametrize(
+    ("build", "error", "message"),
+    [
+        # api/Mesh/material=none, material=number, path=number
+        (lambda: Mesh(**TRIANGLE, material=None), TypeError, "^material must be a str; got NoneType$"),
+        (lambda: Mesh(**TRIANGLE, material=1.5), TypeError, "^material must be a str; got float$"),
+        (lambda: Mesh(**TRIANGLE, material=""), ValueError, "^material must be a non-empty str; got ''$"),
+        (lambda: Mesh(**TRIANGLE, material="m", path=1.5), TypeError, "^path must be a str or None; got float$"),
+        # api/Rectangle/material=none, api/Sphere/material=number
+        (lambda: Rectangle(**RECTANGLE, material=None), TypeError, "^material must be a str; got NoneType$"),
+        (lambda: Sphere(center=[0, 0, 0], radius=1, material=1.5), TypeError, "^material must be a str; got float$"),
+        # api/Texture/path=number
+        (lambda: Texture(image=np.ones((2, 2, 3)), path=1.5), TypeError, "^path must be a str or None; got float$"),
+        # api/Environment/source=number, and its note
+        (lambda: Environment(color=[1, 1, 1], source=1.5), TypeError, "^source must be a str; got float$"),
+        (lambda: Environment(color=[1, 1, 1], note=3), TypeError, "^note must be a str or None; got int$"),
+    ],
+)
+def test_scene_parts_refuse_wrong_typed_names_and_paths(build, error, message):
+    with pytest.raises(error, match=message):
+        build()
+
+
+def test_scene_refuses_wrong_typed_collections_and_name():
+    sc = builtin_scene("tabletop", width=4, height=3)
+    parts = {"camera": sc.camera, "environment": sc.environment, "materials": dict(sc.materials), "objects": sc.objects}
+    for field, value, message in [
+        ("materials", 1.5, "^materials must be a mapping of names to materials; got float$"),
+        ("objects", 1.5, "^objects must be a sequence of Sphere, Rectangle or Mesh; got float$"),
+        ("objects", "ab", "^objects must be a sequence of Sphere, Rectangle or Mesh; got str$"),
+        ("name", None, "^name must be a str; got NoneType$"),
+    ]:
+        with pytest.raises(TypeError, match=message):
+            Scene(**{**parts, field: value})
+    assert Scene(**parts, name="ok").name == "ok"
