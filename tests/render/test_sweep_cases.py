@@ -51,3 +51,20 @@ def test_scene_refuses_wrong_typed_collections_and_name():
         with pytest.raises(TypeError, match=message):
             Scene(**{**parts, field: value})
     assert Scene(**parts, name="ok").name == "ok"
+
+
+# api/SceneCamera/fov_deg=subnormal: ZeroDivisionError (tan(5e-324 deg / 2) is 0); the fisheye too.
+@pytest.mark.parametrize("lens", ["pinhole", "fisheye"])
+@pytest.mark.parametrize("fov", [5e-324, 1e-300, 0.9e-3])
+def test_a_field_of_view_narrower_than_the_limit_is_refused(lens, fov):
+    from vergence.render import MIN_FOV_DEG, FisheyeCamera, SceneCamera
+
+    frame = {"position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0], "width": 32, "height": 24, "lens": lens}
+    with pytest.raises(ValueError, match=rf"^fov_deg must be >= 0.001 deg \(MIN_FOV_DEG\); got {fov:g}$"):
+        SceneCamera(**frame, fov_deg=fov)
+    if lens == "fisheye":
+        with pytest.raises(ValueError, match=r"^fov_deg must be >= 0.001 deg \(MIN_FOV_DEG\)"):
+            FisheyeCamera(R=np.eye(3), t=np.zeros(3), width=32, height=24, fov_deg=fov)
+    cam = SceneCamera(**frame, fov_deg=MIN_FOV_DEG).build()  # the limit itself is admitted, finite
+    focal = cam.focal_px if lens == "fisheye" else cam.K[0, 0]
+    assert np.isfinite(focal) and focal > 1e6

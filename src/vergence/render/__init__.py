@@ -14,7 +14,7 @@ arbitrary rays (:meth:`Tracer.trace_rays`) through three swappable stages: ray g
 
 from vergence.render._mitsuba import select_variant
 from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
-from vergence.render.lenses import FisheyeCamera
+from vergence.render.lenses import MIN_FOV_DEG, FisheyeCamera
 from vergence.render.disparity import screen_disparity
 from vergence.render.intersect import Hits, Intersector
 from vergence.render.limits import MAX_RENDER_BYTES, MAX_RENDER_RAYS, MAX_RENDER_SIDE, RenderCost, render_cost
@@ -61,6 +61,7 @@ __all__ = [
     "MAX_RENDER_RAYS",
     "MAX_RENDER_SIDE",
     "MAX_SCENE_EXTENT",
+    "MIN_FOV_DEG",
     "Mesh",
     "Mirror",
     "RAY_GENERATORS",

@@ -15,7 +15,7 @@ import numpy as np
 
 from vergence import camera as _camera
 from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
-from vergence.render.lenses import FisheyeCamera
+from vergence.render.lenses import FisheyeCamera, check_min_fov
 from vergence.render.limits import MAX_RENDER_SIDE
 
 __all__ = [
@@ -145,6 +145,7 @@ class SceneCamera:
             pp = as_float_array("principal_point", self.principal_point, shape=(2,))
             object.__setattr__(self, "principal_point", (float(pp[0]), float(pp[1])))
         object.__setattr__(self, "fov_deg", check_finite("fov_deg", self.fov_deg))
+        check_min_fov(self.fov_deg)
         self.build()  # validates the framing (fov range, degenerate look_at / up)
 
     def build(self) -> _camera.Camera | FisheyeCamera:
