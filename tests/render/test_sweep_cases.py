@@ -68,3 +68,28 @@ def test_a_field_of_view_narrower_than_the_limit_is_refused(lens, fov):
     cam = SceneCamera(**frame, fov_deg=MIN_FOV_DEG).build()  # the limit itself is admitted, finite
     focal = cam.focal_px if lens == "fisheye" else cam.K[0, 0]
     assert np.isfinite(focal) and focal > 1e6
+
+
+# api/Tracer/intersector=uint8, intersector=all_nan: AttributeError ('numpy.ndarray' object has no attribute
+# 'packed'); the other two stages had the same hole.
+@pytest.mark.parametrize(
+    ("stage", "value", "message"),
+    [
+        ("intersector", np.full((3, 4), 200, np.uint8), r"^intersector must be a callable with a PackedScene 'packed' "
+         r"and a str 'variant' \(an Intersector\) or None; got ndarray$"),
+        ("intersector", np.full((3, 4), np.nan), "^intersector must be a callable .* got ndarray$"),
+        ("intersector", "mitsuba", "^intersector must be a callable .* got str$"),
+        ("rays", 1.5, r"^rays must be a callable \(camera -> RayBatch\) or None; got float$"),
+        ("shader", object(), r"^shader must have the methods background, diffuse, specular \(a WhittedShader\) or be "
+         "None; got object$"),
+    ],
+)
+def test_tracer_refuses_stages_that_are_not_stages(stage, value, message):
+    from vergence.render import Intersector, Tracer, WhittedShader
+
+    sc = builtin_scene("tabletop", width=4, height=3)
+    with pytest.raises(TypeError, match=message):
+        Tracer(sc, **{stage: value})
+    intersector = Intersector(sc)
+    tracer = Tracer(sc, intersector=intersector, shader=WhittedShader(sc, intersector.packed, intersector.caster))
+    assert tracer.render(samples=1).beauty.shape == (3, 4, 3)  # real stages pass

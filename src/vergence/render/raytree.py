@@ -72,6 +72,10 @@ class _Flat:
     ao_rays: np.ndarray  # (views,) AO rays per view
 
 
+# What the tracer calls on its shading stage (see WhittedShader).
+_SHADER_METHODS = ("background", "diffuse", "specular")
+
+
 class Tracer:
     """A scene prepared once for tracing, reusable across cameras and ray sets (S3 §3.1).
 
@@ -105,6 +109,17 @@ class Tracer:
     def __init__(self, scene: Scene, *, rays: Callable[..., RayBatch] | None = None, intersector=None, shader=None) -> None:  # noqa: ANN001
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
+        if rays is not None and not callable(rays):
+            raise TypeError(f"rays must be a callable (camera -> RayBatch) or None; got {type(rays).__name__}")
+        if intersector is not None and not (callable(intersector)
+                                            and isinstance(getattr(intersector, "packed", None), surfaces.PackedScene)
+                                            and isinstance(getattr(intersector, "variant", None), str)):  # fmt: skip
+            raise TypeError("intersector must be a callable with a PackedScene 'packed' and a str 'variant' "
+                            f"(an Intersector) or None; got {type(intersector).__name__}")  # fmt: skip
+        missing = [m for m in _SHADER_METHODS if not callable(getattr(shader, m, None))]
+        if shader is not None and missing:
+            raise TypeError(f"shader must have the methods {', '.join(_SHADER_METHODS)} (a WhittedShader) or be None; "
+                            f"got {type(shader).__name__}")  # fmt: skip
         self.scene = scene
         self.rays = camera_rays if rays is None else rays
         self.intersector = Intersector(scene) if intersector is None else intersector
