@@ -93,3 +93,35 @@ def test_tracer_refuses_stages_that_are_not_stages(stage, value, message):
     intersector = Intersector(sc)
     tracer = Tracer(sc, intersector=intersector, shader=WhittedShader(sc, intersector.packed, intersector.caster))
     assert tracer.render(samples=1).beauty.shape == (3, 4, 3)  # real stages pass
+
+
+# api/render_stereo/convergence=subnormal, api/stereo_preview/baseline=huge: a numpy overflow warning, then
+# "K must be finite" naming no argument. Both now refuse the rig length before any tracing; the eyes
+# of a baseline inside LENGTH_RANGE must still lie inside the scene's extent, as any camera rendered.
+@pytest.mark.parametrize(
+    ("func", "rig", "message"),
+    [
+        ("render_stereo", {"baseline": 0.065, "convergence": 5e-324}, r"^convergence must be in \[1e-06, 1e\+06\] m"),
+        ("stereo_preview", {"baseline": 1e308, "convergence": 1.2}, r"^baseline must be in \[1e-06, 1e\+06\] m"),
+        ("stereo_preview", {"baseline": 0.065, "convergence": 5e-324}, r"^convergence must be in \[1e-06, 1e\+06\] m"),
+        ("render_stereo", {"baseline": 1e6, "convergence": 2.0},
+         r"^baseline must keep both eyes within 100000 m of the origin \(MAX_SCENE_EXTENT\); they reach 500000 m$"),
+    ],
+)
+def test_stereo_rigs_out_of_range_are_refused_by_name(func, rig, message):
+    import vergence.render
+
+    sc = builtin_scene("tabletop", width=4, height=3)
+    with pytest.raises(ValueError, match=message):
+        getattr(vergence.render, func)(sc, **rig, samples=1)
+
+
+def test_render_refuses_a_camera_beyond_the_scene_extent():
+    from vergence.camera import look_at
+    from vergence.render import render
+
+    sc = builtin_scene("tabletop", width=4, height=3)
+    far = look_at([2e5, 0, 0], [0, 0, 0], [0, 1, 0], fov_deg=40, width=4, height=3)
+    with pytest.raises(ValueError, match=r"^camera must lie within 100000 m of the origin \(MAX_SCENE_EXTENT\); "
+                                         "its centre reaches 200000 m$"):
+        render(sc, camera=far, samples=1)

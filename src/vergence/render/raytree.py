@@ -40,7 +40,7 @@ from vergence.render.lenses import FisheyeCamera
 from vergence.render.limits import MAX_RENDER_SIDE, render_cost
 from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
-from vergence.render.scene import Scene
+from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 from vergence.render.shader import WhittedShader, offset
 
 __all__ = ["MAX_DEPTH", "Tracer", "render", "render_stereo"]
@@ -371,11 +371,19 @@ def _check_supersample(supersample, cameras) -> int:  # noqa: ANN001
     return k
 
 
+def _camera_reach(camera: Camera | FisheyeCamera) -> float:
+    """Largest |coordinate| of the camera centre, metres (compared with MAX_SCENE_EXTENT, as the scene's camera)."""
+    return float(np.abs(camera.center).max())
+
+
 def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
     if camera is not None and not isinstance(camera, Camera | FisheyeCamera):
         raise TypeError(f"camera must be a Camera, a FisheyeCamera or None; got {type(camera).__name__}")
+    if camera is not None and _camera_reach(camera) > MAX_SCENE_EXTENT:
+        raise ValueError(f"camera must lie within {MAX_SCENE_EXTENT:g} m of the origin (MAX_SCENE_EXTENT); "
+                         f"its centre reaches {_camera_reach(camera):g} m")  # fmt: skip
     if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer) or not 0 <= max_depth <= MAX_DEPTH:
         raise ValueError(f"max_depth must be an integer in [0, {MAX_DEPTH}]; got {max_depth!r}")
     samples = check_positive_int("samples", samples)
@@ -456,6 +464,13 @@ def render_stereo(
     are traced through one :class:`Tracer`, their rays side by side in one wavefront per tree level;
     with an ``rng`` the AO draws follow that joint order (left pixels before right ones within a
     level). ``progress`` reports the joint wavefronts.
+
+    Raises
+    ------
+    ValueError
+        If ``baseline`` or ``convergence`` lies outside :data:`vergence.viewing.LENGTH_RANGE`, or the
+        eyes at ``-+ b/2`` lie farther than :data:`MAX_SCENE_EXTENT` from the origin; both before
+        any ray is traced.
     """
     from vergence.rigs import stereo_pair
 
@@ -465,5 +480,9 @@ def render_stereo(
         raise TypeError(f"render_stereo needs a pinhole Camera; got {type(cam).__name__}")
     supersample = check_positive_int("supersample", supersample)
     left, right = stereo_pair(cam, baseline=baseline, convergence=convergence)
+    reach = max(_camera_reach(left), _camera_reach(right))  # the eyes at -+ b/2 from the centre
+    if reach > MAX_SCENE_EXTENT:
+        raise ValueError(f"baseline must keep both eyes within {MAX_SCENE_EXTENT:g} m of the origin (MAX_SCENE_EXTENT); "
+                         f"they reach {reach:g} m")  # fmt: skip
     return tuple(Tracer(scene)._render_many([left, right], max_depth=max_depth, samples=samples, rng=rng,
                                             ao_distance=ao_distance, progress=progress, supersample=supersample))  # fmt: skip
