@@ -7,6 +7,8 @@ as a material name or a file path) or failed deep inside (``ZeroDivisionError``,
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -125,3 +127,35 @@ def test_render_refuses_a_camera_beyond_the_scene_extent():
     with pytest.raises(ValueError, match=r"^camera must lie within 100000 m of the origin \(MAX_SCENE_EXTENT\); "
                                          "its centre reaches 200000 m$"):
         render(sc, camera=far, samples=1)
+
+
+# api/scene_from_dict/base_dir=nested_json (and =folder, the harness's own false positive): a file given as
+# the folder that relative paths resolve against was taken, and the error came later or never.
+def test_scene_from_dict_base_dir_must_be_an_existing_folder(tmp_path):
+    from vergence.render import scene_from_dict
+
+    data = {
+        "camera": {"position": [0, 1, 4], "look_at": [0, 1, 0], "up": [0, 1, 0], "fov_deg": 40, "width": 8, "height": 6},
+        "environment": {"color": [1, 1, 1]},
+        "materials": {"m": {"type": "diffuse", "color": [0.5, 0.5, 0.5]}},
+        "objects": [{"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "m"}],
+    }
+    (tmp_path / "scene.json").write_text("{}")
+    with pytest.raises(NotADirectoryError, match=r"^base_dir must be a folder; .*scene.json is a file$"):
+        scene_from_dict(data, base_dir=tmp_path / "scene.json")
+    with pytest.raises(FileNotFoundError, match=r"^base_dir must be an existing folder; .*nowhere does not exist$"):
+        scene_from_dict(data, base_dir=str(tmp_path / "nowhere"))
+    with pytest.raises(TypeError, match="^base_dir must be a str, a path or None; got float$"):
+        scene_from_dict(data, base_dir=1.5)
+    with pytest.raises(TypeError, match="^name must be a str; got int$"):
+        scene_from_dict(data, name=3)
+    assert scene_from_dict(data, base_dir=tmp_path).name == "scene"  # an empty folder is fine
+
+
+# Kin of api/stereo_preview/baseline=huge: a scene's own "stereo" block took any positive length.
+@pytest.mark.parametrize(("field", "value"), [("baseline", 1e308), ("convergence", 5e-324)])
+def test_scene_stereo_block_lengths_are_in_length_range(field, value):
+    from vergence.render import Stereo
+
+    with pytest.raises(ValueError, match=rf"^{field} must be in \[1e-06, 1e\+06\] m \(LENGTH_RANGE\); got {re.escape(f'{value:g}')}$"):
+        Stereo(**{"baseline": 0.065, "convergence": 2.0, field: value})

@@ -183,3 +183,13 @@ def test_a_tiny_real_run(tmp_path):
     assert result.returncode == 2 and "--baseline" in result.stderr
     assert classify(result) == ["ok"]
     assert not any((tmp_path / "cases").iterdir())  # the case folder is removed after the run
+
+
+def test_folder_parameters_take_a_folder_and_refuse_files():
+    """scene_from_dict(base_dir=<folder>) was a suspicious_ok: a folder is what base_dir wants."""
+    from tools.sweep.api_cases import HOSTILE_TOKENS, param_kind
+
+    assert param_kind("scene_from_dict", "base_dir", "str | Path | None") == "folder"
+    assert param_kind("atomic_folder", "path", "str | os.PathLike[str]") == "folder"
+    assert param_kind("load_scene", "path", "str | Path") == "path"
+    assert "folder" in HOSTILE_TOKENS["folder"] and "nested_json!" in HOSTILE_TOKENS["folder"]

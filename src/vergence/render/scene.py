@@ -17,6 +17,7 @@ from vergence import camera as _camera
 from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
 from vergence.render.lenses import FisheyeCamera, check_min_fov
 from vergence.render.limits import MAX_RENDER_SIDE
+from vergence.viewing.geometry import LENGTH_RANGE
 
 __all__ = [
     "Checker",
@@ -231,14 +232,18 @@ class Environment:
 
 @dataclass(frozen=True, slots=True)
 class Stereo:
-    """Default stereo rig of a scene: ``baseline`` b and convergence distance H, metres."""
+    """Default stereo rig of a scene: ``baseline`` b and convergence distance H, metres, in ``LENGTH_RANGE``."""
 
     baseline: float
     convergence: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "baseline", check_positive("baseline", self.baseline))
-        object.__setattr__(self, "convergence", check_positive("convergence", self.convergence))
+        for name in ("baseline", "convergence"):
+            v = check_positive(name, getattr(self, name))
+            if not LENGTH_RANGE[0] <= v <= LENGTH_RANGE[1]:  # as vergence.rigs.stereo_pair takes them
+                raise ValueError(f"{name} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); "
+                                 f"got {v:g}")  # fmt: skip
+            object.__setattr__(self, name, v)
 
 
 # ------------------------------------------------------------------------------ materials
