@@ -159,3 +159,28 @@ def test_scene_stereo_block_lengths_are_in_length_range(field, value):
 
     with pytest.raises(ValueError, match=rf"^{field} must be in \[1e-06, 1e\+06\] m \(LENGTH_RANGE\); got {re.escape(f'{value:g}')}$"):
         Stereo(**{"baseline": 0.065, "convergence": 2.0, field: value})
+
+
+# api/subpixel_rays/offsets=none: np.asarray(None, float) is NaN, so every ray came back NaN. Kin: other
+# shapes (a numpy broadcast error naming nothing) and offsets past the pixel (huge ones overflowed).
+@pytest.mark.parametrize(
+    ("offsets", "error", "message"),
+    [
+        (None, TypeError, r"^offsets must be a numeric array of shape \(2,\) or \(H, W, 2\); got NoneType$"),
+        ("ab", TypeError, "^offsets must be a numeric array .* got str$"),
+        ([np.nan, 0.0], ValueError, r"^offsets must be finite \(no NaN or inf\)$"),
+        (np.zeros((5, 7, 2)), ValueError, r"^offsets must have shape \(2,\) or \(3, 4, 2\); got \(5, 7, 2\)$"),
+        (np.zeros(3), ValueError, r"^offsets must have shape \(2,\) or \(3, 4, 2\); got \(3,\)$"),
+        ([1e308, 0.0], ValueError, r"^offsets must lie in \[-0.5, 0.5\] px \(SUBPIXEL_OFFSET_RANGE\); got \[0, 1e\+308\]$"),
+        ([0.0, -0.51], ValueError, r"^offsets must lie in \[-0.5, 0.5\] px"),
+    ],
+)
+def test_subpixel_rays_refuse_bad_offsets(offsets, error, message):
+    from vergence.camera import look_at
+    from vergence.render import subpixel_rays
+
+    cam = look_at([0.3, 0.1, 2.0], [0, 0, 0], [0, 1, 0], fov_deg=50, width=4, height=3)
+    with pytest.raises(error, match=message):
+        subpixel_rays(cam, offsets)
+    for edge in ([-0.5, 0.5], np.full((3, 4, 2), -0.5)):  # the range's ends are the pixel's edges
+        assert np.isfinite(subpixel_rays(cam, edge).directions).all()
