@@ -243,3 +243,10 @@ def test_read_cameras_refuses_bad_options_whatever_the_format(tmp_path, fmt, opt
     read_cameras(path, image_size=(64, 48))  # the file itself is fine
     with pytest.raises(error, match=match):
         read_cameras(path, **options)
+
+
+@pytest.mark.parametrize("fmt", [["json"], {"json": 1}])
+def test_a_format_of_a_wrong_type_is_named(tmp_path, fmt):
+    # was "unhashable type" from the format table, naming nothing
+    with pytest.raises(ValueError, match=r"^format must be one of middlebury, bundler, colmap, json; got "):
+        read_cameras(tmp_path / "c.json", format=fmt)

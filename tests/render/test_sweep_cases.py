@@ -184,3 +184,9 @@ def test_subpixel_rays_refuse_bad_offsets(offsets, error, message):
         subpixel_rays(cam, offsets)
     for edge in ([-0.5, 0.5], np.full((3, 4, 2), -0.5)):  # the range's ends are the pixel's edges
         assert np.isfinite(subpixel_rays(cam, edge).directions).all()
+
+
+def test_builtin_scene_name_of_a_wrong_type_is_named():
+    # was "unhashable type: 'list'" from the dict of makers, naming nothing
+    with pytest.raises(TypeError, match="^name must be a str, one of glasses, stadium, tabletop; got list$"):
+        builtin_scene([], width=4, height=3)

@@ -93,7 +93,7 @@ def _format_of(path: object, format: str | None) -> tuple[Path, CameraFormat]:
         raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
     p = Path(path)
     if format is not None:
-        if format not in CAMERA_FORMATS:
+        if not isinstance(format, str) or format not in CAMERA_FORMATS:
             raise ValueError(f"format must be one of {', '.join(CAMERA_FORMATS)}; got {format!r}")
         return p, CAMERA_FORMATS[format]
     for fmt in CAMERA_FORMATS.values():
