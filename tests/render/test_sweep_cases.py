@@ -190,3 +190,11 @@ def test_builtin_scene_name_of_a_wrong_type_is_named():
     # was "unhashable type: 'list'" from the dict of makers, naming nothing
     with pytest.raises(TypeError, match="^name must be a str, one of glasses, stadium, tabletop; got list$"):
         builtin_scene([], width=4, height=3)
+
+
+def test_a_progress_that_cannot_be_called_is_refused_before_tracing():
+    # was "'float' object is not callable" once the first wavefront had been traced
+    from vergence.render import render
+
+    with pytest.raises(TypeError, match=r"^progress must be a callable\(fraction, message\) or None; got float$"):
+        render(builtin_scene("tabletop", width=4, height=3), samples=1, progress=1.5)

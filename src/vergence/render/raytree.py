@@ -233,6 +233,8 @@ class Tracer:
         their mean, while position, normal and depth stay those of the pixel-centre ray (a point of
         one surface, never an average across an edge).
         """
+        if progress is not None and not callable(progress):
+            raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
         n = 2 ** (max_depth + 1) - 1
         k2 = supersample * supersample
         _check_cost(cameras, max_depth=max_depth, samples=samples, supersample=supersample)
