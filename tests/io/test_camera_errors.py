@@ -220,9 +220,10 @@ def test_camera_files_are_recognised_by_content_when_the_name_says_nothing(tmp_p
         read_cameras(tmp_path / "notes.txt")
 
 
-# Issue 9 sweep (api/read_cameras/image_list=missing): the readers that take no image list or size
-# dropped them unseen, so a missing list.txt or a malformed size passed with a Middlebury, JSON or
-# COLMAP file. They are refused whatever the format.
+# Issue 9 sweep (api/read_cameras/image_list=missing, and any file as image_list in the full sweep): the
+# readers that take no image list or size dropped them unseen, so a missing list.txt or a malformed size
+# passed with a Middlebury, JSON or COLMAP file. A malformed one is refused whatever the format; a
+# well-formed image list with a format that has no use for it too.
 @pytest.mark.parametrize("fmt", ["middlebury", "json", "colmap"])
 @pytest.mark.parametrize(
     ("options", "error", "match"),
@@ -243,6 +244,9 @@ def test_read_cameras_refuses_bad_options_whatever_the_format(tmp_path, fmt, opt
     read_cameras(path, image_size=(64, 48))  # the file itself is fine
     with pytest.raises(error, match=match):
         read_cameras(path, **options)
+    (tmp_path / "list.txt").write_text("a.png\n")
+    with pytest.raises(ValueError, match=rf"^image_list applies to Bundler cameras \(\*.out\) only; .* is a {fmt} camera"):
+        read_cameras(path, image_list=tmp_path / "list.txt")
 
 
 @pytest.mark.parametrize("fmt", [["json"], {"json": 1}])

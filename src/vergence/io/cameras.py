@@ -125,14 +125,16 @@ def read_cameras(
     ``cameras.txt``/``images.txt`` -> COLMAP (:data:`CAMERA_FORMATS`); a file whose name no format
     claims is recognised by its first lines (a Middlebury count and camera line, Bundler's header,
     our JSON's ``"vergence-cameras"``). ``image_size`` applies to
-    Middlebury and Bundler, ``image_list`` to Bundler only; the other readers ignore them, but a
-    malformed value is refused whatever the format (a mistake is not silently dropped).
+    Middlebury and Bundler (the other readers ignore it, but a malformed size is refused whatever
+    the format), ``image_list`` to Bundler only: given with another format it is refused, as a
+    mistake that would otherwise be dropped unseen.
 
     Raises
     ------
     ValueError
         If ``format`` is not a name of :data:`CAMERA_FORMATS`, or it is left out and the file name
-        matches no format (the message lists them); if ``image_size`` is not two positive integers.
+        matches no format (the message lists them); if ``image_size`` is not two positive integers;
+        if ``image_list`` is given for a format other than Bundler.
     TypeError
         If ``image_list`` is neither a path nor a sequence of image names.
     FileNotFoundError
@@ -143,6 +145,9 @@ def read_cameras(
     if image_list is not None:
         _checked_image_list(image_list)
     p, fmt = _format_of(path, format)
+    if image_list is not None and "image_list" not in fmt.options:
+        name = next(n for n, f in CAMERA_FORMATS.items() if f is fmt)
+        raise ValueError(f"image_list applies to Bundler cameras (*.out) only; {p.name} is a {name} camera file")
     given = {"image_size": image_size, "image_list": image_list}
     return fmt.read(p, **{k: given[k] for k in fmt.options})
 
