@@ -198,3 +198,36 @@ def test_a_progress_that_cannot_be_called_is_refused_before_tracing():
 
     with pytest.raises(TypeError, match=r"^progress must be a callable\(fraction, message\) or None; got float$"):
         render(builtin_scene("tabletop", width=4, height=3), samples=1, progress=1.5)
+
+
+# Full sweep of render/io (issue 9 kin): layer_names and render_cost computed 2^(2^63) for a huge max_depth
+# (a timeout); ao_distance=1e308 overflowed its float32 cast with a numpy warning; auto_exposure and tonemap
+# made an exposure and an image of an empty array.
+def test_max_depth_is_checked_by_the_cost_estimate_and_the_layer_names():
+    from vergence.render import MAX_DEPTH, layer_names, render_cost
+
+    for huge in (2**63, MAX_DEPTH + 1):
+        with pytest.raises(ValueError, match=rf"^max_depth must be an integer in \[0, 6\]; got {huge}$"):
+            layer_names(huge)
+        with pytest.raises(ValueError, match=rf"^max_depth must be an integer in \[0, 6\]; got {huge}$"):
+            render_cost(8, 6, max_depth=huge, samples=1)
+    assert len(layer_names(MAX_DEPTH)) == 127 and render_cost(8, 6, max_depth=MAX_DEPTH, samples=1).rays > 0
+
+
+@pytest.mark.parametrize("func", ["render", "render_stereo"])
+def test_ao_distance_past_the_scene_diagonal_is_refused(func):
+    import vergence.render
+
+    sc = builtin_scene("tabletop", width=4, height=3)
+    rig = {"baseline": 0.065, "convergence": 1.2} if func == "render_stereo" else {}
+    with pytest.raises(ValueError, match=r"^ao_distance must be <= 346410 m, the diagonal of the scene's cube "
+                                         r"\(2 sqrt\(3\) MAX_SCENE_EXTENT\); got 1e\+308$"):
+        getattr(vergence.render, func)(sc, samples=1, ao_distance=1e308, **rig)
+
+
+@pytest.mark.parametrize("func", ["auto_exposure", "tonemap"])
+def test_empty_radiance_is_refused(func):
+    import vergence.render
+
+    with pytest.raises(ValueError, match=r"^radiance must have shape .* and not be empty; got \(0, 0, 3\)$"):
+        getattr(vergence.render, func)(np.empty((0, 0, 3)))

@@ -37,7 +37,7 @@ from vergence.camera import Camera
 from vergence.render import _kernels, surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.limits import MAX_RENDER_SIDE, render_cost
+from vergence.render.limits import MAX_DEPTH, MAX_RENDER_SIDE, check_max_depth, render_cost
 from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
@@ -45,7 +45,6 @@ from vergence.render.shader import WhittedShader, offset
 
 __all__ = ["MAX_DEPTH", "Tracer", "render", "render_stereo"]
 
-MAX_DEPTH = 6  # 127 layers; beyond that the arrays outgrow memory long before they help
 
 Progress = Callable[[float, str], None]
 
@@ -373,6 +372,11 @@ def _check_supersample(supersample, cameras) -> int:  # noqa: ANN001
     return k
 
 
+# No occluder lies farther from a shading point than the diagonal of the cube of MAX_SCENE_EXTENT (all
+# scene points lie inside it); a longer AO distance only overflowed the float32 cast of the ray ends.
+_MAX_AO_DISTANCE = 2.0 * np.sqrt(3.0) * MAX_SCENE_EXTENT
+
+
 def _camera_reach(camera: Camera | FisheyeCamera) -> float:
     """Largest |coordinate| of the camera centre, metres (compared with MAX_SCENE_EXTENT, as the scene's camera)."""
     return float(np.abs(camera.center).max())
@@ -386,13 +390,15 @@ def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa
     if camera is not None and _camera_reach(camera) > MAX_SCENE_EXTENT:
         raise ValueError(f"camera must lie within {MAX_SCENE_EXTENT:g} m of the origin (MAX_SCENE_EXTENT); "
                          f"its centre reaches {_camera_reach(camera):g} m")  # fmt: skip
-    if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer) or not 0 <= max_depth <= MAX_DEPTH:
-        raise ValueError(f"max_depth must be an integer in [0, {MAX_DEPTH}]; got {max_depth!r}")
+    check_max_depth(max_depth)
     samples = check_positive_int("samples", samples)
     if rng is not None and not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator or None; got {type(rng).__name__}")
     if ao_distance is not None:
         ao_distance = check_positive("ao_distance", ao_distance)
+        if ao_distance > _MAX_AO_DISTANCE:
+            raise ValueError(f"ao_distance must be <= {_MAX_AO_DISTANCE:.6g} m, the diagonal of the scene's cube "
+                             f"(2 sqrt(3) MAX_SCENE_EXTENT); got {ao_distance:g}")  # fmt: skip
     return int(max_depth), samples, ao_distance
 
 
