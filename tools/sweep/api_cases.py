@@ -89,6 +89,10 @@ EXTRA_KWARGS = {"plan_parallax": {"budget_px": 4.0}, "synthesize_stereo": {"budg
 
 # Parameters that name a folder (given the hostile folder they must work; given a file, refuse).
 FOLDER_PARAMETERS = frozenset({("scene_from_dict", "base_dir"), ("atomic_folder", "path")})
+# Functions that read only a path's name, never the file (stores_integers: by its extension), swept as
+# output paths; and functions whose arrays broadcast (schlick), where another shape is no mistake.
+NAME_ONLY_PATHS = frozenset({"stores_integers"})
+BROADCASTING = frozenset({"schlick"})
 
 # Hostile tokens per kind of parameter; a trailing "!" marks a strict one (any normal return is suspect).
 HOSTILE_TOKENS = {
@@ -154,7 +158,8 @@ def param_kind(func_name: str, name: str, annotation: str) -> str:
     if (func_name, name) in FOLDER_PARAMETERS:
         return "folder"
     if "PathLike" in a or a in ("str | Path", "str | Path | None"):
-        return "out_path" if func_name in WRITE_SUFFIX or func_name.startswith("write_") else "path"
+        writes = func_name in WRITE_SUFFIX or func_name.startswith("write_") or func_name in NAME_ONLY_PATHS
+        return "out_path" if writes else "path"
     if (name in SEQUENCE_DEFAULTS or "Sequence" in a or a.startswith(("tuple", "list"))
             or name in ("views", "operators")):
         if name != "views" or "Sequence" in a:
@@ -364,7 +369,7 @@ def api_case_specs(*, quick: bool, rng, per_param: int = 2) -> list[dict]:
             tokens = list(HOSTILE_TOKENS[kind])
             if not required or "None" in annotation:
                 tokens = [t for t in tokens if t != "none!"]
-            if kind == "array" and n_arrays >= 2:  # a shape that disagrees with the other arrays
+            if kind == "array" and n_arrays >= 2 and name not in BROADCASTING:  # disagrees with the other arrays
                 tokens = [t + "!" if t == "other_shape" else t for t in tokens]
             if quick and len(tokens) > per_param:
                 tokens = rng.sample(tokens, per_param)
