@@ -136,12 +136,19 @@ def _option_kind(param) -> str:
 
 def command_tree() -> dict[str, list]:
     """Command name -> its click parameters (options and arguments), from the Typer app."""
+    import importlib
+
     import typer
 
-    from vergence.cli import app
+    from vergence import cli
 
-    group = typer.main.get_command(app)
-    return {name: list(cmd.params) for name, cmd in sorted(group.commands.items())}
+    # Commands may load on demand (listed in vergence.cli.COMMANDS): load them all, then ask the group.
+    for module, _ in getattr(cli, "COMMANDS", {}).values():
+        importlib.import_module(f"vergence.cli.{module}")
+    group = typer.main.get_command(cli.app)
+    ctx = group.context_class(group)
+    commands = {name: group.get_command(ctx, name) for name in group.list_commands(ctx)}
+    return {name: list(cmd.params) for name, cmd in sorted(commands.items()) if cmd is not None}
 
 
 def python_names(tree: dict[str, list] | None = None) -> frozenset[str]:
