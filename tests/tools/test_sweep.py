@@ -42,7 +42,8 @@ FIRING = {
     "suspicious_ok": _cli(returncode=0, stderr="", degenerate="left.png: constant 0"),
     "input_modified": _cli(inputs_changed=["in/image.png"]),
     "leftovers": _cli(leftovers=[".out.tmp-1234.png"]),
-    "sigint": _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr=""),
+    # exit 0 after Ctrl-C with an output missing: the interrupt was swallowed
+    "sigint": _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr="", missing_outputs=["a.png"]),
 }
 
 
@@ -62,6 +63,7 @@ def test_every_class_but_ok_has_a_firing_example():
     _cli(returncode=0, stderr="warning: the parallax leaves the comfort zone\n", hostile=True),  # our own warning
     _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=130, stderr="error: interrupted\n"),
     _cli(kind="sigint", hostile=False, sigint_sent=False, returncode=0, stderr=""),  # finished before Ctrl-C
+    _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr=""),  # Ctrl-C after the work: all there
     _cli(returncode=2, stderr="error: image must be (H, W, 3); got (4, 4, 2)\n", arguments=("image",)),
     _api(),
     _api(status="returned", exc_type=None, hostile=False),

@@ -88,6 +88,7 @@ class Case:
     strict: bool = False
     note: str = ""
     sigint_after: float | None = None
+    outputs: tuple[str, ...] = ()  # what a finished run leaves (relative to its case folder)
     api_cases: tuple[dict, ...] = field(default=(), compare=False)
 
 
@@ -278,12 +279,17 @@ def sigint_cases(*, count: int, rng: random.Random) -> list[Case]:
     """Ctrl-C at random moments (0 to 4 s, imports included) into commands that write outputs."""
     targets = [("synthesize", [*BASES["synthesize"], "--views", "8", "--format", "views"]), ("render", BASES["render"]),
                ("match", BASES["match"]), ("interpolate", BASES["interpolate"]), ("budget", BASES["budget"])]
+    # A run that exits 0 after Ctrl-C must have finished: the signal came after the work (while the
+    # interpreter shut down), and every output is there; a swallowed interrupt would leave some out.
+    outputs = {"synthesize": tuple(f"synth/view_{i:02d}.png" for i in range(8)) + ("synth/synthesis.json",),
+               "render": ("render",), "match": ("disp.pfm",), "interpolate": ("mid.png",), "budget": ()}
     cases = []
     for n in range(count):
         command, argv = targets[n % len(targets)]
         delay = round(rng.uniform(0.0, 4.0), 2)
         cases.append(Case(id=f"sigint/{command}/{n}@{delay}s", kind="sigint", target=command,
-                          argv=(command, *argv), hostile=False, sigint_after=delay, note=f"SIGINT after {delay} s"))
+                          argv=(command, *argv), hostile=False, sigint_after=delay, outputs=outputs[command],
+                          note=f"SIGINT after {delay} s"))
     return cases
 
 
