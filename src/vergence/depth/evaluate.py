@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array, as_image, check_positive, check_same_hw
+from vergence._validate import as_float_array, as_image, check_bool, check_positive, check_same_hw
 
 __all__ = ["RegionScore", "evaluate_disparity", "mask_agreement", "middlebury_regions", "read_middlebury_masks"]
 
@@ -153,6 +153,7 @@ def middlebury_regions(
     t = _truth("truth", truth)
     if isinstance(border, bool) or not isinstance(border, int | np.integer) or border < 0:
         raise ValueError(f"border must be an integer >= 0; got {border!r}")
+    disc_includes_occlusions = check_bool("disc_includes_occlusions", disc_includes_occlusions)
     tr = None
     if truth_right is not None:
         tr = _truth("truth_right", truth_right)

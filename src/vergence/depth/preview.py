@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array
+from vergence._validate import as_float_array, check_bool
 
 __all__ = ["disparity_preview"]
 
@@ -72,6 +72,7 @@ def disparity_preview(disparity: object, *, lo: float, hi: float, colour_bar: bo
             raise TypeError(f"{name} must be a real number of pixels; got {type(v).__name__}")
     if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo and np.isfinite(float(hi) - float(lo))):
         raise ValueError(f"hi must be finite and greater than lo, hi - lo finite; got lo={lo}, hi={hi}")
+    colour_bar = check_bool("colour_bar", colour_bar)
     rgb = _turbo((np.nan_to_num(d.astype(np.float64), nan=lo) - lo) / (hi - lo))
     rgb[~np.isfinite(d)] = 0.0
     if colour_bar:

@@ -17,6 +17,7 @@ import numpy as np
 from vergence._validate import (
     as_float_array,
     as_image,
+    check_bool,
     check_positive,
     check_positive_int,
     check_same_hw,
@@ -376,6 +377,7 @@ def refine_disparity(
     _guide_u8("guide", guide, d)
     if not isinstance(smoothing, str) or smoothing not in SMOOTHING_METHODS:
         raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_METHODS)}; got {smoothing!r}")
+    keep_invalid = check_bool("keep_invalid", keep_invalid)
     h, w = d.shape
     size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
     r = default_radius(h, w) if radius is None else check_positive_int("radius", radius)
