@@ -63,8 +63,9 @@ def _occluded(d_left: np.ndarray, d_right: np.ndarray | None, thresh: float) -> 
     h, w = d_left.shape
     known = np.isfinite(d_left)
     ys, xs = np.nonzero(known)
-    xr = xs - np.rint(d_left[known]).astype(np.int64)
-    inside = (xr >= 0) & (xr < w)
+    xr_float = xs - np.rint(d_left[known])  # float: a disparity past the int range leaves the image, uncast
+    inside = (xr_float >= 0) & (xr_float < w)
+    xr = np.where(inside, xr_float, 0).astype(np.int64)
     if d_right is None:  # z-buffered forward warp of d_L: the nearest (largest) disparity wins
         d_right = np.full((h, w), -np.inf)
         np.maximum.at(d_right, (ys[inside], xr[inside]), d_left[ys[inside], xs[inside]])
