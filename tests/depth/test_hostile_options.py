@@ -167,3 +167,13 @@ def test_values_past_the_representable_range_are_refused(case):
     call, message = OUT_OF_RANGE[case]
     with pytest.raises(ValueError, match=message):
         call()
+
+
+def test_evaluate_disparity_rms_of_errors_past_the_square_root_of_the_float_range():
+    """Kin of the sweep's huge values: errors of 1e200 px (a float64 .npy) squared to inf with a warning."""
+    truth = np.zeros((30, 30))
+    estimate = np.full((30, 30), 1e200)
+    estimate[:15] = 0.0  # half the pixels exact: RMS = 1e200 / sqrt(2)
+    np.testing.assert_allclose(evaluate_disparity(estimate, truth)["all"].rms, 1e200 / np.sqrt(2), rtol=1e-12)
+    with pytest.raises(ValueError, match=r"^estimate - truth must be a finite number of pixels"):
+        evaluate_disparity(np.full((30, 30), 1e308), np.full((30, 30), -1e308))

@@ -98,6 +98,14 @@ def _discontinuities(d: np.ndarray, border: int, gap: float, width: int, occlude
     return cv2.dilate(jump.astype(np.uint8), np.ones((width, width), np.uint8)) > 0
 
 
+def _rms(err: np.ndarray) -> float:
+    """``sqrt(mean(err^2))`` (S1 Eq. 10) scaled by the largest ``|err|``, so that no square overflows."""
+    peak = float(np.abs(err).max())
+    if peak == 0.0:
+        return 0.0
+    return peak * float(np.sqrt(np.mean((err / peak) ** 2)))
+
+
 def _textureless(image: np.ndarray, width: int, thresh: float) -> np.ndarray:
     """StereoMatcher ``ComputeTextureless``: 3x3 mean of the squared horizontal difference < thresh^2."""
     img = image.astype(np.float64) * 255.0
@@ -307,7 +315,10 @@ def evaluate_disparity(
                 raise ValueError(f"mask {name!r} must be a boolean array of shape {t.shape}; got {arr.dtype} {arr.shape}")
             regions[name] = arr & np.isfinite(t)
     unknown = np.isnan(e)  # NaN = unknown (docs/conventions.md); 0 is a real disparity
-    err = np.where(unknown, -t, e - t)  # an unknown estimate scores as disparity 0
+    with np.errstate(over="ignore"):
+        err = np.where(unknown, -t, e - t)  # an unknown estimate scores as disparity 0
+    if np.isinf(err).any():
+        raise ValueError("estimate - truth must be a finite number of pixels; got a difference past the float range")
     bad = unknown | (np.abs(err) > thr)
     scores = {}
     for name in sorted(regions, key=lambda k: (_REGION_ORDER.index(k) if k in _REGION_ORDER else 99, k)):
@@ -317,7 +328,7 @@ def evaluate_disparity(
             continue  # e.g. no discontinuity in the truth: the region has no score
         scores[name] = RegionScore(
             bad=float(100.0 * bad[m].mean()),  # Eq. (9)
-            rms=float(np.sqrt(np.mean(err[m] ** 2))),  # Eq. (10)
+            rms=_rms(err[m]),  # Eq. (10)
             pixels=n,
         )
     if not scores:
