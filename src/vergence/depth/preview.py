@@ -66,8 +66,8 @@ def disparity_preview(disparity: object, *, lo: float, hi: float, colour_bar: bo
 
     Examples
     --------
-    >>> disparity_preview(np.array([[np.nan]]), lo=0.0, hi=1.0).tolist()
-    [[[0.0, 0.0, 0.0]]]
+    >>> disparity_preview(np.array([[np.nan, 1.0]]), lo=0.0, hi=1.0)[0, 0].tolist()
+    [0.0, 0.0, 0.0]
     >>> disparity_preview(np.zeros((100, 200)), lo=0.0, hi=16.0, colour_bar=True).shape
     (123, 200, 3)
     """
