@@ -289,7 +289,7 @@ def test_compare_table_and_bad_input(tmp_path, capsys):
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--min-contrast", "-1"])
     assert code == 2 and "--min-contrast must lie in [0, 0.5]; got -1" in err
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "c.png")])
-    assert code == 2 and "reference must have the same shape as image" in err
+    assert code == 2 and "REFERENCE must have the same shape as image" in err  # the argument, not `reference`
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "missing.png")])
     assert code == 2 and len(err.strip().splitlines()) == 1
     for gain in ("-1", "nan", "0"):

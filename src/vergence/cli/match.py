@@ -153,7 +153,8 @@ def match(
         check_output_path(o, left, right, *([mask] if mask is not None else []))
     start = time.perf_counter()
     names = {"block_size": "--block-size", "max_disparity": "--max-disparity", "min_disparity": "--min-disparity",
-             "method": "--method", "smoothing": "--smoothing"}
+             "method": "--method", "smoothing": "--smoothing", "left and right": "LEFT and RIGHT", "left": "LEFT",
+             "right": "RIGHT", "valid": "--mask"}
     with err_console.status(f"matching ({method})", spinner="dots"), options_named(**names):
         a, b = read_image(left), read_image(right)
         valid = _mask(mask, a.shape[:2]) if mask is not None else None

@@ -92,7 +92,7 @@ def rectify(
         notes = read_cameras(cameras, image_size=(a.shape[1], a.shape[0]), image_list=image_list).notes
         for note in notes:
             err_console.print(f"[yellow]note:[/] {note}", highlight=False, soft_wrap=True)
-        with options_named(left_image="LEFT", right_image="RIGHT"):
+        with options_named(**{"left_image and right_image": "LEFT and RIGHT"}, left_image="LEFT", right_image="RIGHT"):
             pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
                                 common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
