@@ -151,6 +151,7 @@ def test_staged_outputs_do_not_appear_after_a_ctrl_c_not_yet_raised(tmp_path, mo
     from vergence.cli._staged import staged_outputs
 
     monkeypatch.setattr(cli, "_sigint_seen", True)
-    with pytest.raises(KeyboardInterrupt), staged_outputs([tmp_path / "out" / "a.png"], folder=tmp_path / "out") as temps:
+    folder = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt), staged_outputs([folder / "a.png"], folder=folder) as temps:
         temps[0].write_bytes(b"view")
     assert list(tmp_path.iterdir()) == []

@@ -74,7 +74,15 @@ def _forget_pending() -> None:
     global _sigint_pending
     if _sigint_pending:
         _sigint_pending = False
-        _signal.setitimer(_signal.ITIMER_REAL, 0.0)
+        _retry_in(0.0)
+
+
+def _retry_in(seconds: float) -> None:
+    """Arm (or, with 0, stop) the SIGALRM timer of a deferred Ctrl-C; no-op where there is none (Windows)."""
+    if hasattr(_signal, "setitimer"):
+        if seconds:
+            _signal.signal(_signal.SIGALRM, _on_sigint_retry)
+        _signal.setitimer(_signal.ITIMER_REAL, seconds)
 
 
 def __getattr__(name: str) -> object:
@@ -145,9 +153,8 @@ def _on_sigint_retry(signum: int, frame: FrameType | None) -> None:
 
 
 def _raise_when_safe(frame: FrameType | None) -> None:
-    if _unraisable_at(frame):
-        _signal.signal(_signal.SIGALRM, _on_sigint_retry)
-        _signal.setitimer(_signal.ITIMER_REAL, SIGINT_RETRY_S)
+    if hasattr(_signal, "setitimer") and _unraisable_at(frame):
+        _retry_in(SIGINT_RETRY_S)
         return
     _forget_pending()
     raise KeyboardInterrupt
@@ -190,5 +197,5 @@ def _entry() -> None:
     _prefer_passive_omp_wait(os.environ)
     code = main()
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # a second Ctrl-C cannot turn the exit into a traceback
-    _signal.setitimer(_signal.ITIMER_REAL, 0.0)  # nor a deferred one's timer (SIGALRM's default kills)
+    _retry_in(0.0)  # nor a deferred one's timer (SIGALRM's default action kills)
     sys.exit(code)

@@ -3,9 +3,9 @@
 Every output is first written under a hidden temporary name beside its final one; only when all of
 them are complete are they renamed, together, with Ctrl-C (SIGINT) held back for the few
 microseconds the renames take; a Ctrl-C seen but not yet raised (the console script waits while
-Numba is inside LLVM) stops them too. On any error or interruption before that, the temporary files are
-removed and a folder the command created is removed again: nothing partial is left, and an
-existing file keeps its old content.
+Numba is inside LLVM) stops them too. On any error or interruption before that, the temporary
+files are removed and a folder the command created is removed again: nothing partial is left, and
+an existing file keeps its old content.
 """
 
 from __future__ import annotations
