@@ -155,3 +155,36 @@ def test_staged_outputs_do_not_appear_after_a_ctrl_c_not_yet_raised(tmp_path, mo
     with pytest.raises(KeyboardInterrupt), staged_outputs([folder / "a.png"], folder=folder) as temps:
         temps[0].write_bytes(b"view")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["match", "rectify", "render"])
+def test_commands_writing_through_atomic_io_commit_nothing_after_a_ctrl_c_not_yet_raised(tmp_path, monkeypatch,
+                                                                                         command):
+    # The same for the commands that write through vergence.io.atomic_write / atomic_folder: the
+    # interrupt is seen inside the commit block, so no output appears and main() says "interrupted".
+    import numpy as np
+
+    import vergence.cli as cli
+    from vergence.camera import look_at
+    from vergence.io import CameraSet, write_image, write_middlebury_par
+
+    rng = np.random.default_rng(0)
+    texture = rng.random((48, 67, 3)).astype(np.float32)
+    write_image(tmp_path / "left.png", texture[:, 3:])
+    write_image(tmp_path / "right.png", texture[:, :64])
+    cams = tuple(look_at((x, 0.0, 0.0), (0.0, 0.0, 3.0), (0.0, -1.0, 0.0), fov_deg=50.0, width=64, height=48)
+                 for x in (-0.05, 0.05))
+    write_middlebury_par(tmp_path / "cameras_par.txt", CameraSet(names=("left.png", "right.png"), cameras=cams))
+    out = tmp_path / "out"
+    argv = {
+        "match": ["match", str(tmp_path / "left.png"), str(tmp_path / "right.png"), "--max-disparity", "16",
+                  "--out", str(out) + ".pfm", "--preview", str(out) + "_preview.png"],
+        "rectify": ["rectify", str(tmp_path / "left.png"), str(tmp_path / "right.png"), "--cameras",
+                    str(tmp_path / "cameras_par.txt"), "--out", str(out)],
+        "render": ["render", "tabletop", "--out", str(out), "--width", "16", "--height", "12", "--samples", "2",
+                   "--depth", "1"],
+    }[command]
+    before = sorted(p.name for p in tmp_path.iterdir())
+    monkeypatch.setattr(cli, "_sigint_seen", True)
+    assert cli.main(argv) == cli.EXIT_INTERRUPTED
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # no output, no temporary file

@@ -15,6 +15,7 @@ import numpy as np
 import typer
 from PIL import Image
 
+from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
 from vergence.io import atomic_folder, cameras_for_images, read_cameras, read_image, write_image, write_json
@@ -105,6 +106,7 @@ def rectify(
         for name, image in zip(_OUTPUTS, images):
             write_image(tmp / name, image)
         write_json(tmp / _OUTPUTS[-1], data)
+        raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM: commit nothing
     if as_json:
         print_json(data)
         return
