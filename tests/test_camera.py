@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from vergence.camera import Camera, interpolate, look_at
+from vergence.camera import MIN_FOV_DEG, Camera, interpolate, look_at
 
 # Round trips go through a 3x3 inverse and a few products: a few hundred ulps of the coordinates.
 ROUND_TRIP_RTOL = 1e-10
@@ -211,3 +211,23 @@ def test_fov_bounds_and_exact_intrinsics_row():
     K = np.diag([100.0, 100.0, 1.0 + 1e-9])  # a K whose last row is not (0, 0, 1) breaks project/backproject
     with pytest.raises(ValueError, match=r"last row \(0, 0, 1\)"):
         Camera(K=K, R=np.eye(3), t=np.zeros(3), width=4, height=4)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    # sweep case api/look_at/fov_deg=subnormal: ZeroDivisionError (tan of a zero angle)
+    ({"fov_deg": 5e-324}, r"^fov_deg must be at least 0.001 \(MIN_FOV_DEG\); got 4.94066e-324$"),
+    ({"fov_deg": MIN_FOV_DEG / 2}, r"^fov_deg must be at least 0.001 \(MIN_FOV_DEG\); got 0.0005$"),
+    # sweep case api/look_at/principal_point=empty: IndexError
+    ({"principal_point": ()}, r"^principal_point must have shape \(2,\); got \(0,\)$"),
+    ({"principal_point": (1.0, 2.0, 3.0)}, r"^principal_point must have shape \(2,\); got \(3,\)$"),
+    ({"principal_point": (np.nan, 2.0)}, r"^principal_point must be finite \(no NaN or inf\)$"),
+])
+def test_look_at_refuses_degenerate_intrinsics(options, message):
+    with pytest.raises(ValueError, match=message):
+        look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], **{"fov_deg": 60.0, "width": 4, "height": 4, **options})
+
+
+def test_look_at_narrowest_field_of_view_is_finite():
+    cam = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=MIN_FOV_DEG, width=4, height=4)
+    # f = 4 / (2 tan(0.0005 deg)) = 229183.1 px
+    np.testing.assert_allclose(cam.focal_px, 4 / (2 * math.tan(math.radians(MIN_FOV_DEG / 2))), rtol=1e-12)

@@ -521,3 +521,11 @@ def test_ssim_window_is_scikit_images_default():
     assert SSIM_WINDOW == 7
     reference = structural_similarity(a.astype(np.float64), b.astype(np.float64), data_range=1.0)
     assert ssim(a, b) == pytest.approx(reference, abs=FLOAT64_TOL)
+
+
+def test_registration_rms_of_a_subnormal_radius_does_not_underflow():
+    """Kin of the sweep's 5e-324 cases (issue 9): every distance was the radius 5e-324, their RMS 0."""
+    rng = np.random.default_rng(0)
+    image = rng.random((24, 48)).astype(np.float32)
+    res = registration_error(image, np.roll(image, 1, axis=1), radius=5e-324)
+    assert res.median == 5e-324 and res.rms == 5e-324  # every distance is d = r: RMS = r

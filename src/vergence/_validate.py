@@ -19,6 +19,7 @@ __all__ = [
     "as_image",
     "as_image_pair",
     "as_view",
+    "check_bool",
     "check_finite",
     "check_in_range",
     "check_positive",
@@ -26,6 +27,13 @@ __all__ = [
     "check_same_hw",
     "readonly_copy",
 ]
+
+
+def check_bool(name: str, value: object) -> bool:
+    """Return ``value`` as a bool, or raise ``TypeError`` if it is not one (a string "no" is truthy)."""
+    if not isinstance(value, bool | np.bool_):
+        raise TypeError(f"{name} must be a bool; got {type(value).__name__}")
+    return bool(value)
 
 
 def check_finite(name: str, value: object) -> float:

@@ -16,7 +16,12 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from vergence._validate import as_float_array, check_finite, check_in_range, check_positive_int, readonly_copy
 
-__all__ = ["Camera", "interpolate", "look_at"]
+__all__ = ["Camera", "MIN_FOV_DEG", "interpolate", "look_at"]
+
+MIN_FOV_DEG = 1e-3
+"""Narrowest horizontal field of view :func:`look_at` builds, degrees (3.6 arcsec): narrower than any
+imaging telescope's field (Hubble's WFC3 spans about 0.04 deg), and it keeps the focal length
+``width / (2 tan(fov / 2))`` finite where a subnormal field of view would divide by a zero tangent."""
 
 # A rotation matrix must satisfy R R^T = I and det R = 1 to this absolute tolerance: loose enough
 # for matrices read from 6-digit text files (Middlebury, Bundler), tight enough to reject scaling.
@@ -228,11 +233,17 @@ def look_at(
         Centre, a point on the optical axis, and the world "up" direction (need not be orthogonal
         to the view direction, but not parallel to it).
     fov_deg : float
-        Horizontal field of view across the full image width, in degrees, in (0, 180).
+        Horizontal field of view across the full image width, in degrees, in [:data:`MIN_FOV_DEG`, 180).
     width, height : int
         Image size in pixels.
     principal_point : (cx, cy), optional
         In pixels; defaults to the image centre ``((width - 1) / 2, (height - 1) / 2)``.
+
+    Raises
+    ------
+    ValueError
+        A field of view outside [:data:`MIN_FOV_DEG`, 180), a principal point that is not two finite
+        numbers, a zero ``up``, ``target == position`` or ``up`` parallel to the viewing direction.
 
     Notes
     -----
@@ -245,6 +256,8 @@ def look_at(
     fov = check_finite("fov_deg", fov_deg)
     if not 0.0 < fov < 180.0:
         raise ValueError(f"fov_deg must lie strictly between 0 and 180; got {fov:g}")
+    if fov < MIN_FOV_DEG:
+        raise ValueError(f"fov_deg must be at least {MIN_FOV_DEG:g} (MIN_FOV_DEG); got {fov:g}")
     width = check_positive_int("width", width)
     height = check_positive_int("height", height)
     if not np.any(up_):
@@ -263,8 +276,7 @@ def look_at(
     if principal_point is None:
         cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
     else:
-        cx = check_finite("principal_point[0]", principal_point[0])
-        cy = check_finite("principal_point[1]", principal_point[1])
+        cx, cy = as_float_array("principal_point", principal_point, shape=(2,)).tolist()
     K = np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
     return Camera(K=K, R=R, t=-R @ c, width=width, height=height)
 

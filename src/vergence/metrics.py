@@ -338,7 +338,9 @@ def _summaries(values: np.ndarray, ranks: Sequence[float]) -> tuple[float, float
     values, k in (0, 1]; Eq. 13, k = 1 is Eq. 12) of a non-empty set of distances."""
     flat = np.sort(np.asarray(values, dtype=np.float64).ravel())
     ranked = {k: float(flat[max(math.ceil(k * flat.size), 1) - 1]) for k in ranks}
-    return float(np.sqrt(np.mean(flat**2))), float(np.median(flat)), ranked
+    peak = float(flat[-1])  # the RMS scaled by the largest distance: a subnormal radius's squares underflow to 0
+    rms = peak * float(np.sqrt(np.mean((flat / peak) ** 2))) if peak > 0.0 else 0.0
+    return rms, float(np.median(flat)), ranked
 
 
 def _patch_contrast(sums: np.ndarray, squares: np.ndarray, k: int) -> np.ndarray:

@@ -207,8 +207,8 @@ def test_match_keeps_zero_disparities_in_pfm_and_tells_them_from_unknown_in_png(
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["stereo/tsukuba/im3.png", "stereo/venus/im6.ppm"], "right must have the size of left"),
-        (["stereo/tsukuba/im3.png", "GREY", "--max-disparity", "15"], "both be grey or both colour"),
+        (["stereo/tsukuba/im3.png", "stereo/venus/im6.ppm"], "error: RIGHT must have the size of left"),
+        (["stereo/tsukuba/im3.png", "GREY", "--max-disparity", "15"], "error: LEFT and RIGHT must both be grey or both colour"),
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--max-disparity", "400"], "wider than the image"),
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--method", "census"], "--method must be one of"),
         (["stereo/tsukuba/im3.png", "stereo/tsukuba/im4.png", "--smoothing", "x"], "--smoothing must be one of"),
@@ -272,6 +272,13 @@ def test_rectify_errors(capsys, dino, tmp_path):
     code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
                         str(dino / "README.txt"), "--out", str(tmp_path / "o"))
     assert code == 2 and "no known format" in err
+    # a grey right image beside a colour left one: the arguments by name, not left_image/right_image
+    import cv2
+
+    (tmp_path / "grey").mkdir()
+    cv2.imwrite(str(tmp_path / "grey" / "dino0001.png"), cv2.imread(str(dino / "dino0001.png"), cv2.IMREAD_GRAYSCALE))
+    code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(tmp_path / "grey" / "dino0001.png"), *base)
+    assert code == 2 and err.startswith("error: LEFT and RIGHT must both be grey or both colour")
     assert not (tmp_path / "o").exists()
 
 
@@ -291,7 +298,7 @@ def test_evaluate_errors(capsys, tsukuba, tmp_path):
         assert code == 2 and err.strip() == f"error: {message}"
     np.save(tmp_path / "small.npy", np.ones((10, 10), np.float32))
     code, _, err = _run(capsys, "evaluate-disparity", str(tmp_path / "small.npy"), gt, "--truth-scale", "16")
-    assert code == 2 and "estimate must have shape (288, 384) matching truth" in err
+    assert code == 2 and err.startswith("error: ESTIMATE must have shape (288, 384) matching truth")
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
                         "--masks", str(tmp_path))
     assert code == 2 and "no Middlebury masks" in err
@@ -310,7 +317,7 @@ def test_match_refuses_a_uniform_pair_and_warns_on_a_mostly_flat_one(capsys, tmp
         code, stdout, err = _run(capsys, "match", str(flat), str(flat), "--max-disparity", "15", "--out",
                                  str(tmp_path / "d.pfm"), "--json")
         assert code == 2 and stdout == "" and len(err.strip().splitlines()) == 1
-        assert err.startswith("error: left has no texture to match: 0 % of its pixels")
+        assert err.startswith("error: LEFT has no texture to match: 0 % of its pixels")  # the argument, not `left`
         assert not (tmp_path / "d.pfm").exists()
     spot = np.full((100, 200), 128, np.uint8)
     spot[30:60, 60:110] = np.random.default_rng(0).integers(0, 256, (30, 50))
@@ -345,7 +352,8 @@ def test_compare_flat_tiny_and_identical_images(capsys, tmp_path):
     write_image(tmp_path / "tiny.png", np.random.default_rng(0).random((2, 2)))
     code, stdout, err = _run(capsys, "compare", str(tmp_path / "tiny.png"), str(tmp_path / "tiny.png"))
     assert code == 2 and stdout == "" and "win_size" not in err
-    assert err.strip() == (f"error: image must be at least {SSIM_WINDOW} px on each side for SSIM's {SSIM_WINDOW} x "
+    # sweep case cli/compare/issue9-17: the message led with the Python name "image", not IMAGE
+    assert err.strip() == (f"error: IMAGE must be at least {SSIM_WINDOW} px on each side for SSIM's {SSIM_WINDOW} x "
                            f"{SSIM_WINDOW} window (SSIM_WINDOW); got 2 x 2 px")
 
 

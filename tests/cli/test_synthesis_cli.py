@@ -117,12 +117,12 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
     [
         (["--budget-px", "4", "--format", "sbs", "--views", "3"], "depth.npy", "--format sbs shows a stereo pair"),
         (["--views", "1", "--format", "views"], "depth.npy", r"views must lie in \[2, 128\] \(MAX_VIEWS\); got 1"),
-        (["--budget-px", "4"], "zero.npy", r"depth must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
+        (["--budget-px", "4"], "zero.npy", r"^error: DEPTH must be > 0 metres where known \(metric depth; NaN = unknown\); got min 0"),
         (["--budget-px", "4", "--depth-scale", "2"], "depth.npy", "scale applies to .png/.pgm disparity maps only"),
         (["--budget-px", "4", "--format", "gif"], "depth.npy", "--format must be one of anaglyph, anaglyph-amber-blue, .*, tb, views"),
-        (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "depth must be > 0 metres where known"),
-        (["--budget-px", "4"], "nan.npy", "depth must have at least one known value"),
-        (["--budget-px", "4"], "small.npy", r"depth must have shape \(H, W\) matching image \(16, 48\)"),
+        (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "^error: DEPTH must be > 0 metres where known"),
+        (["--budget-px", "4"], "nan.npy", "^error: DEPTH must have at least one known value"),
+        (["--budget-px", "4"], "small.npy", r"^error: DEPTH must have shape \(H, W\) matching image \(16, 48\)"),
         (["--budget-px", "4", "--display", "imax"], "depth.npy", "unknown display preset 'imax'"),
         # Issue 9: the message names the option, not the Python parameter ("sigma ...").
         (["--budget-px", "4", "--smooth-sigma", "-1"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\] pixels"),
@@ -132,6 +132,9 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         (["--budget-px", "4", "--depth-scale", "1e308"], "depth_mm.png", r"^error: --depth-scale must lie in \[1e-30, 1e\+30\] \(it divides float32 values\); got 1e\+308"),
         (["--views", "1000", "--format", "views"], "depth.npy", r"^error: --views must lie in \[2, 128\]"),
         (["--budget-px", "4", "--fill", "blur"], "depth.npy", r"^error: --fill must be one of background"),
+        # Issue 9 sweep round 2 (cli/synthesize/issue9-12, python_name): the message led with the
+        # Python argument "depth"; it names DEPTH, the argument the user typed.
+        (["--budget-px", "4", "--depth-kind", "inverse"], "depth.npy", r"^error: DEPTH must lie in \[0, 1\] for inverse depth"),
     ],
 )
 def test_synthesize_bad_input_is_one_line_and_exit_2(tmp_path, capsys, extra, depth_name, message):
@@ -236,10 +239,14 @@ def test_interpolate_float_disparity_zero_is_a_real_disparity(tmp_path, capsys, 
         (lambda p: [a if a != "4" else "0" for a in _interp_args(p)], "scale must be > 0"),
         (lambda p: [a.replace("right_disp.png", "small_disp.png") for a in _interp_args(p)],
          r"--right-disparity must have shape \(H, W\) matching right \(12, 40\)"),
+        # Issue 9 sweep round 2 kin: the option the user typed, not the Python argument "right".
+        (lambda p: [a.replace("right.png", "small.png") for a in _interp_args(p)],
+         r"^error: --right must have shape \(12, 40\) like left; got \(12, 30\)"),
     ],
 )
 def test_interpolate_bad_input(tmp_path, capsys, args_fn, message):
     _references(tmp_path)
+    write_image(tmp_path / "small.png", np.zeros((12, 30), np.float32), bit_depth=16)
     write_disparity(tmp_path / "small_disp.png", np.ones((12, 30)), scale=4.0)
     code, _, err = _run(capsys, args_fn(tmp_path))
     assert code == 2 and len(err.strip().splitlines()) == 1
@@ -289,7 +296,7 @@ def test_compare_table_and_bad_input(tmp_path, capsys):
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "b.png"), "--min-contrast", "-1"])
     assert code == 2 and "--min-contrast must lie in [0, 0.5]; got -1" in err
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "c.png")])
-    assert code == 2 and "reference must have the same shape as image" in err
+    assert code == 2 and "REFERENCE must have the same shape as image" in err  # the argument, not `reference`
     code, _, err = _run(capsys, ["compare", str(tmp_path / "a.png"), str(tmp_path / "missing.png")])
     assert code == 2 and len(err.strip().splitlines()) == 1
     for gain in ("-1", "nan", "0"):
@@ -510,7 +517,7 @@ def test_synthesize_refuses_a_colour_pfm_as_depth(tmp_path, capsys):
     write_pfm(tmp_path / "depth.pfm", depth)
     args = ["synthesize", str(tmp_path / "image.png"), "--budget-px", "2", "--out"]
     code, _, err = _run(capsys, [*args, str(tmp_path / "o1"), str(tmp_path / "depth_rgb.pfm")])
-    assert code == 2 and re.search(r"^error: depth .*depth_rgb.pfm must be a single-channel PFM \('Pf' header\)", err)
+    assert code == 2 and re.search(r"^error: DEPTH .*depth_rgb.pfm must be a single-channel PFM \('Pf' header\)", err)
     assert not (tmp_path / "o1").exists()
     code, _, err = _run(capsys, [*args, str(tmp_path / "o2"), str(tmp_path / "depth.pfm")])
     assert code == 0, err

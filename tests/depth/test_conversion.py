@@ -24,7 +24,8 @@ def test_invalid_disparities_give_nan():
     z = depth_from_disparity([np.nan, 0.0, -3.0, 2.0], focal_px=100.0, baseline=1.0, doffs_px=1.0)
     # d + doffs = NaN, 1, -2 (behind: invalid), 3; assert_allclose compares NaN positions too.
     np.testing.assert_allclose(z, [np.nan, 100.0, np.nan, 100.0 / 3.0], rtol=RTOL)
-    assert np.isnan(disparity_from_depth([np.nan], focal_px=100.0, baseline=1.0)).all()
+    np.testing.assert_allclose(disparity_from_depth([np.nan, 10.0], focal_px=100.0, baseline=1.0), [np.nan, 10.0],
+                               rtol=RTOL)
 
 
 # Unit roundoff of float64 (round to nearest): every +, -, *, / has relative error <= U.

@@ -279,4 +279,4 @@ def test_sweep_kin_refusals():
         disparity_preview(d, lo=-1e308, hi=1e308)
     with pytest.raises(TypeError, match="^lo must be a real number of pixels; got str$"):
         disparity_preview(d, lo="0", hi=1.0)
-    assert disparity_preview(np.full((2, 2), np.nan), lo=-1e300, hi=0.0).max() == 0.0  # no overflow warning
+    assert disparity_preview(np.array([[np.nan, 0.0]]), lo=-1e300, hi=0.0)[0, 0].max() == 0.0  # no overflow warning

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from vergence.camera import look_at
+from vergence.display import side_by_side, top_bottom
 from vergence.synthesis import (
     ParallaxPlan,
     StereoResult,
@@ -157,3 +158,20 @@ def test_plan_parallax_and_results_refuse_inconsistent_parts():
 def test_issue9_bad_api_calls_raise_one_line_errors(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+# Issue 9, sweep round 2 (api/interpolate_view/median=string): a bool option given a string returned
+# a view ("no" is truthy); every bool option of synthesis and display refuses a non-bool.
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda value: interpolate_view(IMG, MAP, IMG, MAP, 0.5, median=value),
+        lambda value: side_by_side(IMG, IMG, half=value),
+        lambda value: top_bottom(IMG, IMG, half=value),
+    ],
+    ids=["interpolate_view.median", "side_by_side.half", "top_bottom.half"],
+)
+@pytest.mark.parametrize("value", ["no", 1, None])
+def test_bool_options_refuse_a_non_bool(call, value):
+    with pytest.raises(TypeError, match=rf"(median|half) must be a bool; got {type(value).__name__}"):
+        call(value)

@@ -11,7 +11,7 @@ import pytest
 from tools.sweep import sweep
 from tools.sweep.api_driver import degenerate
 from tools.sweep.classify import CLASSES, Result, classify, discount_degenerate_bases, python_name_in
-from tools.sweep.cli_cases import Case, _replace_option
+from tools.sweep.cli_cases import BASES, Case, _replace_option, command_tree
 from tools.sweep.hostile import HUGE_SIDE, hostile_files
 from tools.sweep.runner import Limits, _api_result, _degenerate_file, inconsistent_json, prepare, run_cli
 
@@ -42,7 +42,8 @@ FIRING = {
     "suspicious_ok": _cli(returncode=0, stderr="", degenerate="left.png: constant 0"),
     "input_modified": _cli(inputs_changed=["in/image.png"]),
     "leftovers": _cli(leftovers=[".out.tmp-1234.png"]),
-    "sigint": _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr=""),
+    # exit 0 after Ctrl-C with an output missing: the interrupt was swallowed
+    "sigint": _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr="", missing_outputs=["a.png"]),
 }
 
 
@@ -62,6 +63,7 @@ def test_every_class_but_ok_has_a_firing_example():
     _cli(returncode=0, stderr="warning: the parallax leaves the comfort zone\n", hostile=True),  # our own warning
     _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=130, stderr="error: interrupted\n"),
     _cli(kind="sigint", hostile=False, sigint_sent=False, returncode=0, stderr=""),  # finished before Ctrl-C
+    _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr=""),  # Ctrl-C after the work: all there
     _cli(returncode=2, stderr="error: image must be (H, W, 3); got (4, 4, 2)\n", arguments=("image",)),
     _api(),
     _api(status="returned", exc_type=None, hostile=False),
@@ -159,6 +161,13 @@ def test_hostile_png_declares_ten_billion_pixels_in_a_few_bytes():
     data = hostile_files()["huge_png"]
     width, height = struct.unpack(">II", data[16:24])
     assert (width, height) == (HUGE_SIDE, HUGE_SIDE) and len(data) < 200
+
+
+def test_every_command_with_a_base_is_found_in_the_command_tree():
+    # Commands that load on demand (vergence.cli.COMMANDS) must still be swept, options and all.
+    tree = command_tree()
+    assert set(BASES) <= set(tree)
+    assert all(tree[name] for name in BASES)
 
 
 def test_replace_option_swaps_one_value_and_drops_excluded_options():

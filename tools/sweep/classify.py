@@ -39,6 +39,7 @@ class Result:
     leftovers: list[str] = field(default_factory=list)
     degenerate: str | None = None
     sigint_sent: bool = False
+    missing_outputs: list[str] = field(default_factory=list)  # of a run that exited 0 after Ctrl-C
     # API calls: "returned", "raised" or "setup_error", and the exception's type name.
     status: str = ""
     exc_type: str | None = None
@@ -98,7 +99,8 @@ def classify(result: Result, *, names: frozenset[str] = frozenset()) -> list[str
             found.append("python_name")
         if rc == 0 and result.hostile and not interrupted and (result.strict or result.degenerate):
             found.append("suspicious_ok")
-        if interrupted and not result.timed_out and (rc != SIGINT_EXIT or len(lines) != 1):
+        finished = rc == 0 and not result.missing_outputs and "Traceback" not in stderr  # Ctrl-C came too late
+        if interrupted and not result.timed_out and not finished and (rc != SIGINT_EXIT or len(lines) != 1):
             found.append("sigint")
     if result.inputs_changed:
         found.append("input_modified")

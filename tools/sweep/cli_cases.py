@@ -88,6 +88,7 @@ class Case:
     strict: bool = False
     note: str = ""
     sigint_after: float | None = None
+    outputs: tuple[str, ...] = ()  # what a finished run leaves (relative to its case folder)
     api_cases: tuple[dict, ...] = field(default=(), compare=False)
 
 
@@ -136,12 +137,19 @@ def _option_kind(param) -> str:
 
 def command_tree() -> dict[str, list]:
     """Command name -> its click parameters (options and arguments), from the Typer app."""
+    import importlib
+
     import typer
 
-    from vergence.cli import app
+    from vergence import cli
 
-    group = typer.main.get_command(app)
-    return {name: list(cmd.params) for name, cmd in sorted(group.commands.items())}
+    # Commands may load on demand (listed in vergence.cli.COMMANDS): load them all, then ask the group.
+    for module, _ in getattr(cli, "COMMANDS", {}).values():
+        importlib.import_module(f"vergence.cli.{module}")
+    group = typer.main.get_command(cli.app)
+    ctx = group.context_class(group)
+    commands = {name: group.get_command(ctx, name) for name in group.list_commands(ctx)}
+    return {name: list(cmd.params) for name, cmd in sorted(commands.items()) if cmd is not None}
 
 
 def python_names(tree: dict[str, list] | None = None) -> frozenset[str]:
@@ -271,12 +279,17 @@ def sigint_cases(*, count: int, rng: random.Random) -> list[Case]:
     """Ctrl-C at random moments (0 to 4 s, imports included) into commands that write outputs."""
     targets = [("synthesize", [*BASES["synthesize"], "--views", "8", "--format", "views"]), ("render", BASES["render"]),
                ("match", BASES["match"]), ("interpolate", BASES["interpolate"]), ("budget", BASES["budget"])]
+    # A run that exits 0 after Ctrl-C must have finished: the signal came after the work (while the
+    # interpreter shut down), and every output is there; a swallowed interrupt would leave some out.
+    outputs = {"synthesize": tuple(f"synth/view_{i:02d}.png" for i in range(8)) + ("synth/synthesis.json",),
+               "render": ("render",), "match": ("disp.pfm",), "interpolate": ("mid.png",), "budget": ()}
     cases = []
     for n in range(count):
         command, argv = targets[n % len(targets)]
         delay = round(rng.uniform(0.0, 4.0), 2)
         cases.append(Case(id=f"sigint/{command}/{n}@{delay}s", kind="sigint", target=command,
-                          argv=(command, *argv), hostile=False, sigint_after=delay, note=f"SIGINT after {delay} s"))
+                          argv=(command, *argv), hostile=False, sigint_after=delay, outputs=outputs[command],
+                          note=f"SIGINT after {delay} s"))
     return cases
 
 

@@ -202,6 +202,8 @@ def run_cli(case, folder: Path, index: int, limits: Limits, arguments: tuple[str
     result.stderr = err.decode("utf-8", "replace")[-OUTPUT_TAIL:]
     after_hashes = _hashes(case_dir / "in") | {"hostile/" + k: v for k, v in _hashes(case_dir / "hostile").items()}
     result.inputs_changed = sorted(k for k in before_hashes if after_hashes.get(k) != before_hashes[k])
+    if result.sigint_sent and result.returncode == 0:
+        result.missing_outputs = [o for o in case.outputs if not (case_dir / o).exists()]
     new = sorted(_listing(case_dir, skip) - before)
     if result.returncode != 0 and not result.timed_out and not (result.returncode or 0) < 0:
         result.leftovers = new

@@ -11,6 +11,7 @@ import os
 import sys
 import time
 from collections.abc import MutableMapping
+from types import FrameType
 
 __all__ = ["COMMANDS", "EXIT_INTERRUPTED", "app", "main"]
 
@@ -39,15 +40,49 @@ COMMANDS: dict[str, tuple[str, str]] = {
 # Exit status after Ctrl-C: 128 + SIGINT (2), as POSIX shells report a process killed by SIGINT.
 EXIT_INTERRUPTED = 130
 
+# Seconds between two looks at whether a deferred Ctrl-C can be raised (see _unraisable_at): far
+# under the ~100 ms a user notices, and a look (a walk up ~50 frames) takes microseconds, so
+# LLVM's seconds of compiling are not slowed.
+SIGINT_RETRY_S = 0.01
+
 # Set by the console script's SIGINT handler: whatever happens next (an import that turns the
 # KeyboardInterrupt into a SystemError, a library that swallows it), the run ends as interrupted.
 # A plain flag, not a threading.Event: this module imports nothing that delays the handler.
 _sigint_seen = False
+# A Ctrl-C seen but not raised yet: it arrived where an exception would be lost (see _unraisable_at).
+_sigint_pending = False
 
 
 def sigint_seen() -> bool:
     """Whether the console script's handler saw Ctrl-C (SIGINT) in this process."""
     return _sigint_seen
+
+
+def raise_if_interrupted() -> None:
+    """Raise ``KeyboardInterrupt`` if the console script saw Ctrl-C: call it before committing outputs.
+
+    A Ctrl-C that arrived while Numba was inside LLVM waits (up to :data:`SIGINT_RETRY_S`) before it
+    is raised; a command whose last step ends in that time must still not commit its outputs.
+    """
+    if _sigint_seen:
+        _forget_pending()
+        raise KeyboardInterrupt
+
+
+def _forget_pending() -> None:
+    """Stop the retry timer of a Ctrl-C not raised yet: it is being handled now."""
+    global _sigint_pending
+    if _sigint_pending:
+        _sigint_pending = False
+        _retry_in(0.0)
+
+
+def _retry_in(seconds: float) -> None:
+    """Arm (or, with 0, stop) the SIGALRM timer of a deferred Ctrl-C; no-op where there is none (Windows)."""
+    if hasattr(_signal, "setitimer"):
+        if seconds:
+            _signal.signal(_signal.SIGALRM, _on_sigint_retry)
+        _signal.setitimer(_signal.ITIMER_REAL, seconds)
 
 
 def __getattr__(name: str) -> object:
@@ -78,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         if not _sigint_seen:
             raise
         code = EXIT_INTERRUPTED
+    _forget_pending()  # the run is over: a late retry must not raise while we report
     if code == EXIT_INTERRUPTED or _sigint_seen:
         sys.stderr.write("interrupted\n")
         sys.stderr.flush()
@@ -99,11 +135,49 @@ def pause_for_test(point: str) -> None:
         time.sleep(float(seconds))
 
 
-def _on_sigint(signum: int, frame: object) -> None:
-    """Record Ctrl-C, then raise ``KeyboardInterrupt`` so that ``finally`` blocks clean up."""
-    global _sigint_seen
-    _sigint_seen = True
+def _on_sigint(signum: int, frame: FrameType | None) -> None:
+    """Record Ctrl-C, then raise ``KeyboardInterrupt`` so that ``finally`` blocks clean up.
+
+    Where an exception would be lost (:func:`_unraisable_at`), the raise waits: a timer looks again
+    every :data:`SIGINT_RETRY_S` seconds and raises as soon as the interrupted code can take it.
+    """
+    global _sigint_seen, _sigint_pending
+    _sigint_seen = _sigint_pending = True
+    _raise_when_safe(frame)
+
+
+def _on_sigint_retry(signum: int, frame: FrameType | None) -> None:
+    """The timer of a deferred Ctrl-C (SIGALRM): raise now if the interrupted code can take it."""
+    if _sigint_pending:
+        _raise_when_safe(frame)
+
+
+def _raise_when_safe(frame: FrameType | None) -> None:
+    if hasattr(_signal, "setitimer") and _unraisable_at(frame):
+        _retry_in(SIGINT_RETRY_S)
+        return
+    _forget_pending()
     raise KeyboardInterrupt
+
+
+def _unraisable_at(frame: FrameType | None) -> bool:
+    """Whether an exception raised at ``frame`` would be lost, or crash the process.
+
+    True inside llvmlite: LLVM calls back into Python through ctypes while Numba compiles or loads
+    its cache (``ExecutionEngine._raw_object_cache_getbuffer``); ctypes prints an exception raised
+    there (``Exception ignored on calling ctypes callback function``) and hands LLVM an empty
+    object, so a cached kernel is linked without its code and the process dies of SIGSEGV (issue 9,
+    sweep case ``sigint/interpolate``). True inside a ``__del__`` too, whose exceptions Python also
+    prints and drops.
+    """
+    llvmlite = sys.modules.get("llvmlite")
+    root = os.path.dirname(getattr(llvmlite, "__file__", None) or "")
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name == "__del__" or (root and code.co_filename.startswith(root + os.sep)):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _prefer_passive_omp_wait(environ: MutableMapping[str, str]) -> None:
@@ -123,4 +197,5 @@ def _entry() -> None:
     _prefer_passive_omp_wait(os.environ)
     code = main()
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # a second Ctrl-C cannot turn the exit into a traceback
+    _retry_in(0.0)  # nor a deferred one's timer (SIGALRM's default action kills)
     sys.exit(code)

@@ -2,9 +2,10 @@
 
 Every output is first written under a hidden temporary name beside its final one; only when all of
 them are complete are they renamed, together, with Ctrl-C (SIGINT) held back for the few
-microseconds the renames take. On any error or interruption before that, the temporary files are
-removed and a folder the command created is removed again: nothing partial is left, and an
-existing file keeps its old content.
+microseconds the renames take; a Ctrl-C seen but not yet raised (the console script waits while
+Numba is inside LLVM) stops them too. On any error or interruption before that, the temporary
+files are removed and a folder the command created is removed again: nothing partial is left, and
+an existing file keeps its old content.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ import uuid
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+
+from vergence.cli import raise_if_interrupted
 
 __all__ = ["staged_outputs"]
 
@@ -62,6 +65,7 @@ def staged_outputs(targets: Sequence[Path], *, folder: Path | None = None) -> It
     try:
         yield temps
         with _sigint_held():
+            raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM
             for tmp, target in zip(temps, targets):
                 os.replace(tmp, target)
     except BaseException:

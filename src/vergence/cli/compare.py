@@ -52,7 +52,8 @@ def compare(
     with err_console.status("comparing", spinner="dots"):
         a, b = read_image(image), read_image(reference)
         m = _mask(mask) if mask is not None else None
-        with options_named(min_contrast="--min-contrast", radius="--radius", mask="--mask"):
+        with options_named(min_contrast="--min-contrast", radius="--radius", mask="--mask", image="IMAGE",
+                           reference="REFERENCE"):
             quality = assess_view(a, b, mask=m, radius=radius, min_contrast=min_contrast)
     if error_path is not None:
         write_image(error_path, error_image(a, b, gain=error_gain))

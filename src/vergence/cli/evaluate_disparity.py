@@ -39,7 +39,8 @@ def evaluate_disparity(
                  if truth_right is not None else None)
     official = read_middlebury_masks(masks) if masks is not None else None
     img = read_image(image) if image is not None else None
-    with options_named(threshold="--threshold", image="--image", truth_right="--truth-right"):
+    with options_named(threshold="--threshold", image="--image", truth_right="--truth-right", estimate="ESTIMATE",
+                       truth="TRUTH", mask="--masks"):
         scores = evaluate(est, gt, masks=official, image=img, truth_right=right, threshold=threshold)
     data = {name: s.to_dict() for name, s in scores.items()}
     if as_json:

@@ -84,6 +84,8 @@ def interpolate(
         views = read_image(left), read_image(right)
         disparities = _disparity(left_disparity, disparity_scale), _disparity(right_disparity, disparity_scale)
     names = options_named(
+        left="--left",
+        right="--right",
         position="--position",
         fill="--fill",
         edge_dilation="--edge-dilation",

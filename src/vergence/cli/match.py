@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.depth import MATCHERS, MAX_BLOCK_SIZE, SMOOTHING_METHODS, compute_disparity, disparity_preview
 from vergence.io import atomic_write, read_image, stores_integers, write_disparity, write_image
@@ -95,6 +96,7 @@ def _write_all(out: Path, disparity: np.ndarray, scale: float | None, pictures: 
             for path, picture in pictures.items():
                 temporary[path] = stack.enter_context(atomic_write(path))
                 write_image(temporary[path], picture)
+            raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM: commit nothing
     except (ValueError, OSError) as exc:
         message = str(exc)
         for final, tmp in temporary.items():
@@ -153,7 +155,8 @@ def match(
         check_output_path(o, left, right, *([mask] if mask is not None else []))
     start = time.perf_counter()
     names = {"block_size": "--block-size", "max_disparity": "--max-disparity", "min_disparity": "--min-disparity",
-             "method": "--method", "smoothing": "--smoothing"}
+             "method": "--method", "smoothing": "--smoothing", "left and right": "LEFT and RIGHT", "left": "LEFT",
+             "right": "RIGHT", "valid": "--mask"}
     with err_console.status(f"matching ({method})", spinner="dots"), options_named(**names):
         a, b = read_image(left), read_image(right)
         valid = _mask(mask, a.shape[:2]) if mask is not None else None

@@ -15,6 +15,7 @@ import numpy as np
 import typer
 from PIL import Image
 
+from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
 from vergence.depth import measure_row_alignment, rectify_pair
 from vergence.io import atomic_folder, cameras_for_images, read_cameras, read_image, write_image, write_json
@@ -93,7 +94,7 @@ def rectify(
         notes = read_cameras(cameras, image_size=(a.shape[1], a.shape[0]), image_list=image_list).notes
         for note in notes:
             err_console.print(f"[yellow]note:[/] {note}", highlight=False, soft_wrap=True)
-        with options_named(left_image="LEFT", right_image="RIGHT"):
+        with options_named(**{"left_image and right_image": "LEFT and RIGHT"}, left_image="LEFT", right_image="RIGHT"):
             pair = rectify_pair(a, b, cam_l, cam_r, left_distortion=dist_l, right_distortion=dist_r,
                                 common_principal_point=common_principal_point)
         data = {"left": left.name, "right": right.name, **pair.rectification.to_dict()}
@@ -106,6 +107,7 @@ def rectify(
         for name, image in zip(_OUTPUTS, images):
             write_image(tmp / name, image)
         write_json(tmp / _OUTPUTS[-1], data)
+        raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM: commit nothing
     if as_json:
         print_json(data)
         return

@@ -19,6 +19,7 @@ import numpy as np
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, options_named
 from vergence.viewing import LENGTH_RANGE
 
@@ -131,6 +132,7 @@ def render(
             left, right = (vr.tonemap(res.beauty, exposure=exposure) for res in results)
             write_image(tmp / f"stereo_{preview}.png", pack(left, right, layout=preview))
             names.append(f"stereo_{preview}.png")
+        raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM: commit nothing
     written = [out / n for n in names]
     r = results[0]
     console.print(

@@ -24,8 +24,11 @@ FORMATS = (*LAYOUTS, "views")
 # the usual +-1 degree comfort zone (vergence.viewing.comfort.ComfortZone), a safe start.
 DEFAULT_DISPLAY = "desktop-24"
 DEFAULT_BUDGET_ARCMIN = 30.0
-# The library's argument names and the options that set them (its messages begin with the name).
+# The library's argument names and the options or arguments that set them (its messages begin
+# with the name): a message about ``depth`` speaks of DEPTH, the file the user typed.
 _OPTIONS = {
+    "image": "IMAGE",
+    "depth": "DEPTH",
     "budget_arcmin": "--budget-arcmin",
     "budget_px": "--budget-px",
     "convergence": "--convergence",
@@ -116,7 +119,7 @@ def synthesize(
         check_output_path(target, image, depth)
     with err_console.status("reading inputs", spinner="dots"):
         picture = read_image(image)
-        with options_named(kind="--depth-kind", scale="--depth-scale"):
+        with options_named(kind="--depth-kind", scale="--depth-scale", depth="DEPTH"):
             depth_map = read_depth(depth, kind=depth_kind, scale=depth_scale)
     with err_console.status("synthesizing views", spinner="dots"), options_named(**_OPTIONS):
         result = synthesize_stereo(

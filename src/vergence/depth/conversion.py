@@ -8,6 +8,8 @@ share their principal point). Depth in the units of b (metres), disparity in pix
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_positive
@@ -32,7 +34,13 @@ def depth_from_disparity(disparity: object, *, focal_px: float, baseline: float,
     Returns
     -------
     float64 array
-        Depth in metres; NaN where the disparity is unknown or ``d + doffs <= 0`` (at or beyond infinity).
+        Depth in metres; NaN where the disparity is unknown or ``d + doffs <= 0`` (at or beyond infinity),
+        and where ``d + doffs`` is so small that ``f b / (d + doffs)`` passes the largest float (as far as infinity).
+
+    Raises
+    ------
+    ValueError
+        A disparity with no finite value (nothing to convert), or ``focal_px * baseline`` past the float range.
 
     Examples
     --------
@@ -40,12 +48,14 @@ def depth_from_disparity(disparity: object, *, focal_px: float, baseline: float,
     [10.0, nan, nan]
     """
     d = as_float_array("disparity", disparity, allow_nan=True)
-    f = check_positive("focal_px", focal_px)
-    b = check_positive("baseline", baseline)
+    fb = _focal_baseline(focal_px, baseline)
     off = check_finite("doffs_px", doffs_px)
+    if not np.isfinite(d).any():
+        raise ValueError("disparity has no finite value")
     shifted = d + off
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(shifted > 0, f * b / shifted, np.nan)  # Eq. (7): Z = K C / (m1 - m2)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        z = np.where(shifted > 0, fb / shifted, np.nan)  # Eq. (7): Z = K C / (m1 - m2)
+    z[np.isinf(z)] = np.nan  # beyond the largest float: as far as infinity (d + doffs -> 0+)
     return z
 
 
@@ -54,16 +64,37 @@ def disparity_from_depth(depth: object, *, focal_px: float, baseline: float, dof
 
     Depth must be > 0 where known (NaN = unknown, and stays NaN); ``inf`` is refused.
 
+    Raises
+    ------
+    ValueError
+        A depth with no finite value, a depth <= 0, a depth so small that ``f b / Z`` passes the largest
+        float, or ``focal_px * baseline`` past the float range.
+
     Examples
     --------
     >>> disparity_from_depth(np.array([10.0, np.nan]), focal_px=1000.0, baseline=0.1).tolist()
     [10.0, nan]
     """
     z = as_float_array("depth", depth, allow_nan=True)
-    f = check_positive("focal_px", focal_px)
-    b = check_positive("baseline", baseline)
+    fb = _focal_baseline(focal_px, baseline)
     off = check_finite("doffs_px", doffs_px)
+    if not np.isfinite(z).any():
+        raise ValueError("depth has no finite value")
     with np.errstate(invalid="ignore"):
         if (z <= 0).any():
             raise ValueError("depth must be > 0 where known; use NaN for unknown")
-    return f * b / z - off  # Eq. (7) solved for m1 - m2
+    with np.errstate(over="ignore"):
+        d = fb / z - off  # Eq. (7) solved for m1 - m2
+    if np.isinf(d).any():
+        raise ValueError(f"depth must be large enough for a finite disparity focal_px * baseline / depth; "
+                         f"got {float(np.nanmin(z)):g} m")
+    return d
+
+
+def _focal_baseline(focal_px: object, baseline: object) -> float:
+    """``f b`` of Eq. (7), checked: both > 0 and their product a finite float."""
+    f = check_positive("focal_px", focal_px)
+    b = check_positive("baseline", baseline)
+    if not math.isfinite(f * b):
+        raise ValueError(f"baseline times focal_px must be a finite number; got {b:g} m x {f:g} px")
+    return f * b

@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array, as_image, check_positive, check_same_hw
+from vergence._validate import as_float_array, as_image, check_bool, check_positive, check_same_hw
 
 __all__ = ["RegionScore", "evaluate_disparity", "mask_agreement", "middlebury_regions", "read_middlebury_masks"]
 
@@ -63,8 +63,9 @@ def _occluded(d_left: np.ndarray, d_right: np.ndarray | None, thresh: float) -> 
     h, w = d_left.shape
     known = np.isfinite(d_left)
     ys, xs = np.nonzero(known)
-    xr = xs - np.rint(d_left[known]).astype(np.int64)
-    inside = (xr >= 0) & (xr < w)
+    xr_float = xs - np.rint(d_left[known])  # float: a disparity past the int range leaves the image, uncast
+    inside = (xr_float >= 0) & (xr_float < w)
+    xr = np.where(inside, xr_float, 0).astype(np.int64)
     if d_right is None:  # z-buffered forward warp of d_L: the nearest (largest) disparity wins
         d_right = np.full((h, w), -np.inf)
         np.maximum.at(d_right, (ys[inside], xr[inside]), d_left[ys[inside], xs[inside]])
@@ -95,6 +96,14 @@ def _discontinuities(d: np.ndarray, border: int, gap: float, width: int, occlude
         jump[ys, xs1] |= hj
         jump[ys1, xs] |= vj
     return cv2.dilate(jump.astype(np.uint8), np.ones((width, width), np.uint8)) > 0
+
+
+def _rms(err: np.ndarray) -> float:
+    """``sqrt(mean(err^2))`` (S1 Eq. 10) scaled by the largest ``|err|``, so that no square overflows."""
+    peak = float(np.abs(err).max())
+    if peak == 0.0:
+        return 0.0
+    return peak * float(np.sqrt(np.mean((err / peak) ** 2)))
 
 
 def _textureless(image: np.ndarray, width: int, thresh: float) -> np.ndarray:
@@ -153,6 +162,7 @@ def middlebury_regions(
     t = _truth("truth", truth)
     if isinstance(border, bool) or not isinstance(border, int | np.integer) or border < 0:
         raise ValueError(f"border must be an integer >= 0; got {border!r}")
+    disc_includes_occlusions = check_bool("disc_includes_occlusions", disc_includes_occlusions)
     tr = None
     if truth_right is not None:
         tr = _truth("truth_right", truth_right)
@@ -305,7 +315,10 @@ def evaluate_disparity(
                 raise ValueError(f"mask {name!r} must be a boolean array of shape {t.shape}; got {arr.dtype} {arr.shape}")
             regions[name] = arr & np.isfinite(t)
     unknown = np.isnan(e)  # NaN = unknown (docs/conventions.md); 0 is a real disparity
-    err = np.where(unknown, -t, e - t)  # an unknown estimate scores as disparity 0
+    with np.errstate(over="ignore"):
+        err = np.where(unknown, -t, e - t)  # an unknown estimate scores as disparity 0
+    if np.isinf(err).any():
+        raise ValueError("estimate - truth must be a finite number of pixels; got a difference past the float range")
     bad = unknown | (np.abs(err) > thr)
     scores = {}
     for name in sorted(regions, key=lambda k: (_REGION_ORDER.index(k) if k in _REGION_ORDER else 99, k)):
@@ -315,7 +328,7 @@ def evaluate_disparity(
             continue  # e.g. no discontinuity in the truth: the region has no score
         scores[name] = RegionScore(
             bad=float(100.0 * bad[m].mean()),  # Eq. (9)
-            rms=float(np.sqrt(np.mean(err[m] ** 2))),  # Eq. (10)
+            rms=_rms(err[m]),  # Eq. (10)
             pixels=n,
         )
     if not scores:

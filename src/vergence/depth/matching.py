@@ -16,7 +16,7 @@ from types import MappingProxyType
 import cv2
 import numpy as np
 
-from vergence._validate import as_image, check_positive_int
+from vergence._validate import as_image, check_bool, check_positive_int
 from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
 from vergence.depth.block import COSTS, match_blocks
 from vergence.depth.refine import RefinedDisparity, refine_disparity
@@ -180,6 +180,7 @@ def compute_disparity(
     """
     if not isinstance(method, str) or method not in MATCHERS:
         raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
+    keep_invalid = check_bool("keep_invalid", keep_invalid)
     a, _ = stereo_pair_u8(left, right)  # the arguments' errors before the texture's
     check_disparity_range(max_disparity, min_disparity, a.shape[1])
     check_block_size(block_size, 1, shape=a.shape)

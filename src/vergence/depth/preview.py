@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array
+from vergence._validate import as_float_array, check_bool
 
 __all__ = ["disparity_preview"]
 
@@ -57,22 +57,33 @@ def disparity_preview(disparity: object, *, lo: float, hi: float, colour_bar: bo
     (H, W, 3) float32, or (H + bar, W, 3) with the colour bar
         RGB in [0, 1].
 
+    Raises
+    ------
+    ValueError
+        A disparity of another shape or without any finite value (nothing to show), ``hi <= lo``.
+    TypeError
+        ``lo``/``hi`` not real numbers, ``colour_bar`` not a bool.
+
     Examples
     --------
-    >>> disparity_preview(np.array([[np.nan]]), lo=0.0, hi=1.0).tolist()
-    [[[0.0, 0.0, 0.0]]]
+    >>> disparity_preview(np.array([[np.nan, 1.0]]), lo=0.0, hi=1.0)[0, 0].tolist()
+    [0.0, 0.0, 0.0]
     >>> disparity_preview(np.zeros((100, 200)), lo=0.0, hi=16.0, colour_bar=True).shape
     (123, 200, 3)
     """
     d = as_float_array("disparity", disparity, allow_nan=True, dtype=np.float32)
     if d.ndim != 2 or 0 in d.shape:
         raise ValueError(f"disparity must have shape (H, W); got {d.shape}")
+    if not np.isfinite(d).any():
+        raise ValueError("disparity has no finite value")
     for name, v in (("lo", lo), ("hi", hi)):
         if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
             raise TypeError(f"{name} must be a real number of pixels; got {type(v).__name__}")
     if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo and np.isfinite(float(hi) - float(lo))):
         raise ValueError(f"hi must be finite and greater than lo, hi - lo finite; got lo={lo}, hi={hi}")
-    rgb = _turbo((np.nan_to_num(d.astype(np.float64), nan=lo) - lo) / (hi - lo))
+    colour_bar = check_bool("colour_bar", colour_bar)
+    with np.errstate(over="ignore"):  # a tiny hi - lo: values past the float range are clipped to the ends anyway
+        rgb = _turbo((np.nan_to_num(d.astype(np.float64), nan=lo) - lo) / (hi - lo))
     rgb[~np.isfinite(d)] = 0.0
     if colour_bar:
         rgb = np.concatenate([rgb, _colour_bar(d.shape[1], d.shape[0], float(lo), float(hi))], axis=0)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array, as_image, check_in_range, check_positive, readonly_copy
+from vergence._validate import as_float_array, as_image, check_bool, check_in_range, check_positive, readonly_copy
 from vergence.camera import Camera
 
 __all__ = ["Rectification", "RectifiedPair", "RowAlignment", "measure_row_alignment", "rectify_cameras", "rectify_pair"]
@@ -205,6 +205,7 @@ def rectify_cameras(
     """
     if not isinstance(left, Camera) or not isinstance(right, Camera):
         raise TypeError("left and right must be Camera instances")
+    common_principal_point = check_bool("common_principal_point", common_principal_point)
     d_l, d_r = _distortion("left_distortion", left_distortion), _distortion("right_distortion", right_distortion)
     c1, c2 = left.center, right.center
     # c_right - c_left as in S2 §3.2; the c_left - c_right of Fusiello et al. 2000's listing turns both images by 180 deg

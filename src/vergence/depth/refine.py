@@ -17,6 +17,7 @@ import numpy as np
 from vergence._validate import (
     as_float_array,
     as_image,
+    check_bool,
     check_positive,
     check_positive_int,
     check_same_hw,
@@ -44,6 +45,8 @@ _OUTLIER_PX = 1.0
 _FIXED = 16.0
 # |disparity| limit that fits int16 at 1/16 px.
 _FIXED_MAX = 2047.0
+# OpenCV's C int (filterSpeckles' maxSpeckleSize): a Python int past it cannot be passed.
+_CV_INT_MAX = 2**31 - 1
 # Most histogram bins of the weighted median: each worker holds two float32 histograms of this many
 # bins per row (512 KiB); the default 1/4 px bins cover 16384 px of disparity range, 8 times the
 # OpenCV limit above. More bins (a tiny bin_width) only cost memory and time.
@@ -89,24 +92,38 @@ def left_right_check(disparity_left: object, disparity_right: object, *, toleran
     tol = check_positive("tolerance", tolerance)
     h, w = dl.shape
     known = np.isfinite(dl)
-    xr = np.arange(w)[None, :] - np.rint(np.where(known, dl, 0.0)).astype(np.int64)
+    # the matched column in float64: a disparity past the int range leaves the image, it is not cast
+    xr = np.arange(w)[None, :] - np.rint(np.where(known, dl, 0.0).astype(np.float64))
     inside = known & (xr >= 0) & (xr < w)
     rows = np.broadcast_to(np.arange(h)[:, None], (h, w))
-    other = dr[rows, np.clip(xr, 0, w - 1)]
-    with np.errstate(invalid="ignore"):
-        return inside & (np.abs(dl - other) <= tol)
+    other = dr[rows, np.where(inside, xr, 0).astype(np.int64)]
+    with np.errstate(invalid="ignore", over="ignore"):  # float32 differences past its range are inf: > tol
+        return inside & (np.abs(dl - other).astype(np.float64) <= tol)
 
 
 def remove_speckles(disparity: object, *, max_size: int, max_difference: float = 1.0) -> np.ndarray:
     """Set to NaN the connected blobs of fewer than ``max_size`` pixels (OpenCV ``filterSpeckles``).
 
     Neighbours belong to one blob when their disparities differ by at most ``max_difference`` px.
-    Disparities are processed at 1/16 px; their magnitude must stay below 2047 px.
+    Disparities are processed at 1/16 px; their magnitude must stay below 2047 px, so ``max_difference``
+    is at most 4094 px (any two of them); ``max_size`` is at most OpenCV's largest int, 2**31 - 1 pixels.
+
+    Raises
+    ------
+    ValueError
+        A disparity with no finite value, one past 2047 px, or an option outside the ranges above.
     """
     d = _disparity("disparity", disparity)
     size = check_positive_int("max_size", max_size)
     diff = check_positive("max_difference", max_difference)
+    if size > _CV_INT_MAX:
+        raise ValueError(f"max_size must be at most {_CV_INT_MAX} px (OpenCV's int); got {size}")
+    if diff > 2.0 * _FIXED_MAX:
+        raise ValueError(f"max_difference must be at most {2.0 * _FIXED_MAX:g} px (disparities stay within "
+                         f"+-{_FIXED_MAX:g} px); got {diff:g}")
     known = np.isfinite(d)
+    if not known.any():
+        raise ValueError("disparity has no finite value")
     if known.any() and np.abs(d[known]).max() >= _FIXED_MAX:
         raise ValueError(f"disparity must stay within +-{_FIXED_MAX:g} px for speckle removal; got {np.abs(d[known]).max():g}")
     fixed = np.full(d.shape, np.iinfo(np.int16).min, np.int16)
@@ -155,14 +172,15 @@ def unreliable_pixels(disparity: object, *, jump: float = 1.0) -> np.ndarray:
         raise ValueError("disparity must be complete (no NaN); fill it first")
     gap = check_positive("jump", jump)
     mark = np.zeros(d.shape, np.uint8)
-    hj = np.abs(np.diff(d, axis=1)) >= gap
-    vj = np.abs(np.diff(d, axis=0)) >= gap
+    d64 = d.astype(np.float64)  # a jump given past float32's range is compared, not cast to inf
+    hj = np.abs(np.diff(d64, axis=1)) >= gap
+    vj = np.abs(np.diff(d64, axis=0)) >= gap
     mark[:, :-1] |= hj
     mark[:, 1:] |= hj
     mark[:-1] |= vj
     mark[1:] |= vj
     near = cv2.dilate(mark, np.ones((3, 3), np.uint8)) > 0
-    return near | (np.abs(cv2.medianBlur(d, 3) - d) > _OUTLIER_PX)
+    return near | (np.abs(cv2.medianBlur(d, 3).astype(np.float64) - d64) > _OUTLIER_PX)
 
 
 def weighted_median_filter(
@@ -189,7 +207,8 @@ def weighted_median_filter(
     sigma_color : float
         Colour scale of the weights ``exp(-|I_p - I_q|^2 / (2 sigma^2))``, in 8-bit grey levels.
     step : int
-        Sample every ``step``-th pixel of the window (a sparse window of ``(2 radius/step + 1)^2`` votes).
+        Sample every ``step``-th pixel of the window (a sparse window of ``(2 radius/step + 1)^2`` votes);
+        at most ``radius``.
     update, support : (H, W) bool arrays, optional
         Pixels to recompute (default all) and pixels allowed to vote (default all known ones).
     bin_width : float
@@ -199,6 +218,12 @@ def weighted_median_filter(
     -------
     (H, W) float32
         The filtered map (pixels outside ``update`` unchanged).
+
+    Raises
+    ------
+    ValueError
+        A disparity with no finite value, a ``step`` above ``radius``, a radius above the image's larger
+        side, masks of another shape, or more than :data:`MAX_MEDIAN_BINS` bins.
     """
     d = _disparity("disparity", disparity)
     g = _guide_u8("guide", guide, d)
@@ -208,6 +233,8 @@ def weighted_median_filter(
     bw = check_positive("bin_width", bin_width)
     if r > max(d.shape):
         raise ValueError(f"radius must not exceed the image's larger side ({max(d.shape)} px); got {r}")
+    if s > r:
+        raise ValueError(f"step must not exceed radius ({r} px): the window would be its centre alone; got {s}")
     upd = np.ones(d.shape, bool) if update is None else np.asarray(update, bool)
     sup = np.isfinite(d) if support is None else np.asarray(support, bool)
     for name, m in (("update", upd), ("support", sup)):
@@ -215,6 +242,8 @@ def weighted_median_filter(
             raise ValueError(f"{name} must have shape {d.shape}; got {m.shape}")
     if not np.isfinite(d[sup]).all():
         raise ValueError("disparity must be known (finite) wherever support is set")
+    if not np.isfinite(d).any():
+        raise ValueError("disparity has no finite value")
     if not sup.any():
         return d.copy()
     d_min, d_max = float(d[sup].min()), float(d[sup].max())
@@ -223,7 +252,11 @@ def weighted_median_filter(
         raise ValueError(f"bin_width must split the disparity range [{d_min:g}, {d_max:g}] into at most "
                          f"{MAX_MEDIAN_BINS} bins (MAX_MEDIAN_BINS); got {bw:g} px")
     nbins = int(span_bins) + 1
-    lut = np.exp(-np.arange(g.shape[2] * 255 * 255 + 1, dtype=np.float64) / (2.0 * sig * sig)).astype(np.float32)
+    # exp(-|I_p - I_q|^2 / (2 sigma^2)) per squared colour distance; 1 for equal colours whatever sigma, and
+    # exactly 0 (not 0/0) for the others when 2 sigma^2 underflows (a subnormal sigma_color)
+    with np.errstate(divide="ignore", over="ignore"):
+        exponent = np.arange(1, g.shape[2] * 255 * 255 + 1, dtype=np.float64) / (2.0 * sig * sig)
+    lut = np.concatenate([[1.0], np.exp(-exponent)]).astype(np.float32)
     return _kernels.weighted_median(np.ascontiguousarray(d), g, np.ascontiguousarray(upd), np.ascontiguousarray(sup),
                                     lut, r, s, d_min, bw, nbins)
 
@@ -236,10 +269,14 @@ def confidence_map(raw: object, refined: object) -> np.ndarray:
     and ``c = 0`` where the matcher gave no answer (``raw`` NaN). High where the matcher's answer
     survived the refinement away from depth edges; low at edges, in filled or changed areas. On the
     Middlebury pairs it ranks a correct pixel above a wrong one with probability 0.8-0.9.
+    Either map without any finite value is refused (``ValueError``): no confidence to measure.
     """
     r = _disparity("raw", raw)
     f = _disparity("refined", refined)
     check_same_hw("refined", f, "raw", r)
+    for name, arr in (("raw", r), ("refined", f)):
+        if not np.isfinite(arr).any():
+            raise ValueError(f"{name} has no finite value")
     if not np.isfinite(f).all():
         known = np.isfinite(f)
         edges = unreliable_pixels(fill_occlusions(f)) if known.any() else np.ones(f.shape, bool)
@@ -247,7 +284,7 @@ def confidence_map(raw: object, refined: object) -> np.ndarray:
         edges = unreliable_pixels(f)
     dist = cv2.distanceTransform((~edges).astype(np.uint8), cv2.DIST_L2, 3)
     with np.errstate(invalid="ignore"):
-        agree = np.exp(-0.5 * (f - r) ** 2)
+        agree = np.exp(-0.5 * (f.astype(np.float64) - r) ** 2)  # float64: the square of a float32 stays finite
     c = np.where(np.isfinite(r) & np.isfinite(f), agree * (1.0 - np.exp(-0.5 * dist)), 0.0)
     return c.astype(np.float32)
 
@@ -376,6 +413,7 @@ def refine_disparity(
     _guide_u8("guide", guide, d)
     if not isinstance(smoothing, str) or smoothing not in SMOOTHING_METHODS:
         raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_METHODS)}; got {smoothing!r}")
+    keep_invalid = check_bool("keep_invalid", keep_invalid)
     h, w = d.shape
     size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
     r = default_radius(h, w) if radius is None else check_positive_int("radius", radius)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import check_finite, check_in_range, check_positive
+from vergence._validate import check_bool, check_finite, check_in_range, check_positive
 from vergence.camera import Camera
 from vergence.synthesis import _stages, _stages3d
 from vergence.synthesis._checks import (
@@ -226,6 +226,8 @@ def interpolate_view(
         Shapes differ, disparity with inf or all unknown, position outside [0, 1], bad options, or
         a disparity of ``MAX_PARALLAX_WIDTHS`` image widths or more (no point can be seen by both
         references that far apart: the view would be all holes).
+    TypeError
+        ``median`` is not a bool (a string such as ``"no"`` would be true).
 
     Notes
     -----
@@ -255,6 +257,7 @@ def interpolate_view(
     limit, radius = _check_options(gradient_limit, edge_dilation, fill)
     tol = within_float32("depth_tolerance", check_positive("depth_tolerance", depth_tolerance))
     contour = check_radius("contour_width", contour_width)
+    refine = check_bool("median", median)
     nc = lft.shape[2] if lft.ndim == 3 else 1
     views = []
     for img, d, scale in ((lft, dl, t), (rgt, dr, -(1.0 - t))):
@@ -265,7 +268,7 @@ def interpolate_view(
             # right after the warp (see _stages.reliable_from_warped).
             band = _stages.contour_mask(prepared, contour, limit, "far")
             hwc = np.concatenate([hwc, band[:, :, None].astype(np.float32)], axis=2)
-        image, near, holes = _warp_reference(hwc, prepared, scale, limit, median)
+        image, near, holes = _warp_reference(hwc, prepared, scale, limit, refine)
         reliability = _stages.reliable_from_warped(image[:, :, nc], holes) if contour else None
         payload = {}
         if radius:  # 0, not NaN, where unknown: the guide is blended like the colours
