@@ -15,16 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_positive_int
-from vergence.camera import Camera
+from vergence.camera import MIN_FOV_DEG, Camera
 
 __all__ = ["FisheyeCamera", "MIN_FOV_DEG"]
 
-#: Narrowest horizontal field of view of a rendered camera, degrees: 1e-3 deg (3.6 arcsec), far
-#: narrower than any telescope's field (Hubble's WFC3: 2.7 arcmin). At MAX_RENDER_SIDE pixels the
-#: focal length then stays under 2e9 px (pinhole ``width / (2 tan(fov/2))``, fisheye
-#: ``(width/2) / (fov/2)``): finite, and neighbouring pixel rays stay distinct in float64. A
-#: subnormal field of view used to divide by a zero tangent.
-MIN_FOV_DEG = 1e-3
+# The narrowest field of view, shared with the pinhole of vergence.camera.look_at (1e-3 deg): at
+# MAX_RENDER_SIDE pixels the focal length stays under 2e9 px for the pinhole and the fisheye
+# (``(width/2) / (fov/2)``). A subnormal field of view used to divide by a zero tangent.
 
 
 def check_min_fov(fov_deg: float) -> None:
