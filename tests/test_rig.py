@@ -91,3 +91,29 @@ def test_bad_input():
         stereo_pair(cam, baseline=0.1, convergence=-1.0)
     with pytest.raises(ValueError, match="convergence must be finite; got nan"):
         stereo_pair(cam, baseline=0.1, convergence=float("nan"))
+
+
+# Issue 9 sweep (api/render_stereo/convergence=subnormal, api/stereo_preview/baseline=huge): the sensor
+# shift fx b / (2H) overflowed with a numpy warning and Camera said "K must be finite", naming no argument.
+@pytest.mark.parametrize(
+    ("baseline", "convergence", "message"),
+    [
+        (1e308, 2.0, r"^baseline must be in \[1e-06, 1e\+06\] m \(LENGTH_RANGE\); got 1e\+308$"),
+        (0.065, 5e-324, r"^convergence must be in \[1e-06, 1e\+06\] m \(LENGTH_RANGE\); got 4.94066e-324$"),
+        (0.065, 1e7, r"^convergence must be in \[1e-06, 1e\+06\] m \(LENGTH_RANGE\); got 1e\+07$"),
+    ],
+)
+def test_rig_lengths_outside_their_range_are_refused(baseline, convergence, message):
+    with pytest.raises(ValueError, match=message):
+        stereo_pair(_cam(), baseline=baseline, convergence=convergence)
+    # the range's ends are admitted and give finite cameras (no warning: the suite turns them into errors)
+    for b, h in ((1e-6, 1e6), (1e6, 1e-6)):
+        left, right = stereo_pair(_cam(), baseline=b, convergence=h)
+        assert np.isfinite(left.K).all() and np.isfinite(right.K).all()
+
+
+def test_a_sensor_shift_past_float64_is_refused_naming_the_rig():
+    huge_focal = Camera(K=np.diag([1e300, 1e300, 1.0]) + np.array([[0, 0, 50.0], [0, 0, 25.0], [0, 0, 0]]),
+                        R=np.eye(3), t=np.zeros(3), width=101, height=51)  # fmt: skip
+    with pytest.raises(ValueError, match=r"^convergence must keep the sensor shift fx b / \(2 H\) finite; got inf px"):
+        stereo_pair(huge_focal, baseline=1e6, convergence=1e-6)

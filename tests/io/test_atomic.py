@@ -125,3 +125,25 @@ def test_filesystem_errors_name_the_output_not_the_temporary_file(tmp_path, monk
             pass
     assert str(info.value).startswith(f"cannot create the output folder {tmp_path / 'file' / 'out'}: ")
     assert "Errno" not in str(info.value) and ".tmp-" not in str(info.value)
+
+
+# Issue 9 sweep (api/atomic_folder/path=garbage, path=nested_json): the context managers checked their
+# path only once a `with` block entered them, so a call with a file for a folder returned quietly.
+@pytest.mark.parametrize(
+    ("func", "make", "error", "match"),
+    [
+        ("atomic_folder", lambda d: d / "data.png", NotADirectoryError, "it exists and is not a folder"),
+        ("atomic_folder", lambda d: "", ValueError, "path must name a folder; got ''"),
+        ("atomic_folder", lambda d: 3, TypeError, "path must be a str or os.PathLike; got int"),
+        ("atomic_write", lambda d: d, IsADirectoryError, "it is a directory"),
+        ("atomic_write", lambda d: d / "no" / "a.txt", FileNotFoundError, "does not exist"),
+        ("atomic_write", lambda d: None, TypeError, "path must be a str or os.PathLike; got NoneType"),
+    ],
+)
+def test_atomic_outputs_check_their_path_when_called(tmp_path, func, make, error, match):
+    import vergence.io
+
+    (tmp_path / "data.png").write_bytes(b"garbage")
+    with pytest.raises(error, match=match):
+        getattr(vergence.io, func)(make(tmp_path))  # no `with`: the call itself refuses
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.png"]

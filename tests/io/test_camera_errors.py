@@ -218,3 +218,39 @@ def test_camera_files_are_recognised_by_content_when_the_name_says_nothing(tmp_p
     (tmp_path / "notes.txt").write_text("2\nthis is not a camera line\n")
     with pytest.raises(ValueError, match="camera file 'notes.txt' has no known format by its name or content"):
         read_cameras(tmp_path / "notes.txt")
+
+
+# Issue 9 sweep (api/read_cameras/image_list=missing, and any file as image_list in the full sweep): the
+# readers that take no image list or size dropped them unseen, so a missing list.txt or a malformed size
+# passed with a Middlebury, JSON or COLMAP file. A malformed one is refused whatever the format; a
+# well-formed image list with a format that has no use for it too.
+@pytest.mark.parametrize("fmt", ["middlebury", "json", "colmap"])
+@pytest.mark.parametrize(
+    ("options", "error", "match"),
+    [
+        ({"image_list": "MISSING"}, FileNotFoundError, r"cannot read .*missing_list.txt: no such file"),
+        ({"image_list": ""}, ValueError, r"image_list must name a file \(Bundler's list.txt\); got ''"),
+        ({"image_list": 1.5}, TypeError, "image_list must be a path to list.txt or a sequence of names; got float"),
+        ({"image_list": ["a.jpg", None]}, TypeError, r"image_list\[1\] must be an image name \(a non-empty str\); got None"),
+        ({"image_size": (64, 0)}, ValueError, r"image_size must be \(width, height\) with positive integers"),
+        ({"image_size": "64x48"}, ValueError, r"image_size must be \(width, height\) with positive integers"),
+    ],
+)
+def test_read_cameras_refuses_bad_options_whatever_the_format(tmp_path, fmt, options, error, match):
+    path = {"middlebury": tmp_path / "c_par.txt", "json": tmp_path / "c.json", "colmap": tmp_path}[fmt]
+    write_cameras(path, CameraSet(names=("a.png",), cameras=(_cam(),)))
+    if options.get("image_list") == "MISSING":
+        options = {"image_list": tmp_path / "missing_list.txt"}
+    read_cameras(path, image_size=(64, 48))  # the file itself is fine
+    with pytest.raises(error, match=match):
+        read_cameras(path, **options)
+    (tmp_path / "list.txt").write_text("a.png\n")
+    with pytest.raises(ValueError, match=rf"^image_list applies to Bundler cameras \(\*.out\) only; .* is a {fmt} camera"):
+        read_cameras(path, image_list=tmp_path / "list.txt")
+
+
+@pytest.mark.parametrize("fmt", [["json"], {"json": 1}])
+def test_a_format_of_a_wrong_type_is_named(tmp_path, fmt):
+    # was "unhashable type" from the format table, naming nothing
+    with pytest.raises(ValueError, match=r"^format must be one of middlebury, bundler, colmap, json; got "):
+        read_cameras(tmp_path / "c.json", format=fmt)

@@ -70,6 +70,9 @@ def test_render_one_eye_with_explicit_rig(tmp_path):
         (["glasses", "--eye", "left", "--baseline", "1e308", "--convergence", "1e-308"],
          "--baseline must be in [1e-06, 1e+06] m (LENGTH_RANGE); got 1e+308"),
         (["glasses", "--eye", "right", "--convergence", "nan"], "--convergence must be in [1e-06, 1e+06] m"),
+        # issue 9 sweep kin: a baseline inside LENGTH_RANGE put the eyes 5e5 m out, past the scene's extent
+        (["glasses", "--eye", "left", "--baseline", "1e6", "--convergence", "2"],
+         "--baseline must keep both eyes within 100000 m of the origin (MAX_SCENE_EXTENT); they reach 4998"),
     ],
 )
 def test_render_errors_are_one_line(tmp_path, capsys, args, message):

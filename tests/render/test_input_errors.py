@@ -101,7 +101,7 @@ def test_figures_refuse_bad_input(tmp_path):
     from vergence.render import render
     from vergence.report.preview import save_render
 
-    with pytest.raises(ValueError, match=r"radiance must have shape \(H, W, 3\); got \(4, 4\)"):
+    with pytest.raises(ValueError, match=r"radiance must have shape \(H, W, 3\) and not be empty; got \(4, 4\)"):
         tonemap(np.zeros((4, 4)))
     result = render(scene_from_dict(MINIMAL), max_depth=0, samples=1)
     with pytest.raises(FileNotFoundError, match="output folder does not exist: .*nowhere"):
@@ -319,7 +319,7 @@ def test_scene_limits_admit_their_bounds():
 @pytest.mark.parametrize(
     ("kwargs", "exc", "message"),
     [({"width": 3.5}, TypeError, "^width must be an integer; got float"), ({"samples": 0}, ValueError, "^samples must be >= 1"),
-     ({"max_depth": -1}, ValueError, r"^max_depth must be an integer >= 0; got -1"), ({"views": None}, TypeError, "^views")],
+     ({"max_depth": -1}, ValueError, r"^max_depth must be an integer in \[0, 6\]; got -1"), ({"views": None}, TypeError, "^views")],
 )
 def test_render_cost_refuses_bad_arguments(kwargs, exc, message):
     from vergence.render import render_cost

@@ -192,3 +192,25 @@ def test_a_tiny_real_run(tmp_path):
     assert result.returncode == 2 and "--baseline" in result.stderr
     assert classify(result) == ["ok"]
     assert not any((tmp_path / "cases").iterdir())  # the case folder is removed after the run
+
+
+def test_folder_parameters_take_a_folder_and_refuse_files():
+    """scene_from_dict(base_dir=<folder>) was a suspicious_ok: a folder is what base_dir wants."""
+    from tools.sweep.api_cases import HOSTILE_TOKENS, param_kind
+
+    assert param_kind("scene_from_dict", "base_dir", "str | Path | None") == "folder"
+    assert param_kind("atomic_folder", "path", "str | os.PathLike[str]") == "folder"
+    assert param_kind("load_scene", "path", "str | Path") == "path"
+    assert "folder" in HOSTILE_TOKENS["folder"] and "nested_json!" in HOSTILE_TOKENS["folder"]
+
+
+def test_name_only_paths_and_broadcasting_arrays_are_not_strict():
+    """stores_integers(path=<missing>) and schlick(n1=<other shape>) were false suspicious_ok cases."""
+    import random
+
+    from tools.sweep.api_cases import api_case_specs, param_kind
+
+    assert param_kind("stores_integers", "path", "str | os.PathLike[str]") == "out_path"
+    specs = api_case_specs(quick=False, rng=random.Random(0))
+    strict = {s["id"] for s in specs if s["name"] == "schlick" and str(s["token"]).endswith("!")}
+    assert strict and not any("other_shape" in i for i in strict)

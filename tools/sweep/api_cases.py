@@ -87,6 +87,13 @@ VALID_OVERRIDES = {
 EXTRA_KWARGS = {"plan_parallax": {"budget_px": 4.0}, "synthesize_stereo": {"budget_px": 4.0},
                 "Environment": {"color": np.array([0.5, 0.5, 0.5])}}
 
+# Parameters that name a folder (given the hostile folder they must work; given a file, refuse).
+FOLDER_PARAMETERS = frozenset({("scene_from_dict", "base_dir"), ("atomic_folder", "path")})
+# Functions that read only a path's name, never the file (stores_integers: by its extension), swept as
+# output paths; and functions whose arrays broadcast (schlick), where another shape is no mistake.
+NAME_ONLY_PATHS = frozenset({"stores_integers"})
+BROADCASTING = frozenset({"schlick"})
+
 # Hostile tokens per kind of parameter; a trailing "!" marks a strict one (any normal return is suspect).
 HOSTILE_TOKENS = {
     "number": ("nan!", "inf", "neg_inf!", "negative", "zero", "subnormal", "huge", "numeric_string!", "none!"),
@@ -96,6 +103,7 @@ HOSTILE_TOKENS = {
     "path": ("missing!", "folder!", "empty_file!", "truncated_png!", "huge_png!", "huge_jpeg!", "huge_hdr!",
              "truncated_pfm!", "pfm_3_channels", "nested_json!", "bom_json", "garbage!"),
     "out_path": ("existing_folder", "missing_parent", "unknown_extension"),
+    "folder": ("missing", "folder", "empty_file!", "nested_json!", "garbage!"),  # a folder is valid here
     "str": ("empty", "unknown", "none!", "number!"),  # a title may be anything; a method name may not
     "sequence": ("empty", "none!", "string!", "nan_items!"),
     "bool": ("none!", "string!"),
@@ -147,8 +155,11 @@ def param_kind(func_name: str, name: str, annotation: str) -> str:
     a = annotation
     if name == "obj":
         return "any"
+    if (func_name, name) in FOLDER_PARAMETERS:
+        return "folder"
     if "PathLike" in a or a in ("str | Path", "str | Path | None"):
-        return "out_path" if func_name in WRITE_SUFFIX or func_name.startswith("write_") else "path"
+        writes = func_name in WRITE_SUFFIX or func_name.startswith("write_") or func_name in NAME_ONLY_PATHS
+        return "out_path" if writes else "path"
     if (name in SEQUENCE_DEFAULTS or "Sequence" in a or a.startswith(("tuple", "list"))
             or name in ("views", "operators")):
         if name != "views" or "Sequence" in a:
@@ -234,6 +245,8 @@ class Values:
                            height=HEIGHT)
         if name in VECTOR_NAMES and kind == "array":
             return np.asarray(VECTOR_NAMES[name], float)
+        if kind == "folder":
+            return str(self.fixtures)
         if kind == "path":
             fixture = READ_FIXTURES.get(func_name, "image.png")
             return fixture if fixture == "tabletop" else str(self.fixtures / fixture)
@@ -271,7 +284,7 @@ class Values:
         kind = param_kind(func_name, name, annotation)
         token = token.rstrip("!")
         image_like = _image_like(func_name, name)
-        if kind == "path":
+        if kind in ("path", "folder"):
             from tools.sweep.hostile import FILE_SUFFIX
 
             return str(self.hostile / f"{token}{FILE_SUFFIX[token]}")
@@ -356,7 +369,7 @@ def api_case_specs(*, quick: bool, rng, per_param: int = 2) -> list[dict]:
             tokens = list(HOSTILE_TOKENS[kind])
             if not required or "None" in annotation:
                 tokens = [t for t in tokens if t != "none!"]
-            if kind == "array" and n_arrays >= 2:  # a shape that disagrees with the other arrays
+            if kind == "array" and n_arrays >= 2 and name not in BROADCASTING:  # disagrees with the other arrays
                 tokens = [t + "!" if t == "other_shape" else t for t in tokens]
             if quick and len(tokens) > per_param:
                 tokens = rng.sample(tokens, per_param)

@@ -88,7 +88,8 @@ def rectify(
             (cam_l, dist_l), (cam_r, dist_r) = cameras_for_images(
                 cameras, [(left, (a.shape[1], a.shape[0])), (right, (b.shape[1], b.shape[0]))], image_list=image_list)
         except ValueError as exc:  # the library names its argument; here it is an option
-            raise ValueError(str(exc).replace("pass image_list", "pass --image-list")) from exc
+            raise ValueError(str(exc).replace("pass image_list", "pass --image-list")
+                             .replace("image_list applies", "--image-list applies")) from exc
         # What the reader assumed (a Bundler set without list.txt paired with the folder's images)
         notes = read_cameras(cameras, image_size=(a.shape[1], a.shape[0]), image_list=image_list).notes
         for note in notes:

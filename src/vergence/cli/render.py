@@ -81,11 +81,17 @@ def render(
     if preview is not None and preview not in LAYOUTS:
         raise ValueError(f"--preview must be one of {', '.join(LAYOUTS)}; got {preview!r}")
     options_cli = {"max_depth": "--depth", "samples": "--samples", "supersample": "--supersample",
-                   "width": "--width", "height": "--height"}  # fmt: skip
+                   "width": "--width", "height": "--height", "baseline": "--baseline",
+                   "convergence": "--convergence"}  # fmt: skip
     with options_named(**options_cli):
         sc = vr.open_scene(scene, width=width, height=height)
         rig = _rig(sc, eye, baseline, convergence)
         stems = ["render"] if rig is None else (["left", "right"] if eye == "both" else [eye])
+        pair = None if rig is None else stereo_pair(sc.camera.build(), baseline=rig[0], convergence=rig[1])
+        reach = 0.0 if pair is None else max(float(np.abs(c.center).max()) for c in pair)
+        if reach > vr.MAX_SCENE_EXTENT:  # the eyes at -+ b/2: the scene's limit holds for them too
+            raise ValueError(f"--baseline must keep both eyes within {vr.MAX_SCENE_EXTENT:g} m of the origin "
+                             f"(MAX_SCENE_EXTENT); they reach {reach:g} m")  # fmt: skip
         if isinstance(depth, bool) or not 0 <= depth <= vr.MAX_DEPTH:
             raise ValueError(f"max_depth must be an integer in [0, {vr.MAX_DEPTH}]; got {depth}")
         for name, value in (("samples", samples), ("supersample", supersample)):
@@ -117,7 +123,6 @@ def render(
         elif eye == "both":
             results = list(vr.render_stereo(sc, baseline=rig[0], convergence=rig[1], progress=report, **options))
         else:
-            pair = stereo_pair(cam, baseline=rig[0], convergence=rig[1])
             results = [vr.render(sc, camera=pair[0] if eye == "left" else pair[1], progress=report, **options)]
     elapsed = time.perf_counter() - start
     exposure = vr.auto_exposure(results[0].beauty)  # one exposure for both eyes

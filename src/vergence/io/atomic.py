@@ -12,7 +12,7 @@ import os
 import shutil
 import uuid
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -36,8 +36,7 @@ def _output_path(path: object) -> Path:
     return out
 
 
-@contextmanager
-def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_write(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
     """Yield a temporary path beside ``path``; rename it to ``path`` when the block succeeds.
 
     The temporary file has the same extension as ``path`` (writers that choose the format by
@@ -50,10 +49,10 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
     path : str or os.PathLike
         Final output file. Its folder must exist. An existing file is replaced.
 
-    Yields
-    ------
-    pathlib.Path
-        Temporary file to write, in the folder of ``path``.
+    Returns
+    -------
+    contextlib.AbstractContextManager of pathlib.Path
+        Its ``with`` block gets the temporary file to write, in the folder of ``path``.
 
     Raises
     ------
@@ -75,7 +74,11 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[Path]:
     >>> (folder / "note.txt").read_text()
     'done'
     """
-    out = _output_path(path)
+    return _atomic_write(_output_path(path))
+
+
+@contextmanager
+def _atomic_write(out: Path) -> Iterator[Path]:
     tmp = out.with_name(f".{out.stem}.tmp-{uuid.uuid4().hex[:12]}{out.suffix}")
     try:
         yield tmp
@@ -100,27 +103,31 @@ def _os_error(exc: OSError, out: Path, tmp: Path) -> OSError:
     return error
 
 
-@contextmanager
-def atomic_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_folder(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
     """Yield a hidden temporary folder beside ``path``; its files appear in ``path`` only if the block succeeds.
 
     All or nothing: when the block raises (an error, ``KeyboardInterrupt``), the temporary folder is
     removed and ``path`` is left as it was; no empty output folder is created. On success a new
     ``path`` is the temporary folder renamed; an existing one receives each file by ``os.replace``
-    (files of the same names are replaced, others are kept).
+    (files of the same names are replaced, others are kept). ``path`` is checked when this function
+    is called, before any ``with`` block starts.
 
     Parameters
     ----------
     path : str or os.PathLike
         The output folder. Missing parent folders are created.
 
-    Yields
-    ------
-    pathlib.Path
-        The temporary folder to write into (flat: files only).
+    Returns
+    -------
+    contextlib.AbstractContextManager of pathlib.Path
+        Its ``with`` block gets the temporary folder to write into (flat: files only).
 
     Raises
     ------
+    TypeError
+        If ``path`` is not a str or path-like.
+    ValueError
+        If ``path`` is empty.
     NotADirectoryError
         If ``path`` exists and is not a folder.
 
@@ -135,9 +142,16 @@ def atomic_folder(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     if not isinstance(path, str | os.PathLike):
         raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
+    if str(path) == "":
+        raise ValueError("path must name a folder; got ''")
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"cannot write into {out}: it exists and is not a folder")
+    return _atomic_folder(out)
+
+
+@contextmanager
+def _atomic_folder(out: Path) -> Iterator[Path]:
     tmp = out.absolute().parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
     try:
         out.absolute().parent.mkdir(parents=True, exist_ok=True)

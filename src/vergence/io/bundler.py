@@ -61,6 +61,20 @@ def _folder_images(p: Path, count: int) -> tuple[list[Path], str] | None:
     return None
 
 
+def _checked_image_list(image_list: object) -> Path | list[str]:
+    """``image_list`` as the path of an existing list.txt or as a list of image names."""
+    if isinstance(image_list, str | os.PathLike):
+        if os.fspath(image_list) == "":
+            raise ValueError("image_list must name a file (Bundler's list.txt); got ''")
+        return input_path(image_list)
+    if not isinstance(image_list, Sequence):
+        raise TypeError(f"image_list must be a path to list.txt or a sequence of names; got {type(image_list).__name__}")
+    for i, entry in enumerate(image_list):
+        if not isinstance(entry, str | os.PathLike) or os.fspath(entry) == "":
+            raise TypeError(f"image_list[{i}] must be an image name (a non-empty str); got {entry!r}")
+    return [os.fspath(e) for e in image_list]
+
+
 def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], list[Path] | None, tuple[str, ...]]:
     if image_list is None:
         found = [c for c in (p.parent / "list.txt", p.parent.parent / "list.txt") if c.is_file()]
@@ -70,15 +84,13 @@ def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], 
                 return [str(i) for i in range(count)], None, ()
             return [q.name for q in images[0]], images[0], (images[1],)
         image_list = found[0]
-    if isinstance(image_list, str | os.PathLike):
-        lp = input_path(image_list)
-        entries = [ln.split()[0] for ln in _text_lines(lp) if ln.strip()]
-        paths = [lp.parent / e for e in entries]
-    elif isinstance(image_list, Sequence):
-        entries = [os.fspath(e) for e in image_list]
-        paths = [p.parent / e for e in entries]
+    checked = _checked_image_list(image_list)
+    if isinstance(checked, Path):
+        entries = [ln.split()[0] for ln in _text_lines(checked) if ln.strip()]
+        paths = [checked.parent / e for e in entries]
     else:
-        raise TypeError(f"image_list must be a path to list.txt or a sequence of names; got {type(image_list).__name__}")
+        entries = checked
+        paths = [p.parent / e for e in entries]
     if len(entries) != count:
         raise ValueError(f"image_list must name one image per camera ({count}); got {len(entries)}")
     return [Path(e).name for e in entries], paths, ()

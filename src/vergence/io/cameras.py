@@ -14,11 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
-from vergence.io.bundler import read_bundler, write_bundler
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.io.camera_set import CameraSet
+from vergence.io.bundler import _checked_image_list, read_bundler, write_bundler
+from vergence.io.camera_set import CameraSet, _check_size
 from vergence.io.cameras_json import read_cameras_json, write_cameras_json
 from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
@@ -93,7 +93,7 @@ def _format_of(path: object, format: str | None) -> tuple[Path, CameraFormat]:
         raise TypeError(f"path must be a str or os.PathLike; got {type(path).__name__}")
     p = Path(path)
     if format is not None:
-        if format not in CAMERA_FORMATS:
+        if not isinstance(format, str) or format not in CAMERA_FORMATS:
             raise ValueError(f"format must be one of {', '.join(CAMERA_FORMATS)}; got {format!r}")
         return p, CAMERA_FORMATS[format]
     for fmt in CAMERA_FORMATS.values():
@@ -125,15 +125,29 @@ def read_cameras(
     ``cameras.txt``/``images.txt`` -> COLMAP (:data:`CAMERA_FORMATS`); a file whose name no format
     claims is recognised by its first lines (a Middlebury count and camera line, Bundler's header,
     our JSON's ``"vergence-cameras"``). ``image_size`` applies to
-    Middlebury and Bundler, ``image_list`` to Bundler only; the other readers ignore them.
+    Middlebury and Bundler (the other readers ignore it, but a malformed size is refused whatever
+    the format), ``image_list`` to Bundler only: given with another format it is refused, as a
+    mistake that would otherwise be dropped unseen.
 
     Raises
     ------
     ValueError
         If ``format`` is not a name of :data:`CAMERA_FORMATS`, or it is left out and the file name
-        matches no format (the message lists them).
+        matches no format (the message lists them); if ``image_size`` is not two positive integers;
+        if ``image_list`` is given for a format other than Bundler.
+    TypeError
+        If ``image_list`` is neither a path nor a sequence of image names.
+    FileNotFoundError
+        If ``image_list`` is a path to a missing file.
     """
+    if image_size is not None:
+        _check_size(image_size)
+    if image_list is not None:
+        _checked_image_list(image_list)
     p, fmt = _format_of(path, format)
+    if image_list is not None and "image_list" not in fmt.options:
+        name = next(n for n, f in CAMERA_FORMATS.items() if f is fmt)
+        raise ValueError(f"image_list applies to Bundler cameras (*.out) only; {p.name} is a {name} camera file")
     given = {"image_size": image_size, "image_list": image_list}
     return fmt.read(p, **{k: given[k] for k in fmt.options})
 

@@ -14,11 +14,11 @@ arbitrary rays (:meth:`Tracer.trace_rays`) through three swappable stages: ray g
 
 from vergence.render._mitsuba import select_variant
 from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
-from vergence.render.lenses import FisheyeCamera
+from vergence.render.lenses import MIN_FOV_DEG, FisheyeCamera
 from vergence.render.disparity import screen_disparity
 from vergence.render.intersect import Hits, Intersector
 from vergence.render.limits import MAX_RENDER_BYTES, MAX_RENDER_RAYS, MAX_RENDER_SIDE, RenderCost, render_cost
-from vergence.render.rays import RAY_GENERATORS, RayBatch, camera_rays, subpixel_rays
+from vergence.render.rays import RAY_GENERATORS, SUBPIXEL_OFFSET_RANGE, RayBatch, camera_rays, subpixel_rays
 from vergence.render.raytree import MAX_DEPTH, Tracer, render, render_stereo
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
 from vergence.render.scene import (
@@ -61,6 +61,7 @@ __all__ = [
     "MAX_RENDER_RAYS",
     "MAX_RENDER_SIDE",
     "MAX_SCENE_EXTENT",
+    "MIN_FOV_DEG",
     "Mesh",
     "Mirror",
     "RAY_GENERATORS",
@@ -70,6 +71,7 @@ __all__ = [
     "RenderCost",
     "RenderResult",
     "RenderSettings",
+    "SUBPIXEL_OFFSET_RANGE",
     "Scene",
     "SceneCamera",
     "Sphere",

@@ -14,12 +14,42 @@ The variant is chosen once per process: ``cuda_ad_rgb`` when Dr.Jit finds a CUDA
 from __future__ import annotations
 
 import os
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 
+
+@contextmanager
+def _deferred_sigint() -> Iterator[None]:
+    """Hold Ctrl-C while Mitsuba's C++ code runs and deliver it, in Python, on the way out.
+
+    A ``KeyboardInterrupt`` raised by a Python SIGINT handler while nanobind is inside C++ that calls
+    back into Python is thrown through C++ as ``nanobind::python_error``: ``std::terminate``, the
+    process aborts (exit -6, issue 9 sweep: ``sigint/render``). Here the handler only records the
+    signal; the previous handler then runs once the block is left, where raising is safe. Outside
+    the main thread, or with no Python handler installed, nothing changes.
+    """
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield
+        return
+    caught: list[tuple[int, object]] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append((signum, frame)))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught:
+            previous(*caught[0])  # raises KeyboardInterrupt (or whatever the caller's handler does) here
+
+
 try:
-    import drjit as dr
-    import mitsuba as mi
+    with _deferred_sigint():
+        import drjit as dr
+        import mitsuba as mi
 except ImportError as exc:  # pragma: no cover - depends on the installation
     raise ImportError(
         f"vergence.render needs Mitsuba 3 and Dr.Jit (pip install 'mitsuba>=3.5'); import failed: {exc}"
@@ -36,6 +66,11 @@ def select_variant() -> str:
     current = mi.variant()
     if current is not None:
         return current
+    with _deferred_sigint():
+        return _set_variant()
+
+
+def _set_variant() -> str:
     forced = os.environ.get("VERGENCE_MITSUBA_VARIANT")
     if forced:
         if forced not in mi.variants():
@@ -84,6 +119,10 @@ class Caster:
 
     def __init__(self, shapes: list[tuple[str, tuple]]) -> None:
         self.variant = select_variant()
+        with _deferred_sigint():
+            self._build(shapes)
+
+    def _build(self, shapes: list[tuple[str, tuple]]) -> None:
         spec: dict = {"type": "scene"}
         for i, (kind, p) in enumerate(shapes):
             key = f"obj{i}"
@@ -112,6 +151,15 @@ class Caster:
         obj = np.full(m, -1, dtype=np.int64)
         prim = np.zeros(m, dtype=np.int64)
         t = np.full(m, np.inf)
+        with _deferred_sigint():
+            self._intersect(origins, dirs, maxt, obj, prim, t)
+        miss = ~np.isfinite(t) | (obj < 0)
+        obj[miss] = -1
+        return obj, prim, t
+
+    def _intersect(self, origins, dirs, maxt, obj, prim, t) -> None:  # noqa: ANN001
+        """Fill ``obj``, ``prim`` and ``t`` chunk by chunk (Mitsuba calls only)."""
+        m = len(origins)
         for s in range(0, m, _CHUNK):
             e = min(m, s + _CHUNK)
             ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(origins[s:e].T, dtype=np.float32)),
@@ -123,9 +171,6 @@ class Caster:
             obj[s:e] = self._lookup[np.minimum(registry, len(self._lookup) - 1)]
             prim[s:e] = pi.prim_index.numpy()
             t[s:e] = pi.t.numpy()
-        miss = ~np.isfinite(t) | (obj < 0)
-        obj[miss] = -1
-        return obj, prim, t
 
     def occluded(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
         """Whether each ray hits anything before ``maxt`` (unbounded when None), in one Mitsuba call.
@@ -133,7 +178,8 @@ class Caster:
         The rays come in Mitsuba's layout, float32 ``(3, M)`` origins and directions (as
         ``_kernels.ao_rays`` writes them); the caller bounds ``M``.
         """
-        ray = mi.Ray3f(mi.Point3f(origins), mi.Vector3f(dirs))
-        if maxt is not None:
-            ray.maxt = mi.Float(np.ascontiguousarray(maxt, dtype=np.float32))
-        return self._scene.ray_test(ray, True).numpy()
+        with _deferred_sigint():
+            ray = mi.Ray3f(mi.Point3f(origins), mi.Vector3f(dirs))
+            if maxt is not None:
+                ray.maxt = mi.Float(np.ascontiguousarray(maxt, dtype=np.float32))
+            return self._scene.ray_test(ray, True).numpy()

@@ -175,6 +175,8 @@ def builtin_scene(name: str, *, width: int = 320, height: int = 240) -> Scene:
     ('tabletop', 1.2)
     """
     makers = {"glasses": _glasses, "stadium": _stadium, "tabletop": _tabletop}
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str, one of {', '.join(BUILTIN_SCENES)}; got {type(name).__name__}")
     if name not in makers:
         raise ValueError(f"unknown built-in scene {name!r}; valid scenes: {', '.join(BUILTIN_SCENES)}")
     return makers[name](width, height)

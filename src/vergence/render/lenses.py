@@ -15,9 +15,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_positive_int
-from vergence.camera import Camera
+from vergence.camera import MIN_FOV_DEG, Camera
 
-__all__ = ["FisheyeCamera"]
+__all__ = ["FisheyeCamera", "MIN_FOV_DEG"]
+
+# The narrowest field of view, shared with the pinhole of vergence.camera.look_at (1e-3 deg): at
+# MAX_RENDER_SIDE pixels the focal length stays under 2e9 px for the pinhole and the fisheye
+# (``(width/2) / (fov/2)``). A subnormal field of view used to divide by a zero tangent.
+
+
+def check_min_fov(fov_deg: float) -> None:
+    """Refuse a positive field of view (degrees) narrower than :data:`MIN_FOV_DEG`."""
+    if 0.0 < fov_deg < MIN_FOV_DEG:
+        raise ValueError(f"fov_deg must be >= {MIN_FOV_DEG:g} deg (MIN_FOV_DEG); got {fov_deg:g}")
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -59,6 +69,7 @@ class FisheyeCamera:
         fov = check_finite("fov_deg", self.fov_deg)
         if not 0.0 < fov <= 180.0:
             raise ValueError(f"fov_deg must lie in (0, 180] for a fisheye; got {fov:g}")
+        check_min_fov(fov)
         if self.principal_point is None:
             pp = ((width - 1) / 2.0, (height - 1) / 2.0)
         else:

@@ -20,7 +20,11 @@ import numpy as np
 
 from vergence._validate import check_positive_int
 
-__all__ = ["MAX_RENDER_BYTES", "MAX_RENDER_RAYS", "MAX_RENDER_SIDE", "RenderCost", "render_cost"]
+__all__ = ["MAX_DEPTH", "MAX_RENDER_BYTES", "MAX_RENDER_RAYS", "MAX_RENDER_SIDE", "RenderCost", "render_cost"]
+
+#: Largest number of specular bounces D of a ray tree: 6, i.e. 127 layers; beyond that the arrays
+#: outgrow memory long before they help (and ``2^(D+1)`` of a huge D never finishes computing).
+MAX_DEPTH = 6
 
 #: Largest estimated memory of one render call, bytes (8 GiB): a stereo pair at 1920 x 1080 with
 #: D = 2 is estimated at 5.2 GB (a single 3840 x 2160 view at 10.4 GB is refused); 8 GiB stays
@@ -44,6 +48,13 @@ RAY_BYTES = 1000
 
 #: Bytes per ray tree and layer: radiance, position and normal, three float32 each.
 LAYER_BYTES = 36
+
+
+def check_max_depth(max_depth: object) -> int:
+    """``max_depth`` as an int, refused unless an integer in [0, MAX_DEPTH]."""
+    if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer) or not 0 <= max_depth <= MAX_DEPTH:
+        raise ValueError(f"max_depth must be an integer in [0, {MAX_DEPTH}]; got {max_depth!r}")
+    return int(max_depth)
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,8 +110,7 @@ def render_cost(width: int, height: int, *, max_depth: int, samples: int, supers
     """
     width, height, samples, supersample, views = (check_positive_int(name, value) for name, value in (
         ("width", width), ("height", height), ("samples", samples), ("supersample", supersample), ("views", views)))
-    if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer) or max_depth < 0:
-        raise ValueError(f"max_depth must be an integer >= 0; got {max_depth!r}")
+    check_max_depth(max_depth)
     n = 2 ** (max_depth + 1) - 1
     trees = int(width) * int(height) * int(views) * (1 + supersample**2 if supersample > 1 else 1)
     return RenderCost(trees=trees, rays=trees * (n + 2**max_depth * samples), bytes=trees * (RAY_BYTES + n * LAYER_BYTES))

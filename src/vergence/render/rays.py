@@ -13,10 +13,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence._validate import as_float_array
 from vergence.camera import Camera
 from vergence.render.lenses import FisheyeCamera
 
-__all__ = ["RAY_GENERATORS", "RayBatch", "camera_rays", "subpixel_rays"]
+__all__ = ["RAY_GENERATORS", "RayBatch", "SUBPIXEL_OFFSET_RANGE", "camera_rays", "subpixel_rays"]
+
+#: Offsets of :func:`subpixel_rays` from a pixel centre, pixels, per axis: [-0.5, 0.5], the pixel's own
+#: square (centres at integer coordinates). A ray farther out samples a neighbouring pixel, which a
+#: supersampled pixel must not average; and a huge offset overflowed ``K^-1 (x, y, 1)``.
+SUBPIXEL_OFFSET_RANGE = (-0.5, 0.5)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -79,17 +85,29 @@ def subpixel_rays(camera: Camera, offsets: np.ndarray) -> RayBatch:
     camera : Camera
         A pinhole camera (``K^-1 (x, y, 1)`` holds at any sub-pixel position).
     offsets : (H, W, 2) or (2,) array
-        Offsets from the pixel centres in pixels, ``(dx, dy)``, per pixel or shared.
+        Offsets from the pixel centres in pixels, ``(dx, dy)``, per pixel or shared, each in
+        :data:`SUBPIXEL_OFFSET_RANGE` ([-0.5, 0.5]).
 
     Raises
     ------
     TypeError
-        If ``camera`` is not a pinhole :class:`~vergence.camera.Camera`.
+        If ``camera`` is not a pinhole :class:`~vergence.camera.Camera`, or ``offsets`` is not numeric.
+    ValueError
+        If ``offsets`` has another shape, or holds NaN, inf or a value outside the range.
     """
     if not isinstance(camera, Camera):
         raise TypeError(f"sub-pixel rays need a pinhole Camera; got {type(camera).__name__}")
+    if offsets is None or isinstance(offsets, str):
+        raise TypeError(f"offsets must be a numeric array of shape (2,) or (H, W, 2); got {type(offsets).__name__}")
+    off = as_float_array("offsets", offsets)
+    if off.shape not in ((2,), (camera.height, camera.width, 2)):
+        raise ValueError(f"offsets must have shape (2,) or ({camera.height}, {camera.width}, 2); got {off.shape}")
+    low, high = SUBPIXEL_OFFSET_RANGE
+    if off.size and not (low <= off.min() and off.max() <= high):
+        raise ValueError(f"offsets must lie in [{low:g}, {high:g}] px (SUBPIXEL_OFFSET_RANGE); "
+                         f"got [{off.min():g}, {off.max():g}]")  # fmt: skip
     ys, xs = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
-    off = np.broadcast_to(np.asarray(offsets, dtype=np.float64), (camera.height, camera.width, 2))
+    off = np.broadcast_to(off, (camera.height, camera.width, 2))
     homog = np.stack([xs + off[..., 0], ys + off[..., 1], np.ones_like(xs)], axis=-1).reshape(-1, 3)
     d = (homog @ np.linalg.inv(camera.K).T) @ camera.R
     d /= np.linalg.norm(d, axis=1, keepdims=True)

@@ -37,15 +37,14 @@ from vergence.camera import Camera
 from vergence.render import _kernels, surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
-from vergence.render.limits import MAX_RENDER_SIDE, render_cost
+from vergence.render.limits import MAX_DEPTH, MAX_RENDER_SIDE, check_max_depth, render_cost
 from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
-from vergence.render.scene import Scene
+from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 from vergence.render.shader import WhittedShader, offset
 
 __all__ = ["MAX_DEPTH", "Tracer", "render", "render_stereo"]
 
-MAX_DEPTH = 6  # 127 layers; beyond that the arrays outgrow memory long before they help
 
 Progress = Callable[[float, str], None]
 
@@ -70,6 +69,10 @@ class _Flat:
     first_t: np.ndarray  # (n_slots,) float64, NaN without a first hit
     tree_rays: np.ndarray  # (views,) rays of the tree per view
     ao_rays: np.ndarray  # (views,) AO rays per view
+
+
+# What the tracer calls on its shading stage (see WhittedShader).
+_SHADER_METHODS = ("background", "diffuse", "specular")
 
 
 class Tracer:
@@ -105,6 +108,17 @@ class Tracer:
     def __init__(self, scene: Scene, *, rays: Callable[..., RayBatch] | None = None, intersector=None, shader=None) -> None:  # noqa: ANN001
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
+        if rays is not None and not callable(rays):
+            raise TypeError(f"rays must be a callable (camera -> RayBatch) or None; got {type(rays).__name__}")
+        if intersector is not None and not (callable(intersector)
+                                            and isinstance(getattr(intersector, "packed", None), surfaces.PackedScene)
+                                            and isinstance(getattr(intersector, "variant", None), str)):  # fmt: skip
+            raise TypeError("intersector must be a callable with a PackedScene 'packed' and a str 'variant' "
+                            f"(an Intersector) or None; got {type(intersector).__name__}")  # fmt: skip
+        missing = [m for m in _SHADER_METHODS if not callable(getattr(shader, m, None))]
+        if shader is not None and missing:
+            raise TypeError(f"shader must have the methods {', '.join(_SHADER_METHODS)} (a WhittedShader) or be None; "
+                            f"got {type(shader).__name__}")  # fmt: skip
         self.scene = scene
         self.rays = camera_rays if rays is None else rays
         self.intersector = Intersector(scene) if intersector is None else intersector
@@ -218,6 +232,8 @@ class Tracer:
         their mean, while position, normal and depth stay those of the pixel-centre ray (a point of
         one surface, never an average across an edge).
         """
+        if progress is not None and not callable(progress):
+            raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
         n = 2 ** (max_depth + 1) - 1
         k2 = supersample * supersample
         _check_cost(cameras, max_depth=max_depth, samples=samples, supersample=supersample)
@@ -356,18 +372,33 @@ def _check_supersample(supersample, cameras) -> int:  # noqa: ANN001
     return k
 
 
+# No occluder lies farther from a shading point than the diagonal of the cube of MAX_SCENE_EXTENT (all
+# scene points lie inside it); a longer AO distance only overflowed the float32 cast of the ray ends.
+_MAX_AO_DISTANCE = 2.0 * np.sqrt(3.0) * MAX_SCENE_EXTENT
+
+
+def _camera_reach(camera: Camera | FisheyeCamera) -> float:
+    """Largest |coordinate| of the camera centre, metres (compared with MAX_SCENE_EXTENT, as the scene's camera)."""
+    return float(np.abs(camera.center).max())
+
+
 def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
     if camera is not None and not isinstance(camera, Camera | FisheyeCamera):
         raise TypeError(f"camera must be a Camera, a FisheyeCamera or None; got {type(camera).__name__}")
-    if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer) or not 0 <= max_depth <= MAX_DEPTH:
-        raise ValueError(f"max_depth must be an integer in [0, {MAX_DEPTH}]; got {max_depth!r}")
+    if camera is not None and _camera_reach(camera) > MAX_SCENE_EXTENT:
+        raise ValueError(f"camera must lie within {MAX_SCENE_EXTENT:g} m of the origin (MAX_SCENE_EXTENT); "
+                         f"its centre reaches {_camera_reach(camera):g} m")  # fmt: skip
+    check_max_depth(max_depth)
     samples = check_positive_int("samples", samples)
     if rng is not None and not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator or None; got {type(rng).__name__}")
     if ao_distance is not None:
         ao_distance = check_positive("ao_distance", ao_distance)
+        if ao_distance > _MAX_AO_DISTANCE:
+            raise ValueError(f"ao_distance must be <= {_MAX_AO_DISTANCE:.6g} m, the diagonal of the scene's cube "
+                             f"(2 sqrt(3) MAX_SCENE_EXTENT); got {ao_distance:g}")  # fmt: skip
     return int(max_depth), samples, ao_distance
 
 
@@ -441,6 +472,13 @@ def render_stereo(
     are traced through one :class:`Tracer`, their rays side by side in one wavefront per tree level;
     with an ``rng`` the AO draws follow that joint order (left pixels before right ones within a
     level). ``progress`` reports the joint wavefronts.
+
+    Raises
+    ------
+    ValueError
+        If ``baseline`` or ``convergence`` lies outside :data:`vergence.viewing.LENGTH_RANGE`, or the
+        eyes at ``-+ b/2`` lie farther than :data:`MAX_SCENE_EXTENT` from the origin; both before
+        any ray is traced.
     """
     from vergence.rigs import stereo_pair
 
@@ -450,5 +488,9 @@ def render_stereo(
         raise TypeError(f"render_stereo needs a pinhole Camera; got {type(cam).__name__}")
     supersample = check_positive_int("supersample", supersample)
     left, right = stereo_pair(cam, baseline=baseline, convergence=convergence)
+    reach = max(_camera_reach(left), _camera_reach(right))  # the eyes at -+ b/2 from the centre
+    if reach > MAX_SCENE_EXTENT:
+        raise ValueError(f"baseline must keep both eyes within {MAX_SCENE_EXTENT:g} m of the origin (MAX_SCENE_EXTENT); "
+                         f"they reach {reach:g} m")  # fmt: skip
     return tuple(Tracer(scene)._render_many([left, right], max_depth=max_depth, samples=samples, rng=rng,
                                             ao_distance=ao_distance, progress=progress, supersample=supersample))  # fmt: skip

@@ -19,7 +19,13 @@ __all__ = ["RayTree", "RenderResult", "RenderSettings", "layer_names"]
 
 
 def layer_names(max_depth: int) -> list[str]:
-    """Names of the nodes 1..N: ``"first hit"``, then the path, e.g. ``"R"``, ``"T"``, ``"RT"``."""
+    """Names of the nodes 1..N: ``"first hit"``, then the path, e.g. ``"R"``, ``"T"``, ``"RT"``.
+
+    ``max_depth`` is an integer in [0, :data:`~vergence.render.limits.MAX_DEPTH`].
+    """
+    from vergence.render.limits import check_max_depth
+
+    max_depth = check_max_depth(max_depth)
     names = []
     for i in range(1, 2 ** (max_depth + 1)):
         path = ""

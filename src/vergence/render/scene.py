@@ -7,6 +7,7 @@ angles in degrees where the name ends in ``_deg``. Every class validates itself;
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
 
@@ -14,8 +15,9 @@ import numpy as np
 
 from vergence import camera as _camera
 from vergence._validate import as_float_array, check_finite, check_positive, check_positive_int
-from vergence.render.lenses import FisheyeCamera
+from vergence.render.lenses import FisheyeCamera, check_min_fov
 from vergence.render.limits import MAX_RENDER_SIDE
+from vergence.viewing.geometry import LENGTH_RANGE
 
 __all__ = [
     "Checker",
@@ -89,6 +91,17 @@ def _color(name: str, value: object, *, hdr: bool = False) -> np.ndarray:
     return _ro(c)
 
 
+def _text(name: str, value: object, *, optional: bool = False) -> str | None:
+    """``value`` if it is a non-empty str (or None when ``optional``); a material name, a path, a label."""
+    if value is None and optional:
+        return None
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a str{' or None' if optional else ''}; got {type(value).__name__}")
+    if not value:
+        raise ValueError(f"{name} must be a non-empty str; got ''")
+    return value
+
+
 def _albedo_image(name: str, value: object) -> np.ndarray:
     img = as_float_array(name, value, dtype=np.float32)
     if img.ndim == 2:
@@ -127,12 +140,13 @@ class SceneCamera:
         for name in ("width", "height"):
             if getattr(self, name) > MAX_RENDER_SIDE:
                 raise ValueError(f"{name} must be <= {MAX_RENDER_SIDE} pixels (MAX_RENDER_SIDE); got {getattr(self, name)}")
-        if self.lens not in LENSES:
+        if not isinstance(self.lens, str) or self.lens not in LENSES:
             raise ValueError(f"lens must be one of {', '.join(LENSES)}; got {self.lens!r}")
         if self.principal_point is not None:
             pp = as_float_array("principal_point", self.principal_point, shape=(2,))
             object.__setattr__(self, "principal_point", (float(pp[0]), float(pp[1])))
         object.__setattr__(self, "fov_deg", check_finite("fov_deg", self.fov_deg))
+        check_min_fov(self.fov_deg)
         self.build()  # validates the framing (fov range, degenerate look_at / up)
 
     def build(self) -> _camera.Camera | FisheyeCamera:
@@ -204,6 +218,8 @@ class Environment:
                              f"(MAX_RADIANCE); got {peak:g}")  # fmt: skip
         object.__setattr__(self, "intensity", intensity)
         object.__setattr__(self, "rotation_deg", check_finite("rotation_deg", self.rotation_deg))
+        _text("source", self.source)
+        _text("note", self.note, optional=True)
 
     def describe(self) -> str:
         """One line: where the lighting comes from (and the substitution note, if any)."""
@@ -216,14 +232,18 @@ class Environment:
 
 @dataclass(frozen=True, slots=True)
 class Stereo:
-    """Default stereo rig of a scene: ``baseline`` b and convergence distance H, metres."""
+    """Default stereo rig of a scene: ``baseline`` b and convergence distance H, metres, in ``LENGTH_RANGE``."""
 
     baseline: float
     convergence: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "baseline", check_positive("baseline", self.baseline))
-        object.__setattr__(self, "convergence", check_positive("convergence", self.convergence))
+        for name in ("baseline", "convergence"):
+            v = check_positive(name, getattr(self, name))
+            if not LENGTH_RANGE[0] <= v <= LENGTH_RANGE[1]:  # as vergence.rigs.stereo_pair takes them
+                raise ValueError(f"{name} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); "
+                                 f"got {v:g}")  # fmt: skip
+            object.__setattr__(self, name, v)
 
 
 # ------------------------------------------------------------------------------ materials
@@ -263,6 +283,7 @@ class Texture:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "image", _albedo_image("image", self.image))
+        _text("path", self.path, optional=True)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -307,6 +328,7 @@ class Sphere:
         object.__setattr__(self, "center", _vec3("center", self.center))
         object.__setattr__(self, "radius", check_positive("radius", self.radius))
         _within_extent("sphere", self.center, self.radius)
+        _text("material", self.material)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -334,6 +356,7 @@ class Rectangle:
         s = as_float_array("size", self.size, shape=(2,))
         object.__setattr__(self, "size", (check_positive("size[0]", s[0]), check_positive("size[1]", s[1])))
         _within_extent("rectangle", self.center, 0.5 * float(np.hypot(*self.size)))
+        _text("material", self.material)
 
     @property
     def right(self) -> np.ndarray:
@@ -357,6 +380,8 @@ class Mesh:
     path: str | None = None
 
     def __post_init__(self) -> None:
+        _text("material", self.material)
+        _text("path", self.path, optional=True)
         v = as_float_array("vertices", self.vertices, shape=(None, 3))
         f = np.asarray(self.faces)
         if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0 or not np.issubdtype(f.dtype, np.integer):
@@ -393,6 +418,8 @@ class Scene:
                 raise TypeError(f"{attr} must be a {cls.__name__}; got {type(getattr(self, attr)).__name__}")
         if self.stereo is not None and not isinstance(self.stereo, Stereo):
             raise TypeError(f"stereo must be a Stereo or None; got {type(self.stereo).__name__}")
+        if not isinstance(self.materials, Mapping):
+            raise TypeError(f"materials must be a mapping of names to materials; got {type(self.materials).__name__}")
         mats = dict(self.materials)
         for key, mat in mats.items():
             if not isinstance(key, str) or not key:
@@ -400,6 +427,8 @@ class Scene:
             if not isinstance(mat, Material):
                 raise TypeError(f"materials[{key!r}] must be a material ({', '.join(MATERIALS)}); got {type(mat).__name__}")
         object.__setattr__(self, "materials", MappingProxyType(mats))
+        if isinstance(self.objects, str) or not isinstance(self.objects, Sequence):
+            raise TypeError(f"objects must be a sequence of Sphere, Rectangle or Mesh; got {type(self.objects).__name__}")
         objs = tuple(self.objects)
         for i, obj in enumerate(objs):
             if not isinstance(obj, Sphere | Rectangle | Mesh):
@@ -412,3 +441,4 @@ class Scene:
             if isinstance(mat, Checker | Texture) and isinstance(obj, Mesh) and obj.uv is None:
                 raise ValueError(f"objects[{i}]: textured material {obj.material!r} needs a mesh with texture coordinates")
         object.__setattr__(self, "objects", objs)
+        _text("name", self.name)

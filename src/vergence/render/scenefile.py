@@ -7,6 +7,7 @@ meshes, ``.hdr`` maps) resolve against the scene file's folder.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -156,14 +157,37 @@ def _object(i: int, data: object, base_dir: Path | None) -> Sphere | Rectangle |
     raise ValueError(f"objects[{i}].type must be one of mesh, rectangle, sphere; got {kind!r}")
 
 
+def _base_dir(base_dir: object) -> Path | None:
+    """``base_dir`` as the existing folder relative paths resolve against (None: the working folder)."""
+    if base_dir is None:
+        return None
+    if not isinstance(base_dir, str | os.PathLike):
+        raise TypeError(f"base_dir must be a str, a path or None; got {type(base_dir).__name__}")
+    base = Path(base_dir)
+    if not base.exists():
+        raise FileNotFoundError(f"base_dir must be an existing folder; {base} does not exist")
+    if not base.is_dir():
+        raise NotADirectoryError(f"base_dir must be a folder; {base} is a file")
+    return base
+
+
 def scene_from_dict(data: object, *, base_dir: str | Path | None = None, name: str = "scene") -> Scene:
     """Build a :class:`Scene` from parsed JSON (see ``docs/scenes.md``).
 
     Relative paths (textures, meshes, ``.hdr`` maps) resolve against ``base_dir`` (the scene file's
     folder for :func:`load_scene`). Unknown keys, missing fields and bad values raise a
     ``ValueError``/``TypeError`` that names the place in the file.
+
+    Raises
+    ------
+    TypeError
+        If ``base_dir`` is not None, a str or a path, or ``name`` is not a str.
+    FileNotFoundError, NotADirectoryError
+        If ``base_dir`` is given but is not an existing folder.
     """
-    base = None if base_dir is None else Path(base_dir)
+    base = _base_dir(base_dir)
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str; got {type(name).__name__}")
     d = _fields("scene", data, ("camera", "environment", "materials", "objects"), ("name", "description", "stereo"))
     cam = _fields("camera", d["camera"], ("position", "look_at", "up", "fov_deg", "width", "height"),
                   ("principal_point", "lens"))  # fmt: skip

@@ -22,8 +22,9 @@ def _radiance(radiance: object, *, image: bool = False) -> np.ndarray:
         arr = np.asarray(radiance, dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"radiance must be a real-valued array; got {type(radiance).__name__}") from None
-    if (arr.ndim != 3 if image else arr.ndim < 1) or arr.shape[-1] != 3:
-        raise ValueError(f"radiance must have shape {'(H, W, 3)' if image else '(..., 3)'}; got {arr.shape}")
+    if (arr.ndim != 3 if image else arr.ndim < 1) or arr.shape[-1] != 3 or arr.size == 0:
+        raise ValueError(f"radiance must have shape {'(H, W, 3)' if image else '(..., 3)'} and not be empty; "
+                         f"got {arr.shape}")  # fmt: skip
     bad = int((~np.isfinite(arr)).sum())
     if bad:
         raise ValueError(f"radiance must be finite; got {bad} NaN or inf value(s)")

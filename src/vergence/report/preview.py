@@ -7,6 +7,7 @@ matplotlib. Tone mapping itself (:func:`vergence.render.tonemap`) stays in the r
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ from matplotlib.figure import Figure
 from vergence._validate import check_positive
 from vergence.render.results import RenderResult, layer_names
 from vergence.render.tonemap import auto_exposure, tonemap
+from vergence.viewing.geometry import MAX_SCENE_DEPTH
 
 __all__ = ["contact_sheet", "depth_preview", "save_render"]
 
@@ -33,10 +35,23 @@ def _figure_rgb(fig: Figure) -> np.ndarray:
 
 
 def depth_preview(depth: np.ndarray, *, title: str = "depth (m)") -> np.ndarray:
-    """Depth map ``(H, W)`` drawn with a colour bar (matplotlib, Agg); NaN (no hit) in grey."""
-    d = np.asarray(depth, dtype=np.float64)
+    """Depth map ``(H, W)`` drawn with a colour bar (matplotlib, Agg); NaN or inf (no hit) in grey.
+
+    Finite depths must lie within ``MAX_SCENE_DEPTH`` (1e20 m) of zero
+    (:data:`vergence.viewing.MAX_SCENE_DEPTH`); ``title`` is a str.
+    """
+    try:  # NaN and inf are "no hit", drawn grey
+        d = np.asarray(depth, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"depth must be a real-valued array; got {type(depth).__name__}") from None
+    if not isinstance(title, str):
+        raise TypeError(f"title must be a str; got {type(title).__name__}")
     if d.ndim != 2 or d.size == 0:
         raise ValueError(f"depth must have shape (H, W) and not be empty; got {d.shape}")
+    with np.errstate(invalid="ignore"):
+        peak = float(np.abs(d[np.isfinite(d)]).max(initial=0.0))
+    if peak > MAX_SCENE_DEPTH:  # matplotlib's colour-bar ticks overflowed near 1e308
+        raise ValueError(f"depth must lie within {MAX_SCENE_DEPTH:g} m (MAX_SCENE_DEPTH); got |depth| up to {peak:g}")
     h, w = d.shape
     scale = max(1.0, 480.0 / max(h, w))
     fig = Figure(figsize=(w * scale / 100.0 + 1.4, h * scale / 100.0 + 0.6), dpi=100)
@@ -103,9 +118,16 @@ def save_render(result: RenderResult, folder: str | Path, *, stem: str = "render
     from vergence.io import atomic_write, write_image, write_json, write_pfm
 
     _check_result(result)
+    if not isinstance(folder, str | os.PathLike):
+        raise TypeError(f"folder must be a str or os.PathLike; got {type(folder).__name__}")
     out = Path(folder)
     if not out.is_dir():
-        raise FileNotFoundError(f"output folder does not exist: {out}")
+        raise (NotADirectoryError(f"folder must be a folder; {out} is a file") if out.exists()
+               else FileNotFoundError(f"output folder does not exist: {out}"))  # fmt: skip
+    if not isinstance(stem, str):
+        raise TypeError(f"stem must be a str; got {type(stem).__name__}")
+    if not stem or Path(stem).name != stem or stem in (".", ".."):
+        raise ValueError(f"stem must be a plain file-name stem (no folder); got {stem!r}")
     k = auto_exposure(result.beauty) if exposure is None else check_positive("exposure", exposure)
     written = []
     npz = out / f"{stem}.npz"

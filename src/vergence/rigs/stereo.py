@@ -14,10 +14,13 @@ sign (``d = x_r - x_l``; see ``docs/conventions.md``). Pure geometry: no renderi
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vergence._validate import check_positive
 from vergence.camera import Camera
+from vergence.viewing.geometry import LENGTH_RANGE
 
 __all__ = ["stereo_pair"]
 
@@ -30,9 +33,9 @@ def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple
     camera : Camera
         The central (cyclopean) camera; its image is the convergence window.
     baseline : float
-        Distance ``b`` between the two optical centres, metres, > 0.
+        Distance ``b`` between the two optical centres, metres, in ``LENGTH_RANGE`` (1e-6 to 1e6).
     convergence : float
-        Camera-frame depth ``H`` of the convergence plane, metres, > 0.
+        Camera-frame depth ``H`` of the convergence plane, metres, in ``LENGTH_RANGE``.
 
     Returns
     -------
@@ -46,7 +49,9 @@ def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple
     TypeError
         If ``camera`` is not a :class:`~vergence.camera.Camera`.
     ValueError
-        If ``baseline`` or ``convergence`` is not finite and > 0.
+        If ``baseline`` or ``convergence`` is not finite and in
+        :data:`vergence.viewing.LENGTH_RANGE`, or the sensor shift (or the shifted principal point)
+        is not finite (a focal length near the float64 limit).
 
     Notes
     -----
@@ -65,14 +70,26 @@ def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple
     """
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a vergence.camera.Camera; got {type(camera).__name__}")
-    b = check_positive("baseline", baseline)
-    H = check_positive("convergence", convergence)
+    b = _rig_length("baseline", baseline)
+    H = _rig_length("convergence", convergence)
     right_axis = camera.R[0]
-    shift_px = camera.K[0, 0] * b / (2.0 * H)  # sensor shift fx b / (2H), S0 §2
+    shift_px = float(camera.K[0, 0]) * b / (2.0 * H)  # sensor shift fx b / (2H), S0 §2 (Python floats: no warning)
+    cx = float(camera.K[0, 2])
+    if not (math.isfinite(cx - shift_px) and math.isfinite(cx + shift_px)):
+        raise ValueError(f"convergence must keep the sensor shift fx b / (2 H) finite; got {shift_px:g} px with "
+                         f"fx = {camera.K[0, 0]:g} px, b = {b:g} m, H = {H:g} m")  # fmt: skip
     cams = []
     for sign in (-1.0, 1.0):
         center = camera.center + sign * (b / 2.0) * right_axis
         K = np.array(camera.K, copy=True)
-        K[0, 2] += sign * shift_px
+        K[0, 2] = cx + sign * shift_px
         cams.append(Camera(K=K, R=camera.R, t=-camera.R @ center, width=camera.width, height=camera.height))
     return cams[0], cams[1]
+
+
+def _rig_length(name: str, value: object) -> float:
+    """A rig length in metres, refused outside LENGTH_RANGE (where the rig's figures stay finite)."""
+    v = check_positive(name, value)
+    if not LENGTH_RANGE[0] <= v <= LENGTH_RANGE[1]:
+        raise ValueError(f"{name} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); got {v:g}")
+    return v
