@@ -158,6 +158,8 @@ def test_interpolate_is_symmetric(s, angle, dx):
     ("kwargs", "match"),
     [
         ({"K": np.zeros((3, 3))}, "positive focal"),
+        ({"K": np.diag([5e-324, 5e-324, 1.0])}, "MIN_FOCAL_PX"),  # ray_directions overflowed to inf
+        ({"K": np.diag([100.0, 1e-300, 1.0])}, "MIN_FOCAL_PX"),
         ({"K": np.eye(2)}, r"K must have shape \(3, 3\)"),
         ({"R": 2 * np.eye(3)}, "R must be a rotation"),
         ({"R": np.diag([1.0, 1.0, -1.0])}, "R must be a rotation"),

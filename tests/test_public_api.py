@@ -10,7 +10,7 @@ import importlib
 import pytest
 
 PUBLIC_API = {   'vergence': ['__version__'],
-    'vergence.camera': ['Camera', 'MIN_FOV_DEG', 'interpolate', 'look_at'],
+    'vergence.camera': ['Camera', 'MIN_FOCAL_PX', 'MIN_FOV_DEG', 'interpolate', 'look_at'],
     'vergence.depth': [   'MATCHERS', 'MAX_BLOCK_SIZE', 'MIN_TEXTURE', 'MIN_TEXTURED_PERCENT', 'Rectification', 'RectifiedPair', 'RefinedDisparity', 'RegionScore',
                           'RowAlignment', 'SMOOTHING_METHODS', 'compute_disparity', 'confidence_map',
                           'depth_from_disparity', 'disparity_from_depth', 'disparity_preview', 'evaluate_disparity', 'fill_occlusions', 'left_right_check',

@@ -16,7 +16,12 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from vergence._validate import as_float_array, check_finite, check_in_range, check_positive_int, readonly_copy
 
-__all__ = ["Camera", "MIN_FOV_DEG", "interpolate", "look_at"]
+__all__ = ["Camera", "MIN_FOCAL_PX", "MIN_FOV_DEG", "interpolate", "look_at"]
+
+MIN_FOCAL_PX = 1e-6
+"""Shortest focal length a :class:`Camera` takes, pixels: a field of view within 1e-4 deg of 180 deg
+over 32768 px still has fx above it, and pixel offsets divided by it stay far inside the float range
+(a subnormal fx made ``ray_directions`` overflow to inf)."""
 
 MIN_FOV_DEG = 1e-3
 """Narrowest horizontal field of view :func:`look_at` builds, degrees (3.6 arcsec): narrower than any
@@ -69,8 +74,9 @@ class Camera:
         t = as_float_array("t", self.t, shape=(3,))
         width = check_positive_int("width", self.width)
         height = check_positive_int("height", self.height)
-        if K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise ValueError(f"K must have positive focal lengths fx, fy; got {K[0, 0]:g}, {K[1, 1]:g}")
+        if not (K[0, 0] >= MIN_FOCAL_PX and K[1, 1] >= MIN_FOCAL_PX):
+            raise ValueError(f"K must have positive focal lengths fx, fy of at least {MIN_FOCAL_PX:g} px "
+                             f"(MIN_FOCAL_PX); got {K[0, 0]:g}, {K[1, 1]:g}")
         if K[2, 0] != 0.0 or K[2, 1] != 0.0 or K[2, 2] != 1.0 or K[1, 0] != 0.0:
             raise ValueError(f"K must be upper triangular with last row (0, 0, 1); got {K.tolist()}")
         if not np.allclose(R @ R.T, np.eye(3), atol=_ROTATION_TOL) or abs(np.linalg.det(R) - 1.0) > _ROTATION_TOL:
