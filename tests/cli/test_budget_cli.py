@@ -138,7 +138,7 @@ def test_plot_with_a_single_depth(capsys, tmp_path):
     ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "-5"],
      "error: --depth must be > 0 (in front of the cameras); got -5"),
     ([*RIG_ARGS, *DISPLAY_ARGS, "--depth", "nan"], "error: --depth must be > 0 metres or inf (a point at infinity); got nan"),
-    ([*RIG_ARGS, "--display", "imax"], "error: unknown display preset 'imax'; valid presets: cinema, desktop-24,"),
+    ([*RIG_ARGS, "--display", "imax"], "error: --display: unknown display preset 'imax'; valid presets: cinema, desktop-24,"),
     (["--baseline", "0.1", "--convergence", "8", "--focal-mm", "50", *DISPLAY_ARGS],
      "error: --sensor-mm (sensor width in mm) is required with --focal-mm"),
     (["--baseline", "0.1", "--convergence", "8", "--sensor-mm", "36", *DISPLAY_ARGS],

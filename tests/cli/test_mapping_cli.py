@@ -188,7 +188,7 @@ def test_bad_constraints_exit_2_with_one_line(capsys, args, message):
     [
         (["--display", "tv-55", "--screen-width", "1"], ["--near", "10", "--far", "100"], "give either --display"),
         (["--eye-separation", "0.065"], ["--near", "10", "--far", "100"], "the display is incomplete"),
-        (["--display", "imax"], ["--near", "10", "--far", "100"], "unknown display preset 'imax'"),
+        (["--display", "imax"], ["--near", "10", "--far", "100"], "--display: unknown display preset 'imax'"),
         (DISPLAY_ARGS, ["--near", "100", "--far", "10"], "error: --far must be > --near 100; got 10"),
     ],
 )

@@ -123,7 +123,7 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         (["--budget-px", "4", "--depth-kind", "metric"], "negative.npy", "^error: DEPTH must be > 0 metres where known"),
         (["--budget-px", "4"], "nan.npy", "^error: DEPTH must have at least one known value"),
         (["--budget-px", "4"], "small.npy", r"^error: DEPTH must have shape \(H, W\) matching image \(16, 48\)"),
-        (["--budget-px", "4", "--display", "imax"], "depth.npy", "unknown display preset 'imax'"),
+        (["--budget-px", "4", "--display", "imax"], "depth.npy", "--display: unknown display preset 'imax'"),
         # Issue 9: the message names the option, not the Python parameter ("sigma ...").
         (["--budget-px", "4", "--smooth-sigma", "-1"], "depth.npy", r"^error: --smooth-sigma must lie in \(0, 1024\] pixels"),
         # Issue 9 kin: OverflowError (internal error) and float32 overflow warnings before.

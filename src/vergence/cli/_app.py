@@ -83,6 +83,16 @@ def check_output_path(out: Path, *inputs: Path) -> None:
 _DISPLAY_LENGTHS = ("--eye-separation", "--viewing-distance", "--screen-width")
 
 
+def preset_display(name: str) -> Display:
+    """The display of ``--display NAME``; an unknown name is refused with the option leading."""
+    from vergence.viewing.geometry import Display  # SciPy loads with vergence.viewing: not for --help
+
+    try:
+        return Display.preset(name)
+    except ValueError as exc:  # the library's message names no argument
+        raise ValueError(f"--display: {exc}") from exc
+
+
 def display_from_options(
     preset: str | None,
     eye_separation: float | None,
@@ -105,7 +115,7 @@ def display_from_options(
             raise ValueError(
                 f"give either --display or the display lengths, not both (got --display and {', '.join(given)})"
             )
-        display = Display.preset(preset)
+        display = preset_display(preset)
         return display if pixels is None else dataclasses.replace(display, resolution=pixels)
     if len(given) < 3:
         missing = ", ".join(n for n in _DISPLAY_LENGTHS if n not in given)

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import typer
 
-from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, preset_display, print_json
 from vergence.cli._scales import check_scale
 from vergence.cli._staged import staged_outputs
 from vergence.display import LAYOUTS, pack, tile_views
 from vergence.io import DEPTH_KINDS, read_depth, read_image, write_image, write_json
 from vergence.synthesis import FILL_METHODS, synthesize_stereo, views_offsets
-from vergence.viewing.geometry import DISPLAY_PRESETS, Display
+from vergence.viewing.geometry import DISPLAY_PRESETS
 
 __all__ = ["synthesize"]
 
@@ -105,7 +105,7 @@ def synthesize(
     if not control_given:
         budget_arcmin = DEFAULT_BUDGET_ARCMIN
     display_preset = display_preset or DEFAULT_DISPLAY  # the arcminute range is always reported
-    display = Display.preset(display_preset)
+    display = preset_display(display_preset)
     if depth_scale is not None:
         check_scale("--depth-scale", depth_scale)
     with options_named(views="--views"):
