@@ -135,6 +135,11 @@ def test_synthesize_inverse_depth_npy_with_unknown_values(tmp_path, capsys):
         # Issue 9 sweep round 2 (cli/synthesize/issue9-12, python_name): the message led with the
         # Python argument "depth"; it names DEPTH, the argument the user typed.
         (["--budget-px", "4", "--depth-kind", "inverse"], "depth.npy", r"^error: DEPTH must lie in \[0, 1\] for inverse depth"),
+        # Issue 9 full sweep (python_name): subnormal controls spoke of psi's target_max and source_min.
+        (["--budget-arcmin", "5e-324"], "depth.npy", r"^error: --budget-arcmin 4.94066e-324 is 0 px on this display, less than 1e-06 px \(MIN_PARALLAX_PX\)"),
+        (["--budget-px", "1e-300"], "depth.npy", r"^error: --budget-px must be at least 1e-06 px \(MIN_PARALLAX_PX\)"),
+        (["--focal-px", "5e-324", "--interaxial", "0.065", "--convergence", "3"], "depth.npy", r"^error: --focal-px 4.94066e-324 with interaxial .* less than 1e-06 px \(MIN_PARALLAX_PX\)"),
+        (["--budget-px", "4", "--convergence", "5e-324"], "depth.npy", r"^error: --convergence must be at least 1.17549e-38 m \(MIN_METRIC_DEPTH\)"),
     ],
 )
 def test_synthesize_bad_input_is_one_line_and_exit_2(tmp_path, capsys, extra, depth_name, message):

@@ -175,3 +175,10 @@ def test_issue9_bad_api_calls_raise_one_line_errors(call, error, match):
 def test_bool_options_refuse_a_non_bool(call, value):
     with pytest.raises(TypeError, match=rf"(median|half) must be a bool; got {type(value).__name__}"):
         call(value)
+
+
+def test_median_refine_refuses_a_scale_that_moves_pixels_past_the_width():
+    # Issue 9 full sweep (api/median_refine/scale=huge): numpy's overflow warning in the inverse warp's cast.
+    warped = forward_warp(IMG, MAP, scale=1.0)
+    with pytest.raises(ValueError, match=r"^scale 1e\+308 times the largest source disparity moves pixels"):
+        median_refine(warped, IMG, MAP, scale=1e308)

@@ -39,6 +39,7 @@ __all__ = [
     "MAX_PARALLAX_WIDTHS",
     "MAX_VIEWS",
     "MIN_METRIC_DEPTH",
+    "MIN_PARALLAX_PX",
     "ParallaxPlan",
     "nearness_from_depth",
     "plan_parallax",
@@ -56,6 +57,9 @@ MIN_METRIC_DEPTH = float(np.finfo(np.float32).tiny)
 # two images are W or more apart, and both must be in [0, W)); those views share nothing at that
 # depth. One rule for every depth control and for interpolation: refused, not rendered black.
 MAX_PARALLAX_WIDTHS = 1.0
+# Smallest parallax range a depth control may ask for, pixels: below it every view is the source
+# image (a subnormal budget or focal length gave a zero range and an error about psi's internals).
+MIN_PARALLAX_PX = 1e-6
 # Most views synthesize_stereo renders: a multi-view autostereoscopic screen takes 8 to 64, and
 # each view is a full image in memory.
 MAX_VIEWS = 128
@@ -249,6 +253,8 @@ def plan_parallax(
         c = check_finite("convergence", convergence)
         if kind == "metric":
             c = check_positive("convergence", c)
+            if c < MIN_METRIC_DEPTH:
+                raise ValueError(f"convergence must be at least {MIN_METRIC_DEPTH:g} m (MIN_METRIC_DEPTH); got {c:g}")
             p_c = -1.0 / c
         else:
             p_c = -c
@@ -271,6 +277,12 @@ def plan_parallax(
                 f"{ends[0]:.4g} .. {ends[1]:.4g} px, which must stay within +-{limit:g} px, "
                 f"{MAX_PARALLAX_WIDTHS:g} image width (MAX_PARALLAX_WIDTHS): a point with a parallax of a "
                 "whole width cannot appear in both views; lower the focal length or the interaxial"
+            )
+        if not gain * max(p_max - p_c, p_c - p_min) >= MIN_PARALLAX_PX:
+            raise ValueError(
+                f"focal_px {f:g} with interaxial {t:g} and convergence {convergence:g} gives parallaxes of "
+                f"{ends[0]:.4g} .. {ends[1]:.4g} px, less than {MIN_PARALLAX_PX:g} px (MIN_PARALLAX_PX): "
+                "every view would be the source image; raise the focal length or the interaxial"
             )
         psi = LinearMapping(p_c, p_c + 1.0, 0.0, gain)
     else:
@@ -338,8 +350,14 @@ def _budget_mapping(
         b = float(pixels_from_arcmin(a, display)) / per_px
         # Crossed side: the exact conversion is not symmetric; keep the smaller magnitude.
         b = min(b, -float(pixels_from_arcmin(-a, display)) / per_px)
+        if not b >= MIN_PARALLAX_PX:
+            raise ValueError(f"budget_arcmin {a:g} is {b:g} px on this display, less than {MIN_PARALLAX_PX:g} px "
+                             "(MIN_PARALLAX_PX): every view would be the source image")
     else:
         b = check_positive("budget_px", budget_px)
+        if not b >= MIN_PARALLAX_PX:
+            raise ValueError(f"budget_px must be at least {MIN_PARALLAX_PX:g} px (MIN_PARALLAX_PX): every view "
+                             f"would be the source image; got {b:g}")
         if b >= limit:
             raise ValueError(f"budget_px must be < {limit:g} px, {fit}; got {b:g}")
     if p_c is None:

@@ -205,6 +205,11 @@ def median_refine(
         raise ValueError(f"source_image must have the channels of the warped image {warped.image.shape}; got {img.shape}")
     d_src = check_map("source_disparity", source_disparity, "source_image", img)
     s = check_finite("scale", scale)
+    known = np.abs(d_src[np.isfinite(d_src)])
+    shift = abs(s) * float(known.max()) if known.size else 0.0
+    if not shift <= img.shape[1]:  # the inverse warp reads x + scale d: a shift past the width reads nothing
+        raise ValueError(f"scale {s:g} times the largest source disparity moves pixels {shift:g} px, more than "
+                         f"the image's {img.shape[1]} px width")
     tol = within_float32("tolerance", check_positive("tolerance", tolerance))
     cons = within_float32("consistency", check_positive("consistency", consistency))
     image, disparity, holes = _stages.median_refine(
