@@ -1,10 +1,21 @@
 """Camera rigs built from one camera: pure geometry, no rendering engine.
 
 - :func:`stereo_pair`: the parallel, shifted-sensor stereo rig of S0 §2.
+- :func:`plan_quadri_rig`: the Quadri-Rig of S0 §5 (real cameras standing in for a virtual rig, Eq. (10)).
 - :class:`WorldDistortion`: the Tri-Rig's world distortion phi, its inverse and Jacobian (S0 §6, Fig. 9).
 """
 
+from vergence.rigs.cameras import ELEMENT_NAME_PATTERN, RIG_EYES, RigCamera
 from vergence.rigs.distortion import WorldDistortion
+from vergence.rigs.quadri import QuadriRig, plan_quadri_rig
 from vergence.rigs.stereo import stereo_pair
 
-__all__ = ["WorldDistortion", "stereo_pair"]
+__all__ = [
+    "ELEMENT_NAME_PATTERN",
+    "QuadriRig",
+    "RIG_EYES",
+    "RigCamera",
+    "WorldDistortion",
+    "plan_quadri_rig",
+    "stereo_pair",
+]
