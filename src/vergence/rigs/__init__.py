@@ -2,6 +2,7 @@
 
 - :func:`stereo_pair`: the parallel, shifted-sensor stereo rig of S0 §2.
 - :func:`plan_quadri_rig`: the Quadri-Rig of S0 §5 (real cameras standing in for a virtual rig, Eq. (10)).
+- :func:`plan_tri_rig`: the Tri-Rig of S0 §6 (director, subject and background cameras, psi).
 - :class:`WorldDistortion`: the Tri-Rig's world distortion phi, its inverse and Jacobian (S0 §6, Fig. 9).
 """
 
@@ -9,13 +10,17 @@ from vergence.rigs.cameras import ELEMENT_NAME_PATTERN, RIG_EYES, RigCamera
 from vergence.rigs.distortion import WorldDistortion
 from vergence.rigs.quadri import QuadriRig, plan_quadri_rig
 from vergence.rigs.stereo import stereo_pair
+from vergence.rigs.tri import TRI_REFERENCES, TriRig, plan_tri_rig
 
 __all__ = [
     "ELEMENT_NAME_PATTERN",
     "QuadriRig",
     "RIG_EYES",
     "RigCamera",
+    "TRI_REFERENCES",
+    "TriRig",
     "WorldDistortion",
     "plan_quadri_rig",
+    "plan_tri_rig",
     "stereo_pair",
 ]

@@ -18,12 +18,12 @@ Lengths in metres; disparities ``d = x_r - x_l`` as fractions of the window widt
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from vergence.camera import Camera
+from vergence.rigs.stereo import _right_of
 from vergence.viewing.geometry import Shooting
 
 __all__ = ["WINDOW_RTOL", "WorldDistortion"]
@@ -234,10 +234,4 @@ class WorldDistortion:
         Its pixel disparity with ``left`` is ``x_l - x_r = fx b_r (1/z - 1/H_r)`` (S0 Eq. 1a), so it sees
         the distorted world with S0's disparity ``psi(d(z))``.
         """
-        ref, cam = self.reference, self.left
-        center = cam.center + ref.baseline * cam.R[0]
-        K = np.array(cam.K, copy=True)
-        K[0, 2] += cam.focal_px * ref.baseline / ref.convergence
-        if not math.isfinite(K[0, 2]):
-            raise ValueError(f"reference right camera's principal point is not finite: cx = {K[0, 2]:g}")
-        return Camera(K=K, R=cam.R, t=-cam.R @ center, width=cam.width, height=cam.height)
+        return _right_of(self.left, self.reference.baseline, self.reference.convergence)
