@@ -5,8 +5,9 @@ Primitives: :func:`forward_warp` / :func:`backward_warp` (rectified), :func:`war
 :func:`contour_mask`, :func:`smooth_depth`, :func:`blend_views`, :func:`fill_holes`; one result
 type, :class:`WarpedView`. Depth controls: :func:`plan_parallax`. Pipelines (``dibr.py``, imported
 on first use so that importing a primitive does not load them): :func:`interpolate_view`,
-:func:`synthesize_stereo`, :func:`synthesize_views`, :func:`synthesize_view`. Quality against the
-real view: :func:`assess_view`.
+:func:`synthesize_stereo`, :func:`synthesize_views`, :func:`synthesize_view`. Multi-view
+image-based rendering (``ibr.py``, also on first use): :func:`render_ibr` with ULR or Bayesian
+weights. Quality against the real view: :func:`assess_view`.
 """
 
 from __future__ import annotations
@@ -51,15 +52,20 @@ if TYPE_CHECKING:
         synthesize_view,
         synthesize_views,
     )
+    from vergence.synthesis.ibr import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
 
-# Pipelines, loaded on first attribute access (PEP 562).
+# Pipelines and multi-view IBR, loaded on first attribute access (PEP 562).
 _LAZY = {
+    "IBRResult": "vergence.synthesis.ibr",
+    "IBRSource": "vergence.synthesis.ibr",
+    "IBR_WEIGHTS": "vergence.synthesis.ibr",
     "MAX_SYNTHESIS_BYTES": "vergence.synthesis.dibr",
     "StereoResult": "vergence.synthesis.dibr",
     "interpolate_view": "vergence.synthesis.dibr",
     "synthesize_stereo": "vergence.synthesis.dibr",
     "synthesize_view": "vergence.synthesis.dibr",
     "synthesize_views": "vergence.synthesis.dibr",
+    "render_ibr": "vergence.synthesis.ibr",
 }
 
 
@@ -78,6 +84,9 @@ def __dir__() -> list[str]:
 __all__ = [
     "DEPTH_KINDS",
     "FILL_METHODS",
+    "IBRResult",
+    "IBRSource",
+    "IBR_WEIGHTS",
     "INVERSE_DEPTH_RANGE",
     "MAX_FILTER_RADIUS",
     "MAX_PARALLAX_WIDTHS",
@@ -110,6 +119,7 @@ __all__ = [
     "nearness_from_depth",
     "plan_parallax",
     "refine_camera_warp",
+    "render_ibr",
     "smooth_depth",
     "stereo_warnings",
     "synthesize_stereo",

@@ -1,0 +1,187 @@
+"""Numba kernels of multi-view image-based rendering (whole target images, one row per parallel task).
+
+:func:`vergence.synthesis.render_ibr` validates its inputs and calls these; the kernels trust them:
+proxy points float64 ``(h, w, 3)`` (NaN = no proxy), source images C-contiguous float32
+``(H, W, 3)``, source depths float64 ``(H, W)`` (NaN = no surface), per-source maps ``(S, h, w)``.
+Each kernel has a slow, obviously-correct Python twin in ``tests/synthesis/test_ibr.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+__all__ = ["normalise_blend", "sample_source", "ulr_weights"]
+
+
+@nb.njit(cache=True, parallel=True)
+def sample_source(points, K, R, t, image, depth, tol, margin, pixels, visible, colours):  # pragma: no cover - compiled
+    """Project every proxy point into one source, test field of view and visibility, sample its colour.
+
+    Camera frame ``q = R p + t``; in front when ``q_z > 0``; pixel ``(u, v) = (K q)_{xy} / q_z``
+    (written to ``pixels`` unless it is empty, NaN when behind). Field of view: the hull of the
+    pixel centres, ``0 <= u <= W - 1``, ``0 <= v <= H - 1``, widened by ``margin`` pixels (round-off
+    of the projection; the sample is clamped to the hull). A source pixel agrees with the point
+    when ``|z_j - q_z| <= tol * q_z`` (NaN never agrees). The point is visible when the source pixel
+    nearest to the projection agrees; its colour is the bilinear blend of the agreeing pixels among
+    the four neighbours, renormalised (an occluder's pixels never bleed in).
+    """
+    h, w = points.shape[0], points.shape[1]
+    hs, ws = depth.shape
+    nc = image.shape[2]
+    store = pixels.shape[0] > 0
+    for y in nb.prange(h):
+        for x in range(w):
+            visible[y, x] = False
+            if store:
+                pixels[y, x, 0] = np.nan
+                pixels[y, x, 1] = np.nan
+            for c in range(nc):
+                colours[y, x, c] = 0.0
+            px, py, pz = points[y, x, 0], points[y, x, 1], points[y, x, 2]
+            if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
+                continue
+            qx = R[0, 0] * px + R[0, 1] * py + R[0, 2] * pz + t[0]
+            qy = R[1, 0] * px + R[1, 1] * py + R[1, 2] * pz + t[1]
+            qz = R[2, 0] * px + R[2, 1] * py + R[2, 2] * pz + t[2]
+            if not qz > 0.0:
+                continue
+            u = (K[0, 0] * qx + K[0, 1] * qy + K[0, 2] * qz) / qz
+            v = (K[1, 1] * qy + K[1, 2] * qz) / qz
+            if store:
+                pixels[y, x, 0] = u
+                pixels[y, x, 1] = v
+            if not (-margin <= u <= ws - 1.0 + margin and -margin <= v <= hs - 1.0 + margin):
+                continue
+            uc = min(max(u, 0.0), ws - 1.0)
+            vc = min(max(v, 0.0), hs - 1.0)
+            x0 = min(int(math.floor(uc)), ws - 1)
+            y0 = min(int(math.floor(vc)), hs - 1)
+            fx = uc - x0
+            fy = vc - y0
+            xn = min(int(math.floor(uc + 0.5)), ws - 1)
+            yn = min(int(math.floor(vc + 0.5)), hs - 1)
+            if not abs(depth[yn, xn] - qz) <= tol * qz:
+                continue
+            total = 0.0
+            acc0 = 0.0
+            acc1 = 0.0
+            acc2 = 0.0
+            for j in range(4):
+                xj = x0 + (j & 1)
+                yj = y0 + (j >> 1)
+                bx = fx if j & 1 else 1.0 - fx
+                by = fy if j >> 1 else 1.0 - fy
+                b = bx * by
+                if not b > 0.0 or xj >= ws or yj >= hs:
+                    continue
+                if not abs(depth[yj, xj] - qz) <= tol * qz:
+                    continue
+                total += b
+                acc0 += b * image[yj, xj, 0]
+                acc1 += b * image[yj, xj, 1]
+                acc2 += b * image[yj, xj, 2]
+            if total > 0.0:
+                visible[y, x] = True
+                colours[y, x, 0] = acc0 / total
+                colours[y, x, 1] = acc1 / total
+                colours[y, x, 2] = acc2 / total
+
+
+@nb.njit(cache=True, parallel=True)
+def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, scale, out):  # pragma: no cover - compiled
+    """Unnormalised ULR weights (Buehler et al. 2001 Sec. 4; SIBR ``ulr_v3.frag``) of every source.
+
+    Desired ray ``r = rays[y, x]`` (``rays`` of shape ``(0, 0, 3)``: ``r = p - centre``); for each
+    visible source ``i``: ``v = p - C_i``, ``ang = acos(v.r / |v||r|)``, ``res = (|v| - |r|) / |v|``,
+    ``penalty = alpha max(floor, ang) + beta max(floor, res)``. The ``min(k, m)`` best of the ``m``
+    visible sources (ties to the lower index) form the set; ``thresh = scale * (their worst
+    penalty)``; ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere.
+    """
+    s_count = centres.shape[0]
+    h, w = points.shape[0], points.shape[1]
+    use_rays = rays.shape[0] > 0
+    for y in nb.prange(h):
+        pen = np.empty(s_count)
+        for x in range(w):
+            for i in range(s_count):
+                out[i, y, x] = 0.0
+            px, py, pz = points[y, x, 0], points[y, x, 1], points[y, x, 2]
+            if use_rays:
+                rx, ry, rz = rays[y, x, 0], rays[y, x, 1], rays[y, x, 2]
+            else:
+                rx, ry, rz = px - centre[0], py - centre[1], pz - centre[2]
+            dn = math.sqrt(rx * rx + ry * ry + rz * rz)
+            if not (dn > 0.0 and math.isfinite(dn) and math.isfinite(px + py + pz)):
+                continue
+            m = 0
+            for i in range(s_count):
+                pen[i] = np.inf
+                if not visible[i, y, x]:
+                    continue
+                vx, vy, vz = px - centres[i, 0], py - centres[i, 1], pz - centres[i, 2]
+                di = math.sqrt(vx * vx + vy * vy + vz * vz)
+                if not di > 0.0:
+                    continue
+                cosang = min(1.0, max(-1.0, (vx * rx + vy * ry + vz * rz) / (di * dn)))
+                ang = math.acos(cosang)
+                res = (di - dn) / di
+                pen[i] = alpha * max(floor, ang) + beta * max(floor, res)
+                m += 1
+            if m == 0:
+                continue
+            kk = min(k, m)
+            thresh = 0.0
+            for i in range(s_count):
+                if pen[i] == np.inf:
+                    continue
+                rank = 0
+                for j in range(s_count):
+                    if pen[j] < pen[i] or (pen[j] == pen[i] and j < i):
+                        rank += 1
+                if rank == kk - 1:
+                    thresh = scale * pen[i]
+            for i in range(s_count):
+                if pen[i] == np.inf:
+                    continue
+                rank = 0
+                for j in range(s_count):
+                    if pen[j] < pen[i] or (pen[j] == pen[i] and j < i):
+                        rank += 1
+                if rank < kk:
+                    out[i, y, x] = max(0.0, 1.0 - pen[i] / thresh)
+
+
+@nb.njit(cache=True, parallel=True)
+def normalise_blend(weights, visible, colours, image, coverage):  # pragma: no cover - compiled
+    """Normalise the weights of the visible sources per pixel (in place) and blend their colours.
+
+    ``w_i <- w_i / sum_j w_j`` over visible sources (0 for the others); ``image = sum_i w_i c_i``;
+    ``coverage`` where the sum is positive (elsewhere the weights and the image are 0).
+    """
+    s_count, h, w = weights.shape
+    nc = colours.shape[3]
+    for y in nb.prange(h):
+        for x in range(w):
+            total = 0.0
+            for i in range(s_count):
+                if visible[i, y, x]:
+                    total += weights[i, y, x]
+                else:
+                    weights[i, y, x] = 0.0
+            coverage[y, x] = total > 0.0
+            if not total > 0.0:
+                for i in range(s_count):
+                    weights[i, y, x] = 0.0
+                for c in range(nc):
+                    image[y, x, c] = 0.0
+                continue
+            for i in range(s_count):
+                weights[i, y, x] = weights[i, y, x] / total
+            for c in range(nc):
+                acc = 0.0
+                for i in range(s_count):
+                    acc += weights[i, y, x] * colours[i, y, x, c]
+                image[y, x, c] = acc

@@ -1,0 +1,444 @@
+"""Multi-view image-based rendering: a target view blended from several sources with depth (S0 §5–6).
+
+One primitive shared by the Quadri-Rig, the Tri-Rig and StereoSpace: a target
+:class:`~vergence.camera.Camera`, sources (each a camera, an image and its depth map) and, per target
+pixel, a 3D proxy point: the sources' depths forward-warped into the target with a z-buffer (source
+pixel quads drawn as triangles, so the proxy has no cracks; no triangle across a depth
+discontinuity), or a given target depth. Per pixel and source, the proxy point is projected into the
+source, tested for field of view and visibility against the source's depth (the occlusion test of
+SIBR's ULR; without it, occluders ghost onto the surfaces behind them) and its colour sampled; the
+colours are blended with Unstructured Lumigraph weights (Buehler et al. 2001) or the Bayesian
+weights of Pujades et al. 2014 (:mod:`vergence.synthesis.ibr_bayes`). Pixels no source sees stay
+holes (:func:`vergence.synthesis.fill_holes` fills them if wanted).
+
+Under a world distortion ``phi`` (S0 §6, the Tri-Rig) the target camera lives in the distorted
+world: source points are distorted before they are projected into the target, and proxy points are
+undistorted (``phi^-1``) before they are projected into the sources. Angles and distances are
+measured in the undistorted world only (S0 Fig. 10).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence._validate import check_finite, check_positive, check_positive_int
+from vergence.camera import Camera
+from vergence.synthesis import _ibr_kernels, _kernels, _stages3d
+from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
+
+__all__ = ["IBRResult", "IBRSource", "IBR_WEIGHTS", "render_ibr"]
+
+IBR_WEIGHTS = ("ulr", "bayesian")
+# ULR defaults of SIBR's ulr_v3.frag (Inria GraphDeco): the 4 best sources, angle penalty in radians
+# (alpha = 1) plus 0.1 times the relative resolution penalty.
+ULR_K = 4
+ULR_ALPHA = 1.0
+ULR_BETA = 0.1
+# SIBR floors both penalties at 1e-4: a source at the target's own centre still has a positive
+# penalty, so the threshold (a multiple of a penalty) is never 0.
+ULR_PENALTY_FLOOR = 1e-4
+# SIBR's threshold is 1.0000001 times the k-th penalty: the k-th source gets a weight of 1e-7, not 0,
+# so a pixel whose k best sources tie (or that one source sees) keeps a positive weight sum.
+ULR_THRESHOLD_SCALE = 1.0000001
+# Visibility: a source pixel agrees with the projected proxy point when their camera-frame depths
+# differ by at most this fraction of the depth. SIBR tests |depth_proj - depth_map| < 1e-2; made
+# relative here so one tolerance serves any scene scale. Tested on the source pixel nearest to the
+# projection (within half a pixel), so a surface whose depth changes by up to 2 % per source pixel
+# still passes.
+IBR_OCCLUSION_TOLERANCE = 0.01
+# Field of view: a proxy point must project within the hull of the source's pixel centres (where a
+# bilinear sample needs no extrapolation), widened by this many pixels: the round-off of a
+# projection (~1e-12 px) must not drop the border pixels of a source seen from its own centre.
+FOV_MARGIN_PX = 1e-6
+# Bayesian weights: re-weightings on the current estimate after the first pass (which has no image
+# gradient); the weights of Pujades et al. 2014 change little after a few passes.
+BAYES_ITERATIONS = 3
+
+
+@dataclass(frozen=True, slots=True)
+class IBRSource:
+    """One source view of :func:`render_ibr`: a camera, its image and its depth map.
+
+    Parameters
+    ----------
+    camera : Camera
+    image : (H, W, 3) array
+        Colours, float in [0, 1] (uint8 / uint16 are scaled), the camera's size; kept as float32.
+    depth : (H, W) array
+        Camera-frame z in metres, > 0 where a surface is seen, NaN where none (sky); kept as float64.
+
+    Raises
+    ------
+    TypeError
+        A camera that is not a :class:`~vergence.camera.Camera`, a non-numeric image or depth.
+    ValueError
+        Sizes differing from the camera's, an image without 3 channels or outside [0, 1], a depth
+        that is inf or <= 0.
+    """
+
+    camera: Camera
+    image: np.ndarray
+    depth: np.ndarray
+
+    def __post_init__(self) -> None:
+        cam = check_camera("camera", self.camera)
+        size = (cam.height, cam.width)
+        img = check_image("image", self.image)
+        if img.ndim != 3 or img.shape[2] != 3:
+            raise ValueError(f"image must have shape (H, W, 3) (colour); got {img.shape}")
+        if img.shape[:2] != size:
+            raise ValueError(f"image must have shape {size + (3,)} matching the camera; got {img.shape}")
+        if np.iscomplexobj(self.depth):
+            raise TypeError("depth must be real; got a complex array")
+        try:
+            z = np.ascontiguousarray(self.depth, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"depth must be numeric; got {type(self.depth).__name__}") from exc
+        if z.shape != size:
+            raise ValueError(f"depth must have shape {size} matching the image and camera; got {z.shape}")
+        _check_depth_values("depth", z)
+        object.__setattr__(self, "image", np.ascontiguousarray(img))
+        object.__setattr__(self, "depth", z)
+
+
+@dataclass(frozen=True, slots=True)
+class IBRResult:
+    """Output of :func:`render_ibr`.
+
+    Attributes
+    ----------
+    image : (h, w, 3) float32
+        The blended target view, 0 where no source sees the proxy.
+    weights : (S, h, w) float32
+        Per-source blending weights, summing to 1 where covered, 0 where a source is not used.
+    coverage : (h, w) bool
+        Some source sees the proxy point (and has a positive weight).
+    proxy_depth : (h, w) float64
+        Target camera-frame depth of the proxy (in the distorted world under a distortion), NaN none.
+    proxy_points : (h, w, 3) float64
+        Undistorted world points of the proxy, NaN none.
+    method : str
+        ``"ulr"`` or ``"bayesian"``.
+    """
+
+    image: np.ndarray
+    weights: np.ndarray
+    coverage: np.ndarray
+    proxy_depth: np.ndarray
+    proxy_points: np.ndarray
+    method: str
+
+
+def render_ibr(
+    target: Camera,
+    sources: Sequence[IBRSource],
+    *,
+    weights: str = "ulr",
+    proxy_depth: object = None,
+    distortion: object = None,
+    k: int = ULR_K,
+    alpha: float = ULR_ALPHA,
+    beta: float = ULR_BETA,
+    occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
+    gradient_limit: float | None = 1.0,
+    iterations: int = BAYES_ITERATIONS,
+    sigma_sensor: float = 1.0 / 255.0,
+    sigma_depth: float | None = None,
+    deformation_cap: float = 20.0,
+    gradient_threshold: float = 0.01,
+    geometric_cap: float = 0.5,
+    progress: Callable[[float, str], object] | None = None,
+) -> IBRResult:
+    """Render the ``target`` view from ``sources`` by image-based rendering (ULR or Bayesian weights).
+
+    Parameters
+    ----------
+    target : Camera
+        The desired view (in the distorted world when ``distortion`` is given).
+    sources : sequence of IBRSource
+        At least one source view with its depth.
+    weights : {"ulr", "bayesian"}
+        Blending weights: Unstructured Lumigraph Rendering (Buehler et al. 2001) or the Bayesian
+        weights of Pujades et al. 2014 (S0 ref. [33]).
+    proxy_depth : (h, w) array, optional
+        The target's camera-frame depth of the geometric proxy (metres, > 0, NaN = none). Default:
+        every source's depth forward-warped into the target (the nearest surface wins).
+    distortion : object, optional
+        A world distortion ``phi`` (e.g. ``vergence.rigs.WorldDistortion``) with vectorised
+        ``forward(p)``, ``inverse(q)`` ((..., 3) -> (..., 3), NaN where undefined) and
+        ``jacobian(p)`` ((..., 3) -> (..., 3, 3), ``D phi`` at undistorted points).
+    k : int
+        ULR: the number of sources blended per pixel, >= 1 (SIBR ulr_v3: 4).
+    alpha, beta : float
+        ULR: weights of the angle penalty (radians) and of the relative resolution penalty,
+        >= 0, not both 0 (SIBR ulr_v3: 1 and 0.1).
+    occlusion_tolerance : float
+        Relative depth agreement of the visibility test, > 0 (0.01 = 1 %).
+    gradient_limit : float or None
+        Forward-warped proxy: two neighbouring source pixels are one surface when moving one of them
+        to the other's depth shifts its target position by at most this many pixels (as in
+        :func:`~vergence.synthesis.warp_to_camera`); None: point splats only.
+    iterations : int
+        Bayesian: re-weightings on the current estimate after the first pass, >= 0.
+    sigma_sensor, sigma_depth, deformation_cap, gradient_threshold, geometric_cap : float
+        Bayesian: passed to :func:`vergence.synthesis.ibr_bayes.bayesian_weights` (see there for
+        meanings and units); ``sigma_depth=None`` uses that function's default.
+    progress : callable(fraction, message), optional
+        Told about each stage.
+
+    Returns
+    -------
+    IBRResult
+
+    Raises
+    ------
+    TypeError
+        A target that is not a Camera, sources that are not IBRSource, a distortion without
+        ``forward``/``inverse``/``jacobian``, non-numeric options.
+    ValueError
+        No sources, an unknown weights name, a proxy depth of the wrong shape, inf or <= 0,
+        non-finite or out-of-range options.
+
+    Notes
+    -----
+    ULR (Buehler et al. 2001, Sec. 4; SIBR ``ulr_v3.frag``), for the proxy point ``p``, the desired
+    ray ``r`` and a visible source centred at ``C_i``::
+
+        penalty_i = alpha max(1e-4, angle(p - C_i, r)) + beta max(1e-4, (|p - C_i| - |r|) / |p - C_i|)
+        thresh    = 1.0000001 * (k-th smallest penalty)
+        w_i       = max(0, 1 - penalty_i / thresh) for the k best, 0 otherwise;  normalised.
+
+    The k-th source has weight ~0, so a source enters or leaves the set continuously. With
+    ``m < k`` visible sources the threshold is the largest visible penalty (``k = m``): a lone
+    visible source gets weight 1. (SIBR instead pads the set with penalties of 1e5, which blends
+    fewer than k sources almost equally.) Without distortion ``r = p - D`` (``D`` the target
+    centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the distorted proxy point and ``c`` the
+    target centre, the desired ray is undistorted by the Jacobian, ``r = D phi(p)^-1 (p' - c)``,
+    and ``|r|`` is the desired distance of the resolution term: both are exact for an affine
+    ``phi`` (then ``r = p - phi^-1(c)``), and first-order otherwise.
+
+    Visibility: the proxy point must project inside the hull of the source's pixel centres, in front of it,
+    and its depth agree within ``occlusion_tolerance`` with that of the source pixel nearest to the
+    projection; the colour is the bilinear sample over the agreeing pixels among the 4 around it
+    (renormalised, so an occluder's colour never bleeds onto the surface behind it).
+
+    Bayesian (Pujades et al. 2014): ``w = bayesian_weights(None, ...)``, ``u`` = the normalised
+    blend, then ``iterations`` times ``w = bayesian_weights(u, ...)``, ``u`` = the blend.
+    """
+    target = check_camera("target", target)
+    srcs = _check_sources(sources)
+    method = check_method("weights", weights, IBR_WEIGHTS)
+    given = None if proxy_depth is None else _check_proxy_depth(proxy_depth, target)
+    if distortion is not None:
+        _check_distortion(distortion)
+    k = check_positive_int("k", k)
+    alpha = check_nonnegative("alpha", alpha)
+    beta = check_nonnegative("beta", beta)
+    if alpha + beta == 0.0:
+        raise ValueError("alpha and beta must not both be 0 (every ULR penalty would be 0)")
+    tol = check_positive("occlusion_tolerance", occlusion_tolerance)
+    limit = None if gradient_limit is None else check_nonnegative("gradient_limit", gradient_limit)
+    if isinstance(iterations, bool) or not isinstance(iterations, int | np.integer):
+        raise TypeError(f"iterations must be an integer; got {type(iterations).__name__}")
+    if iterations < 0:
+        raise ValueError(f"iterations must be >= 0; got {iterations}")
+    bayes = {
+        "sigma_sensor": check_positive("sigma_sensor", sigma_sensor),
+        "deformation_cap": check_positive("deformation_cap", deformation_cap),
+        "gradient_threshold": check_positive("gradient_threshold", gradient_threshold),
+        "geometric_cap": check_positive("geometric_cap", geometric_cap),
+    }
+    if sigma_depth is not None:
+        bayes["sigma_depth"] = check_positive("sigma_depth", sigma_depth)
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
+    say = progress or (lambda _f, _m: None)
+
+    say(0.0, "proxy: sources forward-warped into the target" if given is None else "proxy: given depth")
+    depth_t = _forward_proxy(target, srcs, distortion, limit) if given is None else given
+    points_t = target.backproject_depth(depth_t)  # in the distorted world under a distortion
+    points = points_t if distortion is None else _call_distortion(distortion.inverse, "inverse", points_t)
+    say(0.3, f"sampling {len(srcs)} sources")
+    store_pixels = method == "bayesian"
+    pixels, visible, colours = _sample_sources(points, srcs, tol, store_pixels)
+    if method == "ulr":
+        say(0.7, "ULR weights")
+        rays = np.zeros((0, 0, 3)) if distortion is None else _desired_rays(distortion, points, points_t, target.center)
+        w = np.empty(visible.shape, dtype=np.float32)
+        centres = np.ascontiguousarray([s.camera.center for s in srcs], dtype=np.float64)
+        _ibr_kernels.ulr_weights(points, rays, np.ascontiguousarray(target.center), centres, visible, k, alpha, beta,
+                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, w)
+        image, coverage = _blend(w, visible, colours)
+    else:
+        from vergence.synthesis.ibr_bayes import bayesian_weights
+
+        cameras = [s.camera for s in srcs]
+        estimate = None
+        for it in range(iterations + 1):
+            say(0.5 + 0.5 * it / (iterations + 1), f"Bayesian weights, pass {it + 1} of {iterations + 1}")
+            omega = bayesian_weights(estimate, points, pixels, visible, target, cameras, distortion=distortion, **bayes)
+            w = np.array(omega, dtype=np.float32, order="C")
+            image, coverage = _blend(w, visible, colours)
+            estimate = image
+    say(1.0, "done")
+    return IBRResult(image=image, weights=w, coverage=coverage, proxy_depth=depth_t, proxy_points=points, method=method)
+
+
+# ---------------------------------------------------------------------------------------------- stages
+
+
+def _forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, limit: float | None) -> np.ndarray:
+    """Target depth of the nearest source surface: every source's pixels lifted with their depth
+    (distorted under a distortion), projected into the target and z-buffered; linked pixel quads
+    are rasterised as two triangles (the mesh warp of :func:`~vergence.synthesis.warp_to_camera`)."""
+    h, w = target.height, target.width
+    zbuf = np.full((h, w), np.inf)
+    painted = np.zeros((h, w), dtype=bool)
+    out = np.zeros((h, w, 0), dtype=np.float32)  # depth only: no colour channels
+    for src in sources:
+        points = src.camera.backproject_depth(src.depth)
+        if distortion is not None:
+            points = _call_distortion(distortion.forward, "forward", points)
+        u, v, zt = _project(target, points)
+        colours = np.zeros((u.size, 0), dtype=np.float32)
+        if limit is None:
+            _kernels.splat_zbuffer(u, v, zt, colours, out, zbuf, painted)
+            continue
+        if distortion is None:
+            link_r, link_d = _stages3d.mesh_links(src.depth, u, v, zt, src.camera, target, limit)
+        else:
+            link_r, link_d = _links_distorted(src, u, v, zt, target, distortion, limit)
+        order = np.arange(u.size, dtype=np.int64)
+        _kernels.splat_mesh(order, u, v, zt, link_r, link_d, colours, _stages3d.MAX_FACET_PX, True, out, zbuf, painted)
+    return np.where(painted, zbuf, np.nan)
+
+
+def _project(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flat C-contiguous pixel columns, rows and depths of world points in ``camera`` (NaN stays NaN)."""
+    flat = points.reshape(-1, 3)
+    pix, z = camera.project(np.nan_to_num(flat, nan=0.0))
+    z = np.where(np.isnan(flat).any(axis=1), np.nan, z)
+    return np.ascontiguousarray(pix[:, 0]), np.ascontiguousarray(pix[:, 1]), np.ascontiguousarray(z)
+
+
+def _links_distorted(
+    src: IBRSource, u: np.ndarray, v: np.ndarray, zt: np.ndarray, target: Camera, distortion: object, limit: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Right and lower mesh links through a distortion: the rule of ``_stages3d.mesh_links`` (the
+    neighbour lifted with this pixel's depth lands within ``limit`` pixels of where it lands with
+    its own), with ``phi`` applied before the target projection."""
+    hs, ws = src.depth.shape
+    uv = np.stack([u, v], axis=-1).reshape(hs, ws, 2)
+    drawable = (zt > 0) & np.isfinite(u) & np.isfinite(v)
+    drawable = drawable.reshape(hs, ws)
+    grid = src.camera.pixel_grid()
+    links = []
+    for dy, dx in ((0, 1), (1, 0)):
+        link = np.zeros((hs, ws), dtype=bool)
+        za = src.depth[: hs - dy, : ws - dx]
+        lifted = src.camera.backproject(grid[dy:, dx:], za)
+        lu, lv, lz = _project(target, _call_distortion(distortion.forward, "forward", lifted))
+        shift = np.hypot(lu - uv[dy:, dx:, 0].ravel(), lv - uv[dy:, dx:, 1].ravel())
+        with np.errstate(invalid="ignore"):
+            ok = (lz > 0) & (shift <= limit)
+        link[: hs - dy, : ws - dx] = ok.reshape(za.shape) & drawable[: hs - dy, : ws - dx] & drawable[dy:, dx:]
+        links.append(link)
+    return links[0], links[1]
+
+
+def _sample_sources(
+    points: np.ndarray, sources: list[IBRSource], tol: float, store_pixels: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per source: proxy pixel ``(S, h, w, 2)`` (empty unless ``store_pixels``), visibility
+    ``(S, h, w)`` and colour ``(S, h, w, 3)``."""
+    h, w = points.shape[:2]
+    n = len(sources)
+    pixels = np.empty((n, h, w, 2) if store_pixels else (n, 0, 0, 2))
+    visible = np.empty((n, h, w), dtype=bool)
+    colours = np.empty((n, h, w, 3), dtype=np.float32)
+    pts = np.ascontiguousarray(points)
+    for i, src in enumerate(sources):
+        cam = src.camera
+        _ibr_kernels.sample_source(pts, np.ascontiguousarray(cam.K), np.ascontiguousarray(cam.R), np.ascontiguousarray(cam.t),
+                                   src.image, src.depth, tol, FOV_MARGIN_PX, pixels[i], visible[i], colours[i])
+    return pixels, visible, colours
+
+
+def _desired_rays(distortion: object, points: np.ndarray, points_t: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Undistorted desired rays ``r = D phi(p)^-1 (p' - c)`` (S0 §6, Fig. 10), NaN where undefined."""
+    rays = np.full(points.shape, np.nan)
+    ok = np.isfinite(points).all(axis=-1) & np.isfinite(points_t).all(axis=-1)
+    if ok.any():
+        jac = _call_distortion(distortion.jacobian, "jacobian", points[ok], shape=points[ok].shape + (3,))
+        with np.errstate(invalid="ignore"):
+            good = np.isfinite(jac).all(axis=(-2, -1)) & (np.abs(np.linalg.det(np.nan_to_num(jac))) > 0)
+        idx = np.flatnonzero(ok)[good]
+        d = (points_t[ok][good] - centre)[..., None]
+        rays.reshape(-1, 3)[idx] = np.linalg.solve(jac[good], d)[..., 0]
+    return rays
+
+
+def _blend(w: np.ndarray, visible: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normalise ``w`` in place over the visible sources and blend: image and coverage."""
+    h, wd = visible.shape[1:]
+    image = np.empty((h, wd, 3), dtype=np.float32)
+    coverage = np.empty((h, wd), dtype=bool)
+    _ibr_kernels.normalise_blend(w, visible, colours, image, coverage)
+    return image, coverage
+
+
+# ---------------------------------------------------------------------------------------------- checks
+
+
+def _check_depth_values(name: str, z: np.ndarray) -> None:
+    """Raise unless ``z`` holds no inf and is > 0 where known (NaN = unknown)."""
+    if np.isinf(z).any():
+        raise ValueError(f"{name} must not contain inf (use NaN for no surface)")
+    with np.errstate(invalid="ignore"):
+        bad = z <= 0
+    if bad.any():
+        raise ValueError(f"{name} must be > 0 metres where known; got min {z[bad].min():g}")
+
+
+def _check_sources(sources: object) -> list[IBRSource]:
+    if isinstance(sources, IBRSource) or not isinstance(sources, Sequence):
+        raise TypeError(f"sources must be a sequence of IBRSource; got {type(sources).__name__}")
+    if len(sources) == 0:
+        raise ValueError("sources must hold at least one IBRSource; got none")
+    for i, s in enumerate(sources):
+        if not isinstance(s, IBRSource):
+            raise TypeError(f"sources[{i}] must be an IBRSource; got {type(s).__name__}")
+    return list(sources)
+
+
+def _check_proxy_depth(proxy_depth: object, target: Camera) -> np.ndarray:
+    if np.iscomplexobj(proxy_depth):
+        raise TypeError("proxy_depth must be real; got a complex array")
+    try:
+        z = np.array(proxy_depth, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"proxy_depth must be numeric; got {type(proxy_depth).__name__}") from exc
+    size = (target.height, target.width)
+    if z.shape != size:
+        raise ValueError(f"proxy_depth must have shape {size} matching the target camera; got {z.shape}")
+    _check_depth_values("proxy_depth", z)
+    return z
+
+
+def _check_distortion(distortion: object) -> None:
+    missing = [m for m in ("forward", "inverse", "jacobian") if not callable(getattr(distortion, m, None))]
+    if missing:
+        raise TypeError(f"distortion must have callable forward, inverse and jacobian (a WorldDistortion); "
+                        f"{type(distortion).__name__} lacks {', '.join(missing)}")
+
+
+def _call_distortion(fn: Callable, name: str, points: np.ndarray, *, shape: tuple | None = None) -> np.ndarray:
+    """``fn(points)`` as float64, checked to have ``shape`` (default: the points' shape)."""
+    out = np.asarray(fn(points), dtype=np.float64)
+    want = points.shape if shape is None else shape
+    if out.shape != want:
+        raise ValueError(f"distortion.{name} must return shape {want} for points of shape {points.shape}; got {out.shape}")
+    return out

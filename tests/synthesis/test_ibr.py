@@ -1,0 +1,486 @@
+"""Multi-view IBR: kernels against slow references, analytic scenes, ULR continuity, visibility,
+world distortions (identity, uniform scaling, a depth-dependent scaling), bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from vergence.camera import Camera, look_at
+from vergence.synthesis import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
+from vergence.synthesis import _ibr_kernels
+from vergence.synthesis.ibr import FOV_MARGIN_PX, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
+
+PLANE_Z = 10.0  # the textured wall of the analytic scenes, metres
+# Linear interpolation error of the texture below between source pixels h = 0.19 m apart on the
+# wall (50 degrees over 48 px at 10 m): A w^2 h^2 / 8 = 0.4 * 3^2 * 0.19^2 / 8 = 0.017.
+TEXTURE_ATOL = 0.02
+# Kernels against their Python twins: same float64 arithmetic, float32 storage (~1e-7 relative).
+KERNEL_ATOL = 1e-6
+
+
+def _cam(x: float, *, look: float | None = None, z: float = 0.0, width: int = 48, height: int = 36) -> Camera:
+    aim = x if look is None else look
+    return look_at([x, 0.0, z], [aim, 0.0, PLANE_Z], [0.0, -1.0, 0.0], fov_deg=50.0, width=width, height=height)
+
+
+def _texture(points: np.ndarray) -> np.ndarray:
+    x, y = points[..., 0], points[..., 1]
+    return np.stack([0.5 + 0.4 * np.sin(2 * x), 0.5 + 0.4 * np.cos(3 * y), 0.5 + 0.3 * np.sin(x + y)], axis=-1).astype(np.float32)
+
+
+def _render_wall(cam: Camera, occluder: tuple[float, float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The analytic renderer: image and depth of the textured wall z = PLANE_Z, optionally behind a
+    red square ``(x_centre, z, half_side)`` facing the cameras."""
+    rays = cam.ray_directions()
+    s = (PLANE_Z - cam.center[2]) / rays[..., 2]
+    points = cam.center + s[..., None] * rays
+    image = _texture(points)
+    if occluder is not None:
+        xo, zo, half = occluder
+        so = (zo - cam.center[2]) / rays[..., 2]
+        hit = cam.center + so[..., None] * rays
+        inside = (np.abs(hit[..., 0] - xo) <= half) & (np.abs(hit[..., 1]) <= half)
+        points = np.where(inside[..., None], hit, points)
+        image[inside] = (1.0, 0.0, 0.0)
+    return image, (points - cam.center) @ cam.R[2]
+
+
+def _sources(xs, occluder=None) -> list[IBRSource]:
+    out = []
+    for x in xs:
+        cam = _cam(x)
+        image, depth = _render_wall(cam, occluder)
+        out.append(IBRSource(cam, image, depth))
+    return out
+
+
+# ------------------------------------------------------------------------------ slow references
+
+
+def _ref_sample(points, cam, image, depth, tol):
+    """Python loop: project, field of view, nearest pixel's depth agreement, renormalised bilinear colour."""
+    h, w = points.shape[:2]
+    hs, ws = depth.shape
+    pixels = np.full((h, w, 2), np.nan)
+    visible = np.zeros((h, w), dtype=bool)
+    colours = np.zeros((h, w, 3))
+    for y in range(h):
+        for x in range(w):
+            p = points[y, x]
+            if not np.isfinite(p).all():
+                continue
+            q = cam.R @ p + cam.t
+            if q[2] <= 0:
+                continue
+            m = cam.K @ q
+            u, v = m[0] / m[2], m[1] / m[2]
+            pixels[y, x] = u, v
+            if not (-FOV_MARGIN_PX <= u <= ws - 1 + FOV_MARGIN_PX and -FOV_MARGIN_PX <= v <= hs - 1 + FOV_MARGIN_PX):
+                continue
+            uc, vc = min(max(u, 0.0), ws - 1.0), min(max(v, 0.0), hs - 1.0)
+            x0, y0 = int(math.floor(uc)), int(math.floor(vc))
+            if not abs(depth[int(math.floor(vc + 0.5)), int(math.floor(uc + 0.5))] - q[2]) <= tol * q[2]:
+                continue  # the nearest source pixel sees another surface (or none)
+            total, acc = 0.0, np.zeros(3)
+            for xj, yj, b in ((x0, y0, (1 - (uc - x0)) * (1 - (vc - y0))), (x0 + 1, y0, (uc - x0) * (1 - (vc - y0))),
+                              (x0, y0 + 1, (1 - (uc - x0)) * (vc - y0)), (x0 + 1, y0 + 1, (uc - x0) * (vc - y0))):
+                if b > 0 and xj < ws and yj < hs and abs(depth[yj, xj] - q[2]) <= tol * q[2]:
+                    total += b
+                    acc += b * image[yj, xj]
+            if total > 0:
+                visible[y, x] = True
+                colours[y, x] = acc / total
+    return pixels, visible, colours
+
+
+def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
+    """Python loop: ULR penalties, the k best (ties to the lower index), threshold, weights."""
+    s, h, w = visible.shape
+    out = np.zeros((s, h, w))
+    for y in range(h):
+        for x in range(w):
+            p = points[y, x]
+            r = p - centre if rays is None else rays[y, x]
+            if not (np.isfinite(p).all() and np.isfinite(r).all()):
+                continue
+            pens = []
+            for i in range(s):
+                if visible[i, y, x]:
+                    v = p - centres[i]
+                    ang = math.acos(np.clip(v @ r / (np.linalg.norm(v) * np.linalg.norm(r)), -1, 1))
+                    res = (np.linalg.norm(v) - np.linalg.norm(r)) / np.linalg.norm(v)
+                    pens.append((alpha * max(ULR_PENALTY_FLOOR, ang) + beta * max(ULR_PENALTY_FLOOR, res), i))
+            best = sorted(pens)[:k]
+            if not best:
+                continue
+            thresh = ULR_THRESHOLD_SCALE * best[-1][0]
+            for pen, i in best:
+                out[i, y, x] = max(0.0, 1 - pen / thresh)
+    return out
+
+
+def _ref_blend(weights, visible, colours):
+    s, h, w = weights.shape
+    image = np.zeros((h, w, 3))
+    norm = np.zeros_like(weights, dtype=np.float64)
+    for y in range(h):
+        for x in range(w):
+            ws = [weights[i, y, x] if visible[i, y, x] else 0.0 for i in range(s)]
+            if sum(ws) > 0:
+                for i in range(s):
+                    norm[i, y, x] = ws[i] / sum(ws)
+                    image[y, x] += norm[i, y, x] * colours[i, y, x]
+    return norm, image, norm.sum(axis=0) > 0
+
+
+def _random_points(rng, h, w):
+    points = np.stack([rng.uniform(-6, 6, (h, w)), rng.uniform(-4, 4, (h, w)), rng.uniform(-2, 14, (h, w))], axis=-1)
+    points[rng.random((h, w)) < 0.1] = np.nan
+    return points
+
+
+def test_sample_source_matches_reference():
+    rng = np.random.default_rng(1)
+    src = _sources([0.4], occluder=(0.0, 4.0, 0.8))[0]
+    depth = src.depth.copy()
+    depth[rng.random(depth.shape) < 0.05] = np.nan
+    # Half the points on the surfaces the source sees (so the depth test passes), half anywhere.
+    points = _random_points(rng, 20, 30)
+    on = src.camera.backproject(rng.uniform(-1, [src.camera.width, src.camera.height], (20, 30, 2)),
+                                np.full((20, 30), 1.0))
+    seen = src.camera.backproject_depth(src.depth)
+    pick = seen[rng.integers(0, 36, (20, 30)), rng.integers(0, 48, (20, 30))]
+    points[:10] = np.where(rng.random((10, 30, 1)) < 0.5, pick[:10], on[:10])
+    pixels = np.empty((20, 30, 2))
+    visible = np.empty((20, 30), dtype=bool)
+    colours = np.empty((20, 30, 3), dtype=np.float32)
+    cam = src.camera
+    _ibr_kernels.sample_source(points, cam.K, cam.R, cam.t, src.image, depth, 0.01, FOV_MARGIN_PX, pixels, visible, colours)
+    ref_pixels, ref_visible, ref_colours = _ref_sample(points, cam, src.image, depth, 0.01)
+    assert 20 < visible.sum() < visible.size  # both outcomes occur
+    assert_array_equal(visible, ref_visible)
+    assert_allclose(pixels, ref_pixels, rtol=1e-12, atol=1e-9)
+    assert_allclose(colours, ref_colours, atol=KERNEL_ATOL)
+
+
+@pytest.mark.parametrize("with_rays", [False, True])
+def test_ulr_weights_match_reference(with_rays):
+    rng = np.random.default_rng(2)
+    s, h, w = 5, 12, 16
+    points = _random_points(rng, h, w)
+    centres = rng.uniform(-3, 3, (s, 3))
+    centre = np.array([0.2, -0.1, -1.0])
+    visible = rng.random((s, h, w)) < 0.6
+    rays = (points - centre) * rng.uniform(0.5, 2.0, (h, w, 1)) + rng.normal(0, 0.2, (h, w, 3)) if with_rays else None
+    for k in (1, 2, 4, 6):
+        out = np.empty((s, h, w), dtype=np.float32)
+        _ibr_kernels.ulr_weights(points, np.zeros((0, 0, 3)) if rays is None else rays, centre, centres, visible, k, 1.0, 0.1,
+                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
+        assert_allclose(out, _ref_ulr(points, rays, centre, centres, visible, k, 1.0, 0.1), atol=KERNEL_ATOL)
+        assert ((out > 0).sum(axis=0) <= k).all()
+
+
+def test_normalise_blend_matches_reference():
+    rng = np.random.default_rng(3)
+    weights = rng.random((4, 10, 12)).astype(np.float32) * (rng.random((4, 10, 12)) < 0.7)
+    visible = rng.random((4, 10, 12)) < 0.6
+    colours = rng.random((4, 10, 12, 3)).astype(np.float32)
+    ref_w, ref_image, ref_cov = _ref_blend(weights, visible, colours)
+    image = np.empty((10, 12, 3), dtype=np.float32)
+    coverage = np.empty((10, 12), dtype=bool)
+    _ibr_kernels.normalise_blend(weights, visible, colours, image, coverage)
+    assert_allclose(weights, ref_w, atol=KERNEL_ATOL)
+    assert_allclose(image, ref_image, atol=KERNEL_ATOL)
+    assert_array_equal(coverage, ref_cov)
+
+
+def test_render_ibr_matches_the_references_composed():
+    srcs = _sources([-1.0, 0.0, 1.0], occluder=(0.6, 5.0, 0.5))
+    target = _cam(0.3, look=0.0, width=40, height=30)
+    res = render_ibr(target, srcs)
+    samples = [_ref_sample(res.proxy_points, s.camera, s.image, s.depth, 0.01) for s in srcs]
+    visible = np.stack([v for _, v, _ in samples])
+    colours = np.stack([c for _, _, c in samples])
+    raw = _ref_ulr(res.proxy_points, None, target.center, np.array([s.camera.center for s in srcs]), visible, 4, 1.0, 0.1)
+    ref_w, ref_image, ref_cov = _ref_blend(raw, visible, colours)
+    assert_array_equal(res.coverage, ref_cov)
+    assert_allclose(res.weights, ref_w, atol=KERNEL_ATOL)
+    assert_allclose(res.image, ref_image, atol=KERNEL_ATOL)
+
+
+# ------------------------------------------------------------------------------ analytic scenes
+
+
+@pytest.mark.parametrize("given_proxy", [False, True])
+def test_a_source_at_the_target_reproduces_its_image(given_proxy):
+    rng = np.random.default_rng(4)
+    cam = _cam(0.0)
+    _, depth = _render_wall(cam, occluder=(0.5, 4.0, 1.0))
+    image = rng.random((cam.height, cam.width, 3)).astype(np.float32)  # not smooth: any resampling shows
+    res = render_ibr(cam, [IBRSource(cam, image, depth)], proxy_depth=depth if given_proxy else None)
+    assert res.coverage.all()
+    assert_allclose(res.image, image, atol=1e-5)
+    assert_allclose(res.weights, 1.0)
+    assert_allclose(res.proxy_depth, depth, rtol=1e-9)
+    assert_allclose(res.proxy_points, cam.backproject_depth(depth), atol=1e-9)
+    assert res.method == "ulr" and isinstance(res, IBRResult)
+    assert res.image.dtype == np.float32 and res.weights.dtype == np.float32
+
+
+@pytest.mark.parametrize("xs", [(-1.0, 1.0), (-1.0, 0.0, 1.0), (-1.5, -0.5, 0.5, 1.5)])
+def test_textured_wall_matches_the_analytic_view(xs):
+    target = _cam(0.3, look=-0.2, z=1.0)
+    truth, truth_depth = _render_wall(target)
+    res = render_ibr(target, _sources(xs))
+    assert res.coverage.mean() > 0.9
+    assert_allclose(res.proxy_depth[res.coverage], truth_depth[res.coverage], rtol=1e-9)
+    assert np.abs(res.image - truth)[res.coverage].max() < TEXTURE_ATOL
+    assert_allclose(res.weights.sum(axis=0)[res.coverage], 1.0, atol=1e-6)
+    assert (res.weights[:, ~res.coverage] == 0).all() and (res.image[~res.coverage] == 0).all()
+
+
+def test_weight_follows_the_nearest_source_and_a_source_enters_with_weight_zero():
+    """Target sliding along 4 sources (k = 3): the weights of the centre pixel vary
+    continuously, including where the third source enters the set, and the nearest source dominates."""
+    xs = np.array([-1.5, -0.5, 0.5, 1.5])
+    srcs = _sources(xs)
+    path = np.linspace(-1.4, 1.4, 141)  # 2 cm steps
+    ws = []
+    for x in path:
+        target = _cam(float(x), width=9, height=7)
+        _, depth = _render_wall(target)
+        ws.append(render_ibr(target, srcs, proxy_depth=depth, k=3).weights[:, 3, 4])
+    ws = np.array(ws)
+    assert np.abs(np.diff(ws, axis=0)).max() < 0.05  # a camera entering with weight > 0 would jump by > 0.1
+    nearest = np.argmin(np.abs(path[:, None] - xs), axis=1)
+    assert (np.argmax(ws, axis=1) == nearest).mean() > 0.95
+    entering = (ws[:-1] == 0) & (ws[1:] > 0)
+    leaving = (ws[:-1] > 0) & (ws[1:] == 0)
+    assert entering.any() and (ws[1:][entering] < 0.01).all()
+    assert leaving.any() and (ws[:-1][leaving] < 0.01).all()
+
+
+def test_visibility_test_stops_ghosting():
+    # A red square 1.5 m away near the left edge of the source at x = -1 (the nearest to the target)
+    # hides part of the wall from it; the target does not see the square.
+    srcs = _sources([-1.0, -2.0, 0.0], occluder=(-1.6, 1.5, 0.1))
+    target = _cam(-0.7)
+    truth, depth = _render_wall(target)
+    res = render_ibr(target, srcs)
+    assert_allclose(res.proxy_depth[res.coverage], depth[res.coverage], rtol=1e-9)  # the square is off-screen
+    err = np.abs(res.image - truth)[res.coverage].max(axis=-1)
+    # Along the square's silhouette in the source only the pixels on the wall's side are sampled
+    # (at most half a pixel of texture gradient: 1.2 * 0.19 / 2 = 0.11); elsewhere bilinear.
+    assert np.quantile(err, 0.97) < TEXTURE_ATOL and err.max() < 0.11
+    # Without the depth test the square ghosts onto the wall.
+    ghost = render_ibr(target, srcs, occlusion_tolerance=1e6)
+    assert np.abs(ghost.image - truth)[ghost.coverage].max() > 0.2
+    hidden = ~_ibr_visible(srcs[0], res.proxy_points)
+    assert hidden.sum() > 20 and (res.weights[0][hidden] == 0).all()
+
+
+def _ibr_visible(src: IBRSource, points: np.ndarray) -> np.ndarray:
+    return _ref_sample(points, src.camera, src.image, src.depth, 0.01)[1]
+
+
+# ------------------------------------------------------------------------------ world distortions
+
+
+class _Scaling:
+    """phi(p) = c + s(z) (p - c), z = (p - c)_z, s(z) = a + b z: z' = a z + b z^2 (monotone for
+    a, b >= 0), so phi^-1(q): z = (-a + sqrt(a^2 + 4 b z')) / 2b; D phi = s I + (p - c) (x) b e_z."""
+
+    def __init__(self, centre, a, b):
+        self.c, self.a, self.b = np.asarray(centre, dtype=float), a, b
+
+    def forward(self, p):
+        d = np.asarray(p) - self.c
+        return self.c + (self.a + self.b * d[..., 2:3]) * d
+
+    def inverse(self, q):
+        d = np.asarray(q) - self.c
+        zq = d[..., 2:3]
+        z = zq / self.a if self.b == 0 else (-self.a + np.sqrt(self.a**2 + 4 * self.b * zq)) / (2 * self.b)
+        return self.c + d * (z / zq)
+
+    def jacobian(self, p):
+        d = np.asarray(p) - self.c
+        jac = (self.a + self.b * d[..., 2])[..., None, None] * np.eye(3)
+        jac[..., :, 2] += self.b * d
+        return jac
+
+
+def test_test_distortion_is_consistent():
+    phi = _Scaling([0.1, 0.0, 0.0], 0.8, 0.05)
+    p = np.random.default_rng(5).uniform([-2, -2, 1], [2, 2, 12], (50, 3))
+    assert_allclose(phi.inverse(phi.forward(p)), p, atol=1e-12)
+    eps = 1e-6
+    numeric = np.stack([(phi.forward(p + eps * e) - phi.forward(p - eps * e)) / (2 * eps) for e in np.eye(3)], axis=-1)
+    assert_allclose(phi.jacobian(p), numeric, atol=1e-6)
+
+
+@pytest.mark.parametrize("given_proxy", [False, True])
+def test_identity_distortion_changes_nothing(given_proxy):
+    srcs = _sources([-1.0, 0.0, 1.0], occluder=(0.6, 5.0, 0.5))
+    target = _cam(0.3, look=-0.2, z=1.0)
+    proxy = _render_wall(target, (0.6, 5.0, 0.5))[1] if given_proxy else None
+    plain = render_ibr(target, srcs, proxy_depth=proxy)
+    same = render_ibr(target, srcs, proxy_depth=proxy, distortion=_Scaling([0.0, 0.0, 0.0], 1.0, 0.0))
+    assert_array_equal(same.coverage, plain.coverage)
+    assert_allclose(same.proxy_depth, plain.proxy_depth, rtol=1e-12)
+    assert_allclose(same.image, plain.image, atol=1e-6)
+    assert_allclose(same.weights, plain.weights, atol=1e-6)
+
+
+def test_uniform_scaling_equals_the_undistorted_camera_at_the_preimage():
+    """phi(p) = c + s (p - c): the target at centre C in the distorted world sees what a camera of the
+    same K, R at phi^-1(C) sees, at s times the depth, with the same ULR weights."""
+    srcs = _sources([-1.0, 0.0, 1.0], occluder=(0.6, 5.0, 0.5))
+    phi = _Scaling([0.2, 0.1, 0.0], 1.5, 0.0)
+    pre = _cam(0.3, look=-0.2, z=1.0)
+    target = look_at(phi.forward(pre.center), phi.forward(pre.center) + pre.R[2], -pre.R[1], fov_deg=50.0,
+                     width=pre.width, height=pre.height)
+    plain = render_ibr(pre, srcs)
+    scaled = render_ibr(target, srcs, distortion=phi)
+    assert plain.coverage.mean() > 0.9
+    assert_array_equal(scaled.coverage, plain.coverage)
+    assert_allclose(scaled.proxy_depth, 1.5 * plain.proxy_depth, rtol=1e-9)
+    assert_allclose(scaled.proxy_points, plain.proxy_points, atol=1e-9)
+    assert_allclose(scaled.image, plain.image, atol=1e-5)
+    assert_allclose(scaled.weights, plain.weights, atol=1e-5)
+
+
+def test_depth_dependent_scaling_about_the_target_centre_keeps_its_image():
+    """phi scales about the target's own centre (S0's left camera): its image is unchanged, the proxy
+    depth is scaled by s = a + b z, and the undistorted desired ray is parallel to p - c, so with
+    beta = 0 the ULR weights are those of the undistorted render."""
+    srcs = _sources([-1.0, 0.0, 1.0])
+    target = _cam(0.3, look=-0.2)
+    phi = _Scaling(target.center, 0.8, 0.05)
+    truth, z = _render_wall(target)
+    plain = render_ibr(target, srcs, beta=0.0)
+    warped = render_ibr(target, srcs, distortion=phi, beta=0.0)
+    assert warped.coverage.mean() > 0.9
+    cov = warped.coverage & plain.coverage
+    z_axis = plain.proxy_points[..., 2] - target.center[2]  # phi's depth: along the world z axis
+    assert_allclose(warped.proxy_depth[cov], ((0.8 + 0.05 * z_axis) * z)[cov], rtol=1e-9)
+    assert_allclose(warped.proxy_points[cov], plain.proxy_points[cov], atol=1e-9)
+    assert np.abs(warped.image - truth)[cov].max() < TEXTURE_ATOL
+    assert_allclose(warped.weights[:, cov], plain.weights[:, cov], atol=1e-5)
+
+
+# ------------------------------------------------------------------------------ Bayesian weights
+
+
+def test_bayesian_weights_render_the_wall():
+    pytest.importorskip("vergence.synthesis.ibr_bayes")
+    target = _cam(0.3, look=-0.2, z=1.0)
+    truth, _ = _render_wall(target)
+    res = render_ibr(target, _sources([-1.0, 0.0, 1.0]), weights="bayesian")
+    assert res.method == "bayesian" and res.coverage.mean() > 0.9
+    assert np.abs(res.image - truth)[res.coverage].max() < TEXTURE_ATOL
+    assert_allclose(res.weights.sum(axis=0)[res.coverage], 1.0, atol=1e-6)
+
+
+# ------------------------------------------------------------------------------ bad input
+
+
+def _good():
+    return _cam(0.3), _sources([0.0, 1.0])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"weights": "sibr"}, ValueError, "weights must be one of ulr, bayesian"),
+        ({"k": 0}, ValueError, "k must be >= 1"),
+        ({"k": 2.0}, TypeError, "k must be an integer"),
+        ({"alpha": np.nan}, ValueError, "alpha must be finite"),
+        ({"beta": -0.1}, ValueError, "beta must be >= 0"),
+        ({"alpha": 0.0, "beta": 0.0}, ValueError, "alpha and beta"),
+        ({"occlusion_tolerance": 0.0}, ValueError, "occlusion_tolerance must be > 0"),
+        ({"occlusion_tolerance": np.inf}, ValueError, "occlusion_tolerance must be finite"),
+        ({"gradient_limit": -1.0}, ValueError, "gradient_limit must be >= 0"),
+        ({"iterations": -1}, ValueError, "iterations must be >= 0"),
+        ({"sigma_sensor": 0.0}, ValueError, "sigma_sensor must be > 0"),
+        ({"sigma_depth": np.nan}, ValueError, "sigma_depth must be finite"),
+        ({"deformation_cap": -1.0}, ValueError, "deformation_cap must be > 0"),
+        ({"progress": "yes"}, TypeError, "progress must be a callable"),
+        ({"proxy_depth": np.ones((3, 3))}, ValueError, r"proxy_depth must have shape \(36, 48\)"),
+        ({"proxy_depth": np.full((36, 48), np.inf)}, ValueError, "proxy_depth must not contain inf"),
+        ({"proxy_depth": np.zeros((36, 48))}, ValueError, "proxy_depth must be > 0"),
+        ({"proxy_depth": "deep"}, TypeError, "proxy_depth must be numeric"),
+        ({"distortion": object()}, TypeError, "distortion must have callable forward, inverse and jacobian"),
+    ],
+)
+def test_bad_options_are_refused_by_name(kwargs, error, match):
+    target, srcs = _good()
+    with pytest.raises(error, match=match):
+        render_ibr(target, srcs, **kwargs)
+
+
+def test_bad_target_and_sources_are_refused_by_name():
+    target, srcs = _good()
+    with pytest.raises(TypeError, match="target must be a Camera"):
+        render_ibr("cam", srcs)
+    with pytest.raises(ValueError, match="sources must hold at least one IBRSource"):
+        render_ibr(target, [])
+    with pytest.raises(TypeError, match=r"sources\[1\] must be an IBRSource"):
+        render_ibr(target, [srcs[0], (srcs[1].camera, srcs[1].image, srcs[1].depth)])
+    with pytest.raises(TypeError, match="sources must be a sequence of IBRSource"):
+        render_ibr(target, srcs[0])
+
+
+def test_a_bad_distortion_output_is_refused_by_name():
+    class Flat(_Scaling):
+        def inverse(self, q):
+            return np.zeros(3)
+
+    target, srcs = _good()
+    with pytest.raises(ValueError, match="distortion.inverse must return shape"):
+        render_ibr(target, srcs, distortion=Flat([0, 0, 0], 1.0, 0.0))
+
+
+def test_bad_sources_are_refused_by_name():
+    cam = _cam(0.0)
+    image, depth = _render_wall(cam)
+    with pytest.raises(TypeError, match="camera must be a Camera"):
+        IBRSource(None, image, depth)
+    with pytest.raises(ValueError, match=r"image must have shape \(36, 48, 3\) matching the camera"):
+        IBRSource(cam, image[:-1], depth)
+    with pytest.raises(ValueError, match=r"image must have shape \(H, W, 3\)"):
+        IBRSource(cam, image[..., 0], depth)
+    with pytest.raises(ValueError, match="image values must lie in"):
+        IBRSource(cam, image * 2, depth)
+    with pytest.raises(ValueError, match=r"depth must have shape \(36, 48\) matching the image and camera"):
+        IBRSource(cam, image, depth[:, :-1])
+    for bad, match in ((np.inf, "depth must not contain inf"), (-np.inf, "depth must not contain inf"),
+                       (0.0, "depth must be > 0"), (-2.0, "depth must be > 0")):
+        d = depth.copy()
+        d[3, 4] = bad
+        with pytest.raises(ValueError, match=match):
+            IBRSource(cam, image, d)
+    with pytest.raises(TypeError, match="depth must be real"):
+        IBRSource(cam, image, depth.astype(complex))
+    d = depth.copy()
+    d[:5] = np.nan  # no surface: allowed
+    assert np.isnan(IBRSource(cam, image, d).depth[:5]).all()
+
+
+def test_nothing_seen_leaves_holes_and_weights_listed():
+    target, srcs = _good()
+    res = render_ibr(target, srcs, proxy_depth=np.full((36, 48), np.nan))
+    assert not res.coverage.any() and (res.image == 0).all() and (res.weights == 0).all()
+    assert np.isnan(res.proxy_points).all()
+    assert IBR_WEIGHTS == ("ulr", "bayesian")
+
+
+def test_progress_is_told_each_stage():
+    target, srcs = _good()
+    seen = []
+    render_ibr(target, srcs, progress=lambda f, m: seen.append((f, m)))
+    assert seen[0][0] == 0.0 and seen[-1] == (1.0, "done") and len(seen) >= 4
