@@ -76,7 +76,7 @@ def test_wedge_of_a_shifted_sensor_is_lopsided_and_crosses_at_convergence():
 def _check_png(path):
     assert path.read_bytes()[:8] == PNG_SIGNATURE
     with Image.open(path) as image:
-        assert image.size == (1100, 550)
+        assert image.size == (1200, 600)  # FIGURE_SIZE at 100 dpi
         assert np.asarray(image.convert("L")).std() > 10  # not blank
 
 

@@ -26,7 +26,7 @@ from vergence._validate import as_float_array, check_positive
 from vergence.camera import Camera
 from vergence.io import atomic_write
 
-__all__ = ["FIGURE_FORMATS", "ROLE_COLORS", "frustum_wedge", "plot_rig", "top_view_basis"]
+__all__ = ["FIGURE_FORMATS", "FIGURE_SIZE", "ROLE_COLORS", "frustum_wedge", "plot_rig", "top_view_basis"]
 
 FIGURE_FORMATS = (".png", ".svg")
 # Colours of the eyes, as an anaglyph shows them (red left, blue right); other roles are grey.
@@ -42,6 +42,11 @@ _MIN_REACH = 1.0
 # Close-up margin around the camera centres: this share of their spread, and at least _MIN_PAD m.
 _PAD_SHARE = 0.2
 _MIN_PAD = 0.25
+# Close-up room for the name rows, as a share of the cameras' extent along the view; the rows' heights
+# in axes fractions (two staggered rows so that neighbouring names do not overlap).
+_LABEL_ROOM = 0.35
+_LABEL_ROWS = (0.02, 0.1)
+FIGURE_SIZE = (12.0, 6.0)  # inches, at 100 dpi
 
 
 def _unit(v: np.ndarray) -> np.ndarray | None:
@@ -172,10 +177,10 @@ def _figure_path(path: object) -> Path:
     return out
 
 
-def _draw(ax, entries, basis, reach, *, dashed: bool, label: bool) -> None:
+def _draw(ax, entries, basis, reach, *, dashed: bool) -> None:
     from matplotlib.patches import Polygon
 
-    for name, cam, role in entries:
+    for _name, cam, role in entries:
         color = ROLE_COLORS.get(role, _OTHER_COLOR)
         wedge = frustum_wedge(cam, basis, reach=reach)
         ls = "--" if dashed else "-"
@@ -183,12 +188,22 @@ def _draw(ax, entries, basis, reach, *, dashed: bool, label: bool) -> None:
         ax.plot(wedge[[1, 0, 2], 0], wedge[[1, 0, 2], 1], color=color, lw=1.0, ls=ls)
         axis_end = (cam.center + reach * cam.R[2]) @ basis[:2].T  # the optical axis, dotted
         ax.plot([wedge[0, 0], axis_end[0]], [wedge[0, 1], axis_end[1]], color=color, lw=0.6, ls=":")
-        ax.plot(*wedge[0], marker="o" if not dashed else "s", ms=4, color=color, mfc="white" if dashed else color)
-        if label and dashed:  # virtual eyes sit close together: vertical names below them
-            ax.annotate(name, wedge[0], xytext=(0, -6), textcoords="offset points", fontsize=7, color=color,
-                        rotation=90, ha="center", va="top")  # fmt: skip
-        elif label:
-            ax.annotate(name, wedge[0], xytext=(4, 4), textcoords="offset points", fontsize=7, color=color)
+        ax.plot(*wedge[0], marker="s" if dashed else "o", ms=4, color=color, mfc="white" if dashed else color)
+
+
+def _label_rows(ax, entries, basis, *, top: bool) -> None:
+    """Names in two staggered rows along the bottom (real) or top (virtual) edge, with leader lines.
+
+    Cameras often stand centimetres apart; evenly spaced slots, ordered across, keep names apart.
+    """
+    items = sorted(((cam.center @ basis[:2].T, name, ROLE_COLORS.get(role, _OTHER_COLOR)) for name, cam, role in entries),
+                   key=lambda item: item[0][0])  # fmt: skip
+    for k, (q, name, color) in enumerate(items):
+        row = _LABEL_ROWS[k % 2]
+        ax.annotate(name, q, xytext=((k + 0.5) / len(items), 1.0 - row if top else row), textcoords="axes fraction",
+                    ha="center", va="top" if top else "bottom", fontsize=7, color=color,
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85},
+                    arrowprops={"arrowstyle": "-", "color": color, "lw": 0.5, "alpha": 0.7})  # fmt: skip
 
 
 def plot_rig(
@@ -260,29 +275,34 @@ def plot_rig(
 
     from vergence.report._figures import new_figure
 
-    fig = new_figure(figsize=(11.0, 5.5), dpi=100)
-    ax_all, ax_near = fig.subplots(1, 2)
+    fig = new_figure(figsize=FIGURE_SIZE, dpi=100)
+    ax_all, ax_near = fig.subplots(1, 2, width_ratios=(1.0, 1.6))
     fig.suptitle(title if title is not None else f"Rig from above: {len(real)} camera(s)", fontsize=10)
-    for ax, label in ((ax_all, False), (ax_near, True)):
-        _draw(ax, virt, basis, reach, dashed=True, label=label)
-        _draw(ax, real, basis, reach, dashed=False, label=label)
+    lo, hi = centres.min(axis=0), centres.max(axis=0)
+    pad = max(_MIN_PAD, _PAD_SHARE * float((hi - lo).max()))
+    span = hi[1] - lo[1] + 2 * pad
+    room = _LABEL_ROOM * span
+    # Close-up wedges stop about the top of the close-up, so that equal aspect fills the panel.
+    for ax, length_real, length_virtual in ((ax_all, reach, reach), (ax_near, span, pad + room)):
+        _draw(ax, virt, basis, length_virtual, dashed=True)
+        _draw(ax, real, basis, length_real, dashed=False)
         ax.set_xlabel("across (m)")
         ax.set_ylabel("along the view (m)")
         ax.grid(True, alpha=0.3)
     for name, p in points:
         q = p @ basis[:2].T
-        for ax in (ax_all, ax_near):
-            ax.plot(*q, marker="x", ms=7, mew=1.8, color="tab:green")
+        ax_all.plot(*q, marker="x", ms=7, mew=1.8, color="tab:green")
         ax_all.annotate(name, q, xytext=(5, 3), textcoords="offset points", fontsize=8, color="tab:green")
-    ax_all.set_aspect("equal", adjustable="datalim")
-    ax_all.autoscale_view()
     ax_all.set_title("layout", fontsize=9)
-    lo, hi = centres.min(axis=0), centres.max(axis=0)
-    pad = max(_MIN_PAD, _PAD_SHARE * float((hi - lo).max()))
-    ax_near.set_xlim(lo[0] - pad, hi[0] + pad)
-    ax_near.set_ylim(lo[1] - pad, hi[1] + pad)
-    ax_near.set_aspect("equal", adjustable="box")
+    # The close-up: camera centres with room below (and above, for virtual cameras) for the name rows.
+    ax_near.update_datalim([[lo[0] - pad, lo[1] - pad - room], [hi[0] + pad, hi[1] + pad + (room if virt else 0.0)]])
     ax_near.set_title("camera centres (solid: real, dashed: virtual)", fontsize=9)
+    _label_rows(ax_near, real, basis, top=False)
+    if virt:
+        _label_rows(ax_near, virt, basis, top=True)
+    for ax in (ax_all, ax_near):
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.autoscale_view()
     handles = [ax_near.plot([], [], color=c, label=f"{r} eye")[0] for r, c in ROLE_COLORS.items()]
     handles.append(ax_near.plot([], [], color=_OTHER_COLOR, label="other")[0])
     handles.append(ax_near.plot([], [], color="0.35", ls="--", label="virtual")[0])
