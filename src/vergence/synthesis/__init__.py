@@ -6,7 +6,8 @@ Primitives: :func:`forward_warp` / :func:`backward_warp` (rectified), :func:`war
 type, :class:`WarpedView`. Depth controls: :func:`plan_parallax`. Pipelines (``dibr.py``, imported
 on first use so that importing a primitive does not load them): :func:`interpolate_view`,
 :func:`synthesize_stereo`, :func:`synthesize_views`, :func:`synthesize_view`. Quality against the
-real view: :func:`assess_view`.
+real view: :func:`assess_view`. Multi-view image-based rendering: the Bayesian blending weights of
+Pujades et al. 2014, :func:`bayesian_weights` (``ibr_bayes.py``, loaded on first use).
 """
 
 from __future__ import annotations
@@ -51,9 +52,28 @@ if TYPE_CHECKING:
         synthesize_view,
         synthesize_views,
     )
+    from vergence.synthesis.ibr_bayes import (
+        BAYES_DEFORMATION_CAP,
+        BAYES_DEPTH_CONTINUITY,
+        BAYES_GEOMETRIC_CAP,
+        BAYES_GRADIENT_THRESHOLD,
+        BAYES_MIN_DEFORMATION,
+        BAYES_SIGMA_DEPTH,
+        BAYES_SIGMA_SENSOR,
+        bayesian_weights,
+    )
 
-# Pipelines, loaded on first attribute access (PEP 562).
+# Pipelines and the multi-view IBR weights, loaded on first attribute access (PEP 562), so that
+# importing a primitive neither loads them nor compiles their kernels.
 _LAZY = {
+    "BAYES_DEFORMATION_CAP": "vergence.synthesis.ibr_bayes",
+    "BAYES_DEPTH_CONTINUITY": "vergence.synthesis.ibr_bayes",
+    "BAYES_GEOMETRIC_CAP": "vergence.synthesis.ibr_bayes",
+    "BAYES_GRADIENT_THRESHOLD": "vergence.synthesis.ibr_bayes",
+    "BAYES_MIN_DEFORMATION": "vergence.synthesis.ibr_bayes",
+    "BAYES_SIGMA_DEPTH": "vergence.synthesis.ibr_bayes",
+    "BAYES_SIGMA_SENSOR": "vergence.synthesis.ibr_bayes",
+    "bayesian_weights": "vergence.synthesis.ibr_bayes",
     "MAX_SYNTHESIS_BYTES": "vergence.synthesis.dibr",
     "StereoResult": "vergence.synthesis.dibr",
     "interpolate_view": "vergence.synthesis.dibr",
@@ -76,6 +96,13 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "BAYES_DEFORMATION_CAP",
+    "BAYES_DEPTH_CONTINUITY",
+    "BAYES_GEOMETRIC_CAP",
+    "BAYES_GRADIENT_THRESHOLD",
+    "BAYES_MIN_DEFORMATION",
+    "BAYES_SIGMA_DEPTH",
+    "BAYES_SIGMA_SENSOR",
     "DEPTH_KINDS",
     "FILL_METHODS",
     "INVERSE_DEPTH_RANGE",
@@ -96,6 +123,7 @@ __all__ = [
     "assess_view",
     "backward_warp",
     "baseline_weights",
+    "bayesian_weights",
     "blend_views",
     "contour_mask",
     "dilate_foreground",
