@@ -484,3 +484,20 @@ def test_progress_is_told_each_stage():
     seen = []
     render_ibr(target, srcs, progress=lambda f, m: seen.append((f, m)))
     assert seen[0][0] == 0.0 and seen[-1] == (1.0, "done") and len(seen) >= 4
+
+
+def test_backproject_and_project_depth_match_the_camera():
+    rng = np.random.default_rng(6)
+    src, target = _cam(-0.4, width=30, height=20), _cam(0.5, look=-0.3, z=1.0, width=25, height=15)
+    depth = rng.uniform(0.5, 12.0, (20, 30))
+    depth[rng.random(depth.shape) < 0.1] = np.nan
+    points = np.empty((20, 30, 3))
+    _ibr_kernels.backproject(depth, np.linalg.inv(src.K), src.R, src.t, points)
+    assert_allclose(points, src.backproject_depth(depth), rtol=1e-12, atol=1e-12)
+    u, v, zt = (np.empty(depth.size) for _ in range(3))
+    _ibr_kernels.project_depth(depth, np.linalg.inv(src.K), src.R, src.t, target.K, target.R, target.t, u, v, zt)
+    known = ~np.isnan(depth.ravel())
+    pix, z = target.project(np.nan_to_num(points.reshape(-1, 3)))
+    assert (z[known] < 0).any() and np.isnan(zt[~known]).all()  # some points behind the target
+    assert_allclose(zt[known], z[known], rtol=1e-12, atol=1e-12)
+    assert_allclose(np.stack([u, v], axis=-1)[known], pix[known], rtol=1e-12, atol=1e-9)

@@ -13,7 +13,57 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["normalise_blend", "sample_source", "ulr_weights"]
+__all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
+
+
+@nb.njit(cache=True, parallel=True)
+def backproject(depth, Kinv, R, t, out):  # pragma: no cover - compiled
+    """World points ``R^T (z K^-1 (x, y, 1) - t)`` of a depth map (``Camera.backproject_depth``);
+    NaN where the depth is NaN."""
+    h, w = depth.shape
+    for y in nb.prange(h):
+        for x in range(w):
+            z = depth[y, x]
+            if not z > 0.0:
+                out[y, x, 0] = np.nan
+                out[y, x, 1] = np.nan
+                out[y, x, 2] = np.nan
+                continue
+            a0 = z * (Kinv[0, 0] * x + Kinv[0, 1] * y + Kinv[0, 2]) - t[0]
+            a1 = z * (Kinv[1, 0] * x + Kinv[1, 1] * y + Kinv[1, 2]) - t[1]
+            a2 = z * (Kinv[2, 0] * x + Kinv[2, 1] * y + Kinv[2, 2]) - t[2]
+            for c in range(3):
+                out[y, x, c] = R[0, c] * a0 + R[1, c] * a1 + R[2, c] * a2
+
+
+@nb.njit(cache=True, parallel=True)
+def project_depth(depth, Kinv, R, t, Kt, Rt, tt, u, v, zt):  # pragma: no cover - compiled
+    """A source depth map lifted to world points (as :func:`backproject`) and projected into the
+    target ``(Kt, Rt, tt)``: flat target columns ``u``, rows ``v`` (NaN when not in front) and
+    camera-frame depths ``zt`` (NaN where the source depth is NaN)."""
+    h, w = depth.shape
+    for y in nb.prange(h):
+        for x in range(w):
+            i = y * w + x
+            z = depth[y, x]
+            u[i] = np.nan
+            v[i] = np.nan
+            zt[i] = np.nan
+            if not z > 0.0:
+                continue
+            a0 = z * (Kinv[0, 0] * x + Kinv[0, 1] * y + Kinv[0, 2]) - t[0]
+            a1 = z * (Kinv[1, 0] * x + Kinv[1, 1] * y + Kinv[1, 2]) - t[1]
+            a2 = z * (Kinv[2, 0] * x + Kinv[2, 1] * y + Kinv[2, 2]) - t[2]
+            px = R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2
+            py = R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2
+            pz = R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2
+            qx = Rt[0, 0] * px + Rt[0, 1] * py + Rt[0, 2] * pz + tt[0]
+            qy = Rt[1, 0] * px + Rt[1, 1] * py + Rt[1, 2] * pz + tt[1]
+            qz = Rt[2, 0] * px + Rt[2, 1] * py + Rt[2, 2] * pz + tt[2]
+            zt[i] = qz
+            if qz > 0.0:
+                u[i] = (Kt[0, 0] * qx + Kt[0, 1] * qy + Kt[0, 2] * qz) / qz
+                v[i] = (Kt[1, 1] * qy + Kt[1, 2] * qz) / qz
 
 
 @nb.njit(cache=True, parallel=True)
@@ -105,6 +155,7 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
     use_rays = rays.shape[0] > 0
     for y in nb.prange(h):
         pen = np.empty(s_count)
+        rank = np.empty(s_count, dtype=np.int64)
         for x in range(w):
             for i in range(s_count):
                 out[i, y, x] = 0.0
@@ -135,22 +186,18 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
             kk = min(k, m)
             thresh = 0.0
             for i in range(s_count):
+                rank[i] = s_count
                 if pen[i] == np.inf:
                     continue
-                rank = 0
+                r = 0
                 for j in range(s_count):
                     if pen[j] < pen[i] or (pen[j] == pen[i] and j < i):
-                        rank += 1
-                if rank == kk - 1:
+                        r += 1
+                rank[i] = r
+                if r == kk - 1:
                     thresh = scale * pen[i]
             for i in range(s_count):
-                if pen[i] == np.inf:
-                    continue
-                rank = 0
-                for j in range(s_count):
-                    if pen[j] < pen[i] or (pen[j] == pen[i] and j < i):
-                        rank += 1
-                if rank < kk:
+                if rank[i] < kk:
                     out[i, y, x] = max(0.0, 1.0 - pen[i] / thresh)
 
 

@@ -1,0 +1,185 @@
+"""Speed of multi-view IBR at 1920 x 1080: ``render_ibr`` (ULR) vs a plain numpy ULR, 4 sources.
+
+1. ``render_ibr(weights="ulr")`` with a given proxy depth (Numba kernels: projection, field of view,
+   visibility, bilinear sampling, ULR weights, blend) against a plain numpy implementation of the
+   same ULR (``numpy_ulr`` below: same formulas, same visibility rule, whole-image array
+   operations), same process, same inputs, interleaved runs; medians, their ratio and the largest
+   difference between the two images.
+2. ``render_ibr`` with the proxy forward-warped from the 4 sources' depths (mesh z-buffer).
+3. ``render_ibr(weights="bayesian")`` when ``vergence.synthesis.ibr_bayes`` is present.
+
+The scene is analytic: a textured wall 10 m away and 12 textured spheres in front of it, seen by
+4 cameras 1920 x 1080 on a 0.6 m x 0.3 m grid around the target. Timings are wall-clock medians of
+``--repeats`` runs after a warm-up that compiles the kernels; the CPU time of the process is
+printed too, since the cores may be shared. Run:
+``.venv/bin/python benchmarks/ibr.py [--repeats N] [--threads N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+import time
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its OpenMP threads
+
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+from vergence.camera import Camera, look_at  # noqa: E402
+from vergence.synthesis import IBRSource, render_ibr  # noqa: E402
+from vergence.synthesis.ibr import (  # noqa: E402
+    FOV_MARGIN_PX,
+    IBR_OCCLUSION_TOLERANCE,
+    ULR_ALPHA,
+    ULR_BETA,
+    ULR_K,
+    ULR_PENALTY_FLOOR,
+    ULR_THRESHOLD_SCALE,
+)
+
+WIDTH, HEIGHT = 1920, 1080
+WALL_Z = 10.0
+
+
+def _camera(x: float, y: float) -> Camera:
+    return look_at([x, y, 0.0], [0.0, 0.0, WALL_Z], [0.0, -1.0, 0.0], fov_deg=60.0, width=WIDTH, height=HEIGHT)
+
+
+def _texture(p: np.ndarray) -> np.ndarray:
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    out = np.stack([0.5 + 0.4 * np.sin(7 * x + z), 0.5 + 0.4 * np.cos(5 * y - z), 0.5 + 0.3 * np.sin(3 * (x + y))], axis=-1)
+    return out.astype(np.float32)
+
+
+def render_scene(cam: Camera, spheres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ray-cast image and camera-frame depth of the wall and the spheres (rows: centre xyz, radius)."""
+    d = cam.ray_directions()
+    c = cam.center
+    t = (WALL_Z - c[2]) / d[..., 2]
+    for sx, sy, sz, r in spheres:
+        oc = c - np.array([sx, sy, sz])
+        b = d @ oc
+        disc = b * b - (oc @ oc - r * r)
+        with np.errstate(invalid="ignore"):
+            hit = -b - np.sqrt(disc)
+        t = np.where((disc > 0) & (hit > 0) & (hit < t), hit, t)
+    p = c + t[..., None] * d
+    return _texture(p), (p - c) @ cam.R[2]
+
+
+def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reference: ULR with a given proxy in whole-image numpy operations (image, normalised weights)."""
+    points = target.backproject_depth(proxy_depth)
+    n, (h, w) = len(sources), proxy_depth.shape
+    pens = np.full((n, h, w), np.inf)
+    colours = np.zeros((n, h, w, 3), dtype=np.float32)
+    r = points - target.center
+    dn = np.linalg.norm(r, axis=-1)
+    for i, src in enumerate(sources):
+        cam, img, dep = src.camera, src.image, src.depth
+        hs, ws = dep.shape
+        q = points @ cam.R.T + cam.t
+        z = q[..., 2]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = (cam.K[0, 0] * q[..., 0] + cam.K[0, 1] * q[..., 1]) / z + cam.K[0, 2]
+            v = cam.K[1, 1] * q[..., 1] / z + cam.K[1, 2]
+            m = FOV_MARGIN_PX
+            inside = (z > 0) & (u >= -m) & (u <= ws - 1 + m) & (v >= -m) & (v <= hs - 1 + m)
+        uc = np.clip(np.where(inside, u, 0.0), 0, ws - 1)
+        vc = np.clip(np.where(inside, v, 0.0), 0, hs - 1)
+        x0 = np.minimum(np.floor(uc).astype(np.intp), ws - 1)
+        y0 = np.minimum(np.floor(vc).astype(np.intp), hs - 1)
+        fx, fy = uc - x0, vc - y0
+        tol = IBR_OCCLUSION_TOLERANCE * z
+        with np.errstate(invalid="ignore"):
+            near = np.abs(dep[np.minimum(np.floor(vc + 0.5).astype(np.intp), hs - 1),
+                              np.minimum(np.floor(uc + 0.5).astype(np.intp), ws - 1)] - z) <= tol
+        vis = inside & near
+        total = np.zeros((h, w))
+        acc = np.zeros((h, w, 3))
+        for dx, dy, b in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
+            xj, yj = np.minimum(x0 + dx, ws - 1), np.minimum(y0 + dy, hs - 1)
+            with np.errstate(invalid="ignore"):
+                ok = (b > 0) & (x0 + dx < ws) & (y0 + dy < hs) & (np.abs(dep[yj, xj] - z) <= tol)
+            bb = np.where(ok, b, 0.0)
+            total += bb
+            acc += bb[..., None] * img[yj, xj]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            colours[i] = np.where(vis[..., None], acc / total[..., None], 0.0)
+        vi = points - cam.center
+        di = np.linalg.norm(vi, axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ang = np.arccos(np.clip(np.einsum("hwc,hwc->hw", vi, r) / (di * dn), -1.0, 1.0))
+            res = (di - dn) / di
+        pen = ULR_ALPHA * np.maximum(ULR_PENALTY_FLOOR, ang) + ULR_BETA * np.maximum(ULR_PENALTY_FLOOR, res)
+        pens[i] = np.where(vis, pen, np.inf)
+    order = np.argsort(pens, axis=0, kind="stable")  # ties to the lower index
+    rank = np.argsort(order, axis=0, kind="stable")
+    count = np.isfinite(pens).sum(axis=0)
+    kk = np.minimum(ULR_K, count)
+    kth = np.take_along_axis(np.sort(pens, axis=0), np.maximum(kk - 1, 0)[None], axis=0)[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wt = np.where((rank < kk) & np.isfinite(pens), np.maximum(0.0, 1.0 - pens / (ULR_THRESHOLD_SCALE * kth)), 0.0)
+    wt = wt.astype(np.float32)
+    total = wt.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wt = np.where(total > 0, wt / total, 0.0).astype(np.float32)
+    image = np.einsum("shw,shwc->hwc", wt, colours).astype(np.float32)
+    return image, wt
+
+
+def _time(fn) -> tuple[float, float]:
+    t0, c0 = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - t0, time.process_time() - c0
+
+
+def _report(name: str, runs: list[tuple[float, float]], note: str = "") -> float:
+    arr = np.array(runs)
+    wall, cpu = np.median(arr, axis=0)
+    print(f"{name:44s} median {1e3 * wall:7.1f} ms  (CPU {1e3 * cpu:7.1f} ms; min {1e3 * arr[:, 0].min():.1f}, "
+          f"max {1e3 * arr[:, 0].max():.1f} ms){note}")
+    return float(wall)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--threads", type=int, default=None, help="Numba threads (default: all cores)")
+    args = parser.parse_args(argv)
+    if args.threads is not None:
+        numba.set_num_threads(args.threads)
+    rng = np.random.default_rng(20261125)
+    spheres = np.column_stack([rng.uniform(-3, 3, 12), rng.uniform(-1.5, 1.5, 12), rng.uniform(4, 8, 12), rng.uniform(0.3, 0.8, 12)])
+    sources = [IBRSource(_camera(x, y), *render_scene(_camera(x, y), spheres)) for x, y in ((-0.3, -0.15), (0.3, -0.15), (-0.3, 0.15), (0.3, 0.15))]
+    target = _camera(0.1, 0.05)
+    proxy = render_scene(target, spheres)[1]
+    print(f"{WIDTH}x{HEIGHT} target, 4 sources {WIDTH}x{HEIGHT}; cores: {os.cpu_count()}, Numba threads: "
+          f"{numba.get_num_threads()}, layer: {numba.threading_layer()}, OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
+    fast = render_ibr(target, sources, proxy_depth=proxy)  # compile / load the cached kernels
+    ref_image, ref_w = numpy_ulr(target, sources, proxy)
+    print(f"numpy vs render_ibr: max |image diff| {np.abs(fast.image - ref_image).max():.2e}, "
+          f"max |weight diff| {np.abs(fast.weights - ref_w).max():.2e}, coverage {fast.coverage.mean():.3f}")
+    fast_runs, np_runs = [], []
+    for _ in range(args.repeats):  # interleaved, so both see the same machine load
+        fast_runs.append(_time(lambda: render_ibr(target, sources, proxy_depth=proxy)))
+        np_runs.append(_time(lambda: numpy_ulr(target, sources, proxy)))
+    t_fast = _report("render_ibr ulr, given proxy (Numba)", fast_runs, " goal < 150 ms")
+    t_np = _report("plain numpy ULR, given proxy", np_runs)
+    print(f"speed-up: {t_np / t_fast:.1f}x (goal >= 5x)")
+    render_ibr(target, sources)
+    _report("render_ibr ulr, forward-warped proxy", [_time(lambda: render_ibr(target, sources)) for _ in range(args.repeats)])
+    if importlib.util.find_spec("vergence.synthesis.ibr_bayes") is not None:
+        render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")
+        _report("render_ibr bayesian, given proxy",
+                [_time(lambda: render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")) for _ in range(args.repeats)])
+    else:
+        print("render_ibr bayesian: vergence.synthesis.ibr_bayes not present, not timed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
