@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -150,6 +151,7 @@ def test_explicit_near_and_far():
 def test_to_dict():
     rig = _plan()
     d = rig.to_dict()
+    json.dumps(d, allow_nan=False)  # what `vergence rig plan --json` prints
     assert d["rig"] == "tri" and d["far"] is None and d["near"] == 15.0
     assert d["reference"] == {"baseline": rig.reference.baseline, "convergence": rig.reference.convergence,
                               "window": rig.reference.window}

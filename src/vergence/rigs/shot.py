@@ -26,6 +26,7 @@ from pathlib import Path
 
 from vergence._validate import as_float_array, check_finite, check_positive_int
 from vergence.camera import Camera, look_at
+from vergence.rigs.cameras import check_element_name
 from vergence.rigs.quadri import QuadriRig, plan_quadri_rig
 from vergence.rigs.tri import TRI_REFERENCES, TriRig, plan_tri_rig
 from vergence.viewing import DISPLAY_PRESETS, DirectorConstraint, Display
@@ -240,9 +241,8 @@ def _elements(value: object) -> tuple[tuple[str, tuple[float, float, float]], ..
     out = []
     for k, item in enumerate(value):
         data = _keys(f"elements[{k}]", item, _ELEMENT_KEYS)
-        if not isinstance(data["name"], str):
-            raise TypeError(f"elements[{k}].name must be a string; got {type(data['name']).__name__}")
-        out.append((data["name"], _vector(f"elements[{k}].point", data["point"])))
+        name = check_element_name(data["name"], what=f"elements[{k}].name")
+        out.append((name, _vector(f"elements[{k}].point", data["point"])))
     return tuple(out)
 
 
