@@ -130,6 +130,16 @@ def test_bad_shots_are_refused_by_name(data, error, message):
         shot_from_dict(data)
 
 
+def test_shot_validates_when_built_directly():
+    shot = shot_from_dict(TRI)
+    with pytest.raises(ValueError, match="rig must be one of quadri, tri; got 'penta'"):
+        replace(shot, rig="penta")
+    with pytest.raises(TypeError, match="display must be a Display; got str"):
+        replace(shot, display="tv-55")
+    with pytest.raises(ValueError, match="reference must be one of round, div"):
+        replace(shot, reference="flat")
+
+
 def test_planning_errors_name_the_element_or_constraint():
     with pytest.raises(ValueError, match="element 'subject' .* is behind or on the virtual cameras"):
         shot_from_dict(_with(QUADRI, ("elements", 0, "point"), [0.0, 1.0, -10.0])).plan()

@@ -141,6 +141,15 @@ class Shot:
     far: float = math.inf
     path: Path | None = None
 
+    def __post_init__(self) -> None:
+        if self.rig not in SHOT_RIGS:
+            raise ValueError(f"rig must be one of {', '.join(SHOT_RIGS)}; got {self.rig!r}")
+        for name, cls in (("display", Display), ("view", ShotCamera)):
+            if not isinstance(getattr(self, name), cls):
+                raise TypeError(f"{name} must be a {cls.__name__}; got {type(getattr(self, name)).__name__}")
+        if self.reference not in TRI_REFERENCES:
+            raise ValueError(f"reference must be one of {', '.join(TRI_REFERENCES)}; got {self.reference!r}")
+
     @property
     def camera(self) -> Camera:
         """The shot's camera: the virtual centre camera (quadri) or the director's camera (tri)."""
@@ -304,9 +313,7 @@ def shot_from_dict(data: object, *, base_dir: str | os.PathLike[str] | None = No
     if rig == "quadri":
         numbers = {k: check_finite(k, fields[k]) for k in ("baseline", "convergence", "setback")}
         return Shot(**common, **numbers, elements=_elements(fields["elements"]))
-    reference = fields.get("reference", "round")
-    if reference not in TRI_REFERENCES:
-        raise ValueError(f"reference must be one of {', '.join(TRI_REFERENCES)}; got {reference!r}")
+    reference = fields.get("reference", "round")  # checked by Shot
     near = fields.get("near")
     far = fields.get("far")
     return Shot(**common, constraints=_constraints(fields["constraints"]), reference=reference,
