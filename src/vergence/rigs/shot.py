@@ -173,12 +173,12 @@ class Shot:
         A scene file is written as its absolute path; a display equal to a preset as the preset's name;
         an infinite ``far`` as ``null``.
         """
-        preset = next((name for name, d in DISPLAY_PRESETS.items() if d == self.display), None)
         d = self.display
-        display = preset if preset is not None else {
-            "eye_separation": d.eye_separation, "distance": d.distance, "width": d.width, "resolution": d.resolution}
-        if d.resolution is None and preset is None:
-            del display["resolution"]
+        display: str | dict[str, object] | None = next((k for k, p in DISPLAY_PRESETS.items() if p == d), None)
+        if display is None:
+            display = {"eye_separation": d.eye_separation, "distance": d.distance, "width": d.width}
+            if d.resolution is not None:
+                display["resolution"] = d.resolution
         out: dict[str, object] = {"rig": self.rig, "scene": str(self.scene), "display": display,
                                   "camera": self.view.to_dict()}  # fmt: skip
         if self.rig == "quadri":
