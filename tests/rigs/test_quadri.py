@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -130,6 +132,7 @@ def test_collinear_elements_share_cameras():
 def test_to_dict():
     rig = _plan()
     d = rig.to_dict()
+    json.dumps(d, allow_nan=False)  # what `vergence rig plan --json` prints
     assert d["rig"] == "quadri" and d["setback"] == 20.0
     assert d["virtual"]["left"] == rig.left.to_dict()
     assert [c["name"] for c in d["cameras"]] == [c.name for c in rig.cameras]

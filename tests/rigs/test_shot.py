@@ -118,7 +118,8 @@ def test_to_dict_round_trip(base):
         (_with(QUADRI, ("elements", 0, "weight"), 1), ValueError, r"elements\[0\] has unknown key.* 'weight'; valid keys: name, point"),
         (_with(QUADRI, ("elements", 1, "point"), _DELETE), ValueError, r"elements\[1\] is missing field.* point"),
         (_with(QUADRI, ("elements", 1, "point"), [0, 2, None]), TypeError, r"elements\[1\].point must be a list of 3 numbers"),
-        (_with(QUADRI, ("elements", 1, "name"), 7), TypeError, r"elements\[1\].name must be a string"),
+        (_with(QUADRI, ("elements", 1, "name"), 7), TypeError, r"elements\[1\].name must be a str"),
+        (_with(QUADRI, ("elements", 1, "name"), "the crowd"), ValueError, r"elements\[1\].name must be letters"),
         (_with(TRI, ("scene",), "arena"), ValueError, "scene must be a scene file or a built-in scene \\(glasses, stadium"),
         (_with(TRI, ("scene",), ""), TypeError, "scene must be a non-empty string"),
         (_with(TRI, ("scene",), "no/such/scene.json"), FileNotFoundError, "scene file not found: no/such/scene.json"),
@@ -127,6 +128,16 @@ def test_to_dict_round_trip(base):
 def test_bad_shots_are_refused_by_name(data, error, message):
     with pytest.raises(error, match=message):
         shot_from_dict(data)
+
+
+def test_shot_validates_when_built_directly():
+    shot = shot_from_dict(TRI)
+    with pytest.raises(ValueError, match="rig must be one of quadri, tri; got 'penta'"):
+        replace(shot, rig="penta")
+    with pytest.raises(TypeError, match="display must be a Display; got str"):
+        replace(shot, display="tv-55")
+    with pytest.raises(ValueError, match="reference must be one of round, div"):
+        replace(shot, reference="flat")
 
 
 def test_planning_errors_name_the_element_or_constraint():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -140,6 +141,13 @@ def test_the_right_image_shows_the_wanted_depths():
         assert perceived_depth(d, TV) == pytest.approx(wanted, rel=1e-9)
 
 
+def test_three_constraints_background_from_the_farthest():
+    rig = _plan((SUBJECT, "z=200,perceived=20", "z=65,perceived=6"))
+    assert len(rig.cameras) == 3 and len(rig.mapping.control_points) == 3
+    assert perceived_depth_from_depth(200.0, _rig_of(rig, "background"), TV) == pytest.approx(20.0, rel=EXACT)
+    assert rig.mapping.perceived_depth(65.0) == pytest.approx(6.0, rel=1e-9)  # the middle one shapes psi
+
+
 def test_explicit_near_and_far():
     rig = _plan(near=20.0, far=500.0)
     assert (rig.mapping.near, rig.mapping.far) == (20.0, 500.0)
@@ -150,6 +158,7 @@ def test_explicit_near_and_far():
 def test_to_dict():
     rig = _plan()
     d = rig.to_dict()
+    json.dumps(d, allow_nan=False)  # what `vergence rig plan --json` prints
     assert d["rig"] == "tri" and d["far"] is None and d["near"] == 15.0
     assert d["reference"] == {"baseline": rig.reference.baseline, "convergence": rig.reference.convergence,
                               "window": rig.reference.window}

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from vergence._validate import as_float_array, check_finite, check_positive_int
 from vergence.camera import Camera, look_at
+from vergence.rigs.cameras import check_element_name
 from vergence.rigs.quadri import QuadriRig, plan_quadri_rig
 from vergence.rigs.tri import TRI_REFERENCES, TriRig, plan_tri_rig
 from vergence.viewing import DISPLAY_PRESETS, DirectorConstraint, Display
@@ -140,6 +141,15 @@ class Shot:
     far: float = math.inf
     path: Path | None = None
 
+    def __post_init__(self) -> None:
+        if self.rig not in SHOT_RIGS:
+            raise ValueError(f"rig must be one of {', '.join(SHOT_RIGS)}; got {self.rig!r}")
+        for name, cls in (("display", Display), ("view", ShotCamera)):
+            if not isinstance(getattr(self, name), cls):
+                raise TypeError(f"{name} must be a {cls.__name__}; got {type(getattr(self, name)).__name__}")
+        if self.reference not in TRI_REFERENCES:
+            raise ValueError(f"reference must be one of {', '.join(TRI_REFERENCES)}; got {self.reference!r}")
+
     @property
     def camera(self) -> Camera:
         """The shot's camera: the virtual centre camera (quadri) or the director's camera (tri)."""
@@ -163,12 +173,12 @@ class Shot:
         A scene file is written as its absolute path; a display equal to a preset as the preset's name;
         an infinite ``far`` as ``null``.
         """
-        preset = next((name for name, d in DISPLAY_PRESETS.items() if d == self.display), None)
         d = self.display
-        display = preset if preset is not None else {
-            "eye_separation": d.eye_separation, "distance": d.distance, "width": d.width, "resolution": d.resolution}
-        if d.resolution is None and preset is None:
-            del display["resolution"]
+        display: str | dict[str, object] | None = next((k for k, p in DISPLAY_PRESETS.items() if p == d), None)
+        if display is None:
+            display = {"eye_separation": d.eye_separation, "distance": d.distance, "width": d.width}
+            if d.resolution is not None:
+                display["resolution"] = d.resolution
         out: dict[str, object] = {"rig": self.rig, "scene": str(self.scene), "display": display,
                                   "camera": self.view.to_dict()}  # fmt: skip
         if self.rig == "quadri":
@@ -240,9 +250,8 @@ def _elements(value: object) -> tuple[tuple[str, tuple[float, float, float]], ..
     out = []
     for k, item in enumerate(value):
         data = _keys(f"elements[{k}]", item, _ELEMENT_KEYS)
-        if not isinstance(data["name"], str):
-            raise TypeError(f"elements[{k}].name must be a string; got {type(data['name']).__name__}")
-        out.append((data["name"], _vector(f"elements[{k}].point", data["point"])))
+        name = check_element_name(data["name"], what=f"elements[{k}].name")
+        out.append((name, _vector(f"elements[{k}].point", data["point"])))
     return tuple(out)
 
 
@@ -304,9 +313,7 @@ def shot_from_dict(data: object, *, base_dir: str | os.PathLike[str] | None = No
     if rig == "quadri":
         numbers = {k: check_finite(k, fields[k]) for k in ("baseline", "convergence", "setback")}
         return Shot(**common, **numbers, elements=_elements(fields["elements"]))
-    reference = fields.get("reference", "round")
-    if reference not in TRI_REFERENCES:
-        raise ValueError(f"reference must be one of {', '.join(TRI_REFERENCES)}; got {reference!r}")
+    reference = fields.get("reference", "round")  # checked by Shot
     near = fields.get("near")
     far = fields.get("far")
     return Shot(**common, constraints=_constraints(fields["constraints"]), reference=reference,
