@@ -285,6 +285,9 @@ def test_sample_depths_increase_and_points_are_the_map_of_the_straight_ray():
         assert_allclose(cs.points[cs.start[i] : cs.start[i + 1]], bend(OFF_CAM.center + z[:, None] * r[i]), rtol=1e-12)
     assert not cs.open_end.any()
     assert sample_curves(OFF_CAM, bend, near=0.5, far=np.inf).open_end.all()
+    beyond = sample_curves(OFF_CAM, bend, near=0.5, far=1e12)  # a finite far past the cut ends there, closed
+    assert_allclose(beyond.depth[beyond.start[1:] - 1], curved.CURVE_CUT_DEPTH, rtol=1e-12)
+    assert not beyond.open_end.any()
 
 
 # ---------------------------------------------------------------------------- (4) undefined map
@@ -343,6 +346,7 @@ def test_progress_reports_to_one(curved_tracer):
         ({"near": -1.0}, ValueError, "near must be > 0"),
         ({"near": np.nan}, ValueError, "near"),
         ({"near": np.inf}, ValueError, "near"),
+        ({"near": 1e-9}, ValueError, "near must be >= 1e-06 m"),
         ({"far": 0.1}, ValueError, "far must be > near"),
         ({"far": 0.05}, ValueError, "far must be > near"),
         ({"far": np.nan}, ValueError, "far must be > near"),
@@ -354,6 +358,7 @@ def test_progress_reports_to_one(curved_tracer):
         ({"to_world": lambda q: q[..., :2]}, ValueError, "to_world must return an array of its input's shape"),
         ({"to_world": lambda q: 1.0}, ValueError, "to_world must return an array of its input's shape"),
         ({"to_world": lambda q: np.full(q.shape, "x")}, TypeError, "to_world must return a numeric array"),
+        ({"to_world": lambda q: q.no_such_attribute}, AttributeError, "no_such_attribute"),  # its own error
         ({"camera": None}, TypeError, "camera must be a pinhole"),
         ({"camera": FisheyeCamera(R=np.eye(3), t=np.zeros(3), width=8, height=8, fov_deg=90.0)}, TypeError, "camera must be a pinhole"),
         ({"samples": 0}, ValueError, "samples must be >= 1"),

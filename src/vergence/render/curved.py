@@ -39,6 +39,7 @@ along its direction (so reflections, refraction and AO see the real incoming dir
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -50,8 +51,19 @@ from vergence.render.raytree import Progress, Tracer, _check_options
 from vergence.render.results import RenderResult, RenderSettings
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 
-__all__ = ["CURVE_CUT_DEPTH", "CurveSamples", "DEPTH_BISECTIONS", "INITIAL_SEGMENTS", "JOINT_OVERLAP", "MAX_DEPTH_RATIO", "MAX_MEAN_SEGMENTS",
-           "MAX_SPLIT_LEVELS", "render_curved", "sample_curves"]  # fmt: skip
+__all__ = [
+    "CURVE_CUT_DEPTH",
+    "CurveSamples",
+    "DEPTH_BISECTIONS",
+    "INITIAL_SEGMENTS",
+    "JOINT_OVERLAP",
+    "MAX_DEPTH_RATIO",
+    "MAX_MEAN_SEGMENTS",
+    "MAX_SPLIT_LEVELS",
+    "MIN_NEAR",
+    "render_curved",
+    "sample_curves",
+]
 
 #: Fewest segments per ray before any split: more than one so that a curve that bends one way then
 #: the other (an inflection at the single midpoint) is still tested.
@@ -65,19 +77,23 @@ MAX_DEPTH_RATIO = 2.0
 #: smooth, and locates where ``to_world`` becomes undefined to that resolution.
 MAX_SPLIT_LEVELS = 12
 #: Mean segments per ray and first segment (an octave of depth) allowed while sampling: a map too
-#: rough to follow is refused by name (with MAX_SPLIT_LEVELS alone, 4096 segments per octave of
-#: 32,768 rays would need ~10 GiB per octave).
+#: rough to follow is refused by name (MAX_SPLIT_LEVELS alone lets a first segment become 4096, and
+#: 32,768 rays x 4096 segments x ~80 bytes is ~10 GiB).
 MAX_MEAN_SEGMENTS = 64
-#: Distorted depth (metres) where ``far = inf`` is cut, the last segment continuing without bound:
-#: the diagonal of the scene's cube (2 sqrt(3) MAX_SCENE_EXTENT), past which a straight ray from
-#: any camera in the scene has left every object behind.
+#: Distorted depth (metres) where ``far = inf`` is cut, the last segment continuing without bound
+#: (a larger finite ``far`` is cut there too): the diagonal of the scene's cube
+#: (2 sqrt(3) MAX_SCENE_EXTENT), past which a straight ray from any camera in the scene has left
+#: every object behind.
 CURVE_CUT_DEPTH = 2.0 * np.sqrt(3.0) * MAX_SCENE_EXTENT
+#: Smallest ``near``, metres (a micrometre): 39 octaves of depth to CURVE_CUT_DEPTH. Each octave is
+#: a round of casts for every ray still alive; a smaller ``near`` only adds empty rounds.
+MIN_NEAR = 1e-6
 #: Overlap of consecutive segments, relative to ``1 + |P|_inf`` at the joint: 10x the float32
 #: rounding of Mitsuba's cast (~1e-6 relative), so a hit at a joint is inside the earlier cast.
 JOINT_OVERLAP = 1e-5
-#: Bisections locating a hit's distorted depth on its segment (_hit_depth): 2^-32 of the segment's
+#: Bisections locating a hit's distorted depth on its segment (_hit_depth): 2^-26 of the segment's
 #: span in inverse depth, far below the float32 precision of the depth map.
-DEPTH_BISECTIONS = 32
+DEPTH_BISECTIONS = 26
 
 _CHUNK_RAYS = 1 << 15  # rays sampled and cast together: bounds the segment arrays' memory
 
@@ -115,6 +131,8 @@ def _check_curve_options(camera, to_world, near, far, tolerance_px) -> tuple[flo
     if not callable(to_world):
         raise TypeError(f"to_world must be a callable (points (..., 3) -> (..., 3)); got {type(to_world).__name__}")
     near = check_positive("near", near)
+    if near < MIN_NEAR:
+        raise ValueError(f"near must be >= {MIN_NEAR:g} m (MIN_NEAR); got {near:g}")
     if isinstance(far, bool) or not isinstance(far, int | float | np.integer | np.floating):
         raise TypeError(f"far must be a number (inf allowed); got {type(far).__name__}")
     far = float(far)
@@ -125,8 +143,9 @@ def _check_curve_options(camera, to_world, near, far, tolerance_px) -> tuple[flo
 
 def _map(to_world, q: np.ndarray) -> np.ndarray:  # noqa: ANN001
     """``to_world(q)`` as float64 of q's shape, non-finite rows set to NaN (undefined)."""
+    out = to_world(q)
     try:
-        p = np.asarray(to_world(q), dtype=np.float64)
+        p = np.asarray(out, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise TypeError(f"to_world must return a numeric array; {err}") from None
     if p.shape != q.shape:
@@ -253,11 +272,12 @@ def _pixel_rays(camera: Camera, pixels: np.ndarray):  # noqa: ANN202
 
 
 def _far_grid(near: float, far: float) -> np.ndarray:
-    """The first samples' inverse depths from ``near`` to ``far`` (``inf``: cut at CURVE_CUT_DEPTH)."""
-    return _initial_grid(1.0 / near, 1.0 / (far if np.isfinite(far) else max(CURVE_CUT_DEPTH, 2.0 * near)))
+    """The first samples' inverse depths from ``near`` to ``far``, cut at CURVE_CUT_DEPTH (or 2 near)."""
+    return _initial_grid(1.0 / near, 1.0 / min(far, max(CURVE_CUT_DEPTH, 2.0 * near)))
 
 
-def sample_curves(camera: Camera, to_world, *, near: float, far: float, tolerance_px: float = 0.25) -> CurveSamples:  # noqa: ANN001
+def sample_curves(camera: Camera, to_world: Callable, *, near: float, far: float,
+                  tolerance_px: float = 0.25) -> CurveSamples:  # fmt: skip
     """The polylines followed by :func:`render_curved`, one per pixel of ``camera`` (row-major).
 
     Parameters
@@ -268,8 +288,9 @@ def sample_curves(camera: Camera, to_world, *, near: float, far: float, toleranc
         Vectorised map ``(..., 3) -> (..., 3)`` from the distorted to the real world (``phi^-1``
         of S0 §6); NaN or inf where undefined.
     near, far : float
-        Distorted camera-frame depths where the rays start and end, metres, ``0 < near < far``
-        (``far = inf`` allowed: cut at :data:`CURVE_CUT_DEPTH`, the last segment left open).
+        Distorted camera-frame depths where the rays start and end, metres,
+        ``MIN_NEAR <= near < far``; ``far = inf`` allowed: cut at :data:`CURVE_CUT_DEPTH`, the last
+        segment left open (a finite ``far`` beyond it is cut there, the segment closed).
     tolerance_px : float
         Largest gap between a segment's mapped midpoint and its chord, pixels (module notes).
 
@@ -291,7 +312,11 @@ def sample_curves(camera: Camera, to_world, *, near: float, far: float, toleranc
 
 
 def _cast_chunk(tracer: Tracer, curves: CurveSamples):  # noqa: ANN202
-    """Cast each ray's segments in order; return per ray the hit segment (-1 none), its t and the last direction."""
+    """Cast each ray's segments in order, first hit wins.
+
+    Returns per ray the sample index where its hit segment starts (-1: no hit) and the hit's ``t``,
+    and the number of segments cast.
+    """
     n = len(curves.open_end)
     nseg = curves.segments
     hit_seg, hit_t = np.full(n, -1, dtype=np.int64), np.full(n, np.nan)
@@ -371,9 +396,10 @@ def _follow(tracer, camera, to_world, grid, open_far, tol, pix, out, report) -> 
     return casts
 
 
-def trace_curved(tracer: Tracer, camera: Camera, to_world, *, near: float, far: float, tolerance_px: float = 0.25,
-                 max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
-                 ao_distance: float | None = None, progress: Progress | None = None) -> RenderResult:  # noqa: ANN001  # fmt: skip
+def trace_curved(tracer: Tracer, camera: Camera, to_world: Callable, *, near: float, far: float,
+                 tolerance_px: float = 0.25, max_depth: int = 2, samples: int = 16,
+                 rng: np.random.Generator | None = None, ao_distance: float | None = None,
+                 progress: Progress | None = None) -> RenderResult:  # fmt: skip
     """:meth:`Tracer.render_curved` (parameters as :func:`render_curved`)."""
     near, far, tol = _check_curve_options(camera, to_world, near, far, tolerance_px)
     max_depth, samples, ao_distance = _check_options(tracer.scene, camera, max_depth, samples, rng, ao_distance)
@@ -426,9 +452,10 @@ def trace_curved(tracer: Tracer, camera: Camera, to_world, *, near: float, far: 
                         settings=settings)  # fmt: skip
 
 
-def render_curved(scene: Scene, camera: Camera, to_world, *, near: float, far: float, tolerance_px: float = 0.25,
-                  max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
-                  ao_distance: float | None = None, progress: Progress | None = None) -> RenderResult:  # noqa: ANN001  # fmt: skip
+def render_curved(scene: Scene, camera: Camera, to_world: Callable, *, near: float, far: float,
+                  tolerance_px: float = 0.25, max_depth: int = 2, samples: int = 16,
+                  rng: np.random.Generator | None = None, ao_distance: float | None = None,
+                  progress: Progress | None = None) -> RenderResult:  # fmt: skip
     """Ray-trace ``scene`` through the curved rays of ``camera`` in a distorted world (S0 §6, module notes).
 
     The Tri-Rig's ground truth: with ``camera`` its reference right camera and ``to_world = phi^-1``
@@ -444,8 +471,8 @@ def render_curved(scene: Scene, camera: Camera, to_world, *, near: float, far: f
         Vectorised ``(..., 3) -> (..., 3)``, distorted to real world; NaN (or inf) where undefined:
         the ray ends there without a hit.
     near, far : float
-        Distorted camera-frame depths where the rays start and end, metres, ``0 < near < far``;
-        ``far = inf`` allowed.
+        Distorted camera-frame depths where the rays start and end, metres,
+        ``MIN_NEAR <= near < far``; ``far = inf`` allowed (as :func:`sample_curves`).
     tolerance_px : float
         Largest gap, in pixels as ``camera`` sees it, between a segment and the curve (module notes).
     max_depth, samples, rng, ao_distance, progress
@@ -465,7 +492,7 @@ def render_curved(scene: Scene, camera: Camera, to_world, *, near: float, far: f
     TypeError
         If ``camera`` is not a pinhole Camera, ``to_world`` is not callable or returns non-numbers.
     ValueError
-        If ``near <= 0``, ``far <= near``, ``tolerance_px <= 0``, ``to_world`` returns another shape,
+        If ``near < MIN_NEAR``, ``far <= near``, ``tolerance_px <= 0``, ``to_world`` returns another shape,
         or the curves need more than :data:`MAX_MEAN_SEGMENTS` segments per ray.
     """
     near, far, _ = _check_curve_options(camera, to_world, near, far, tolerance_px)
