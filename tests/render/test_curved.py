@@ -339,6 +339,9 @@ def test_progress_reports_to_one(curved_tracer):
     assert seen[-1] == 1.0 and seen == sorted(seen) and len(seen) >= 3
 
 
+FISHEYE = FisheyeCamera(R=np.eye(3), t=np.zeros(3), width=8, height=8, fov_deg=90.0)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
@@ -360,7 +363,7 @@ def test_progress_reports_to_one(curved_tracer):
         ({"to_world": lambda q: np.full(q.shape, "x")}, TypeError, "to_world must return a numeric array"),
         ({"to_world": lambda q: q.no_such_attribute}, AttributeError, "no_such_attribute"),  # its own error
         ({"camera": None}, TypeError, "camera must be a pinhole"),
-        ({"camera": FisheyeCamera(R=np.eye(3), t=np.zeros(3), width=8, height=8, fov_deg=90.0)}, TypeError, "camera must be a pinhole"),
+        ({"camera": FISHEYE}, TypeError, "camera must be a pinhole"),
         ({"samples": 0}, ValueError, "samples must be >= 1"),
         ({"progress": 3}, TypeError, "progress must be a callable"),
     ],
