@@ -29,12 +29,15 @@ midpoint. Straight and affine maps need no split.
 continues without bound. Where ``to_world`` returns NaN (or inf) the curve is undefined: the ray
 ends at the last defined sample before it (the boundary located by bisection) without a hit.
 
-**Casting.** Segments are cast in order, one Mitsuba call per round over the rays still alive
-(first hit wins); segment ``k`` runs from sample ``k`` to sample ``k+1`` with ``tmax`` its length
-plus :data:`JOINT_OVERLAP` (``1 + |P|_inf``): a hit exactly at a joint is found by the earlier
-segment, never missed between two casts nor counted twice (the ray stops at its first hit). The
-hits are shaded once, by :meth:`~vergence.render.Tracer.trace_rays` from the hit segment's origin
-along its direction (so reflections, refraction and AO see the real incoming direction).
+**Casting.** The rays are followed one first segment (octave) at a time, sampled then cast, so
+nothing is sampled past a hit. Segments are cast in order, one Mitsuba call per round over the rays
+still alive (first hit wins); segment ``k`` runs from sample ``k`` to sample ``k+1`` with ``tmax``
+its length plus :data:`JOINT_OVERLAP` (``1 + |P|_inf``): a hit exactly at a joint is found by the
+earlier segment, never missed between two casts nor counted twice (the ray stops at its first hit).
+The hits are shaded once, by :meth:`~vergence.render.Tracer.trace_rays` from the hit segment's
+origin along its direction (so reflections, refraction and AO see the real incoming direction).
+A hit's distorted depth is that of the curve point it lies across from on its segment, found by
+bisection (``_hit_depth``); a ray without a hit takes the environment along its last segment.
 """
 
 from __future__ import annotations
