@@ -159,17 +159,21 @@ def _gap_px(pa, pb, pm, jx, jy) -> np.ndarray:  # noqa: ANN001
         return np.hypot(a, b)  # NaN or inf where the frame is degenerate or a point undefined: split
 
 
-def _step(to_world, qm: np.ndarray, pm: np.ndarray, step: np.ndarray) -> np.ndarray:  # noqa: ANN001
-    """Real-world displacement of a one-pixel step: forward difference, backward where the forward one is undefined.
+def _mapped_with_steps(to_world, qm: np.ndarray, sx: np.ndarray, sy: np.ndarray):  # noqa: ANN001, ANN202
+    """``P_m = to_world(q_m)`` and the real-world displacements ``J_x``, ``J_y`` of one-pixel steps ``sx``, ``sy``.
 
-    NaN where both are undefined: the gap cannot be measured there and the segment is kept (the map is
-    undefined within a pixel of the curve on both sides).
+    One call of ``to_world`` for the three; forward differences, backward where the forward one is
+    undefined; NaN where both are (the gap cannot be measured there and the segment is kept: the map
+    is undefined within a pixel of the curve on both sides).
     """
-    j = _map(to_world, qm + step) - pm
-    bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
-    if bad.any():
-        j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
-    return j
+    m = len(qm)
+    out = _map(to_world, np.concatenate([qm, qm + sx, qm + sy]))
+    pm, jx, jy = out[:m], out[m : 2 * m] - out[:m], out[2 * m :] - out[:m]
+    for j, step in ((jx, sx), (jy, sy)):
+        bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
+        if bad.any():
+            j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
+    return pm, jx, jy
 
 
 def _initial_grid(u_near: float, u_far: float) -> np.ndarray:
@@ -208,14 +212,15 @@ def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol):  # 
         um = 0.5 * (ua + ub)
         zm = (1.0 / um)[:, None]
         qm = center + zm * r[ray]
-        pm = _map(to_world, qm)
-        np.maximum.at(u_end, ray[np.isnan(pm[:, 0])], um[np.isnan(pm[:, 0])])
-        ok = ~np.isnan(pb[:, 0])
         if level < MAX_SPLIT_LEVELS:
-            jx, jy = _step(to_world, qm, pm, zm * step_x), _step(to_world, qm, pm, zm * step_y)
+            pm, jx, jy = _mapped_with_steps(to_world, qm, zm * step_x, zm * step_y)
             gap = _gap_px(pa, pb, pm, jx, jy)
-            gap[(np.isnan(jx[:, 0]) | np.isnan(jy[:, 0])) & ~np.isnan(pm[:, 0])] = 0.0  # unmeasurable (_step)
-            ok &= gap <= tol
+            gap[(np.isnan(jx[:, 0]) | np.isnan(jy[:, 0])) & ~np.isnan(pm[:, 0])] = 0.0  # unmeasurable
+            ok = ~np.isnan(pb[:, 0]) & (gap <= tol)
+        else:
+            pm = _map(to_world, qm)
+            ok = ~np.isnan(pb[:, 0])
+        np.maximum.at(u_end, ray[np.isnan(pm[:, 0])], um[np.isnan(pm[:, 0])])
         done.append((ray[ok], ua[ok], ub[ok], pa[ok], pb[ok], last[ok]))
         total += int(ok.sum())
         if level == MAX_SPLIT_LEVELS:
