@@ -325,6 +325,20 @@ def test_nan_on_half_the_rays(curved_tracer):
     assert_allclose(got.beauty[:, ~left], np.broadcast_to(SKY, (H, (~left).sum(), 3)), atol=1e-6)
 
 
+def test_gap_is_measured_beside_an_undefined_region():
+    # Undefined right of x = OFFSET: the forward one-pixel step of the column next to it is undefined,
+    # the backward one measures the gap there.
+    def half(q):
+        p = bend(q)
+        p[np.asarray(q)[..., 0] > OFFSET] = np.nan
+        return p
+
+    cs = sample_curves(OFF_CAM, half, near=0.05, far=40.0, tolerance_px=0.05)
+    left = np.arange(W * H) % W < (W - 1) / 2
+    assert (cs.segments[left] > 0).all() and (cs.segments[~left] == 0).all()
+    assert _worst_gap(cs, OFF_CAM, unbend) <= 1.1 * 0.05
+
+
 def test_undefined_from_near_on_sees_the_environment(curved_tracer):
     got = curved_tracer.render_curved(CAM, lambda q: np.full_like(q, np.inf), near=0.1, far=10.0, samples=1)
     assert np.isnan(got.depth).all()
