@@ -5,7 +5,7 @@ the left centre c = 0, ``to_world(q) = g(z_q) q`` with ``g(z) = 1 + z / L``, see
 from c (through c the curves would stay straight). Along the ray of pixel direction ``r`` (unit
 camera depth) from the centre C, ``P(z) = g(z) (C + z r)`` has real depth ``h(z) = z + z^2 / L``:
 it meets the plane ``Z = z0`` at ``z* = (L / 2) (sqrt(1 + 4 z0 / L) - 1)``. Identity and affine maps
-are checked against :func:`render` of the correspondingly moved straight camera.
+are checked against ``Tracer.render`` of the correspondingly moved straight camera.
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from vergence.render import (
     SceneCamera,
     Sphere,
     Tracer,
-    render,
     render_curved,
 )
 from vergence.render import curved
