@@ -11,33 +11,38 @@ is, in the real scene, the curve ``P(z) = phi^-1(q(z))`` (``to_world = phi^-1``,
 that pixel sees; lighting is computed in the real world only ("the distorted world should not be
 used to compute ... illumination", S0 §7).
 
-**Sampling rule** (:func:`sample_curves`). Each curve is sampled in inverse depth ``u = 1/z`` from
-``1/near`` to ``1/far``: first :data:`INITIAL_SEGMENTS` equal steps, then every segment
-``[u_a, u_b]`` is bisected while the mapped midpoint ``P_m = P(2 / (u_a + u_b))`` lies more than
+**Sampling rule** (:func:`sample_curves`). Each curve is first sampled at depths from ``near`` to
+``far`` in geometric progression, each step at most :data:`MAX_DEPTH_RATIO` (an octave) and at
+least :data:`INITIAL_SEGMENTS` steps; then every segment ``[u_a, u_b]`` (``u = 1/z``) is bisected
+in inverse depth while the mapped midpoint ``P_m = P(2 / (u_a + u_b))`` lies more than
 ``tolerance_px`` pixels from the chord ``[P_a, P_b]``, at most :data:`MAX_SPLIT_LEVELS` times. The
 distance is measured as the camera sees it: the real-world gap ``e = P_m - C`` (``C`` the point of
 the chord nearest ``P_m``) is pulled back to the distorted world through the local Jacobian of
 ``to_world``, ``e = a J_x + b J_y + s (P_b - P_a)``, where ``J_x``, ``J_y`` are the real-world
 displacements of a one-pixel step at depth ``z_m`` (finite differences of ``to_world``) and the
 chord carries the along-ray part; the gap is ``hypot(a, b)`` pixels. Steps equal in ``u`` are
-steps equal in disparity, in which the Tri-Rig's distortion is defined (S0 Eq. (10)); a curve
-smooth in ``u`` is locally quadratic, so its largest gap to a chord lies at the midpoint. Straight
-and affine maps need no split.
+steps equal in disparity, in which the Tri-Rig's distortion is defined (``z' = D_r^-1(psi(D_r(z)))``,
+S0 §6); a curve smooth in ``u`` is locally quadratic, so its largest gap to a chord lies at the
+midpoint. Straight and affine maps need no split.
 
 **Far end.** ``far = inf`` cuts the sampling at :data:`CURVE_CUT_DEPTH`; the last segment then
 continues without bound. Where ``to_world`` returns NaN (or inf) the curve is undefined: the ray
 ends at the last defined sample before it (the boundary located by bisection) without a hit.
 
-**Casting.** Segments are cast in order, one Mitsuba call per round over the rays still alive
-(first hit wins); segment ``k`` runs from sample ``k`` to sample ``k+1`` with ``tmax`` its length
-plus :data:`JOINT_OVERLAP` (``1 + |P|_inf``): a hit exactly at a joint is found by the earlier
-segment, never missed between two casts nor counted twice (the ray stops at its first hit). The
-hits are shaded once, by :meth:`~vergence.render.Tracer.trace_rays` from the hit segment's origin
-along its direction (so reflections, refraction and AO see the real incoming direction).
+**Casting.** The rays are followed one first segment (octave) at a time, sampled then cast, so
+nothing is sampled past a hit. Segments are cast in order, one Mitsuba call per round over the rays
+still alive (first hit wins); segment ``k`` runs from sample ``k`` to sample ``k+1`` with ``tmax``
+its length plus :data:`JOINT_OVERLAP` (``1 + |P|_inf``): a hit exactly at a joint is found by the
+earlier segment, never missed between two casts nor counted twice (the ray stops at its first hit).
+The hits are shaded once, by :meth:`~vergence.render.Tracer.trace_rays` from the hit segment's
+origin along its direction (so reflections, refraction and AO see the real incoming direction).
+A hit's distorted depth is that of the curve point it lies across from on its segment, found by
+bisection (``_hit_depth``); a ray without a hit takes the environment along its last segment.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -49,31 +54,40 @@ from vergence.render.raytree import Progress, Tracer, _check_options
 from vergence.render.results import RenderResult, RenderSettings
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 
-__all__ = ["CURVE_CUT_DEPTH", "CurveSamples", "DEPTH_BISECTIONS", "INITIAL_SEGMENTS", "JOINT_OVERLAP", "MAX_MEAN_SEGMENTS",
-           "MAX_SPLIT_LEVELS", "render_curved", "sample_curves"]  # fmt: skip
+__all__ = ["CURVE_CUT_DEPTH", "CurveSamples", "DEPTH_BISECTIONS", "INITIAL_SEGMENTS", "JOINT_OVERLAP",
+           "MAX_DEPTH_RATIO", "MAX_MEAN_SEGMENTS", "MAX_SPLIT_LEVELS", "MIN_NEAR", "render_curved", "sample_curves"]  # fmt: skip
 
-#: Segments per ray before any split, equal in inverse depth: more than one so that a curve that
-#: bends one way then the other (an inflection at the single midpoint) is still tested.
+#: Fewest segments per ray before any split: more than one so that a curve that bends one way then
+#: the other (an inflection at the single midpoint) is still tested.
 INITIAL_SEGMENTS = 4
-#: Bisections of a segment at most: from a quarter of [1/far, 1/near], 2^-14 of it. A smooth curve
+#: Largest ratio of far to near depth of a first segment: the first samples are spaced by at most an
+#: octave of depth, so a bend far from the camera is not hidden inside one segment whose midpoint in
+#: ``1/z`` lies near the camera (from 0.5 m to CURVE_CUT_DEPTH: 20 segments).
+MAX_DEPTH_RATIO = 2.0
+#: Bisections of a segment at most: 2^-12 of a first segment's span in 1/z. A smooth curve
 #: meets the tolerance far sooner (the gap falls 4x per split); the bound stops a curve that is not
 #: smooth, and locates where ``to_world`` becomes undefined to that resolution.
 MAX_SPLIT_LEVELS = 12
-#: Mean segments per ray allowed while sampling: a map too rough to follow is refused by name
-#: (with MAX_SPLIT_LEVELS alone, 16384 segments per ray of 57,600 pixels would need ~60 GiB).
-MAX_MEAN_SEGMENTS = 256
-#: Distorted depth (metres) where ``far = inf`` is cut, the last segment continuing without bound:
-#: the diagonal of the scene's cube (2 sqrt(3) MAX_SCENE_EXTENT), past which a straight ray from
-#: any camera in the scene has left every object behind.
+#: Mean segments per ray and first segment (an octave of depth) allowed while sampling: a map too
+#: rough to follow is refused by name (MAX_SPLIT_LEVELS alone lets a first segment become 4096, and
+#: 32,768 rays x 4096 segments x ~80 bytes is ~10 GiB).
+MAX_MEAN_SEGMENTS = 64
+#: Distorted depth (metres) where ``far = inf`` is cut, the last segment continuing without bound
+#: (a larger finite ``far`` is cut there too): the diagonal of the scene's cube
+#: (2 sqrt(3) MAX_SCENE_EXTENT), past which a straight ray from any camera in the scene has left
+#: every object behind.
 CURVE_CUT_DEPTH = 2.0 * np.sqrt(3.0) * MAX_SCENE_EXTENT
+#: Smallest ``near``, metres (a micrometre): 39 octaves of depth to CURVE_CUT_DEPTH. Each octave is
+#: a round of casts for every ray still alive; a smaller ``near`` only adds empty rounds.
+MIN_NEAR = 1e-6
 #: Overlap of consecutive segments, relative to ``1 + |P|_inf`` at the joint: 10x the float32
 #: rounding of Mitsuba's cast (~1e-6 relative), so a hit at a joint is inside the earlier cast.
 JOINT_OVERLAP = 1e-5
-#: Bisections locating a hit's distorted depth on its segment (_hit_depth): 2^-32 of the segment's
+#: Bisections locating a hit's distorted depth on its segment (_hit_depth): 2^-26 of the segment's
 #: span in inverse depth, far below the float32 precision of the depth map.
-DEPTH_BISECTIONS = 32
+DEPTH_BISECTIONS = 26
 
-_CHUNK_RAYS = 1 << 15  # rays sampled and cast together: bounds the segment arrays' memory
+_CHUNK_RAYS = 1 << 16  # rays sampled and cast together: bounds the segment arrays (MAX_MEAN_SEGMENTS: < 0.5 GiB)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -109,6 +123,8 @@ def _check_curve_options(camera, to_world, near, far, tolerance_px) -> tuple[flo
     if not callable(to_world):
         raise TypeError(f"to_world must be a callable (points (..., 3) -> (..., 3)); got {type(to_world).__name__}")
     near = check_positive("near", near)
+    if near < MIN_NEAR:
+        raise ValueError(f"near must be >= {MIN_NEAR:g} m (MIN_NEAR); got {near:g}")
     if isinstance(far, bool) or not isinstance(far, int | float | np.integer | np.floating):
         raise TypeError(f"far must be a number (inf allowed); got {type(far).__name__}")
     far = float(far)
@@ -119,8 +135,9 @@ def _check_curve_options(camera, to_world, near, far, tolerance_px) -> tuple[flo
 
 def _map(to_world, q: np.ndarray) -> np.ndarray:  # noqa: ANN001
     """``to_world(q)`` as float64 of q's shape, non-finite rows set to NaN (undefined)."""
+    out = to_world(q)
     try:
-        p = np.asarray(to_world(q), dtype=np.float64)
+        p = np.asarray(out, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise TypeError(f"to_world must return a numeric array; {err}") from None
     if p.shape != q.shape:
@@ -142,30 +159,49 @@ def _gap_px(pa, pb, pm, jx, jy) -> np.ndarray:  # noqa: ANN001
         return np.hypot(a, b)  # NaN or inf where the frame is degenerate or a point undefined: split
 
 
-def _step(to_world, qm: np.ndarray, pm: np.ndarray, step: np.ndarray) -> np.ndarray:  # noqa: ANN001
-    """Real-world displacement of a one-pixel step: forward difference, backward where the forward one is undefined.
+def _mapped_with_steps(to_world, qm: np.ndarray, sx: np.ndarray, sy: np.ndarray):  # noqa: ANN001, ANN202
+    """``P_m = to_world(q_m)`` and the real-world displacements ``J_x``, ``J_y`` of one-pixel steps ``sx``, ``sy``.
 
-    NaN where both are undefined: the gap cannot be measured there and the segment is kept (the map is
-    undefined within a pixel of the curve on both sides).
+    One call of ``to_world`` for the three; forward differences, backward where the forward one is
+    undefined; NaN where both are (the gap cannot be measured there and the segment is kept: the map
+    is undefined within a pixel of the curve on both sides).
     """
-    j = _map(to_world, qm + step) - pm
-    bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
-    if bad.any():
-        j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
-    return j
+    m = len(qm)
+    out = _map(to_world, np.concatenate([qm, qm + sx, qm + sy]))
+    pm, jx, jy = out[:m], out[m : 2 * m] - out[:m], out[2 * m :] - out[:m]
+    for j, step in ((jx, sx), (jy, sy)):
+        bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
+        if bad.any():
+            j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
+    return pm, jx, jy
 
 
-def _sample_chunk(center, r, step_x, step_y, to_world, u_near, u_far, open_far, tol):  # noqa: ANN001, ANN202
-    """Adaptive polylines of rays ``q(z) = center + z r`` (module notes); ``step_*``: one pixel at unit depth."""
-    n = len(r)
-    grid = np.linspace(u_near, u_far, INITIAL_SEGMENTS + 1)
+def _initial_grid(u_near: float, u_far: float) -> np.ndarray:
+    """Inverse depths of the first samples: depths in geometric progression of ratio <= MAX_DEPTH_RATIO.
+
+    At least :data:`INITIAL_SEGMENTS` segments; the ends are exactly ``u_near`` and ``u_far``.
+    """
+    octaves = np.log(u_near / u_far) / np.log(MAX_DEPTH_RATIO)
+    m = max(INITIAL_SEGMENTS, int(np.ceil(octaves - 1e-9)))  # a ratio of exactly 2^k needs no extra segment
+    grid = u_near * (u_far / u_near) ** (np.arange(m + 1) / m)
+    grid[0], grid[-1] = u_near, u_far
+    return grid
+
+
+def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol):  # noqa: ANN001, ANN202
+    """Adaptive polylines of rays ``q(z) = center + z r`` over the inverse depths ``grid`` (module notes).
+
+    ``step_*``: one pixel at unit depth. Returns the :class:`CurveSamples` and, per ray, whether the
+    curve became undefined within ``grid`` (the ray ends there).
+    """
+    n, m = len(r), len(grid) - 1
     ends = _map(to_world, center + r[:, None, :] / grid[None, :, None])
     undefined = np.isnan(ends[..., 0])
     u_end = np.where(undefined.any(axis=1), grid[np.argmax(undefined, axis=1)], -np.inf)  # first NaN's u
-    ray = np.repeat(np.arange(n), INITIAL_SEGMENTS)
+    ray = np.repeat(np.arange(n), m)
     ua, ub = np.tile(grid[:-1], n), np.tile(grid[1:], n)
     pa, pb = ends[:, :-1].reshape(-1, 3), ends[:, 1:].reshape(-1, 3)
-    last = np.tile(np.arange(INITIAL_SEGMENTS) == INITIAL_SEGMENTS - 1, n) & open_far
+    last = np.tile(np.arange(m) == m - 1, n) & open_far
     done: list[tuple[np.ndarray, ...]] = []
     total = 0
     for level in range(MAX_SPLIT_LEVELS + 1):
@@ -176,16 +212,15 @@ def _sample_chunk(center, r, step_x, step_y, to_world, u_near, u_far, open_far, 
         um = 0.5 * (ua + ub)
         zm = (1.0 / um)[:, None]
         qm = center + zm * r[ray]
-        pm = _map(to_world, qm)
-        np.maximum.at(u_end, ray[np.isnan(pm[:, 0])], um[np.isnan(pm[:, 0])])
-        valid_b = ~np.isnan(pb[:, 0])
-        if level == MAX_SPLIT_LEVELS:
-            ok = valid_b
-        else:
-            jx, jy = _step(to_world, qm, pm, zm * step_x), _step(to_world, qm, pm, zm * step_y)
+        if level < MAX_SPLIT_LEVELS:
+            pm, jx, jy = _mapped_with_steps(to_world, qm, zm * step_x, zm * step_y)
             gap = _gap_px(pa, pb, pm, jx, jy)
-            gap[(np.isnan(jx[:, 0]) | np.isnan(jy[:, 0])) & ~np.isnan(pm[:, 0])] = 0.0  # unmeasurable (_step)
-            ok = valid_b & (gap <= tol)
+            gap[(np.isnan(jx[:, 0]) | np.isnan(jy[:, 0])) & ~np.isnan(pm[:, 0])] = 0.0  # unmeasurable
+            ok = ~np.isnan(pb[:, 0]) & (gap <= tol)
+        else:
+            pm = _map(to_world, qm)
+            ok = ~np.isnan(pb[:, 0])
+        np.maximum.at(u_end, ray[np.isnan(pm[:, 0])], um[np.isnan(pm[:, 0])])
         done.append((ray[ok], ua[ok], ub[ok], pa[ok], pb[ok], last[ok]))
         total += int(ok.sum())
         if level == MAX_SPLIT_LEVELS:
@@ -195,15 +230,22 @@ def _sample_chunk(center, r, step_x, step_y, to_world, u_near, u_far, open_far, 
         ray, ua, ub = np.concatenate([ray, ray]), np.concatenate([ua, um]), np.concatenate([um, ub])
         pa, pb = np.concatenate([pa, pm]), np.concatenate([pm, pb])
         last = np.concatenate([np.zeros_like(last), last])
-        if total + len(ray) > MAX_MEAN_SEGMENTS * n:
+        if total + len(ray) > MAX_MEAN_SEGMENTS * n * m:
             raise ValueError(f"to_world bends the rays too much to follow within tolerance_px = {tol:g}: more than "
-                             f"{MAX_MEAN_SEGMENTS} segments per ray (MAX_MEAN_SEGMENTS); raise tolerance_px")  # fmt: skip
-    ray, ua, ub, pa, pb, last = (np.concatenate([d[k] for d in done]) if done else np.zeros((0, 3) if k in (3, 4) else 0)
-                                 for k in range(6))  # fmt: skip
-    keep = ub > u_end[ray.astype(np.int64)]
-    ray, ua, ub, pa, pb, last = (v[keep] for v in (ray.astype(np.int64), ua, ub, pa, pb, last.astype(bool)))
-    order = np.lexsort((-ua, ray))
-    ray, ua, ub, pa, pb, last = (v[order] for v in (ray, ua, ub, pa, pb, last))
+                             f"{MAX_MEAN_SEGMENTS} segments per ray and octave of depth (MAX_MEAN_SEGMENTS); "
+                             "raise tolerance_px")  # fmt: skip
+    parts = [np.concatenate([d[k] for d in done]) for k in range(6)] if done else None
+    return _polylines(n, parts, u_end), u_end > -np.inf
+
+
+def _polylines(n: int, parts, u_end: np.ndarray) -> CurveSamples:  # noqa: ANN001
+    """Accepted segments ``(ray, ua, ub, pa, pb, last)``, cut at each ray's first undefined ``u_end``, as polylines."""
+    if parts is None:
+        return CurveSamples(np.zeros((0, 3)), np.zeros(0), np.zeros(n + 1, dtype=np.int64), np.zeros(n, dtype=bool))
+    ray, ua, ub, pa, pb, last = parts
+    keep = ub > u_end[ray]
+    order = np.lexsort((-ua[keep], ray[keep]))
+    ray, ua, ub, pa, pb, last = (v[keep][order] for v in (ray, ua, ub, pa, pb, last))
     counts = np.bincount(ray, minlength=n)
     has = counts > 0
     rank = np.cumsum(has) - has  # index of each ray among the rays with segments
@@ -226,13 +268,13 @@ def _pixel_rays(camera: Camera, pixels: np.ndarray):  # noqa: ANN202
     return xy @ k_inv_rt, k_inv_rt[0], k_inv_rt[1]
 
 
-def _sample(camera, to_world, near, far, tol, pixels) -> CurveSamples:  # noqa: ANN001
-    r, step_x, step_y = _pixel_rays(camera, pixels)
-    u_far = 1.0 / (far if np.isfinite(far) else max(CURVE_CUT_DEPTH, 2.0 * near))
-    return _sample_chunk(camera.center, r, step_x, step_y, to_world, 1.0 / near, u_far, not np.isfinite(far), tol)
+def _far_grid(near: float, far: float) -> np.ndarray:
+    """The first samples' inverse depths from ``near`` to ``far``, cut at CURVE_CUT_DEPTH (or 2 near)."""
+    return _initial_grid(1.0 / near, 1.0 / min(far, max(CURVE_CUT_DEPTH, 2.0 * near)))
 
 
-def sample_curves(camera: Camera, to_world, *, near: float, far: float, tolerance_px: float = 0.25) -> CurveSamples:  # noqa: ANN001
+def sample_curves(camera: Camera, to_world: Callable, *, near: float, far: float,
+                  tolerance_px: float = 0.25) -> CurveSamples:  # fmt: skip
     """The polylines followed by :func:`render_curved`, one per pixel of ``camera`` (row-major).
 
     Parameters
@@ -243,8 +285,9 @@ def sample_curves(camera: Camera, to_world, *, near: float, far: float, toleranc
         Vectorised map ``(..., 3) -> (..., 3)`` from the distorted to the real world (``phi^-1``
         of S0 §6); NaN or inf where undefined.
     near, far : float
-        Distorted camera-frame depths where the rays start and end, metres, ``0 < near < far``
-        (``far = inf`` allowed: cut at :data:`CURVE_CUT_DEPTH`, the last segment left open).
+        Distorted camera-frame depths where the rays start and end, metres,
+        ``MIN_NEAR <= near < far``; ``far = inf`` allowed: cut at :data:`CURVE_CUT_DEPTH`, the last
+        segment left open (a finite ``far`` beyond it is cut there, the segment closed).
     tolerance_px : float
         Largest gap between a segment's mapped midpoint and its chord, pixels (module notes).
 
@@ -260,11 +303,17 @@ def sample_curves(camera: Camera, to_world, *, near: float, far: float, toleranc
     [4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4]
     """
     near, far, tol = _check_curve_options(camera, to_world, near, far, tolerance_px)
-    return _sample(camera, to_world, near, far, tol, np.arange(camera.width * camera.height))
+    r, step_x, step_y = _pixel_rays(camera, np.arange(camera.width * camera.height))
+    grid = _far_grid(near, far)
+    return _sample_chunk(camera.center, r, step_x, step_y, to_world, grid, not np.isfinite(far), tol)[0]
 
 
 def _cast_chunk(tracer: Tracer, curves: CurveSamples):  # noqa: ANN202
-    """Cast each ray's segments in order; return per ray the hit segment (-1 none), its t and the last direction."""
+    """Cast each ray's segments in order, first hit wins.
+
+    Returns per ray the sample index where its hit segment starts (-1: no hit) and the hit's ``t``,
+    and the number of segments cast.
+    """
     n = len(curves.open_end)
     nseg = curves.segments
     hit_seg, hit_t = np.full(n, -1, dtype=np.int64), np.full(n, np.nan)
@@ -305,9 +354,49 @@ def _hit_depth(to_world, center, r, za, zb, pa, unit, length, t) -> np.ndarray: 
     return z
 
 
-def trace_curved(tracer: Tracer, camera: Camera, to_world, *, near: float, far: float, tolerance_px: float = 0.25,
-                 max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
-                 ao_distance: float | None = None, progress: Progress | None = None) -> RenderResult:  # noqa: ANN001  # fmt: skip
+def _follow(tracer, camera, to_world, grid, open_far, tol, pix, out, report) -> int:  # noqa: ANN001
+    """Sample and cast the curved rays of pixels ``pix``, one first segment (octave) at a time.
+
+    Only the rays still alive are sampled further: nothing is sampled past a hit. Writes each hit's
+    segment origin, unit direction, shading bound ``tmax`` and distorted depth into ``out``, and the
+    direction of an escaping ray's last segment; returns the number of segments cast.
+    """
+    origin, direction, bound, depth, hit = out
+    r, step_x, step_y = _pixel_rays(camera, pix)
+    direction[pix] = r / np.linalg.norm(r, axis=1, keepdims=True)  # no segment at all: the straight ray
+    alive = np.arange(len(pix))
+    m, casts = len(grid) - 1, 0
+    for j in range(m):
+        if not len(alive):
+            break
+        if report is not None:
+            report(j)
+        curves, ended = _sample_chunk(camera.center, r[alive], step_x, step_y, to_world, grid[j : j + 2],
+                                      open_far and j == m - 1, tol)  # fmt: skip
+        seg, t, c = _cast_chunk(tracer, curves)
+        casts += c
+        has = curves.segments > 0
+        i = np.where(seg >= 0, seg, curves.start[1:] - 2)[has]  # the hit segment, or the last one
+        a, got, t = alive[has], seg[has] >= 0, t[has]
+        pa = curves.points[i]
+        d = curves.points[i + 1] - pa
+        length = np.linalg.norm(d, axis=1)
+        moved = length > 0.0  # hit segments always have a length
+        direction[pix[a[moved]]] = d[moved] / length[moved, None]
+        g = pix[a[got]]
+        hit[g], origin[g] = True, pa[got]
+        depth[g] = _hit_depth(to_world, camera.center, r[a[got]], curves.depth[i[got]], curves.depth[i[got] + 1],
+                              pa[got], direction[g], length[got], t[got])  # fmt: skip
+        # Shading repeats the cast up to just past the hit (the same ray: the same first hit).
+        bound[g] = t[got] + JOINT_OVERLAP * (1.0 + np.abs(pa[got] + t[got, None] * direction[g]).max(axis=1))
+        alive = alive[has & (seg < 0) & ~ended]
+    return casts
+
+
+def trace_curved(tracer: Tracer, camera: Camera, to_world: Callable, *, near: float, far: float,
+                 tolerance_px: float = 0.25, max_depth: int = 2, samples: int = 16,
+                 rng: np.random.Generator | None = None, ao_distance: float | None = None,
+                 progress: Progress | None = None) -> RenderResult:  # fmt: skip
     """:meth:`Tracer.render_curved` (parameters as :func:`render_curved`)."""
     near, far, tol = _check_curve_options(camera, to_world, near, far, tolerance_px)
     max_depth, samples, ao_distance = _check_options(tracer.scene, camera, max_depth, samples, rng, ao_distance)
@@ -322,30 +411,17 @@ def trace_curved(tracer: Tracer, camera: Camera, to_world, *, near: float, far: 
     n = h * w
     origin, direction, bound, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.full(n, np.nan)
     hit = np.zeros(n, dtype=bool)
+    grid = _far_grid(near, far)
     casts = 0
-    r_all = _pixel_rays(camera, np.arange(n))[0]
     for c0 in range(0, n, _CHUNK_RAYS):
         pix = np.arange(c0, min(n, c0 + _CHUNK_RAYS))
+        report = None
         if progress is not None:
-            progress(0.5 * c0 / n, f"curved rays: sampling and casting pixels {c0:,}-{pix[-1]:,} of {n:,}")
-        curves = _sample(camera, to_world, near, far, tol, pix)
-        seg, t, c = _cast_chunk(tracer, curves)
-        casts += c
-        # Escaping rays leave along their last segment (the straight ray when the curve never starts).
-        i = np.where(seg >= 0, seg, curves.start[1:] - 2)
-        pa, d = np.broadcast_to(camera.center, (len(pix), 3)).copy(), r_all[pix].copy()
-        has = curves.segments > 0
-        pa[has] = curves.points[i[has]]
-        d[has] = curves.points[i[has] + 1] - pa[has]
-        length = np.linalg.norm(d, axis=1)
-        d[length == 0.0] = r_all[pix[length == 0.0]]
-        origin[pix], direction[pix] = pa, d / np.linalg.norm(d, axis=1, keepdims=True)
-        got = seg >= 0
-        hit[pix] = got
-        za, zb = curves.depth[i[got]], curves.depth[i[got] + 1]
-        depth[pix[got]] = _hit_depth(to_world, camera.center, r_all[pix[got]], za, zb, pa[got], direction[pix[got]],
-                                     length[got], t[got])  # fmt: skip
-        bound[pix[got]] = t[got] + JOINT_OVERLAP * (1.0 + np.abs(pa[got] + t[got, None] * direction[pix[got]]).max(axis=1))
+            report = lambda j, c0=c0, k=len(pix): progress(  # noqa: E731
+                0.5 * (c0 + k * j / (len(grid) - 1)) / n, f"curved rays: pixels {c0:,}-{c0 + k - 1:,} of {n:,}, "
+                f"octave {j + 1} of {len(grid) - 1}")  # fmt: skip
+        casts += _follow(tracer, camera, to_world, grid, not np.isfinite(far), tol, pix,
+                         (origin, direction, bound, depth, hit), report)  # fmt: skip
     if progress is not None:
         progress(0.5, f"shading {int(hit.sum()):,} first hits (image-based lighting x ambient occlusion)")
     k = np.flatnonzero(hit)
@@ -373,9 +449,10 @@ def trace_curved(tracer: Tracer, camera: Camera, to_world, *, near: float, far: 
                         settings=settings)  # fmt: skip
 
 
-def render_curved(scene: Scene, camera: Camera, to_world, *, near: float, far: float, tolerance_px: float = 0.25,
-                  max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
-                  ao_distance: float | None = None, progress: Progress | None = None) -> RenderResult:  # noqa: ANN001  # fmt: skip
+def render_curved(scene: Scene, camera: Camera, to_world: Callable, *, near: float, far: float,
+                  tolerance_px: float = 0.25, max_depth: int = 2, samples: int = 16,
+                  rng: np.random.Generator | None = None, ao_distance: float | None = None,
+                  progress: Progress | None = None) -> RenderResult:  # fmt: skip
     """Ray-trace ``scene`` through the curved rays of ``camera`` in a distorted world (S0 §6, module notes).
 
     The Tri-Rig's ground truth: with ``camera`` its reference right camera and ``to_world = phi^-1``
@@ -391,8 +468,8 @@ def render_curved(scene: Scene, camera: Camera, to_world, *, near: float, far: f
         Vectorised ``(..., 3) -> (..., 3)``, distorted to real world; NaN (or inf) where undefined:
         the ray ends there without a hit.
     near, far : float
-        Distorted camera-frame depths where the rays start and end, metres, ``0 < near < far``;
-        ``far = inf`` allowed.
+        Distorted camera-frame depths where the rays start and end, metres,
+        ``MIN_NEAR <= near < far``; ``far = inf`` allowed (as :func:`sample_curves`).
     tolerance_px : float
         Largest gap, in pixels as ``camera`` sees it, between a segment and the curve (module notes).
     max_depth, samples, rng, ao_distance, progress
@@ -412,7 +489,7 @@ def render_curved(scene: Scene, camera: Camera, to_world, *, near: float, far: f
     TypeError
         If ``camera`` is not a pinhole Camera, ``to_world`` is not callable or returns non-numbers.
     ValueError
-        If ``near <= 0``, ``far <= near``, ``tolerance_px <= 0``, ``to_world`` returns another shape,
+        If ``near < MIN_NEAR``, ``far <= near``, ``tolerance_px <= 0``, ``to_world`` returns another shape,
         or the curves need more than :data:`MAX_MEAN_SEGMENTS` segments per ray.
     """
     near, far, _ = _check_curve_options(camera, to_world, near, far, tolerance_px)
