@@ -501,3 +501,20 @@ def test_backproject_and_project_depth_match_the_camera():
     assert (z[known] < 0).any() and np.isnan(zt[~known]).all()  # some points behind the target
     assert_allclose(zt[known], z[known], rtol=1e-12, atol=1e-12)
     assert_allclose(np.stack([u, v], axis=-1)[known], pix[known], rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize("gradient_limit", [None, 1.0])
+def test_forward_proxy_keeps_the_nearest_surface_of_sources_of_several_sizes(gradient_limit):
+    """Sources of two sizes (drawn in two batches) and point splats: the proxy is the nearest surface."""
+    occluder = (0.3, 5.0, 0.6)
+    srcs = _sources([-0.5, 0.5], occluder=occluder)
+    big = _cam(0.0, width=96, height=72)
+    srcs.append(IBRSource(big, *_render_wall(big, occluder)))
+    target = _cam(0.2, look=0.0)
+    _, depth = _render_wall(target, occluder)
+    res = render_ibr(target, srcs, gradient_limit=gradient_limit)
+    known = ~np.isnan(res.proxy_depth)
+    assert known.mean() > 0.9
+    # Mesh: exact away from the square's edges; point splats: within the depth of one source pixel.
+    close = np.isclose(res.proxy_depth[known], depth[known], rtol=1e-9 if gradient_limit else 0.02)
+    assert close.mean() > 0.95

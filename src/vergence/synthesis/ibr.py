@@ -22,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from vergence._validate import check_finite, check_positive, check_positive_int
@@ -309,30 +310,48 @@ def render_ibr(
 def _forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, limit: float | None) -> np.ndarray:
     """Target depth of the nearest source surface: every source's pixels lifted with their depth
     (distorted under a distortion), projected into the target and z-buffered; linked pixel quads
-    are rasterised as two triangles (the mesh warp of :func:`~vergence.synthesis.warp_to_camera`)."""
+    are rasterised as two triangles (the mesh warp of :func:`~vergence.synthesis.warp_to_camera`).
+    Sources of one size are drawn in parallel, as many at a time as Numba has threads."""
     h, w = target.height, target.width
     zbuf = np.full((h, w), np.inf)
-    painted = np.zeros((h, w), dtype=bool)
-    out = np.zeros((h, w, 0), dtype=np.float32)  # depth only: no colour channels
-    for src in sources:
-        if distortion is None:
+    if limit is None:
+        painted = np.zeros((h, w), dtype=bool)
+        for src in sources:
             u, v, zt = (np.empty(src.depth.size) for _ in range(3))
-            cam = src.camera
-            _ibr_kernels.project_depth(src.depth, np.linalg.inv(cam.K), cam.R, cam.t, target.K, target.R, target.t, u, v, zt)
-        else:
-            points = _call_distortion(distortion.forward, "forward", _backproject(src.camera, src.depth))
-            u, v, zt = _project(target, points)
-        colours = np.zeros((u.size, 0), dtype=np.float32)
-        if limit is None:
-            _kernels.splat_zbuffer(u, v, zt, colours, out, zbuf, painted)
-            continue
-        if distortion is None:
-            link_r, link_d = _stages3d.mesh_links(src.depth, u, v, zt, src.camera, target, limit)
-        else:
-            link_r, link_d = _links_distorted(src, u, v, zt, target, distortion, limit)
-        order = np.arange(u.size, dtype=np.int64)
-        _kernels.splat_mesh(order, u, v, zt, link_r, link_d, colours, _stages3d.MAX_FACET_PX, True, out, zbuf, painted)
-    return np.where(painted, zbuf, np.nan)
+            _source_in_target(src, target, distortion, u, v, zt)
+            _kernels.splat_zbuffer(u, v, zt, np.zeros((u.size, 0), dtype=np.float32), np.zeros((h, w, 0), dtype=np.float32), zbuf, painted)
+        return np.where(painted, zbuf, np.nan)
+    by_size: dict[tuple[int, int], list[IBRSource]] = {}
+    for src in sources:
+        by_size.setdefault(src.depth.shape, []).append(src)
+    batch = max(1, numba.get_num_threads())
+    for group in by_size.values():
+        for first in range(0, len(group), batch):
+            chunk = group[first : first + batch]
+            n, size = len(chunk), chunk[0].depth.shape
+            u, v, zt = (np.empty((n, size[0] * size[1])) for _ in range(3))
+            link_r, link_d = (np.empty((n,) + size, dtype=bool) for _ in range(2))
+            for i, src in enumerate(chunk):
+                _source_in_target(src, target, distortion, u[i], v[i], zt[i])
+                if distortion is None:
+                    link_r[i], link_d[i] = _stages3d.mesh_links(src.depth, u[i], v[i], zt[i], src.camera, target, limit)
+                else:
+                    link_r[i], link_d[i] = _links_distorted(src, u[i], v[i], zt[i], target, distortion, limit)
+            bufs = np.full((n, h, w), np.inf)
+            _ibr_kernels.splat_sources(u, v, zt, link_r, link_d, _stages3d.MAX_FACET_PX, bufs)
+            np.minimum(zbuf, bufs.min(axis=0), out=zbuf)
+    return np.where(np.isfinite(zbuf), zbuf, np.nan)
+
+
+def _source_in_target(
+    src: IBRSource, target: Camera, distortion: object, u: np.ndarray, v: np.ndarray, zt: np.ndarray
+) -> None:
+    """Write the flat target columns, rows and depths of a source's pixels (through ``phi`` if given)."""
+    if distortion is not None:
+        u[:], v[:], zt[:] = _project(target, _call_distortion(distortion.forward, "forward", _backproject(src.camera, src.depth)))
+        return
+    cam = src.camera
+    _ibr_kernels.project_depth(src.depth, np.linalg.inv(cam.K), cam.R, cam.t, target.K, target.R, target.t, u, v, zt)
 
 
 def _backproject(camera: Camera, depth: np.ndarray) -> np.ndarray:
