@@ -30,8 +30,8 @@ import numpy as np  # noqa: E402
 
 from vergence.camera import Camera, look_at  # noqa: E402
 from vergence.synthesis import IBRSource, render_ibr  # noqa: E402
+from vergence.synthesis._ibr_stages import FOV_MARGIN_PX  # noqa: E402
 from vergence.synthesis.ibr import (  # noqa: E402
-    FOV_MARGIN_PX,
     IBR_OCCLUSION_TOLERANCE,
     ULR_ALPHA,
     ULR_BETA,

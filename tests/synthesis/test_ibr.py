@@ -12,7 +12,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import Camera, look_at
 from vergence.synthesis import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
 from vergence.synthesis import _ibr_kernels
-from vergence.synthesis.ibr import FOV_MARGIN_PX, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
+from vergence.synthesis._ibr_stages import FOV_MARGIN_PX
+from vergence.synthesis.ibr import ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
 
 PLANE_Z = 10.0  # the textured wall of the analytic scenes, metres
 # Linear interpolation error of the texture below between source pixels h = 0.19 m apart on the
