@@ -147,3 +147,21 @@ def test_atomic_outputs_check_their_path_when_called(tmp_path, func, make, error
     with pytest.raises(error, match=match):
         getattr(vergence.io, func)(make(tmp_path))  # no `with`: the call itself refuses
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data.png"]
+
+
+def test_atomic_folder_merges_subfolders_into_an_existing_folder(tmp_path):
+    from vergence.io import atomic_folder
+
+    out = tmp_path / "out"
+    (out / "sub").mkdir(parents=True)
+    (out / "sub" / "keep.txt").write_text("old")
+    (out / "sub" / "a.txt").write_text("old")
+    with atomic_folder(out) as tmp:
+        (tmp / "sub").mkdir()
+        (tmp / "sub" / "a.txt").write_text("new")
+        (tmp / "new").mkdir()
+        (tmp / "new" / "b.txt").write_text("b")
+    assert (out / "sub" / "a.txt").read_text() == "new"
+    assert (out / "sub" / "keep.txt").read_text() == "old"
+    assert (out / "new" / "b.txt").read_text() == "b"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

@@ -59,6 +59,16 @@ def test_demo_writes_index_with_existing_figures(demo):
     # (wrong sign, wrong scale, foreground smeared into holes) falls far below these bounds.
     assert result.dibr_quality.psnr_db > 30.0
     assert result.dibr_quality.ssim > 0.95
+    # The stereoscopic zoom sections: synthesised eyes against the ray-traced truth over covered pixels
+    # (the Tri-Rig's right eye against its curved-ray truth). A wrong rig, warp or weighting drops far below.
+    for method in ("ulr", "bayesian"):
+        for eye in ("left", "right"):
+            quadri = result.rig_reports["quadri"]["methods"][method][eye]
+            assert quadri["psnr"] > 28.0 and quadri["coverage"] > 0.5
+        tri = result.rig_reports["tri"]["methods"][method]
+        assert tri["left"]["psnr"] is None  # the director's own image
+        assert tri["right"]["psnr"] > 32.0 and tri["right"]["coverage"] > 0.95
+    assert "Quadri-Rig" in html and "Tri-Rig" in html and "33.93" in html
 
 
 def test_demo_cli_and_bad_output(demo, tmp_path, capsys):

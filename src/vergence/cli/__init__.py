@@ -33,6 +33,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
                 "homographies."),
     "render": ("render", "Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; "
                "previews."),
+    "rig": ("rig", "Plan and render the Quadri-Rig and the Tri-Rig of a shot file (S0 §5–6): plan, render."),
     "synthesize": ("synthesize", "Make the views a display needs from one image and its depth (writes views, "
                    "layout, JSON)."),
 }

@@ -24,7 +24,7 @@ from typing import Any
 import typer
 from typer._click.exceptions import UsageError  # Typer vendors click; this is its UsageError
 from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
-from typer.main import get_command_from_info, get_command_name
+from typer.main import get_command_from_info, get_command_name, get_group_from_info
 
 __all__ = ["DEFAULT_DIGITS", "LazyGroup", "tidy_parameters"]
 
@@ -136,8 +136,16 @@ def _load(name: str, module: str) -> TyperCommand:
 
     infos = [i for i in app.registered_commands
              if (i.name or get_command_name(i.callback.__name__)) == name]  # type: ignore[union-attr]
+    groups = [g for g in app.registered_groups if g.name == name]
+    if not infos and groups:  # a command with subcommands (`vergence rig plan`): a Typer of its own
+        group = get_group_from_info(copy.copy(groups[-1]), pretty_exceptions_short=app.pretty_exceptions_short,
+                                    suggest_commands=True, rich_markup_mode=app.rich_markup_mode)  # fmt: skip
+        for sub in group.commands.values():  # the subcommands read as the others do
+            if type(sub) is TyperCommand:
+                sub.__class__ = _TidyCommand
+        return group
     if not infos:
-        raise RuntimeError(f"vergence.cli.{module} registers no command {name!r} (see vergence.cli.COMMANDS)")
+        raise RuntimeError(f"vergence.cli.{module} registers no command or group {name!r} (see vergence.cli.COMMANDS)")
     info = copy.copy(infos[-1])
     if info.cls in (None, TyperCommand):  # Typer's default; a command's own class is left alone
         info.cls = _TidyCommand

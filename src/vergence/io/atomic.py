@@ -120,7 +120,8 @@ def atomic_folder(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
     Returns
     -------
     contextlib.AbstractContextManager of pathlib.Path
-        Its ``with`` block gets the temporary folder to write into (flat: files only).
+        Its ``with`` block gets the temporary folder to write into; subfolders are merged into the
+        existing ones of ``path`` file by file.
 
     Raises
     ------
@@ -150,6 +151,21 @@ def atomic_folder(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
     return _atomic_folder(out)
 
 
+def _merge_into(src: Path, dst: Path) -> None:
+    """Move every file of ``src`` to the same place under ``dst`` (folders created as needed)."""
+    for f in sorted(src.iterdir()):
+        if f.is_dir() and not f.is_symlink():
+            target = dst / f.name
+            if target.exists() and not target.is_dir():
+                raise OSError(f"{target} exists and is not a folder")
+            if not target.exists():
+                os.rename(f, target)
+            else:
+                _merge_into(f, target)
+        else:
+            os.replace(f, dst / f.name)
+
+
 @contextmanager
 def _atomic_folder(out: Path) -> Iterator[Path]:
     tmp = out.absolute().parent / f".{out.name}.tmp-{uuid.uuid4().hex[:12]}"
@@ -164,8 +180,7 @@ def _atomic_folder(out: Path) -> Iterator[Path]:
             if not out.exists():
                 os.rename(tmp, out)
             else:
-                for f in sorted(tmp.iterdir()):
-                    os.replace(f, out / f.name)
+                _merge_into(tmp, out)
         except OSError as exc:
             raise OSError(f"cannot write into {out}: {exc.strerror or exc}") from None
     finally:

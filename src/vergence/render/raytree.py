@@ -137,6 +137,15 @@ class Tracer:
         return self._render_many([cam], max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
                                  progress=progress, supersample=supersample)[0]  # fmt: skip
 
+    def render_curved(self, camera: Camera, to_world: Callable, *, near: float, far: float, tolerance_px: float = 0.25,
+                      max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
+                      ao_distance: float | None = None, progress: Progress | None = None) -> RenderResult:  # fmt: skip
+        """Ray-trace the curved rays ``to_world(straight ray of camera)`` (S0 §6); see :func:`~vergence.render.render_curved`."""
+        from vergence.render.curved import trace_curved
+
+        return trace_curved(self, camera, to_world, near=near, far=far, tolerance_px=tolerance_px, max_depth=max_depth,
+                            samples=samples, rng=rng, ao_distance=ao_distance, progress=progress)  # fmt: skip
+
     def trace_rays(
         self, origins: object, directions: object, *, shape: tuple[int, ...] | None = None, tmax: object = None,
         max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,

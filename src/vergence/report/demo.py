@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vergence.report.demo_rigs import demo_shot, section_rig
 from vergence.report.html import Figure, Grid, Section, write_report
 from vergence.viewing.budget import DepthBudget, depth_budget
 from vergence.viewing.geometry import (
@@ -58,6 +59,7 @@ class DemoResult:
     tri_rig: ConstrainedMapping
     stadium_disparity_px: dict[str, tuple[float, float]]
     dibr_quality: object  # vergence.synthesis.ViewQuality of the DIBR right eye against the ray-traced one
+    rig_reports: dict  # "quadri"/"tri" -> vergence.rigs.shoot.ShotRender.report (PSNR, DSSIM, coverage)
 
 
 def stadium_shooting(baseline: float) -> Shooting:
@@ -315,7 +317,12 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
         stadium_section, stadium_disparity = _section_stadium(work, say)
         say("view synthesis")
         dibr_section, dibr_quality = _section_dibr(work, say)
-        sections = [budget_section, tri_section, stadium_section, dibr_section]
+        rig_sections, rig_reports = [], {}
+        for number, kind in ((5, "quadri"), (6, "tri")):
+            say(f"the stereoscopic zoom: {kind} rig")
+            section, rig_reports[kind] = section_rig(work, say, demo_shot(kind), number)
+            rig_sections.append(section)
+        sections = [budget_section, tri_section, stadium_section, dibr_section, *rig_sections]
         say("writing index.html")
         write_report(
             work / "index.html",
@@ -337,6 +344,7 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
         tri_rig=tri,
         stadium_disparity_px=stadium_disparity,
         dibr_quality=dibr_quality,
+        rig_reports=rig_reports,
     )
 
 

@@ -7,7 +7,8 @@ type, :class:`WarpedView`. Depth controls: :func:`plan_parallax`. Pipelines (``d
 on first use so that importing a primitive does not load them): :func:`interpolate_view`,
 :func:`synthesize_stereo`, :func:`synthesize_views`, :func:`synthesize_view`. Multi-view
 image-based rendering (``ibr.py``, also on first use): :func:`render_ibr` with ULR or Bayesian
-weights. Quality against the real view: :func:`assess_view`.
+weights, the Bayesian weights of Pujades et al. 2014 alone: :func:`bayesian_weights`
+(``ibr_bayes.py``). Quality against the real view: :func:`assess_view`.
 """
 
 from __future__ import annotations
@@ -53,9 +54,28 @@ if TYPE_CHECKING:
         synthesize_views,
     )
     from vergence.synthesis.ibr import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
+    from vergence.synthesis.ibr_bayes import (
+        BAYES_DEFORMATION_CAP,
+        BAYES_DEPTH_CONTINUITY,
+        BAYES_GEOMETRIC_CAP,
+        BAYES_GRADIENT_THRESHOLD,
+        BAYES_MIN_DEFORMATION,
+        BAYES_SIGMA_DEPTH,
+        BAYES_SIGMA_SENSOR,
+        bayesian_weights,
+    )
 
-# Pipelines and multi-view IBR, loaded on first attribute access (PEP 562).
+# Pipelines and multi-view IBR, loaded on first attribute access (PEP 562), so that importing a
+# primitive neither loads them nor compiles their kernels.
 _LAZY = {
+    "BAYES_DEFORMATION_CAP": "vergence.synthesis.ibr_bayes",
+    "BAYES_DEPTH_CONTINUITY": "vergence.synthesis.ibr_bayes",
+    "BAYES_GEOMETRIC_CAP": "vergence.synthesis.ibr_bayes",
+    "BAYES_GRADIENT_THRESHOLD": "vergence.synthesis.ibr_bayes",
+    "BAYES_MIN_DEFORMATION": "vergence.synthesis.ibr_bayes",
+    "BAYES_SIGMA_DEPTH": "vergence.synthesis.ibr_bayes",
+    "BAYES_SIGMA_SENSOR": "vergence.synthesis.ibr_bayes",
+    "bayesian_weights": "vergence.synthesis.ibr_bayes",
     "IBRResult": "vergence.synthesis.ibr",
     "IBRSource": "vergence.synthesis.ibr",
     "IBR_WEIGHTS": "vergence.synthesis.ibr",
@@ -82,6 +102,13 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "BAYES_DEFORMATION_CAP",
+    "BAYES_DEPTH_CONTINUITY",
+    "BAYES_GEOMETRIC_CAP",
+    "BAYES_GRADIENT_THRESHOLD",
+    "BAYES_MIN_DEFORMATION",
+    "BAYES_SIGMA_DEPTH",
+    "BAYES_SIGMA_SENSOR",
     "DEPTH_KINDS",
     "FILL_METHODS",
     "IBRResult",
@@ -105,6 +132,7 @@ __all__ = [
     "assess_view",
     "backward_warp",
     "baseline_weights",
+    "bayesian_weights",
     "blend_views",
     "contour_mask",
     "dilate_foreground",

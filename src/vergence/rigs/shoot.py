@@ -1,0 +1,280 @@
+"""Shoot a shot file: render the rig's real cameras, synthesise the director's pair, measure it (S0 §5–7).
+
+One call, :func:`render_shot`, does what ``vergence rig render`` does, without writing files:
+
+- **Quadri-Rig** (S0 §5): every real camera and both virtual eyes are ray-traced; each virtual eye is
+  synthesised by image-based rendering (:func:`vergence.synthesis.render_ibr`, ULR or Bayesian
+  weights) from the real cameras of that eye (one per element), and compared with the virtual eye
+  ray-traced directly.
+- **Tri-Rig** (S0 §6): the director's, subject and background cameras are ray-traced; the left image
+  is the director's; the right image is synthesised in the reference right camera of the distorted
+  world (every source pixel through phi, z-buffer on the distorted depth, ULR angles undistorted by
+  D phi^-1, S0 Fig. 10) and compared with the curved-ray truth: each straight ray of the reference
+  right camera followed as the curve phi^-1(ray) in the real scene
+  (:meth:`vergence.render.Tracer.render_curved`). S0 could not evaluate this image; we can.
+
+Every image of one shot (sources, results, truth) is tone-mapped with one exposure, so they compare
+pixel for pixel. PSNR and DSSIM are measured over the pixels some source sees (the coverage mask).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["RIG_WEIGHTS", "ShotRender", "render_shot"]
+
+# --weights choices of `vergence rig render`: name -> the IBR weightings it runs.
+RIG_WEIGHTS = {"ulr": ("ulr",), "bayesian": ("bayesian",), "both": ("ulr", "bayesian")}
+
+# The curved-ray truth starts this fraction of the nearest source depth in front of the camera: every
+# surface the sources see lies beyond it.
+_NEAR_FRACTION = 0.5
+
+Progress = Callable[[float, str], None]
+
+
+@dataclass(frozen=True, eq=False)
+class ShotRender:
+    """Everything :func:`render_shot` made, in memory.
+
+    Attributes
+    ----------
+    shot : Shot
+    rig : QuadriRig or TriRig
+    exposure : float
+        The one exposure every image was tone-mapped with.
+    cameras : dict of str -> (image, depth)
+        Each real camera's tone-mapped image (H, W, 3) float32 and depth (H, W) metres (NaN: sky).
+    truth : dict of eye -> image
+        The ray-traced truth of each eye (for a Tri-Rig, the right one through curved rays).
+    results : dict of method -> dict of eye -> IBRResult
+        The synthesised eyes (a Tri-Rig's left eye is the director's image, not synthesised: absent).
+    images : dict of method -> dict of eye -> image
+        The stereo pair each method gives (a Tri-Rig's left image is the director's).
+    mapped_disparity : ndarray or None
+        Tri-Rig: the left image's mapped disparity in pixels (x_left - x_right), NaN where nothing is seen.
+    report : dict
+        Per method and eye: PSNR (dB) and DSSIM over covered pixels and the coverage fraction; timings.
+    """
+
+    shot: object
+    rig: object
+    exposure: float
+    cameras: dict
+    truth: dict
+    results: dict
+    images: dict
+    mapped_disparity: np.ndarray | None
+    report: dict = field(default_factory=dict)
+
+
+def render_shot(
+    shot: object,
+    *,
+    weights: Sequence[str] = ("ulr", "bayesian"),
+    samples: int = 16,
+    supersample: int = 2,
+    progress: Progress | None = None,
+) -> ShotRender:
+    """Render the real cameras of ``shot``, synthesise the director's stereo pair and measure it.
+
+    Parameters
+    ----------
+    shot : Shot
+        From :func:`vergence.rigs.load_shot`.
+    weights : sequence of str
+        IBR weightings to run, each in :data:`vergence.synthesis.IBR_WEIGHTS`.
+    samples : int
+        Ambient-occlusion rays per diffuse hit (as ``vergence render --samples``).
+    supersample : int
+        k x k sub-pixel rays per pixel in every ray-traced image (sources and truth alike):
+        anti-aliased sources resample without aliasing, and the truth is compared at the same footing.
+    progress : callable(fraction, message), optional
+
+    Returns
+    -------
+    ShotRender
+
+    Raises
+    ------
+    ValueError
+        An unknown weighting, ``samples`` or ``supersample`` < 1, a rig the planner refuses, a render
+        past the renderer's documented limits.
+    """
+    from vergence.rigs.shot import Shot
+    from vergence.synthesis import IBR_WEIGHTS
+
+    if not isinstance(shot, Shot):
+        raise TypeError(f"shot must be a vergence.rigs.Shot; got {type(shot).__name__}")
+    if isinstance(weights, str) or not weights or any(w not in IBR_WEIGHTS for w in weights):
+        raise ValueError(f"weights must be a non-empty list of {', '.join(IBR_WEIGHTS)}; got {weights!r}")
+    for name, value in (("samples", samples), ("supersample", supersample)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+            raise ValueError(f"{name} must be an integer >= 1; got {value!r}")
+    say = progress or (lambda _f, _m: None)
+    rig = shot.plan()
+    if shot.rig == "quadri":
+        return _render_quadri(shot, rig, tuple(weights), samples, supersample, say)
+    return _render_tri(shot, rig, tuple(weights), samples, supersample, say)
+
+
+def _tracer(shot: object) -> object:
+    from vergence.render import Tracer, open_scene
+
+    cam = shot.camera
+    return Tracer(open_scene(shot.scene, width=cam.width, height=cam.height))
+
+
+def _trace_all(tracer, named, samples, supersample, say, start, span):  # noqa: ANN001, ANN202
+    """Render each (name, camera): name -> RenderResult, reporting progress over [start, start + span]."""
+    out = {}
+    for i, (name, cam) in enumerate(named):
+        say(start + span * i / len(named), f"ray-tracing {name}")
+        out[name] = tracer.render(cam, samples=samples, supersample=supersample)
+    return out
+
+
+def _tonemapped(results: dict, exposure: float) -> dict:
+    from vergence.render import tonemap
+
+    return {k: np.ascontiguousarray(tonemap(r.beauty, exposure=exposure), dtype=np.float32) for k, r in results.items()}
+
+
+def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray) -> dict:
+    from vergence.metrics import dssim, psnr
+
+    covered = float(coverage.mean())
+    if not coverage.any():
+        return {"psnr": None, "dssim": None, "coverage": 0.0}
+    p = psnr(image, truth, mask=coverage)
+    return {"psnr": None if math.isinf(p) else round(p, 3), "dssim": round(dssim(image, truth, mask=coverage), 6),
+            "coverage": round(covered, 6)}  # fmt: skip
+
+
+def _sources(names: Sequence[str], rig_cams: dict, images: dict, renders: dict) -> list:
+    from vergence.synthesis import IBRSource
+
+    return [IBRSource(camera=rig_cams[n], image=images[n], depth=np.asarray(renders[n].depth, dtype=np.float64))
+            for n in names]  # fmt: skip
+
+
+def _render_quadri(shot, rig, methods, samples, supersample, say) -> ShotRender:  # noqa: ANN001
+    from vergence.render import auto_exposure
+    from vergence.synthesis import render_ibr
+
+    t0 = time.perf_counter()
+    tracer = _tracer(shot)
+    named = [(rc.name, rc.camera) for rc in rig.cameras] + [("virtual_left", rig.left), ("virtual_right", rig.right)]
+    renders = _trace_all(tracer, named, samples, supersample, say, 0.0, 0.6)
+    t_render = time.perf_counter() - t0
+    exposure = auto_exposure(renders["virtual_left"].beauty)  # one exposure for every image of the shot
+    images = _tonemapped(renders, exposure)
+    cams = dict(named)
+    truth = {"left": images["virtual_left"], "right": images["virtual_right"]}
+    results: dict = {}
+    report: dict = {}
+    for mi, method in enumerate(methods):
+        results[method], report[method] = {}, {}
+        for ei, eye in enumerate(("left", "right")):
+            say(0.6 + 0.4 * (2 * mi + ei) / (2 * len(methods)), f"{method}: synthesising the {eye} eye")
+            names = [rc.name for rc in rig.sources(eye)]
+            res = render_ibr(rig.left if eye == "left" else rig.right, _sources(names, cams, images, renders),
+                             weights=method)  # fmt: skip
+            results[method][eye] = res
+            report[method][eye] = _measure(res.image, truth[eye], res.coverage)
+    pairs = {m: {eye: results[m][eye].image for eye in ("left", "right")} for m in methods}
+    say(1.0, "done")
+    cameras = {rc.name: (images[rc.name], np.asarray(renders[rc.name].depth)) for rc in rig.cameras}
+    timing = {"ray_tracing_s": round(t_render, 2), "total_s": round(time.perf_counter() - t0, 2)}
+    return ShotRender(shot=shot, rig=rig, exposure=float(exposure), cameras=cameras, truth=truth, results=results,
+                      images=pairs, mapped_disparity=None, report={"methods": report, "timings": timing})  # fmt: skip
+
+
+def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  # noqa: ANN001
+    from vergence.render import auto_exposure
+    from vergence.synthesis import render_ibr
+
+    t0 = time.perf_counter()
+    tracer = _tracer(shot)
+    named = [(rc.name, rc.camera) for rc in rig.cameras]
+    renders = _trace_all(tracer, named, samples, supersample, say, 0.0, 0.4)
+    director = renders["director"]
+    depths = np.concatenate([np.asarray(r.depth, dtype=np.float64).ravel() for r in renders.values()])
+    depths = depths[np.isfinite(depths)]
+    if depths.size == 0:
+        raise ValueError("the rig's cameras see nothing of the scene (every depth is sky)")
+    dist = rig.distortion
+    near_real = _NEAR_FRACTION * float(depths.min())
+    near = float(dist.depth(near_real))
+    if not (math.isfinite(near) and near > 0):
+        raise ValueError(f"the distortion maps the nearest depth {near_real:g} m to {near:g} m: no curved-ray truth")
+    say(0.4, "ray-tracing the right truth through curved rays")
+    truth_right = _curved_beauty(tracer, rig.reference_right, dist.inverse, near, samples, supersample)
+    t_render = time.perf_counter() - t0
+    exposure = auto_exposure(director.beauty)
+    images = _tonemapped(renders, exposure)
+    images["truth_right"] = _tonemapped({"t": _Beauty(truth_right)}, exposure)["t"]
+    cams = dict(named)
+    truth = {"left": images["director"], "right": images["truth_right"]}
+    results: dict = {}
+    report: dict = {}
+    for mi, method in enumerate(methods):
+        say(0.7 + 0.3 * mi / len(methods), f"{method}: synthesising the right eye")
+        res = render_ibr(rig.reference_right, _sources([n for n, _ in named], cams, images, renders), weights=method,
+                         distortion=dist)  # fmt: skip
+        results[method] = {"right": res}
+        everywhere = np.ones(res.coverage.shape, dtype=bool)
+        report[method] = {"left": {**_measure(images["director"], truth["left"], everywhere), "note": "the director's image"},
+                          "right": _measure(res.image, truth["right"], res.coverage)}  # fmt: skip
+    pairs = {m: {"left": images["director"], "right": results[m]["right"].image} for m in methods}
+    say(1.0, "done")
+    cameras = {n: (images[n], np.asarray(renders[n].depth)) for n, _ in named}
+    timing = {"ray_tracing_s": round(t_render, 2), "total_s": round(time.perf_counter() - t0, 2)}
+    return ShotRender(shot=shot, rig=rig, exposure=float(exposure), cameras=cameras, truth=truth, results=results,
+                      images=pairs, mapped_disparity=mapped_disparity(rig, np.asarray(director.depth)),
+                      report={"methods": report, "timings": timing})  # fmt: skip
+
+
+@dataclass(frozen=True)
+class _Beauty:
+    beauty: np.ndarray
+
+
+def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int) -> np.ndarray:  # noqa: ANN001
+    """The curved-ray image of ``camera`` with k x k rays per pixel, averaged in linear radiance.
+
+    Traced as a camera k times finer (``fx k``, ``cx_k = k (cx + 1/2) - 1/2``: the k x k fine pixel
+    centres tile each pixel) and box-filtered, as :meth:`Tracer.render`'s ``supersample`` does.
+    """
+    from vergence.camera import Camera
+
+    K = np.array(camera.K, dtype=np.float64)
+    if k > 1:
+        K[0, 0] *= k
+        K[1, 1] *= k
+        K[0, 2] = k * (K[0, 2] + 0.5) - 0.5
+        K[1, 2] = k * (K[1, 2] + 0.5) - 0.5
+    fine = Camera(K=K, R=camera.R, t=camera.t, width=camera.width * k, height=camera.height * k)
+    res = tracer.render_curved(fine, to_world, near=near, far=math.inf, samples=samples)
+    beauty = np.asarray(res.beauty, dtype=np.float64)
+    return beauty.reshape(camera.height, k, camera.width, k, 3).mean(axis=(1, 3)).astype(np.float32)
+
+
+def mapped_disparity(rig: object, depth: np.ndarray) -> np.ndarray:
+    """The Tri-Rig left image's disparity after psi, in pixels, x_left - x_right (NaN where no surface).
+
+    S0 Eq. (1a) gives ``d = D_r(z)`` as a fraction of the window width (``d = x_r - x_l``); psi maps it
+    (S0 §6) and the window spans the director's image width, so ``x_left - x_right = -psi(D_r(z)) width``.
+    """
+    ref = rig.reference
+    z = np.asarray(depth, dtype=np.float64)
+    out = np.full(z.shape, np.nan)
+    ok = np.isfinite(z) & (z > 0)
+    d = (ref.baseline / ref.window) * (1.0 - ref.convergence / z[ok])  # S0 Eq. (1a)
+    out[ok] = -np.asarray(rig.mapping.psi(d), dtype=np.float64) * rig.director.width
+    return out.astype(np.float32)

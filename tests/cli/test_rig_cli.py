@@ -1,0 +1,158 @@
+"""``vergence rig plan|render``: the shot files of examples/shots, tiny renders, and refused input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from vergence.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+SHOTS = sorted((REPO / "examples" / "shots").glob("*.json"))
+
+
+@pytest.fixture
+def run(capsys):
+    """``vergence ARGS`` in-process: (exit code, stdout, stderr)."""
+
+    def _run(*args: str) -> tuple[int, str, str]:
+        code = main(list(args))
+        captured = capsys.readouterr()
+        return code, captured.out, captured.err
+
+    return _run
+
+
+def _tiny(kind: str, tmp_path: Path, **extra: object) -> Path:
+    """A stadium shot of 64x36 pixels (seconds to render)."""
+    camera = {"position": [0.0, 2.2, 0.0], "look_at": [0.0, 1.1, -30.0], "up": [0, 1, 0], "fov_deg": 8.0,
+              "width": 64, "height": 36}  # fmt: skip
+    if kind == "quadri":
+        data = {"rig": "quadri", "scene": "stadium", "display": "tv-55", "camera": {**camera, "position": [0.0, 1.8, -20.0], "look_at": [0.0, 1.8, -30.0]},
+                "baseline": 0.3, "convergence": 10.0, "setback": 20.0,
+                "elements": [{"name": "subject", "point": [0.0, 1.0, -30.0]},
+                             {"name": "background", "point": [0.0, 2.5, -64.0]}]}  # fmt: skip
+    else:
+        data = {"rig": "tri", "scene": "stadium", "display": "tv-55", "camera": camera,
+                "constraints": ["z=30,perceived=3,roundness=1", "z=65,perceived=20"], "reference": "round"}  # fmt: skip
+    data.update(extra)
+    path = tmp_path / f"{kind}.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_example_shots_exist():
+    names = {p.name for p in SHOTS}
+    assert {"stadium-quadri.json", "stadium-tri.json"} <= names
+
+
+@pytest.mark.parametrize("shot", SHOTS, ids=[p.stem for p in SHOTS])
+def test_plan_every_example_shot(run, shot):
+    code, out, err = run("rig", "plan", str(shot), "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["rig"] in ("quadri", "tri")
+    for cam in doc["cameras"]:
+        assert {"name", "element", "eye", "camera"} <= set(cam)
+        assert cam["eye"] in ("left", "right")
+    if doc["rig"] == "quadri":
+        assert len(doc["cameras"]) == 2 * len(doc["elements"])
+        assert set(doc["virtual"]) >= {"left", "right"}
+    else:
+        assert [c["element"] for c in doc["cameras"]] == ["director", "subject", "background"]
+        assert [c["eye"] for c in doc["cameras"]] == ["left", "right", "right"]
+        assert set(doc["reference"]) == {"baseline", "convergence", "window"}
+        assert len(doc["control_points"]) >= 2
+
+
+def test_plan_quadri_focal_ratios_follow_eq_10(run, tmp_path):
+    """f_e / f_v = (distance of the real camera to the element) / (distance of the virtual eye to it)."""
+    code, out, err = run("rig", "plan", str(_tiny("quadri", tmp_path)), "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    ratios = {c["name"]: c["fx_ratio"] for c in doc["cameras"]}
+    # virtual centre at z = -20; real plane 20 m behind (z = 0): subject at 10 m from the eyes, 30 from the plane
+    assert ratios["subject_left"] == pytest.approx(30.0 / 10.0, rel=1e-9)
+    assert ratios["background_right"] == pytest.approx(64.0 / 44.0, rel=1e-9)
+    base = {c["name"]: c["baseline"] for c in doc["cameras"]}
+    assert base["subject_left"] == pytest.approx(0.3 * 3.0, rel=1e-9)  # b_e = b_v z_e / H_e
+
+
+def test_plan_prints_a_table_and_plots(run, tmp_path):
+    plot = tmp_path / "rig.png"
+    code, out, err = run("rig", "plan", str(_tiny("tri", tmp_path)), "--plot", str(plot))
+    assert code == 0, err
+    assert "subject" in out and "background" in out and "director" in out
+    assert plot.stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        ({"colour": 3}, "colour"),
+        ({"rig": "penta"}, "rig"),
+        ({"setback": -5.0}, "setback"),  # the real camera plane in front of the virtual eyes
+        ({"elements": [{"name": "subject", "point": [0.0, 1.0, -15.0]}]}, "subject"),  # behind the virtual eyes
+    ],
+)
+def test_plan_refuses_bad_quadri_shots_in_one_line(run, tmp_path, extra, needle):
+    code, out, err = run("rig", "plan", str(_tiny("quadri", tmp_path, **extra)))
+    assert code == 2, err
+    line = err.strip()
+    assert "\n" not in line and "Traceback" not in line and needle in line
+
+
+def test_plan_refuses_constraints_psi_cannot_satisfy(run, tmp_path):
+    # the background perceived nearer than the subject
+    code, out, err = run("rig", "plan", str(_tiny("tri", tmp_path, constraints=["z=30,perceived=3,roundness=1", "z=65,perceived=2"])))
+    assert code == 2, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_plan_refuses_a_missing_field(run, tmp_path):
+    path = _tiny("tri", tmp_path)
+    data = json.loads(path.read_text())
+    del data["camera"]
+    path.write_text(json.dumps(data))
+    code, out, err = run("rig", "plan", str(path))
+    assert code == 2 and "camera" in err
+
+
+@pytest.mark.parametrize("kind", ["quadri", "tri"])
+def test_render_writes_every_file_and_a_report(run, tmp_path, kind):
+    out = tmp_path / "out"
+    code, stdout, err = run("rig", "render", str(_tiny(kind, tmp_path)), "--out", str(out), "--samples", "1", "--supersample", "1")
+    assert code == 0, err
+    report = json.loads((out / "report.json").read_text())
+    assert report["rig"] == kind
+    for method in ("ulr", "bayesian"):
+        for eye in ("left", "right"):
+            assert (out / method / f"{eye}.png").is_file()
+            assert (out / method / f"coverage_{eye}.png").is_file()
+        right = report["methods"][method]["right"]
+        assert 0.3 < right["coverage"] <= 1.0
+        assert right["psnr"] > 20.0  # a real synthesis, not noise
+        assert 0.0 <= right["dssim"] < 0.2
+    assert (out / "truth" / "left.png").is_file() and (out / "truth" / "right.png").is_file()
+    cams = sorted(p.name for p in (out / "cameras").glob("*.png"))
+    assert len(cams) == (4 if kind == "quadri" else 3)
+    assert (out / "mapped_disparity.pfm").is_file() == (kind == "tri")
+    if kind == "tri":
+        from vergence.io import read_pfm
+
+        d = read_pfm(out / "mapped_disparity.pfm")
+        assert d.shape == (36, 64) and np.isfinite(d).mean() > 0.9
+
+
+def test_render_writes_nothing_when_a_source_is_refused(run, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, err = run("rig", "render", str(_tiny("quadri", tmp_path, setback=-5.0)), "--out", str(out))
+    assert code == 2, err
+    assert not out.exists()
+
+
+def test_render_refuses_unknown_weights(run, tmp_path):
+    code, out, err = run("rig", "render", str(_tiny("tri", tmp_path)), "--out", str(tmp_path / "o"), "--weights", "mean")
+    assert code == 2 and "--weights" in err
