@@ -378,13 +378,40 @@ def test_depth_dependent_scaling_about_the_target_centre_keeps_its_image():
 
 
 def test_bayesian_weights_render_the_wall():
-    pytest.importorskip("vergence.synthesis.ibr_bayes")
     target = _cam(0.3, look=-0.2, z=1.0)
     truth, _ = _render_wall(target)
     res = render_ibr(target, _sources([-1.0, 0.0, 1.0]), weights="bayesian")
     assert res.method == "bayesian" and res.coverage.mean() > 0.9
     assert np.abs(res.image - truth)[res.coverage].max() < TEXTURE_ATOL
     assert_allclose(res.weights.sum(axis=0)[res.coverage], 1.0, atol=1e-6)
+    assert (res.weights > 0).sum(axis=0)[res.coverage].mean() > 2  # every visible source counts
+
+
+def test_bayesian_passes_iterate_on_the_current_estimate(monkeypatch):
+    """render_ibr calls bayesian_weights 1 + iterations times: first with no estimate, then with the
+    normalised blend of the previous weights; the last weights are returned, normalised."""
+    from vergence.synthesis import ibr
+
+    calls = []
+
+    def fake(estimate, proxy_points, source_pixels, visible, target, cameras, **options):
+        calls.append((None if estimate is None else estimate.copy(), options))
+        omega = np.zeros(visible.shape, dtype=np.float32)
+        omega[len(calls) % visible.shape[0]][visible[len(calls) % visible.shape[0]]] = 1.0
+        return omega
+
+    monkeypatch.setattr(ibr, "bayesian_weights", fake)
+    srcs = _sources([-1.0, 0.0, 1.0])
+    target = _cam(0.3, look=-0.2, z=1.0)
+    res = render_ibr(target, srcs, weights="bayesian", iterations=2, sigma_depth=0.05, deformation_cap=1.0)
+    assert len(calls) == 3 and calls[0][0] is None
+    assert calls[0][1] == {"distortion": None, "sigma_sensor": 1 / 255, "sigma_depth": 0.05, "deformation_cap": 1.0,
+                           "gradient_threshold": 0.01, "geometric_cap": 0.5}
+    alone = [render_ibr(target, [s], proxy_depth=res.proxy_depth).image for s in srcs]
+    assert_allclose(calls[1][0], alone[1], atol=1e-6)  # pass 1 weighted source 1 only
+    assert_allclose(calls[2][0], alone[2], atol=1e-6)
+    assert_allclose(res.image, alone[0], atol=1e-6)  # pass 3 weighted source 0 only
+    assert (res.weights[0][res.coverage] == 1).all()
 
 
 # ------------------------------------------------------------------------------ bad input
@@ -410,6 +437,7 @@ def _good():
         ({"sigma_sensor": 0.0}, ValueError, "sigma_sensor must be > 0"),
         ({"sigma_depth": np.nan}, ValueError, "sigma_depth must be finite"),
         ({"deformation_cap": -1.0}, ValueError, "deformation_cap must be > 0"),
+        ({"deformation_cap": 0.5}, ValueError, "deformation_cap must be >= 1"),
         ({"progress": "yes"}, TypeError, "progress must be a callable"),
         ({"proxy_depth": np.ones((3, 3))}, ValueError, r"proxy_depth must have shape \(36, 48\)"),
         ({"proxy_depth": np.full((36, 48), np.inf)}, ValueError, "proxy_depth must not contain inf"),

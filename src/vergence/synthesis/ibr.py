@@ -28,6 +28,14 @@ from vergence._validate import check_finite, check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.synthesis import _ibr_kernels, _ibr_stages
 from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
+from vergence.synthesis.ibr_bayes import (
+    BAYES_DEFORMATION_CAP,
+    BAYES_GEOMETRIC_CAP,
+    BAYES_GRADIENT_THRESHOLD,
+    BAYES_SIGMA_DEPTH,
+    BAYES_SIGMA_SENSOR,
+    bayesian_weights,
+)
 
 __all__ = ["IBRResult", "IBRSource", "IBR_WEIGHTS", "render_ibr"]
 
@@ -141,11 +149,11 @@ def render_ibr(
     occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
     gradient_limit: float | None = 1.0,
     iterations: int = BAYES_ITERATIONS,
-    sigma_sensor: float = 1.0 / 255.0,
-    sigma_depth: float | None = None,
-    deformation_cap: float = 20.0,
-    gradient_threshold: float = 0.01,
-    geometric_cap: float = 0.5,
+    sigma_sensor: float = BAYES_SIGMA_SENSOR,
+    sigma_depth: float = BAYES_SIGMA_DEPTH,
+    deformation_cap: float = BAYES_DEFORMATION_CAP,
+    gradient_threshold: float = BAYES_GRADIENT_THRESHOLD,
+    geometric_cap: float = BAYES_GEOMETRIC_CAP,
     progress: Callable[[float, str], object] | None = None,
 ) -> IBRResult:
     """Render the ``target`` view from ``sources`` by image-based rendering (ULR or Bayesian weights).
@@ -180,8 +188,10 @@ def render_ibr(
     iterations : int
         Bayesian: re-weightings on the current estimate after the first pass, >= 0.
     sigma_sensor, sigma_depth, deformation_cap, gradient_threshold, geometric_cap : float
-        Bayesian: passed to :func:`vergence.synthesis.ibr_bayes.bayesian_weights` (see there for
-        meanings and units); ``sigma_depth=None`` uses that function's default.
+        Bayesian: passed to :func:`~vergence.synthesis.bayesian_weights` (see there for meanings
+        and units): sensor noise (colour units, 1/255), relative depth uncertainty ``dz / z``
+        (0.01), cap of the resolution weight ``|det D tau|^-1`` (>= 1; 20, the authors' choice, 1
+        their other variant), cap of ``|grad u|`` (luminance per pixel, 0.01), cap of sigma_geom (0.5).
     progress : callable(fraction, message), optional
         Told about each stage.
 
@@ -259,12 +269,13 @@ def render_ibr(
         raise ValueError(f"iterations must be >= 0; got {iterations}")
     bayes = {
         "sigma_sensor": check_positive("sigma_sensor", sigma_sensor),
+        "sigma_depth": check_positive("sigma_depth", sigma_depth),
         "deformation_cap": check_positive("deformation_cap", deformation_cap),
         "gradient_threshold": check_positive("gradient_threshold", gradient_threshold),
         "geometric_cap": check_positive("geometric_cap", geometric_cap),
     }
-    if sigma_depth is not None:
-        bayes["sigma_depth"] = check_positive("sigma_depth", sigma_depth)
+    if bayes["deformation_cap"] < 1.0:
+        raise ValueError(f"deformation_cap must be >= 1; got {bayes['deformation_cap']:g}")
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
     say = progress or (lambda _f, _m: None)
@@ -285,8 +296,6 @@ def render_ibr(
                                  ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, w)
         image, coverage = _ibr_stages.blend(w, visible, colours)
     else:
-        from vergence.synthesis.ibr_bayes import bayesian_weights
-
         cameras = [s.camera for s in srcs]
         estimate = None
         for it in range(iterations + 1):
