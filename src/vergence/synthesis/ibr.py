@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import check_finite, check_positive, check_positive_int
+from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.synthesis import _ibr_kernels, _ibr_stages
 from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
@@ -168,8 +168,9 @@ def render_ibr(
         Blending weights: Unstructured Lumigraph Rendering (Buehler et al. 2001) or the Bayesian
         weights of Pujades et al. 2014 (S0 ref. [33]).
     proxy_depth : (h, w) array, optional
-        The target's camera-frame depth of the geometric proxy (metres, > 0, NaN = none). Default:
-        every source's depth forward-warped into the target (the nearest surface wins).
+        The target's camera-frame depth of the geometric proxy (metres, > 0, NaN = none; in the
+        distorted world under a distortion). Default: every source's depth forward-warped into the
+        target (the nearest surface wins).
     distortion : object, optional
         A world distortion ``phi`` (e.g. ``vergence.rigs.WorldDistortion``) with vectorised
         ``forward(p)``, ``inverse(q)`` ((..., 3) -> (..., 3), NaN where undefined) and
