@@ -123,6 +123,7 @@ def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray)
     kth = np.take_along_axis(np.sort(pens, axis=0), np.maximum(kk - 1, 0)[None], axis=0)[0]
     with np.errstate(invalid="ignore", divide="ignore"):
         wt = np.where((rank < kk) & np.isfinite(pens), np.maximum(0.0, 1.0 - pens / (ULR_THRESHOLD_SCALE * kth)), 0.0)
+    wt = np.where((count < ULR_K) & np.isfinite(pens), 1.0, wt)  # fewer than k visible: equal weights
     wt = wt.astype(np.float32)
     total = wt.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -99,7 +99,8 @@ def _ref_sample(points, cam, image, depth, tol):
 
 
 def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
-    """Python loop: ULR penalties, the k best (ties to the lower index), threshold, weights."""
+    """Python loop: ULR penalties, the k best (ties to the lower index), threshold, weights; fewer
+    than k visible: all of them, weight 1."""
     s, h, w = visible.shape
     out = np.zeros((s, h, w))
     for y in range(h):
@@ -117,6 +118,10 @@ def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
                     pens.append((alpha * max(ULR_PENALTY_FLOOR, ang) + beta * max(ULR_PENALTY_FLOOR, res), i))
             best = sorted(pens)[:k]
             if not best:
+                continue
+            if len(best) < k:  # fewer visible sources than k: equal weights
+                for _, i in best:
+                    out[i, y, x] = 1.0
                 continue
             thresh = ULR_THRESHOLD_SCALE * best[-1][0]
             for pen, i in best:
@@ -547,3 +552,18 @@ def test_forward_proxy_keeps_the_nearest_surface_of_sources_of_several_sizes(gra
     # Mesh: exact away from the square's edges; point splats: within the depth of one source pixel.
     close = np.isclose(res.proxy_depth[known], depth[known], rtol=1e-9 if gradient_limit else 0.02)
     assert close.mean() > 0.95
+
+
+def test_fewer_visible_sources_than_k_blend_equally():
+    """Two of three sources see the point: with k = 4 both get weight 1 (SIBR's padding in the limit);
+    with k = 2 the threshold is the second penalty, which gets 1 - 1 / 1.0000001."""
+    points = np.array([[[0.0, 0.0, 10.0]]])
+    centres = np.array([[-1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    visible = np.array([True, True, False]).reshape(3, 1, 1)
+    out = np.empty((3, 1, 1), dtype=np.float32)
+    args = (np.zeros((0, 0, 3)), np.zeros(3), centres, visible)
+    _ibr_kernels.ulr_weights(points, *args, 4, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
+    assert out.ravel().tolist() == [1.0, 1.0, 0.0]
+    _ibr_kernels.ulr_weights(points, *args, 2, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
+    pen = [math.atan2(abs(c[0]), 10.0) + 0.1 * max(ULR_PENALTY_FLOOR, 1 - 10.0 / math.hypot(c[0], 10.0)) for c in centres[:2]]
+    assert_allclose(out.ravel(), [1 - pen[0] / (ULR_THRESHOLD_SCALE * pen[1]), 1 - 1 / ULR_THRESHOLD_SCALE, 0.0], rtol=1e-6)

@@ -148,9 +148,10 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
 
     Desired ray ``r = rays[y, x]`` (``rays`` of shape ``(0, 0, 3)``: ``r = p - centre``); for each
     visible source ``i``: ``v = p - C_i``, ``ang = acos(v.r / |v||r|)``, ``res = (|v| - |r|) / |v|``,
-    ``penalty = alpha max(floor, ang) + beta max(floor, res)``. The ``min(k, m)`` best of the ``m``
+    ``penalty = alpha max(floor, ang) + beta max(floor, res)``. The ``k`` best of the ``m``
     visible sources (ties to the lower index) form the set; ``thresh = scale * (their worst
-    penalty)``; ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere.
+    penalty)``; ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere. With ``m < k``
+    visible sources, each gets weight 1.
     """
     s_count = centres.shape[0]
     h, w = points.shape[0], points.shape[1]
@@ -185,7 +186,12 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
                 m += 1
             if m == 0:
                 continue
-            kk = min(k, m)
+            if m < k:  # SIBR's padding with penalties of 1e5, in the limit: equal weights
+                for i in range(s_count):
+                    if pen[i] < np.inf:
+                        out[i, y, x] = 1.0
+                continue
+            kk = k
             thresh = 0.0
             for i in range(s_count):
                 rank[i] = s_count

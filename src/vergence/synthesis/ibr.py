@@ -219,10 +219,10 @@ def render_ibr(
         w_i       = max(0, 1 - penalty_i / thresh) for the k best, 0 otherwise;  normalised.
 
     The k-th source has weight ~0, so a source enters or leaves the set continuously. With
-    ``m < k`` visible sources the threshold is the largest visible penalty (``k = m``): a lone
-    visible source gets weight 1. (SIBR instead pads the set with penalties of 1e5, which blends
-    fewer than k sources almost equally.) Without distortion ``r = p - D`` (``D`` the target
-    centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the distorted proxy point and ``c`` the
+    ``m < k`` visible sources, they blend with equal weights (a lone one gets weight 1): SIBR pads
+    the set with penalties of 1e5, so its weights ``1 - penalty / 1e5`` are equal to 1e-4; this is
+    the limit. Pass ``k = m`` to weigh m sources by their penalties. Without distortion
+    ``r = p - D`` (``D`` the target centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the distorted proxy point and ``c`` the
     target centre, the desired ray is undistorted by the Jacobian, ``r = D phi(p)^-1 (p' - c)``,
     and ``|r|`` is the desired distance of the resolution term: both are exact for an affine
     ``phi`` (then ``r = p - phi^-1(c)``), and first-order otherwise.
@@ -238,18 +238,20 @@ def render_ibr(
     Examples
     --------
     A wall 2 m away seen by two cameras 20 cm apart (grey 0.45 and 0.55), rendered halfway between
-    them: with two visible sources the worse one gets weight 0, except where they tie (the centre).
+    them; each edge pixel is seen by one camera only. Two visible sources, fewer than k = 4: equal
+    weights. With k = 2 the worse of the two gets weight 0, except where they tie (the centre).
 
     >>> from vergence.camera import look_at
     >>> def cam(x):
-    ...     return look_at([x, 0, 0], [x, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=1)
-    >>> grey = np.full((1, 3, 3), 0.5, dtype=np.float32)
-    >>> sources = [IBRSource(cam(x), grey + x / 2, np.full((1, 3), 2.0)) for x in (-0.1, 0.1)]
+    ...     return look_at([x, 0, 0], [x, 0, 1], [0, -1, 0], fov_deg=90, width=5, height=1)
+    >>> grey = np.full((1, 5, 3), 0.5, dtype=np.float32)
+    >>> sources = [IBRSource(cam(x), grey + x / 2, np.full((1, 5), 2.0)) for x in (-0.1, 0.1)]
     >>> res = render_ibr(cam(0.0), sources)
-    >>> res.coverage.tolist(), res.weights[0].round(3).tolist()
-    ([[True, True, True]], [[1.0, 0.5, 0.0]])
-    >>> res.image[..., 0].astype(float).round(3).tolist()
-    [[0.45, 0.5, 0.55]]
+    >>> res.coverage.all(), res.weights[0].round(3).tolist()
+    (np.True_, [[1.0, 0.5, 0.5, 0.5, 0.0]])
+    >>> res = render_ibr(cam(0.0), sources, k=2)
+    >>> res.weights[0].round(3).tolist(), res.image[..., 0].astype(float).round(3).tolist()
+    ([[1.0, 1.0, 0.5, 0.0, 0.0]], [[0.45, 0.45, 0.5, 0.55, 0.55]])
     """
     target = check_camera("target", target)
     srcs = _check_sources(sources)
