@@ -9,6 +9,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import Camera
@@ -190,6 +192,40 @@ def test_fronto_parallel_plane_gives_the_squared_focal_ratio(f_source):
     assert_allclose(w * VAR_S, (f_source / 60.0) ** 2, rtol=F32_RTOL)  # |det D tau|^-1 = (f_s / f_t)^2
 
 
+@settings(max_examples=25, deadline=None)
+@given(
+    f_source=st.floats(20.0, 400.0),
+    offset=st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)),
+    depth=st.floats(1.0, 50.0),
+)
+def test_fronto_parallel_plane_any_focal_and_offset(f_source, offset, depth):
+    target = _camera([0, 0, 0], f=60.0, width=8, height=6)
+    # principal point chosen so that the source sees the whole target image
+    ratio = f_source / 60.0
+    pp = (3.5 * ratio + f_source * offset[0] / depth + 2, 2.5 * ratio + f_source * offset[1] / depth + 2)
+    source = _camera([offset[0], offset[1], 0.0], f=f_source, width=int(8 * ratio) + 5, height=int(6 * ratio) + 5, pp=pp)
+    points, pixels, visible = _observe(target, [source], np.full((6, 8), depth))
+    assert visible.all()
+    w = bayesian_weights(None, points, pixels, visible, target, [source])
+    assert_allclose(w * VAR_S, min(max(ratio**2, BAYES_MIN_DEFORMATION), 20.0), rtol=F32_RTOL)
+
+
+def test_weights_do_not_change_when_scene_and_rig_scale_together():
+    target = _camera([0.1, 0, 0])
+    sources = [_camera([0, 0, 0], f=50.0), _camera([0.5, 0.1, -0.2], f=70.0, width=30)]
+    stripes = _stripes("x")
+    base = None
+    for k in (1.0, 7.5):
+        scaled_t = _camera(k * np.array([0.1, 0, 0]))
+        scaled = [_camera(k * c.center, f=c.K[0, 0], width=c.width) for c in sources]
+        points, pixels, visible = _observe(scaled_t, scaled, k * _plane_depth(target, [0.3, 0.1, 1.0], 4.0))
+        w = bayesian_weights(stripes, points, pixels, visible, scaled_t, scaled, sigma_depth=0.1)
+        if base is None:
+            base = w
+        assert_allclose(w, base, rtol=1e-4)  # sigma_depth is relative: no metre in the weights
+    assert (base > 0).sum() > 300
+
+
 def test_slanted_plane_matches_the_homography_jacobian():
     target = _camera([0, 0, 0], f=60.0)
     source = _camera([0.8, 0.2, 0.3], f=70.0, width=40, height=30, R=_rot_y(-0.15))
@@ -277,6 +313,19 @@ def test_larger_baseline_costs_weight_only_along_the_epipolar_direction():
         expected = 1.0 / (VAR_S + (sigma_depth * g * 60.0 * b / z) ** 2)
         assert_allclose(along[i], expected, rtol=F32_RTOL)
     assert_allclose(across * VAR_S, 1.0, rtol=F32_RTOL)  # texture along y, baseline along x
+
+
+def test_geometric_cap_and_grey_estimates():
+    target = _camera([0, 0, 0])
+    sources = [_camera([b, 0, 0], width=32, pp=(16.5, 8.5)) for b in (0.1, 0.3)]
+    points, pixels, visible = _observe(target, sources, np.full((18, 24), 5.0))
+    stripes = _stripes("x")
+    huge = bayesian_weights(stripes, points, pixels, visible, target, sources, sigma_depth=1e4, geometric_cap=0.2)
+    gx, _ = _gradient_reference(stripes)
+    assert_allclose(huge[:, np.abs(gx) > 1e-3], 1 / (VAR_S + 0.2**2), rtol=F32_RTOL)  # sigma_geom capped at 0.2
+    grey = np.ascontiguousarray(stripes[..., 0])  # luminance of a grey RGB image is its value
+    rgb = bayesian_weights(stripes, points, pixels, visible, target, sources, sigma_depth=0.05)
+    assert_allclose(bayesian_weights(grey, points, pixels, visible, target, sources, sigma_depth=0.05), rgb, rtol=F32_RTOL)
 
 
 def test_invisible_sources_get_exactly_zero_and_the_output_is_finite_float32():
@@ -444,7 +493,7 @@ def _call(**changes):
         (dict(geometric_cap=float("inf")), ValueError, "geometric_cap must be finite"),
         (dict(deformation_cap=0.5), ValueError, "deformation_cap must be >= 1"),
         (dict(deformation_cap=float("inf")), ValueError, "deformation_cap must be finite"),
-        (dict(estimate=np.full((5, 6, 3), 0.5, np.float32), distortion=object()), TypeError, "distortion must have callable forward"),
+        (dict(distortion=object()), TypeError, "distortion must have callable forward"),
     ],
 )
 def test_bad_inputs_are_refused_by_name(changes, error, match):

@@ -103,7 +103,8 @@ def bayesian_weights(
     distortion : object or None
         World distortion (S0 §6) with vectorised ``forward(points)`` (``phi``, (..., 3) -> (..., 3))
         and ``jacobian(points)`` (``D phi`` at undistorted points, (..., 3, 3)); the target camera
-        lives in the distorted world, ``proxy_points`` and the sources in the real one.
+        lives in the distorted world, ``proxy_points`` and the sources in the real one. It enters the
+        geometric term only, so it is not called when ``estimate`` is None.
     sigma_sensor : float
         Sensor noise sigma_s, colour units (> 0).
     sigma_depth : float
@@ -158,8 +159,16 @@ def bayesian_weights(
     (``grad u = 0``) give every visible source ``1 / sigma_s^2``; a larger baseline lowers a
     weight only where the texture runs along the epipolar direction.
 
+    *Unit of sigma_depth.* A relative depth error ``dz_i / z_i`` along source i's ray, so the
+    weights do not change when scene and rig are scaled together. The authors' light-field code
+    perturbs the disparity d (pixels per unit of view spacing) by ``sigma_d = 0.1``; since
+    ``d tau_i / d(log z_i) = -d (c - c_i)`` there, that is ``sigma_depth = sigma_d / |d|``, 1 % at
+    10 px of disparity per view (:data:`BAYES_SIGMA_DEPTH`).
+
     The luminance gradient is the standard 3x3 Sobel/8 (the authors' ``vtv_sr_compute_gradient``
-    reads row y - 1 where it means y + 1, which zeroes its vertical component).
+    reads row y - 1 where it means y + 1, which zeroes its vertical component). Where the estimate
+    is 0 outside the covered pixels (``render_ibr``'s image), the edge of the coverage is a steep
+    gradient like any other, capped at ``gradient_threshold``.
 
     Examples
     --------
@@ -198,6 +207,8 @@ def bayesian_weights(
         raise ValueError(f"deformation_cap must be >= 1; got {cap:g}")
     g_thr = check_positive("gradient_threshold", gradient_threshold)
     g_cap = check_positive("geometric_cap", geometric_cap)
+    if distortion is not None and not (callable(getattr(distortion, "forward", None)) and callable(getattr(distortion, "jacobian", None))):
+        raise TypeError(f"distortion must have callable forward and jacobian methods; got {type(distortion).__name__}")
 
     has_grad = estimate is not None
     gx = gy = np.zeros((1, 1))
@@ -255,15 +266,11 @@ def _check_visible(visible: object, shape: tuple[int, ...]) -> np.ndarray:
 
 def _distort(distortion: object, points: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``phi(p)`` (h, w, 3) and ``D phi(p)`` (h, w, 3, 3) at the known proxy points (NaN elsewhere)."""
-    forward = getattr(distortion, "forward", None)
-    jacobian = getattr(distortion, "jacobian", None)
-    if not (callable(forward) and callable(jacobian)):
-        raise TypeError(f"distortion must have callable forward and jacobian methods; got {type(distortion).__name__}")
     p = points[known]
-    q = np.asarray(forward(p), dtype=np.float64)
+    q = np.asarray(distortion.forward(p), dtype=np.float64)  # type: ignore[attr-defined]
     if q.shape != p.shape:
         raise ValueError(f"distortion.forward must return shape {p.shape} for points {p.shape}; got {q.shape}")
-    d = np.asarray(jacobian(p), dtype=np.float64)
+    d = np.asarray(distortion.jacobian(p), dtype=np.float64)  # type: ignore[attr-defined]
     if d.shape != p.shape + (3,):
         raise ValueError(f"distortion.jacobian must return shape {p.shape + (3,)} for points {p.shape}; got {d.shape}")
     mapped = np.full(points.shape, np.nan)
