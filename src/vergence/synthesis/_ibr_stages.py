@@ -153,7 +153,6 @@ def blend(w: np.ndarray, visible: np.ndarray, colours: np.ndarray) -> tuple[np.n
     return image, coverage
 
 
-
 def call_distortion(fn: Callable, name: str, points: np.ndarray, *, shape: tuple | None = None) -> np.ndarray:
     """``fn(points)`` as float64, checked to have ``shape`` (default: the points' shape)."""
     out = np.asarray(fn(points), dtype=np.float64)
