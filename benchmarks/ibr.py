@@ -30,8 +30,8 @@ import numpy as np  # noqa: E402
 
 from vergence.camera import Camera, look_at  # noqa: E402
 from vergence.synthesis import IBRSource, render_ibr  # noqa: E402
+from vergence.synthesis._ibr_stages import FOV_MARGIN_PX  # noqa: E402
 from vergence.synthesis.ibr import (  # noqa: E402
-    FOV_MARGIN_PX,
     IBR_OCCLUSION_TOLERANCE,
     ULR_ALPHA,
     ULR_BETA,
@@ -123,6 +123,7 @@ def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray)
     kth = np.take_along_axis(np.sort(pens, axis=0), np.maximum(kk - 1, 0)[None], axis=0)[0]
     with np.errstate(invalid="ignore", divide="ignore"):
         wt = np.where((rank < kk) & np.isfinite(pens), np.maximum(0.0, 1.0 - pens / (ULR_THRESHOLD_SCALE * kth)), 0.0)
+    wt = np.where((count < ULR_K) & np.isfinite(pens), 1.0, wt)  # fewer than k visible: equal weights
     wt = wt.astype(np.float32)
     total = wt.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):

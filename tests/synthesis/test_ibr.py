@@ -12,7 +12,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import Camera, look_at
 from vergence.synthesis import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
 from vergence.synthesis import _ibr_kernels
-from vergence.synthesis.ibr import FOV_MARGIN_PX, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
+from vergence.synthesis._ibr_stages import FOV_MARGIN_PX
+from vergence.synthesis.ibr import ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
 
 PLANE_Z = 10.0  # the textured wall of the analytic scenes, metres
 # Linear interpolation error of the texture below between source pixels h = 0.19 m apart on the
@@ -98,7 +99,8 @@ def _ref_sample(points, cam, image, depth, tol):
 
 
 def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
-    """Python loop: ULR penalties, the k best (ties to the lower index), threshold, weights."""
+    """Python loop: ULR penalties, the k best (ties to the lower index), threshold, weights; fewer
+    than k visible: all of them, weight 1."""
     s, h, w = visible.shape
     out = np.zeros((s, h, w))
     for y in range(h):
@@ -116,6 +118,10 @@ def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
                     pens.append((alpha * max(ULR_PENALTY_FLOOR, ang) + beta * max(ULR_PENALTY_FLOOR, res), i))
             best = sorted(pens)[:k]
             if not best:
+                continue
+            if len(best) < k:  # fewer visible sources than k: equal weights
+                for _, i in best:
+                    out[i, y, x] = 1.0
                 continue
             thresh = ULR_THRESHOLD_SCALE * best[-1][0]
             for pen, i in best:
@@ -377,13 +383,40 @@ def test_depth_dependent_scaling_about_the_target_centre_keeps_its_image():
 
 
 def test_bayesian_weights_render_the_wall():
-    pytest.importorskip("vergence.synthesis.ibr_bayes")
     target = _cam(0.3, look=-0.2, z=1.0)
     truth, _ = _render_wall(target)
     res = render_ibr(target, _sources([-1.0, 0.0, 1.0]), weights="bayesian")
     assert res.method == "bayesian" and res.coverage.mean() > 0.9
     assert np.abs(res.image - truth)[res.coverage].max() < TEXTURE_ATOL
     assert_allclose(res.weights.sum(axis=0)[res.coverage], 1.0, atol=1e-6)
+    assert (res.weights > 0).sum(axis=0)[res.coverage].mean() > 2  # every visible source counts
+
+
+def test_bayesian_passes_iterate_on_the_current_estimate(monkeypatch):
+    """render_ibr calls bayesian_weights 1 + iterations times: first with no estimate, then with the
+    normalised blend of the previous weights; the last weights are returned, normalised."""
+    from vergence.synthesis import ibr
+
+    calls = []
+
+    def fake(estimate, proxy_points, source_pixels, visible, target, cameras, **options):
+        calls.append((None if estimate is None else estimate.copy(), options))
+        omega = np.zeros(visible.shape, dtype=np.float32)
+        omega[len(calls) % visible.shape[0]][visible[len(calls) % visible.shape[0]]] = 1.0
+        return omega
+
+    monkeypatch.setattr(ibr, "bayesian_weights", fake)
+    srcs = _sources([-1.0, 0.0, 1.0])
+    target = _cam(0.3, look=-0.2, z=1.0)
+    res = render_ibr(target, srcs, weights="bayesian", iterations=2, sigma_depth=0.05, deformation_cap=1.0)
+    assert len(calls) == 3 and calls[0][0] is None
+    assert calls[0][1] == {"distortion": None, "sigma_sensor": 1 / 255, "sigma_depth": 0.05, "deformation_cap": 1.0,
+                           "gradient_threshold": 0.01, "geometric_cap": 0.5}
+    alone = [render_ibr(target, [s], proxy_depth=res.proxy_depth).image for s in srcs]
+    assert_allclose(calls[1][0], alone[1], atol=1e-6)  # pass 1 weighted source 1 only
+    assert_allclose(calls[2][0], alone[2], atol=1e-6)
+    assert_allclose(res.image, alone[0], atol=1e-6)  # pass 3 weighted source 0 only
+    assert (res.weights[0][res.coverage] == 1).all()
 
 
 # ------------------------------------------------------------------------------ bad input
@@ -409,6 +442,7 @@ def _good():
         ({"sigma_sensor": 0.0}, ValueError, "sigma_sensor must be > 0"),
         ({"sigma_depth": np.nan}, ValueError, "sigma_depth must be finite"),
         ({"deformation_cap": -1.0}, ValueError, "deformation_cap must be > 0"),
+        ({"deformation_cap": 0.5}, ValueError, "deformation_cap must be >= 1"),
         ({"progress": "yes"}, TypeError, "progress must be a callable"),
         ({"proxy_depth": np.ones((3, 3))}, ValueError, r"proxy_depth must have shape \(36, 48\)"),
         ({"proxy_depth": np.full((36, 48), np.inf)}, ValueError, "proxy_depth must not contain inf"),
@@ -501,3 +535,35 @@ def test_backproject_and_project_depth_match_the_camera():
     assert (z[known] < 0).any() and np.isnan(zt[~known]).all()  # some points behind the target
     assert_allclose(zt[known], z[known], rtol=1e-12, atol=1e-12)
     assert_allclose(np.stack([u, v], axis=-1)[known], pix[known], rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize("gradient_limit", [None, 1.0])
+def test_forward_proxy_keeps_the_nearest_surface_of_sources_of_several_sizes(gradient_limit):
+    """Sources of two sizes (drawn in two batches) and point splats: the proxy is the nearest surface."""
+    occluder = (0.3, 5.0, 0.6)
+    srcs = _sources([-0.5, 0.5], occluder=occluder)
+    big = _cam(0.0, width=96, height=72)
+    srcs.append(IBRSource(big, *_render_wall(big, occluder)))
+    target = _cam(0.2, look=0.0)
+    _, depth = _render_wall(target, occluder)
+    res = render_ibr(target, srcs, gradient_limit=gradient_limit)
+    known = ~np.isnan(res.proxy_depth)
+    assert known.mean() > 0.9
+    # Mesh: exact away from the square's edges; point splats: within the depth of one source pixel.
+    close = np.isclose(res.proxy_depth[known], depth[known], rtol=1e-9 if gradient_limit else 0.02)
+    assert close.mean() > 0.95
+
+
+def test_fewer_visible_sources_than_k_blend_equally():
+    """Two of three sources see the point: with k = 4 both get weight 1 (SIBR's padding in the limit);
+    with k = 2 the threshold is the second penalty, which gets 1 - 1 / 1.0000001."""
+    points = np.array([[[0.0, 0.0, 10.0]]])
+    centres = np.array([[-1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    visible = np.array([True, True, False]).reshape(3, 1, 1)
+    out = np.empty((3, 1, 1), dtype=np.float32)
+    args = (np.zeros((0, 0, 3)), np.zeros(3), centres, visible)
+    _ibr_kernels.ulr_weights(points, *args, 4, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
+    assert out.ravel().tolist() == [1.0, 1.0, 0.0]
+    _ibr_kernels.ulr_weights(points, *args, 2, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
+    pen = [math.atan2(abs(c[0]), 10.0) + 0.1 * max(ULR_PENALTY_FLOOR, 1 - 10.0 / math.hypot(c[0], 10.0)) for c in centres[:2]]
+    assert_allclose(out.ravel(), [1 - pen[0] / (ULR_THRESHOLD_SCALE * pen[1]), 1 - 1 / ULR_THRESHOLD_SCALE, 0.0], rtol=1e-6)

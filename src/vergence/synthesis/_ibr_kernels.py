@@ -13,10 +13,12 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
+from vergence.synthesis._kernels import splat_mesh
+
+__all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "splat_sources", "ulr_weights"]
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, error_model="numpy")
 def backproject(depth, Kinv, R, t, out):  # pragma: no cover - compiled
     """World points ``R^T (z K^-1 (x, y, 1) - t)`` of a depth map (``Camera.backproject_depth``);
     NaN where the depth is NaN."""
@@ -36,7 +38,7 @@ def backproject(depth, Kinv, R, t, out):  # pragma: no cover - compiled
                 out[y, x, c] = R[0, c] * a0 + R[1, c] * a1 + R[2, c] * a2
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, error_model="numpy")
 def project_depth(depth, Kinv, R, t, Kt, Rt, tt, u, v, zt):  # pragma: no cover - compiled
     """A source depth map lifted to world points (as :func:`backproject`) and projected into the
     target ``(Kt, Rt, tt)``: flat target columns ``u``, rows ``v`` (NaN when not in front) and
@@ -66,7 +68,7 @@ def project_depth(depth, Kinv, R, t, Kt, Rt, tt, u, v, zt):  # pragma: no cover 
                 v[i] = (Kt[1, 1] * qy + Kt[1, 2] * qz) / qz
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, error_model="numpy")
 def sample_source(points, K, R, t, image, depth, tol, margin, pixels, visible, colours):  # pragma: no cover - compiled
     """Project every proxy point into one source, test field of view and visibility, sample its colour.
 
@@ -140,15 +142,16 @@ def sample_source(points, K, R, t, image, depth, tol, margin, pixels, visible, c
                 colours[y, x, 2] = acc2 / total
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, error_model="numpy")
 def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, scale, out):  # pragma: no cover - compiled
     """Unnormalised ULR weights (Buehler et al. 2001 Sec. 4; SIBR ``ulr_v3.frag``) of every source.
 
     Desired ray ``r = rays[y, x]`` (``rays`` of shape ``(0, 0, 3)``: ``r = p - centre``); for each
     visible source ``i``: ``v = p - C_i``, ``ang = acos(v.r / |v||r|)``, ``res = (|v| - |r|) / |v|``,
-    ``penalty = alpha max(floor, ang) + beta max(floor, res)``. The ``min(k, m)`` best of the ``m``
+    ``penalty = alpha max(floor, ang) + beta max(floor, res)``. The ``k`` best of the ``m``
     visible sources (ties to the lower index) form the set; ``thresh = scale * (their worst
-    penalty)``; ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere.
+    penalty)``; ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere. With ``m < k``
+    visible sources, each gets weight 1.
     """
     s_count = centres.shape[0]
     h, w = points.shape[0], points.shape[1]
@@ -183,7 +186,12 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
                 m += 1
             if m == 0:
                 continue
-            kk = min(k, m)
+            if m < k:  # SIBR's padding with penalties of 1e5, in the limit: equal weights
+                for i in range(s_count):
+                    if pen[i] < np.inf:
+                        out[i, y, x] = 1.0
+                continue
+            kk = k
             thresh = 0.0
             for i in range(s_count):
                 rank[i] = s_count
@@ -201,7 +209,7 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
                     out[i, y, x] = max(0.0, 1.0 - pen[i] / thresh)
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, error_model="numpy")
 def normalise_blend(weights, visible, colours, image, coverage):  # pragma: no cover - compiled
     """Normalise the weights of the visible sources per pixel (in place) and blend their colours.
 
@@ -232,3 +240,21 @@ def normalise_blend(weights, visible, colours, image, coverage):  # pragma: no c
                 for i in range(s_count):
                     acc += weights[i, y, x] * colours[i, y, x, c]
                 image[y, x, c] = acc
+
+
+@nb.njit(cache=True, parallel=True, error_model="numpy")
+def splat_sources(u, v, zt, link_r, link_d, max_side, zbuf):  # pragma: no cover - compiled
+    """Mesh z-buffer of several same-size sources at once, one source per parallel task.
+
+    Source ``i`` (flat target positions ``u[i], v[i]``, depths ``zt[i]``, links ``link_r[i],
+    link_d[i]``) is drawn by ``_kernels.splat_mesh`` (z-buffer order) into its own ``zbuf[i]``,
+    which must start at +inf; the caller takes the minimum over the sources.
+    """
+    n, npts = u.shape
+    h, w = zbuf.shape[1], zbuf.shape[2]
+    for i in nb.prange(n):
+        order = np.arange(npts)
+        colours = np.zeros((npts, 0), dtype=np.float32)
+        out = np.zeros((h, w, 0), dtype=np.float32)
+        painted = np.zeros((h, w), dtype=np.bool_)
+        splat_mesh(order, u[i], v[i], zt[i], link_r[i], link_d[i], colours, max_side, True, out, zbuf[i], painted)

@@ -24,10 +24,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence._validate import check_finite, check_positive, check_positive_int
+from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.synthesis import _ibr_kernels, _kernels, _stages3d
+from vergence.synthesis import _ibr_kernels, _ibr_stages
 from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
+from vergence.synthesis.ibr_bayes import (
+    BAYES_DEFORMATION_CAP,
+    BAYES_GEOMETRIC_CAP,
+    BAYES_GRADIENT_THRESHOLD,
+    BAYES_SIGMA_DEPTH,
+    BAYES_SIGMA_SENSOR,
+    bayesian_weights,
+)
 
 __all__ = ["IBRResult", "IBRSource", "IBR_WEIGHTS", "render_ibr"]
 
@@ -49,10 +57,6 @@ ULR_THRESHOLD_SCALE = 1.0000001
 # projection (within half a pixel), so a surface whose depth changes by up to 2 % per source pixel
 # still passes.
 IBR_OCCLUSION_TOLERANCE = 0.01
-# Field of view: a proxy point must project within the hull of the source's pixel centres (where a
-# bilinear sample needs no extrapolation), widened by this many pixels: the round-off of a
-# projection (~1e-12 px) must not drop the border pixels of a source seen from its own centre.
-FOV_MARGIN_PX = 1e-6
 # Bayesian weights: re-weightings on the current estimate after the first pass (which has no image
 # gradient); the weights of Pujades et al. 2014 change little after a few passes.
 BAYES_ITERATIONS = 3
@@ -145,11 +149,11 @@ def render_ibr(
     occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
     gradient_limit: float | None = 1.0,
     iterations: int = BAYES_ITERATIONS,
-    sigma_sensor: float = 1.0 / 255.0,
-    sigma_depth: float | None = None,
-    deformation_cap: float = 20.0,
-    gradient_threshold: float = 0.01,
-    geometric_cap: float = 0.5,
+    sigma_sensor: float = BAYES_SIGMA_SENSOR,
+    sigma_depth: float = BAYES_SIGMA_DEPTH,
+    deformation_cap: float = BAYES_DEFORMATION_CAP,
+    gradient_threshold: float = BAYES_GRADIENT_THRESHOLD,
+    geometric_cap: float = BAYES_GEOMETRIC_CAP,
     progress: Callable[[float, str], object] | None = None,
 ) -> IBRResult:
     """Render the ``target`` view from ``sources`` by image-based rendering (ULR or Bayesian weights).
@@ -164,8 +168,9 @@ def render_ibr(
         Blending weights: Unstructured Lumigraph Rendering (Buehler et al. 2001) or the Bayesian
         weights of Pujades et al. 2014 (S0 ref. [33]).
     proxy_depth : (h, w) array, optional
-        The target's camera-frame depth of the geometric proxy (metres, > 0, NaN = none). Default:
-        every source's depth forward-warped into the target (the nearest surface wins).
+        The target's camera-frame depth of the geometric proxy (metres, > 0, NaN = none; in the
+        distorted world under a distortion). Default: every source's depth forward-warped into the
+        target (the nearest surface wins).
     distortion : object, optional
         A world distortion ``phi`` (e.g. ``vergence.rigs.WorldDistortion``) with vectorised
         ``forward(p)``, ``inverse(q)`` ((..., 3) -> (..., 3), NaN where undefined) and
@@ -184,8 +189,10 @@ def render_ibr(
     iterations : int
         Bayesian: re-weightings on the current estimate after the first pass, >= 0.
     sigma_sensor, sigma_depth, deformation_cap, gradient_threshold, geometric_cap : float
-        Bayesian: passed to :func:`vergence.synthesis.ibr_bayes.bayesian_weights` (see there for
-        meanings and units); ``sigma_depth=None`` uses that function's default.
+        Bayesian: passed to :func:`~vergence.synthesis.bayesian_weights` (see there for meanings
+        and units): sensor noise (colour units, 1/255), relative depth uncertainty ``dz / z``
+        (0.01), cap of the resolution weight ``|det D tau|^-1`` (>= 1; 20, the authors' choice, 1
+        their other variant), cap of ``|grad u|`` (luminance per pixel, 0.01), cap of sigma_geom (0.5).
     progress : callable(fraction, message), optional
         Told about each stage.
 
@@ -212,10 +219,10 @@ def render_ibr(
         w_i       = max(0, 1 - penalty_i / thresh) for the k best, 0 otherwise;  normalised.
 
     The k-th source has weight ~0, so a source enters or leaves the set continuously. With
-    ``m < k`` visible sources the threshold is the largest visible penalty (``k = m``): a lone
-    visible source gets weight 1. (SIBR instead pads the set with penalties of 1e5, which blends
-    fewer than k sources almost equally.) Without distortion ``r = p - D`` (``D`` the target
-    centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the distorted proxy point and ``c`` the
+    ``m < k`` visible sources, they blend with equal weights (a lone one gets weight 1): SIBR pads
+    the set with penalties of 1e5, so its weights ``1 - penalty / 1e5`` are equal to 1e-4; this is
+    the limit. Pass ``k = m`` to weigh m sources by their penalties. Without distortion
+    ``r = p - D`` (``D`` the target centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the distorted proxy point and ``c`` the
     target centre, the desired ray is undistorted by the Jacobian, ``r = D phi(p)^-1 (p' - c)``,
     and ``|r|`` is the desired distance of the resolution term: both are exact for an affine
     ``phi`` (then ``r = p - phi^-1(c)``), and first-order otherwise.
@@ -231,18 +238,20 @@ def render_ibr(
     Examples
     --------
     A wall 2 m away seen by two cameras 20 cm apart (grey 0.45 and 0.55), rendered halfway between
-    them: with two visible sources the worse one gets weight 0, except where they tie (the centre).
+    them; each edge pixel is seen by one camera only. Two visible sources, fewer than k = 4: equal
+    weights. With k = 2 the worse of the two gets weight 0, except where they tie (the centre).
 
     >>> from vergence.camera import look_at
     >>> def cam(x):
-    ...     return look_at([x, 0, 0], [x, 0, 1], [0, -1, 0], fov_deg=90, width=3, height=1)
-    >>> grey = np.full((1, 3, 3), 0.5, dtype=np.float32)
-    >>> sources = [IBRSource(cam(x), grey + x / 2, np.full((1, 3), 2.0)) for x in (-0.1, 0.1)]
+    ...     return look_at([x, 0, 0], [x, 0, 1], [0, -1, 0], fov_deg=90, width=5, height=1)
+    >>> grey = np.full((1, 5, 3), 0.5, dtype=np.float32)
+    >>> sources = [IBRSource(cam(x), grey + x / 2, np.full((1, 5), 2.0)) for x in (-0.1, 0.1)]
     >>> res = render_ibr(cam(0.0), sources)
-    >>> res.coverage.tolist(), res.weights[0].round(3).tolist()
-    ([[True, True, True]], [[1.0, 0.5, 0.0]])
-    >>> res.image[..., 0].astype(float).round(3).tolist()
-    [[0.45, 0.5, 0.55]]
+    >>> res.coverage.all(), res.weights[0].round(3).tolist()
+    (np.True_, [[1.0, 0.5, 0.5, 0.5, 0.0]])
+    >>> res = render_ibr(cam(0.0), sources, k=2)
+    >>> res.weights[0].round(3).tolist(), res.image[..., 0].astype(float).round(3).tolist()
+    ([[1.0, 1.0, 0.5, 0.0, 0.0]], [[0.45, 0.45, 0.5, 0.55, 0.55]])
     """
     target = check_camera("target", target)
     srcs = _check_sources(sources)
@@ -263,157 +272,43 @@ def render_ibr(
         raise ValueError(f"iterations must be >= 0; got {iterations}")
     bayes = {
         "sigma_sensor": check_positive("sigma_sensor", sigma_sensor),
+        "sigma_depth": check_positive("sigma_depth", sigma_depth),
         "deformation_cap": check_positive("deformation_cap", deformation_cap),
         "gradient_threshold": check_positive("gradient_threshold", gradient_threshold),
         "geometric_cap": check_positive("geometric_cap", geometric_cap),
     }
-    if sigma_depth is not None:
-        bayes["sigma_depth"] = check_positive("sigma_depth", sigma_depth)
+    if bayes["deformation_cap"] < 1.0:
+        raise ValueError(f"deformation_cap must be >= 1; got {bayes['deformation_cap']:g}")
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
     say = progress or (lambda _f, _m: None)
 
     say(0.0, "proxy: sources forward-warped into the target" if given is None else "proxy: given depth")
-    depth_t = _forward_proxy(target, srcs, distortion, limit) if given is None else given
-    points_t = _backproject(target, depth_t)  # in the distorted world under a distortion
-    points = points_t if distortion is None else _call_distortion(distortion.inverse, "inverse", points_t)
+    depth_t = _ibr_stages.forward_proxy(target, srcs, distortion, limit) if given is None else given
+    points_t = _ibr_stages.backproject(target, depth_t)  # in the distorted world under a distortion
+    points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
     say(0.3, f"sampling {len(srcs)} sources")
     store_pixels = method == "bayesian"
-    pixels, visible, colours = _sample_sources(points, srcs, tol, store_pixels)
+    pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, store_pixels)
     if method == "ulr":
         say(0.7, "ULR weights")
-        rays = np.zeros((0, 0, 3)) if distortion is None else _desired_rays(distortion, points, points_t, target.center)
+        rays = np.zeros((0, 0, 3)) if distortion is None else _ibr_stages.desired_rays(distortion, points, points_t, target.center)
         w = np.empty(visible.shape, dtype=np.float32)
         centres = np.ascontiguousarray([s.camera.center for s in srcs], dtype=np.float64)
         _ibr_kernels.ulr_weights(points, rays, np.ascontiguousarray(target.center), centres, visible, k, alpha, beta,
                                  ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, w)
-        image, coverage = _blend(w, visible, colours)
+        image, coverage = _ibr_stages.blend(w, visible, colours)
     else:
-        from vergence.synthesis.ibr_bayes import bayesian_weights
-
         cameras = [s.camera for s in srcs]
         estimate = None
         for it in range(iterations + 1):
             say(0.5 + 0.5 * it / (iterations + 1), f"Bayesian weights, pass {it + 1} of {iterations + 1}")
             omega = bayesian_weights(estimate, points, pixels, visible, target, cameras, distortion=distortion, **bayes)
             w = np.array(omega, dtype=np.float32, order="C")
-            image, coverage = _blend(w, visible, colours)
+            image, coverage = _ibr_stages.blend(w, visible, colours)
             estimate = image
     say(1.0, "done")
     return IBRResult(image=image, weights=w, coverage=coverage, proxy_depth=depth_t, proxy_points=points, method=method)
-
-
-# ---------------------------------------------------------------------------------------------- stages
-
-
-def _forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, limit: float | None) -> np.ndarray:
-    """Target depth of the nearest source surface: every source's pixels lifted with their depth
-    (distorted under a distortion), projected into the target and z-buffered; linked pixel quads
-    are rasterised as two triangles (the mesh warp of :func:`~vergence.synthesis.warp_to_camera`)."""
-    h, w = target.height, target.width
-    zbuf = np.full((h, w), np.inf)
-    painted = np.zeros((h, w), dtype=bool)
-    out = np.zeros((h, w, 0), dtype=np.float32)  # depth only: no colour channels
-    for src in sources:
-        if distortion is None:
-            u, v, zt = (np.empty(src.depth.size) for _ in range(3))
-            cam = src.camera
-            _ibr_kernels.project_depth(src.depth, np.linalg.inv(cam.K), cam.R, cam.t, target.K, target.R, target.t, u, v, zt)
-        else:
-            points = _call_distortion(distortion.forward, "forward", _backproject(src.camera, src.depth))
-            u, v, zt = _project(target, points)
-        colours = np.zeros((u.size, 0), dtype=np.float32)
-        if limit is None:
-            _kernels.splat_zbuffer(u, v, zt, colours, out, zbuf, painted)
-            continue
-        if distortion is None:
-            link_r, link_d = _stages3d.mesh_links(src.depth, u, v, zt, src.camera, target, limit)
-        else:
-            link_r, link_d = _links_distorted(src, u, v, zt, target, distortion, limit)
-        order = np.arange(u.size, dtype=np.int64)
-        _kernels.splat_mesh(order, u, v, zt, link_r, link_d, colours, _stages3d.MAX_FACET_PX, True, out, zbuf, painted)
-    return np.where(painted, zbuf, np.nan)
-
-
-def _backproject(camera: Camera, depth: np.ndarray) -> np.ndarray:
-    """``camera.backproject_depth(depth)`` in one parallel pass (NaN depth, NaN point)."""
-    out = np.empty(depth.shape + (3,))
-    _ibr_kernels.backproject(depth, np.linalg.inv(camera.K), camera.R, camera.t, out)
-    return out
-
-
-def _project(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Flat C-contiguous pixel columns, rows and depths of world points in ``camera`` (NaN stays NaN)."""
-    flat = points.reshape(-1, 3)
-    pix, z = camera.project(np.nan_to_num(flat, nan=0.0))
-    z = np.where(np.isnan(flat).any(axis=1), np.nan, z)
-    return np.ascontiguousarray(pix[:, 0]), np.ascontiguousarray(pix[:, 1]), np.ascontiguousarray(z)
-
-
-def _links_distorted(
-    src: IBRSource, u: np.ndarray, v: np.ndarray, zt: np.ndarray, target: Camera, distortion: object, limit: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Right and lower mesh links through a distortion: the rule of ``_stages3d.mesh_links`` (the
-    neighbour lifted with this pixel's depth lands within ``limit`` pixels of where it lands with
-    its own), with ``phi`` applied before the target projection."""
-    hs, ws = src.depth.shape
-    uv = np.stack([u, v], axis=-1).reshape(hs, ws, 2)
-    drawable = (zt > 0) & np.isfinite(u) & np.isfinite(v)
-    drawable = drawable.reshape(hs, ws)
-    grid = src.camera.pixel_grid()
-    links = []
-    for dy, dx in ((0, 1), (1, 0)):
-        link = np.zeros((hs, ws), dtype=bool)
-        za = src.depth[: hs - dy, : ws - dx]
-        lifted = src.camera.backproject(grid[dy:, dx:], za)
-        lu, lv, lz = _project(target, _call_distortion(distortion.forward, "forward", lifted))
-        shift = np.hypot(lu - uv[dy:, dx:, 0].ravel(), lv - uv[dy:, dx:, 1].ravel())
-        with np.errstate(invalid="ignore"):
-            ok = (lz > 0) & (shift <= limit)
-        link[: hs - dy, : ws - dx] = ok.reshape(za.shape) & drawable[: hs - dy, : ws - dx] & drawable[dy:, dx:]
-        links.append(link)
-    return links[0], links[1]
-
-
-def _sample_sources(
-    points: np.ndarray, sources: list[IBRSource], tol: float, store_pixels: bool
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per source: proxy pixel ``(S, h, w, 2)`` (empty unless ``store_pixels``), visibility
-    ``(S, h, w)`` and colour ``(S, h, w, 3)``."""
-    h, w = points.shape[:2]
-    n = len(sources)
-    pixels = np.empty((n, h, w, 2) if store_pixels else (n, 0, 0, 2))
-    visible = np.empty((n, h, w), dtype=bool)
-    colours = np.empty((n, h, w, 3), dtype=np.float32)
-    pts = np.ascontiguousarray(points)
-    for i, src in enumerate(sources):
-        cam = src.camera
-        _ibr_kernels.sample_source(pts, np.ascontiguousarray(cam.K), np.ascontiguousarray(cam.R), np.ascontiguousarray(cam.t),
-                                   src.image, src.depth, tol, FOV_MARGIN_PX, pixels[i], visible[i], colours[i])
-    return pixels, visible, colours
-
-
-def _desired_rays(distortion: object, points: np.ndarray, points_t: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Undistorted desired rays ``r = D phi(p)^-1 (p' - c)`` (S0 §6, Fig. 10), NaN where undefined."""
-    rays = np.full(points.shape, np.nan)
-    ok = np.isfinite(points).all(axis=-1) & np.isfinite(points_t).all(axis=-1)
-    if ok.any():
-        jac = _call_distortion(distortion.jacobian, "jacobian", points[ok], shape=points[ok].shape + (3,))
-        with np.errstate(invalid="ignore"):
-            good = np.isfinite(jac).all(axis=(-2, -1)) & (np.abs(np.linalg.det(np.nan_to_num(jac))) > 0)
-        idx = np.flatnonzero(ok)[good]
-        d = (points_t[ok][good] - centre)[..., None]
-        rays.reshape(-1, 3)[idx] = np.linalg.solve(jac[good], d)[..., 0]
-    return rays
-
-
-def _blend(w: np.ndarray, visible: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Normalise ``w`` in place over the visible sources and blend: image and coverage."""
-    h, wd = visible.shape[1:]
-    image = np.empty((h, wd, 3), dtype=np.float32)
-    coverage = np.empty((h, wd), dtype=bool)
-    _ibr_kernels.normalise_blend(w, visible, colours, image, coverage)
-    return image, coverage
 
 
 # ---------------------------------------------------------------------------------------------- checks
@@ -459,12 +354,3 @@ def _check_distortion(distortion: object) -> None:
     if missing:
         raise TypeError(f"distortion must have callable forward, inverse and jacobian (a WorldDistortion); "
                         f"{type(distortion).__name__} lacks {', '.join(missing)}")
-
-
-def _call_distortion(fn: Callable, name: str, points: np.ndarray, *, shape: tuple | None = None) -> np.ndarray:
-    """``fn(points)`` as float64, checked to have ``shape`` (default: the points' shape)."""
-    out = np.asarray(fn(points), dtype=np.float64)
-    want = points.shape if shape is None else shape
-    if out.shape != want:
-        raise ValueError(f"distortion.{name} must return shape {want} for points of shape {points.shape}; got {out.shape}")
-    return out

@@ -1,0 +1,162 @@
+"""The unchecked stages of :func:`vergence.synthesis.render_ibr` (validated inputs only).
+
+Proxy (sources forward-warped into the target, mesh z-buffer), back-projection, per-source sampling
+with the visibility test, undistorted desired rays, normalised blend. The Numba kernels are in
+``_ibr_kernels.py``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numba
+import numpy as np
+
+from vergence.camera import Camera
+from vergence.synthesis import _ibr_kernels, _kernels, _stages3d
+
+if TYPE_CHECKING:
+    from vergence.synthesis.ibr import IBRSource
+
+# Field of view: a proxy point must project within the hull of the source's pixel centres (where a
+# bilinear sample needs no extrapolation), widened by this many pixels: the round-off of a
+# projection (~1e-12 px) must not drop the border pixels of a source seen from its own centre.
+FOV_MARGIN_PX = 1e-6
+
+
+def forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, limit: float | None) -> np.ndarray:
+    """Target depth of the nearest source surface: every source's pixels lifted with their depth
+    (distorted under a distortion), projected into the target and z-buffered; linked pixel quads
+    are rasterised as two triangles (the mesh warp of :func:`~vergence.synthesis.warp_to_camera`).
+    Sources of one size are drawn in parallel, as many at a time as Numba has threads."""
+    h, w = target.height, target.width
+    zbuf = np.full((h, w), np.inf)
+    if limit is None:
+        painted = np.zeros((h, w), dtype=bool)
+        for src in sources:
+            u, v, zt = (np.empty(src.depth.size) for _ in range(3))
+            source_in_target(src, target, distortion, u, v, zt)
+            _kernels.splat_zbuffer(u, v, zt, np.zeros((u.size, 0), dtype=np.float32), np.zeros((h, w, 0), dtype=np.float32), zbuf, painted)
+        return np.where(painted, zbuf, np.nan)
+    by_size: dict[tuple[int, int], list[IBRSource]] = {}
+    for src in sources:
+        by_size.setdefault(src.depth.shape, []).append(src)
+    batch = max(1, numba.get_num_threads())
+    for group in by_size.values():
+        for first in range(0, len(group), batch):
+            chunk = group[first : first + batch]
+            n, size = len(chunk), chunk[0].depth.shape
+            u, v, zt = (np.empty((n, size[0] * size[1])) for _ in range(3))
+            link_r, link_d = (np.empty((n,) + size, dtype=bool) for _ in range(2))
+            for i, src in enumerate(chunk):
+                source_in_target(src, target, distortion, u[i], v[i], zt[i])
+                if distortion is None:
+                    link_r[i], link_d[i] = _stages3d.mesh_links(src.depth, u[i], v[i], zt[i], src.camera, target, limit)
+                else:
+                    link_r[i], link_d[i] = links_distorted(src, u[i], v[i], zt[i], target, distortion, limit)
+            bufs = np.full((n, h, w), np.inf)
+            _ibr_kernels.splat_sources(u, v, zt, link_r, link_d, _stages3d.MAX_FACET_PX, bufs)
+            np.minimum(zbuf, bufs.min(axis=0), out=zbuf)
+    return np.where(np.isfinite(zbuf), zbuf, np.nan)
+
+
+def source_in_target(
+    src: IBRSource, target: Camera, distortion: object, u: np.ndarray, v: np.ndarray, zt: np.ndarray
+) -> None:
+    """Write the flat target columns, rows and depths of a source's pixels (through ``phi`` if given)."""
+    if distortion is not None:
+        u[:], v[:], zt[:] = project(target, call_distortion(distortion.forward, "forward", backproject(src.camera, src.depth)))
+        return
+    cam = src.camera
+    _ibr_kernels.project_depth(src.depth, np.linalg.inv(cam.K), cam.R, cam.t, target.K, target.R, target.t, u, v, zt)
+
+
+def backproject(camera: Camera, depth: np.ndarray) -> np.ndarray:
+    """``camera.backproject_depth(depth)`` in one parallel pass (NaN depth, NaN point)."""
+    out = np.empty(depth.shape + (3,))
+    _ibr_kernels.backproject(depth, np.linalg.inv(camera.K), camera.R, camera.t, out)
+    return out
+
+
+def project(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flat C-contiguous pixel columns, rows and depths of world points in ``camera`` (NaN stays NaN)."""
+    flat = points.reshape(-1, 3)
+    pix, z = camera.project(np.nan_to_num(flat, nan=0.0))
+    z = np.where(np.isnan(flat).any(axis=1), np.nan, z)
+    return np.ascontiguousarray(pix[:, 0]), np.ascontiguousarray(pix[:, 1]), np.ascontiguousarray(z)
+
+
+def links_distorted(
+    src: IBRSource, u: np.ndarray, v: np.ndarray, zt: np.ndarray, target: Camera, distortion: object, limit: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Right and lower mesh links through a distortion: the rule of ``_stages3d.mesh_links`` (the
+    neighbour lifted with this pixel's depth lands within ``limit`` pixels of where it lands with
+    its own), with ``phi`` applied before the target projection."""
+    hs, ws = src.depth.shape
+    uv = np.stack([u, v], axis=-1).reshape(hs, ws, 2)
+    drawable = (zt > 0) & np.isfinite(u) & np.isfinite(v)
+    drawable = drawable.reshape(hs, ws)
+    grid = src.camera.pixel_grid()
+    links = []
+    for dy, dx in ((0, 1), (1, 0)):
+        link = np.zeros((hs, ws), dtype=bool)
+        za = src.depth[: hs - dy, : ws - dx]
+        lifted = src.camera.backproject(grid[dy:, dx:], za)
+        lu, lv, lz = project(target, call_distortion(distortion.forward, "forward", lifted))
+        shift = np.hypot(lu - uv[dy:, dx:, 0].ravel(), lv - uv[dy:, dx:, 1].ravel())
+        with np.errstate(invalid="ignore"):
+            ok = (lz > 0) & (shift <= limit)
+        link[: hs - dy, : ws - dx] = ok.reshape(za.shape) & drawable[: hs - dy, : ws - dx] & drawable[dy:, dx:]
+        links.append(link)
+    return links[0], links[1]
+
+
+def sample_sources(
+    points: np.ndarray, sources: list[IBRSource], tol: float, store_pixels: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per source: proxy pixel ``(S, h, w, 2)`` (empty unless ``store_pixels``), visibility
+    ``(S, h, w)`` and colour ``(S, h, w, 3)``."""
+    h, w = points.shape[:2]
+    n = len(sources)
+    pixels = np.empty((n, h, w, 2) if store_pixels else (n, 0, 0, 2))
+    visible = np.empty((n, h, w), dtype=bool)
+    colours = np.empty((n, h, w, 3), dtype=np.float32)
+    pts = np.ascontiguousarray(points)
+    for i, src in enumerate(sources):
+        cam = src.camera
+        _ibr_kernels.sample_source(pts, np.ascontiguousarray(cam.K), np.ascontiguousarray(cam.R), np.ascontiguousarray(cam.t),
+                                   src.image, src.depth, tol, FOV_MARGIN_PX, pixels[i], visible[i], colours[i])
+    return pixels, visible, colours
+
+
+def desired_rays(distortion: object, points: np.ndarray, points_t: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Undistorted desired rays ``r = D phi(p)^-1 (p' - c)`` (S0 §6, Fig. 10), NaN where undefined."""
+    rays = np.full(points.shape, np.nan)
+    ok = np.isfinite(points).all(axis=-1) & np.isfinite(points_t).all(axis=-1)
+    if ok.any():
+        jac = call_distortion(distortion.jacobian, "jacobian", points[ok], shape=points[ok].shape + (3,))
+        with np.errstate(invalid="ignore"):
+            good = np.isfinite(jac).all(axis=(-2, -1)) & (np.abs(np.linalg.det(np.nan_to_num(jac))) > 0)
+        idx = np.flatnonzero(ok)[good]
+        d = (points_t[ok][good] - centre)[..., None]
+        rays.reshape(-1, 3)[idx] = np.linalg.solve(jac[good], d)[..., 0]
+    return rays
+
+
+def blend(w: np.ndarray, visible: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normalise ``w`` in place over the visible sources and blend: image and coverage."""
+    h, wd = visible.shape[1:]
+    image = np.empty((h, wd, 3), dtype=np.float32)
+    coverage = np.empty((h, wd), dtype=bool)
+    _ibr_kernels.normalise_blend(w, visible, colours, image, coverage)
+    return image, coverage
+
+
+def call_distortion(fn: Callable, name: str, points: np.ndarray, *, shape: tuple | None = None) -> np.ndarray:
+    """``fn(points)`` as float64, checked to have ``shape`` (default: the points' shape)."""
+    out = np.asarray(fn(points), dtype=np.float64)
+    want = points.shape if shape is None else shape
+    if out.shape != want:
+        raise ValueError(f"distortion.{name} must return shape {want} for points of shape {points.shape}; got {out.shape}")
+    return out
