@@ -131,7 +131,8 @@ def _plot(shot, rig, path: Path) -> None:  # noqa: ANN001
             plot_rig(path, rig.cameras, elements=rig.elements, virtual=virtual, title="Quadri-Rig from above")
         else:
             plot_rig(path, rig.cameras, virtual=[("reference right", rig.reference_right, "virtual")],
-                     title="Tri-Rig from above")  # fmt: skip
+                     title="Tri-Rig from above",
+                     reach=rig.reference.convergence)  # fmt: skip
 
 
 def _coverage_png(mask: np.ndarray) -> np.ndarray:

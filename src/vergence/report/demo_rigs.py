@@ -81,7 +81,8 @@ def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tup
                  title="Quadri-Rig from above")  # fmt: skip
     else:
         plot_rig(out / f"{stem}_plan.png", rig.cameras,
-                 virtual=[("reference right", rig.reference_right, "virtual")], title="Tri-Rig from above")  # fmt: skip
+                 virtual=[("reference right", rig.reference_right, "virtual")], title="Tri-Rig from above",
+                     reach=rig.reference.convergence)  # fmt: skip
     progress(f"rendering the {kind} rig")
     result = render_shot(shot, samples=DEMO_SAMPLES, supersample=DEMO_SUPERSAMPLE,
                          progress=lambda _f, m: progress(f"{kind}: {m}"))  # fmt: skip
