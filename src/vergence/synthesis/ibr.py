@@ -26,7 +26,7 @@ import numpy as np
 
 from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.synthesis import _ibr_kernels, _ibr_stages
+from vergence.synthesis import _ibr_kernels, _ibr_mip, _ibr_stages
 from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
 from vergence.synthesis.ibr_bayes import (
     BAYES_DEFORMATION_CAP,
@@ -148,6 +148,7 @@ def render_ibr(
     beta: float = ULR_BETA,
     occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
     gradient_limit: float | None = 1.0,
+    prefilter: bool = True,
     iterations: int = BAYES_ITERATIONS,
     sigma_sensor: float = BAYES_SIGMA_SENSOR,
     sigma_depth: float = BAYES_SIGMA_DEPTH,
@@ -288,8 +289,13 @@ def render_ibr(
     points_t = _ibr_stages.backproject(target, depth_t)  # in the distorted world under a distortion
     points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
     say(0.3, f"sampling {len(srcs)} sources")
-    store_pixels = method == "bayesian"
+    store_pixels = method == "bayesian" or prefilter
     pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, store_pixels)
+    if prefilter:
+        say(0.5, "prefiltering the sources that see the target denser (mip levels)")
+        for i, src in enumerate(srcs):
+            lod = _ibr_mip.footprint_levels(pixels[i], visible[i], depth_t)
+            _ibr_mip.prefilter_colours(points, src.camera, src.depth, src.image, visible[i], lod, tol, colours[i])
     if method == "ulr":
         say(0.7, "ULR weights")
         rays = np.zeros((0, 0, 3)) if distortion is None else _ibr_stages.desired_rays(distortion, points, points_t, target.center)
