@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import Camera, look_at
@@ -567,3 +569,25 @@ def test_fewer_visible_sources_than_k_blend_equally():
     _ibr_kernels.ulr_weights(points, *args, 2, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
     pen = [math.atan2(abs(c[0]), 10.0) + 0.1 * max(ULR_PENALTY_FLOOR, 1 - 10.0 / math.hypot(c[0], 10.0)) for c in centres[:2]]
     assert_allclose(out.ravel(), [1 - pen[0] / (ULR_THRESHOLD_SCALE * pen[1]), 1 - 1 / ULR_THRESHOLD_SCALE, 0.0], rtol=1e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), scale=st.floats(0.01, 100.0), shift=st.tuples(*[st.floats(-50.0, 50.0)] * 3),
+       k=st.integers(1, 6))
+def test_ulr_weights_ignore_the_scale_and_origin_of_the_world(seed, scale, shift, k):
+    """Angles and relative resolution penalties are similarity-invariant: scaling and moving the whole
+    scene (points, target and sources) leaves every ULR weight unchanged; at most k are positive,
+    and every pixel some source sees has one."""
+    rng = np.random.default_rng(seed)
+    points = _random_points(rng, 6, 7)
+    centres = rng.uniform(-3, 3, (5, 3))
+    centre = rng.uniform(-1, 1, 3)
+    visible = (rng.random((5, 6, 7)) < 0.6) & np.isfinite(points[..., 0])
+    out = np.empty((2, 5, 6, 7), dtype=np.float32)
+    for j, (a, b) in enumerate(((1.0, np.zeros(3)), (scale, np.array(shift)))):
+        _ibr_kernels.ulr_weights(a * points + b, np.zeros((0, 0, 3)), a * centre + b, a * centres + b, visible, k, 1.0, 0.1,
+                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out[j])
+    assert_allclose(out[1], out[0], atol=1e-5)
+    assert ((out[0] > 0).sum(axis=0) <= k).all()
+    seen = visible.any(axis=0) & (np.linalg.norm(points - centre, axis=-1) > 0)
+    assert (out[0].sum(axis=0)[seen] > 0).all() and (out[0][~visible] == 0).all()
