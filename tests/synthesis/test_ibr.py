@@ -382,6 +382,34 @@ def test_depth_dependent_scaling_about_the_target_centre_keeps_its_image():
     assert_allclose(warped.weights[:, cov], plain.weights[:, cov], atol=1e-5)
 
 
+def test_tri_rig_distortion_renders_the_distorted_wall():
+    """S0 §6 with vergence.rigs.WorldDistortion (psi halves S0's disparity). phi scales about the
+    director's centre, so the director sees the same image with the wall at z' = phi.depth(z); the
+    reference right camera sees the wall as the frontal plane z' (phi scales it by z'/z): its pixel
+    hits q there, the real point is phi^-1(q) = c_l + (z/z')(q - c_l), and its texture is the truth."""
+    from vergence.rigs import WorldDistortion
+    from vergence.viewing import LinearMapping, Shooting
+
+    left = _cam(0.0)
+    window = 8.0 * left.width / left.focal_px
+    phi = WorldDistortion(left, Shooting(0.3, 8.0, window), LinearMapping(-1.0, 1.0, -0.5, 0.5))
+    z_new = float(phi.depth(PLANE_Z))
+    assert 8.0 < z_new < PLANE_Z - 0.5  # a real distortion
+    srcs = _sources([0.0, 0.5, 1.0])
+    director = render_ibr(left, srcs, distortion=phi)
+    assert director.coverage.mean() > 0.9
+    assert_allclose(director.proxy_depth[director.coverage], z_new, rtol=1e-9)
+    assert np.abs(director.image - _render_wall(left)[0])[director.coverage].max() < TEXTURE_ATOL
+    right = phi.reference_right
+    rays = right.ray_directions()
+    q = right.center + ((z_new - right.center[2]) / rays[..., 2])[..., None] * rays
+    truth = _texture(left.center + (PLANE_Z / z_new) * (q - left.center))
+    res = render_ibr(right, srcs, distortion=phi)
+    assert res.coverage.mean() > 0.9
+    assert_allclose(res.proxy_points[res.coverage][:, 2], PLANE_Z, rtol=1e-9)
+    assert np.abs(res.image - truth)[res.coverage].max() < TEXTURE_ATOL
+
+
 # ------------------------------------------------------------------------------ Bayesian weights
 
 
