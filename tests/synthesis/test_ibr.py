@@ -1,5 +1,6 @@
 """Multi-view IBR: kernels against slow references, analytic scenes, ULR continuity, visibility,
-world distortions (identity, uniform scaling, a depth-dependent scaling), bad input."""
+world distortions (identity, uniform scaling, a depth-dependent scaling), Bayesian passes.
+Bad input: test_ibr_errors.py."""
 
 from __future__ import annotations
 
@@ -7,10 +8,12 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import Camera, look_at
-from vergence.synthesis import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
+from vergence.synthesis import IBRResult, IBRSource, render_ibr
 from vergence.synthesis import _ibr_kernels
 from vergence.synthesis._ibr_stages import FOV_MARGIN_PX
 from vergence.synthesis.ibr import ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
@@ -379,6 +382,34 @@ def test_depth_dependent_scaling_about_the_target_centre_keeps_its_image():
     assert_allclose(warped.weights[:, cov], plain.weights[:, cov], atol=1e-5)
 
 
+def test_tri_rig_distortion_renders_the_distorted_wall():
+    """S0 §6 with vergence.rigs.WorldDistortion (psi halves S0's disparity). phi scales about the
+    director's centre, so the director sees the same image with the wall at z' = phi.depth(z); the
+    reference right camera sees the wall as the frontal plane z' (phi scales it by z'/z): its pixel
+    hits q there, the real point is phi^-1(q) = c_l + (z/z')(q - c_l), and its texture is the truth."""
+    from vergence.rigs import WorldDistortion
+    from vergence.viewing import LinearMapping, Shooting
+
+    left = _cam(0.0)
+    window = 8.0 * left.width / left.focal_px
+    phi = WorldDistortion(left, Shooting(0.3, 8.0, window), LinearMapping(-1.0, 1.0, -0.5, 0.5))
+    z_new = float(phi.depth(PLANE_Z))
+    assert 8.0 < z_new < PLANE_Z - 0.5  # a real distortion
+    srcs = _sources([0.0, 0.5, 1.0])
+    director = render_ibr(left, srcs, distortion=phi)
+    assert director.coverage.mean() > 0.9
+    assert_allclose(director.proxy_depth[director.coverage], z_new, rtol=1e-9)
+    assert np.abs(director.image - _render_wall(left)[0])[director.coverage].max() < TEXTURE_ATOL
+    right = phi.reference_right
+    rays = right.ray_directions()
+    q = right.center + ((z_new - right.center[2]) / rays[..., 2])[..., None] * rays
+    truth = _texture(left.center + (PLANE_Z / z_new) * (q - left.center))
+    res = render_ibr(right, srcs, distortion=phi)
+    assert res.coverage.mean() > 0.9
+    assert_allclose(res.proxy_points[res.coverage][:, 2], PLANE_Z, rtol=1e-9)
+    assert np.abs(res.image - truth)[res.coverage].max() < TEXTURE_ATOL
+
+
 # ------------------------------------------------------------------------------ Bayesian weights
 
 
@@ -417,107 +448,6 @@ def test_bayesian_passes_iterate_on_the_current_estimate(monkeypatch):
     assert_allclose(calls[2][0], alone[2], atol=1e-6)
     assert_allclose(res.image, alone[0], atol=1e-6)  # pass 3 weighted source 0 only
     assert (res.weights[0][res.coverage] == 1).all()
-
-
-# ------------------------------------------------------------------------------ bad input
-
-
-def _good():
-    return _cam(0.3), _sources([0.0, 1.0])
-
-
-@pytest.mark.parametrize(
-    ("kwargs", "error", "match"),
-    [
-        ({"weights": "sibr"}, ValueError, "weights must be one of ulr, bayesian"),
-        ({"k": 0}, ValueError, "k must be >= 1"),
-        ({"k": 2.0}, TypeError, "k must be an integer"),
-        ({"alpha": np.nan}, ValueError, "alpha must be finite"),
-        ({"beta": -0.1}, ValueError, "beta must be >= 0"),
-        ({"alpha": 0.0, "beta": 0.0}, ValueError, "alpha and beta"),
-        ({"occlusion_tolerance": 0.0}, ValueError, "occlusion_tolerance must be > 0"),
-        ({"occlusion_tolerance": np.inf}, ValueError, "occlusion_tolerance must be finite"),
-        ({"gradient_limit": -1.0}, ValueError, "gradient_limit must be >= 0"),
-        ({"iterations": -1}, ValueError, "iterations must be >= 0"),
-        ({"sigma_sensor": 0.0}, ValueError, "sigma_sensor must be > 0"),
-        ({"sigma_depth": np.nan}, ValueError, "sigma_depth must be finite"),
-        ({"deformation_cap": -1.0}, ValueError, "deformation_cap must be > 0"),
-        ({"deformation_cap": 0.5}, ValueError, "deformation_cap must be >= 1"),
-        ({"progress": "yes"}, TypeError, "progress must be a callable"),
-        ({"proxy_depth": np.ones((3, 3))}, ValueError, r"proxy_depth must have shape \(36, 48\)"),
-        ({"proxy_depth": np.full((36, 48), np.inf)}, ValueError, "proxy_depth must not contain inf"),
-        ({"proxy_depth": np.zeros((36, 48))}, ValueError, "proxy_depth must be > 0"),
-        ({"proxy_depth": "deep"}, TypeError, "proxy_depth must be numeric"),
-        ({"distortion": object()}, TypeError, "distortion must have callable forward, inverse and jacobian"),
-    ],
-)
-def test_bad_options_are_refused_by_name(kwargs, error, match):
-    target, srcs = _good()
-    with pytest.raises(error, match=match):
-        render_ibr(target, srcs, **kwargs)
-
-
-def test_bad_target_and_sources_are_refused_by_name():
-    target, srcs = _good()
-    with pytest.raises(TypeError, match="target must be a Camera"):
-        render_ibr("cam", srcs)
-    with pytest.raises(ValueError, match="sources must hold at least one IBRSource"):
-        render_ibr(target, [])
-    with pytest.raises(TypeError, match=r"sources\[1\] must be an IBRSource"):
-        render_ibr(target, [srcs[0], (srcs[1].camera, srcs[1].image, srcs[1].depth)])
-    with pytest.raises(TypeError, match="sources must be a sequence of IBRSource"):
-        render_ibr(target, srcs[0])
-
-
-def test_a_bad_distortion_output_is_refused_by_name():
-    class Flat(_Scaling):
-        def inverse(self, q):
-            return np.zeros(3)
-
-    target, srcs = _good()
-    with pytest.raises(ValueError, match="distortion.inverse must return shape"):
-        render_ibr(target, srcs, distortion=Flat([0, 0, 0], 1.0, 0.0))
-
-
-def test_bad_sources_are_refused_by_name():
-    cam = _cam(0.0)
-    image, depth = _render_wall(cam)
-    with pytest.raises(TypeError, match="camera must be a Camera"):
-        IBRSource(None, image, depth)
-    with pytest.raises(ValueError, match=r"image must have shape \(36, 48, 3\) matching the camera"):
-        IBRSource(cam, image[:-1], depth)
-    with pytest.raises(ValueError, match=r"image must have shape \(H, W, 3\)"):
-        IBRSource(cam, image[..., 0], depth)
-    with pytest.raises(ValueError, match="image values must lie in"):
-        IBRSource(cam, image * 2, depth)
-    with pytest.raises(ValueError, match=r"depth must have shape \(36, 48\) matching the image and camera"):
-        IBRSource(cam, image, depth[:, :-1])
-    for bad, match in ((np.inf, "depth must not contain inf"), (-np.inf, "depth must not contain inf"),
-                       (0.0, "depth must be > 0"), (-2.0, "depth must be > 0")):
-        d = depth.copy()
-        d[3, 4] = bad
-        with pytest.raises(ValueError, match=match):
-            IBRSource(cam, image, d)
-    with pytest.raises(TypeError, match="depth must be real"):
-        IBRSource(cam, image, depth.astype(complex))
-    d = depth.copy()
-    d[:5] = np.nan  # no surface: allowed
-    assert np.isnan(IBRSource(cam, image, d).depth[:5]).all()
-
-
-def test_nothing_seen_leaves_holes_and_weights_listed():
-    target, srcs = _good()
-    res = render_ibr(target, srcs, proxy_depth=np.full((36, 48), np.nan))
-    assert not res.coverage.any() and (res.image == 0).all() and (res.weights == 0).all()
-    assert np.isnan(res.proxy_points).all()
-    assert IBR_WEIGHTS == ("ulr", "bayesian")
-
-
-def test_progress_is_told_each_stage():
-    target, srcs = _good()
-    seen = []
-    render_ibr(target, srcs, progress=lambda f, m: seen.append((f, m)))
-    assert seen[0][0] == 0.0 and seen[-1] == (1.0, "done") and len(seen) >= 4
 
 
 def test_backproject_and_project_depth_match_the_camera():
@@ -567,3 +497,25 @@ def test_fewer_visible_sources_than_k_blend_equally():
     _ibr_kernels.ulr_weights(points, *args, 2, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
     pen = [math.atan2(abs(c[0]), 10.0) + 0.1 * max(ULR_PENALTY_FLOOR, 1 - 10.0 / math.hypot(c[0], 10.0)) for c in centres[:2]]
     assert_allclose(out.ravel(), [1 - pen[0] / (ULR_THRESHOLD_SCALE * pen[1]), 1 - 1 / ULR_THRESHOLD_SCALE, 0.0], rtol=1e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), scale=st.floats(0.01, 100.0), shift=st.tuples(*[st.floats(-50.0, 50.0)] * 3),
+       k=st.integers(1, 6))
+def test_ulr_weights_ignore_the_scale_and_origin_of_the_world(seed, scale, shift, k):
+    """Angles and relative resolution penalties are similarity-invariant: scaling and moving the whole
+    scene (points, target and sources) leaves every ULR weight unchanged; at most k are positive,
+    and every pixel some source sees has one."""
+    rng = np.random.default_rng(seed)
+    points = _random_points(rng, 6, 7)
+    centres = rng.uniform(-3, 3, (5, 3))
+    centre = rng.uniform(-1, 1, 3)
+    visible = (rng.random((5, 6, 7)) < 0.6) & np.isfinite(points[..., 0])
+    out = np.empty((2, 5, 6, 7), dtype=np.float32)
+    for j, (a, b) in enumerate(((1.0, np.zeros(3)), (scale, np.array(shift)))):
+        _ibr_kernels.ulr_weights(a * points + b, np.zeros((0, 0, 3)), a * centre + b, a * centres + b, visible, k, 1.0, 0.1,
+                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out[j])
+    assert_allclose(out[1], out[0], atol=1e-5)
+    assert ((out[0] > 0).sum(axis=0) <= k).all()
+    seen = visible.any(axis=0) & (np.linalg.norm(points - centre, axis=-1) > 0)
+    assert (out[0].sum(axis=0)[seen] > 0).all() and (out[0][~visible] == 0).all()

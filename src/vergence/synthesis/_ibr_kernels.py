@@ -13,9 +13,8 @@ import math
 import numba as nb
 import numpy as np
 
-from vergence.synthesis._kernels import splat_mesh
 
-__all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "splat_sources", "ulr_weights"]
+__all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
@@ -240,21 +239,3 @@ def normalise_blend(weights, visible, colours, image, coverage):  # pragma: no c
                 for i in range(s_count):
                     acc += weights[i, y, x] * colours[i, y, x, c]
                 image[y, x, c] = acc
-
-
-@nb.njit(cache=True, parallel=True, error_model="numpy")
-def splat_sources(u, v, zt, link_r, link_d, max_side, zbuf):  # pragma: no cover - compiled
-    """Mesh z-buffer of several same-size sources at once, one source per parallel task.
-
-    Source ``i`` (flat target positions ``u[i], v[i]``, depths ``zt[i]``, links ``link_r[i],
-    link_d[i]``) is drawn by ``_kernels.splat_mesh`` (z-buffer order) into its own ``zbuf[i]``,
-    which must start at +inf; the caller takes the minimum over the sources.
-    """
-    n, npts = u.shape
-    h, w = zbuf.shape[1], zbuf.shape[2]
-    for i in nb.prange(n):
-        order = np.arange(npts)
-        colours = np.zeros((npts, 0), dtype=np.float32)
-        out = np.zeros((h, w, 0), dtype=np.float32)
-        painted = np.zeros((h, w), dtype=np.bool_)
-        splat_mesh(order, u[i], v[i], zt[i], link_r[i], link_d[i], colours, max_side, True, out, zbuf[i], painted)

@@ -8,6 +8,7 @@ with the visibility test, undistorted desired rays, normalised blend. The Numba 
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numba
@@ -29,7 +30,8 @@ def forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, 
     """Target depth of the nearest source surface: every source's pixels lifted with their depth
     (distorted under a distortion), projected into the target and z-buffered; linked pixel quads
     are rasterised as two triangles (the mesh warp of :func:`~vergence.synthesis.warp_to_camera`).
-    Sources of one size are drawn in parallel, as many at a time as Numba has threads."""
+    Sources are drawn in parallel (``_kernels.splat_mesh`` releases the GIL), each into its own
+    z-buffer, as many at a time as Numba has threads; the nearest depth wins."""
     h, w = target.height, target.width
     zbuf = np.full((h, w), np.inf)
     if limit is None:
@@ -39,26 +41,34 @@ def forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, 
             source_in_target(src, target, distortion, u, v, zt)
             _kernels.splat_zbuffer(u, v, zt, np.zeros((u.size, 0), dtype=np.float32), np.zeros((h, w, 0), dtype=np.float32), zbuf, painted)
         return np.where(painted, zbuf, np.nan)
-    by_size: dict[tuple[int, int], list[IBRSource]] = {}
-    for src in sources:
-        by_size.setdefault(src.depth.shape, []).append(src)
     batch = max(1, numba.get_num_threads())
-    for group in by_size.values():
-        for first in range(0, len(group), batch):
-            chunk = group[first : first + batch]
-            n, size = len(chunk), chunk[0].depth.shape
-            u, v, zt = (np.empty((n, size[0] * size[1])) for _ in range(3))
-            link_r, link_d = (np.empty((n,) + size, dtype=bool) for _ in range(2))
-            for i, src in enumerate(chunk):
-                source_in_target(src, target, distortion, u[i], v[i], zt[i])
-                if distortion is None:
-                    link_r[i], link_d[i] = _stages3d.mesh_links(src.depth, u[i], v[i], zt[i], src.camera, target, limit)
-                else:
-                    link_r[i], link_d[i] = links_distorted(src, u[i], v[i], zt[i], target, distortion, limit)
-            bufs = np.full((n, h, w), np.inf)
-            _ibr_kernels.splat_sources(u, v, zt, link_r, link_d, _stages3d.MAX_FACET_PX, bufs)
-            np.minimum(zbuf, bufs.min(axis=0), out=zbuf)
+    with ThreadPoolExecutor(max_workers=batch) as pool:
+        for first in range(0, len(sources), batch):
+            # The meshes in this thread (their kernels are parallel), the serial splats in the pool.
+            meshes = [source_mesh(src, target, distortion, limit) for src in sources[first : first + batch]]
+            for drawn in pool.map(lambda mesh: splat_alone(mesh, h, w), meshes):
+                np.minimum(zbuf, drawn, out=zbuf)
     return np.where(np.isfinite(zbuf), zbuf, np.nan)
+
+
+def source_mesh(src: IBRSource, target: Camera, distortion: object, limit: float) -> tuple[np.ndarray, ...]:
+    """Flat target ``u, v, zt`` of a source's pixels and its right and lower mesh links."""
+    u, v, zt = (np.empty(src.depth.size) for _ in range(3))
+    source_in_target(src, target, distortion, u, v, zt)
+    if distortion is None:
+        link_r, link_d = _stages3d.mesh_links(src.depth, u, v, zt, src.camera, target, limit)
+    else:
+        link_r, link_d = links_distorted(src, u, v, zt, target, distortion, limit)
+    return u, v, zt, link_r, link_d
+
+
+def splat_alone(mesh: tuple[np.ndarray, ...], h: int, w: int) -> np.ndarray:
+    """The ``(h, w)`` z-buffer (+inf where nothing is drawn) of one source's mesh."""
+    u, v, zt, link_r, link_d = mesh
+    zbuf = np.full((h, w), np.inf)
+    _kernels.splat_mesh(np.arange(u.size), u, v, zt, link_r, link_d, np.zeros((u.size, 0), dtype=np.float32),
+                        _stages3d.MAX_FACET_PX, True, np.zeros((h, w, 0), dtype=np.float32), zbuf, np.zeros((h, w), dtype=bool))
+    return zbuf
 
 
 def source_in_target(

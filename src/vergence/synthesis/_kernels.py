@@ -455,7 +455,7 @@ def _raster_triangle(i0, i1, i2, u, v, z, colours, use_z, out, zbuf, painted):  
                 out[yy, xx, c] = (b0 * q0 * colours[i0, c] + b1 * q1 * colours[i1, c] + b2 * q2 * colours[i2, c]) / q
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)  # nogil: render_ibr draws several sources in threads
 def splat_mesh(order, u, v, z, link_r, link_d, colours, max_side, use_z, out, zbuf, painted):  # pragma: no cover - compiled
     """Mesh warp: linked source neighbours are one surface, rasterized as triangles (S1 Sec. IV.B.1 in 2-D).
 

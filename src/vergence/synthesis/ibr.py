@@ -223,15 +223,16 @@ def render_ibr(
     ``m < k`` visible sources, they blend with equal weights (a lone one gets weight 1): SIBR pads
     the set with penalties of 1e5, so its weights ``1 - penalty / 1e5`` are equal to 1e-4; this is
     the limit. Pass ``k = m`` to weigh m sources by their penalties. Without distortion
-    ``r = p - D`` (``D`` the target centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the distorted proxy point and ``c`` the
-    target centre, the desired ray is undistorted by the Jacobian, ``r = D phi(p)^-1 (p' - c)``,
-    and ``|r|`` is the desired distance of the resolution term: both are exact for an affine
-    ``phi`` (then ``r = p - phi^-1(c)``), and first-order otherwise.
+    ``r = p - D`` (``D`` the target centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the
+    distorted proxy point and ``c`` the target centre, the desired ray is undistorted by the
+    Jacobian, ``r = D phi(p)^-1 (p' - c)``, and ``|r|`` is the desired distance of the resolution
+    term: both are exact for an affine ``phi`` (then ``r = p - phi^-1(c)``), and first-order
+    otherwise.
 
-    Visibility: the proxy point must project inside the hull of the source's pixel centres, in front of it,
-    and its depth agree within ``occlusion_tolerance`` with that of the source pixel nearest to the
-    projection; the colour is the bilinear sample over the agreeing pixels among the 4 around it
-    (renormalised, so an occluder's colour never bleeds onto the surface behind it).
+    Visibility: the proxy point must project inside the hull of the source's pixel centres, in
+    front of it, and its depth agree within ``occlusion_tolerance`` with that of the source pixel
+    nearest to the projection; the colour is the bilinear sample over the agreeing pixels among the
+    4 around it (renormalised, so an occluder's colour never bleeds onto the surface behind it).
 
     Bayesian (Pujades et al. 2014): ``w = bayesian_weights(None, ...)``, ``u`` = the normalised
     blend, then ``iterations`` times ``w = bayesian_weights(u, ...)``, ``u`` = the blend.
