@@ -65,8 +65,18 @@ def _sources(xs, occluder=None) -> list[IBRSource]:
 # ------------------------------------------------------------------------------ slow references
 
 
-def _ref_sample(points, cam, image, depth, tol):
-    """Python loop: project, field of view, nearest pixel's depth agreement, renormalised bilinear colour."""
+def _keys(t):
+    """Catmull-Rom weights (Keys 1981, a = -1/2) of the taps at -1, 0, 1, 2 for offset t, from the kernel."""
+    def k(s):
+        s = abs(s)
+        return 1.5 * s**3 - 2.5 * s**2 + 1 if s <= 1 else (-0.5 * s**3 + 2.5 * s**2 - 4 * s + 2 if s < 2 else 0.0)
+    return [k(t + 1), k(t), k(1 - t), k(2 - t)]
+
+
+def _ref_sample(points, cam, image, depth, tol, cubic=False):
+    """Python loop: project, field of view, nearest pixel's depth agreement, renormalised bilinear colour;
+    with ``cubic``, inside one surface (16 agreeing pixels, borders clamped), Catmull-Rom clamped to the
+    four nearest pixels' range."""
     h, w = points.shape[:2]
     hs, ws = depth.shape
     pixels = np.full((h, w, 2), np.nan)
@@ -98,6 +108,16 @@ def _ref_sample(points, cam, image, depth, tol):
             if total > 0:
                 visible[y, x] = True
                 colours[y, x] = acc / total
+            if not (cubic and total > 0):
+                continue
+            xs = [min(max(x0 - 1 + j, 0), ws - 1) for j in range(4)]
+            ys = [min(max(y0 - 1 + j, 0), hs - 1) for j in range(4)]
+            if all(abs(depth[yj, xj] - q[2]) <= tol * q[2] for yj in ys for xj in xs):
+                wx, wy = _keys(uc - x0), _keys(vc - y0)
+                patch = image[np.ix_(ys, xs)].astype(np.float64)  # (4, 4, 3)
+                val = np.einsum("i,j,ijc->c", wy, wx, patch)
+                near = patch[1:3, 1:3].reshape(4, 3)
+                colours[y, x] = np.clip(val, near.min(axis=0), near.max(axis=0))
     return pixels, visible, colours
 
 
@@ -152,7 +172,8 @@ def _random_points(rng, h, w):
     return points
 
 
-def test_sample_source_matches_reference():
+@pytest.mark.parametrize("cubic", [False, True])
+def test_sample_source_matches_reference(cubic):
     rng = np.random.default_rng(1)
     src = _sources([0.4], occluder=(0.0, 4.0, 0.8))[0]
     depth = src.depth.copy()
@@ -168,8 +189,9 @@ def test_sample_source_matches_reference():
     visible = np.empty((20, 30), dtype=bool)
     colours = np.empty((20, 30, 3), dtype=np.float32)
     cam = src.camera
-    _ibr_kernels.sample_source(points, cam.K, cam.R, cam.t, src.image, depth, 0.01, FOV_MARGIN_PX, pixels, visible, colours)
-    ref_pixels, ref_visible, ref_colours = _ref_sample(points, cam, src.image, depth, 0.01)
+    _ibr_kernels.sample_source(points, cam.K, cam.R, cam.t, src.image, depth, 0.01, FOV_MARGIN_PX, cubic, pixels,
+                               visible, colours)  # fmt: skip
+    ref_pixels, ref_visible, ref_colours = _ref_sample(points, cam, src.image, depth, 0.01, cubic)
     assert 20 < visible.sum() < visible.size  # both outcomes occur
     assert_array_equal(visible, ref_visible)
     assert_allclose(pixels, ref_pixels, rtol=1e-12, atol=1e-9)
@@ -211,7 +233,7 @@ def test_render_ibr_matches_the_references_composed():
     srcs = _sources([-1.0, 0.0, 1.0], occluder=(0.6, 5.0, 0.5))
     target = _cam(0.3, look=0.0, width=40, height=30)
     res = render_ibr(target, srcs)
-    samples = [_ref_sample(res.proxy_points, s.camera, s.image, s.depth, 0.01) for s in srcs]
+    samples = [_ref_sample(res.proxy_points, s.camera, s.image, s.depth, 0.01, cubic=True) for s in srcs]
     visible = np.stack([v for _, v, _ in samples])
     colours = np.stack([c for _, _, c in samples])
     raw = _ref_ulr(res.proxy_points, None, target.center, np.array([s.camera.center for s in srcs]), visible, 4, 1.0, 0.1)

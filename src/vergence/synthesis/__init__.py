@@ -53,7 +53,7 @@ if TYPE_CHECKING:
         synthesize_view,
         synthesize_views,
     )
-    from vergence.synthesis.ibr import IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
+    from vergence.synthesis.ibr import IBR_INTERPOLATIONS, IBR_LINK_LIMIT_PX, IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
     from vergence.synthesis.ibr_bayes import (
         BAYES_DEFORMATION_CAP,
         BAYES_DEPTH_CONTINUITY,
@@ -78,6 +78,8 @@ _LAZY = {
     "bayesian_weights": "vergence.synthesis.ibr_bayes",
     "IBRResult": "vergence.synthesis.ibr",
     "IBRSource": "vergence.synthesis.ibr",
+    "IBR_INTERPOLATIONS": "vergence.synthesis.ibr",
+    "IBR_LINK_LIMIT_PX": "vergence.synthesis.ibr",
     "IBR_WEIGHTS": "vergence.synthesis.ibr",
     "MAX_SYNTHESIS_BYTES": "vergence.synthesis.dibr",
     "StereoResult": "vergence.synthesis.dibr",
@@ -113,6 +115,8 @@ __all__ = [
     "FILL_METHODS",
     "IBRResult",
     "IBRSource",
+    "IBR_INTERPOLATIONS",
+    "IBR_LINK_LIMIT_PX",
     "IBR_WEIGHTS",
     "INVERSE_DEPTH_RANGE",
     "MAX_FILTER_RADIUS",

@@ -67,8 +67,22 @@ def project_depth(depth, Kinv, R, t, Kt, Rt, tt, u, v, zt):  # pragma: no cover 
                 v[i] = (Kt[1, 1] * qy + Kt[1, 2] * qz) / qz
 
 
+@nb.njit(cache=True, error_model="numpy")
+def _catmull_rom(t, j):  # pragma: no cover - compiled
+    """Catmull-Rom (Keys 1981, a = -1/2) weight of tap j in {0, 1, 2, 3} (taps at -1, 0, 1, 2) at offset t."""
+    t2 = t * t
+    t3 = t2 * t
+    if j == 0:
+        return 0.5 * (-t3 + 2.0 * t2 - t)
+    if j == 1:
+        return 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0)
+    if j == 2:
+        return 0.5 * (-3.0 * t3 + 4.0 * t2 + t)
+    return 0.5 * (t3 - t2)
+
+
 @nb.njit(cache=True, parallel=True, error_model="numpy")
-def sample_source(points, K, R, t, image, depth, tol, margin, pixels, visible, colours):  # pragma: no cover - compiled
+def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, visible, colours):  # pragma: no cover - compiled
     """Project every proxy point into one source, test field of view and visibility, sample its colour.
 
     Camera frame ``q = R p + t``; in front when ``q_z > 0``; pixel ``(u, v) = (K q)_{xy} / q_z``
@@ -77,7 +91,9 @@ def sample_source(points, K, R, t, image, depth, tol, margin, pixels, visible, c
     of the projection; the sample is clamped to the hull). A source pixel agrees with the point
     when ``|z_j - q_z| <= tol * q_z`` (NaN never agrees). The point is visible when the source pixel
     nearest to the projection agrees; its colour is the bilinear blend of the agreeing pixels among
-    the four neighbours, renormalised (an occluder's pixels never bleed in).
+    the four neighbours, renormalised (an occluder's pixels never bleed in). With ``cubic``, where
+    all 16 pixels around the projection agree (inside one surface), the colour is the Catmull-Rom
+    bicubic instead, clamped to the range of the four nearest pixels (no ringing).
     """
     h, w = points.shape[0], points.shape[1]
     hs, ws = depth.shape
@@ -139,6 +155,32 @@ def sample_source(points, K, R, t, image, depth, tol, margin, pixels, visible, c
                 colours[y, x, 0] = acc0 / total
                 colours[y, x, 1] = acc1 / total
                 colours[y, x, 2] = acc2 / total
+            if not (cubic and total > 0.0):
+                continue
+            inside = True
+            for j in range(16):
+                xj = min(max(x0 - 1 + (j & 3), 0), ws - 1)
+                yj = min(max(y0 - 1 + (j >> 2), 0), hs - 1)
+                if not abs(depth[yj, xj] - qz) <= tol * qz:
+                    inside = False
+                    break
+            if not inside:
+                continue
+            for c in range(nc):
+                lo = np.inf
+                hi = -np.inf
+                acc = 0.0
+                for j in range(16):
+                    jx = j & 3
+                    jy = j >> 2
+                    xj = min(max(x0 - 1 + jx, 0), ws - 1)
+                    yj = min(max(y0 - 1 + jy, 0), hs - 1)
+                    val = image[yj, xj, c]
+                    acc += _catmull_rom(fx, jx) * _catmull_rom(fy, jy) * val
+                    if 1 <= jx <= 2 and 1 <= jy <= 2:
+                        lo = min(lo, val)
+                        hi = max(hi, val)
+                colours[y, x, c] = min(max(acc, lo), hi)
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")

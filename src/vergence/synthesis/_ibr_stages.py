@@ -123,7 +123,7 @@ def links_distorted(
 
 
 def sample_sources(
-    points: np.ndarray, sources: list[IBRSource], tol: float, store_pixels: bool
+    points: np.ndarray, sources: list[IBRSource], tol: float, store_pixels: bool, cubic: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per source: proxy pixel ``(S, h, w, 2)`` (empty unless ``store_pixels``), visibility
     ``(S, h, w)`` and colour ``(S, h, w, 3)``."""
@@ -136,7 +136,7 @@ def sample_sources(
     for i, src in enumerate(sources):
         cam = src.camera
         _ibr_kernels.sample_source(pts, np.ascontiguousarray(cam.K), np.ascontiguousarray(cam.R), np.ascontiguousarray(cam.t),
-                                   src.image, src.depth, tol, FOV_MARGIN_PX, pixels[i], visible[i], colours[i])
+                                   src.image, src.depth, tol, FOV_MARGIN_PX, cubic, pixels[i], visible[i], colours[i])
     return pixels, visible, colours
 
 
