@@ -406,3 +406,37 @@ def test_rendering_is_independent_of_the_chunking(curved_tracer, monkeypatch):
     parts = curved_tracer.render_curved(CAM, bend, near=0.1, far=np.inf, samples=1, max_depth=0)
     assert_array_equal(parts.depth, whole.depth)
     assert_array_equal(parts.beauty, whole.beauty)
+
+
+def test_a_bend_that_crosses_its_chord_at_the_midpoint_is_still_split():
+    """A curve that leaves its chord on one side and comes back on the other (an inflection of psi in
+    the Tri-Rig) has its midpoint on the chord: the quarter points must reveal the bend. Measured on
+    the stadium Tri-Rig before the fix: 0.94 px off at a 0.25 px tolerance."""
+    from vergence.camera import look_at
+    from vergence.render.curved import _far_grid, sample_curves
+
+    cam = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=40, width=3, height=1)
+    near, far = 1.0, 2.0
+    grid = _far_grid(near, far)  # first samples in inverse depth; the bend spans the first segment
+    ua, ub = grid[0], grid[1]
+    px_at_1m = 2.0 * np.tan(np.radians(20.0)) / cam.width  # metres per pixel at depth 1
+    amp = 5.0 * px_at_1m  # a lateral swing of ~5 pixels at 1 m
+
+    def to_world(q):
+        u = 1.0 / q[..., 2]
+        phase = np.clip((u - ua) / (ub - ua), 0.0, 1.0)  # zero at both ends and at the midpoint
+        out = np.array(q, dtype=np.float64)
+        out[..., 0] += amp * q[..., 2] * np.sin(2.0 * np.pi * phase)
+        return out
+
+    curves = sample_curves(cam, to_world, near=near, far=far, tolerance_px=0.25)
+    for i in range(cam.width):
+        pts, zs = curves.points[curves.start[i]:curves.start[i + 1]], curves.depth[curves.start[i]:curves.start[i + 1]]
+        # the true curve, densely, against the polyline at the same depths (lateral offset in pixels)
+        z = np.linspace(zs[0], zs[-1], 2001)
+        ray = cam.ray_directions().reshape(-1, 3)[i]
+        ray = ray / ray[2]
+        true = to_world(z[:, None] * ray[None, :])
+        poly_x = np.interp(z, zs, pts[:, 0])
+        err_px = np.abs(true[:, 0] - poly_x) / (z * px_at_1m)
+        assert err_px.max() <= 0.3, (i, err_px.max())

@@ -22,8 +22,10 @@ the chord nearest ``P_m``) is pulled back to the distorted world through the loc
 displacements of a one-pixel step at depth ``z_m`` (finite differences of ``to_world``) and the
 chord carries the along-ray part; the gap is ``hypot(a, b)`` pixels. Steps equal in ``u`` are
 steps equal in disparity, in which the Tri-Rig's distortion is defined (``z' = D_r^-1(psi(D_r(z)))``,
-S0 §6); a curve smooth in ``u`` is locally quadratic, so its largest gap to a chord lies at the
-midpoint. Straight and affine maps need no split.
+S0 §6). A curve smooth in ``u`` is locally quadratic, its largest gap to a chord at the midpoint;
+the quarter points are tested too, since a segment across an inflection of psi can have its
+midpoint on the chord (measured on the stadium Tri-Rig: up to 0.94 px off at a 0.25 px tolerance
+with the midpoint alone). Straight and affine maps need no split.
 
 **Far end.** ``far = inf`` cuts the sampling at :data:`CURVE_CUT_DEPTH`; the last segment then
 continues without bound. Where ``to_world`` returns NaN (or inf) the curve is undefined: the ray
@@ -215,6 +217,12 @@ def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol):  # 
         if level < MAX_SPLIT_LEVELS:
             pm, jx, jy = _mapped_with_steps(to_world, qm, zm * step_x, zm * step_y)
             gap = _gap_px(pa, pb, pm, jx, jy)
+            # the quarter points too: a segment across an inflection of psi (where the curve turns from one
+            # side of its chord to the other) can have its midpoint on the chord and bend by pixels elsewhere
+            zq = 1.0 / np.concatenate([0.75 * ua + 0.25 * ub, 0.25 * ua + 0.75 * ub])
+            pq = _map(to_world, center + zq[:, None] * np.concatenate([r[ray], r[ray]]))
+            k2 = len(ray)
+            gap = np.fmax(gap, np.fmax(_gap_px(pa, pb, pq[:k2], jx, jy), _gap_px(pa, pb, pq[k2:], jx, jy)))
             gap[(np.isnan(jx[:, 0]) | np.isnan(jy[:, 0])) & ~np.isnan(pm[:, 0])] = 0.0  # unmeasurable
             ok = ~np.isnan(pb[:, 0]) & (gap <= tol)
         else:

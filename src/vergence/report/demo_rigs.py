@@ -118,7 +118,7 @@ def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tup
             "Bayesian weights, Pujades et al. 2014) and compared with the virtual eye ray-traced directly, "
             "over the pixels some real camera sees. S0 Table 1 reports its figures on the blender lego scene."
         )
-        truth = "The virtual eyes, ray-traced (the truth)."
+        truth = {"left": "Virtual left eye, ray-traced (the truth).", "right": "Virtual right eye, ray-traced (the truth)."}
     else:
         text = (
             "The Tri-Rig (S0 §6): the director's camera is the left eye, unchanged; a subject camera makes the "
@@ -128,13 +128,14 @@ def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tup
             "(S0 Fig. 10). S0 had no reference image for it; here the truth follows each straight ray of the "
             "reference right camera as the curve phi^-1(ray) through the real scene (curved-ray tracing)."
         )
-        truth = "Left: the director's image. Right: the curved-ray truth."
+        truth = {"left": "The director's image: the left eye and its own truth.",
+                 "right": "The right eye's truth: the reference right camera's rays followed as curves phi^-1(ray)."}
     figures = (
         Figure(f"{stem}_plan.png", "The rig from above."),
         Grid(tuple(Figure(f"{stem}_camera_{n}.png", f"Real camera {n}.") for n in names),
              columns=min(4, len(names))),  # fmt: skip
         Grid(tuple(pair_figs)),
-        Grid(tuple(Figure(f"{stem}_truth_{eye}.png", truth if i == 0 else "") for i, eye in enumerate(result.truth))),
+        Grid(tuple(Figure(f"{stem}_truth_{eye}.png", truth[eye]) for eye in result.truth)),
         Grid(tuple(error_figs), columns=min(4, max(1, len(error_figs)))),
     )
     title = f"{number}. Stereoscopic zoom: the {'Quadri' if kind == 'quadri' else 'Tri'}-Rig (S0 §{5 if kind == 'quadri' else 6})"

@@ -26,7 +26,7 @@ import numpy as np
 
 from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.synthesis import _ibr_kernels, _ibr_mip, _ibr_stages
+from vergence.synthesis import _ibr_kernels, _ibr_stages
 from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
 from vergence.synthesis.ibr_bayes import (
     BAYES_DEFORMATION_CAP,
@@ -159,7 +159,6 @@ def render_ibr(
     occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
     gradient_limit: float | None = IBR_LINK_LIMIT_PX,
     interpolation: str = "cubic",
-    prefilter: bool = False,
     iterations: int = BAYES_ITERATIONS,
     sigma_sensor: float = BAYES_SIGMA_SENSOR,
     sigma_depth: float = BAYES_SIGMA_DEPTH,
@@ -197,7 +196,12 @@ def render_ibr(
     gradient_limit : float or None
         Forward-warped proxy: two neighbouring source pixels are one surface when moving one of them
         to the other's depth shifts its target position by at most this many pixels (as in
-        :func:`~vergence.synthesis.warp_to_camera`); None: point splats only.
+        :func:`~vergence.synthesis.warp_to_camera`); None: point splats only. Default
+        :data:`IBR_LINK_LIMIT_PX` (10 px: IBR sources stand far from the target).
+    interpolation : str
+        Source colour sampling, in :data:`IBR_INTERPOLATIONS`: ``"cubic"`` (Catmull-Rom, Keys 1981,
+        where the 4x4 pixels around the sample are all one surface, clamped to the range of the 4
+        nearest; bilinear near an occlusion edge) or ``"linear"`` (bilinear everywhere).
     iterations : int
         Bayesian: re-weightings on the current estimate after the first pass, >= 0.
     sigma_sensor, sigma_depth, deformation_cap, gradient_threshold, geometric_cap : float
@@ -243,7 +247,8 @@ def render_ibr(
     Visibility: the proxy point must project inside the hull of the source's pixel centres, in
     front of it, and its depth agree within ``occlusion_tolerance`` with that of the source pixel
     nearest to the projection; the colour is the bilinear sample over the agreeing pixels among the
-    4 around it (renormalised, so an occluder's colour never bleeds onto the surface behind it).
+    4 around it (renormalised, so an occluder's colour never bleeds onto the surface behind it);
+    with ``interpolation="cubic"``, the clamped Catmull-Rom sample where all 16 around it agree.
 
     Bayesian (Pujades et al. 2014): ``w = bayesian_weights(None, ...)``, ``u`` = the normalised
     blend, then ``iterations`` times ``w = bayesian_weights(u, ...)``, ``u`` = the blend.
@@ -270,8 +275,6 @@ def render_ibr(
     srcs = _check_sources(sources)
     method = check_method("weights", weights, IBR_WEIGHTS)
     interp = check_method("interpolation", interpolation, IBR_INTERPOLATIONS)
-    if not isinstance(prefilter, bool | np.bool_):
-        raise TypeError(f"prefilter must be a bool; got {type(prefilter).__name__}")
     given = None if proxy_depth is None else _check_proxy_depth(proxy_depth, target)
     if distortion is not None:
         _check_distortion(distortion)
@@ -304,13 +307,8 @@ def render_ibr(
     points_t = _ibr_stages.backproject(target, depth_t)  # in the distorted world under a distortion
     points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
     say(0.3, f"sampling {len(srcs)} sources")
-    store_pixels = method == "bayesian" or prefilter
+    store_pixels = method == "bayesian"
     pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, store_pixels, interp == "cubic")
-    if prefilter:
-        say(0.5, "prefiltering the sources that see the target denser (mip levels)")
-        for i, src in enumerate(srcs):
-            lod = _ibr_mip.footprint_levels(pixels[i], visible[i], depth_t)
-            _ibr_mip.prefilter_colours(points, src.camera, src.depth, src.image, visible[i], lod, tol, colours[i])
     if method == "ulr":
         say(0.7, "ULR weights")
         rays = np.zeros((0, 0, 3)) if distortion is None else _ibr_stages.desired_rays(distortion, points, points_t, target.center)
