@@ -125,3 +125,13 @@ def test_progress_is_told_each_stage():
     seen = []
     render_ibr(target, srcs, progress=lambda f, m: seen.append((f, m)))
     assert seen[0][0] == 0.0 and seen[-1] == (1.0, "done") and len(seen) >= 4
+
+
+def test_sources_whose_depth_is_all_nan_are_refused_in_one_line():
+    target, srcs = _good()
+    blind = [IBRSource(s.camera, s.image, np.full(s.depth.shape, np.nan)) for s in srcs]
+    with pytest.raises(ValueError, match="every source depth is NaN"):
+        render_ibr(target, blind)
+    # with a given proxy there is something to sample (nothing here): holes, no error
+    res = render_ibr(target, blind, proxy_depth=np.full((target.height, target.width), 5.0))
+    assert not res.coverage.any()

@@ -276,6 +276,8 @@ def render_ibr(
     method = check_method("weights", weights, IBR_WEIGHTS)
     interp = check_method("interpolation", interpolation, IBR_INTERPOLATIONS)
     given = None if proxy_depth is None else _check_proxy_depth(proxy_depth, target)
+    if given is None and not any(np.isfinite(s.depth).any() for s in srcs):
+        raise ValueError("sources must see some surface: every source depth is NaN, so there is no proxy to render")
     if distortion is not None:
         _check_distortion(distortion)
     k = check_positive_int("k", k)

@@ -1,0 +1,54 @@
+"""rigs.shoot: the Tri-Rig's mapped disparity is what the reference right camera sees of the distorted world."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vergence.rigs import shot_from_dict
+from vergence.rigs.shoot import mapped_disparity, render_shot
+
+
+def _tri():
+    return shot_from_dict({
+        "rig": "tri", "scene": "stadium", "display": "tv-55",
+        "camera": {"position": [0.0, 2.2, 0.0], "look_at": [0.0, 1.1, -30.0], "up": [0, 1, 0], "fov_deg": 8.0,
+                   "width": 48, "height": 27},
+        "constraints": ["z=30,perceived=3,roundness=1", "z=65,perceived=6"], "reference": "round", "near": 25.0,
+    })  # fmt: skip
+
+
+def test_mapped_disparity_is_the_disparity_of_phi_in_the_reference_right_camera():
+    rig = _tri().plan()
+    cam = rig.director
+    rng = np.random.default_rng(0)
+    depth = rng.uniform(26.0, 90.0, (cam.height, cam.width))
+    depth[0, :5] = np.nan  # sky stays NaN
+    d = mapped_disparity(rig, depth)
+    points = cam.backproject_depth(np.nan_to_num(depth, nan=50.0))
+    right, _ = rig.reference_right.project(rig.distortion.forward(points.reshape(-1, 3)))
+    x_left = cam.pixel_grid()[..., 0]
+    expected = x_left - right[:, 0].reshape(depth.shape)
+    ok = np.isfinite(depth)
+    np.testing.assert_allclose(d[ok], expected[ok], atol=2e-3)  # float32 output
+    assert np.isnan(d[~ok]).all()
+    # on the convergence plane psi(0) = 0: zero disparity; farther: uncrossed (x_left - x_right < 0)
+    at_h = mapped_disparity(rig, np.full((1, 1), rig.reference.convergence))
+    assert abs(float(at_h[0, 0])) < 1e-4
+    assert float(mapped_disparity(rig, np.full((1, 1), 60.0))[0, 0]) < 0
+
+
+@pytest.mark.parametrize(("kwargs", "needle"), [
+    ({"weights": ("mean",)}, "weights"),
+    ({"weights": "ulr"}, "weights"),
+    ({"samples": 0}, "samples"),
+    ({"supersample": 1.5}, "supersample"),
+])
+def test_render_shot_refuses_bad_options_before_rendering(kwargs, needle):
+    with pytest.raises(ValueError, match=needle):
+        render_shot(_tri(), **kwargs)
+
+
+def test_render_shot_refuses_a_non_shot():
+    with pytest.raises(TypeError, match="shot"):
+        render_shot({"rig": "tri"})
