@@ -156,3 +156,12 @@ def test_render_writes_nothing_when_a_source_is_refused(run, tmp_path):
 def test_render_refuses_unknown_weights(run, tmp_path):
     code, out, err = run("rig", "render", str(_tiny("tri", tmp_path)), "--out", str(tmp_path / "o"), "--weights", "mean")
     assert code == 2 and "--weights" in err
+
+
+def test_render_defaults_match_the_library():
+    import inspect
+
+    from vergence.cli.rig import render
+    from vergence.rigs.shoot import SHOT_SUPERSAMPLE
+
+    assert inspect.signature(render).parameters["supersample"].default.default == SHOT_SUPERSAMPLE

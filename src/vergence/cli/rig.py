@@ -145,7 +145,7 @@ def render(
     out: Path = typer.Option(..., "--out", help="Output folder (created if missing; all files or none)."),
     weights: str = typer.Option("both", "--weights", help="IBR blending weights: ulr, bayesian or both."),
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
-    supersample: int = typer.Option(2, "--supersample", help="k: k x k sub-pixel rays per pixel in every ray-traced image."),
+    supersample: int = typer.Option(3, "--supersample", help="k: k x k sub-pixel rays per pixel in every ray-traced image."),  # SHOT_SUPERSAMPLE
 ) -> None:
     """Render the real cameras of SHOT, synthesise the director's pair (ULR / Bayesian) and measure it."""
     from vergence.io import atomic_folder, write_image, write_pfm

@@ -138,5 +138,8 @@ def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tup
         Grid(tuple(Figure(f"{stem}_truth_{eye}.png", truth[eye]) for eye in result.truth)),
         Grid(tuple(error_figs), columns=min(4, max(1, len(error_figs)))),
     )
+    text += (f" Rendered at {DEMO_WIDTH}x{DEMO_HEIGHT} with {DEMO_SUPERSAMPLE}x{DEMO_SUPERSAMPLE} rays per pixel and "
+             f"{DEMO_SAMPLES} AO rays to keep the demo short; `vergence rig render` on the example shot (480x270, "
+             "3x3 rays per pixel) gives the figures of docs/shots.md.")
     title = f"{number}. Stereoscopic zoom: the {'Quadri' if kind == 'quadri' else 'Tri'}-Rig (S0 §{5 if kind == 'quadri' else 6})"
     return Section(title, text, figures, tuple(rows)), result.report

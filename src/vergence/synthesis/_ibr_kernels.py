@@ -166,20 +166,21 @@ def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, vis
                     break
             if not inside:
                 continue
+            wx0, wx1, wx2, wx3 = _catmull_rom(fx, 0), _catmull_rom(fx, 1), _catmull_rom(fx, 2), _catmull_rom(fx, 3)
+            xa, xb = max(x0 - 1, 0), min(x0 + 1, ws - 1)
+            xc = min(x0 + 2, ws - 1)
             for c in range(nc):
                 lo = np.inf
                 hi = -np.inf
                 acc = 0.0
-                for j in range(16):
-                    jx = j & 3
-                    jy = j >> 2
-                    xj = min(max(x0 - 1 + jx, 0), ws - 1)
+                for jy in range(4):
                     yj = min(max(y0 - 1 + jy, 0), hs - 1)
-                    val = image[yj, xj, c]
-                    acc += _catmull_rom(fx, jx) * _catmull_rom(fy, jy) * val
-                    if 1 <= jx <= 2 and 1 <= jy <= 2:
-                        lo = min(lo, val)
-                        hi = max(hi, val)
+                    row = (wx0 * image[yj, xa, c] + wx1 * image[yj, x0, c] + wx2 * image[yj, xb, c]
+                           + wx3 * image[yj, xc, c])  # fmt: skip
+                    acc += _catmull_rom(fy, jy) * row
+                    if jy == 1 or jy == 2:
+                        lo = min(lo, image[yj, x0, c], image[yj, xb, c])
+                        hi = max(hi, image[yj, x0, c], image[yj, xb, c])
                 colours[y, x, c] = min(max(acc, lo), hi)
 
 
