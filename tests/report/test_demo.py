@@ -64,10 +64,10 @@ def test_demo_writes_index_with_existing_figures(demo):
     for method in ("ulr", "bayesian"):
         for eye in ("left", "right"):
             quadri = result.rig_reports["quadri"]["methods"][method][eye]
-            assert quadri["psnr"] > 28.0 and quadri["coverage"] > 0.5
+            assert quadri["psnr"] > 32.0 and quadri["coverage"] > 0.9  # measured 34.1-34.4 dB, 98 %
         tri = result.rig_reports["tri"]["methods"][method]
         assert tri["left"]["psnr"] is None  # the director's own image
-        assert tri["right"]["psnr"] > 32.0 and tri["right"]["coverage"] > 0.95
+        assert tri["right"]["psnr"] > 38.0 and tri["right"]["coverage"] > 0.95  # measured 43.8-44.0 dB, 97 %
     assert "Quadri-Rig" in html and "Tri-Rig" in html and "33.93" in html
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from vergence.report.demo_rigs import DEMO_HEIGHT, DEMO_SHOTS, DEMO_WIDTH, demo_shot
+from vergence.report.demo_rigs import DEMO_RENDER, DEMO_SHOTS, demo_shot
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "shots"
 
@@ -17,6 +17,6 @@ def test_demo_shots_are_the_stadium_examples(kind):
     example = json.loads((EXAMPLES / f"stadium-{kind}.json").read_text())
     assert example == DEMO_SHOTS[kind]
     shot = demo_shot(kind)
-    assert (shot.camera.width, shot.camera.height) == (DEMO_WIDTH, DEMO_HEIGHT)
+    assert (shot.camera.width, shot.camera.height) == DEMO_RENDER[kind][:2]
     assert shot.rig == kind
     shot.plan()  # plans without error
