@@ -145,10 +145,14 @@ def _trace_all(tracer, named, samples, supersample, say, start, span):  # noqa: 
     return out
 
 
-def _tonemapped(results: dict, exposure: float) -> dict:
+def _tone(beauty: np.ndarray, exposure: float) -> np.ndarray:
     from vergence.render import tonemap
 
-    return {k: np.ascontiguousarray(tonemap(r.beauty, exposure=exposure), dtype=np.float32) for k, r in results.items()}
+    return np.ascontiguousarray(tonemap(beauty, exposure=exposure), dtype=np.float32)
+
+
+def _tonemapped(results: dict, exposure: float) -> dict:
+    return {k: _tone(r.beauty, exposure) for k, r in results.items()}
 
 
 def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray) -> dict:
@@ -224,7 +228,7 @@ def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  #
     t_render = time.perf_counter() - t0
     exposure = auto_exposure(director.beauty)
     images = _tonemapped(renders, exposure)
-    images["truth_right"] = _tonemapped({"t": _Beauty(truth_right)}, exposure)["t"]
+    images["truth_right"] = _tone(truth_right, exposure)
     cams = dict(named)
     truth = {"left": images["director"], "right": images["truth_right"]}
     results: dict = {}
@@ -244,11 +248,6 @@ def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  #
     return ShotRender(shot=shot, rig=rig, exposure=float(exposure), cameras=cameras, truth=truth, results=results,
                       images=pairs, mapped_disparity=mapped_disparity(rig, np.asarray(director.depth)),
                       report={"methods": report, "timings": timing})  # fmt: skip
-
-
-@dataclass(frozen=True)
-class _Beauty:
-    beauty: np.ndarray
 
 
 def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int) -> np.ndarray:  # noqa: ANN001
