@@ -165,3 +165,9 @@ def test_render_defaults_match_the_library():
     from vergence.rigs.shoot import SHOT_SUPERSAMPLE
 
     assert inspect.signature(render).parameters["supersample"].default.default == SHOT_SUPERSAMPLE
+
+
+def test_rig_help_reads_as_the_other_commands(run):
+    code, out, _ = run("rig", "--help")
+    assert code == 0 and "plan" in out and "render" in out
+    assert "<bool>" not in out  # a flag shows no value type

@@ -120,6 +120,15 @@ class _TidyCommand(TyperCommand):
         return params
 
 
+class _TidyGroup(TyperGroup):
+    """A command group's own parameters (its ``--help``) read as the commands' do."""
+
+    def get_params(self, ctx: Any) -> list[Any]:
+        params = super().get_params(ctx)
+        tidy_parameters(params)
+        return params
+
+
 def _command_table() -> dict[str, tuple[str, str]]:
     from vergence.cli import COMMANDS
 
@@ -143,6 +152,8 @@ def _load(name: str, module: str) -> TyperCommand:
         for sub in group.commands.values():  # the subcommands read as the others do
             if type(sub) is TyperCommand:
                 sub.__class__ = _TidyCommand
+        if type(group) is TyperGroup:
+            group.__class__ = _TidyGroup
         return group
     if not infos:
         raise RuntimeError(f"vergence.cli.{module} registers no command or group {name!r} (see vergence.cli.COMMANDS)")
