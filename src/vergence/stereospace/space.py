@@ -34,7 +34,7 @@ import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range, readonly_copy
 
-__all__ = ["PARALLEL_SINE", "RELATIVE_TOLERANCE", "StereoSpace", "StereoState", "stereo_point"]
+__all__ = ["JUMP_CONE_DEG", "PARALLEL_SINE", "RELATIVE_TOLERANCE", "StereoSpace", "StereoState", "stereo_point"]
 
 RELATIVE_TOLERANCE = 1e-9
 """Tolerance of :meth:`StereoSpace.parameters`, relative to the size of the camera graph (its largest
@@ -47,6 +47,11 @@ PARALLEL_SINE = 1e-6
 :meth:`StereoSpace.parameters` (S2 §4.2): the mid-point system is then too ill-conditioned
 (its error grows as 1/sine) and the Pythagoras construction is used; a Gauss-Newton polish on the
 full 4-vector removes the error of either construction."""
+
+JUMP_CONE_DEG = 40.0
+"""Half-angle of the cone in which :meth:`StereoSpace.zoom` and :meth:`StereoSpace.pan` look for a region
+to jump to, degrees (S2 §4.1: "the cone ... oriented as d and with angle 40"; S2 does not say whether
+40 is the half-angle or the aperture: the half-angle finds a neighbour more often)."""
 
 _POLISH_STEPS = 3  # Gauss-Newton steps on s(λ) = p after the closed form: quadratic convergence.
 
@@ -337,6 +342,26 @@ class StereoSpace:
         """
         state = self.check_state(state)
         return self._jacobian(state.region, np.array([state.li, state.lj]))[3]
+
+    # -- navigation (S2 §4.1), in vergence.stereospace.navigation --------------------------------
+    def tangent(self, state: StereoState) -> np.ndarray:
+        """The unit pan direction in parameter space; see :func:`navigation.tangent`."""
+        from vergence.stereospace.navigation import tangent
+
+        return tangent(self, state)
+
+    def zoom(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG):
+        """Change the interocular distance by ``v`` metres; see :func:`navigation.zoom`."""
+        from vergence.stereospace.navigation import zoom
+
+        return zoom(self, state, v, cone_deg=cone_deg)
+
+    def pan(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG):
+        """Move the view position by ``v`` metres at constant interocular distance; see
+        :func:`navigation.pan`."""
+        from vergence.stereospace.navigation import pan
+
+        return pan(self, state, v, cone_deg=cone_deg)
 
 
 def _pair(name: str, value: object) -> tuple[float, float]:
