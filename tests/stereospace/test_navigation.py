@@ -163,3 +163,20 @@ def test_pan_off_the_end_stops():
 def test_bad_navigation_arguments(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+def test_jump_keeps_the_orientation_of_the_eyes():
+    # On a ring of 10 cameras the pair (camera 0, camera 1) is also in region (1, 9) with the eyes
+    # swapped; the jump must go on with camera 0 as the first eye, i.e. to region (0, 1) at (0, 0).
+    # There the second eye moves on along segment 1, which turns by 36°: s_w grows at cos 36° = 0.81
+    # and the view position moves at 0.5, atan(0.5 / 0.81) = 31.7° off the zoom: inside the cone.
+    t = np.linspace(0.0, 2 * np.pi, 11)
+    ring = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)
+    space = StereoSpace(np.stack([ring[:-1], ring[1:]], axis=1))
+    top = StereoState((0, 0), 0.0, 1.0)
+    moved = space.zoom(top, 0.05)
+    assert moved.event == "jumped"
+    assert moved.state.region == (0, 1)
+    assert_allclose((moved.state.li, moved.state.lj), (0.0, 0.0), atol=JUMP_TOL)
+    before, after = np.diff(space.eyes(top), axis=0)[0], np.diff(space.eyes(moved.state), axis=0)[0]
+    assert before @ after > 0.9 * (before @ before)

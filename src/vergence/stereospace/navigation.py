@@ -202,46 +202,78 @@ def _project(state: StereoState, lam: np.ndarray) -> StereoState:
 
 # -- the jump (S2 §4.1) ----------------------------------------------------------------------------
 def _jump_or_stop(space: StereoSpace, state: StereoState, lam: np.ndarray, direction: np.ndarray, cone_deg: float) -> Move:
-    """Jump to the closest stereo point of another region inside the cone, or stop at ``state``."""
+    """Jump to the closest stereo point of another region inside the cone, or stop at ``state``.
+
+    Candidates whose baseline keeps the orientation of the current one (positive dot product) come
+    first (S2 §4.2: the solution "more coherent with the rectified camera orientation"); among them the
+    closest wins. Every region is searched on its coarse tessellation; only the regions whose coarse
+    best could still win after refinement are refined.
+    """
     p = space._points(state.region, lam[None])[0]
     eyes = space._eyes(state.region, *lam)
     baseline = eyes[1] - eyes[0]
     cos_max = math.cos(math.radians(cone_deg))
     unit = direction / np.linalg.norm(direction)
-    best = None
+    coarse = []
     for region in space.regions:
-        if region == state.region:
-            continue
-        found = _closest_in_cone(space, region, p, unit, cos_max, baseline)
-        if found is not None and (best is None or found[0] < best[0] - space.tolerance):
-            best = found
-    if best is None:
+        if region != state.region:
+            found = _closest_in_cone(space, region, p, unit, cos_max, baseline, refinements=0)
+            if found is not None:
+                coarse.append(found)
+    if not coarse:
         return Move(state, "stopped")
-    return Move(StereoState(best[2], float(best[1][0]), float(best[1][1])), "jumped")
-
-
-def _closest_in_cone(space, region, p, unit, cos_max, baseline):
-    """(distance, parameters, region) of the region's closest sample to ``p`` inside the cone, or None."""
-    axes = (np.linspace(0.0, 1.0, JUMP_SAMPLES),) * 2
+    leader = min(coarse, key=_rank)
+    cell = 1.0 / (JUMP_SAMPLES - 1)
     best = None
-    for _ in range(_REFINEMENTS + 1):
-        a, b = (x.ravel() for x in np.meshgrid(*axes, indexing="ij"))
-        lam = np.stack([a, b], axis=1)
+    for found in coarse:
+        si, sj = space.segments[found.region[0]], space.segments[found.region[1]]
+        # |d s / d λ| <= 1.5 (|u_i| + |u_j|): a finer tessellation gains at most that times a cell
+        reach = 1.5 * (np.linalg.norm(si[1] - si[0]) + np.linalg.norm(sj[1] - sj[0])) * cell * math.sqrt(2.0)
+        if found.agrees < leader.agrees or found.distance - reach > leader.distance:
+            continue
+        refined = _closest_in_cone(space, found.region, p, unit, cos_max, baseline, refinements=_REFINEMENTS)
+        if best is None or _rank(refined) < _rank(best):
+            best = refined
+    return Move(StereoState(best.region, float(best.lam[0]), float(best.lam[1])), "jumped")
+
+
+@dataclass(frozen=True, slots=True)
+class _Candidate:
+    region: tuple[int, int]
+    lam: np.ndarray
+    distance: float
+    agrees: bool  # its baseline keeps the orientation of the current one
+
+
+def _rank(found: _Candidate) -> tuple[bool, float]:
+    return (not found.agrees, found.distance)
+
+
+def _closest_in_cone(space, region, p, unit, cos_max, baseline, *, refinements: int) -> _Candidate | None:
+    """The region's closest sample to ``p`` inside the cone, orientation first; None if none is in it."""
+    axes = (np.linspace(0.0, 1.0, JUMP_SAMPLES),) * 2
+    si, sj = space.segments[region[0]], space.segments[region[1]]
+    best = None
+    for _ in range(refinements + 1):
+        lam = np.stack([x.ravel() for x in np.meshgrid(*axes, indexing="ij")], axis=1)
         if region[0] == region[1]:
             lam = lam[lam[:, 0] <= lam[:, 1]]
         if best is not None:
-            lam = np.vstack([lam, best[1]])
+            lam = np.vstack([lam, best.lam])
         q = space._points(region, lam) - p
         dist = np.linalg.norm(q, axis=1)
         ok = (dist > space.tolerance) & (q @ unit >= cos_max * dist)
-        if not ok.any():
-            return best
-        lam, dist = lam[ok], dist[ok]
-        near = dist <= dist.min() + space.tolerance  # ties: keep the orientation of the baseline
-        si, sj = space.segments[region[0]], space.segments[region[1]]
         base = (sj[0] + lam[:, 1:] * (sj[1] - sj[0])) - (si[0] + lam[:, :1] * (si[1] - si[0]))
+        agree = base @ baseline >= 0.0
+        agrees = bool((ok & agree).any())
+        if agrees:
+            ok &= agree
+        if not ok.any() or (best is not None and best.agrees and not agrees):
+            return best
+        lam, dist, base = lam[ok], dist[ok], base[ok]
+        near = dist <= dist.min() + space.tolerance  # ties: the pair closest to the current orientation
         k = np.flatnonzero(near)[np.argmax(base[near] @ baseline)]
-        best = (float(dist[k]), lam[k].copy(), region)
+        best = _Candidate(region, lam[k].copy(), float(dist[k]), agrees)
         h = (axes[0][1] - axes[0][0], axes[1][1] - axes[1][0])
         axes = tuple(np.linspace(max(0.0, lam[k, n] - h[n]), min(1.0, lam[k, n] + h[n]), JUMP_SAMPLES) for n in range(2))
     return best
