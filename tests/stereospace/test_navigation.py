@@ -180,3 +180,25 @@ def test_jump_keeps_the_orientation_of_the_eyes():
     assert_allclose((moved.state.li, moved.state.lj), (0.0, 0.0), atol=JUMP_TOL)
     before, after = np.diff(space.eyes(top), axis=0)[0], np.diff(space.eyes(moved.state), axis=0)[0]
     assert before @ after > 0.9 * (before @ before)
+
+
+def test_vectorised_coarse_search_matches_the_per_region_loop():
+    from vergence.stereospace.navigation import _closest_in_cone, _coarse_candidates
+
+    rng = np.random.default_rng(3)
+    space = StereoSpace(rng.uniform(-1, 1, (4, 2, 3)))
+    p = space.point(1, 0.3, 2, 0.6)
+    baseline = np.diff(space._eyes((1, 2), 0.3, 0.6), axis=0)[0]
+    unit = np.array([0.3, -0.2, 0.1, 1.0]) / np.linalg.norm([0.3, -0.2, 0.1, 1.0])
+    cos_max = math.cos(math.radians(50.0))
+    fast = {c.region: c for c in _coarse_candidates(space, (1, 2), p, unit, cos_max, baseline)}
+    slow = {}
+    for region in space.regions:
+        found = _closest_in_cone(space, region, p, unit, cos_max, baseline, refinements=0)
+        if region != (1, 2) and found is not None:
+            slow[region] = found
+    assert len(slow) >= 3
+    assert fast.keys() == slow.keys()
+    for region, c in slow.items():
+        assert (fast[region].agrees, fast[region].distance) == (c.agrees, pytest.approx(c.distance, abs=1e-14))
+        assert_allclose(fast[region].lam, c.lam)

@@ -118,7 +118,7 @@ def test_zero_length_segment_is_a_fixed_camera():
     ],
 )
 def test_points_off_the_region_are_refused_with_the_distance(point, region, off):
-    with pytest.raises(ValueError, match=rf"not in region \({region[0]}, {region[1]}\): about {off:g} off"):
+    with pytest.raises(ValueError, match=rf"not in region \({region[0]}, {region[1]}\): its best fit in the region is {off:g} away"):
         SQUARE.parameters(point, region=region)
 
 
@@ -205,3 +205,23 @@ def test_bad_points_and_states():
         StereoState((0, 1), 0.1, np.nan)
     with pytest.raises(ValueError, match="does not exist"):
         SQUARE.eyes(StereoState((0, 7), 0.1, 0.2))
+
+
+def test_locate_finds_the_first_region_holding_the_point():
+    # (0.5, 0, 0, 0.6) is on triangle (0, 0) only; the ladder's rungs (0, 1) start at s_w = 1
+    state = SQUARE.locate([0.5, 0, 0, 0.6])
+    assert state.region == (0, 0)
+    assert_allclose((state.li, state.lj), (0.2, 0.8), atol=1e-12)
+    p = SQUARE.point(1, 0.3, 2, 0.9)
+    state = SQUARE.locate(p)
+    assert state.region == (1, 2)
+    assert_allclose((state.li, state.lj), (0.3, 0.9), atol=1e-12)
+    # of the two mirror solutions on the ladder, the one oriented as the current view
+    p = SQUARE.point(0, 0.2, 1, 0.7)
+    state = SQUARE.locate(p, current=StereoState((0, 1), 0.9, 0.1))
+    assert state.region == (0, 1)
+    assert_allclose((state.li, state.lj), (0.7, 0.2), atol=1e-12)
+    with pytest.raises(ValueError, match=r"not in the stereospace: its best fit, in region \(0, 0\), is 0.781 away"):
+        SQUARE.locate([0.5, 0, -0.5, 0.6])
+    with pytest.raises(ValueError, match="point must be finite"):
+        SQUARE.locate([0.5, 0, np.inf, 0.6])

@@ -214,12 +214,7 @@ def _jump_or_stop(space: StereoSpace, state: StereoState, lam: np.ndarray, direc
     baseline = eyes[1] - eyes[0]
     cos_max = math.cos(math.radians(cone_deg))
     unit = direction / np.linalg.norm(direction)
-    coarse = []
-    for region in space.regions:
-        if region != state.region:
-            found = _closest_in_cone(space, region, p, unit, cos_max, baseline, refinements=0)
-            if found is not None:
-                coarse.append(found)
+    coarse = _coarse_candidates(space, state.region, p, unit, cos_max, baseline)
     if not coarse:
         return Move(state, "stopped")
     leader = min(coarse, key=_rank)
@@ -247,6 +242,34 @@ class _Candidate:
 
 def _rank(found: _Candidate) -> tuple[bool, float]:
     return (not found.agrees, found.distance)
+
+
+def _coarse_candidates(space, current, p, unit, cos_max, baseline) -> list[_Candidate]:
+    """Each other region's best sample on the coarse tessellation, all regions at once: the vectorised
+    :func:`_closest_in_cone` without refinement (the tests check they agree)."""
+    regions = np.array([r for r in space.regions if r != tuple(current)], dtype=np.intp).reshape(-1, 2)
+    grid = np.linspace(0.0, 1.0, JUMP_SAMPLES)
+    lam = np.stack([x.ravel() for x in np.meshgrid(grid, grid, indexing="ij")], axis=1)  # (K, 2)
+    seg = space.segments
+    s0, u = seg[:, 0], seg[:, 1] - seg[:, 0]
+    a = s0[regions[:, :1]] + lam[None, :, :1] * u[regions[:, :1]]  # first eyes (R, K, 3)
+    b = s0[regions[:, 1:]] + lam[None, :, 1:] * u[regions[:, 1:]]
+    q = np.concatenate([(a + b) / 2.0, np.linalg.norm(a - b, axis=2, keepdims=True)], axis=2) - p
+    dist = np.linalg.norm(q, axis=2)
+    ok = (dist > space.tolerance) & (q @ unit >= cos_max * dist)
+    ok &= (regions[:, :1] != regions[:, 1:]) | (lam[None, :, 0] <= lam[None, :, 1])  # triangles: li <= lj
+    agree = ok & ((b - a) @ baseline >= 0.0)
+    agrees = agree.any(axis=1)
+    ok = np.where(agrees[:, None], agree, ok)
+    # the closest; ties broken by the orientation of the baseline
+    score = np.where(ok, dist, np.inf)
+    best = score.min(axis=1, keepdims=True)
+    tie = ok & (score <= best + space.tolerance)
+    k = np.argmax(np.where(tie, (b - a) @ baseline, -np.inf), axis=1)
+    out = []
+    for r in np.flatnonzero(ok.any(axis=1)):
+        out.append(_Candidate((int(regions[r, 0]), int(regions[r, 1])), lam[k[r]].copy(), float(dist[r, k[r]]), bool(agrees[r])))
+    return out
 
 
 def _closest_in_cone(space, region, p, unit, cos_max, baseline, *, refinements: int) -> _Candidate | None:

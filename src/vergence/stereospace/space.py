@@ -20,6 +20,8 @@ Conventions (decisions; S2 leaves them open)
   keeps the one whose baseline points the same way as a reference: the baseline at ``near`` when it is
   given (the current view, so that the rectified orientation does not flip while browsing), else the
   direction of segment ``i`` as on the triangles.
+- Regions may intersect: :meth:`StereoSpace.locate` maps a point to the first region that holds it
+  (S2 §4.2).
 - Zero-length segments are allowed (S2 includes the original cameras as segments ``aa``); their
   parameter does not move the eye and :meth:`parameters` returns 0 for it. Coincident eyes
   (interocular distance 0) are points of the space, e.g. the diagonal of every triangle.
@@ -248,7 +250,8 @@ class StereoSpace:
         Raises
         ------
         ValueError
-            If the point is not in the region (the message says how far off), or on bad input.
+            If the point is not in the region, or on bad input. The message gives the distance to the
+            region's point at the parameters that fit best (an upper bound of the distance to the region).
         """
         i, j = self.check_region(region)
         p = as_float_array("point", point, shape=(4,))
@@ -257,21 +260,49 @@ class StereoSpace:
         ref = None
         if near is not None:
             ref = self._eyes((i, j), *self._check_parameters((i, j), *_pair("near", near)))
-        tol = self.tolerance
-        best, best_off = None, np.inf
-        for lam in self._candidates((i, j), p):
-            lam = np.clip(self._polish((i, j), lam, p), 0.0, 1.0)
-            if i == j and lam[0] > lam[1]:  # nearest pair of the triangle's half li <= lj
-                lam[:] = lam.mean()
-            off = float(np.linalg.norm(self._points((i, j), lam[None])[0] - p))
-            if off > tol:
-                best_off = min(best_off, off)
-                continue
-            if best is None or self._prefer((i, j), lam, best, ref):
-                best = lam
+        best, off = self._solve((i, j), p, ref)
         if best is None:
-            raise ValueError(f"point is not in region {(i, j)}: about {best_off:.3g} off it")
+            raise ValueError(f"point is not in region {(i, j)}: its best fit in the region is {off:.3g} away")
         return float(best[0]), float(best[1])
+
+    def locate(self, point: object, *, current: StereoState | None = None) -> StereoState:
+        """The state of a stereo point in the first region that holds it, in :attr:`regions` order.
+
+        Regions may intersect; S2 §4.2 "simply choose[s] to map in the first region we find". Within a
+        region the solution is chosen as in :meth:`parameters`, with the baseline of ``current`` (the
+        current view) as the reference orientation.
+
+        Raises
+        ------
+        ValueError
+            If no region holds the point (the message gives the closest fit, as :meth:`parameters`).
+        """
+        p = as_float_array("point", point, shape=(4,))
+        if p[3] < 0.0:
+            raise ValueError(f"point must have an interocular distance >= 0; got {p[3]:g}")
+        ref = None if current is None else self.eyes(current)
+        closest, where = np.inf, None
+        for region in self.regions:
+            lam, off = self._solve(region, p, ref)
+            if lam is not None:
+                return StereoState(region, float(lam[0]), float(lam[1]))
+            if off < closest:
+                closest, where = off, region
+        raise ValueError(f"point is not in the stereospace: its best fit, in region {where}, is {closest:.3g} away")
+
+    def _solve(self, region: tuple[int, int], p: np.ndarray, ref: np.ndarray | None) -> tuple[np.ndarray | None, float]:
+        """The parameters of ``p`` in ``region`` (or None) and how far off the region the point is."""
+        best, best_off = None, np.inf
+        for lam in self._candidates(region, p):
+            lam = np.clip(self._polish(region, lam, p), 0.0, 1.0)
+            if region[0] == region[1] and lam[0] > lam[1]:  # nearest pair of the triangle's half li <= lj
+                lam[:] = lam.mean()
+            off = float(np.linalg.norm(self._points(region, lam[None])[0] - p))
+            if off > self.tolerance:
+                best_off = min(best_off, off)
+            elif best is None or self._prefer(region, lam, best, ref):
+                best, best_off = lam, 0.0
+        return best, best_off
 
     def _candidates(self, region: tuple[int, int], p: np.ndarray) -> list[np.ndarray]:
         """Parameter pairs (unclipped) whose mid-point is ``p[:3]``: one, or two for parallel segments."""
