@@ -125,6 +125,18 @@ def test_an_image_of_another_size_is_refused_naming_it(shared_data, tmp_path):
         load_collection(dino / "dino_par.txt", images=folder)
 
 
+def test_an_image_of_another_size_than_its_json_camera_is_refused(tmp_path):
+    from vergence.io import write_cameras_json
+
+    a = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=60, width=64, height=48)
+    b = look_at([0.2, 0, 0], [0.2, 0, 1], [0, -1, 0], fov_deg=60, width=64, height=48)
+    write_cameras_json(tmp_path / "cams.json", CameraSet(names=("a.png", "b.png"), cameras=(a, b)))
+    write_image(tmp_path / "a.png", np.zeros((48, 64), np.float32))
+    write_image(tmp_path / "b.png", np.zeros((48, 63), np.float32))
+    with pytest.raises(ValueError, match=r"^image b\.png is 63 x 48 pixels; its camera in cams\.json is 64 x 48$"):
+        load_collection(tmp_path / "cams.json", images=tmp_path)
+
+
 def test_one_usable_camera_is_refused(shared_data, tmp_path):
     dino = shared_data / "collections" / "dino"
     with pytest.raises(ValueError, match=r"at least two cameras with an image; dino_par\.txt has 1"):
@@ -176,3 +188,37 @@ def test_kermit_has_11_cameras_9_registered_and_its_bundler_points(shared_data):
     assert col.points_source == "file" and col.point_count == 634 and len(col.observations) == 2039
     assert col.median_reprojection_error_px == pytest.approx(KERMIT_MEDIAN_PX, abs=0.05)
     assert any("not registered" in w for w in col.warnings)
+
+
+# ------------------------------------------------------------------------------- matching, synthetic
+PLANE_Z = 4.0  # the textured plane z = 4 m, seen by three cameras from 2.5 m apart at most
+
+
+def _plane_views():
+    """Three 320 x 240 views of a random-texture plane z = PLANE_Z, rendered by its homography."""
+    rng = np.random.default_rng(5)
+    texture = cv2.GaussianBlur(rng.uniform(0, 255, (400, 400)).astype(np.float32), (0, 0), 2.0)
+    texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+    side = 4.0  # metres covered by the texture, centred on the axis
+    A = np.array([[side / 400, 0, -side / 2], [0, side / 400, -side / 2], [0, 0, 1]])  # texel -> (x, y)
+    cams, grays = [], []
+    for x in (-0.4, 0.0, 0.3):
+        cam = look_at([x, 0.1 * x, 0], [0, 0, PLANE_Z], [0, -1, 0], fov_deg=50, width=320, height=240)
+        Rt = np.column_stack([cam.R[:, 0], cam.R[:, 1], cam.R[:, 2] * PLANE_Z + cam.t])  # z = PLANE_Z
+        H = cam.K @ Rt @ A
+        grays.append(cv2.warpPerspective(texture, H, (320, 240), flags=cv2.INTER_LINEAR))
+        cams.append(cam)
+    return cams, grays
+
+
+def test_matching_and_triangulating_a_textured_plane_puts_the_points_on_it():
+    from vergence.stereospace.triangulation import triangulate_collection
+
+    cams, grays = _plane_views()
+    calls = []
+    points, obs, pix, candidates = triangulate_collection(
+        cams, np.zeros((3, 4)), lambda i: grays[i], neighbours=2, progress=lambda f, m: calls.append(f))
+    assert len(points) > 200 and candidates >= len(points)
+    assert np.median(np.abs(points[:, 2] - PLANE_Z)) < 0.01  # depth noise ~ Z^2 * 0.2 px / (f b) ~ 5 mm
+    assert obs.shape == (2 * len(points), 2) and pix.shape == (2 * len(points), 2)
+    assert calls == sorted(calls) and calls[-1] == pytest.approx(1.0)

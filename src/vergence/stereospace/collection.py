@@ -204,7 +204,9 @@ def load_collection(
     ``warnings``); cameras the reconstruction could not register likewise (``unregistered``).
     Points come from the camera file (Bundler, COLMAP), with their observations in the kept
     cameras; a file without points gets them by matching each image with its ``neighbours``
-    nearest cameras and triangulating (:mod:`vergence.stereospace.triangulation`).
+    nearest cameras and triangulating (:mod:`vergence.stereospace.triangulation`): for dino (48
+    images of 640 x 480, k = 4) that takes about 3 s on one core and gives about 6,500 points at a
+    median reprojection error of 0.18 px (``benchmarks/stereospace_collection.py``).
 
     Parameters
     ----------
