@@ -13,7 +13,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.stereospace import MLS_MIN_HANDLES, mls_similarity, mls_warp
-from vergence.stereospace.mls import _source_map
+from vergence.stereospace.mls import _grid_nodes, _source_map
 
 # Kernel (complex form, rescaled weights) vs reference (matrix form): round-off of sums of a few
 # dozen terms of pixel coordinates ~100.
@@ -161,6 +161,40 @@ def test_integer_translation_moves_pixels_exactly():
     assert not valid[:2].any() and not valid[:, :3].any() and valid[2:, 3:].all()
 
 
+def _source_map64(p, q, shape, step):
+    return np.stack(_source_map(p, q, shape, step, 1.0, dtype=np.float64), axis=-1)
+
+
+def _interp_axis(values, nodes, n, axis):
+    """Linear interpolation of ``values`` (given at ``nodes`` along ``axis``) at 0, 1, ..., n - 1."""
+    x = np.arange(n, dtype=np.float64)
+    i = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, nodes.size - 2)
+    t = (x - nodes[i]) / (nodes[i + 1] - nodes[i])
+    a, b = np.take(values, i, axis=axis), np.take(values, i + 1, axis=axis)
+    shape = [1] * values.ndim
+    shape[axis] = n
+    return a + t.reshape(shape) * (b - a)
+
+
+@pytest.mark.parametrize(("shape", "step"), [((50, 61), 8), ((33, 40), 4), ((17, 16), 16), ((9, 12), 3)])
+def test_grid_interpolation_kernel_matches_separable_numpy(shape, step):
+    rng = np.random.default_rng(12)
+    p = rng.uniform(0, 40, (7, 2))
+    q = p + rng.normal(0, 3, (7, 2))
+    xs, ys = _grid_nodes(shape[1], step), _grid_nodes(shape[0], step)
+    gx, gy = np.meshgrid(xs, ys)
+    at_nodes = mls_similarity(np.stack([gx.ravel(), gy.ravel()], 1), q, p).reshape(ys.size, xs.size, 2)
+    expected = _interp_axis(_interp_axis(at_nodes, xs, shape[1], 1), ys, shape[0], 0)
+    assert_allclose(_source_map64(p, q, shape, step), expected, atol=1e-9, rtol=0)
+
+
+@pytest.mark.parametrize("shape", [(1, 9), (9, 1), (1, 1)])
+def test_one_pixel_wide_outputs(shape):
+    p = np.array([[0.0, 0.0], [3.0, 1.0], [1.0, 4.0]])
+    q = p + [0.5, -0.25]
+    assert_allclose(_source_map64(p, q, shape, 4), _source_map64(p, q, shape, 1), atol=1e-9, rtol=0)
+
+
 def test_the_grid_is_exact_for_a_global_similarity():
     # f is then affine in v, and bilinear interpolation between grid nodes reproduces it.
     rng = np.random.default_rng(10)
@@ -168,7 +202,7 @@ def test_the_grid_is_exact_for_a_global_similarity():
     th, s = 0.1, 1.05
     R = np.array([[math.cos(th), math.sin(th)], [-math.sin(th), math.cos(th)]])
     q = s * p @ R + [2.0, -1.0]
-    assert_allclose(_source_map(p, q, (50, 61), 8, 1.0), _source_map(p, q, (50, 61), 1, 1.0), atol=1e-9, rtol=0)
+    assert_allclose(_source_map64(p, q, (50, 61), 8), _source_map64(p, q, (50, 61), 1), atol=1e-9, rtol=0)
 
 
 def test_the_grid_error_is_zero_at_the_nodes_and_shrinks_with_the_step():
@@ -178,10 +212,10 @@ def test_the_grid_error_is_zero_at_the_nodes_and_shrinks_with_the_step():
     rng = np.random.default_rng(11)
     p = rng.uniform(0, 120, (40, 2))
     q = p + 4.0 * np.sin(p[:, ::-1] / 25.0)
-    exact = _source_map(p, q, (97, 121), 1, 1.0)
+    exact = _source_map64(p, q, (97, 121), 1)
     errs = []
     for step in (4, 8, 16):
-        grid = _source_map(p, q, (97, 121), step, 1.0)
+        grid = _source_map64(p, q, (97, 121), step)
         assert_allclose(grid[::step, ::step], exact[::step, ::step], atol=1e-9, rtol=0)
         assert_allclose(grid[-1, -1], exact[-1, -1], atol=1e-9, rtol=0)  # the last pixel is a node
         errs.append(np.linalg.norm(grid - exact, axis=-1))
