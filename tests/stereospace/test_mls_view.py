@@ -13,7 +13,8 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import look_at
-from vergence.stereospace import S2_MAX_SOURCES, s2_view
+from vergence.stereospace import S2_MAX_SOURCES, S2_THRESHOLD_SCALE, s2_view
+from vergence.stereospace import _mls_view_kernels
 
 PLANE_Z = 5.0
 W, H = 64, 48
@@ -47,6 +48,63 @@ def test_view_of_a_plane_matches_the_target_render():
     err = np.abs(res.image - _render(target))[res.coverage]
     assert err.max() < 0.02  # bilinear resampling of a smooth texture only
     assert_allclose(res.weights.sum(axis=0)[res.coverage], 1.0, atol=1e-12)
+
+
+def _angles_reference(target, cams, depth):
+    """P_ANG with numpy: the angle at the proxy point between the rays to the two centres."""
+    grid = target.pixel_grid()
+    proxy = target.backproject(grid, np.full(grid.shape[:2], depth))
+    to_t = target.center - proxy
+    out = []
+    for cam in cams:
+        to_s = cam.center - proxy
+        cos = np.sum(to_t * to_s, -1) / np.linalg.norm(to_t, axis=-1) / np.linalg.norm(to_s, axis=-1)
+        out.append(np.arccos(np.clip(cos, -1, 1)))
+    return np.array(out)
+
+
+def _blend_reference(warped, penalty, k, scale):
+    """ULR blend one pixel at a time."""
+    s, h, w, c = warped.shape
+    image, weights = np.zeros((h, w, c)), np.zeros((s, h, w))
+    for y in range(h):
+        for x in range(w):
+            pen = penalty[:, y, x]
+            finite = np.isfinite(pen)
+            if finite.sum() >= k:
+                thresh = scale * np.sort(pen)[k - 1]
+                wt = np.where(finite, np.maximum(0.0, 1.0 - pen / thresh), 0.0)
+            else:
+                wt = finite.astype(float)
+            if wt.sum() > 0:
+                wt = wt / wt.sum()
+            weights[:, y, x] = wt
+            image[y, x] = wt @ warped[:, y, x]
+    return image, weights
+
+
+def test_angle_kernel_matches_numpy():
+    target = look_at([0.1, 0.2, -0.3], [0.5, 0, 5], [0.1, -1.0, 0.0], fov_deg=50.0, width=13, height=9)
+    cams = [_camera(-0.4), _camera(0.3, 0.2), target]
+    out = np.empty((3, 9, 13))
+    _mls_view_kernels.proxy_angles(np.linalg.inv(target.K), target.R, target.t, target.center,
+                                   np.array([c.center for c in cams]), 4.5, out)
+    assert_allclose(out, _angles_reference(target, cams, 4.5), atol=1e-7)  # acos near 0: sqrt(eps)
+    assert out[2].max() < 1e-7
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
+def test_blend_kernel_matches_a_slow_reference(k):
+    rng = np.random.default_rng(k)
+    warped = rng.uniform(0, 1, (4, 6, 7, 3)).astype(np.float32)
+    penalty = rng.uniform(0.01, 0.5, (4, 6, 7))
+    penalty[rng.uniform(size=penalty.shape) < 0.4] = np.inf
+    penalty[:, 0, 0] = 0.2  # a four-way tie
+    image, weights = np.empty((6, 7, 3), np.float32), np.empty((4, 6, 7))
+    _mls_view_kernels.blend(warped, penalty, k, S2_THRESHOLD_SCALE, image, weights)
+    ref_image, ref_weights = _blend_reference(warped.astype(float), penalty, k, S2_THRESHOLD_SCALE)
+    assert_allclose(weights, ref_weights, atol=1e-12)
+    assert_allclose(image, ref_image, atol=1e-6)
 
 
 def test_weights_follow_the_angle_penalty():

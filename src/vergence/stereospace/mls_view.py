@@ -12,6 +12,7 @@ import numpy as np
 
 from vergence._validate import as_float_array, as_image, check_positive, check_positive_int
 from vergence.camera import Camera
+from vergence.stereospace import _mls_view_kernels
 from vergence.stereospace.mls import MLS_MIN_HANDLES, mls_warp
 
 __all__ = ["S2_MAX_SOURCES", "S2_PENALTY_FLOOR", "S2_THRESHOLD_SCALE", "S2View", "s2_view"]
@@ -89,37 +90,6 @@ def _handles(points: np.ndarray, cam: Camera, target: Camera) -> tuple[np.ndarra
     _, first = np.unique(q, axis=0, return_index=True)
     first.sort()
     return p[first], q[first]
-
-
-def _proxy_angles(target: Camera, cams: list[Camera], depth: float) -> np.ndarray:
-    """S2's P_ANG per source and target pixel: the angle between the rays from the novel centre
-    and from the source centre to the proxy point P (the target ray at camera-frame ``depth``)."""
-    grid = target.pixel_grid()
-    proxy = target.backproject(grid, np.full(grid.shape[:2], depth))
-    to_target = target.center - proxy
-    to_target /= np.linalg.norm(to_target, axis=-1, keepdims=True)
-    angles = np.empty((len(cams), target.height, target.width))
-    for i, cam in enumerate(cams):
-        to_source = cam.center - proxy
-        to_source /= np.linalg.norm(to_source, axis=-1, keepdims=True)
-        cosang = np.clip(np.einsum("hwc,hwc->hw", to_target, to_source), -1.0, 1.0)
-        angles[i] = np.arccos(cosang)
-    return angles
-
-
-def _blend_weights(penalty: np.ndarray, k: int) -> np.ndarray:
-    """ULR weights from penalties ``(S, h, w)`` (inf = no sample): ``1 - P / thresh`` with
-    ``thresh = 1.0000001 x`` the k-th smallest penalty, normalised; with fewer than k finite
-    penalties, equal weights (the limit of SIBR's padding, as ``render_ibr``)."""
-    finite = np.isfinite(penalty)
-    m = finite.sum(axis=0)
-    kk = min(k, penalty.shape[0])
-    kth = np.sort(penalty, axis=0)[kk - 1]
-    full = m >= k
-    thresh = S2_THRESHOLD_SCALE * np.where(full, kth, 1.0)  # finite: an inf penalty gives weight 0
-    w = np.where(full, np.maximum(0.0, 1.0 - penalty / thresh), finite.astype(np.float64))
-    total = w.sum(axis=0)
-    return np.divide(w, total, out=np.zeros_like(w), where=total > 0)
 
 
 def s2_view(
@@ -202,7 +172,9 @@ def s2_view(
     warped = np.zeros((len(pairs), h, w, channels), dtype=np.float32)
     penalty = np.full((len(pairs), h, w), np.inf)
     counts = np.zeros(len(pairs), dtype=np.int64)
-    angles = _proxy_angles(target, [cam for cam, _ in pairs], proxy_depth)
+    angles = np.empty((len(pairs), h, w))
+    centres = np.array([cam.center for cam, _ in pairs])
+    _mls_view_kernels.proxy_angles(np.linalg.inv(target.K), target.R, target.t, target.center, centres, proxy_depth, angles)
     for i, (cam, img) in enumerate(pairs):
         p, q = _handles(pts, cam, target)
         if p.shape[0] < MLS_MIN_HANDLES:
@@ -212,8 +184,9 @@ def s2_view(
         penalty[i][valid] = np.maximum(S2_PENALTY_FLOOR, angles[i][valid])
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
-    weights = _blend_weights(penalty, kk)
-    image = np.einsum("shw,shwc->hwc", weights.astype(np.float32), warped)
+    weights = np.empty_like(penalty)
+    image = np.empty((h, w, channels), dtype=np.float32)
+    _mls_view_kernels.blend(warped, penalty, kk, S2_THRESHOLD_SCALE, image, weights)
     if grey:
         image = image[..., 0]
     return S2View(image=image, coverage=weights.sum(axis=0) > 0, weights=weights, handle_counts=counts,
