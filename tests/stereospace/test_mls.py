@@ -245,6 +245,7 @@ def test_warp_keeps_channels_dtype_and_output_shape():
         ({"grid_step": 2.5}, TypeError, "grid_step must be an integer"),
         ({"alpha": -1.0}, ValueError, "alpha must be > 0"),
         ({"output_shape": (4,)}, ValueError, "output_shape must be"),
+        ({"output_shape": 4}, ValueError, "output_shape must be"),
         ({"output_shape": (0, 4)}, ValueError, r"output_shape\[0\] must be >= 1"),
     ],
 )

@@ -220,11 +220,20 @@ def mls_warp(
     if output_shape is None:
         h, w = img.shape[:2]
     else:
-        if len(tuple(output_shape)) != 2:
+        if not isinstance(output_shape, tuple | list) or len(output_shape) != 2:
             raise ValueError(f"output_shape must be (h, w); got {output_shape!r}")
         h = check_positive_int("output_shape[0]", output_shape[0])
         w = check_positive_int("output_shape[1]", output_shape[1])
-    map_x, map_y = _source_map(p, q, (h, w), step, a)
+    return _warp(img, p, q, (h, w), step, a)
+
+
+def _warp(
+    img: np.ndarray, p: np.ndarray, q: np.ndarray, shape: tuple[int, int], grid_step: int, alpha: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`mls_warp` on validated inputs (float32 image, float64 C-contiguous handles, ``q``
+    rows distinct)."""
+    h, w = shape
+    map_x, map_y = _source_map(p, q, (h, w), grid_step, alpha)
     big_h, big_w = img.shape[:2]
     valid = (map_x >= -0.5) & (map_x <= big_w - 0.5) & (map_y >= -0.5) & (map_y <= big_h - 0.5)
     # Within half a pixel of the border the edge pixel is repeated (its footprint covers it).

