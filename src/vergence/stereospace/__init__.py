@@ -2,6 +2,10 @@
 
 - Collections (S2 §3): a camera set, its images and sparse 3D points (read, or matched and
   triangulated); the camera graph and its capture paths.
+- Novel views by S2's method: :func:`mls_similarity` (the moving-least-squares similarity
+  deformation of Schaefer et al. 2006), :func:`mls_warp` (an image warped through it on a coarse
+  grid) and :func:`s2_view` (up to four warped sources blended with S2's angle and field-of-view
+  penalties).
 - The space of stereo pairs of the camera graph, its regions and parameters (S2 §4), and the
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 """
@@ -32,6 +36,8 @@ from vergence.stereospace.space import (
     StereoState,
     stereo_point,
 )
+from vergence.stereospace.mls import MLS_MIN_HANDLES, mls_similarity, mls_warp
+from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
     "CameraGraph",
@@ -42,6 +48,7 @@ __all__ = [
     "MAX_AXIS_ANGLE_DEG",
     "MAX_REPROJECTION_ERROR_PX",
     "MIN_SHARED_POINTS",
+    "MLS_MIN_HANDLES",
     "MOVE_EVENTS",
     "Move",
     "NEAR_FACTOR",
@@ -49,13 +56,20 @@ __all__ = [
     "RATIO_TEST",
     "RELATIVE_TOLERANCE",
     "RING_CLOSURE",
+    "S2View",
+    "S2_MAX_SOURCES",
+    "S2_PENALTY_FLOOR",
+    "S2_THRESHOLD_SCALE",
     "StereoSpace",
     "StereoState",
     "camera_graph",
     "capture_paths",
     "load_collection",
+    "mls_similarity",
+    "mls_warp",
     "pan",
     "project_distorted",
+    "s2_view",
     "stereo_point",
     "tangent",
     "triangulate_points",

@@ -1,0 +1,197 @@
+"""S2's novel view (S2 §3.1): up to four source photos, each warped by the MLS similarity
+deformation whose handles are the sparse 3D points projected into it and into the novel camera,
+blended with S2's penalties (angle + field of view) on a proxy built from the points.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence._validate import as_float_array, as_image, check_positive, check_positive_int
+from vergence.camera import Camera
+from vergence.stereospace import _mls_view_kernels
+from vergence.stereospace.mls import MLS_MIN_HANDLES, _warp
+
+__all__ = ["S2_MAX_SOURCES", "S2_PENALTY_FLOOR", "S2_THRESHOLD_SCALE", "S2View", "s2_view"]
+
+# S2 §3.1 blends "four of its neighbouring cameras"; ULR's k (Buehler et al. 2001) is the same 4.
+S2_MAX_SOURCES = 4
+# As SIBR's ulr_v3.frag (and vergence.synthesis.render_ibr): the angle penalty is floored at 1e-4 rad
+# so that a source at the novel camera's own centre still has a positive penalty and the threshold
+# (a multiple of a penalty) is never 0.
+S2_PENALTY_FLOOR = 1e-4
+# SIBR's threshold is 1.0000001 times the k-th penalty: the k-th source gets a weight of 1e-7, not 0,
+# so a pixel whose k sources tie keeps a positive weight sum.
+S2_THRESHOLD_SCALE = 1.0000001
+
+
+@dataclass(frozen=True, slots=True)
+class S2View:
+    """A novel view made by S2's method.
+
+    Attributes
+    ----------
+    image : (h, w) or (h, w, C) float32
+        The blended view, 0 where ``coverage`` is False.
+    coverage : (h, w) bool
+        True where at least one warped source has a sample.
+    weights : (S, h, w) float64
+        Normalised blending weight of each source (0 where it has no sample).
+    handle_counts : (S,) int64
+        Handles each source's warp used (0: fewer than 2 of the points were seen, the source is
+        left out).
+    proxy_depth : float
+        Depth (target camera frame, metres) of the proxy plane used for the angle penalties.
+    """
+
+    image: np.ndarray
+    coverage: np.ndarray
+    weights: np.ndarray
+    handle_counts: np.ndarray
+    proxy_depth: float
+
+
+def _check_sources(sources: object) -> tuple[list[tuple[Camera, np.ndarray]], bool]:
+    """Validated (Camera, (H, W, C) image) pairs and whether the images came as (H, W)."""
+    if not isinstance(sources, Sequence) or isinstance(sources, str | bytes):
+        raise TypeError(f"sources must be a sequence of (Camera, image) pairs; got {type(sources).__name__}")
+    if not 1 <= len(sources) <= S2_MAX_SOURCES:
+        raise ValueError(f"sources must hold 1 to {S2_MAX_SOURCES} (Camera, image) pairs; got {len(sources)}")
+    out = []
+    grey = False
+    for k, pair in enumerate(sources):
+        if not isinstance(pair, Sequence) or len(pair) != 2 or not isinstance(pair[0], Camera):
+            raise TypeError(f"sources[{k}] must be a (Camera, image) pair")
+        cam, img = pair[0], as_image(f"sources[{k}] image", pair[1])
+        if img.shape[:2] != (cam.height, cam.width):
+            raise ValueError(
+                f"sources[{k}] image must have shape (H, W) = ({cam.height}, {cam.width}) of its camera; "
+                f"got {img.shape[:2]}"
+            )
+        if img.ndim == 2:
+            grey, img = True, img[..., None]
+        if out and img.shape[2] != out[0][1].shape[2]:
+            raise ValueError(f"sources[{k}] image must have {out[0][1].shape[2]} channel(s) as sources[0]; got {img.shape[2]}")
+        out.append((cam, img))
+    return out, grey
+
+
+def _handles(points: np.ndarray, cam: Camera, target: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """Projections of the points in front of both cameras and on the source image, in the source
+    (p) and the target (q); target positions repeated by several points are kept once."""
+    p, zp = cam.project(points)
+    q, zq = target.project(points)
+    seen = (zp > 0) & (zq > 0)
+    seen &= (p[:, 0] >= -0.5) & (p[:, 0] <= cam.width - 0.5) & (p[:, 1] >= -0.5) & (p[:, 1] <= cam.height - 0.5)
+    p, q = p[seen], q[seen]
+    _, first = np.unique(q, axis=0, return_index=True)
+    first.sort()
+    return np.ascontiguousarray(p[first]), np.ascontiguousarray(q[first])
+
+
+def s2_view(
+    target: Camera,
+    sources: Sequence[tuple[Camera, object]],
+    *,
+    points: object,
+    grid_step: int = 8,
+    alpha: float = 1.0,
+    k: int = S2_MAX_SOURCES,
+) -> S2View:
+    """The view of ``target`` made from up to 4 source photos by S2's method.
+
+    Each source image is warped by :func:`~vergence.stereospace.mls_warp`, its handles being the
+    points projected into the source (``p_i``) and into the target (``q_i``); the warped images
+    are blended with ULR weights (Buehler et al. 2001) of S2's penalty ``P = P_ANG + P_FOV``.
+
+    Parameters
+    ----------
+    target : Camera
+        The novel camera; the output has its size.
+    sources : sequence of (Camera, image)
+        1 to :data:`S2_MAX_SOURCES` source cameras with their images (same channel count, each the
+        size of its camera; float in [0, 1], uint8 or uint16).
+    points : (P, 3) array
+        Sparse 3D points of the scene (metres), e.g. from SfM. A point serves as a handle of a
+        source when it is in front of the source and the target and projects onto the source
+        image. Occlusion is not tested (SfM points carry no visibility here).
+    grid_step : int
+        Grid spacing of the MLS warps, pixels (>= 1).
+    alpha : float
+        MLS weight falloff exponent (> 0).
+    k : int
+        Sources in the ULR set (>= 1); the k-th best gets weight ~0, and pixels with fewer than
+        k warped samples blend them equally.
+
+    Returns
+    -------
+    S2View
+        Image, coverage, weights, handle counts and the proxy depth.
+
+    Raises
+    ------
+    ValueError
+        No source or more than 4, an image not the size of its camera, differing channel counts,
+        non-finite points, no point in front of the target, no source seeing 2 of the points.
+    TypeError
+        A target that is not a Camera, a source that is not a (Camera, image) pair.
+
+    Notes
+    -----
+    S2 §3.1, Eq. (4)::
+
+        P_ANG(C_i, x, y) = arccos( (C_n - P) . (C_i - P) / (|C_n - P| |C_i - P|) )
+        P_FOV(C_i, x, y) = inf if p(x, y) lies outside I_i, 0 otherwise;   P = P_ANG + P_FOV
+
+    S2 takes P on a Poisson surface of a dense point cloud. Here the proxy is the plane at the
+    median target-frame depth of the points in front of the target (each pixel's P is its ray at
+    that depth): the penalties only weigh the blend, they never move a pixel, and S2 notes that
+    such inaccuracies are well tolerated. P_FOV uses where the warp samples the source (the MLS
+    map), not the proxy's projection, so a pixel is blended from exactly the sources it has
+    samples of. Blending as ULR (Buehler et al. 2001; SIBR's threshold, as ``render_ibr``):
+    ``w_i = max(0, 1 - P_i / (1.0000001 P_(k)))``, ``P_ANG`` floored at 1e-4 rad, normalised.
+    Cameras are pinhole: lens distortion (e.g. Bundler's k1, k2) is not modelled. Leave-one-out
+    on ``kermit`` (all 634 Bundler points as handles, grid step 8): kermit001 from its two nearest
+    cameras scores 17.7 dB PSNR on the covered pixels (the nearest photo unwarped: 11.4 dB), 14.5
+    to 18.3 dB over the 9 registered views from their 4 nearest cameras.
+    """
+    if not isinstance(target, Camera):
+        raise TypeError(f"target must be a Camera; got {type(target).__name__}")
+    pairs, grey = _check_sources(sources)
+    pts = as_float_array("points", points, shape=(None, 3))
+    step = check_positive_int("grid_step", grid_step)
+    a = check_positive("alpha", alpha)
+    kk = check_positive_int("k", k)
+    _, z_target = target.project(pts)
+    in_front = z_target > 0
+    if not in_front.any():
+        raise ValueError("points must hold at least one point in front of target")
+    proxy_depth = float(np.median(z_target[in_front]))
+
+    h, w = target.height, target.width
+    channels = pairs[0][1].shape[2]
+    warped = np.zeros((len(pairs), h, w, channels), dtype=np.float32)
+    penalty = np.full((len(pairs), h, w), np.inf)
+    counts = np.zeros(len(pairs), dtype=np.int64)
+    angles = np.empty((len(pairs), h, w))
+    centres = np.array([cam.center for cam, _ in pairs])
+    _mls_view_kernels.proxy_angles(np.linalg.inv(target.K), target.R, target.t, target.center, centres, proxy_depth, angles)
+    for i, (cam, img) in enumerate(pairs):
+        p, q = _handles(pts, cam, target)
+        if p.shape[0] < MLS_MIN_HANDLES:
+            continue
+        counts[i] = p.shape[0]
+        warped[i], valid = _warp(img, p, q, (h, w), step, a)
+        penalty[i][valid] = np.maximum(S2_PENALTY_FLOOR, angles[i][valid])
+    if not counts.any():
+        raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
+    weights = np.empty_like(penalty)
+    image = np.empty((h, w, channels), dtype=np.float32)
+    _mls_view_kernels.blend(warped, penalty, kk, S2_THRESHOLD_SCALE, image, weights)
+    if grey:
+        image = image[..., 0]
+    return S2View(image=image, coverage=weights.sum(axis=0) > 0, weights=weights, handle_counts=counts,
+                  proxy_depth=proxy_depth)
