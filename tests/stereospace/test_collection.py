@@ -178,7 +178,7 @@ def test_dino_keeps_its_48_images_and_triangulates_hundreds_of_points(dino):
     assert inside.mean() > 0.99  # measured 99.8 %
     for p, c in col.observations:  # every point in front of the cameras that see it
         assert col.points[p] @ col.cameras[c].R[2] + col.cameras[c].t[2] > 0
-    assert seconds < 20
+    assert seconds < 60  # 3 s alone, 9 s on the shared 2 cores under load: catches all-pairs matching only
 
 
 def test_kermit_has_11_cameras_9_registered_and_its_bundler_points(shared_data):
