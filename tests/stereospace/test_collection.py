@@ -178,7 +178,7 @@ def test_dino_keeps_its_48_images_and_triangulates_hundreds_of_points(dino):
     assert inside.mean() > 0.99  # measured 99.8 %
     for p, c in col.observations:  # every point in front of the cameras that see it
         assert col.points[p] @ col.cameras[c].R[2] + col.cameras[c].t[2] > 0
-    assert seconds < 20
+    assert seconds < 60  # 3 s alone, 9 s on the shared 2 cores under load: catches all-pairs matching only
 
 
 def test_kermit_has_11_cameras_9_registered_and_its_bundler_points(shared_data):
@@ -194,16 +194,17 @@ def test_kermit_has_11_cameras_9_registered_and_its_bundler_points(shared_data):
 PLANE_Z = 4.0  # the textured plane z = 4 m, seen by three cameras from 2.5 m apart at most
 
 
-def _plane_views():
-    """Three 320 x 240 views of a random-texture plane z = PLANE_Z, rendered by its homography."""
+def _plane_views(xs=(-0.4, 0.0, 0.3), *, parallel=False):
+    """320 x 240 views of a random-texture plane z = PLANE_Z from x in ``xs``, rendered by its homography."""
     rng = np.random.default_rng(5)
     texture = cv2.GaussianBlur(rng.uniform(0, 255, (400, 400)).astype(np.float32), (0, 0), 2.0)
     texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
     side = 4.0  # metres covered by the texture, centred on the axis
     A = np.array([[side / 400, 0, -side / 2], [0, side / 400, -side / 2], [0, 0, 1]])  # texel -> (x, y)
     cams, grays = [], []
-    for x in (-0.4, 0.0, 0.3):
-        cam = look_at([x, 0.1 * x, 0], [0, 0, PLANE_Z], [0, -1, 0], fov_deg=50, width=320, height=240)
+    for x in xs:
+        target = [x, 0.1 * x, PLANE_Z] if parallel else [0, 0, PLANE_Z]
+        cam = look_at([x, 0.1 * x, 0], target, [0, -1, 0], fov_deg=50, width=320, height=240)
         Rt = np.column_stack([cam.R[:, 0], cam.R[:, 1], cam.R[:, 2] * PLANE_Z + cam.t])  # z = PLANE_Z
         H = cam.K @ Rt @ A
         grays.append(cv2.warpPerspective(texture, H, (320, 240), flags=cv2.INTER_LINEAR))
@@ -222,3 +223,28 @@ def test_matching_and_triangulating_a_textured_plane_puts_the_points_on_it():
     assert np.median(np.abs(points[:, 2] - PLANE_Z)) < 0.01  # depth noise ~ Z^2 * 0.2 px / (f b) ~ 5 mm
     assert obs.shape == (2 * len(points), 2) and pix.shape == (2 * len(points), 2)
     assert calls == sorted(calls) and calls[-1] == pytest.approx(1.0)
+
+
+def _write_par_collection(folder, cams, grays):
+    from vergence.io import write_middlebury_par
+
+    names = tuple(f"view{i}.png" for i in range(len(cams)))
+    for n, g in zip(names, grays):
+        write_image(folder / n, g.astype(np.float32) / 255.0)
+    write_middlebury_par(folder / "plane_par.txt", CameraSet(names=names, cameras=tuple(cams)))
+    return folder / "plane_par.txt"
+
+
+def test_a_par_collection_is_triangulated_end_to_end_and_swapped_cameras_put_points_behind(tmp_path):
+    cams, grays = _plane_views((0.0, 0.3), parallel=True)
+    col = load_collection(_write_par_collection(tmp_path, cams, grays), images=tmp_path)
+    assert col.points_source == "triangulated" and col.point_count > 200
+    assert np.median(np.abs(col.points[:, 2] - PLANE_Z)) < 0.01
+    assert col.median_reprojection_error_px < 0.5
+    # The same images with the two cameras swapped: every match triangulates at z = -PLANE_Z,
+    # reprojecting exactly, behind both cameras.
+    other = tmp_path / "swapped"
+    other.mkdir()
+    path = _write_par_collection(other, cams[::-1], grays)
+    with pytest.raises(ValueError, match=r"^the points triangulated for plane_par\.txt are behind every camera$"):
+        load_collection(path, images=other)
