@@ -202,3 +202,20 @@ def test_vectorised_coarse_search_matches_the_per_region_loop():
     for region, c in slow.items():
         assert (fast[region].agrees, fast[region].distance) == (c.agrees, pytest.approx(c.distance, abs=1e-14))
         assert_allclose(fast[region].lam, c.lam)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seg=st.lists(coord, min_size=18, max_size=18), li=st.floats(0, 1), lj=st.floats(0, 1), v=st.floats(-2.0, 2.0))
+def test_moves_stay_in_the_space(seg, li, lj, v):
+    space = StereoSpace(np.array(seg).reshape(3, 2, 3))
+    for region in ((0, 2), (1, 1)):
+        a, b = (min(li, lj), max(li, lj)) if region == (1, 1) else (li, lj)
+        state = StereoState(region, a, b)
+        for move in (space.zoom(state, v), space.pan(state, v)):
+            assert move.event in MOVE_EVENTS
+            space.check_state(move.state)  # a valid state of this space
+            if move.event != "jumped":
+                assert move.state.region == region
+        zoomed = space.zoom(state, v)
+        if v > 0 and zoomed.event == "moved":  # s_w is convex in (li, lj): a step up the gradient rises
+            assert _sw(space, zoomed.state) >= _sw(space, state) - 1e-12

@@ -104,14 +104,14 @@ def zoom(space: StereoSpace, state: StereoState, v: float, *, cone_deg: float = 
     start, remaining = lam.copy(), v
     for _ in range(3):  # to a border, along it to a corner, and no further
         delta = _zoom_step(space, state, lam, remaining)
-        if float(np.abs(delta).max()) <= 1e-12:
+        if not np.any(delta):  # every component pushes out of the region
             break
         t = _exit_fraction(state, lam, delta)
         moved = _project(state, lam + t * delta)
         lam, remaining = np.array([moved.li, moved.lj]), remaining * (1.0 - t)
         if t >= 1.0:
             break
-    if float(np.abs(lam - start).max()) > 1e-12:
+    if remaining != v:
         return Move(StereoState(state.region, float(lam[0]), float(lam[1])), "moved")
     delta = _zoom_step(space, state, lam, v, slide=False)
     direction = space._points(state.region, (lam + delta)[None])[0] - space._points(state.region, lam[None])[0]
@@ -168,15 +168,15 @@ def pan(space: StereoSpace, state: StereoState, v: float, *, cone_deg: float = J
 # -- the region's border ---------------------------------------------------------------------------
 def _exit_fraction(state: StereoState, lam: np.ndarray, delta: np.ndarray) -> float:
     """Largest t in [0, 1] with lam + t delta in the region (the square, and li <= lj on a triangle)."""
-    t = 1.0
+    t = 1.0  # each ratio is taken only where the full step crosses: it lies in [0, 1], no overflow
     for k in range(2):
-        if delta[k] > 0.0:
+        if lam[k] + delta[k] > 1.0:
             t = min(t, (1.0 - lam[k]) / delta[k])
-        elif delta[k] < 0.0:
+        elif lam[k] + delta[k] < 0.0:
             t = min(t, -lam[k] / delta[k])
-    rate = delta[1] - delta[0]
-    if state.region[0] == state.region[1] and rate < 0.0:
-        t = min(t, (lam[1] - lam[0]) / -rate)
+    gap, rate = lam[1] - lam[0], delta[1] - delta[0]
+    if state.region[0] == state.region[1] and gap + rate < 0.0:
+        t = min(t, gap / -rate)
     return max(t, 0.0)
 
 
@@ -213,7 +213,10 @@ def _jump_or_stop(space: StereoSpace, state: StereoState, lam: np.ndarray, direc
     eyes = space._eyes(state.region, *lam)
     baseline = eyes[1] - eyes[0]
     cos_max = math.cos(math.radians(cone_deg))
-    unit = direction / np.linalg.norm(direction)
+    length = float(np.linalg.norm(direction))
+    if not length > 0.0:  # a step too small to point anywhere
+        return Move(state, "stopped")
+    unit = direction / length
     coarse = _coarse_candidates(space, state.region, p, unit, cos_max, baseline)
     if not coarse:
         return Move(state, "stopped")

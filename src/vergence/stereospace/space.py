@@ -31,10 +31,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from numbers import Integral
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range, readonly_copy
+
+if TYPE_CHECKING:
+    from vergence.stereospace.navigation import Move
 
 __all__ = ["JUMP_CONE_DEG", "PARALLEL_SINE", "RELATIVE_TOLERANCE", "StereoSpace", "StereoState", "stereo_point"]
 
@@ -381,13 +385,13 @@ class StereoSpace:
 
         return tangent(self, state)
 
-    def zoom(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG):
+    def zoom(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG) -> Move:
         """Change the interocular distance by ``v`` metres; see :func:`navigation.zoom`."""
         from vergence.stereospace.navigation import zoom
 
         return zoom(self, state, v, cone_deg=cone_deg)
 
-    def pan(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG):
+    def pan(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG) -> Move:
         """Move the view position by ``v`` metres at constant interocular distance; see
         :func:`navigation.pan`."""
         from vergence.stereospace.navigation import pan
