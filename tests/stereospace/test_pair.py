@@ -100,16 +100,20 @@ def test_pair_is_row_aligned_and_left_is_left(plane):
     assert_allclose(res.point, prep.space.point(0, 0.2, 0, 0.9))
 
 
-def test_swapped_eyes_give_the_same_left_view(plane):
+def test_left_is_left_whichever_eye_comes_first(plane):
     col, prep = plane
-    edges = [tuple(e) for e in prep.segment_cameras.tolist()]
-    k_ab, k_ba = edges.index((0, 1)), edges.index((1, 2))
-    i, j = sorted((k_ab, k_ba))
-    # first eye on camera 2 (end of segment (1, 2)), second on camera 0: the left view is camera 0's
-    state = StereoState((i, j), 1.0 if i == k_ba else 0.0, 0.0 if j == k_ab else 1.0)
-    res = stereo_pair(prep, state)
-    assert res.swapped == (i == k_ba)
-    assert res.rectified[0].center[0] < res.rectified[1].center[0]
+    space, seen = prep.space, set()
+    for i, j in space.regions:
+        for li, lj in ((0.0, 1.0), (1.0, 0.0)) if i != j else ((0.0, 1.0),):
+            first, second = space.eyes(StereoState((i, j), li, lj))
+            if np.allclose(first, second):
+                continue
+            res = stereo_pair(prep, StereoState((i, j), li, lj), method=lambda p, cam: _render(cam))
+            assert res.swapped == (first[0] > second[0])
+            assert res.rectified[0].center[0] < res.rectified[1].center[0]
+            assert_allclose(res.rectified[int(res.swapped)].center, first, atol=1e-12)
+            seen.add(res.swapped)
+    assert seen == {False, True}
 
 
 def test_prepared_and_unprepared_pairs_are_equal(plane):
@@ -193,3 +197,11 @@ def test_kermit_pair(shared_data):
     xr, zr = res.rectified[1].project(col.points)
     assert_allclose(xl[:, 1], xr[:, 1], atol=1e-6)
     assert (res.left.max(axis=2) > 0).mean() > 0.5
+
+
+def test_coincident_eyes_give_one_unrectified_view(plane):
+    _, prep = plane
+    res = stereo_pair(prep, StereoState((0, 0), 0.4, 0.4), method=lambda p, cam: _render(cam))
+    assert res.rectification is None and res.point[3] == 0.0
+    assert_array_equal(res.left, res.right)
+    assert_array_equal(res.rectified[0].R, res.cameras[0].R)
