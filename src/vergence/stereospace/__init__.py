@@ -8,6 +8,8 @@
   penalties).
 - The space of stereo pairs of the camera graph, its regions and parameters (S2 §4), and the
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
+- The stereo pair at a state (:func:`stereo_pair`: two novel views rectified together, packed for a
+  display) and a quality value of a pair (:func:`pair_quality`: comfort and rectification distortion).
 """
 
 from vergence.stereospace.collection import Collection, load_collection
@@ -37,6 +39,15 @@ from vergence.stereospace.space import (
     stereo_point,
 )
 from vergence.stereospace.mls import MLS_MIN_HANDLES, mls_similarity, mls_warp
+from vergence.stereospace.pair import (
+    PAIR_METHODS,
+    PreparedCollection,
+    StereoPairResult,
+    pair_cameras,
+    space_from_graph,
+    stereo_pair,
+)
+from vergence.stereospace.quality import pair_quality
 from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
@@ -52,7 +63,9 @@ __all__ = [
     "MOVE_EVENTS",
     "Move",
     "NEAR_FACTOR",
+    "PAIR_METHODS",
     "PARALLEL_SINE",
+    "PreparedCollection",
     "RATIO_TEST",
     "RELATIVE_TOLERANCE",
     "RING_CLOSURE",
@@ -60,6 +73,7 @@ __all__ = [
     "S2_MAX_SOURCES",
     "S2_PENALTY_FLOOR",
     "S2_THRESHOLD_SCALE",
+    "StereoPairResult",
     "StereoSpace",
     "StereoState",
     "camera_graph",
@@ -67,9 +81,13 @@ __all__ = [
     "load_collection",
     "mls_similarity",
     "mls_warp",
+    "pair_cameras",
+    "pair_quality",
     "pan",
     "project_distorted",
     "s2_view",
+    "space_from_graph",
+    "stereo_pair",
     "stereo_point",
     "tangent",
     "triangulate_points",

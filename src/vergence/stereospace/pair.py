@@ -1,0 +1,285 @@
+"""The stereo pair at a point of the stereospace (S2 §3.2, §4): two novel views, rectified together.
+
+A state ``(region (i, j), li, lj)`` of :class:`~vergence.stereospace.StereoSpace` places the first eye
+on segment ``i`` of the camera graph and the second on segment ``j``; each eye's camera is the
+interpolation of the segment's two cameras (:func:`vergence.camera.interpolate`: centres linear,
+rotations slerp, intrinsics linear). The two cameras are rectified together (Fusiello et al. 2000,
+:func:`vergence.depth.rectify_cameras`, restated in S2 §3.2) and each novel view is rendered straight
+into its rectified camera: the rectified camera has the novel camera's centre, so this is the novel
+view resampled through the Fusiello homography, done in one resampling instead of two.
+
+Decisions (S2 leaves them open)
+-------------------------------
+- The left eye is the one whose centre has the smaller x in the first eye's camera frame: S2 §3.2
+  rectifies "with the x axis from left to right centre"; ``swapped`` says when the left eye is the
+  second eye of the state.
+- The rectified views keep the collection's image size (both rectified images' extents are centred
+  in it with one vertical shift, so rows stay aligned); parts of a wide rectified extent are cropped.
+- Coincident eyes (interocular distance 0, the diagonal of a triangle) cannot be rectified: both
+  views are then the one novel view, unrectified (``rectification`` is None).
+- S2's novel view takes the :data:`~vergence.stereospace.S2_MAX_SOURCES` cameras nearest (centre
+  distance) to the novel camera as its sources (S2 §3.1: "four of its neighbouring cameras").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence.camera import Camera, interpolate
+from vergence.depth import Rectification, rectify_cameras
+from vergence.display import LAYOUTS, pack
+from vergence.io import read_image
+from vergence.stereospace.collection import Collection
+from vergence.stereospace.graph import CameraGraph, camera_graph
+from vergence.stereospace.mls_view import S2_MAX_SOURCES, s2_view
+from vergence.stereospace.space import StereoSpace, StereoState
+
+__all__ = ["PAIR_METHODS", "PreparedCollection", "StereoPairResult", "pair_cameras", "space_from_graph",
+           "stereo_pair"]
+
+ViewMethod = Callable[["PreparedCollection", Camera], np.ndarray]
+
+
+def space_from_graph(collection: Collection, graph: CameraGraph) -> tuple[StereoSpace, np.ndarray]:
+    """The StereoSpace of a camera graph and the camera index pair of each of its segments.
+
+    Segment ``k`` joins the centres of cameras ``pairs[k, 0]`` and ``pairs[k, 1]``, one per graph
+    edge in the graph's order (``graph.edges``, ``a < b``): ``c(k, 0)`` is camera ``pairs[k, 0]``.
+
+    Returns
+    -------
+    (StereoSpace, (m, 2) int64)
+    """
+    if not isinstance(collection, Collection):
+        raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+    if not isinstance(graph, CameraGraph):
+        raise TypeError(f"graph must be a CameraGraph; got {type(graph).__name__}")
+    if graph.n_nodes != len(collection):
+        raise ValueError(f"graph must have one node per camera of collection ({len(collection)}); got {graph.n_nodes}")
+    pairs = np.array(graph.edges, dtype=np.int64).reshape(-1, 2)
+    centers = collection.centers
+    space = StereoSpace(np.stack([centers[pairs[:, 0]], centers[pairs[:, 1]]], axis=1))
+    pairs.flags.writeable = False
+    return space, pairs
+
+
+def _segment_cameras(space: StereoSpace, collection: Collection) -> np.ndarray:
+    """Each segment end matched to the camera whose centre it is (within the space's tolerance)."""
+    centers = collection.centers
+    ends = space.segments.reshape(-1, 3)
+    dist = np.linalg.norm(ends[:, None] - centers[None], axis=2)
+    nearest = dist.argmin(axis=1)
+    if (dist[np.arange(len(ends)), nearest] > space.tolerance).any():
+        raise ValueError("space must have its segments between camera centres of collection (see space_from_graph)")
+    return nearest.reshape(-1, 2)
+
+
+def pair_cameras(space: StereoSpace, collection: Collection, state: StereoState, *,
+                 segment_cameras: object = None) -> tuple[Camera, Camera]:
+    """The first and second eye's cameras of a state: segment ``i`` at ``li``, segment ``j`` at ``lj``.
+
+    ``interpolate(a, b, l)`` of the segment's cameras (S2 §8: centres linear, rotations slerp,
+    intrinsics linear); at ``l = 0`` and ``l = 1`` these are the collection's cameras themselves.
+    ``segment_cameras`` is the second value of :func:`space_from_graph`; by default each segment end
+    is matched to the camera at that centre.
+
+    Raises
+    ------
+    ValueError
+        A region that does not exist, parameters outside [0, 1] (or ``li > lj`` on a triangle), a
+        segment end that is no camera's centre.
+    """
+    if not isinstance(space, StereoSpace):
+        raise TypeError(f"space must be a StereoSpace; got {type(space).__name__}")
+    if not isinstance(collection, Collection):
+        raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+    if segment_cameras is None:
+        pairs = _segment_cameras(space, collection)
+    else:
+        pairs = np.asarray(segment_cameras)
+        if pairs.shape != (len(space.segments), 2) or not np.issubdtype(pairs.dtype, np.integer):
+            raise ValueError(f"segment_cameras must be ({len(space.segments)}, 2) integers; got {pairs.shape}")
+        if pairs.min() < 0 or pairs.max() >= len(collection):
+            raise ValueError(f"segment_cameras must index the {len(collection)} cameras of collection")
+    state = space.check_state(state)
+    (i, j), cams = state.region, collection.cameras
+    return (interpolate(cams[pairs[i, 0]], cams[pairs[i, 1]], state.li),
+            interpolate(cams[pairs[j, 0]], cams[pairs[j, 1]], state.lj))
+
+
+class PreparedCollection:
+    """A collection made ready for fast stereo pairs (done once, then reused for every pair).
+
+    Holds the camera graph, its StereoSpace and segment cameras, the camera centres and every image
+    decoded as float32 (decoding a 640 x 480 JPEG costs several milliseconds a view).
+
+    Parameters
+    ----------
+    collection : Collection
+    graph : CameraGraph, optional
+        Default :func:`~vergence.stereospace.camera_graph` of the collection.
+    """
+
+    __slots__ = ("centers", "collection", "graph", "images", "segment_cameras", "space")
+
+    def __init__(self, collection: Collection, *, graph: CameraGraph | None = None) -> None:
+        if not isinstance(collection, Collection):
+            raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+        self.collection = collection
+        self.graph = camera_graph(collection) if graph is None else graph
+        self.space, self.segment_cameras = space_from_graph(collection, self.graph)
+        self.centers = collection.centers
+        images = []
+        for path, cam in zip(collection.image_paths, collection.cameras):
+            img = read_image(path)
+            if img.shape[:2] != (cam.height, cam.width):
+                raise ValueError(f"image {path.name} is {img.shape[1]} x {img.shape[0]}; its camera is "
+                                 f"{cam.width} x {cam.height}")  # fmt: skip
+            img.flags.writeable = False
+            images.append(img)
+        self.images = tuple(images)
+
+    def image(self, k: int) -> np.ndarray:
+        """The decoded float32 image of camera ``k``."""
+        return self.images[k]
+
+
+class _Unprepared:
+    """The same interface as :class:`PreparedCollection` without the cache: images decoded on use."""
+
+    def __init__(self, collection: Collection) -> None:
+        self.collection = collection
+        self.graph = camera_graph(collection)
+        self.space, self.segment_cameras = space_from_graph(collection, self.graph)
+        self.centers = collection.centers
+
+    def image(self, k: int) -> np.ndarray:
+        return read_image(self.collection.image_paths[k])
+
+
+def _mls_view(prepared: PreparedCollection, target: Camera, *, sources: int = S2_MAX_SOURCES) -> np.ndarray:
+    """S2's novel view (:func:`~vergence.stereospace.s2_view`) from the ``sources`` nearest cameras."""
+    distance = np.linalg.norm(prepared.centers - target.center, axis=1)
+    nearest = np.lexsort((np.arange(len(distance)), distance))[:sources]
+    cams = prepared.collection.cameras
+    view = s2_view(target, [(cams[k], prepared.image(k)) for k in nearest], points=prepared.collection.points)
+    return view.image
+
+
+PAIR_METHODS: dict[str, ViewMethod] = {"mls": _mls_view}
+"""Novel-view methods of :func:`stereo_pair` by name; ``method`` may also be a callable
+``method(prepared, target_camera) -> image`` of the target camera's size (e.g. a depth-based view)."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StereoPairResult:
+    """The stereo pair at a state.
+
+    Attributes
+    ----------
+    left, right : (H, W[, C]) float32
+        The rectified novel views (rows aligned), 0 where no source covers a pixel.
+    cameras : (Camera, Camera)
+        The novel cameras of the first and second eye (the state's order, unrectified).
+    rectified : (Camera, Camera)
+        The cameras of ``left`` and ``right``.
+    rectification : Rectification or None
+        Fusiello's rectification of the (left, right) novel cameras before the resize to the image
+        size; None for coincident eyes.
+    swapped : bool
+        True when the left view is the second eye's.
+    point : (4,) float64
+        The stereo point ``s(a, b)`` of the state (S2 Eq. 1).
+    packed : ndarray or None
+        The pair packed for ``layout`` (:func:`vergence.display.pack`), when one was asked.
+    """
+
+    left: np.ndarray
+    right: np.ndarray
+    cameras: tuple[Camera, Camera]
+    rectified: tuple[Camera, Camera]
+    rectification: Rectification | None
+    swapped: bool
+    point: np.ndarray
+    packed: np.ndarray | None
+
+
+def _fit(cam: Camera, width: int, height: int) -> Camera:
+    """``cam`` with its image extent centred in a ``width`` x ``height`` image (principal point shifted)."""
+    K = cam.K.copy()
+    K[0, 2] -= (cam.width - width) / 2.0
+    K[1, 2] -= (cam.height - height) / 2.0
+    return Camera(K=K, R=cam.R, t=cam.t, width=width, height=height)
+
+
+def _rectified_cameras(first: Camera, second: Camera, tolerance: float):
+    """(left, right) rectified cameras of the image size, the Rectification and whether swapped."""
+    baseline = second.center - first.center
+    if np.linalg.norm(baseline) <= tolerance:
+        return (first, first), None, False
+    swapped = bool(baseline @ first.R[0] < 0.0)
+    left, right = (second, first) if swapped else (first, second)
+    rect = rectify_cameras(left, right)
+    w, h = first.width, first.height
+    return (_fit(rect.left_camera, w, h), _fit(rect.right_camera, w, h)), rect, swapped
+
+
+def _resolve(method: object) -> ViewMethod:
+    if callable(method):
+        return method  # type: ignore[return-value]
+    if isinstance(method, str) and method in PAIR_METHODS:
+        return PAIR_METHODS[method]
+    raise ValueError(f"method must be one of {', '.join(PAIR_METHODS)} or a callable; got {method!r}")
+
+
+def stereo_pair(
+    prepared: PreparedCollection | Collection,
+    state: StereoState,
+    *,
+    layout: str | None = None,
+    method: str | ViewMethod = "mls",
+) -> StereoPairResult:
+    """The stereo pair of a state: two novel views rectified together, optionally packed.
+
+    Parameters
+    ----------
+    prepared : PreparedCollection or Collection
+        A prepared collection (fast), or a bare Collection: then the graph is built and the images
+        decoded for this pair only (the same pair, slower; the benchmark's baseline).
+    state : StereoState
+        Region and parameters in ``prepared.space``.
+    layout : str, optional
+        A key of :data:`vergence.display.LAYOUTS` for ``packed``.
+    method : str or callable
+        ``"mls"`` (S2 §3.1, :func:`~vergence.stereospace.s2_view`) or ``method(prepared, camera)``.
+
+    Raises
+    ------
+    ValueError
+        A region that does not exist, parameters outside [0, 1], an unknown layout or method, a
+        pair that cannot be rectified (baseline along the viewing direction).
+    """
+    if layout is not None and (not isinstance(layout, str) or layout not in LAYOUTS):
+        raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}; got {layout!r}")
+    render = _resolve(method)
+    if isinstance(prepared, Collection):
+        prepared = _Unprepared(prepared)  # type: ignore[assignment]
+    elif not isinstance(prepared, PreparedCollection):
+        raise TypeError(f"prepared must be a PreparedCollection or a Collection; got {type(prepared).__name__}")
+    space = prepared.space
+    first, second = pair_cameras(space, prepared.collection, state, segment_cameras=prepared.segment_cameras)
+    (cam_l, cam_r), rect, swapped = _rectified_cameras(first, second, space.tolerance)
+    left = np.asarray(render(prepared, cam_l), dtype=np.float32)  # type: ignore[arg-type]
+    right = left if rect is None else np.asarray(render(prepared, cam_r), dtype=np.float32)  # type: ignore[arg-type]
+    for name, view in (("left", left), ("right", right)):
+        if view.shape[:2] != (cam_l.height, cam_l.width):
+            raise ValueError(f"method returned a {name} view of shape {view.shape}; expected "
+                             f"({cam_l.height}, {cam_l.width}[, C])")  # fmt: skip
+    packed = None if layout is None else pack(left, right, layout=layout)
+    point = space.point(state.region[0], state.li, state.region[1], state.lj)
+    return StereoPairResult(left=left, right=right, cameras=(first, second), rectified=(cam_l, cam_r),
+                            rectification=rect, swapped=swapped, point=point, packed=packed)
+

@@ -1,0 +1,207 @@
+"""The stereo pair at a state of the stereospace: novel cameras, rectification, packing, quality.
+
+Scene: a textured plane at z = 5 m seen by a row of four cameras toed in towards (0, 0, 5), so the
+rectification is not the identity; the images are written to a temporary folder.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from vergence.camera import look_at
+from vergence.io import write_image
+from vergence.stereospace import (
+    Collection,
+    PreparedCollection,
+    StereoSpace,
+    StereoState,
+    camera_graph,
+    load_collection,
+    pair_cameras,
+    pair_quality,
+    space_from_graph,
+    stereo_pair,
+)
+from vergence.viewing import ComfortZone, Display, arcmin_from_pixels
+
+PLANE_Z = 5.0
+W, H = 64, 48
+XS = (-0.6, -0.2, 0.2, 0.6)
+
+
+def _camera(x, *, toe=True):
+    return look_at([x, 0.0, 0.0], [0.0 if toe else x, 0.0, PLANE_Z], [0.0, -1.0, 0.0], fov_deg=60.0, width=W, height=H)
+
+
+def _render(cam):
+    d = cam.ray_directions()
+    t = (PLANE_Z - cam.center[2]) / d[..., 2]
+    x, y = cam.center[0] + t * d[..., 0], cam.center[1] + t * d[..., 1]
+    return (0.5 + 0.4 * np.sin(1.3 * x) * np.cos(1.7 * y)).astype(np.float32)
+
+
+def _plane_points(n=80, seed=3):
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-2.0, 2.0, n), rng.uniform(-1.5, 1.5, n), np.full(n, PLANE_Z)])
+
+
+@pytest.fixture(scope="module")
+def plane(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("plane")
+    cams = tuple(_camera(x) for x in XS)
+    names = tuple(f"v{k}.png" for k in range(len(cams)))
+    for name, cam in zip(names, cams):
+        write_image(folder / name, _render(cam))
+    col = Collection(names=names, cameras=cams, image_paths=tuple(folder / n for n in names), points=_plane_points())
+    return col, PreparedCollection(col)
+
+
+def _bilinear(img, x, y):
+    x0, y0 = int(np.floor(x)), int(np.floor(y))
+    fx, fy = x - x0, y - y0
+    return ((1 - fx) * (1 - fy) * img[y0, x0] + fx * (1 - fy) * img[y0, x0 + 1]
+            + (1 - fx) * fy * img[y0 + 1, x0] + fx * fy * img[y0 + 1, x0 + 1])
+
+
+def test_space_from_graph_has_one_segment_per_edge(plane):
+    col, prep = plane
+    space, pairs = space_from_graph(col, camera_graph(col))
+    assert_array_equal(pairs, prep.graph.edges)
+    assert_allclose(space.segments[:, 0], col.centers[pairs[:, 0]])
+    assert_allclose(space.segments[:, 1], col.centers[pairs[:, 1]])
+
+
+def test_cameras_at_the_segment_ends_are_the_graph_cameras(plane):
+    col, prep = plane
+    a, b = (int(v) for v in prep.segment_cameras[0])
+    first, second = pair_cameras(prep.space, col, StereoState((0, 0), 0.0, 1.0))
+    assert first is col.cameras[a] and second is col.cameras[b]
+    mid, _ = pair_cameras(prep.space, col, StereoState((0, 0), 0.5, 1.0))
+    assert_allclose(mid.center, (col.centers[a] + col.centers[b]) / 2, atol=1e-12)
+
+
+def test_pair_is_row_aligned_and_left_is_left(plane):
+    col, prep = plane
+    res = stereo_pair(prep, StereoState((0, 0), 0.2, 0.9), layout="sbs")
+    cam_l, cam_r = res.rectified
+    assert cam_l.center[0] < cam_r.center[0]  # the left eye has the smaller x (all cameras face +z)
+    assert (cam_r.center - cam_l.center) @ cam_l.R[0] > 0
+    xl, _ = cam_l.project(col.points)
+    xr, _ = cam_r.project(col.points)
+    assert_allclose(xl[:, 1], xr[:, 1], atol=1e-9)  # rows agree
+    assert res.left.shape == (H, W) and res.packed.shape == (H, 2 * W)
+    # image content agrees along the rows: each plane point has one grey value in both views
+    inside = (xl[:, 0] > 2) & (xl[:, 0] < W - 3) & (xr[:, 0] > 2) & (xr[:, 0] < W - 3) & (xl[:, 1] > 2) & (xl[:, 1] < H - 3)
+    assert inside.sum() > 10
+    diff = [abs(_bilinear(res.left, *p) - _bilinear(res.right, *q)) for p, q in zip(xl[inside], xr[inside])]
+    assert np.median(diff) < 0.03
+    assert_allclose(res.point, prep.space.point(0, 0.2, 0, 0.9))
+
+
+def test_left_is_left_whichever_eye_comes_first(plane):
+    col, prep = plane
+    space, seen = prep.space, set()
+    for i, j in space.regions:
+        for li, lj in ((0.0, 1.0), (1.0, 0.0)) if i != j else ((0.0, 1.0),):
+            first, second = space.eyes(StereoState((i, j), li, lj))
+            if np.allclose(first, second):
+                continue
+            res = stereo_pair(prep, StereoState((i, j), li, lj), method=lambda p, cam: _render(cam))
+            assert res.swapped == (first[0] > second[0])
+            assert res.rectified[0].center[0] < res.rectified[1].center[0]
+            assert_allclose(res.rectified[int(res.swapped)].center, first, atol=1e-12)
+            seen.add(res.swapped)
+    assert seen == {False, True}
+
+
+def test_prepared_and_unprepared_pairs_are_equal(plane):
+    col, prep = plane
+    state = StereoState((0, 1), 0.3, 0.6)
+    a, b = stereo_pair(prep, state), stereo_pair(col, state)
+    assert_array_equal(a.left, b.left)
+    assert_array_equal(a.right, b.right)
+
+
+def test_a_callable_method_renders_in_the_rectified_cameras(plane):
+    col, prep = plane
+    res = stereo_pair(prep, StereoState((0, 0), 0.0, 1.0), method=lambda p, cam: _render(cam))
+    assert_allclose(res.left, _render(res.rectified[0]))
+
+
+def test_quality_on_known_disparities(tmp_path):
+    # two parallel cameras 0.2 m apart: rectification is the identity, disparity x_r - x_l = -f b / z
+    cams = (_camera(0.0, toe=False), _camera(0.2, toe=False))
+    depths = np.array([2.0, 4.0, 8.0])
+    pts = np.column_stack([np.full(3, 0.1), np.zeros(3), depths])
+    col = Collection(names=("a", "b"), cameras=cams, image_paths=(tmp_path / "a", tmp_path / "b"), points=pts)
+    display = Display.preset("desktop-24")
+    q = pair_quality(col, cams, display)
+    f = cams[0].focal_px
+    want_px = -f * 0.2 / depths
+    assert q["points_seen"] == 3 and not q["swapped"]
+    assert_allclose(q["disparity_px"], (want_px.min(), want_px.max()), rtol=1e-9)
+    scale = display.resolution / W
+    assert_allclose(q["disparity_arcmin"], arcmin_from_pixels(np.array([want_px.min(), want_px.max()]) * scale, display))
+    assert_allclose(q["range_arcmin"], q["disparity_arcmin"][1] - q["disparity_arcmin"][0])
+    assert_allclose(q["rectification_distortion"], 0.0, atol=1e-12)
+    assert_allclose(q["rectification_rotation_deg"], 0.0, atol=1e-6)
+    assert q["inside"] == (q["disparity_arcmin"][0] >= -60.0)
+    wide = pair_quality(col, cams, display, zone=ComfortZone(crossed_arcmin=5000.0, uncrossed_arcmin=60.0))
+    assert wide["inside"] and wide["fits_with_shift"]
+    # the reversed pair is the same pair, swapped
+    assert pair_quality(col, cams[::-1], display)["swapped"]
+
+
+def test_toed_in_pair_has_rectification_distortion(plane):
+    col, _ = plane
+    q = pair_quality(col, (col.cameras[0], col.cameras[3]), Display.preset("desktop-24"))
+    assert min(q["rectification_distortion"]) > 1e-4 and min(q["rectification_rotation_deg"]) > 1.0
+
+
+@pytest.mark.parametrize(
+    ("state", "kwargs", "message"),
+    [
+        (StereoState((0, 1), 1.5, 0.5), {}, "li must"),
+        (StereoState((0, 1), 0.5, -0.1), {}, "lj must"),
+        (StereoState((0, 99), 0.5, 0.5), {}, "does not exist"),
+        (StereoState((0, 1), 0.5, 0.5), {"layout": "hologram"}, "layout must be one of"),
+        (StereoState((0, 1), 0.5, 0.5), {"method": "magic"}, "method must be one of"),
+    ],
+)
+def test_bad_input_is_one_line(plane, state, kwargs, message):
+    _, prep = plane
+    with pytest.raises(ValueError, match=message) as err:
+        stereo_pair(prep, state, **kwargs)
+    assert "\n" not in str(err.value)
+
+
+def test_bad_types(plane):
+    col, prep = plane
+    with pytest.raises(TypeError, match="prepared must be"):
+        stereo_pair("kermit", StereoState((0, 0), 0.0, 1.0))
+    with pytest.raises(TypeError, match="cameras must be a pair"):
+        pair_quality(col, col.cameras[0], Display.preset("desktop-24"))
+    with pytest.raises(ValueError, match="space must have its segments"):
+        pair_cameras(StereoSpace([[[9, 9, 9], [8, 8, 8]]]), col, StereoState((0, 0), 0.0, 1.0))
+
+
+def test_kermit_pair(shared_data):
+    folder = shared_data / "collections" / "kermit"
+    col = load_collection(folder / "bundle.out", images=folder)
+    prep = PreparedCollection(col)
+    res = stereo_pair(prep, StereoState((0, 0), 0.0, 1.0), layout="anaglyph")
+    assert res.left.shape == (480, 640, 3) and res.packed.shape[:2] == (480, 640)
+    xl, zl = res.rectified[0].project(col.points)
+    xr, zr = res.rectified[1].project(col.points)
+    assert_allclose(xl[:, 1], xr[:, 1], atol=1e-6)
+    assert (res.left.max(axis=2) > 0).mean() > 0.5
+
+
+def test_coincident_eyes_give_one_unrectified_view(plane):
+    _, prep = plane
+    res = stereo_pair(prep, StereoState((0, 0), 0.4, 0.4), method=lambda p, cam: _render(cam))
+    assert res.rectification is None and res.point[3] == 0.0
+    assert_array_equal(res.left, res.right)
+    assert_array_equal(res.rectified[0].R, res.cameras[0].R)
