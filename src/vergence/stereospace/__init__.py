@@ -6,6 +6,9 @@
   deformation of Schaefer et al. 2006), :func:`mls_warp` (an image warped through it on a coarse
   grid) and :func:`s2_view` (up to four warped sources blended with S2's angle and field-of-view
   penalties).
+- Novel views at any camera and their leave-one-out PSNR: :func:`neighbours`, :func:`plane_view`
+  (the one-plane baseline), :func:`source_depths`, :func:`novel_view` (``"mls"`` or ``"depth"``:
+  per-view depth + ULR rendering), :func:`leave_one_out`.
 - The space of stereo pairs of the camera graph, its regions and parameters (S2 §4), and the
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 """
@@ -37,11 +40,22 @@ from vergence.stereospace.space import (
     stereo_point,
 )
 from vergence.stereospace.mls import MLS_MIN_HANDLES, mls_similarity, mls_warp
+from vergence.stereospace.views import (
+    DISPARITY_MARGIN_PX,
+    NOVEL_VIEW_METHODS,
+    NovelView,
+    leave_one_out,
+    neighbours,
+    novel_view,
+    plane_view,
+    source_depths,
+)
 from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
     "CameraGraph",
     "Collection",
+    "DISPARITY_MARGIN_PX",
     "JUMP_CONE_DEG",
     "JUMP_SAMPLES",
     "MATCH_NEIGHBOURS",
@@ -52,6 +66,8 @@ __all__ = [
     "MOVE_EVENTS",
     "Move",
     "NEAR_FACTOR",
+    "NOVEL_VIEW_METHODS",
+    "NovelView",
     "PARALLEL_SINE",
     "RATIO_TEST",
     "RELATIVE_TOLERANCE",
@@ -64,12 +80,17 @@ __all__ = [
     "StereoState",
     "camera_graph",
     "capture_paths",
+    "leave_one_out",
     "load_collection",
     "mls_similarity",
     "mls_warp",
+    "neighbours",
+    "novel_view",
     "pan",
+    "plane_view",
     "project_distorted",
     "s2_view",
+    "source_depths",
     "stereo_point",
     "tangent",
     "triangulate_points",
