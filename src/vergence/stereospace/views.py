@@ -195,19 +195,32 @@ def plane_view(
     return NovelView(image, coverage, "plane", tuple(collection.names[i] for i in idx))
 
 
-def _best_partner(collection: Collection, i: int, edges: np.ndarray, allowed: set[int]) -> int | None:
-    """The graph neighbour of ``i`` with the nearest centre (None without one)."""
-    linked = [int(b if a == i else a) for a, b in edges if i in (a, b)]
-    linked = [j for j in linked if j in allowed]
-    if not linked:
-        return None
-    return min(linked, key=lambda j: float(np.linalg.norm(collection.centers[j] - collection.centers[i])))
+def _ordered(collection: Collection, i: int, j: int) -> bool:
+    """Whether the pair can be rectified: one centre at positive x of the other camera."""
+    ci, cj = collection.cameras[i], collection.cameras[j]
+    return float(ci.R[0] @ (cj.center - ci.center)) > 0 or float(cj.R[0] @ (ci.center - cj.center)) > 0
+
+
+def _partner(collection: Collection, i: int, edges: np.ndarray, allowed: set[int]) -> int | None:
+    """The camera ``i`` is matched with: its graph neighbour with the nearest centre that can be
+    rectified with it, else the first such of :func:`neighbours` (None without one)."""
+    centre = collection.centers[i]
+    linked = sorted({int(b if a == i else a) for a, b in edges if i in (a, b)} & allowed,
+                    key=lambda j: float(np.linalg.norm(collection.centers[j] - centre)))  # fmt: skip
+    others = [collection.names[n] for n in range(len(collection)) if n not in allowed or n == i]
+    rest = neighbours(collection, collection.cameras[i], k=len(collection), exclude=others) if allowed - {i} else []
+    for j in linked + [j for j in rest if j not in linked]:
+        if _ordered(collection, i, j):
+            return j
+    return None
 
 
 def _pair_depth(collection: Collection, i: int, j: int, images: dict | None) -> np.ndarray:
     """Depth of camera ``i`` (its frame, NaN unknown) from matching it with camera ``j``."""
     cam_i, cam_j = collection.cameras[i], collection.cameras[j]
-    i_left = float((cam_i.R @ cam_j.center + cam_i.t)[0]) > 0  # j to the right of i
+    # Fusiello's frame needs the right centre at positive x of the left camera: i is left when j is
+    # to its right, else j must have i to its right (converging cameras may satisfy neither)
+    i_left = float(cam_i.R[0] @ (cam_j.center - cam_i.center)) > 0
     left, right = (i, j) if i_left else (j, i)
     pair = rectify_pair(_load(collection, left, images), _load(collection, right, images),
                         collection.cameras[left], collection.cameras[right])  # fmt: skip
@@ -223,8 +236,10 @@ def _pair_depth(collection: Collection, i: int, j: int, images: dict | None) -> 
     hi = int(np.ceil(np.percentile(disp, 95))) + DISPARITY_MARGIN_PX
     a, b, valid, rcam, hom = pair.left, pair.right, pair.left_valid, rect.left_camera, rect.left_homography
     if not i_left:  # the right view's disparity: match the mirrored pair (right becomes left)
+        # mirrored columns x' = W - 1 - x give the disparity d' = d + (W_right - W_left)
+        shift = pair.right.shape[1] - pair.left.shape[1]
         a, b, valid = pair.right[:, ::-1], pair.left[:, ::-1], pair.right_valid[:, ::-1]
-        lo, hi = -hi, -lo
+        lo, hi = lo + shift, hi + shift
         rcam, hom = rect.right_camera, rect.right_homography
     width = a.shape[1]
     # the search must fit the image: shift the window inwards, keep its length
@@ -234,7 +249,7 @@ def _pair_depth(collection: Collection, i: int, j: int, images: dict | None) -> 
                             keep_invalid=True, valid=np.ascontiguousarray(valid))  # fmt: skip
     d = res.disparity.astype(np.float64)
     if not i_left:
-        d = -d[:, ::-1]  # x_left - x_right again, in the right image's columns
+        d = d[:, ::-1] - shift  # x_left - x_right again, in the right image's columns
     denom = d + rect.doffs_px  # Z = f b / (d + doffs), S1 Eq. 7
     with np.errstate(divide="ignore", invalid="ignore"):
         z_rect = np.where(denom > 0, rect.focal_px * rect.baseline / denom, np.nan)
@@ -279,21 +294,18 @@ def source_depths(
     """
     collection, _, excluded = _check(collection, collection.cameras[0] if len(collection) else None, exclude)
     allowed = {i for i, n in enumerate(collection.names) if n not in excluded}
-    try:
-        edges = camera_graph(collection).edges
-    except ValueError:
-        edges = np.zeros((0, 2), np.int64)
+    edges = _edges(collection)
     out: dict[str, np.ndarray] = {}
     for step, i in enumerate(sorted(allowed)):
-        j = _best_partner(collection, i, edges, allowed - {i})
-        if j is None:
-            others = [collection.names[n] for n in range(len(collection)) if n not in allowed or n == i]
-            j = neighbours(collection, collection.cameras[i], k=1, exclude=others)[0]
-        try:
-            out[collection.names[i]] = _pair_depth(collection, i, j, images)
-        except ValueError:  # a pair without texture to match
-            cam = collection.cameras[i]
-            out[collection.names[i]] = np.full((cam.height, cam.width), np.nan)
+        j = _partner(collection, i, edges, allowed - {i})
+        cam = collection.cameras[i]
+        depth = np.full((cam.height, cam.width), np.nan)
+        if j is not None:
+            try:
+                depth = _pair_depth(collection, i, j, images)
+            except ValueError:  # a pair without texture to match: no depth
+                pass
+        out[collection.names[i]] = depth
         if progress is not None:
             progress((step + 1) / len(allowed), f"depth of {collection.names[i]}")
     return out
@@ -394,11 +406,11 @@ def leave_one_out(
                     used = source_depths(collection, exclude=[name], images=images)
                 else:  # a map matched against the held-out camera would leak it: recompute those
                     used = {n: d for n, d in depths.items() if n != name and partners.get(n) != name}
+                    edges = _edges(collection)
                     for n, p in partners.items():
                         if p == name and n != name:
                             j = collection.names.index(n)
-                            q = _best_partner(collection, j, camera_graph(collection).edges,
-                                              set(range(len(collection))) - {i, j})  # fmt: skip
+                            q = _partner(collection, j, edges, set(range(len(collection))) - {i, j})
                             if q is not None:
                                 used[n] = _pair_depth(collection, j, q, images)
             view = novel_view(collection, target, method=method, exclude=[name], depths=used, images=images)
@@ -409,17 +421,19 @@ def leave_one_out(
     return out
 
 
-def _partners(collection: Collection) -> dict[str, str]:
-    """``name -> name of the camera`` :func:`source_depths` matches it with (all cameras allowed)."""
+def _edges(collection: Collection) -> np.ndarray:
     try:
-        edges = camera_graph(collection).edges
-    except ValueError:
-        edges = np.zeros((0, 2), np.int64)
-    out = {}
+        return camera_graph(collection).edges
+    except ValueError:  # no overlapping pair: neighbours only
+        return np.zeros((0, 2), np.int64)
+
+
+def _partners(collection: Collection) -> dict[str, str | None]:
+    """``name -> name of the camera`` :func:`source_depths` matches it with (all cameras allowed)."""
+    edges = _edges(collection)
     everyone = set(range(len(collection)))
+    out = {}
     for i in range(len(collection)):
-        j = _best_partner(collection, i, edges, everyone - {i})
-        if j is None:
-            j = neighbours(collection, collection.cameras[i], k=1, exclude=[collection.names[i]])[0]
-        out[collection.names[i]] = collection.names[j]
+        j = _partner(collection, i, edges, everyone - {i})
+        out[collection.names[i]] = None if j is None else collection.names[j]
     return out
