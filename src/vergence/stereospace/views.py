@@ -13,7 +13,6 @@ Lens distortion (Bundler's k1, k2) is ignored throughout: images are used as sto
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
@@ -292,7 +291,9 @@ def source_depths(
     dict
         ``name -> (H, W) float64`` camera-frame depth, NaN where unknown.
     """
-    collection, _, excluded = _check(collection, collection.cameras[0] if len(collection) else None, exclude)
+    if not isinstance(collection, Collection):
+        raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+    collection, _, excluded = _check(collection, collection.cameras[0], exclude)
     allowed = {i for i, n in enumerate(collection.names) if n not in excluded}
     edges = _edges(collection)
     out: dict[str, np.ndarray] = {}
