@@ -329,8 +329,8 @@ def novel_view(
     with their :func:`source_depths` (computed here when ``depths`` is None, without the excluded
     cameras); sources without a depth map are skipped. Holes (pixels no source's depth sees: the
     matcher leaves textureless and half-occluded parts unknown) take S2's ``"mls"`` view where it has
-    one (on kermit, tuned there: +0.9 dB mean over filling along rows), the rest is filled along rows
-    from its background side (:func:`~vergence.synthesis.fill_holes`, disparity = 1 / proxy depth).
+    one (tuned on kermit: 17.08 dB mean leave-one-out PSNR against 16.11 filling along rows only),
+    the rest is filled along rows from its background side (:func:`~vergence.synthesis.fill_holes`, disparity = 1 / proxy depth).
     """
     collection, target, excluded = _check(collection, target, exclude)
     if not isinstance(method, str) or method not in NOVEL_VIEW_METHODS:
