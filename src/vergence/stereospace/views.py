@@ -24,7 +24,7 @@ from vergence.depth import compute_disparity, rectify_pair
 from vergence.io import read_image
 from vergence.stereospace.collection import Collection
 from vergence.stereospace.graph import camera_graph
-from vergence.stereospace.mls_view import s2_view
+from vergence.stereospace.mls_view import S2_MAX_SOURCES, s2_view
 from vergence.synthesis import IBRSource, fill_holes, render_ibr
 
 __all__ = [
@@ -337,8 +337,9 @@ def novel_view(
         raise ValueError(f"method must be one of {', '.join(NOVEL_VIEW_METHODS)}; got {method!r}")
     idx = neighbours(collection, target, k=k, exclude=excluded)
     if method == "mls":
+        idx = idx[:S2_MAX_SOURCES]  # S2 blends its four neighbours at most
         res = s2_view(target, [(collection.cameras[i], _load(collection, i, images)) for i in idx],
-                      points=collection.points, k=min(k, 4))  # fmt: skip
+                      points=collection.points, k=min(k, S2_MAX_SOURCES))  # fmt: skip
         return NovelView(_colour(res.image), res.coverage, "mls", tuple(collection.names[i] for i in idx))
     if depths is None:
         depths = source_depths(collection, exclude=excluded, images=images)
@@ -351,8 +352,9 @@ def novel_view(
     coverage = res.coverage.copy()
     image = res.image.copy()
     if coverage.any() and not coverage.all():  # holes: S2's view where it has one, then rows
-        mls = s2_view(target, [(collection.cameras[i], _load(collection, i, images)) for i in idx_all],
-                      points=collection.points, k=min(k, 4))  # fmt: skip
+        near = idx_all[:S2_MAX_SOURCES]
+        mls = s2_view(target, [(collection.cameras[i], _load(collection, i, images)) for i in near],
+                      points=collection.points, k=min(k, S2_MAX_SOURCES))  # fmt: skip
         take = ~coverage & mls.coverage
         image[take] = _colour(mls.image)[take]
         known = coverage | take
