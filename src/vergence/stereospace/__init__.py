@@ -6,6 +6,9 @@
   deformation of Schaefer et al. 2006), :func:`mls_warp` (an image warped through it on a coarse
   grid) and :func:`s2_view` (up to four warped sources blended with S2's angle and field-of-view
   penalties).
+- Novel views at any camera and their leave-one-out PSNR: :func:`neighbours`, :func:`plane_view`
+  (the one-plane baseline), :func:`source_depths`, :func:`novel_view` (``"mls"`` or ``"depth"``:
+  per-view depth + ULR rendering), :func:`leave_one_out`.
 - The space of stereo pairs of the camera graph, its regions and parameters (S2 §4), and the
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 - The stereo pair at a state (:func:`stereo_pair`: two novel views rectified together, packed for a
@@ -48,11 +51,22 @@ from vergence.stereospace.pair import (
     stereo_pair,
 )
 from vergence.stereospace.quality import pair_quality
+from vergence.stereospace.views import (
+    DISPARITY_MARGIN_PX,
+    NOVEL_VIEW_METHODS,
+    NovelView,
+    leave_one_out,
+    neighbours,
+    novel_view,
+    plane_view,
+    source_depths,
+)
 from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
     "CameraGraph",
     "Collection",
+    "DISPARITY_MARGIN_PX",
     "JUMP_CONE_DEG",
     "JUMP_SAMPLES",
     "MATCH_NEIGHBOURS",
@@ -63,6 +77,8 @@ __all__ = [
     "MOVE_EVENTS",
     "Move",
     "NEAR_FACTOR",
+    "NOVEL_VIEW_METHODS",
+    "NovelView",
     "PAIR_METHODS",
     "PARALLEL_SINE",
     "PreparedCollection",
@@ -78,14 +94,19 @@ __all__ = [
     "StereoState",
     "camera_graph",
     "capture_paths",
+    "leave_one_out",
     "load_collection",
     "mls_similarity",
     "mls_warp",
+    "neighbours",
+    "novel_view",
     "pair_cameras",
     "pair_quality",
     "pan",
+    "plane_view",
     "project_distorted",
     "s2_view",
+    "source_depths",
     "space_from_graph",
     "stereo_pair",
     "stereo_point",
