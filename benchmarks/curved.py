@@ -13,19 +13,10 @@ in closed form), to compare with ``tolerance_px``.
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import numpy as np
+from _timing import median_time
 
-
-def _median_time(fn, repeats: int):  # noqa: ANN001, ANN202
-    times, out = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), out
 
 
 def main() -> None:
@@ -59,9 +50,9 @@ def main() -> None:
     options = {"near": args.near, "far": np.inf, "tolerance_px": args.tolerance, "samples": args.samples}
     tracer.render(cam, samples=args.samples)
     tracer.render_curved(cam, to_world, **options)
-    t_straight, straight = _median_time(lambda: tracer.render(cam, samples=args.samples), args.repeat)
-    t_curved, bent = _median_time(lambda: tracer.render_curved(cam, to_world, **options), args.repeat)
-    t_identity, _ = _median_time(lambda: tracer.render_curved(cam, lambda q: q, **options), args.repeat)
+    t_straight, straight = median_time(lambda: tracer.render(cam, samples=args.samples), args.repeat)
+    t_curved, bent = median_time(lambda: tracer.render_curved(cam, to_world, **options), args.repeat)
+    t_identity, _ = median_time(lambda: tracer.render_curved(cam, lambda q: q, **options), args.repeat)
     sampled = sample_curves(cam, to_world, near=args.near, far=np.inf, tolerance_px=args.tolerance).segments
     n = args.width * args.height
     cast = (bent.settings.tree_rays - straight.settings.tree_rays) / n

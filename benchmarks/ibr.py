@@ -21,13 +21,13 @@ import argparse
 import importlib.util
 import os
 import sys
-import time
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its OpenMP threads
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
+from _timing import report, timed  # noqa: E402
 from vergence.camera import Camera, look_at  # noqa: E402
 from vergence.synthesis import IBRSource, render_ibr  # noqa: E402
 from vergence.synthesis._ibr_stages import FOV_MARGIN_PX  # noqa: E402
@@ -132,18 +132,6 @@ def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray)
     return image, wt
 
 
-def _time(fn) -> tuple[float, float]:
-    t0, c0 = time.perf_counter(), time.process_time()
-    fn()
-    return time.perf_counter() - t0, time.process_time() - c0
-
-
-def _report(name: str, runs: list[tuple[float, float]], note: str = "") -> float:
-    arr = np.array(runs)
-    wall, cpu = np.median(arr, axis=0)
-    print(f"{name:44s} median {1e3 * wall:7.1f} ms  (CPU {1e3 * cpu:7.1f} ms; min {1e3 * arr[:, 0].min():.1f}, "
-          f"max {1e3 * arr[:, 0].max():.1f} ms){note}")
-    return float(wall)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -168,20 +156,20 @@ def main(argv: list[str] | None = None) -> int:
           f"max |weight diff| {np.abs(fast.weights - ref_w).max():.2e}, coverage {fast.coverage.mean():.3f}")
     fast_runs, np_runs = [], []
     for _ in range(args.repeats):  # interleaved, so both see the same machine load
-        fast_runs.append(_time(lambda: render_ibr(target, sources, proxy_depth=proxy, interpolation="linear")))
-        np_runs.append(_time(lambda: numpy_ulr(target, sources, proxy)))
-    t_fast = _report("render_ibr ulr bilinear, given proxy (Numba)", fast_runs, " goal < 150 ms")
-    t_np = _report("plain numpy ULR bilinear, given proxy", np_runs)
+        fast_runs.append(timed(lambda: render_ibr(target, sources, proxy_depth=proxy, interpolation="linear")))
+        np_runs.append(timed(lambda: numpy_ulr(target, sources, proxy)))
+    t_fast = report("render_ibr ulr bilinear, given proxy (Numba)", fast_runs, " goal < 150 ms")
+    t_np = report("plain numpy ULR bilinear, given proxy", np_runs)
     print(f"speed-up: {t_np / t_fast:.1f}x (goal >= 5x)")
     render_ibr(target, sources, proxy_depth=proxy)
-    _report("render_ibr ulr bicubic (default), given proxy",
-            [_time(lambda: render_ibr(target, sources, proxy_depth=proxy)) for _ in range(args.repeats)])
+    report("render_ibr ulr bicubic (default), given proxy",
+            [timed(lambda: render_ibr(target, sources, proxy_depth=proxy)) for _ in range(args.repeats)])
     render_ibr(target, sources)
-    _report("render_ibr ulr, forward-warped proxy", [_time(lambda: render_ibr(target, sources)) for _ in range(args.repeats)])
+    report("render_ibr ulr, forward-warped proxy", [timed(lambda: render_ibr(target, sources)) for _ in range(args.repeats)])
     if importlib.util.find_spec("vergence.synthesis.ibr_bayes") is not None:
         render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")
-        _report("render_ibr bayesian, given proxy",
-                [_time(lambda: render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")) for _ in range(args.repeats)])
+        report("render_ibr bayesian, given proxy",
+                [timed(lambda: render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")) for _ in range(args.repeats)])
     else:
         print("render_ibr bayesian: vergence.synthesis.ibr_bayes not present, not timed")
     return 0

@@ -20,6 +20,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its O
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
+from _timing import median_time  # noqa: E402
 from vergence.camera import Camera  # noqa: E402
 from vergence.synthesis import (  # noqa: E402
     BAYES_DEPTH_CONTINUITY,
@@ -106,14 +107,6 @@ def numpy_weights(estimate, points, pixels, visible, target, sources, *, sigma_s
     return out
 
 
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
-
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -128,9 +121,9 @@ def main() -> None:
         slow = lambda est=est: numpy_weights(est, points, pixels, visible, target, sources)  # noqa: E731
         np.testing.assert_allclose(fast(), slow(), rtol=1e-4)  # warm-up and agreement
         cpu0 = time.process_time()
-        t_fast = median_time(fast, args.repeats)
+        t_fast = median_time(fast, args.repeats)[0]
         cpu = (time.process_time() - cpu0) / args.repeats
-        t_slow = median_time(slow, args.repeats)
+        t_slow = median_time(slow, args.repeats)[0]
         print(f"{name}: bayesian_weights {1e3 * t_fast:.0f} ms (cpu {1e3 * cpu:.0f} ms/run), "
               f"numpy {1e3 * t_slow:.0f} ms, speed-up {t_slow / t_fast:.1f}x  "
               f"[4 sources, {WIDTH}x{HEIGHT}, {numba.get_num_threads()} threads]")

@@ -23,13 +23,13 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its OpenMP threads
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
+from _timing import report, timed  # noqa: E402
 from vergence.camera import look_at  # noqa: E402
 from vergence.stereospace import mls_warp  # noqa: E402
 from vergence.stereospace.mls import _source_map  # noqa: E402
@@ -82,18 +82,6 @@ def _map64(p: np.ndarray, q: np.ndarray, step: int) -> np.ndarray:
     return np.stack(_source_map(p, q, (HEIGHT, WIDTH), step, 1.0, dtype=np.float64), axis=-1)
 
 
-def _time(fn) -> tuple[float, float]:
-    t0, c0 = time.perf_counter(), time.process_time()
-    fn()
-    return time.perf_counter() - t0, time.process_time() - c0
-
-
-def _report(name: str, runs: list[tuple[float, float]], note: str = "") -> float:
-    arr = np.array(runs)
-    wall, cpu = np.median(arr, axis=0)
-    print(f"{name:52s} median {1e3 * wall:8.1f} ms  (CPU {1e3 * cpu:8.1f} ms; min {1e3 * arr[:, 0].min():.1f}, "
-          f"max {1e3 * arr[:, 0].max():.1f} ms){note}")
-    return float(wall)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -124,12 +112,12 @@ def main(argv: list[str] | None = None) -> int:
     timings = {}
     for step in (1, 8, 16):
         mls_warp(image, p, q, grid_step=step)
-        runs = [_time(lambda s=step: mls_warp(image, p, q, grid_step=s)) for _ in range(args.repeats)]
-        timings[step] = _report(f"mls_warp grid_step={step} (Numba, with remap)", runs)
-    t_np = _report("numpy MLS per pixel (source map only)",
-                   [_time(lambda: numpy_mls(pixels, q, p)) for _ in range(args.numpy_repeats)])
-    t_map = _report("Numba MLS per pixel (source map only)",
-                    [_time(lambda: _source_map(p, q, (HEIGHT, WIDTH), 1, 1.0)) for _ in range(args.repeats)])
+        runs = [timed(lambda s=step: mls_warp(image, p, q, grid_step=s)) for _ in range(args.repeats)]
+        timings[step] = report(f"mls_warp grid_step={step} (Numba, with remap)", runs)
+    t_np = report("numpy MLS per pixel (source map only)",
+                   [timed(lambda: numpy_mls(pixels, q, p)) for _ in range(args.numpy_repeats)])
+    t_map = report("Numba MLS per pixel (source map only)",
+                    [timed(lambda: _source_map(p, q, (HEIGHT, WIDTH), 1, 1.0)) for _ in range(args.repeats)])
     print(f"speed-up per pixel, like for like: {t_np / t_map:.1f}x; "
           f"numpy per pixel / mls_warp step 8: {t_np / timings[8]:.0f}x, step 16: {t_np / timings[16]:.0f}x")
 
@@ -138,8 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     img500 = rng.uniform(0, 1, (500, 500, 3)).astype(np.float32)
     for step in (1, 8):
         mls_warp(img500, p16, q16, grid_step=step)
-        _report(f"500x500, 16 handles: mls_warp grid_step={step}",
-                [_time(lambda s=step: mls_warp(img500, p16, q16, grid_step=s)) for _ in range(args.repeats)],
+        report(f"500x500, 16 handles: mls_warp grid_step={step}",
+                [timed(lambda s=step: mls_warp(img500, p16, q16, grid_step=s)) for _ in range(args.repeats)],
                 "  (public NumPy MLS: ~1000 ms)")
     return 0
 

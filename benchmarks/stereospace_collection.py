@@ -11,24 +11,15 @@ error, the graph's edge count and capture paths, and the median wall times of
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 from pathlib import Path
 
 import numpy as np
+from _timing import median_time
 
 from vergence.stereospace import camera_graph, capture_paths, load_collection
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "collections"
 
-
-def _median_time(fn, repeats: int):  # noqa: ANN001, ANN202
-    times, out = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), out
 
 
 def main() -> None:
@@ -38,9 +29,9 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=DATA)
     args = parser.parse_args()
     for cameras, images in (("dino/dino_par.txt", "dino"), ("kermit/bundle.out", "kermit")):
-        t_load, col = _median_time(lambda: load_collection(args.data / cameras, images=args.data / images,
+        t_load, col = median_time(lambda: load_collection(args.data / cameras, images=args.data / images,
                                                            neighbours=args.neighbours), args.repeat)  # fmt: skip
-        t_graph, (graph, paths) = _median_time(lambda: (g := camera_graph(col), capture_paths(g)), args.repeat)
+        t_graph, (graph, paths) = median_time(lambda: (g := camera_graph(col), capture_paths(g)), args.repeat)
         print(f"{images}: {len(col)} cameras kept, {col.left_out} without an image, {col.unregistered} unregistered; "
               f"{col.point_count} points ({col.points_source}), median reprojection error "
               f"{col.median_reprojection_error_px:.3f} px (90th percentile "

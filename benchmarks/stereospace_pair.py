@@ -12,24 +12,15 @@ kernels are compiled (or loaded from their cache) by a first, untimed pair.
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 from pathlib import Path
 
 import numpy as np
+from _timing import median_time
 
 from vergence.stereospace import PAIR_METHODS, PreparedCollection, StereoState, load_collection, stereo_pair
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "collections"
 
-
-def _median_ms(fn, repeats: int) -> float:  # noqa: ANN001
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return 1000.0 * statistics.median(times)
 
 
 def main() -> None:
@@ -39,7 +30,7 @@ def main() -> None:
     args = parser.parse_args()
     folder = args.data / "kermit"
     col = load_collection(folder / "bundle.out", images=folder)
-    t_prep = _median_ms(lambda: PreparedCollection(col), 3)
+    t_prep = 1000.0 * median_time(lambda: PreparedCollection(col), 3)[0]
     prep = PreparedCollection(col)
     mls = PAIR_METHODS["mls"]
     methods = {"mls, 4 sources": mls, "mls, 2 sources": lambda p, cam: mls(p, cam, sources=2)}
@@ -53,8 +44,8 @@ def main() -> None:
         for s_name, state in states.items():
             a, b = stereo_pair(prep, state, method=method), stereo_pair(col, state, method=method)
             same = np.array_equal(a.left, b.left) and np.array_equal(a.right, b.right)
-            t_p = _median_ms(lambda: stereo_pair(prep, state, method=method, layout="anaglyph"), args.repeat)
-            t_u = _median_ms(lambda: stereo_pair(col, state, method=method, layout="anaglyph"), args.repeat)
+            t_p = 1000.0 * median_time(lambda: stereo_pair(prep, state, method=method, layout="anaglyph"), args.repeat)[0]
+            t_u = 1000.0 * median_time(lambda: stereo_pair(col, state, method=method, layout="anaglyph"), args.repeat)[0]
             print(f"{m_name:15s} {s_name:31s} prepared {t_p:6.1f} ms  unprepared {t_u:6.1f} ms  "
                   f"(median of {args.repeat}; pairs equal: {same})")
 

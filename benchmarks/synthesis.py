@@ -22,13 +22,13 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its OpenMP threads
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
+from _timing import timed  # noqa: E402
 from vergence.synthesis import forward_warp, synthesize_stereo
 
 WIDTH, HEIGHT = 1920, 1080
@@ -76,12 +76,6 @@ def numpy_zbuffer_warp(image: np.ndarray, disparity: np.ndarray, scale: float) -
     return out.reshape(image.shape), ~hit.reshape(h, w)
 
 
-def _time(fn) -> tuple[float, float]:
-    """Wall-clock and process CPU time of one call ``fn()``, seconds."""
-    t0, c0 = time.perf_counter(), time.process_time()
-    fn()
-    return time.perf_counter() - t0, time.process_time() - c0
-
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -99,8 +93,8 @@ def main(argv: list[str] | None = None) -> int:
           f"layer: {numba.threading_layer()}, OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     fw_runs, np_runs = [], []
     for _ in range(args.repeats):  # interleaved, so both see the same machine load
-        fw_runs.append(_time(lambda: forward_warp(image, disparity, scale=1.0)))
-        np_runs.append(_time(lambda: numpy_zbuffer_warp(image, disparity, 1.0)))
+        fw_runs.append(timed(lambda: forward_warp(image, disparity, scale=1.0)))
+        np_runs.append(timed(lambda: numpy_zbuffer_warp(image, disparity, 1.0)))
     (fw, fw_cpu), (npy, np_cpu) = np.median(fw_runs, axis=0), np.median(np_runs, axis=0)
     print(f"forward_warp (gap filling, Numba)      median {1e3 * fw:7.1f} ms  (CPU {1e3 * fw_cpu:7.1f} ms)")
     print(f"numpy minimum.at z-buffer (no gaps)    median {1e3 * npy:7.1f} ms  (CPU {1e3 * np_cpu:7.1f} ms)")
@@ -110,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         synthesize_stereo(image, depth, budget_px=BUDGET_PX)
 
     pipeline()
-    runs = np.array([_time(pipeline) for _ in range(args.repeats)])
+    runs = np.array([timed(pipeline) for _ in range(args.repeats)])
     (wall, cpu), (fastest, slowest) = np.median(runs, axis=0), (runs[:, 0].min(), runs[:, 0].max())
     print(f"synthesize_stereo, 1080p pair, filled  median {1e3 * wall:7.1f} ms  (CPU {1e3 * cpu:7.1f} ms; "
           f"min {1e3 * fastest:.1f}, max {1e3 * slowest:.1f} ms; goal < 100 ms)")

@@ -45,10 +45,12 @@ IBR_WEIGHTS = ("ulr", "bayesian")
 # views a few centimetres apart; IBR sources stand metres away (S0's real cameras: up to tens of metres
 # behind the virtual eye), where a slanted surface legitimately moves several target pixels per source
 # pixel, and 1 px cuts grazing ground into stripes. Chosen on the stadium Quadri-Rig (the scene we tuned
-# on): coverage 87 % at 1 px, 92 % at 3 px, 98 % at 10 px (30 px: 97 %, facets across edges occlude).
+# on, `python -m tools.rig_choices`): coverage 87 % at 1 px, 92 % at 3 px, 98 % at 10 px (30 px: 97 %,
+# facets across edges occlude).
 IBR_LINK_LIMIT_PX = 10.0
-# Source colour sampling: Catmull-Rom bicubic inside a surface (Keys 1981; the default: +0.5 dB over
-# bilinear on the stadium Quadri-Rig, the scene we tuned on) or bilinear (what a GPU's texture unit does).
+# Source colour sampling: Catmull-Rom bicubic inside a surface (Keys 1981; the default: +0.35 dB over
+# bilinear on the stadium Quadri-Rig, the scene we tuned on, `python -m tools.rig_choices`) or bilinear
+# (what a GPU's texture unit does).
 IBR_INTERPOLATIONS = ("cubic", "linear")
 # ULR defaults of SIBR's ulr_v3.frag (Inria GraphDeco): the 4 best sources, angle penalty in radians
 # (alpha = 1) plus 0.1 times the relative resolution penalty.
