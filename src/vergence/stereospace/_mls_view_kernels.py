@@ -10,6 +10,8 @@ import math
 import numba as nb
 import numpy as np
 
+from vergence.synthesis._ibr_kernels import lift
+
 __all__ = ["blend", "proxy_angles"]
 
 
@@ -20,12 +22,7 @@ def proxy_angles(Kinv, R, t, centre, centres, depth, out):  # pragma: no cover -
     s_count, h, w = out.shape
     for y in nb.prange(h):
         for x in range(w):
-            a0 = depth * (Kinv[0, 0] * x + Kinv[0, 1] * y + Kinv[0, 2]) - t[0]
-            a1 = depth * (Kinv[1, 0] * x + Kinv[1, 1] * y + Kinv[1, 2]) - t[1]
-            a2 = depth * (Kinv[2, 0] * x + Kinv[2, 1] * y + Kinv[2, 2]) - t[2]
-            px = R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2
-            py = R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2
-            pz = R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2
+            px, py, pz = lift(Kinv, R, t, x, y, depth)
             nx, ny, nz = centre[0] - px, centre[1] - py, centre[2] - pz
             nn = math.sqrt(nx * nx + ny * ny + nz * nz)
             for i in range(s_count):

@@ -17,6 +17,16 @@ import numpy as np
 __all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
 
 
+@nb.njit(cache=True, error_model="numpy")
+def lift(Kinv, R, t, x, y, z):  # pragma: no cover - compiled
+    """The world point ``R^T (z K^-1 (x, y, 1) - t)`` of pixel ``(x, y)`` at camera-frame depth ``z``."""
+    a0 = z * (Kinv[0, 0] * x + Kinv[0, 1] * y + Kinv[0, 2]) - t[0]
+    a1 = z * (Kinv[1, 0] * x + Kinv[1, 1] * y + Kinv[1, 2]) - t[1]
+    a2 = z * (Kinv[2, 0] * x + Kinv[2, 1] * y + Kinv[2, 2]) - t[2]
+    return (R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2, R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2,
+            R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2)  # fmt: skip
+
+
 @nb.njit(cache=True, parallel=True, error_model="numpy")
 def backproject(depth, Kinv, R, t, out):  # pragma: no cover - compiled
     """World points ``R^T (z K^-1 (x, y, 1) - t)`` of a depth map (``Camera.backproject_depth``);
@@ -30,11 +40,7 @@ def backproject(depth, Kinv, R, t, out):  # pragma: no cover - compiled
                 out[y, x, 1] = np.nan
                 out[y, x, 2] = np.nan
                 continue
-            a0 = z * (Kinv[0, 0] * x + Kinv[0, 1] * y + Kinv[0, 2]) - t[0]
-            a1 = z * (Kinv[1, 0] * x + Kinv[1, 1] * y + Kinv[1, 2]) - t[1]
-            a2 = z * (Kinv[2, 0] * x + Kinv[2, 1] * y + Kinv[2, 2]) - t[2]
-            for c in range(3):
-                out[y, x, c] = R[0, c] * a0 + R[1, c] * a1 + R[2, c] * a2
+            out[y, x, 0], out[y, x, 1], out[y, x, 2] = lift(Kinv, R, t, x, y, z)
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
@@ -52,12 +58,7 @@ def project_depth(depth, Kinv, R, t, Kt, Rt, tt, u, v, zt):  # pragma: no cover 
             zt[i] = np.nan
             if not z > 0.0:
                 continue
-            a0 = z * (Kinv[0, 0] * x + Kinv[0, 1] * y + Kinv[0, 2]) - t[0]
-            a1 = z * (Kinv[1, 0] * x + Kinv[1, 1] * y + Kinv[1, 2]) - t[1]
-            a2 = z * (Kinv[2, 0] * x + Kinv[2, 1] * y + Kinv[2, 2]) - t[2]
-            px = R[0, 0] * a0 + R[1, 0] * a1 + R[2, 0] * a2
-            py = R[0, 1] * a0 + R[1, 1] * a1 + R[2, 1] * a2
-            pz = R[0, 2] * a0 + R[1, 2] * a1 + R[2, 2] * a2
+            px, py, pz = lift(Kinv, R, t, x, y, z)
             qx = Rt[0, 0] * px + Rt[0, 1] * py + Rt[0, 2] * pz + tt[0]
             qy = Rt[1, 0] * px + Rt[1, 1] * py + Rt[1, 2] * pz + tt[1]
             qz = Rt[2, 0] * px + Rt[2, 1] * py + Rt[2, 2] * pz + tt[2]
