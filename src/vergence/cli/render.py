@@ -12,6 +12,7 @@ none. Mitsuba is imported only when the command runs.
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -26,6 +27,11 @@ from vergence.viewing import LENGTH_RANGE
 __all__ = ["render"]
 
 _EYES = ("left", "right", "both")
+
+
+def _drop(record: logging.LogRecord) -> bool:
+    """A logging filter that lets nothing through."""
+    return False
 
 
 def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
@@ -84,7 +90,14 @@ def render(
                    "width": "--width", "height": "--height", "baseline": "--baseline",
                    "convergence": "--convergence"}  # fmt: skip
     with options_named(**options_cli):
-        sc = vr.open_scene(scene, width=width, height=height)
+        # The scene's environment note (a missing HDR map) is printed once, below, after every option
+        # has been checked: the library's log record of it would come first and make a refusal two lines.
+        quiet = logging.getLogger("vergence.render")
+        quiet.addFilter(_drop)
+        try:
+            sc = vr.open_scene(scene, width=width, height=height)
+        finally:
+            quiet.removeFilter(_drop)
         rig = _rig(sc, eye, baseline, convergence)
         stems = ["render"] if rig is None else (["left", "right"] if eye == "both" else [eye])
         pair = None if rig is None else stereo_pair(sc.camera.build(), baseline=rig[0], convergence=rig[1])
