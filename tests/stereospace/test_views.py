@@ -98,7 +98,7 @@ def test_source_depth_of_kermit_agrees_with_its_points(shared_data):
     """A view's matched depth (rectified with its partner; the right one of the pair through the
     mirrored matching) agrees with the bundle's points at their projections."""
     from vergence.stereospace import load_collection
-    from vergence.stereospace.views import _pair_depth, _partners
+    from vergence.stereospace.depths import _pair_depth, _partners
 
     folder = shared_data / "collections" / "kermit"
     col = load_collection(folder / "bundle.out", images=folder)
@@ -125,3 +125,47 @@ def test_more_bad_input(plane):
         leave_one_out(plane, method="plane", names=["nope.png"])
     with pytest.raises(TypeError, match="exclude"):
         novel_view(plane, _camera(0.0), exclude="v0.npy")
+
+
+def _fine(cam, backdrop=False):
+    """A finely textured plane at PLANE_Z (period about 9 px), black on the left half if ``backdrop``."""
+    d = cam.ray_directions()
+    t = (PLANE_Z - cam.center[2]) / d[..., 2]
+    x, y = cam.center[0] + t * d[..., 0], cam.center[1] + t * d[..., 1]
+    g = 0.5 + 0.4 * np.sin(8.0 * x) * np.cos(9.0 * y)
+    img = np.stack([g, 1.0 - g, 0.5 + 0.3 * np.cos(7.0 * x)], axis=-1).astype(np.float32)
+    if backdrop:
+        img[:, : W // 2] = 0.0
+    return img
+
+
+def _fine_collection(folder, backdrop=False):
+    cams = [_camera(x) for x in (-0.2, 0.0, 0.2)]
+    paths = []
+    for n, cam in enumerate(cams):
+        paths.append(folder / f"v{n}.npy")
+        np.save(paths[-1], _fine(cam, backdrop))
+    return Collection(tuple(p.name for p in paths), tuple(cams), tuple(paths), points=np.zeros((0, 3)))
+
+
+def test_check_depth_keeps_the_true_depth_and_drops_a_wrong_one(tmp_path):
+    from vergence.stereospace import check_depth
+
+    col = _fine_collection(tmp_path)
+    true = np.full((H, W), PLANE_Z)
+    kept = np.isfinite(check_depth(col, 1, true)).mean()
+    wrong = np.isfinite(check_depth(col, 1, np.full((H, W), 0.6 * PLANE_Z))).mean()
+    assert kept > 0.85 and wrong < 0.2, (kept, wrong)
+    # an excluded camera never checks: with both others excluded nothing can be checked, all is kept
+    assert np.isfinite(check_depth(col, 1, true, exclude=["v0.npy", "v2.npy"])).all()
+
+
+def test_check_depth_drops_textureless_pixels(tmp_path):
+    from vergence.stereospace import check_depth
+
+    col = _fine_collection(tmp_path, backdrop=True)
+    depth = check_depth(col, 1, np.full((H, W), PLANE_Z))
+    assert not np.isfinite(depth[:, : W // 2 - 4]).any()
+    assert np.isfinite(depth[:, W // 2 + 4 :]).mean() > 0.8
+    with pytest.raises(ValueError, match="depth must be"):
+        check_depth(col, 1, np.ones((3, 3)))

@@ -7,8 +7,9 @@
   grid) and :func:`s2_view` (up to four warped sources blended with S2's angle and field-of-view
   penalties).
 - Novel views at any camera and their leave-one-out PSNR: :func:`neighbours`, :func:`plane_view`
-  (the one-plane baseline), :func:`source_depths`, :func:`novel_view` (``"mls"`` or ``"depth"``:
-  per-view depth + ULR rendering), :func:`leave_one_out`.
+  (the one-plane baseline), :func:`source_depth` / :func:`source_depths` (per-view depth matched in
+  the collection, :func:`check_depth` against the other views), :func:`novel_view` (``"mls"`` or
+  ``"depth"``: per-view depth + ULR rendering), :func:`leave_one_out`.
 - The space of stereo pairs of the camera graph, its regions and parameters (S2 §4), and the
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 - The stereo pair at a state (:func:`stereo_pair`: two novel views rectified together, packed for a
@@ -51,19 +52,27 @@ from vergence.stereospace.pair import (
     stereo_pair,
 )
 from vergence.stereospace.quality import pair_quality
-from vergence.stereospace.views import (
+from vergence.stereospace.sources import neighbours
+from vergence.stereospace.depths import (
+    CONSISTENCY_TOLERANCE,
+    CONSISTENCY_VIEWS,
+    CONSISTENCY_VOTES,
+    CONSISTENCY_WINDOW,
     DISPARITY_MARGIN_PX,
-    NOVEL_VIEW_METHODS,
-    NovelView,
-    leave_one_out,
-    neighbours,
-    novel_view,
-    plane_view,
+    TEXTURE_MIN_STD,
+    TEXTURE_WINDOW,
+    check_depth,
+    source_depth,
     source_depths,
 )
+from vergence.stereospace.views import NOVEL_VIEW_METHODS, NovelView, leave_one_out, novel_view, plane_view
 from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
+    "CONSISTENCY_TOLERANCE",
+    "CONSISTENCY_VIEWS",
+    "CONSISTENCY_VOTES",
+    "CONSISTENCY_WINDOW",
     "CameraGraph",
     "Collection",
     "DISPARITY_MARGIN_PX",
@@ -92,8 +101,11 @@ __all__ = [
     "StereoPairResult",
     "StereoSpace",
     "StereoState",
+    "TEXTURE_MIN_STD",
+    "TEXTURE_WINDOW",
     "camera_graph",
     "capture_paths",
+    "check_depth",
     "leave_one_out",
     "load_collection",
     "mls_similarity",
@@ -106,6 +118,7 @@ __all__ = [
     "plane_view",
     "project_distorted",
     "s2_view",
+    "source_depth",
     "source_depths",
     "space_from_graph",
     "stereo_pair",
