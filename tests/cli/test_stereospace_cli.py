@@ -114,3 +114,11 @@ def test_refuses_to_overwrite_an_input_image(capsys, tmp_path):
     assert code == 2
     assert "would overwrite input" in err.splitlines()[-1]
     assert link.is_symlink() and link.resolve() == KERMIT / "kermit003.jpg"
+
+
+def test_at_with_the_default_depth_method_beats_the_plane_baseline(run, tmp_path):
+    code, out, err = run("--at", "kermit005", "--out", str(tmp_path / "depth.png"))
+    assert code == 0, err
+    assert out.startswith("depth view")
+    depth, plane = _psnrs(out)
+    assert plane + 2.0 < depth  # ours beats the one-plane baseline by 2 dB or more

@@ -51,8 +51,9 @@ def view(
     position: float | None = typer.Option(None, "--position", help="T in [0, 1] with --between: 0 is A, 1 is B "
                                           "(centres linear, rotations slerp)."),
     exclude: list[str] = typer.Option([], "--exclude", help="Leave this camera out of the sources (repeatable)."),
-    method: str = typer.Option("mls", "--method", help="mls (S2's warps), depth (per-view depth + ULR; slow: "
-                               "matches every camera) or plane (one-plane baseline)."),
+    method: str = typer.Option("depth", "--method", help="depth (ours: per-view depth matched in the collection, "
+                               "checked against the other views, + ULR; matches the 4 sources), mls (S2's "
+                               "warps) or plane (one-plane baseline)."),
     keep_target: bool = typer.Option(False, "--keep-target", help="With --at: keep the camera among the sources."),
     out: Path = typer.Option(..., "--out", help="Output image (.png, .jpg, .ppm, .pfm, ...), written atomically."),
 ) -> None:
