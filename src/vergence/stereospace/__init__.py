@@ -13,6 +13,9 @@
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 - The stereo pair at a state (:func:`stereo_pair`: two novel views rectified together, packed for a
   display) and a quality value of a pair (:func:`pair_quality`: comfort and rectification distortion).
+- A built space (:func:`build_space`: graph, regions, leave-one-out PSNR, a quality per region
+  vertex, :func:`vertex_quality`), saved to and loaded from a folder (:func:`save_space`,
+  :func:`load_space`), and the frame of its top-view navigation map (:func:`map_frame`, S2 §4.3.1).
 """
 
 from vergence.stereospace.collection import Collection, load_collection
@@ -61,12 +64,31 @@ from vergence.stereospace.views import (
     plane_view,
     source_depths,
 )
+from vergence.stereospace.build import (
+    DEFAULT_DISPLAY,
+    DISPARITY_TRIM,
+    DISTORTION_LIMIT,
+    PSNR_CEIL_DB,
+    PSNR_FLOOR_DB,
+    UP_AGREEMENT,
+    BuiltSpace,
+    VertexQuality,
+    build_space,
+    map_frame,
+    vertex_pairs,
+    vertex_quality,
+)
+from vergence.stereospace.spacefile import SPACE_FILE, SPACE_FORMAT_VERSION, load_space, save_space, write_space
 from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
+    "BuiltSpace",
     "CameraGraph",
     "Collection",
+    "DEFAULT_DISPLAY",
     "DISPARITY_MARGIN_PX",
+    "DISPARITY_TRIM",
+    "DISTORTION_LIMIT",
     "JUMP_CONE_DEG",
     "JUMP_SAMPLES",
     "MATCH_NEIGHBOURS",
@@ -81,6 +103,8 @@ __all__ = [
     "NovelView",
     "PAIR_METHODS",
     "PARALLEL_SINE",
+    "PSNR_CEIL_DB",
+    "PSNR_FLOOR_DB",
     "PreparedCollection",
     "RATIO_TEST",
     "RELATIVE_TOLERANCE",
@@ -89,13 +113,20 @@ __all__ = [
     "S2_MAX_SOURCES",
     "S2_PENALTY_FLOOR",
     "S2_THRESHOLD_SCALE",
+    "SPACE_FILE",
+    "SPACE_FORMAT_VERSION",
     "StereoPairResult",
     "StereoSpace",
     "StereoState",
+    "UP_AGREEMENT",
+    "VertexQuality",
+    "build_space",
     "camera_graph",
     "capture_paths",
     "leave_one_out",
     "load_collection",
+    "load_space",
+    "map_frame",
     "mls_similarity",
     "mls_warp",
     "neighbours",
@@ -106,11 +137,15 @@ __all__ = [
     "plane_view",
     "project_distorted",
     "s2_view",
+    "save_space",
     "source_depths",
     "space_from_graph",
     "stereo_pair",
     "stereo_point",
     "tangent",
     "triangulate_points",
+    "vertex_pairs",
+    "vertex_quality",
+    "write_space",
     "zoom",
 ]
