@@ -95,7 +95,8 @@ def _summary(built, out: Path) -> None:
         f"unregistered), {col.point_count} points ({col.points_source}), median reprojection error "
         f"{col.median_reprojection_error_px:.3f} px")  # fmt: skip
     say(f"camera graph: {len(built.graph.edges)} edges; {len(built.paths)} capture path(s): "
-        + "; ".join(f"{len(p)} nodes{' (ring)' if len(p) > 2 and p[0] == p[-1] else ''}" for p in built.paths))
+        + "; ".join(f"a ring of {len(p) - 1} cameras" if len(p) > 2 and p[0] == p[-1] else f"{len(p)} cameras"
+                    for p in built.paths))
     say(f"stereospace: {len(built.space.segments)} segments, {len(built.space.regions)} regions")
     psnr = built.psnr_db[np.isfinite(built.psnr_db)]
     if psnr.size:

@@ -2,7 +2,7 @@
 
 A top view (the frame of :func:`vergence.stereospace.map_frame`, orthographic) of:
 
-- the sparse points, small grey dots: the impostor of the scene (S2 uses an image of it);
+- the sparse points, small dark dots over the space: the impostor of the scene (S2 uses an image);
 - the StereoSpace: every region drawn at its view positions (the mid-points ``(a + b) / 2`` of its
   pairs), a rhomboid as two triangles and a triangle as one, Gouraud-shaded from the quality of its
   vertices (:meth:`vergence.stereospace.BuiltSpace.region_quality`). Regions overlap on the map;
@@ -109,7 +109,7 @@ def navigation_map(built, path: str | os.PathLike[str], *, state=None, title: st
     low, high = centers.min(axis=0), centers.max(axis=0)
     if len(pts):
         p2 = built.to_map(pts)
-        ax.scatter(p2[:, 0], p2[:, 1], s=1.0, c="0.45", lw=0, zorder=1, label="sparse points")
+        ax.scatter(p2[:, 0], p2[:, 1], s=1.0, c="0.1", alpha=0.5, lw=0, zorder=3, label="sparse points")
         low = np.minimum(low, np.percentile(p2, _POINT_PERCENTILES[0], axis=0))
         high = np.maximum(high, np.percentile(p2, _POINT_PERCENTILES[1], axis=0))
     xy, quality, triangles = region_triangles(built)
@@ -119,7 +119,7 @@ def navigation_map(built, path: str | os.PathLike[str], *, state=None, title: st
     fig.colorbar(mesh, ax=ax, shrink=0.8, label="stereo pair quality (max at each point)")
     for k, p in enumerate(built.paths):
         line = centers[list(p)]
-        ax.plot(line[:, 0], line[:, 1], color="0.15", lw=1.0, zorder=3, label="capture path" if k == 0 else None)
+        ax.plot(line[:, 0], line[:, 1], color="0.15", lw=1.0, zorder=4, label="capture path" if k == 0 else None)
     extent = float(np.ptp(centers, axis=0).max()) or 1.0
     axes = built.to_map(col.centers + np.array([c.R[2] for c in col.cameras]) * 1.0) - centers
     norms = np.linalg.norm(axes, axis=1, keepdims=True)
