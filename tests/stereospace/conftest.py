@@ -61,8 +61,16 @@ def write_synthetic_collection(folder):
     x, y = rng.uniform(-2.5, 2.5, 150), rng.uniform(-1.5, 1.5, 150)
     n = SYNTH_NORMAL
     pts = np.column_stack([x, y, (SYNTH_PLANE_Z - n[0] * x - n[1] * y) / n[2]])
-    write_cameras_json(folder / "cameras.json", CameraSet(names=names, cameras=cams, points=pts,
-                                                                  colors=np.full((len(pts), 3), 128, np.uint8)))
+    obs, pixels = [], []
+    for c, cam in enumerate(cams):  # each point seen where it projects inside, measured to ~0.1 px
+        xy, z = cam.project(pts)
+        seen = np.flatnonzero((z > 0) & (xy[:, 0] >= 0) & (xy[:, 0] <= SYNTH_W - 1) & (xy[:, 1] >= 0)
+                              & (xy[:, 1] <= SYNTH_H - 1))  # fmt: skip
+        obs += [(int(p), c, int(p)) for p in seen]
+        pixels.append(xy[seen] + rng.normal(0.0, 0.1, (len(seen), 2)))
+    cset = CameraSet(names=names, cameras=cams, points=pts, colors=np.full((len(pts), 3), 128, np.uint8),
+                     observations=np.array(obs), observation_pixels=np.concatenate(pixels))
+    write_cameras_json(folder / "cameras.json", cset)
     return folder / "cameras.json", folder
 
 
