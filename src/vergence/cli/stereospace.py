@@ -140,4 +140,4 @@ def _report(fraction: float, message: str) -> None:
 
 
 # build and pair live in their own module; importing it registers them on stereospace_app.
-from vergence.cli import stereospace_space  # noqa: E402, F401
+from vergence.cli import _stereospace_space  # noqa: E402, F401

@@ -21,7 +21,8 @@ The quality rule
 ``quality = comfort * depth * rectification * interpolation``, each term in [0, 1]:
 
 - ``comfort = min(1, w / r)`` and ``depth = min(1, r / w)``: ``r`` is the range of the pair's point
-  disparities on the display in arcmin, from the 1st to the 99th percentile (:data:`DISPARITY_TRIM`), and ``w`` the width of the comfort zone
+  disparities on the display in arcmin, from the 1st to the 99th percentile (:data:`DISPARITY_TRIM`),
+  and ``w`` the width of the comfort zone
   (:func:`~vergence.stereospace.pair_quality`, :class:`vergence.viewing.ComfortZone`). A range
   wider than the zone cannot be fused whatever the image shift (comfort falls as ``w / r``); a
   range narrower than it fits with a shift but uses only ``r / w`` of the depth the display can

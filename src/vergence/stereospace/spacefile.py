@@ -162,7 +162,8 @@ def load_space(folder: str | os.PathLike[str]) -> BuiltSpace:
         raise ValueError(f"the cameras of {cam_path} differ from those the space {root} was built with "
                          f"(the file was edited?): build the space again")  # fmt: skip
     try:
-        qualities = {q.cameras: q for q in (VertexQuality.from_dict(r) for r in _field(record, "vertex_quality", list, path))}
+        records = _field(record, "vertex_quality", list, path)
+        qualities = {q.cameras: q for q in (VertexQuality.from_dict(r) for r in records)}
         display = _field(record, "display", dict, path)
         zone = ComfortZone(**_field(record, "comfort_zone", dict, path))
         loo = _field(record, "loo_psnr_db", dict, path)
