@@ -306,3 +306,28 @@ def test_build_kermit(shared_data, tmp_path):
     back = load_space(save_space(built, tmp_path / "kermit"))
     assert back.vertex_qualities == built.vertex_qualities
     assert seconds < 60
+
+
+def test_vertex_quality_checks_its_arguments(col):
+    with pytest.raises(TypeError, match="display must be a Display"):
+        vertex_quality(col, (0, 1), "desktop-24", psnr_db=(20.0, 20.0))
+    with pytest.raises(ValueError, match="display must have a resolution"):
+        vertex_quality(col, (0, 1), Display(0.065, 0.6, 0.5), psnr_db=(20.0, 20.0))
+    with pytest.raises(TypeError, match="pair of camera indices"):
+        vertex_quality(col, (0, 1.0), DESKTOP, psnr_db=(20.0, 20.0))
+    with pytest.raises(ValueError, match="psnr_db must be two numbers"):
+        vertex_quality(col, (0, 1), DESKTOP, psnr_db=(20.0,))
+
+
+def test_quality_at_interpolates_the_vertices(synthetic_space):
+    _, _, built = synthetic_space
+    q = built.region_quality((0, 1))
+    for li in (0, 1):
+        for lj in (0, 1):
+            assert built.quality_at(StereoState((0, 1), li, lj)) == pytest.approx(q[li, lj])
+    # the centre lies on the split li = lj: the mean of the diagonal's ends, from either side
+    assert built.quality_at(StereoState((0, 1), 0.5, 0.5)) == pytest.approx((q[0, 0] + q[1, 1]) / 2)
+    assert built.quality_at(StereoState((0, 1), 0.75, 0.25)) == pytest.approx(0.25 * q[0, 0] + 0.5 * q[1, 0] + 0.25 * q[1, 1])
+    t = built.region_quality((2, 2))
+    assert built.quality_at(StereoState((2, 2), 0.0, 1.0)) == pytest.approx(t[0, 1])
+    assert built.quality_at(StereoState((2, 2), 0.25, 0.75)) == pytest.approx(0.5 * t[0, 1])  # diagonal is 0

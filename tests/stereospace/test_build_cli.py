@@ -101,6 +101,7 @@ def test_pair_at_a_state(space_dir, run, tmp_path):
     assert record["quality"]["range_arcmin"] == pytest.approx(expected["range_arcmin"])
     assert set(record["vertex_quality"]) == {"0,0", "0,1", "1,0", "1,1"}
     assert record["vertex_quality"]["0,0"]["quality"] == built.vertex((0, 1), 0, 0).quality
+    assert record["map_quality"] == pytest.approx(built.quality_at(state))
     assert record["move"] == [] and record["swapped"] in (True, False)
     assert "pair at region (0, 1)" in stdout
 

@@ -228,6 +228,7 @@ def _pair_record(built, state, result, method, layout, move, space_dir) -> dict:
         "quality": quality,
         "quality_note": note,
         "vertex_quality": vertices,
+        "map_quality": built.quality_at(state),
         "move": [{"action": m["action"], "by": m["by"], "event": m["event"], "from": _state_dict(m["from"]),
                   "to": _state_dict(m["state"])} for m in move],  # fmt: skip
     }

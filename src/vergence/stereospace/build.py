@@ -56,7 +56,7 @@ from vergence.stereospace.collection import Collection, load_collection
 from vergence.stereospace.graph import CameraGraph, camera_graph, capture_paths
 from vergence.stereospace.pair import PreparedCollection, space_from_graph
 from vergence.stereospace.quality import pair_quality
-from vergence.stereospace.space import StereoSpace
+from vergence.stereospace.space import StereoSpace, StereoState
 from vergence.stereospace.views import leave_one_out
 from vergence.viewing import ComfortZone, Display
 
@@ -188,11 +188,23 @@ def vertex_quality(
     """
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    if display.resolution is None:
+        raise ValueError("display must have a resolution (screen width in pixels)")
+    if not (isinstance(cameras, tuple | list) and len(cameras) == 2
+            and all(isinstance(c, int | np.integer) and not isinstance(c, bool) for c in cameras)):  # fmt: skip
+        raise TypeError(f"cameras must be a pair of camera indices; got {cameras!r}")
     a, b = (int(c) for c in cameras)
     if not (0 <= a < len(collection) and 0 <= b < len(collection)):
         raise ValueError(f"cameras must index the {len(collection)} cameras of collection; got {cameras!r}")
+    try:
+        psnr = (float(psnr_db[0]), float(psnr_db[1]))
+        if len(psnr_db) != 2:
+            raise ValueError
+    except (TypeError, ValueError, IndexError):
+        raise ValueError(f"psnr_db must be two numbers (NaN for a view that could not be made); got {psnr_db!r}") from None
     zone = ComfortZone() if zone is None else zone
-    psnr = (float(psnr_db[0]), float(psnr_db[1]))
     if b < a:
         a, b, psnr = b, a, psnr[::-1]
     interp = _interpolation(psnr)
@@ -204,9 +216,7 @@ def vertex_quality(
     try:
         q = pair_quality(collection, (collection.cameras[a], collection.cameras[b]), display, zone=zone,
                          trim=DISPARITY_TRIM)
-    except ValueError as exc:
-        if "display" in str(exc):
-            raise
+    except ValueError as exc:  # the display was checked above: Fusiello's method refused the pair
         return VertexQuality(quality=0.0, comfort=0.0, depth=0.0, rectification=0.0, range_arcmin=None,
                              fits_with_shift=False, distortion=None, points_seen=0,
                              note=f"not rectifiable: {exc}", **common)  # fmt: skip
@@ -302,6 +312,16 @@ class BuiltSpace:
     frame: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.collection, Collection) or not isinstance(self.graph, CameraGraph):
+            raise TypeError("collection and graph must be a Collection and its CameraGraph")
+        if not isinstance(self.space, StereoSpace):
+            raise TypeError(f"space must be a StereoSpace; got {type(self.space).__name__}")
+        m, n = len(self.space.segments), len(self.collection)
+        if np.shape(self.segment_cameras) != (m, 2):
+            raise ValueError(f"segment_cameras must have shape ({m}, 2); got {np.shape(self.segment_cameras)}")
+        if np.shape(self.psnr_db) != (n,):
+            raise ValueError(f"psnr_db must have one value per camera ({n}); got shape {np.shape(self.psnr_db)}")
+        Display.preset(self.display_name)  # an unknown preset is refused here
         object.__setattr__(self, "frame", map_frame(self.collection))
 
     @property
@@ -327,6 +347,20 @@ class BuiltSpace:
                 if i != j or li <= lj:
                     out[li, lj] = self.vertex((i, j), li, lj).quality
         return out
+
+    def quality_at(self, state: StereoState) -> float:
+        """The vertex qualities interpolated at a state, as the navigation map shades them.
+
+        Linear on the two triangles of the parameter square split along ``li = lj`` (a triangle
+        region is one of them): ``(1 - li) q00 + (li - lj) q10 + lj q11`` where ``li > lj``, else
+        ``(1 - lj) q00 + (lj - li) q01 + li q11``. The map of view positions is affine in
+        ``(li, lj)``, so these are the weights of the map's Gouraud shading.
+        """
+        state = self.space.check_state(state)
+        q, li, lj = self.region_quality(state.region), state.li, state.lj
+        if li > lj:  # never on a triangle (li <= lj there)
+            return float((1.0 - li) * q[0, 0] + (li - lj) * q[1, 0] + lj * q[1, 1])
+        return float((1.0 - lj) * q[0, 0] + (lj - li) * q[0, 1] + li * q[1, 1])
 
     def prepared(self) -> PreparedCollection:
         """A :class:`PreparedCollection` of this space's collection and graph (decodes every image)."""

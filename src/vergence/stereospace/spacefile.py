@@ -73,7 +73,7 @@ def write_space(built: BuiltSpace, folder: str | os.PathLike[str]) -> None:
         "vertex_quality": [q.to_dict() for _, q in sorted(built.vertex_qualities.items())],
         "map_frame": built.frame.tolist(),
         "build_seconds": built.build_seconds,
-        "built_at": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "built_at": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     }
     if not np.isfinite(record["median_reprojection_error_px"]):
         record["median_reprojection_error_px"] = None
