@@ -331,3 +331,23 @@ def test_quality_at_interpolates_the_vertices(synthetic_space):
     t = built.region_quality((2, 2))
     assert built.quality_at(StereoState((2, 2), 0.0, 1.0)) == pytest.approx(t[0, 1])
     assert built.quality_at(StereoState((2, 2), 0.25, 0.75)) == pytest.approx(0.5 * t[0, 1])  # diagonal is 0
+
+
+@pytest.mark.slow
+def test_build_dino(shared_data, tmp_path):
+    """About 70 s: 48 leave-one-out views (docs/stereospace.md has the timings)."""
+    folder = shared_data / "collections" / "dino"
+    built = build_space(folder / "dino_par.txt", images=folder)
+    col = built.collection
+    assert len(col) == 48 and col.left_out == 315 and col.points_source == "triangulated"
+    assert len(built.paths) == 1 and built.paths[0][0] == built.paths[0][-1] and len(built.paths[0]) == 49  # a ring
+    assert 20.0 < np.nanmin(built.psnr_db) and np.nanmax(built.psnr_db) < 34.0  # measured 20.6-33.0 dB
+    best = max(built.vertex_qualities.values(), key=lambda v: v.quality)
+    assert best.quality > 0.9  # measured 0.98 on desktop-24
+    b = (best.cameras[1] - best.cameras[0]) % 48
+    assert b in (1, 47)  # ring neighbours
+    frame = map_frame(col)
+    _, s, vt = np.linalg.svd(col.centers - col.centers.mean(axis=0))
+    assert abs(frame[2] @ vt[2]) == pytest.approx(1.0)  # the up axes cancel: the ring's normal
+    back = load_space(save_space(built, tmp_path / "dino"))
+    assert back.vertex_qualities == built.vertex_qualities
