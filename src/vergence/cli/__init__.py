@@ -35,7 +35,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
                "previews."),
     "rig": ("rig", "Plan and render the Quadri-Rig and the Tri-Rig of a shot file (S0 §5–6): plan, render."),
     "stereospace": ("stereospace", "Browse a calibrated photo collection in stereo (S2): view (a novel view, "
-                    "leave-one-out PSNR)."),
+                    "leave-one-out PSNR), build (space, quality, map), pair (the stereo pair at a state)."),
     "synthesize": ("synthesize", "Make the views a display needs from one image and its depth (writes views, "
                    "layout, JSON)."),
 }

@@ -18,7 +18,8 @@ from vergence.cli._app import app, check_output_path, console, err_console, opti
 
 __all__ = ["stereospace_app"]
 
-stereospace_app = typer.Typer(name="stereospace", help="Browse a calibrated photo collection in stereo (S2): view.",
+stereospace_app = typer.Typer(name="stereospace", help="Browse a calibrated photo collection in stereo (S2): view, "
+                              "build, pair.",
                               no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False)  # fmt: skip
 app.add_typer(stereospace_app, name="stereospace")
 
@@ -137,3 +138,7 @@ def view(
 def _report(fraction: float, message: str) -> None:
     """Progress of the point triangulation (camera files without points), one line on stderr."""
     err_console.print(f"{100 * fraction:3.0f} % {message}", highlight=False)
+
+
+# build and pair live in their own module; importing it registers them on stereospace_app.
+from vergence.cli import _stereospace_space  # noqa: E402, F401

@@ -14,6 +14,9 @@
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 - The stereo pair at a state (:func:`stereo_pair`: two novel views rectified together, packed for a
   display) and a quality value of a pair (:func:`pair_quality`: comfort and rectification distortion).
+- A built space (:func:`build_space`: graph, regions, leave-one-out PSNR, a quality per region
+  vertex, :func:`vertex_quality`), saved to and loaded from a folder (:func:`save_space`,
+  :func:`load_space`), and the frame of its top-view navigation map (:func:`map_frame`, S2 §4.3.1).
 """
 
 from vergence.stereospace.collection import Collection, load_collection
@@ -66,16 +69,35 @@ from vergence.stereospace.depths import (
     source_depths,
 )
 from vergence.stereospace.views import NOVEL_VIEW_METHODS, NovelView, leave_one_out, novel_view, plane_view
+from vergence.stereospace.build import (
+    DEFAULT_DISPLAY,
+    DISPARITY_TRIM,
+    DISTORTION_LIMIT,
+    PSNR_CEIL_DB,
+    PSNR_FLOOR_DB,
+    UP_AGREEMENT,
+    BuiltSpace,
+    VertexQuality,
+    build_space,
+    map_frame,
+    vertex_pairs,
+    vertex_quality,
+)
+from vergence.stereospace.spacefile import SPACE_FILE, SPACE_FORMAT_VERSION, load_space, save_space, write_space
 from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
 
 __all__ = [
+    "BuiltSpace",
     "CONSISTENCY_TOLERANCE",
     "CONSISTENCY_VIEWS",
     "CONSISTENCY_VOTES",
     "CONSISTENCY_WINDOW",
     "CameraGraph",
     "Collection",
+    "DEFAULT_DISPLAY",
     "DISPARITY_MARGIN_PX",
+    "DISPARITY_TRIM",
+    "DISTORTION_LIMIT",
     "JUMP_CONE_DEG",
     "JUMP_SAMPLES",
     "MATCH_NEIGHBOURS",
@@ -90,6 +112,8 @@ __all__ = [
     "NovelView",
     "PAIR_METHODS",
     "PARALLEL_SINE",
+    "PSNR_CEIL_DB",
+    "PSNR_FLOOR_DB",
     "PreparedCollection",
     "RATIO_TEST",
     "RELATIVE_TOLERANCE",
@@ -98,16 +122,23 @@ __all__ = [
     "S2_MAX_SOURCES",
     "S2_PENALTY_FLOOR",
     "S2_THRESHOLD_SCALE",
+    "SPACE_FILE",
+    "SPACE_FORMAT_VERSION",
     "StereoPairResult",
     "StereoSpace",
     "StereoState",
     "TEXTURE_MIN_STD",
     "TEXTURE_WINDOW",
+    "UP_AGREEMENT",
+    "VertexQuality",
+    "build_space",
     "camera_graph",
     "capture_paths",
     "check_depth",
     "leave_one_out",
     "load_collection",
+    "load_space",
+    "map_frame",
     "mls_similarity",
     "mls_warp",
     "neighbours",
@@ -118,6 +149,7 @@ __all__ = [
     "plane_view",
     "project_distorted",
     "s2_view",
+    "save_space",
     "source_depth",
     "source_depths",
     "space_from_graph",
@@ -125,5 +157,8 @@ __all__ = [
     "stereo_point",
     "tangent",
     "triangulate_points",
+    "vertex_pairs",
+    "vertex_quality",
+    "write_space",
     "zoom",
 ]

@@ -46,7 +46,7 @@ def _distortion(T: np.ndarray, cam: Camera) -> float:
 
 
 def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display: Display, *,
-                 zone: ComfortZone | None = None) -> dict:
+                 zone: ComfortZone | None = None, trim: float = 0.0) -> dict:
     """The comfort and rectification distortion of a pair of cameras on a display.
 
     The two cameras are rectified together (Fusiello et al. 2000), the left being the one with the
@@ -56,6 +56,9 @@ def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display
     pixels is ``d * resolution / W`` screen pixels, converted to arcminutes and checked against
     ``zone`` by :func:`vergence.viewing.check_disparity_range`. The range ``max - min`` is what a
     horizontal image shift cannot change: ``fits_with_shift`` says whether it fits the zone's width.
+    ``trim`` drops that fraction of the disparities at each end first (sparse SfM points hold a few
+    outliers, which would otherwise set the range): the range is then from the ``trim`` to the
+    ``1 - trim`` quantile.
 
     Returns
     -------
@@ -80,6 +83,8 @@ def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display
         raise TypeError("cameras must be a pair of Camera instances")
     if not isinstance(display, Display):
         raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    if isinstance(trim, bool) or not isinstance(trim, int | float) or not 0.0 <= trim < 0.5:
+        raise ValueError(f"trim must be a fraction in [0, 0.5); got {trim!r}")
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
@@ -109,6 +114,9 @@ def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display
     xl, _ = rect.left_camera.project(pts[both])
     xr, _ = rect.right_camera.project(pts[both])
     disparity = xr[:, 0] - xl[:, 0]  # screen parallax convention x_r - x_l (vergence.viewing)
+    if trim > 0.0:
+        low, high = np.quantile(disparity, [trim, 1.0 - trim])
+        disparity = disparity[(disparity >= low) & (disparity <= high)]
     report = check_disparity_range(disparity * scale, display, zone=zone)
     span = report.max_arcmin - report.min_arcmin
     out.update(disparity_px=(float(disparity.min()), float(disparity.max())),
