@@ -58,7 +58,7 @@ CONSISTENCY_WINDOW = 5
 #: Mean absolute colour difference (RGB in [0, 1]) under which two views agree.
 CONSISTENCY_TOLERANCE = 0.06
 #: Views that must agree (fewer when fewer see the point).
-CONSISTENCY_VOTES = 2
+CONSISTENCY_VOTES = 3
 
 Progress = Callable[[float, str], None]
 PairCache = dict[tuple[int, int], np.ndarray]
