@@ -251,6 +251,7 @@ def section_stereospace(
         ``map_figure(out, prepared, states) -> Figure | Grid``: the navigation map of the space
         (S2 Fig. 11) with the sequences' states, written into ``out``; shown first when given.
     """
+    from vergence.io import write_image
     from vergence.stereospace import PreparedCollection, load_collection, pan, zoom
     from vergence.synthesis import error_image
 
@@ -292,8 +293,6 @@ def section_stereospace(
                  f"{mean['depth'] - mean['plane']:+.2f}"))  # fmt: skip
     # The error images of the view with the median depth PSNR (a typical one, not the best).
     shown_view = sorted(views, key=lambda n: scores[n]["depth"])[len(views) // 2]
-    from vergence.io import write_image
-
     images, photo = shown[shown_view]
     stem = f"stereospace_loo_{Path(shown_view).stem}"
     write_image(out / f"{stem}_photo.png", photo)
