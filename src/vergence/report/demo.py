@@ -4,7 +4,8 @@ The scene is S0 §4's long-lens shot: a player 30 m away with the bleachers 80 m
 line, framed with a normalised focal length f = 10 and shown on a television with f' = 2.5. A plain
 two-camera rig can either keep the eyes from diverging (b = b_div, cardboard subject) or make the
 subject round (b = b_round, diverging background) but not both (S0 Eq. 6); the Tri-Rig's disparity
-mapping psi (S0 §6) does both.
+mapping psi (S0 §6) does both. The last section browses a photo collection in stereo (S2, the dino
+ring of the shared data; one line saying so when the data is missing).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from vergence.report.demo_rigs import demo_shot, section_rig
+from vergence.report.demo_stereospace import section_stereospace
 from vergence.report.html import Figure, Grid, Section, write_report
 from vergence.viewing.budget import DepthBudget, depth_budget
 from vergence.viewing.geometry import (
@@ -60,6 +62,7 @@ class DemoResult:
     stadium_disparity_px: dict[str, tuple[float, float]]
     dibr_quality: object  # vergence.synthesis.ViewQuality of the DIBR right eye against the ray-traced one
     rig_reports: dict  # "quadri"/"tri" -> vergence.rigs.shoot.ShotRender.report (PSNR, DSSIM, coverage)
+    stereospace: object = None  # vergence.report.demo_stereospace.StereoSpaceDemo; None without the dino data
 
 
 def stadium_shooting(baseline: float) -> Shooting:
@@ -322,14 +325,17 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
             say(f"the stereoscopic zoom: {kind} rig")
             section, rig_reports[kind] = section_rig(work, say, demo_shot(kind), number)
             rig_sections.append(section)
-        sections = [budget_section, tri_section, stadium_section, dibr_section, *rig_sections]
+        say("StereoSpace on the dino ring")
+        # The navigation map (S2 Fig. 11) goes in through section_stereospace's map_figure.
+        stereo_section, stereospace = section_stereospace(work, say, 7, display=DEMO_DISPLAY)
+        sections = [budget_section, tri_section, stadium_section, dibr_section, *rig_sections, stereo_section]
         say("writing index.html")
         write_report(
             work / "index.html",
             title="Vergence demo: a stereoscopic long-lens shot",
             intro=(
-                "Everything on this page was computed by `vergence demo` from built-in data; "
-                "each figure is a PNG beside this file."
+                "Everything on this page was computed by `vergence demo` from built-in data (the StereoSpace "
+                "section: from the dino photographs of the shared data); each figure is a PNG beside this file."
             ),
             sections=sections,
         )
@@ -345,6 +351,7 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
         stadium_disparity_px=stadium_disparity,
         dibr_quality=dibr_quality,
         rig_reports=rig_reports,
+        stereospace=stereospace,
     )
 
 
