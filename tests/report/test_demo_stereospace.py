@@ -137,11 +137,11 @@ def test_loo_figures_are_the_library_leave_one_out(small_run):
     col = calls[0][1].collection
     (view,) = result.psnr_db
     assert view == col.names[0]
-    for method in ("plane", "mls"):
+    for method in ("plane", "mls", "depth"):
         ((psnr_db, _),) = leave_one_out(col, method=method, names=[view]).values()
         assert_allclose(result.psnr_db[view][method], psnr_db, rtol=0, atol=SAME_PSNR_DB)
-    # Measured on dino0001: plane 29.45 dB, depth 32.57 dB; a broken depth pipeline falls below the plane.
-    assert result.psnr_db[view]["depth"] > result.psnr_db[view]["plane"] + 1.0
+    # a broken depth pipeline falls below the plane baseline (measured on dino0001: ours beats it by 2 dB or more)
+    assert result.psnr_db[view]["depth"] > result.psnr_db[view]["plane"] + 2.0
     row = section.table[1]
     assert row == (view, *(f"{result.psnr_db[view][m]:.2f}" for m in ("plane", "mls", "depth")),
                    f"{result.psnr_db[view]['depth'] - result.psnr_db[view]['plane']:+.2f}")  # fmt: skip

@@ -23,10 +23,9 @@ Decisions (S2 leaves them open)
   interocular distance) and grows it by :data:`ZOOM_STEP` times the start's interocular distance a
   frame.
 - Leave-one-out: :data:`LOO_VIEWS` evenly spaced views, not all 48 (the per-view depths of all of
-  them take minutes on two cores; ``benchmarks/stereospace_loo.py`` prints the full table). For the
-  depth method the depth maps of a held-out view's four source cameras are matched among those four
-  only (the held-out camera is never a partner); the benchmark lets a source pick its partner among
-  all the other cameras, so its figures may differ by a little.
+  them take minutes on two cores; ``benchmarks/stereospace_loo.py`` prints the full table, with the
+  same figures for these views): the depth maps of a held-out view's sources are matched and checked
+  without it, as :func:`~vergence.stereospace.leave_one_out` does.
 """
 
 from __future__ import annotations
@@ -195,7 +194,7 @@ def _leave_one_out(prepared, views: Sequence[str], progress: Progress) -> tuple[
     """PSNR (dB) per view and method over the plane baseline's pixels (as
     :func:`~vergence.stereospace.leave_one_out`), and the views and photos by name."""
     from vergence.metrics import psnr
-    from vergence.stereospace import neighbours, novel_view, plane_view, source_depths
+    from vergence.stereospace import novel_view, plane_view
 
     collection = prepared.collection
     # The sources as the views' cache holds them (float32, three channels, in [0, 1]): the prepared
@@ -208,10 +207,8 @@ def _leave_one_out(prepared, views: Sequence[str], progress: Progress) -> tuple[
         target = collection.cameras[i]
         plane = plane_view(collection, target, exclude=[name], images=images)
         mls = novel_view(collection, target, method="mls", exclude=[name], k=SOURCES, images=images)
-        near = {collection.names[k] for k in neighbours(collection, target, k=SOURCES, exclude=[name])}
-        depths = source_depths(collection, exclude=[n for n in collection.names if n not in near], images=images)
-        depth = novel_view(collection, target, method="depth", exclude=[name], depths=depths, k=SOURCES,
-                           images=images)  # fmt: skip
+        # each source's depth matched and checked without the held-out camera, as leave_one_out does
+        depth = novel_view(collection, target, method="depth", exclude=[name], k=SOURCES, images=images)
         photo = images[i]
         views_of = {"plane": plane, "mls": mls, "depth": depth}
         scores[name] = {m: psnr(v.image, photo, mask=plane.coverage) for m, v in views_of.items()}
@@ -346,7 +343,7 @@ def _text(prepared, result: StereoSpaceDemo, pqr: tuple[int, int, int], range_ar
         f"The table: leave-one-out PSNR over the pixels the plane baseline covers, on {len(views)} of the "
         f"{n_views} views, evenly spaced (all {n_views} take minutes: `benchmarks/stereospace_loo.py` prints the "
         "full table); each view made without its photo by the one-plane baseline, S2's MLS method and ours "
-        f"(per-view depth from the collection + ULR), its sources' depth maps matched among its {SOURCES} "
-        f"sources only. Under it {shown_view}, the view with the median depth PSNR: the photo, the three "
+        "(per-view depth matched in the collection and checked against the other views, + ULR), its "
+        f"sources' depth maps made without it. Under it {shown_view}, the view with the median depth PSNR: the photo, the three "
         "views and their errors."
     )
