@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from vergence.report.demo_rigs import demo_shot, section_rig
-from vergence.report.demo_stereospace import section_stereospace
+from vergence.report.demo_stereospace import dino_folder, map_figure, section_stereospace
 from vergence.report.html import Figure, Grid, Section, write_report
 from vergence.viewing.budget import DepthBudget, depth_budget
 from vergence.viewing.geometry import (
@@ -326,8 +326,8 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
             section, rig_reports[kind] = section_rig(work, say, demo_shot(kind), number)
             rig_sections.append(section)
         say("StereoSpace on the dino ring")
-        # The navigation map (S2 Fig. 11) goes in through section_stereospace's map_figure.
-        stereo_section, stereospace = section_stereospace(work, say, 7, display=DEMO_DISPLAY)
+        stereo_section, stereospace = section_stereospace(work, say, 7, display=DEMO_DISPLAY,
+                                                          map_figure=map_figure(dino_folder()))  # fmt: skip
         sections = [budget_section, tri_section, stadium_section, dibr_section, *rig_sections, stereo_section]
         say("writing index.html")
         write_report(

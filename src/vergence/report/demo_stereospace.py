@@ -44,6 +44,9 @@ __all__ = ["LOO_VIEWS", "PAN_STEP", "StereoSpaceDemo", "ZOOM_STEP", "dino_folder
            "spread_views", "start_state"]
 
 DINO_CAMERAS = "dino_par.txt"
+#: The display preset of the map's qualities: the preset nearest the demo's television (1.2 m at 3 m).
+MAP_DISPLAY = "tv-55"
+MAP_FILE = "stereospace_map.png"
 # Frames of each sequence (the first is the start) and the moves between them, as fractions of the
 # start's interocular distance: three pan moves of half of it cross a region's border (the first eye
 # reaches camera q after about half a segment), three zoom moves go from half of it to twice it.
@@ -214,6 +217,29 @@ def _leave_one_out(prepared, views: Sequence[str], progress: Progress) -> tuple[
         scores[name] = {m: psnr(v.image, photo, mask=plane.coverage) for m, v in views_of.items()}
         shown[name] = ({m: v.image for m, v in views_of.items()}, photo)
     return scores, shown
+
+
+def map_figure(folder: Path, display: str = MAP_DISPLAY) -> MapFigure:
+    """The ``map_figure`` of :func:`section_stereospace`: the space of the collection in ``folder``
+    built by :func:`~vergence.stereospace.build_space` (graph, regions, leave-one-out, a quality per
+    region vertex on the preset ``display``) and drawn by
+    :func:`~vergence.report.stereospace_map.navigation_map` with the eyes of the first state (S2 Fig. 11)."""
+
+    def draw(out: Path, prepared, states) -> Figure:
+        from vergence.report.stereospace_map import navigation_map
+        from vergence.stereospace import build_space
+
+        built = build_space(Path(folder) / DINO_CAMERAS, images=folder, display=display)
+        navigation_map(built, Path(out) / MAP_FILE, state=states[0])
+        best = max(built.vertex_qualities.values(), key=lambda v: v.quality)
+        names = " + ".join(Path(built.collection.names[c]).stem for c in best.cameras)
+        return Figure(MAP_FILE, f"The navigation map (S2 Fig. 11): the cameras and their capture path seen from "
+                      f"above, the sparse points as the scene's impostor, and the StereoSpace drawn at its view "
+                      f"positions, coloured by the best quality of a stereo pair there on the {display} preset "
+                      f"(comfort x depth x rectification x leave-one-out, docs/stereospace.md); the eyes of the pan's "
+                      f"first frame are marked. Best vertex: {names} ({best.quality:.2f}).")  # fmt: skip
+
+    return draw
 
 
 def _missing(folder: Path, number: int) -> Section:

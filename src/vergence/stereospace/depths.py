@@ -139,6 +139,26 @@ def _pair_depth(collection: Collection, i: int, j: int, images: dict | None) -> 
     return depth
 
 
+def _agrees(collection: Collection, i: int, depth: np.ndarray, test: np.ndarray, views: list[int],
+            image: np.ndarray, images: dict | None) -> np.ndarray:
+    """The pixels of ``test`` whose point at ``depth`` passes the photo-consistency test in ``views``."""
+    cam = collection.cameras[i]
+    points = cam.backproject(cam.pixel_grid(), np.where(test, depth, 1.0))
+    seen = np.zeros(depth.shape, np.int32)
+    agree = np.zeros(depth.shape, np.int32)
+    window = (CONSISTENCY_WINDOW, CONSISTENCY_WINDOW)
+    for j in views:
+        other = collection.cameras[j]
+        pix, z = other.project(points)
+        mx, my = pix[..., 0].astype(np.float32), pix[..., 1].astype(np.float32)
+        inside = (z > 0) & (mx >= 0) & (mx <= other.width - 1) & (my >= 0) & (my <= other.height - 1)
+        sampled = cv2.remap(load_view(collection, j, images), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+        difference = cv2.boxFilter(np.abs(sampled - image).mean(axis=2), -1, window)
+        seen += inside
+        agree += inside & (difference < CONSISTENCY_TOLERANCE)
+    return test & (seen > 0) & (agree >= np.minimum(CONSISTENCY_VOTES, seen))
+
+
 def check_depth(
     collection: Collection, i: int, depth: np.ndarray, *, exclude: Iterable[str] = (), images: dict | None = None
 ) -> np.ndarray:
@@ -162,22 +182,8 @@ def check_depth(
     others = [n for k, n in enumerate(collection.names) if k != i and n not in excluded]
     if not known.any() or not others:
         return np.where(known, depth, np.nan)
-    points = cam.backproject(cam.pixel_grid(), np.where(known, depth, 1.0))
     views = neighbours(collection, cam, k=CONSISTENCY_VIEWS, exclude=[collection.names[i], *excluded])
-    seen = np.zeros(depth.shape, np.int32)
-    agree = np.zeros(depth.shape, np.int32)
-    window = (CONSISTENCY_WINDOW, CONSISTENCY_WINDOW)
-    for j in views:
-        other = collection.cameras[j]
-        pix, z = other.project(points)
-        mx, my = pix[..., 0].astype(np.float32), pix[..., 1].astype(np.float32)
-        inside = (z > 0) & (mx >= 0) & (mx <= other.width - 1) & (my >= 0) & (my <= other.height - 1)
-        sampled = cv2.remap(load_view(collection, j, images), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-        difference = cv2.boxFilter(np.abs(sampled - image).mean(axis=2), -1, window)
-        seen += inside
-        agree += inside & (difference < CONSISTENCY_TOLERANCE)
-    known &= (seen > 0) & (agree >= np.minimum(CONSISTENCY_VOTES, seen))
-    return np.where(known, depth, np.nan)
+    return np.where(_agrees(collection, i, depth, known, views, image, images), depth, np.nan)
 
 
 def source_depth(
