@@ -15,10 +15,16 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import look_at
 from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, s2_view
 from vergence.stereospace import _mls_view_kernels
-from vergence.stereospace.mls import _grid_nodes
+from vergence.stereospace.mls import _grid_nodes, _node_grid
+from vergence.stereospace.mls_view import _node_angles
 
 PLANE_Z = 5.0
 W, H = 64, 48
+# P_ANG interpolated over 8-pixel grid cells against per pixel: the angle between two rays to a
+# plane is smooth. Measured at most 7e-6 rad on the camera of the test (61 pixels over 5 degrees,
+# the pixel pitch of a 640-pixel view over 50), 3.3e-5 rad on kermit's rhomboid pair view (angles
+# about 0.28 rad: relative 1e-4), 3.5e-7 rad on dino's.
+ANGLE_GRID_ATOL = 2e-5
 
 
 def _camera(x, y=0.0, width=W, height=H):
@@ -87,11 +93,10 @@ def _bilinear_reference(img, x, y):
             + (1 - s) * t * img[y0 + 1, x0] + s * t * img[y0 + 1, x0 + 1])
 
 
-def _render_reference(images, ids, at_nodes, xs, ys, target, centres, depth, k):
-    """S2's view one pixel at a time: the map (the nodes interpolated linearly along x, then y),
-    the field of view, the angle penalty (:func:`_angles_reference`), ULR weights, bilinear samples."""
-    h, w = target.height, target.width
-    angles = _angles_reference(target, centres, depth)
+def _render_reference(images, ids, at_nodes, xs, ys, shape, k):
+    """S2's view one pixel at a time: the map and the angle (the nodes interpolated linearly along
+    x, then y), the field of view, ULR weights, bilinear samples."""
+    h, w = shape
     n_ch = images[0].shape[2]
     image, weights = np.zeros((h, w, n_ch)), np.zeros((len(ids), h, w))
     for y in range(h):
@@ -100,21 +105,20 @@ def _render_reference(images, ids, at_nodes, xs, ys, target, centres, depth, k):
             for s, n in enumerate(ids):
                 if n < 0:
                     continue
-                along_x = np.array([[np.interp(x, xs, at_nodes[s, r, :, c]) for c in (0, 1)] for r in range(len(ys))])
-                u, v = (np.interp(y, ys, along_x[:, c]) for c in (0, 1))
+                along_x = np.array([[np.interp(x, xs, at_nodes[s, r, :, c]) for c in range(3)] for r in range(len(ys))])
+                u, v, angle = (np.interp(y, ys, along_x[:, c]) for c in range(3))
                 hs, ws = images[n].shape[:2]
                 if -0.5 <= u <= ws - 0.5 and -0.5 <= v <= hs - 0.5:
-                    pen[s] = max(S2_PENALTY_FLOOR, angles[s, y, x])
+                    pen[s] = max(S2_PENALTY_FLOOR, angle)
                     colours[s] = _bilinear_reference(images[n].astype(float), u, v)
             image[y, x], weights[:, y, x] = _blend_reference(colours, pen, k, S2_THRESHOLD_SCALE)
     return image, weights
 
 
-def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, target, centres, depth, k, weights):
-    image = np.empty((target.height, target.width, stack.shape[3]), np.float32)
-    _mls_view_kernels.render_view(stack, np.array(sizes), ids, at_nodes, xs, ys, 4, np.linalg.inv(target.K), target.R,
-                                  target.t, target.center, centres, depth, S2_PENALTY_FLOOR, k, S2_THRESHOLD_SCALE,
-                                  image, weights)  # fmt: skip
+def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, shape, k, weights):
+    image = np.empty((*shape, stack.shape[3]), np.float32)
+    _mls_view_kernels.render_view(stack, np.array(sizes), ids, at_nodes, xs, ys, 4, S2_PENALTY_FLOOR, k,
+                                  S2_THRESHOLD_SCALE, image, weights)  # fmt: skip
     return image
 
 
@@ -126,20 +130,34 @@ def test_render_kernel_matches_a_slow_reference(k):
     stack = np.zeros((3, 10, 12, 3), np.float32)
     for n, img in enumerate(images):
         stack[n, : img.shape[0], : img.shape[1]] = img
-    target = look_at([0.1, 0.2, -0.3], [0.5, 0, 5], [0.1, -1.0, 0.0], fov_deg=50.0, width=13, height=10)
     xs, ys = _grid_nodes(13, 4), _grid_nodes(10, 4)
     ids = np.array([2, 0, -1, 1, 0])  # one source left out, one image used twice
-    at_nodes = rng.uniform(-2.0, 13.0, (5, ys.size, xs.size, 2)).astype(np.float32)
-    at_nodes[0, 0, 0] = [-0.5, 8.5]  # on the valid border of image 2 (10 x 6)
-    centres = np.array([[-0.4, 0, 0], [0.3, 0.2, 0], [0, 0, 0], target.center, [0.1, -0.5, 0.2]])
+    at_nodes = np.concatenate([rng.uniform(-2.0, 13.0, (5, ys.size, xs.size, 2)),
+                               rng.uniform(0.0, 0.3, (5, ys.size, xs.size, 1))], axis=3)  # fmt: skip
+    at_nodes[0, 0, 0, :2] = [-0.5, 8.5]  # on the valid border of image 2 (10 x 6)
+    at_nodes[1:4, 1, 1, 2] = 0.2  # a tie at a node
+    at_nodes[4, 2, 2, 2] = 0.0  # below the floor
     weights = np.empty((5, 10, 13))
-    image = _render_kernel(stack, sizes, ids, at_nodes, xs, ys, target, centres, 4.5, k, weights)
-    ref_image, ref_weights = _render_reference(images, ids, at_nodes.astype(float), xs, ys, target, centres, 4.5, k)
+    image = _render_kernel(stack, sizes, ids, at_nodes, xs, ys, (10, 13), k, weights)
+    ref_image, ref_weights = _render_reference(images, ids, at_nodes, xs, ys, (10, 13), k)
     assert 0 < (weights > 0).sum(axis=0).mean() < 4  # pixels with few sources and with several
-    assert_allclose(weights, ref_weights, atol=1e-7)  # acos near 0 loses sqrt(eps) of its argument
+    assert_allclose(weights, ref_weights, atol=1e-12)
     assert_allclose(image, ref_image, atol=1e-5)  # float32 images, float64 weights
-    assert_array_equal(_render_kernel(stack, sizes, ids, at_nodes, xs, ys, target, centres, 4.5, k,
-                                      np.empty((5, 0, 0))), image)  # fmt: skip
+    assert_array_equal(_render_kernel(stack, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))), image)
+
+
+def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():
+    target = look_at([0.1, 0.2, -0.3], [0.5, 0, 5], [0.1, -1.0, 0.0], fov_deg=5.0, width=61, height=45)
+    centres = np.array([[-0.4, 0.0, 0.0], [0.3, 0.2, 0.0], target.center])
+    xs, ys, nodes = _node_grid((45, 61), 1)
+    exact = _angles_reference(target, centres, 4.5)
+    assert_allclose(_node_angles(target, nodes, centres, 4.5).reshape(3, 45, 61), exact, atol=1e-7)  # acos: sqrt(eps)
+    xs, ys, nodes = _node_grid((45, 61), 8)
+    coarse = _node_angles(target, nodes, centres, 4.5).reshape(3, ys.size, xs.size)
+    along_x = np.array([[np.interp(np.arange(61), xs, row) for row in a] for a in coarse])
+    fine = np.array([[np.interp(np.arange(45), ys, along_x[s, :, x]) for x in range(61)] for s in range(3)])
+    err = np.abs(fine.transpose(0, 2, 1) - exact)
+    assert 0 < err.max() < ANGLE_GRID_ATOL
 
 
 def test_weights_follow_the_angle_penalty():

@@ -126,6 +126,17 @@ def _first_rows(q: np.ndarray) -> np.ndarray:
     return np.sort(order[first])
 
 
+def _node_angles(target: Camera, nodes: np.ndarray, centres: np.ndarray, depth: float) -> np.ndarray:
+    """``P_ANG (S, len(nodes))`` (S2 §3.1 Eq. (4)): at each node's proxy point ``P`` (its ray at
+    camera-frame ``depth``), the angle between ``C_target - P`` and ``centres[s] - P`` (atan2 of
+    the cross and dot products: accurate at small angles too)."""
+    proxy = target.backproject(nodes, np.full(len(nodes), depth))
+    to_target = target.center - proxy
+    to_sources = centres[:, None, :] - proxy[None]
+    cross = np.linalg.norm(np.cross(to_target[None], to_sources), axis=-1)
+    return np.arctan2(cross, np.einsum("pk,spk->sp", to_target, to_sources))
+
+
 def _render(
     target: Camera, sources: _SourceSet, ids: Sequence[int], points: np.ndarray, *, grid_step: int, alpha: float,
     k: int, keep_weights: bool,
@@ -148,29 +159,28 @@ def _render(
     ids = np.asarray(ids, dtype=np.int64)
     used = ids.copy()
     counts = np.zeros(len(ids), dtype=np.int64)
-    maps = []
+    at_nodes = np.zeros((len(ids), ys.size, xs.size, 3))
+    at_nodes[..., 2] = _node_angles(target, nodes, sources.centres[ids], proxy_depth).reshape(-1, ys.size, xs.size)
+    mapped = np.empty((len(nodes), 2), dtype=np.float32)
     for s, n in enumerate(ids):
         sel = np.flatnonzero(sources.seen[n] & in_front)
         sel = sel[_first_rows(q[sel])]
-        grid = np.zeros((ys.size, xs.size, 2), dtype=np.float32)
         if sel.size < MLS_MIN_HANDLES:
             used[s] = -1
-        else:
-            counts[s] = sel.size
-            p32 = np.ascontiguousarray(sources.pixels[n, sel], dtype=np.float32)
-            q32 = np.ascontiguousarray(q[sel], dtype=np.float32)
-            _mls_kernels.mls_similarity_points(nodes32, q32, p32, alpha, grid.reshape(-1, 2))
-        cell_xs, cell_ys, grid = _with_cells(xs, ys, grid)
-        maps.append(grid)
+            continue
+        counts[s] = sel.size
+        p32 = np.ascontiguousarray(sources.pixels[n, sel], dtype=np.float32)
+        q32 = np.ascontiguousarray(q[sel], dtype=np.float32)
+        _mls_kernels.mls_similarity_points(nodes32, q32, p32, alpha, mapped)
+        at_nodes[s, ..., :2] = mapped.reshape(ys.size, xs.size, 2)
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
+    xs, ys, cells = _with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
     channels = sources.images.shape[3]
     image = np.empty((h, w, channels), dtype=np.float32)
     weights = np.empty((len(ids), h, w) if keep_weights else (len(ids), 0, 0))
-    _mls_view_kernels.render_view(sources.images, sources.sizes, used, np.stack(maps), cell_xs, cell_ys, grid_step,
-                                  np.linalg.inv(target.K), target.R, target.t, target.center,
-                                  np.ascontiguousarray(sources.centres[ids]), proxy_depth, S2_PENALTY_FLOOR, k,
-                                  S2_THRESHOLD_SCALE, image, weights)  # fmt: skip
+    _mls_view_kernels.render_view(sources.images, sources.sizes, used, np.ascontiguousarray(np.moveaxis(cells, 2, 0)),
+                                  xs, ys, grid_step, S2_PENALTY_FLOOR, k, S2_THRESHOLD_SCALE, image, weights)
     return image, (weights if keep_weights else None), counts, proxy_depth
 
 
