@@ -118,7 +118,7 @@ def _render_reference(images, ids, at_nodes, xs, ys, shape, k):
 def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, shape, k, weights):
     image = np.empty((*shape, stack.shape[3]), np.float32)
     _mls_view_kernels.render_view(stack, np.array(sizes), ids, at_nodes, xs, ys, 4, S2_PENALTY_FLOOR, k,
-                                  S2_THRESHOLD_SCALE, image, weights)  # fmt: skip
+                                  S2_THRESHOLD_SCALE, 0.0, image, weights)  # fmt: skip
     return image
 
 

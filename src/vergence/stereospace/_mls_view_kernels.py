@@ -16,7 +16,8 @@ __all__ = ["render_view"]
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
-def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, image, weights):  # pragma: no cover
+def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, negligible, image,
+                weights):  # pragma: no cover - compiled
     """S2's view of a target camera from ``S`` warped sources.
 
     Source ``s`` is the image ``images[ids[s]]`` (``images (N, Hm, Wm, C)`` float32, its pixels
@@ -29,8 +30,10 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, ima
       else inf: S2 §3.1 Eq. (4)); ``P = max(floor, P_ANG)`` where valid;
     - ULR weights (Buehler et al. 2001): with m >= k valid sources ``w_s = max(0, 1 - P_s / (scale P_(k)))``,
       ``P_(k)`` the k-th smallest; with 0 < m < k equal weights; normalised;
-    - the colour is ``sum_s w_s I_s(u, v)``, ``I_s`` sampled bilinearly with the edge pixels repeated
-      (cv2.remap's ``BORDER_REPLICATE``, with exact weights where cv2 rounds them to 1/32 pixel).
+    - the colour is ``sum_s w_s I_s(u, v)`` over the sources with ``w_s > negligible`` (the k-th
+      source's weight of about 1e-7 left out changes the colour by less than that), ``I_s`` sampled
+      bilinearly with the edge pixels repeated (cv2.remap's ``BORDER_REPLICATE``, with exact
+      weights where cv2 rounds them to 1/32 pixel).
 
     Writes ``image (h, w, C)`` (0 where no source is valid) and, when ``weights`` is ``(S, h, w)``
     (not ``(S, 0, 0)``), the normalised weights. One row per task, each stage a loop over the row.
@@ -40,6 +43,9 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, ima
     nx = xs.shape[0]
     ny = ys.shape[0]
     keep = weights.shape[1] == h and weights.shape[2] == w
+    flat = images.reshape(-1)
+    row_stride = images.shape[2] * n_ch
+    image_stride = images.shape[1] * row_stride
     cell = np.empty(w, dtype=np.int64)  # each column's grid cell and its position in it
     frac = np.empty(w)
     for x in range(w):
@@ -104,16 +110,18 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, ima
                 continue
             n = ids[s]
             hs, wd = sizes[n, 0], sizes[n, 1]
+            base = n * image_stride
             for x in range(w):
                 wn = pen[s, x]
-                if wn > 0.0:
+                if wn > negligible:
                     fx, fy = math.floor(us[s, x]), math.floor(vs[s, x])
                     dx, dy = us[s, x] - fx, vs[s, x] - fy
-                    x0, y0 = min(max(int(fx), 0), wd - 1), min(max(int(fy), 0), hs - 1)
-                    x1, y1 = min(int(fx) + 1, wd - 1), min(int(fy) + 1, hs - 1)
+                    ix, iy = int(fx), int(fy)
+                    x0, x1 = max(ix, 0) * n_ch, min(ix + 1, wd - 1) * n_ch  # edge pixels repeated
+                    y0, y1 = base + max(iy, 0) * row_stride, base + min(iy + 1, hs - 1) * row_stride
                     for c in range(n_ch):
-                        upper = images[n, y0, x0, c] + dx * (images[n, y0, x1, c] - images[n, y0, x0, c])
-                        lower = images[n, y1, x0, c] + dx * (images[n, y1, x1, c] - images[n, y1, x0, c])
+                        upper = flat[y0 + x0 + c] + dx * (flat[y0 + x1 + c] - flat[y0 + x0 + c])
+                        lower = flat[y1 + x0 + c] + dx * (flat[y1 + x1 + c] - flat[y1 + x0 + c])
                         acc[x, c] += wn * (upper + dy * (lower - upper))
         for x in range(w):
             for c in range(n_ch):

@@ -26,6 +26,9 @@ S2_PENALTY_FLOOR = 1e-4
 # SIBR's threshold is 1.0000001 times the k-th penalty: the k-th source gets a weight of 1e-7, not 0,
 # so a pixel whose k sources tie keeps a positive weight sum.
 S2_THRESHOLD_SCALE = 1.0000001
+# A source whose normalised weight is at most this is not sampled (S2_THRESHOLD_SCALE gives the k-th
+# source about 1e-7): the colour of a pixel changes by less than 1e-6 (float32 keeps ~6e-8 at 1).
+NEGLIGIBLE_WEIGHT = 1e-6
 # Grid spacing of the MLS maps, pixels (S2 §3.1 evaluates the warp on a coarse grid, as Schaefer
 # et al. 2006 §4); private: the default of s2_view and of the stereo pair's views.
 S2_GRID_STEP = 8
@@ -180,7 +183,8 @@ def _render(
     image = np.empty((h, w, channels), dtype=np.float32)
     weights = np.empty((len(ids), h, w) if keep_weights else (len(ids), 0, 0))
     _mls_view_kernels.render_view(sources.images, sources.sizes, used, np.ascontiguousarray(np.moveaxis(cells, 2, 0)),
-                                  xs, ys, grid_step, S2_PENALTY_FLOOR, k, S2_THRESHOLD_SCALE, image, weights)
+                                  xs, ys, grid_step, S2_PENALTY_FLOOR, k, S2_THRESHOLD_SCALE, NEGLIGIBLE_WEIGHT, image,
+                                  weights)  # fmt: skip
     return image, (weights if keep_weights else None), counts, proxy_depth
 
 
