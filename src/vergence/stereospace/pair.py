@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence._validate import check_positive_int
 from vergence.camera import Camera, interpolate
 from vergence.depth import Rectification, rectify_cameras
 from vergence.display import LAYOUTS, pack
@@ -141,13 +142,21 @@ class PreparedCollection:
     collection : Collection
     graph : CameraGraph, optional
         Default :func:`~vergence.stereospace.camera_graph` of the collection.
+    grid_step : int
+        Grid spacing of the MLS maps of the pair's views, pixels (:func:`~vergence.stereospace.s2_view`'s
+        ``grid_step``; its default 8 gives the pairs of the bare collection). The cost of the maps
+        is nodes x handles: on dino (6,000 handles a source) step 16 makes them 4 times cheaper,
+        and changes the warp field by 0.06-0.43 px on average (``benchmarks/stereospace_pair.py``
+        measures the image difference).
     """
 
-    __slots__ = ("_sources", "centers", "collection", "graph", "images", "segment_cameras", "space")
+    __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "images", "segment_cameras", "space")
 
-    def __init__(self, collection: Collection, *, graph: CameraGraph | None = None) -> None:
+    def __init__(self, collection: Collection, *, graph: CameraGraph | None = None,
+                 grid_step: int = S2_GRID_STEP) -> None:  # fmt: skip
         if not isinstance(collection, Collection):
             raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+        self.grid_step = check_positive_int("grid_step", grid_step)
         self.collection = collection
         self.graph = camera_graph(collection) if graph is None else graph
         self.space, self.segment_cameras = space_from_graph(collection, self.graph)
@@ -176,6 +185,7 @@ class _Unprepared:
 
     def __init__(self, collection: Collection) -> None:
         self.collection = collection
+        self.grid_step = S2_GRID_STEP
         self.graph = camera_graph(collection)
         self.space, self.segment_cameras = space_from_graph(collection, self.graph)
         self.centers = collection.centers
@@ -195,7 +205,7 @@ def _mls_view(prepared: PreparedCollection, target: Camera, *, sources: int = S2
     distance = np.linalg.norm(prepared.centers - target.center, axis=1)
     nearest = np.lexsort((np.arange(len(distance)), distance))[:sources]
     source_set, ids = prepared.view_sources(nearest)
-    image = _render(target, source_set, ids, prepared.collection.points, grid_step=S2_GRID_STEP, alpha=1.0,
+    image = _render(target, source_set, ids, prepared.collection.points, grid_step=prepared.grid_step, alpha=1.0,
                     k=S2_MAX_SOURCES, keep_weights=False)[0]  # fmt: skip
     return image[..., 0] if image.shape[2] == 1 else image
 
