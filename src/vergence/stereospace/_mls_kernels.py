@@ -1,8 +1,9 @@
 """Numba kernel of the moving-least-squares similarity deformation (Schaefer, McPhail, Warren 2006).
 
 :func:`vergence.stereospace.mls_similarity` validates its inputs and calls this; the kernel trusts
-them: C-contiguous ``points (N, 2)``, ``src (M, 2)`` with M >= 2 distinct rows, ``dst (M, 2)``, all
-float64 (or all float32: S2's views), ``alpha > 0``. Its slow, obviously-correct twin is in
+them: C-contiguous ``points (N, 2)``, ``src (M, 2)``, ``dst (M, 2)``, all float64 (or all float32: S2's
+views), ``offsets`` (G + 1,) int64 splitting the handles into G sets of at least 2 with distinct ``src``
+rows, ``alpha > 0``, ``out (G, N, 2)``. Its slow, obviously-correct twin is in
 ``tests/stereospace/test_mls.py``.
 """
 
@@ -15,10 +16,11 @@ __all__ = ["interpolate_grid", "mls_similarity_points"]
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy", fastmath={"reassoc", "contract"})
-def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - compiled
-    """``out[k] = f_s(points[k])`` for the handles ``src -> dst`` (Schaefer et al. 2006 §2.2,
-    similarity deformations, in its complex closed form ``f(v) = (v - p*) a + q*`` with
-    ``a = sum w conj(p^) q^ / sum w |p^|^2``), in the precision of ``src`` (float64 or float32).
+def mls_similarity_points(points, src, dst, offsets, alpha, out):  # pragma: no cover - compiled
+    """``out[g, k] = f_g(points[k])`` for the handle sets ``g``: ``src[offsets[g]:offsets[g + 1]] ->
+    dst[...]`` (Schaefer et al. 2006 §2.2, similarity deformations, in its complex closed form
+    ``f(v) = (v - p*) a + q*`` with ``a = sum w conj(p^) q^ / sum w |p^|^2``), in the precision of
+    ``src`` (float64 or float32). Several sets (S2's sources of one view) share one parallel loop.
 
     One pass over the handles per point: with ``a_i = p_i - v``, ``b_i = q_i - v`` and
     ``w_i = |a_i|^(-2 alpha)``, the centred sums follow from the raw ones,
@@ -29,7 +31,6 @@ def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - c
     the formula. Sums may be reassociated (SIMD); they hold at most a few thousand terms.
     """
     n = points.shape[0]
-    m = src.shape[0]
     px = np.ascontiguousarray(src[:, 0])
     py = np.ascontiguousarray(src[:, 1])
     qx = np.ascontiguousarray(dst[:, 0])
@@ -41,7 +42,9 @@ def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - c
     consts[2] = alpha
     zero, one, exponent = consts[0], consts[1], consts[2]
     unit = alpha == 1.0
-    for k in nb.prange(n):
+    for task in nb.prange(n * (offsets.shape[0] - 1)):
+        g, k = task // n, task % n
+        start, stop = offsets[g], offsets[g + 1]
         vx = one * points[k, 0]
         vy = one * points[k, 1]
         sw = zero
@@ -53,7 +56,7 @@ def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - c
         sab = zero
         sac = zero
         if unit:  # w = 1 / |a|^2: one division, w |a|^2 = 1
-            for i in range(m):
+            for i in range(start, stop):
                 ax = px[i] - vx
                 ay = py[i] - vy
                 bx = qx[i] - vx
@@ -68,7 +71,7 @@ def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - c
                 sab += w * (ax * bx + ay * by)
                 sac += w * (ax * by - ay * bx)
         else:
-            for i in range(m):
+            for i in range(start, stop):
                 ax = px[i] - vx
                 ay = py[i] - vy
                 bx = qx[i] - vx
@@ -92,18 +95,18 @@ def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - c
             # on a handle (w = inf), or so near one that the others' weights vanish beside its own
             dmin = np.inf
             imin = 0
-            for i in range(m):
+            for i in range(start, stop):
                 d2 = (px[i] - vx) ** 2 + (py[i] - vy) ** 2
                 if d2 < dmin:
                     dmin = d2
                     imin = i
-            out[k, 0] = qx[imin]
-            out[k, 1] = qy[imin]
+            out[g, k, 0] = qx[imin]
+            out[g, k, 1] = qy[imin]
             continue
         ar = (sab - sw * (psx * qsx + psy * qsy)) / mu
         ai = (sac - sw * (psx * qsy - psy * qsx)) / mu
-        out[k, 0] = vx + qsx - psx * ar + psy * ai
-        out[k, 1] = vy + qsy - psx * ai - psy * ar
+        out[g, k, 0] = vx + qsx - psx * ar + psy * ai
+        out[g, k, 1] = vy + qsy - psx * ai - psy * ar
 
 
 @nb.njit(cache=True, parallel=True)

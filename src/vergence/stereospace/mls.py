@@ -42,10 +42,10 @@ def _check_handles(src_name: str, src: object, dst_name: str, dst: object) -> tu
 
 def _deform(points: np.ndarray, p: np.ndarray, q: np.ndarray, alpha: float) -> np.ndarray:
     """The kernel on validated, C-contiguous float64 inputs."""
-    out = np.empty((points.shape[0], 2), dtype=np.float64)
+    out = np.empty((1, points.shape[0], 2), dtype=np.float64)
     if points.shape[0]:
-        _mls_kernels.mls_similarity_points(points, p, q, alpha, out)
-    return out
+        _mls_kernels.mls_similarity_points(points, p, q, np.array([0, len(p)]), alpha, out)
+    return out[0]
 
 
 def mls_similarity(points: object, handles_src: object, handles_dst: object, *, alpha: float = 1.0) -> np.ndarray:

@@ -164,7 +164,7 @@ def _render(
     counts = np.zeros(len(ids), dtype=np.int64)
     at_nodes = np.zeros((len(ids), ys.size, xs.size, 3))
     at_nodes[..., 2] = _node_angles(target, nodes, sources.centres[ids], proxy_depth).reshape(-1, ys.size, xs.size)
-    mapped = np.empty((len(nodes), 2), dtype=np.float32)
+    handles = []
     for s, n in enumerate(ids):
         sel = np.flatnonzero(sources.seen[n] & in_front)
         sel = sel[_first_rows(q[sel])]
@@ -172,10 +172,14 @@ def _render(
             used[s] = -1
             continue
         counts[s] = sel.size
-        p32 = np.ascontiguousarray(sources.pixels[n, sel], dtype=np.float32)
-        q32 = np.ascontiguousarray(q[sel], dtype=np.float32)
-        _mls_kernels.mls_similarity_points(nodes32, q32, p32, alpha, mapped)
-        at_nodes[s, ..., :2] = mapped.reshape(ys.size, xs.size, 2)
+        handles.append((sources.pixels[n, sel], q[sel]))
+    if handles:  # the maps of all sources in one parallel loop
+        p32 = np.concatenate([hp for hp, _ in handles]).astype(np.float32)
+        q32 = np.concatenate([hq for _, hq in handles]).astype(np.float32)
+        mapped = np.empty((len(handles), len(nodes), 2), dtype=np.float32)
+        offsets = np.concatenate([[0], np.cumsum(counts[used >= 0])])
+        _mls_kernels.mls_similarity_points(nodes32, q32, p32, offsets, alpha, mapped)
+        at_nodes[used >= 0, ..., :2] = mapped.reshape(len(handles), ys.size, xs.size, 2)
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
     xs, ys, cells = _with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
