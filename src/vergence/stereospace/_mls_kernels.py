@@ -45,6 +45,7 @@ def mls_similarity_points(points, src, dst, offsets, alpha, out):  # pragma: no 
     for task in nb.prange(n * (offsets.shape[0] - 1)):
         g, k = task // n, task % n
         start, stop = offsets[g], offsets[g + 1]
+        gpx, gpy, gqx, gqy = px[start:stop], py[start:stop], qx[start:stop], qy[start:stop]
         vx = one * points[k, 0]
         vy = one * points[k, 1]
         sw = zero
@@ -56,11 +57,11 @@ def mls_similarity_points(points, src, dst, offsets, alpha, out):  # pragma: no 
         sab = zero
         sac = zero
         if unit:  # w = 1 / |a|^2: one division, w |a|^2 = 1
-            for i in range(start, stop):
-                ax = px[i] - vx
-                ay = py[i] - vy
-                bx = qx[i] - vx
-                by = qy[i] - vy
+            for i in range(stop - start):
+                ax = gpx[i] - vx
+                ay = gpy[i] - vy
+                bx = gqx[i] - vx
+                by = gqy[i] - vy
                 w = one / (ax * ax + ay * ay)
                 sw += w
                 sax += w * ax
@@ -71,11 +72,11 @@ def mls_similarity_points(points, src, dst, offsets, alpha, out):  # pragma: no 
                 sab += w * (ax * bx + ay * by)
                 sac += w * (ax * by - ay * bx)
         else:
-            for i in range(start, stop):
-                ax = px[i] - vx
-                ay = py[i] - vy
-                bx = qx[i] - vx
-                by = qy[i] - vy
+            for i in range(stop - start):
+                ax = gpx[i] - vx
+                ay = gpy[i] - vy
+                bx = gqx[i] - vx
+                by = gqy[i] - vy
                 d2 = ax * ax + ay * ay
                 w = d2 ** -exponent
                 sw += w
