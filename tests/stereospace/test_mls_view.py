@@ -16,7 +16,7 @@ from vergence.camera import look_at
 from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, s2_view
 from vergence.stereospace import _mls_view_kernels
 from vergence.stereospace.mls import _grid_nodes, _node_grid
-from vergence.stereospace.mls_view import _node_angles
+from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, _node_angles
 
 PLANE_Z = 5.0
 W, H = 64, 48
@@ -115,10 +115,10 @@ def _render_reference(images, ids, at_nodes, xs, ys, shape, k):
     return image, weights
 
 
-def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, shape, k, weights):
+def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, shape, k, weights, negligible=0.0):
     image = np.empty((*shape, stack.shape[3]), np.float32)
     _mls_view_kernels.render_view(stack, np.array(sizes), ids, at_nodes, xs, ys, 4, S2_PENALTY_FLOOR, k,
-                                  S2_THRESHOLD_SCALE, 0.0, image, weights)  # fmt: skip
+                                  S2_THRESHOLD_SCALE, negligible, image, weights)  # fmt: skip
     return image
 
 
@@ -144,6 +144,9 @@ def test_render_kernel_matches_a_slow_reference(k):
     assert_allclose(weights, ref_weights, atol=1e-12)
     assert_allclose(image, ref_image, atol=1e-5)  # float32 images, float64 weights
     assert_array_equal(_render_kernel(stack, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))), image)
+    # the k-th source's weight (~1e-7) not sampled: the colour moves by less than the weights left out
+    skipped = _render_kernel(stack, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0)), NEGLIGIBLE_WEIGHT)
+    assert_allclose(skipped, ref_image, atol=len(ids) * NEGLIGIBLE_WEIGHT + 1e-6, rtol=0)
 
 
 def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():
