@@ -117,8 +117,8 @@ def _dubois_reference(left, right, m_left, m_right):
     def decode(v):
         return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
 
-    lin = np.clip(decode(left.astype(float)) @ np.asarray(m_left).T + decode(right.astype(float)) @ np.asarray(m_right).T,
-                  0.0, 1.0)  # fmt: skip
+    lin = decode(left.astype(float)) @ np.asarray(m_left).T + decode(right.astype(float)) @ np.asarray(m_right).T
+    lin = np.clip(lin, 0.0, 1.0)
     return np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * np.maximum(lin, 0.0031308) ** (1 / 2.4) - 0.055)
 
 
@@ -127,7 +127,8 @@ def _dubois_reference(left, right, m_left, m_right):
 DUBOIS_TABLE_TOL = 6e-8
 
 
-@pytest.mark.parametrize(("method", "matrices"), [("dubois", (M_LEFT, M_RIGHT)), ("dubois-green-magenta", M_GREEN_MAGENTA),
+@pytest.mark.parametrize(("method", "matrices"), [("dubois", (M_LEFT, M_RIGHT)),
+                                                  ("dubois-green-magenta", M_GREEN_MAGENTA),
                                                   ("dubois-amber-blue", M_AMBER_BLUE)])  # fmt: skip
 def test_dubois_kernel_matches_the_float64_formula(method, matrices):
     rng = np.random.default_rng(5)

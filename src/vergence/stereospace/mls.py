@@ -89,8 +89,9 @@ def mls_similarity(points: object, handles_src: object, handles_dst: object, *, 
         A_i    = w_i [p^_i; -p^_i^perp] [v - p*; -(v - p*)^perp]^T,   (x, y)^perp = (-y, x)
 
     computed in the equivalent complex form ``f_s(v) = (v - p*) a + q*``,
-    ``a = sum w_i conj(p^_i) q^_i / sum w_i |p^_i|^2``. The weights are scaled by the nearest
-    handle's so that they never overflow (the formula is invariant to a common scale). One Numba
+    ``a = sum w_i conj(p^_i) q^_i / sum w_i |p^_i|^2``, in one pass over the handles per point (the
+    centred sums from the raw sums about v: ``stereospace/_mls_kernels.py``). A point on a handle, or
+    so near one that its weight overflows, takes that handle's target (the limit of f). One Numba
     task per point; cost O(N M).
 
     Examples

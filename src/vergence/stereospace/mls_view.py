@@ -253,6 +253,15 @@ def s2_view(
     map), not the proxy's projection, so a pixel is blended from exactly the sources it has
     samples of. Blending as ULR (Buehler et al. 2001; SIBR's threshold, as ``render_ibr``):
     ``w_i = max(0, 1 - P_i / (1.0000001 P_(k)))``, ``P_ANG`` floored at 1e-4 rad, normalised.
+
+    Computation (one Numba pass over the pixels, no full-size intermediate): the MLS maps of all
+    sources are evaluated at the grid nodes in float32 (within 2e-3 px of float64 on dino's 6,019
+    handles a source), ``P_ANG`` exactly at the nodes (atan2) and both bilinearly in between
+    (``P_ANG`` within 3.3e-5 rad of the per-pixel angle on kermit's views, 3.5e-7 rad on dino's);
+    sources are sampled bilinearly with exact weights (edge pixels repeated over their outer half),
+    and a source whose normalised weight is at most 1e-6 (the k-th one's ~1e-7) is not sampled.
+    Against the former per-source ``mls_warp`` + numpy blend, stereo pairs of kermit and dino
+    differ by 2e-7 to 8e-7 on average, 1.3e-3 at most (``benchmarks/stereospace_pair.py``'s states).
     Cameras are pinhole: lens distortion (e.g. Bundler's k1, k2) is not modelled. Leave-one-out
     on ``kermit`` (all 634 Bundler points as handles, grid step 8): kermit001 from its two nearest
     cameras scores 17.7 dB PSNR on the covered pixels (the nearest photo unwarped: 11.4 dB), 14.5
