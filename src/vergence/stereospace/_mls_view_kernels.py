@@ -15,6 +15,20 @@ import numpy as np
 __all__ = ["render_view"]
 
 
+@nb.njit(cache=True, inline="always")
+def _taps(u, v, h, w, base, row_stride, n_ch, weight):  # pragma: no cover - compiled
+    """Offsets (into the flattened image stack) of the 4 pixels around ``(u, v)`` of an ``h x w``
+    image starting at ``base``, edge pixels repeated, and their bilinear weights times ``weight``."""
+    fx, fy = math.floor(u), math.floor(v)
+    dx, dy = u - fx, v - fy
+    ix, iy = int(fx), int(fy)
+    x0, x1 = max(ix, 0) * n_ch, min(ix + 1, w - 1) * n_ch
+    y0, y1 = base + max(iy, 0) * row_stride, base + min(iy + 1, h - 1) * row_stride
+    top, bottom = weight * (1.0 - dy), weight * dy
+    return (y0 + x0, y0 + x1, y1 + x0, y1 + x1, top * (1.0 - dx), top * dx, bottom * (1.0 - dx),
+            bottom * dx)  # fmt: skip
+
+
 @nb.njit(cache=True, parallel=True, error_model="numpy")
 def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, negligible, image,
                 weights):  # pragma: no cover - compiled
@@ -58,7 +72,7 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
         along = np.empty((3, nx))
         order = np.empty(s_count)
         wts = np.empty(s_count)
-        acc = np.zeros((w, n_ch))
+        acc = np.zeros(n_ch)
         j = min(y // step, ny - 2)
         ty = (y - ys[j]) / (ys[j + 1] - ys[j])
         for s in range(s_count):
@@ -105,24 +119,22 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                 if keep:
                     weights[s, y, x] = wn
                 pen[s, x] = wn  # from here on: the weight
-        for s in range(s_count):
-            if ids[s] < 0:
-                continue
-            n = ids[s]
-            hs, wd = sizes[n, 0], sizes[n, 1]
-            base = n * image_stride
-            for x in range(w):
+        for x in range(w):  # the colour: the weighted sources' bilinear samples
+            for c in range(n_ch):
+                acc[c] = 0.0
+            for s in range(s_count):
                 wn = pen[s, x]
                 if wn > negligible:
-                    fx, fy = math.floor(us[s, x]), math.floor(vs[s, x])
-                    dx, dy = us[s, x] - fx, vs[s, x] - fy
-                    ix, iy = int(fx), int(fy)
-                    x0, x1 = max(ix, 0) * n_ch, min(ix + 1, wd - 1) * n_ch  # edge pixels repeated
-                    y0, y1 = base + max(iy, 0) * row_stride, base + min(iy + 1, hs - 1) * row_stride
-                    for c in range(n_ch):
-                        upper = flat[y0 + x0 + c] + dx * (flat[y0 + x1 + c] - flat[y0 + x0 + c])
-                        lower = flat[y1 + x0 + c] + dx * (flat[y1 + x1 + c] - flat[y1 + x0 + c])
-                        acc[x, c] += wn * (upper + dy * (lower - upper))
-        for x in range(w):
+                    n = ids[s]
+                    o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], sizes[n, 0], sizes[n, 1],
+                                                                   n * image_stride, row_stride, n_ch, wn)  # fmt: skip
+                    if n_ch == 3:  # RGB spelt out: the compiler keeps the three sums in registers
+                        acc[0] += w00 * flat[o00] + w01 * flat[o01] + w10 * flat[o10] + w11 * flat[o11]
+                        acc[1] += w00 * flat[o00 + 1] + w01 * flat[o01 + 1] + w10 * flat[o10 + 1] + w11 * flat[o11 + 1]
+                        acc[2] += w00 * flat[o00 + 2] + w01 * flat[o01 + 2] + w10 * flat[o10 + 2] + w11 * flat[o11 + 2]
+                    else:
+                        for c in range(n_ch):
+                            acc[c] += (w00 * flat[o00 + c] + w01 * flat[o01 + c] + w10 * flat[o10 + c]
+                                       + w11 * flat[o11 + c])  # fmt: skip
             for c in range(n_ch):
-                image[y, x, c] = acc[x, c]
+                image[y, x, c] = acc[c]
