@@ -30,7 +30,7 @@ S2_THRESHOLD_SCALE = 1.0000001
 # source about 1e-7): the colour of a pixel changes by less than 1e-6 (float32 keeps ~6e-8 at 1).
 NEGLIGIBLE_WEIGHT = 1e-6
 # Grid spacing of the MLS maps, pixels (S2 §3.1 evaluates the warp on a coarse grid, as Schaefer
-# et al. 2006 §4); private: the default of s2_view and of the stereo pair's views.
+# et al. 2006 §4); not exported: the default of s2_view and of the stereo pair's views.
 S2_GRID_STEP = 8
 
 

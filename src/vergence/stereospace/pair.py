@@ -26,12 +26,13 @@ Speed
 image decoded into one float32 stack, the sparse points projected into every camera. A view then
 costs one parallel MLS evaluation of its sources at the grid nodes (float32, nodes x handles) and
 one fused pass over its pixels (maps, penalties, ULR weights, bilinear samples). Measured on the
-shared 2-core development machine (load average about 4, so these are close to CPU times),
-anaglyph-packed 640 x 480 pairs from 4 sources: kermit (634 points) 88-109 ms prepared, 160-164 ms
-from the bare collection; dino (6,487 points, about 6,000 handles a source) 183-304 ms prepared,
-347-366 ms bare; the former implementation took 517-761 and 882-1531 ms prepared
-(``benchmarks/stereospace_pair.py``). On dino the MLS maps are half of the time:
-``PreparedCollection(grid_step=16)`` makes them 4 times cheaper.
+shared 2-core development machine (load average 2.5 to 4.5), median anaglyph-packed 640 x 480
+pairs from 4 sources (``benchmarks/stereospace_pair.py``): kermit (634 points) 85-109 ms prepared
+(140-147 ms of CPU time on 2 threads), 139-164 ms from the bare collection; dino (6,487 points,
+about 6,000 handles a source) 167-304 ms prepared, 347-379 ms bare. The former implementation
+(per-source ``mls_warp``, numpy blend and sRGB) took 517-761 ms (kermit) and 882-1531 ms (dino)
+prepared in the same hour. On dino the MLS maps are half of the time: ``PreparedCollection(grid_step=16)``
+makes them 4 times cheaper.
 """
 
 from __future__ import annotations
@@ -134,6 +135,7 @@ def _colour_images(images: list[np.ndarray]) -> list[np.ndarray]:
 
 
 def _decoded(collection: Collection, k: int) -> np.ndarray:
+    """The image of camera ``k`` decoded (float32), checked against its camera's size."""
     path, cam = collection.image_paths[k], collection.cameras[k]
     img = read_image(path)
     if img.shape[:2] != (cam.height, cam.width):
@@ -158,9 +160,10 @@ class PreparedCollection:
     grid_step : int
         Grid spacing of the MLS maps of the pair's views, pixels (:func:`~vergence.stereospace.s2_view`'s
         ``grid_step``; its default 8 gives the pairs of the bare collection). The cost of the maps
-        is nodes x handles: on dino (6,000 handles a source) step 16 makes them 4 times cheaper,
-        and changes the warp field by 0.06-0.43 px on average (``benchmarks/stereospace_pair.py``
-        measures the image difference).
+        is nodes x handles: on dino (6,000 handles a source) step 16 makes them 4 times cheaper
+        and moves the warp field by 0.06-0.43 px on average against step 8 (kermit: 0.20-0.64 px);
+        the views then differ by 0.0009-0.0012 (dino) and 0.004-0.006 (kermit) on average, in [0, 1]
+        (``benchmarks/stereospace_pair.py``).
     """
 
     __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "images", "segment_cameras", "space")
