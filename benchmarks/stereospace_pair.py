@@ -1,53 +1,101 @@
-"""A 640 x 480 stereo pair of the kermit collection, with and without the one-time preparation.
+"""640 x 480 stereo pairs of the kermit and dino collections, with and without the one-time preparation.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_pair.py [--repeat 9]``
-(reads ``../shared/data/collections/kermit``; see ``shared/data/SOURCES.md``). Prints the median
-wall time of :class:`~vergence.stereospace.PreparedCollection` (once), of :func:`stereo_pair` on
-the prepared collection and of the same pair from the bare collection (graph built and images
-decoded for the pair), for S2's novel view from 4 sources and from the segment's 2 cameras, at a
-rhomboid state and a triangle state; the issue's goal is 70 ms a pair on 2 cores. The numba
-kernels are compiled (or loaded from their cache) by a first, untimed pair.
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_pair.py [--repeat 9] [--data DIR]``
+(reads ``kermit/bundle.out`` and ``dino/dino_par.txt`` under ``../shared/data/collections``; see
+``shared/data/SOURCES.md``). Prints, per collection, the median wall time of
+:class:`~vergence.stereospace.PreparedCollection` (once) and, for S2's novel view from 4 sources
+and from the segment's 2 cameras at a rhomboid state and a triangle state, the median wall and
+process CPU time of an anaglyph-packed :func:`stereo_pair` on the prepared collection (MLS grid
+step 8, the default, and 16) and on the bare collection (graph built, images decoded and points
+projected for the pair). Pairs from the prepared collection at step 8 must equal the bare
+collection's; for step 16 the mean absolute difference of the two views from step 8's is printed
+(pixels covered by both, RGB in [0, 1]). The issue's goal is 70 ms a pair on 2 cores: the script
+prints the threads Numba and OpenCV use and the load average (the development machine's 2 cores
+are shared; CPU time is less sensitive to that than wall time; OpenMP threads wait passively unless
+``OMP_WAIT_POLICY`` is set, as the console script does). The numba kernels are compiled (or
+loaded from their cache) by a first, untimed pair.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import statistics
+import time
 from pathlib import Path
 
-import numpy as np
-from _timing import median_time
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its OpenMP threads (as the CLI)
 
-from vergence.stereospace import PAIR_METHODS, PreparedCollection, StereoState, load_collection, stereo_pair
+import cv2  # noqa: E402
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+from vergence.stereospace import (  # noqa: E402
+    PAIR_METHODS,
+    PreparedCollection,
+    StereoState,
+    load_collection,
+    stereo_pair,
+)
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "collections"
+COLLECTIONS = {"kermit": ("kermit", "bundle.out"), "dino": ("dino", "dino_par.txt")}
+STATES = {"rhomboid (0,1) at (0.5, 0.5)": StereoState((0, 1), 0.5, 0.5),
+          "triangle (0,0) at (0.25, 0.75)": StereoState((0, 0), 0.25, 0.75)}  # fmt: skip
 
+
+def _times(fn, repeat: int) -> tuple[float, float]:
+    """Median wall and process CPU milliseconds of ``repeat`` calls."""
+    wall, cpu = [], []
+    for _ in range(repeat):
+        t0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    return 1e3 * statistics.median(wall), 1e3 * statistics.median(cpu)
+
+
+def _difference(a, b) -> float:
+    """Mean absolute difference of two pairs' views where both have a colour."""
+    diffs = []
+    for x, y in ((a.left, b.left), (a.right, b.right)):
+        both = (x.reshape(x.shape[0], x.shape[1], -1).any(axis=2)) & (y.reshape(y.shape[0], y.shape[1], -1).any(axis=2))
+        diffs.append(np.abs(x[both] - y[both]).mean())
+    return float(np.mean(diffs))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=9)
     parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--collections", nargs="+", choices=list(COLLECTIONS), default=list(COLLECTIONS))
     args = parser.parse_args()
-    folder = args.data / "kermit"
-    col = load_collection(folder / "bundle.out", images=folder)
-    t_prep = 1000.0 * median_time(lambda: PreparedCollection(col), 3)[0]
-    prep = PreparedCollection(col)
+    print(f"threads: numba {numba.get_num_threads()}, OpenCV {cv2.getNumThreads()}; OMP_WAIT_POLICY="
+          f"{os.environ['OMP_WAIT_POLICY']}; load average {os.getloadavg()[0]:.1f} at the start")  # fmt: skip
     mls = PAIR_METHODS["mls"]
     methods = {"mls, 4 sources": mls, "mls, 2 sources": lambda p, cam: mls(p, cam, sources=2)}
-    states = {"rhomboid (0,1) at (0.5, 0.5)": StereoState((0, 1), 0.5, 0.5),
-              "triangle (0,0) at (0.25, 0.75)": StereoState((0, 0), 0.25, 0.75)}
-    first = stereo_pair(prep, states["rhomboid (0,1) at (0.5, 0.5)"])  # compile / load the numba caches
-    h, w = first.left.shape[:2]
-    print(f"kermit: {len(col)} cameras, {col.point_count} points, {len(prep.space.segments)} segments; "
-          f"pair {w} x {h}; preparation {t_prep:.0f} ms (median of 3)")
-    for m_name, method in methods.items():
-        for s_name, state in states.items():
-            a, b = stereo_pair(prep, state, method=method), stereo_pair(col, state, method=method)
-            same = np.array_equal(a.left, b.left) and np.array_equal(a.right, b.right)
-            t_p = 1000.0 * median_time(lambda: stereo_pair(prep, state, method=method, layout="anaglyph"), args.repeat)[0]
-            t_u = 1000.0 * median_time(lambda: stereo_pair(col, state, method=method, layout="anaglyph"), args.repeat)[0]
-            print(f"{m_name:15s} {s_name:31s} prepared {t_p:6.1f} ms  unprepared {t_u:6.1f} ms  "
-                  f"(median of {args.repeat}; pairs equal: {same})")
+    for name in args.collections:
+        folder, camera_file = COLLECTIONS[name]
+        col = load_collection(args.data / folder / camera_file, images=args.data / folder)
+        t_prep = _times(lambda: PreparedCollection(col), 3)[0]
+        prepared = {8: PreparedCollection(col), 16: PreparedCollection(col, grid_step=16)}
+        first = stereo_pair(prepared[8], STATES["rhomboid (0,1) at (0.5, 0.5)"])  # compile / load the numba caches
+        h, w = first.left.shape[:2]
+        print(f"{name}: {len(col)} cameras, {col.point_count} points, {len(prepared[8].space.segments)} segments; "
+              f"pair {w} x {h}; preparation {t_prep:.0f} ms (median of 3)")  # fmt: skip
+        for m_name, method in methods.items():
+            for s_name, state in STATES.items():
+                a, b = stereo_pair(prepared[8], state, method=method), stereo_pair(col, state, method=method)
+                same = np.array_equal(a.left, b.left) and np.array_equal(a.right, b.right)
+                coarse = _difference(stereo_pair(prepared[16], state, method=method), a)
+                wall8, cpu8, wall16, cpu16, wall_u, cpu_u = (
+                    t for src in (prepared[8], prepared[16], col)
+                    for t in _times(lambda s=src: stereo_pair(s, state, method=method, layout="anaglyph"), args.repeat)
+                )  # fmt: skip
+                print(f"  {m_name:15s} {s_name:31s} prepared {wall8:6.1f} ms (CPU {cpu8:6.1f}), step 16 {wall16:6.1f} "
+                      f"ms (CPU {cpu16:6.1f}; mean |diff| {coarse:.4f}), unprepared {wall_u:6.1f} ms "
+                      f"(CPU {cpu_u:6.1f}); median of {args.repeat}; equal pairs: {same}")  # fmt: skip
+    print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 
 if __name__ == "__main__":

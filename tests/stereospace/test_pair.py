@@ -13,6 +13,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import look_at
 from vergence.io import write_image
 from vergence.stereospace import (
+    S2_MAX_SOURCES,
     Collection,
     PreparedCollection,
     StereoSpace,
@@ -21,6 +22,7 @@ from vergence.stereospace import (
     load_collection,
     pair_cameras,
     pair_quality,
+    s2_view,
     space_from_graph,
     stereo_pair,
 )
@@ -122,6 +124,27 @@ def test_prepared_and_unprepared_pairs_are_equal(plane):
     a, b = stereo_pair(prep, state), stereo_pair(col, state)
     assert_array_equal(a.left, b.left)
     assert_array_equal(a.right, b.right)
+
+
+def test_prepared_views_are_s2_views_of_the_nearest_cameras(plane):
+    col, prep = plane
+    res = stereo_pair(prep, StereoState((0, 1), 0.3, 0.6))
+    for view, cam in zip((res.left, res.right), res.rectified):
+        nearest = np.argsort(np.linalg.norm(col.centers - cam.center, axis=1), kind="stable")[:S2_MAX_SOURCES]
+        expected = s2_view(cam, [(col.cameras[k], prep.image(k)) for k in nearest], points=col.points)
+        assert_array_equal(view, expected.image)
+
+
+def test_a_coarser_grid_changes_the_pair_little(plane):
+    # The plane's views differ by homographies, smooth maps: measured mean 9e-4, max 0.026 at step 16.
+    col, prep = plane
+    coarse = PreparedCollection(col, grid_step=16)
+    state = StereoState((0, 1), 0.3, 0.6)
+    a, b = stereo_pair(prep, state), stereo_pair(coarse, state)
+    diff = np.abs(a.left - b.left)
+    assert 0 < diff.mean() < 2e-3 and diff.max() < 0.05
+    with pytest.raises(ValueError, match="grid_step must be >= 1"):
+        PreparedCollection(col, grid_step=0)
 
 
 def test_a_callable_method_renders_in_the_rectified_cameras(plane):

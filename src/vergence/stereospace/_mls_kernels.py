@@ -1,8 +1,10 @@
 """Numba kernel of the moving-least-squares similarity deformation (Schaefer, McPhail, Warren 2006).
 
 :func:`vergence.stereospace.mls_similarity` validates its inputs and calls this; the kernel trusts
-them: float64 C-contiguous ``points (N, 2)``, ``src (M, 2)`` with M >= 2 distinct rows, ``dst (M, 2)``,
-``alpha > 0``. Its slow, obviously-correct twin is in ``tests/stereospace/test_mls.py``.
+them: C-contiguous ``points (N, 2)``, ``src (M, 2)``, ``dst (M, 2)``, all float64 (or all float32: S2's
+views), ``offsets`` (G + 1,) int64 splitting the handles into G sets of at least 2 with distinct ``src``
+rows, ``alpha > 0``, ``out (G, N, 2)``. Its slow, obviously-correct twin is in
+``tests/stereospace/test_mls.py``.
 """
 
 from __future__ import annotations
@@ -13,93 +15,99 @@ import numpy as np
 __all__ = ["interpolate_grid", "mls_similarity_points"]
 
 
-# Points per parallel task: each task owns one scratch buffer of per-handle weights.
-_BLOCK = 64
-
-
 @nb.njit(cache=True, parallel=True, error_model="numpy", fastmath={"reassoc", "contract"})
-def mls_similarity_points(points, src, dst, alpha, out):  # pragma: no cover - compiled
-    """``out[k] = f_s(points[k])`` for the handles ``src -> dst`` (Schaefer et al. 2006 §2.2,
-    similarity deformations, in its complex closed form ``f(v) = (v - p*) a + q*`` with
-    ``a = sum w conj(p^) q^ / sum w |p^|^2``).
+def mls_similarity_points(points, src, dst, offsets, alpha, out):  # pragma: no cover - compiled
+    """``out[g, k] = f_g(points[k])`` for the handle sets ``g``: ``src[offsets[g]:offsets[g + 1]] ->
+    dst[...]`` (Schaefer et al. 2006 §2.2, similarity deformations, in its complex closed form
+    ``f(v) = (v - p*) a + q*`` with ``a = sum w conj(p^) q^ / sum w |p^|^2``), in the precision of
+    ``src`` (float64 or float32). Several sets (S2's sources of one view) share one parallel loop.
 
-    The weights ``w_i = |p_i - v|^(-2 alpha)`` are scaled by ``min_j |p_j - v|^(2 alpha)`` (every
-    ratio in the formula is unchanged) so that they lie in [0, 1] and cannot overflow near a
-    handle; a point on a handle returns that handle's target exactly (the limit of the formula).
-    Sums may be reassociated (SIMD); they hold at most a few thousand terms.
+    One pass over the handles per point: with ``a_i = p_i - v``, ``b_i = q_i - v`` and
+    ``w_i = |a_i|^(-2 alpha)``, the centred sums follow from the raw ones,
+    ``sum w |p^|^2 = sum w |a|^2 - W |a*|^2`` and ``sum w conj(p^) q^ = sum w conj(a) b - W conj(a*) b*``
+    (``W = sum w``, ``a* = p* - v``, ``b* = q* - v``), so that ``f(v) = v - a* a + b*``. Near a
+    handle ``w |a|^2`` stays 1 (alpha = 1) and ``W |a*|^2`` about 1: no cancellation. A point on a
+    handle (or so near that a weight overflows) returns the nearest handle's target, the limit of
+    the formula. Sums may be reassociated (SIMD); they hold at most a few thousand terms.
     """
     n = points.shape[0]
-    m = src.shape[0]
     px = np.ascontiguousarray(src[:, 0])
     py = np.ascontiguousarray(src[:, 1])
     qx = np.ascontiguousarray(dst[:, 0])
     qy = np.ascontiguousarray(dst[:, 1])
-    n_blocks = (n + _BLOCK - 1) // _BLOCK
-    for b in nb.prange(n_blocks):
-        w = np.empty(m)
-        for k in range(b * _BLOCK, min(n, (b + 1) * _BLOCK)):
-            vx = points[k, 0]
-            vy = points[k, 1]
-            # pass 1: squared distances and the nearest handle
+    # the constants in the handles' precision (float literals would promote float32 sums to float64)
+    consts = np.empty(3, src.dtype)
+    consts[0] = 0.0
+    consts[1] = 1.0
+    consts[2] = alpha
+    zero, one, exponent = consts[0], consts[1], consts[2]
+    unit = alpha == 1.0
+    for task in nb.prange(n * (offsets.shape[0] - 1)):
+        g, k = task // n, task % n
+        start, stop = offsets[g], offsets[g + 1]
+        gpx, gpy, gqx, gqy = px[start:stop], py[start:stop], qx[start:stop], qy[start:stop]
+        vx = one * points[k, 0]
+        vy = one * points[k, 1]
+        sw = zero
+        sax = zero
+        say = zero
+        sbx = zero
+        sby = zero
+        saa = zero
+        sab = zero
+        sac = zero
+        if unit:  # w = 1 / |a|^2: one division, w |a|^2 = 1
+            for i in range(stop - start):
+                ax = gpx[i] - vx
+                ay = gpy[i] - vy
+                bx = gqx[i] - vx
+                by = gqy[i] - vy
+                w = one / (ax * ax + ay * ay)
+                sw += w
+                sax += w * ax
+                say += w * ay
+                sbx += w * bx
+                sby += w * by
+                saa += one
+                sab += w * (ax * bx + ay * by)
+                sac += w * (ax * by - ay * bx)
+        else:
+            for i in range(stop - start):
+                ax = gpx[i] - vx
+                ay = gpy[i] - vy
+                bx = gqx[i] - vx
+                by = gqy[i] - vy
+                d2 = ax * ax + ay * ay
+                w = d2 ** -exponent
+                sw += w
+                sax += w * ax
+                say += w * ay
+                sbx += w * bx
+                sby += w * by
+                saa += w * d2
+                sab += w * (ax * bx + ay * by)
+                sac += w * (ax * by - ay * bx)
+        psx = sax / sw
+        psy = say / sw
+        qsx = sbx / sw
+        qsy = sby / sw
+        mu = saa - sw * (psx * psx + psy * psy)
+        if not (sw < np.inf and mu > zero):
+            # on a handle (w = inf), or so near one that the others' weights vanish beside its own
             dmin = np.inf
             imin = 0
-            for i in range(m):
-                dx = px[i] - vx
-                dy = py[i] - vy
-                d2 = dx * dx + dy * dy
-                w[i] = d2
+            for i in range(start, stop):
+                d2 = (px[i] - vx) ** 2 + (py[i] - vy) ** 2
                 if d2 < dmin:
                     dmin = d2
                     imin = i
-            if dmin == 0.0:
-                out[k, 0] = qx[imin]
-                out[k, 1] = qy[imin]
-                continue
-            # pass 2: weights and the weighted centroids p*, q*
-            sw = 0.0
-            spx = 0.0
-            spy = 0.0
-            sqx = 0.0
-            sqy = 0.0
-            if alpha == 1.0:
-                for i in range(m):
-                    w[i] = dmin / w[i]
-            else:
-                for i in range(m):
-                    w[i] = (dmin / w[i]) ** alpha
-            for i in range(m):
-                sw += w[i]
-                spx += w[i] * px[i]
-                spy += w[i] * py[i]
-                sqx += w[i] * qx[i]
-                sqy += w[i] * qy[i]
-            psx = spx / sw
-            psy = spy / sw
-            qsx = sqx / sw
-            qsy = sqy / sw
-            # pass 3: mu = sum w |p^|^2 and sum w conj(p^) q^
-            mu = 0.0
-            ar = 0.0
-            ai = 0.0
-            for i in range(m):
-                phx = px[i] - psx
-                phy = py[i] - psy
-                qhx = qx[i] - qsx
-                qhy = qy[i] - qsy
-                mu += w[i] * (phx * phx + phy * phy)
-                ar += w[i] * (phx * qhx + phy * qhy)
-                ai += w[i] * (phx * qhy - phy * qhx)
-            if not mu > 0.0:
-                # v so close to one handle that the others' weights underflow: the limit is q_nearest
-                out[k, 0] = qx[imin]
-                out[k, 1] = qy[imin]
-                continue
-            ar /= mu
-            ai /= mu
-            ux = vx - psx
-            uy = vy - psy
-            out[k, 0] = ux * ar - uy * ai + qsx
-            out[k, 1] = ux * ai + uy * ar + qsy
+            out[g, k, 0] = qx[imin]
+            out[g, k, 1] = qy[imin]
+            continue
+        ar = (sab - sw * (psx * qsx + psy * qsy)) / mu
+        ai = (sac - sw * (psx * qsy - psy * qsx)) / mu
+        out[g, k, 0] = vx + qsx - psx * ar + psy * ai
+        out[g, k, 1] = vy + qsy - psx * ai - psy * ar
 
 
 @nb.njit(cache=True, parallel=True)

@@ -1,6 +1,8 @@
-"""Numba kernels of S2's novel view (:func:`vergence.stereospace.s2_view`): the angle penalty on a
-proxy plane and the ULR blend. The public function validates; the kernels trust their inputs.
-Their slow, obviously-correct numpy twins are in ``tests/stereospace/test_mls_view.py``.
+"""Numba kernel of S2's novel view (:func:`vergence.stereospace.s2_view`): the MLS maps read off
+their grid, the angle + field-of-view penalty on a proxy plane, the ULR weights and the bilinear
+samples of the sources, fused in one pass over the target's pixels (no full-size intermediate).
+The public function validates; the kernel trusts its inputs. Its slow, obviously-correct numpy
+twin is in ``tests/stereospace/test_mls_view.py``.
 """
 
 from __future__ import annotations
@@ -10,67 +12,129 @@ import math
 import numba as nb
 import numpy as np
 
-from vergence.synthesis._ibr_kernels import lift
-
-__all__ = ["blend", "proxy_angles"]
+__all__ = ["render_view"]
 
 
-@nb.njit(cache=True, parallel=True)
-def proxy_angles(Kinv, R, t, centre, centres, depth, out):  # pragma: no cover - compiled
-    """``out[i, y, x]``: the angle between ``centre - P`` and ``centres[i] - P``, P being the world
-    point ``R^T (depth K^-1 (x, y, 1) - t)`` of the target pixel (S2 §3.1 Eq. (4), P_ANG)."""
-    s_count, h, w = out.shape
+@nb.njit(cache=True, inline="always")
+def _taps(u, v, h, w, base, row_stride, n_ch, weight):  # pragma: no cover - compiled
+    """Offsets (into the flattened image stack) of the 4 pixels around ``(u, v)`` of an ``h x w``
+    image starting at ``base``, edge pixels repeated, and their bilinear weights times ``weight``."""
+    fx, fy = math.floor(u), math.floor(v)
+    dx, dy = u - fx, v - fy
+    ix, iy = int(fx), int(fy)
+    x0, x1 = max(ix, 0) * n_ch, min(ix + 1, w - 1) * n_ch
+    y0, y1 = base + max(iy, 0) * row_stride, base + min(iy + 1, h - 1) * row_stride
+    top, bottom = weight * (1.0 - dy), weight * dy
+    return (y0 + x0, y0 + x1, y1 + x0, y1 + x1, top * (1.0 - dx), top * dx, bottom * (1.0 - dx),
+            bottom * dx)  # fmt: skip
+
+
+@nb.njit(cache=True, parallel=True, error_model="numpy")
+def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, negligible, image,
+                weights):  # pragma: no cover - compiled
+    """S2's view of a target camera from ``S`` warped sources.
+
+    Source ``s`` is the image ``images[ids[s]]`` (``images (N, Hm, Wm, C)`` float32, its pixels
+    ``sizes[ids[s]] = (h_s, w_s)``; ``ids[s] < 0``: left out). ``at_nodes[s] (ny, nx, 3)`` holds at
+    the node columns ``xs`` and rows ``ys`` (``0, step, 2 step, ..., last pixel``; at least 2 of
+    each) its MLS map (target pixel -> source position ``(u, v)``) and its angle penalty ``P_ANG``
+    (radians), both bilinear in between (as ``_mls_kernels.interpolate_grid``). At each pixel:
+
+    - ``(u, v)`` is valid when ``-0.5 <= u <= w_s - 0.5``, ``-0.5 <= v <= h_s - 0.5`` (``P_FOV = 0``,
+      else inf: S2 §3.1 Eq. (4)); ``P = max(floor, P_ANG)`` where valid;
+    - ULR weights (Buehler et al. 2001): with m >= k valid sources ``w_s = max(0, 1 - P_s / (scale P_(k)))``,
+      ``P_(k)`` the k-th smallest; with 0 < m < k equal weights; normalised;
+    - the colour is ``sum_s w_s I_s(u, v)`` over the sources with ``w_s > negligible`` (the k-th
+      source's weight of about 1e-7 left out changes the colour by less than that), ``I_s`` sampled
+      bilinearly with the edge pixels repeated (cv2.remap's ``BORDER_REPLICATE``, with exact
+      weights where cv2 rounds them to 1/32 pixel).
+
+    Writes ``image (h, w, C)`` (0 where no source is valid) and, when ``weights`` is ``(S, h, w)``
+    (not ``(S, 0, 0)``), the normalised weights. One row per task, each stage a loop over the row.
+    """
+    s_count = ids.shape[0]
+    h, w, n_ch = image.shape
+    nx = xs.shape[0]
+    ny = ys.shape[0]
+    keep = weights.shape[1] == h and weights.shape[2] == w
+    flat = images.reshape(-1)
+    row_stride = images.shape[2] * n_ch
+    image_stride = images.shape[1] * row_stride
+    cell = np.empty(w, dtype=np.int64)  # each column's grid cell and its position in it
+    frac = np.empty(w)
+    for x in range(w):
+        cell[x] = min(x // step, nx - 2)
+        frac[x] = (x - xs[cell[x]]) / (xs[cell[x] + 1] - xs[cell[x]])
     for y in nb.prange(h):
-        for x in range(w):
-            px, py, pz = lift(Kinv, R, t, x, y, depth)
-            nx, ny, nz = centre[0] - px, centre[1] - py, centre[2] - pz
-            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-            for i in range(s_count):
-                cx, cy, cz = centres[i, 0] - px, centres[i, 1] - py, centres[i, 2] - pz
-                cn = math.sqrt(cx * cx + cy * cy + cz * cz)
-                c = (nx * cx + ny * cy + nz * cz) / (nn * cn)
-                out[i, y, x] = math.acos(min(1.0, max(-1.0, c)))
-
-
-@nb.njit(cache=True, parallel=True)
-def blend(warped, penalty, k, scale, image, weights):  # pragma: no cover - compiled
-    """ULR blend (Buehler et al. 2001) of ``warped (S, h, w, C)`` with ``penalty (S, h, w)`` (inf:
-    no sample): with m >= k finite penalties, ``w_i = max(0, 1 - P_i / (scale P_(k)))``, ``P_(k)``
-    the k-th smallest; with 0 < m < k, equal weights; normalised. Writes ``image (h, w, C)`` and
-    ``weights (S, h, w)`` (all 0 where m = 0)."""
-    s_count, h, w, n_ch = warped.shape
-    for y in nb.prange(h):
-        pen = np.empty(s_count)
+        pen = np.empty((s_count, w))
+        us = np.empty((s_count, w))
+        vs = np.empty((s_count, w))
+        along = np.empty((3, nx))
+        order = np.empty(s_count)
+        wts = np.empty(s_count)
+        acc = np.zeros(n_ch)
+        j = min(y // step, ny - 2)
+        ty = (y - ys[j]) / (ys[j + 1] - ys[j])
+        for s in range(s_count):
+            if ids[s] < 0:
+                pen[s] = np.inf
+                continue
+            hs, wd = sizes[ids[s], 0], sizes[ids[s], 1]
+            for i in range(nx):  # the node rows j and j + 1 mixed: the map and angle along this row
+                for c in range(3):
+                    along[c, i] = at_nodes[s, j, i, c] + ty * (at_nodes[s, j + 1, i, c] - at_nodes[s, j, i, c])
+            for x in range(w):
+                i, tx = cell[x], frac[x]
+                u = along[0, i] + tx * (along[0, i + 1] - along[0, i])
+                v = along[1, i] + tx * (along[1, i + 1] - along[1, i])
+                theta = along[2, i] + tx * (along[2, i + 1] - along[2, i])
+                us[s, x] = u
+                vs[s, x] = v
+                valid = -0.5 <= u <= wd - 0.5 and -0.5 <= v <= hs - 0.5
+                pen[s, x] = max(floor, theta) if valid else np.inf
         for x in range(w):
             m = 0
-            for i in range(s_count):
-                pen[i] = penalty[i, y, x]
-                if pen[i] < np.inf:
+            for s in range(s_count):
+                if pen[s, x] < np.inf:
                     m += 1
             total = 0.0
             if m >= k:
-                for i in range(1, s_count):  # insertion sort of at most a few penalties
-                    v = pen[i]
-                    j = i - 1
-                    while j >= 0 and pen[j] > v:
-                        pen[j + 1] = pen[j]
-                        j -= 1
-                    pen[j + 1] = v
-                thresh = scale * pen[k - 1]
-                for i in range(s_count):
-                    wi = 1.0 - penalty[i, y, x] / thresh if penalty[i, y, x] < np.inf else 0.0
-                    weights[i, y, x] = max(0.0, wi)
-                    total += weights[i, y, x]
+                for s in range(s_count):  # insertion sort of at most a few penalties
+                    val = pen[s, x]
+                    r = s - 1
+                    while r >= 0 and order[r] > val:
+                        order[r + 1] = order[r]
+                        r -= 1
+                    order[r + 1] = val
+                thresh = scale * order[k - 1]
+                for s in range(s_count):
+                    wts[s] = max(0.0, 1.0 - pen[s, x] / thresh) if pen[s, x] < np.inf else 0.0
+                    total += wts[s]
             else:
-                for i in range(s_count):
-                    weights[i, y, x] = 1.0 if penalty[i, y, x] < np.inf else 0.0
-                    total += weights[i, y, x]
+                for s in range(s_count):
+                    wts[s] = 1.0 if pen[s, x] < np.inf else 0.0
+                    total += wts[s]
+            for s in range(s_count):
+                wn = wts[s] / total if total > 0.0 else 0.0
+                if keep:
+                    weights[s, y, x] = wn
+                pen[s, x] = wn  # from here on: the weight
+        for x in range(w):  # the colour: the weighted sources' bilinear samples
             for c in range(n_ch):
-                image[y, x, c] = 0.0
-            if total > 0.0:
-                for i in range(s_count):
-                    weights[i, y, x] /= total
-                    wi = weights[i, y, x]
-                    if wi > 0.0:
+                acc[c] = 0.0
+            for s in range(s_count):
+                wn = pen[s, x]
+                if wn > negligible:
+                    n = ids[s]
+                    o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], sizes[n, 0], sizes[n, 1],
+                                                                   n * image_stride, row_stride, n_ch, wn)  # fmt: skip
+                    if n_ch == 3:  # RGB spelt out: the compiler keeps the three sums in registers
+                        acc[0] += w00 * flat[o00] + w01 * flat[o01] + w10 * flat[o10] + w11 * flat[o11]
+                        acc[1] += w00 * flat[o00 + 1] + w01 * flat[o01 + 1] + w10 * flat[o10 + 1] + w11 * flat[o11 + 1]
+                        acc[2] += w00 * flat[o00 + 2] + w01 * flat[o01 + 2] + w10 * flat[o10 + 2] + w11 * flat[o11 + 2]
+                    else:
                         for c in range(n_ch):
-                            image[y, x, c] += wi * warped[i, y, x, c]
+                            acc[c] += (w00 * flat[o00 + c] + w01 * flat[o01 + c] + w10 * flat[o10 + c]
+                                       + w11 * flat[o11 + c])  # fmt: skip
+            for c in range(n_ch):
+                image[y, x, c] = acc[c]

@@ -42,10 +42,10 @@ def _check_handles(src_name: str, src: object, dst_name: str, dst: object) -> tu
 
 def _deform(points: np.ndarray, p: np.ndarray, q: np.ndarray, alpha: float) -> np.ndarray:
     """The kernel on validated, C-contiguous float64 inputs."""
-    out = np.empty((points.shape[0], 2), dtype=np.float64)
+    out = np.empty((1, points.shape[0], 2), dtype=np.float64)
     if points.shape[0]:
-        _mls_kernels.mls_similarity_points(points, p, q, alpha, out)
-    return out
+        _mls_kernels.mls_similarity_points(points, p, q, np.array([0, len(p)]), alpha, out)
+    return out[0]
 
 
 def mls_similarity(points: object, handles_src: object, handles_dst: object, *, alpha: float = 1.0) -> np.ndarray:
@@ -89,8 +89,9 @@ def mls_similarity(points: object, handles_src: object, handles_dst: object, *, 
         A_i    = w_i [p^_i; -p^_i^perp] [v - p*; -(v - p*)^perp]^T,   (x, y)^perp = (-y, x)
 
     computed in the equivalent complex form ``f_s(v) = (v - p*) a + q*``,
-    ``a = sum w_i conj(p^_i) q^_i / sum w_i |p^_i|^2``. The weights are scaled by the nearest
-    handle's so that they never overflow (the formula is invariant to a common scale). One Numba
+    ``a = sum w_i conj(p^_i) q^_i / sum w_i |p^_i|^2``, in one pass over the handles per point (the
+    centred sums from the raw sums about v: ``stereospace/_mls_kernels.py``). A point on a handle, or
+    so near one that its weight overflows, takes that handle's target (the limit of f). One Numba
     task per point; cost O(N M).
 
     Examples
@@ -114,6 +115,29 @@ def _grid_nodes(n: int, step: int) -> np.ndarray:
     return nodes
 
 
+def _node_grid(shape: tuple[int, int], grid_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node columns ``xs``, rows ``ys`` (:func:`_grid_nodes`) and the ``(len(ys) * len(xs), 2)``
+    float64 nodes ``(x, y)``, row by row."""
+    h, w = shape
+    xs = _grid_nodes(w, grid_step)
+    ys = _grid_nodes(h, grid_step)
+    gx, gy = np.meshgrid(xs, ys)
+    return xs, ys, np.ascontiguousarray(np.stack([gx.ravel(), gy.ravel()], axis=1))
+
+
+def _with_cells(xs: np.ndarray, ys: np.ndarray, at_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node values ``(len(ys), len(xs), ...)`` with at least two node columns and rows.
+
+    A one-pixel-wide (or -high) output has a single node column (row): it is copied to a phantom
+    node one pixel further so that the interpolation always has a cell; its weight is 0.
+    """
+    if xs.size == 1:
+        xs, at_nodes = np.array([0.0, 1.0]), np.repeat(at_nodes, 2, axis=1)
+    if ys.size == 1:
+        ys, at_nodes = np.array([0.0, 1.0]), np.repeat(at_nodes, 2, axis=0)
+    return xs, ys, np.ascontiguousarray(at_nodes)
+
+
 def _source_map(
     handles_src: np.ndarray,
     handles_dst: np.ndarray,
@@ -126,22 +150,14 @@ def _source_map(
     pixel: the inverse deformation (handles ``q -> p``) at the grid nodes, bilinear in between;
     inputs already validated."""
     h, w = shape
-    xs = _grid_nodes(w, grid_step)
-    ys = _grid_nodes(h, grid_step)
-    gx, gy = np.meshgrid(xs, ys)
-    nodes = np.ascontiguousarray(np.stack([gx.ravel(), gy.ravel()], axis=1))
+    xs, ys, nodes = _node_grid(shape, grid_step)
     at_nodes = _deform(nodes, handles_dst, handles_src, alpha).reshape(ys.size, xs.size, 2)
     if grid_step == 1:
         return at_nodes[..., 0].astype(dtype), at_nodes[..., 1].astype(dtype)
-    # A one-pixel-wide (or -high) output has a single node column (row): copy it to a phantom node
-    # one pixel further so that the kernel always has a cell; its interpolation weight is 0.
-    if xs.size == 1:
-        xs, at_nodes = np.array([0.0, 1.0]), np.repeat(at_nodes, 2, axis=1)
-    if ys.size == 1:
-        ys, at_nodes = np.array([0.0, 1.0]), np.repeat(at_nodes, 2, axis=0)
+    xs, ys, at_nodes = _with_cells(xs, ys, at_nodes)
     map_x = np.empty((h, w), dtype=dtype)
     map_y = np.empty((h, w), dtype=dtype)
-    _mls_kernels.interpolate_grid(np.ascontiguousarray(at_nodes), xs, ys, grid_step, map_x, map_y)
+    _mls_kernels.interpolate_grid(at_nodes, xs, ys, grid_step, map_x, map_y)
     return map_x, map_y
 
 

@@ -19,22 +19,37 @@ Decisions (S2 leaves them open)
   views are then the one novel view, unrectified (``rectification`` is None).
 - S2's novel view takes the :data:`~vergence.stereospace.S2_MAX_SOURCES` cameras nearest (centre
   distance) to the novel camera as its sources (S2 §3.1: "four of its neighbouring cameras").
+
+Speed
+-----
+:class:`PreparedCollection` does once what does not depend on the pair: the camera graph, every
+image decoded into one float32 stack, the sparse points projected into every camera. A view then
+costs one parallel MLS evaluation of its sources at the grid nodes (float32, nodes x handles) and
+one fused pass over its pixels (maps, penalties, ULR weights, bilinear samples). Measured on the
+shared 2-core development machine (load average 2.5 to 4.5), median anaglyph-packed 640 x 480
+pairs from 4 sources (``benchmarks/stereospace_pair.py``): kermit (634 points) 85-109 ms prepared
+(140-147 ms of CPU time on 2 threads), 139-164 ms from the bare collection; dino (6,487 points,
+about 6,000 handles a source) 167-304 ms prepared, 347-379 ms bare. The former implementation
+(per-source ``mls_warp``, numpy blend and sRGB) took 517-761 ms (kermit) and 882-1531 ms (dino)
+prepared in the same hour. On dino the MLS maps are half of the time: ``PreparedCollection(grid_step=16)``
+makes them 4 times cheaper.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from vergence._validate import check_positive_int
 from vergence.camera import Camera, interpolate
 from vergence.depth import Rectification, rectify_cameras
 from vergence.display import LAYOUTS, pack
 from vergence.io import read_image
 from vergence.stereospace.collection import Collection
 from vergence.stereospace.graph import CameraGraph, camera_graph
-from vergence.stereospace.mls_view import S2_MAX_SOURCES, s2_view
+from vergence.stereospace.mls_view import S2_GRID_STEP, S2_MAX_SOURCES, _render, _source_set, _SourceSet
 from vergence.stereospace.space import StereoSpace, StereoState
 
 __all__ = ["PAIR_METHODS", "PreparedCollection", "StereoPairResult", "pair_cameras", "space_from_graph",
@@ -110,63 +125,105 @@ def pair_cameras(space: StereoSpace, collection: Collection, state: StereoState,
             interpolate(cams[pairs[j, 0]], cams[pairs[j, 1]], state.lj))
 
 
+def _colour_images(images: list[np.ndarray]) -> list[np.ndarray]:
+    """``(H, W, C)`` float32 images of one channel count: grey ones repeated to 3 channels when
+    the collection mixes grey and colour."""
+    hwc = [img[..., None] if img.ndim == 2 else img for img in images]
+    if len({img.shape[2] for img in hwc}) > 1:
+        hwc = [np.repeat(img, 3, axis=2) if img.shape[2] == 1 else img for img in hwc]
+    return [np.ascontiguousarray(img, dtype=np.float32) for img in hwc]
+
+
+def _decoded(collection: Collection, k: int) -> np.ndarray:
+    """The image of camera ``k`` decoded (float32), checked against its camera's size."""
+    path, cam = collection.image_paths[k], collection.cameras[k]
+    img = read_image(path)
+    if img.shape[:2] != (cam.height, cam.width):
+        raise ValueError(f"image {path.name} is {img.shape[1]} x {img.shape[0]}; its camera is "
+                         f"{cam.width} x {cam.height}")  # fmt: skip
+    return img
+
+
 class PreparedCollection:
     """A collection made ready for fast stereo pairs (done once, then reused for every pair).
 
-    Holds the camera graph, its StereoSpace and segment cameras, the camera centres and every image
-    decoded as float32 (decoding a 640 x 480 JPEG costs several milliseconds a view).
+    Holds the camera graph, its StereoSpace and segment cameras, the camera centres and what S2's
+    novel view needs of every camera as a source, whatever the target: its image decoded as float32
+    (decoding a 640 x 480 JPEG costs several milliseconds a view) in one stack, and the sparse points
+    projected into it with the mask of those in front of it and on its image.
 
     Parameters
     ----------
     collection : Collection
     graph : CameraGraph, optional
         Default :func:`~vergence.stereospace.camera_graph` of the collection.
+    grid_step : int
+        Grid spacing of the MLS maps of the pair's views, pixels (:func:`~vergence.stereospace.s2_view`'s
+        ``grid_step``; its default 8 gives the pairs of the bare collection). The cost of the maps
+        is nodes x handles: on dino (6,000 handles a source) step 16 makes them 4 times cheaper
+        and moves the warp field by 0.06-0.43 px on average against step 8 (kermit: 0.20-0.64 px);
+        the views then differ by 0.0009-0.0012 (dino) and 0.004-0.006 (kermit) on average, in [0, 1]
+        (``benchmarks/stereospace_pair.py``).
     """
 
-    __slots__ = ("centers", "collection", "graph", "images", "segment_cameras", "space")
+    __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "images", "segment_cameras", "space")
 
-    def __init__(self, collection: Collection, *, graph: CameraGraph | None = None) -> None:
+    def __init__(self, collection: Collection, *, graph: CameraGraph | None = None,
+                 grid_step: int = S2_GRID_STEP) -> None:  # fmt: skip
         if not isinstance(collection, Collection):
             raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
+        self.grid_step = check_positive_int("grid_step", grid_step)
         self.collection = collection
         self.graph = camera_graph(collection) if graph is None else graph
         self.space, self.segment_cameras = space_from_graph(collection, self.graph)
         self.centers = collection.centers
-        images = []
-        for path, cam in zip(collection.image_paths, collection.cameras):
-            img = read_image(path)
-            if img.shape[:2] != (cam.height, cam.width):
-                raise ValueError(f"image {path.name} is {img.shape[1]} x {img.shape[0]}; its camera is "
-                                 f"{cam.width} x {cam.height}")  # fmt: skip
-            img.flags.writeable = False
-            images.append(img)
-        self.images = tuple(images)
+        images = _colour_images([_decoded(collection, k) for k in range(len(collection))])
+        self._sources = _source_set(collection.cameras, images, collection.points)
+        images.clear()
+        stack = self._sources.images
+        stack.flags.writeable = False
+        grey = stack.shape[3] == 1
+        self.images = tuple(stack[k, : c.height, : c.width, 0] if grey else stack[k, : c.height, : c.width]
+                            for k, c in enumerate(collection.cameras))  # fmt: skip
 
     def image(self, k: int) -> np.ndarray:
         """The decoded float32 image of camera ``k``."""
         return self.images[k]
 
+    def view_sources(self, ids: Sequence[int]) -> tuple[_SourceSet, np.ndarray]:
+        """The sources of S2's views and the positions in it of the cameras ``ids``."""
+        return self._sources, np.asarray(ids, dtype=np.int64)
+
 
 class _Unprepared:
-    """The same interface as :class:`PreparedCollection` without the cache: images decoded on use."""
+    """The same interface as :class:`PreparedCollection` without the cache: the images a view
+    needs decoded and the points projected for that view only."""
 
     def __init__(self, collection: Collection) -> None:
         self.collection = collection
+        self.grid_step = S2_GRID_STEP
         self.graph = camera_graph(collection)
         self.space, self.segment_cameras = space_from_graph(collection, self.graph)
         self.centers = collection.centers
 
     def image(self, k: int) -> np.ndarray:
-        return read_image(self.collection.image_paths[k])
+        return _decoded(self.collection, k)
+
+    def view_sources(self, ids: Sequence[int]) -> tuple[_SourceSet, np.ndarray]:
+        cams = [self.collection.cameras[k] for k in ids]
+        images = _colour_images([self.image(k) for k in ids])
+        return _source_set(cams, images, self.collection.points), np.arange(len(ids), dtype=np.int64)
 
 
 def _mls_view(prepared: PreparedCollection, target: Camera, *, sources: int = S2_MAX_SOURCES) -> np.ndarray:
-    """S2's novel view (:func:`~vergence.stereospace.s2_view`) from the ``sources`` nearest cameras."""
+    """S2's novel view (:func:`~vergence.stereospace.s2_view`, its defaults) from the ``sources``
+    nearest cameras."""
     distance = np.linalg.norm(prepared.centers - target.center, axis=1)
     nearest = np.lexsort((np.arange(len(distance)), distance))[:sources]
-    cams = prepared.collection.cameras
-    view = s2_view(target, [(cams[k], prepared.image(k)) for k in nearest], points=prepared.collection.points)
-    return view.image
+    source_set, ids = prepared.view_sources(nearest)
+    image = _render(target, source_set, ids, prepared.collection.points, grid_step=prepared.grid_step, alpha=1.0,
+                    k=S2_MAX_SOURCES, keep_weights=False)[0]  # fmt: skip
+    return image[..., 0] if image.shape[2] == 1 else image
 
 
 PAIR_METHODS: dict[str, ViewMethod] = {"mls": _mls_view}
