@@ -225,3 +225,10 @@ def test_stereospace_section_pans_zooms_and_scores_dino(demo, shared_data):
     mean_plane = np.mean([s["plane"] for s in ss.psnr_db.values()])
     assert mean_depth > mean_plane + 2.0  # the bar for the depth method: the plane + 2 dB
     assert "benchmarks/stereospace_loo.py" in text
+    # The navigation map (S2 Fig. 11) of the built space comes first, a real picture.
+    from vergence.io import read_image
+
+    assert html.index("stereospace_map.png") < html.index("stereospace_pan_0.png")
+    assert "The navigation map (S2 Fig. 11)" in text
+    picture = read_image(demo.index.parent / "stereospace_map.png")
+    assert picture.shape[0] > 300 and picture.std() > 0.05
