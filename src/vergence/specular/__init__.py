@@ -8,7 +8,7 @@
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
 
-from vergence.specular.layer_disparity import (
+from vergence.specular.matching import (
     EPSILON_FRACTION,
     LAYER_MATCH_METHODS,
     MATCH_WINDOW,

@@ -1,4 +1,4 @@
-"""Numba kernels of the per-layer position matching (S3 §3.2); callers in :mod:`.layer_disparity`.
+"""Numba kernels of the per-layer position matching (S3 §3.2); caller in :mod:`.matching`.
 
 All arithmetic on positions is float32, in one fixed order, so that every kernel (and the numpy
 reference of the tests) computes bit-identical squared distances:

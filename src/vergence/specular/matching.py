@@ -17,13 +17,12 @@ displayed parallax, positive (uncrossed) behind the screen, as
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from numbers import Integral
 
 import numpy as np
 
-from vergence._validate import check_bool, check_positive
+from vergence._validate import check_bool, check_in_range
 from vergence.specular import _kernels
 from vergence.viewing.comfort import arcmin_from_pixels
 from vergence.viewing.geometry import Display
@@ -45,6 +44,8 @@ __all__ = [
 MATCH_WINDOW = (81, 9)
 # S3 §3.2: "epsilon equals 1/100 of the scene diameter".
 EPSILON_FRACTION = 0.01
+# Range of a given epsilon, metres: its float32 square stays a normal number (the cutoff compares squares).
+_EPSILON_RANGE = (1e-18, 1e18)
 # Columns per bounding box of the branch and bound (a speed setting only: the result does not depend on it).
 _BLOCK = 8
 
@@ -218,7 +219,8 @@ def layer_disparity(
         number or ``method`` not a string.
     ValueError
         If the arrays are not ``(N, H, W, 3)`` of one shape or hold inf, the window sides are not
-        odd and >= 1, ``epsilon`` is not finite and > 0, or ``method`` is unknown (the message lists the methods).
+        odd and >= 1, ``epsilon`` lies outside [1e-18, 1e18] m (float32 squares), or ``method`` is
+        unknown (the message lists the methods).
 
     Notes
     -----
@@ -260,11 +262,12 @@ def layer_disparity(
     lo_r, hi_r = _bounds("right_position", right)
     if epsilon is None:
         eps = EPSILON_FRACTION * _diameter(np.minimum(lo_l, lo_r), np.maximum(hi_l, hi_r))
+        if eps > _EPSILON_RANGE[1]:
+            raise ValueError(f"the scene diameter must be at most {_EPSILON_RANGE[1] / EPSILON_FRACTION:g} m for "
+                             f"float32 matching; got {eps / EPSILON_FRACTION:g} m")  # fmt: skip
     else:
-        eps = check_positive("epsilon", epsilon)
+        eps = check_in_range("epsilon", epsilon, *_EPSILON_RANGE)
     eps32 = np.float32(eps)
-    if not math.isfinite(float(eps32) ** 2):
-        raise ValueError(f"epsilon must be at most {math.sqrt(np.finfo(np.float32).max):.4g} m (float32 range); got {eps:g}")
     disp, d2 = LAYER_MATCH_METHODS[method](left, right, win[0] // 2, win[1] // 2, eps32 * eps32)
     return LayerDisparity(disparity_px=disp, distance=np.sqrt(d2), epsilon=float(eps), window=win)
 
