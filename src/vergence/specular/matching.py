@@ -305,8 +305,9 @@ def disparity_arcmin(disparity_px: object, display: Display, *, exact: bool = Tr
     Notes
     -----
     Parallax ``s = -d · p · N / W`` metres (pitch ``p``, ``N`` display pixels, ``W`` image
-    pixels), then ``theta = 2 atan(e/2D) - 2 atan((e - s)/2D)`` (SPEC of S3 §3.2's arcmin, vergence
-    geometry of :mod:`vergence.viewing.comfort`); vertically ``theta = s / D``.
+    pixels), then ``theta = 2 atan(e/2D) - 2 atan((e - s)/2D)``, the vergence geometry of
+    :mod:`vergence.viewing.comfort` (S3 §3.2 gives disparities in arcmin); vertically ``theta = s / D``.
+    S3's study display shows 1 px as about 1.62′ (S3 §4: 0.282 mm at 60 cm).
 
     Examples
     --------
