@@ -25,13 +25,15 @@ _BOX = 6
 
 
 @numba.njit(parallel=True, cache=True)
-def position_bounds(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def position_bounds(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
     """Bounding box of the pixels of ``(N, H, W, 3)`` positions finite on all three coordinates
-    (``lo``, ``hi``, each (3,) float64; lo > hi when there is none) and the number of values that are inf."""
+    (``lo``, ``hi``, each (3,) float64; lo > hi when there is none), the number of values that are
+    inf, and ``(N, H)`` bool: whether each row of each layer has such a pixel."""
     n_layers, h, w, _ = positions.shape
     row_lo = np.full((n_layers * h, 3), np.inf)
     row_hi = np.full((n_layers * h, 3), -np.inf)
     row_inf = np.zeros(n_layers * h, dtype=np.int64)
+    active = np.zeros((n_layers, h), dtype=np.bool_)
     for t in numba.prange(n_layers * h):
         n = t // h
         y = t - n * h
@@ -47,13 +49,14 @@ def position_bounds(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]
         row_lo[t, 0], row_lo[t, 1], row_lo[t, 2] = lx, ly, lz
         row_hi[t, 0], row_hi[t, 1], row_hi[t, 2] = hx, hy, hz
         row_inf[t] = n_inf
+        active[n, y] = lx <= hx
     lo = np.full(3, np.inf)
     hi = np.full(3, -np.inf)
     for t in range(n_layers * h):
         for c in range(3):
             lo[c] = min(lo[c], row_lo[t, c])
             hi[c] = max(hi[c], row_hi[t, c])
-    return lo, hi, int(row_inf.sum())
+    return lo, hi, int(row_inf.sum()), active
 
 
 @numba.njit(cache=True, inline="always")
@@ -87,13 +90,16 @@ def row_boxes(positions: np.ndarray, block: int) -> np.ndarray:
 
 
 @numba.njit(parallel=True, cache=True)
-def window_boxes(boxes: np.ndarray, half_height: int) -> np.ndarray:
-    """Union of the row boxes of rows ``y - half_height .. y + half_height`` (clipped), per row ``y``."""
+def window_boxes(boxes: np.ndarray, half_height: int, active: np.ndarray) -> np.ndarray:
+    """Union of the row boxes of rows ``y - half_height .. y + half_height`` (clipped), per row ``y``
+    where ``active[n, y]`` (the left row has a surface to match; other rows are left unset)."""
     n_layers, h, n_blocks, _ = boxes.shape
     out = np.empty_like(boxes)
     for t in numba.prange(n_layers * h):
         n = t // h
         y = t - n * h
+        if not active[n, y]:
+            continue
         y0, y1 = max(y - half_height, 0), min(y + half_height, h - 1)
         for b in range(n_blocks):
             for c in range(3):
@@ -123,23 +129,30 @@ def _box_bound(boxes: np.ndarray, n: int, y: int, b: int, px: np.float32, py: np
 
 @numba.njit(parallel=True, cache=True)
 def match_exhaustive(
-    left: np.ndarray, right: np.ndarray, half_width: int, half_height: int, eps2: np.float32
+    left: np.ndarray, right: np.ndarray, active: np.ndarray, half_width: int, half_height: int, eps2: np.float32
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Every candidate of the window, in raster order: disparity ``(N, H, W, 2)`` and ``d2`` ``(N, H, W)``.
+    """Every candidate of the window, in raster order: disparity ``(N, H, W, 2)`` and distance ``(N, H, W)``.
 
-    Disparity is ``(x_left - x_right, y_left - y_right)``; NaN (both) where no candidate has
-    ``d2 < eps2``. A strict ``<`` in raster order keeps the first of equal candidates (the tie rule).
+    Disparity is ``(x_left - x_right, y_left - y_right)``, distance ``sqrt(d2)`` (float32); NaN
+    where no candidate has ``d2 < eps2``. A strict ``<`` in raster order keeps the first of equal
+    candidates (the tie rule). Rows with ``active[n, y]`` False (no left surface) are all NaN.
     """
     n_layers, h, w, _ = left.shape
-    disp = np.full((n_layers, h, w, 2), np.nan, dtype=np.float32)
-    best_d2 = np.full((n_layers, h, w), np.nan, dtype=np.float32)
+    disp = np.empty((n_layers, h, w, 2), dtype=np.float32)
+    dist = np.empty((n_layers, h, w), dtype=np.float32)
+    nan = np.float32(np.nan)
     for t in numba.prange(n_layers * h):
         y = t // n_layers  # rows interleave the layers: each thread's share holds all of them
         n = t - y * n_layers
+        if not active[n, y]:
+            disp[n, y, :, :] = nan
+            dist[n, y, :] = nan
+            continue
         y0, y1 = max(y - half_height, 0), min(y + half_height, h - 1)
         for x in range(w):
             px, py, pz = left[n, y, x, 0], left[n, y, x, 1], left[n, y, x, 2]
             if not (px == px and py == py and pz == pz):  # a NaN: no surface, never matched
+                disp[n, y, x, 0], disp[n, y, x, 1], dist[n, y, x] = nan, nan, nan
                 continue
             x0, x1 = max(x - half_width, 0), min(x + half_width, w - 1)
             best, bi, bj = eps2, -1, -1
@@ -152,16 +165,17 @@ def match_exhaustive(
                     if d2 < best:
                         best, bi, bj = d2, yy, xx
             if bi >= 0:
-                disp[n, y, x, 0] = x - bj
-                disp[n, y, x, 1] = y - bi
-                best_d2[n, y, x] = best
-    return disp, best_d2
+                disp[n, y, x, 0], disp[n, y, x, 1], dist[n, y, x] = x - bj, y - bi, np.sqrt(best)
+            else:
+                disp[n, y, x, 0], disp[n, y, x, 1], dist[n, y, x] = nan, nan, nan
+    return disp, dist
 
 
 @numba.njit(parallel=True, cache=True)
 def match_bounded(
     left: np.ndarray,
     right: np.ndarray,
+    active: np.ndarray,
     boxes: np.ndarray,
     wboxes: np.ndarray,
     block: int,
@@ -179,16 +193,22 @@ def match_bounded(
     of the exhaustive scan.
     """
     n_layers, h, w, _ = left.shape
-    disp = np.full((n_layers, h, w, 2), np.nan, dtype=np.float32)
-    best_d2 = np.full((n_layers, h, w), np.nan, dtype=np.float32)
+    disp = np.empty((n_layers, h, w, 2), dtype=np.float32)
+    dist = np.empty((n_layers, h, w), dtype=np.float32)
+    nan = np.float32(np.nan)
     for t in numba.prange(n_layers * h):
         y = t // n_layers  # rows interleave the layers: each thread's share holds all of them
         n = t - y * n_layers
+        if not active[n, y]:
+            disp[n, y, :, :] = nan
+            dist[n, y, :] = nan
+            continue
         y0, y1 = max(y - half_height, 0), min(y + half_height, h - 1)
         prev_i, prev_j = -1, -1  # the right pixel matched by the previous left pixel of this row
         for x in range(w):
             px, py, pz = left[n, y, x, 0], left[n, y, x, 1], left[n, y, x, 2]
             if not (px == px and py == py and pz == pz):  # a NaN: no surface, never matched
+                disp[n, y, x, 0], disp[n, y, x, 1], dist[n, y, x] = nan, nan, nan
                 prev_j = -1
                 continue
             x0, x1 = max(x - half_width, 0), min(x + half_width, w - 1)
@@ -224,10 +244,9 @@ def match_bounded(
                         if d2 < best or (d2 == best and bi >= 0 and (yy < bi or (yy == bi and xx < bj))):
                             best, bi, bj = d2, yy, xx
             if bi >= 0:
-                disp[n, y, x, 0] = x - bj
-                disp[n, y, x, 1] = y - bi
-                best_d2[n, y, x] = best
+                disp[n, y, x, 0], disp[n, y, x, 1], dist[n, y, x] = x - bj, y - bi, np.sqrt(best)
                 prev_i, prev_j = bi, bj
             else:
+                disp[n, y, x, 0], disp[n, y, x, 1], dist[n, y, x] = nan, nan, nan
                 prev_j = -1
-    return disp, best_d2
+    return disp, dist

@@ -126,13 +126,14 @@ def _diameter(lo: np.ndarray, hi: np.ndarray) -> float:
     return float(np.linalg.norm(hi - lo))
 
 
-def _bounds(name: str, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Bounding box of the finite pixels of checked float32 positions; ValueError on inf."""
-    lo, hi, n_inf = _kernels.position_bounds(positions)
+def _bounds(name: str, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bounding box of the finite pixels of checked float32 positions and the ``(N, H)`` rows that
+    have one; ValueError on inf."""
+    lo, hi, n_inf, active = _kernels.position_bounds(positions)
     if n_inf:
         raise ValueError(f"{name} must hold finite positions or NaN (no surface), within float32 range; "
                          f"got {n_inf} inf value(s)")  # fmt: skip
-    return lo, hi
+    return lo, hi, active
 
 
 def scene_diameter(left_position: object, right_position: object) -> float:
@@ -163,18 +164,21 @@ def scene_diameter(left_position: object, right_position: object) -> float:
     >>> scene_diameter(p, p[:, :, :1])
     5.0
     """
-    lo_l, hi_l = _bounds("left_position", _positions("left_position", left_position))
-    lo_r, hi_r = _bounds("right_position", _positions("right_position", right_position))
+    lo_l, hi_l, _ = _bounds("left_position", _positions("left_position", left_position))
+    lo_r, hi_r, _ = _bounds("right_position", _positions("right_position", right_position))
     return _diameter(np.minimum(lo_l, lo_r), np.maximum(hi_l, hi_r))
 
 
-def _match_exhaustive(left: np.ndarray, right: np.ndarray, half_w: int, half_h: int, eps2: np.float32):  # noqa: ANN202
-    return _kernels.match_exhaustive(left, right, half_w, half_h, eps2)
+def _match_exhaustive(left, right, active, half_w, half_h, eps2):  # noqa: ANN001, ANN202
+    """Disparity and distance by :func:`._kernels.match_exhaustive` (``active``: the left rows with a surface)."""
+    return _kernels.match_exhaustive(left, right, active, half_w, half_h, eps2)
 
 
-def _match_bounded(left: np.ndarray, right: np.ndarray, half_w: int, half_h: int, eps2: np.float32):  # noqa: ANN202
+def _match_bounded(left, right, active, half_w, half_h, eps2):  # noqa: ANN001, ANN202
+    """Disparity and distance by :func:`._kernels.match_bounded`, on the right eye's boxes."""
     boxes = _kernels.row_boxes(right, _BLOCK)
-    return _kernels.match_bounded(left, right, boxes, _kernels.window_boxes(boxes, half_h), _BLOCK, half_w, half_h, eps2)
+    wboxes = _kernels.window_boxes(boxes, half_h, active)
+    return _kernels.match_bounded(left, right, active, boxes, wboxes, _BLOCK, half_w, half_h, eps2)
 
 
 # The search methods: both return the same matches (the tests hold them to it); "bounded" is faster.
@@ -258,8 +262,8 @@ def layer_disparity(
         raise TypeError(f"method must be a string; got {type(method).__name__}")
     if method not in LAYER_MATCH_METHODS:
         raise ValueError(f"unknown method {method!r}; valid methods: {', '.join(sorted(LAYER_MATCH_METHODS))}")
-    lo_l, hi_l = _bounds("left_position", left)
-    lo_r, hi_r = _bounds("right_position", right)
+    lo_l, hi_l, active = _bounds("left_position", left)
+    lo_r, hi_r, _ = _bounds("right_position", right)
     if epsilon is None:
         eps = EPSILON_FRACTION * _diameter(np.minimum(lo_l, lo_r), np.maximum(hi_l, hi_r))
         if eps > _EPSILON_RANGE[1]:
@@ -268,8 +272,8 @@ def layer_disparity(
     else:
         eps = check_in_range("epsilon", epsilon, *_EPSILON_RANGE)
     eps32 = np.float32(eps)
-    disp, d2 = LAYER_MATCH_METHODS[method](left, right, win[0] // 2, win[1] // 2, eps32 * eps32)
-    return LayerDisparity(disparity_px=disp, distance=np.sqrt(d2), epsilon=float(eps), window=win)
+    disp, dist = LAYER_MATCH_METHODS[method](left, right, active, win[0] // 2, win[1] // 2, eps32 * eps32)
+    return LayerDisparity(disparity_px=disp, distance=dist, epsilon=float(eps), window=win)
 
 
 def disparity_arcmin(disparity_px: object, display: Display, *, exact: bool = True) -> np.ndarray:
