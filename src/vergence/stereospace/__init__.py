@@ -84,7 +84,14 @@ from vergence.stereospace.build import (
     vertex_quality,
 )
 from vergence.stereospace.spacefile import SPACE_FILE, SPACE_FORMAT_VERSION, load_space, save_space, write_space
-from vergence.stereospace.mls_view import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, S2View, s2_view
+from vergence.stereospace.mls_view import (
+    S2_HANDLE_CELL_PX,
+    S2_MAX_SOURCES,
+    S2_PENALTY_FLOOR,
+    S2_THRESHOLD_SCALE,
+    S2View,
+    s2_view,
+)
 
 __all__ = [
     "BuiltSpace",
@@ -119,6 +126,7 @@ __all__ = [
     "RELATIVE_TOLERANCE",
     "RING_CLOSURE",
     "S2View",
+    "S2_HANDLE_CELL_PX",
     "S2_MAX_SOURCES",
     "S2_PENALTY_FLOOR",
     "S2_THRESHOLD_SCALE",
