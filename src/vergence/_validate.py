@@ -122,9 +122,9 @@ def as_image(name: str, image: object) -> np.ndarray:
     if np.issubdtype(arr.dtype, np.integer):
         raise TypeError(f"{name} must be float in [0, 1], uint8 or uint16; got {arr.dtype}")
     out = arr.astype(np.float32, copy=True)
-    if not np.isfinite(out).all():
+    lo, hi = float(out.min()), float(out.max())  # a NaN anywhere makes both NaN, an inf one of them
+    if not (np.isfinite(lo) and np.isfinite(hi)):
         raise ValueError(f"{name} must be finite (no NaN or inf)")
-    lo, hi = float(out.min()), float(out.max())
     if lo < 0.0 or hi > 1.0:
         raise ValueError(f"{name} values must lie in [0, 1]; got [{lo:g}, {hi:g}]")
     return out

@@ -50,7 +50,9 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
       weights where cv2 rounds them to 1/32 pixel).
 
     Writes ``image (h, w, C)`` (0 where no source is valid) and, when ``weights`` is ``(S, h, w)``
-    (not ``(S, 0, 0)``), the normalised weights. One row per task, each stage a loop over the row.
+    (not ``(S, 0, 0)``), the normalised weights. One row per task, each stage a loop over the row; the
+    colour is gathered source by source (each source's rows read in order: twice as fast as
+    pixel by pixel, where the sources' rows evict each other from the cache).
     """
     s_count = ids.shape[0]
     h, w, n_ch = image.shape
@@ -72,7 +74,6 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
         along = np.empty((3, nx))
         order = np.empty(s_count)
         wts = np.empty(s_count)
-        acc = np.zeros(n_ch)
         j = min(y // step, ny - 2)
         ty = (y - ys[j]) / (ys[j + 1] - ys[j])
         for s in range(s_count):
@@ -119,22 +120,24 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                 if keep:
                     weights[s, y, x] = wn
                 pen[s, x] = wn  # from here on: the weight
-        for x in range(w):  # the colour: the weighted sources' bilinear samples
-            for c in range(n_ch):
-                acc[c] = 0.0
-            for s in range(s_count):
+        row = np.zeros((w, n_ch))
+        for s in range(s_count):  # the colour source by source: each source's rows read in order
+            n = ids[s]
+            if n < 0:
+                continue
+            for x in range(w):
                 wn = pen[s, x]
                 if wn > negligible:
-                    n = ids[s]
                     o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], sizes[n, 0], sizes[n, 1],
                                                                    n * image_stride, row_stride, n_ch, wn)  # fmt: skip
                     if n_ch == 3:  # RGB spelt out: the compiler keeps the three sums in registers
-                        acc[0] += w00 * flat[o00] + w01 * flat[o01] + w10 * flat[o10] + w11 * flat[o11]
-                        acc[1] += w00 * flat[o00 + 1] + w01 * flat[o01 + 1] + w10 * flat[o10 + 1] + w11 * flat[o11 + 1]
-                        acc[2] += w00 * flat[o00 + 2] + w01 * flat[o01 + 2] + w10 * flat[o10 + 2] + w11 * flat[o11 + 2]
+                        row[x, 0] += w00 * flat[o00] + w01 * flat[o01] + w10 * flat[o10] + w11 * flat[o11]
+                        row[x, 1] += w00 * flat[o00 + 1] + w01 * flat[o01 + 1] + w10 * flat[o10 + 1] + w11 * flat[o11 + 1]
+                        row[x, 2] += w00 * flat[o00 + 2] + w01 * flat[o01 + 2] + w10 * flat[o10 + 2] + w11 * flat[o11 + 2]
                     else:
                         for c in range(n_ch):
-                            acc[c] += (w00 * flat[o00 + c] + w01 * flat[o01 + c] + w10 * flat[o10 + c]
-                                       + w11 * flat[o11 + c])  # fmt: skip
+                            row[x, c] += (w00 * flat[o00 + c] + w01 * flat[o01 + c] + w10 * flat[o10 + c]
+                                          + w11 * flat[o11 + c])  # fmt: skip
+        for x in range(w):
             for c in range(n_ch):
-                image[y, x, c] = acc[c]
+                image[y, x, c] = row[x, c]
