@@ -169,3 +169,14 @@ def test_check_depth_drops_textureless_pixels(tmp_path):
     assert np.isfinite(depth[:, W // 2 + 4 :]).mean() > 0.8
     with pytest.raises(ValueError, match="depth must be"):
         check_depth(col, 1, np.ones((3, 3)))
+
+
+def test_depth_functions_refuse_a_bad_camera_index(plane):
+    from vergence.stereospace import check_depth, source_depth
+
+    with pytest.raises(ValueError, match="camera index"):
+        check_depth(plane, 5, np.ones((H, W)))
+    with pytest.raises(ValueError, match="camera index"):
+        source_depth(plane, -1)
+    with pytest.raises(TypeError, match="collection"):
+        source_depth("dino", 0)
