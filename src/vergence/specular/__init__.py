@@ -14,11 +14,10 @@
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
 
-from vergence.specular.importance import (
+from vergence.specular.importance_factors import (
     CONTRAST_SATURATION_JND,
     CONTRAST_WINDOW,
     DISTINCTIVENESS_SCALE,
-    LANDSCAPE_RADIUS,
     SSD_WINDOW,
     Importance,
     contrast_q,
@@ -43,7 +42,7 @@ from vergence.specular.matching import (
     layer_disparity,
     scene_diameter,
 )
-from vergence.specular.rivalry import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
+from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 
 __all__ = [
     "CONTRAST_SATURATION_JND",
@@ -51,7 +50,6 @@ __all__ = [
     "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
     "Importance",
-    "LANDSCAPE_RADIUS",
     "LAYER_MATCH_METHODS",
     "LayerDisparity",
     "MATCH_WINDOW",

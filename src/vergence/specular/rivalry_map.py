@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence.specular import _importance_kernels as _k
-from vergence.specular.importance import _pair
+from vergence.specular.importance_factors import _pair
 from vergence.specular.lightness import PerceivedLightness
 from vergence.specular.matching import LayerDisparity
 

@@ -3,15 +3,13 @@
 S3 §3.2: the position matching of :func:`~vergence.specular.layer_disparity` overestimates what the
 eye fuses; a match counts as much as it is *proximal* (found in the fusion window, nearer than
 epsilon), *distinctive* (the luminance structure is unique) and of sufficient *contrast*. The
-importance ``w_i(x) = proximity x distinctiveness x contrast`` lies in [0, 1) per layer and pixel.
+importance ``w_i(x) = proximity x distinctiveness x contrast`` lies in [0, 1] per layer and pixel.
 Each factor is a public function on the L* images of :func:`~vergence.specular.perceived_lightness`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
-
 import numpy as np
 import scipy.ndimage
 
@@ -24,7 +22,6 @@ __all__ = [
     "CONTRAST_SATURATION_JND",
     "CONTRAST_WINDOW",
     "DISTINCTIVENESS_SCALE",
-    "LANDSCAPE_RADIUS",
     "SSD_WINDOW",
     "Importance",
     "contrast_q",
@@ -33,9 +30,8 @@ __all__ = [
     "peli_contrast",
 ]
 
-# S3 §3.2: the SSD window (3 x 3 pixels) and the offsets y in {-5, ..., 5}^2 of the energy landscape.
+# S3 §3.2: the SSD window, 3 x 3 pixels.
 SSD_WINDOW = 3
-LANDSCAPE_RADIUS = 5
 # S3 §3.2: Peli's contrast in a 17 x 17 Gaussian-weighted window: sigma = (17 - 1) / 6, cut at 3 sigma.
 CONTRAST_WINDOW = 17
 # S3 §3.2: the contrast factor "smoothly blends into 1 for contrasts above 10 JND"; 1 JND = 1 ΔL*.
@@ -47,16 +43,12 @@ CONTRAST_SATURATION_JND = 10.0
 DISTINCTIVENESS_SCALE = 2.0 * SSD_WINDOW**2
 
 
-@cache
-def _hessian_weights(radius: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Weights ``w_xx, w_xy, w_yy`` ``(2r+1, 2r+1)`` with ``h_ab = sum_y w_ab(y) alpha(y)`` the Hessian of
-    the least-squares quadratic ``alpha(y) ~ a + g . y + y^T H y / 2`` over the grid ``{-r..r}^2``."""
-    oy, ox = np.mgrid[-radius : radius + 1, -radius : radius + 1].astype(np.float64)
-    x, y = ox.ravel(), oy.ravel()
-    design = np.stack([np.ones_like(x), x, y, 0.5 * x * x, x * y, 0.5 * y * y], axis=1)
-    pinv = np.linalg.pinv(design)  # rows: a, g_x, g_y, h_xx, h_xy, h_yy
-    shape = (2 * radius + 1, 2 * radius + 1)
-    return pinv[3].reshape(shape), pinv[4].reshape(shape), pinv[5].reshape(shape)
+# The discrete curvature of the SSD landscape alpha(y) at the match y = 0, as weights on alpha over
+# y in {-1, 0, 1}^2 (index [1 + y_row, 1 + y_col]): kappa_xx = alpha(-1, 0) - 2 alpha(0, 0) + alpha(1, 0),
+# kappa_yy likewise, kappa_xy = [alpha(1, 1) - alpha(1, -1) - alpha(-1, 1) + alpha(-1, -1)] / 4.
+_KAPPA_XX = np.array([[0.0, 0.0, 0.0], [1.0, -2.0, 1.0], [0.0, 0.0, 0.0]])
+_KAPPA_YY = _KAPPA_XX.T.copy()
+_KAPPA_XY = np.array([[0.25, 0.0, -0.25], [0.0, 0.0, 0.0], [-0.25, 0.0, 0.25]])
 
 
 def _pair(lightness: object, matches: object) -> tuple[PerceivedLightness, LayerDisparity]:
@@ -87,31 +79,36 @@ def distinctiveness(
     Returns
     -------
     factor : (N, H, W) float32
-        ``1 - exp(-max(lambda_min, 0) / kappa_0)`` in [0, 1); NaN where there is no match.
+        ``1 - exp(-max(lambda_min, 0) / kappa_0)`` in [0, 1]; NaN where there is no match.
     curvature : (N, H, W) float64
         ``lambda_min``; NaN where there is no match.
 
     Notes
     -----
     S3 §3.2: ``alpha(y) = sum_u (L_l(x + u) - L_r(m(x) + y + u))^2`` over the 3 x 3 window ``u``, with
-    ``m(x) = x - d_i(x)`` the match, for offsets ``y in {-5..5}^2``; "the discrete curvature of the
-    energy landscape when varying y is used to rate the match". S3 does not say which curvature. Here:
-    the smaller eigenvalue ``lambda_min`` of the Hessian ``H`` of the least-squares quadratic
-    ``a + g.y + y^T H y / 2`` fitted to all 121 values of ``alpha``. Why: (1) the smaller eigenvalue
-    is 0 on a straight edge, which can slide along itself (the aperture problem), where the Laplacian
-    ``trace H`` is not; (2) the fit uses the whole ±5 px landscape S3 computes, where the 3-point
-    stencil at ``y = 0`` would use only its 9 central values: a pattern that repeats within 5 px
-    (e.g. a one-pixel checkerboard, equal to itself shifted diagonally) then gets a flat fit, low
-    distinctiveness, as the ambiguity it is, while the stencil rates it highly. A negative
-    ``lambda_min`` (no minimum at the match) gives 0. S3 gives no mapping to [0, 1]; the exponential
-    with the perceptual scale of :data:`DISTINCTIVENESS_SCALE` is ours. Pixels outside the image
-    repeat the border pixel.
+    ``m(x) = x - d_i(x)`` the match; "the discrete curvature of the energy landscape when varying y
+    [in {-5..5}^2] is used to rate the match". S3 does not say which curvature. Here: the smaller
+    eigenvalue of the discrete Hessian at ``y = 0``,
+    ``lambda_min = (k_xx + k_yy)/2 - sqrt(((k_xx - k_yy)/2)^2 + k_xy^2)`` with
+    ``k_xx = alpha(-1,0) - 2 alpha(0,0) + alpha(1,0)``, ``k_yy`` likewise and
+    ``k_xy = [alpha(1,1) - alpha(1,-1) - alpha(-1,1) + alpha(-1,-1)] / 4``. Why the smaller eigenvalue:
+    it is 0 on a straight edge, which can slide along itself (the aperture problem), where the
+    Laplacian ``k_xx + k_yy`` is not; and it is large only for structure in two directions (corners,
+    texture). Why at ``y = 0``: the curvature of the minimum is what pins the match (a white-noise
+    patch has a sharp minimum and a flat landscape around it). We also tried the Hessian of a
+    quadratic fitted to all 121 values of S3's ±5 landscape: it rates white noise as flat (the
+    plateau dominates the fit), so it was dropped. The discrete curvature needs only ``alpha`` at
+    ``y in {-1, 0, 1}^2``, the only values computed; a consequence is that a pattern repeating within
+    5 px is not penalised for its ambiguity. A negative ``lambda_min`` (the match is no minimum)
+    gives 0. S3 gives no mapping to [0, 1]; the exponential with the perceptual scale of
+    :data:`DISTINCTIVENESS_SCALE` is ours. Pixels outside the image repeat the border pixel.
     """
     lightness, matches = _pair(lightness, matches)
     kappa0 = check_positive("scale", scale)
-    wxx, wxy, wyy = _hessian_weights(LANDSCAPE_RADIUS)
-    lam = _k.landscape_hessian(lightness.left, lightness.right, np.ascontiguousarray(matches.disparity_px),
-                               SSD_WINDOW // 2, LANDSCAPE_RADIUS, wxx, wxy, wyy)  # fmt: skip
+    left = lightness.left.astype(np.float64)  # float64 sums: the curvature is a small difference of large SSDs
+    right = lightness.right.astype(np.float64)
+    lam = _k.landscape_hessian(left, right, np.ascontiguousarray(matches.disparity_px),
+                               SSD_WINDOW // 2, 1, _KAPPA_XX, _KAPPA_XY, _KAPPA_YY)  # fmt: skip
     with np.errstate(invalid="ignore"):
         factor = (1.0 - np.exp(-np.maximum(lam, 0.0) / kappa0)).astype(np.float32)
     return factor, lam
@@ -194,11 +191,11 @@ class Importance:
     Attributes
     ----------
     weight : (N, H, W) float32
-        ``w = proximity x distinctiveness x contrast`` in [0, 1); 0 where there is no match.
+        ``w = proximity x distinctiveness x contrast`` in [0, 1]; 0 where there is no match.
     proximity : (N, H, W) bool
         Matched in the fusion window nearer than epsilon (S3: the factor is 1, else 0).
     distinctiveness : (N, H, W) float32
-        In [0, 1); NaN where there is no match (:func:`distinctiveness`).
+        In [0, 1]; NaN where there is no match (:func:`distinctiveness`).
     contrast : (N, H, W) float32
         ``Q`` of the left eye's Peli contrast, in [0, 1] (:func:`contrast_q`, :func:`peli_contrast`).
     """
