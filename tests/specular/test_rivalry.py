@@ -54,7 +54,8 @@ def reference_rivalry(left, right, disparity, half=RIVALRY_WINDOW // 2):
                 a = left[n][np.ix_(np.clip(y + u, 0, h - 1), np.clip(x + u, 0, w - 1))].astype(np.float64)
                 b = right[n][np.ix_(np.clip(my + u, 0, h - 1), np.clip(mx + u, 0, w - 1))].astype(np.float64)
                 out[n, y, x] = ((a - b) ** 2).mean()
-                point[n, y, x] = abs(float(left[n, y, x]) - float(right[n, np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)]))
+                centre = right[n, np.clip(my, 0, h - 1), np.clip(mx, 0, w - 1)]
+                point[n, y, x] = abs(float(left[n, y, x]) - float(centre))
     return out, point
 
 

@@ -1,4 +1,5 @@
-"""Numba kernels of distinctiveness and rivalry (S3 §3.2); callers in :mod:`.importance_factors` and :mod:`.rivalry_map`.
+"""Numba kernels of distinctiveness and rivalry (S3 §3.2); callers in :mod:`.importance_factors`,
+:mod:`.rivalry_map`.
 
 Both compare a square patch of the left eye's L* around pixel ``(x, y)`` of layer ``n`` with the
 patch of the right eye's L* around its match ``(x - dx, y - dy)`` (plus an offset), reading pixel
