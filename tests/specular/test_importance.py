@@ -236,6 +236,18 @@ def test_distinctiveness_flat_edge_checkerboard():
     assert (factor[0, 6:10, 6:10] > 0.99).all()  # ... but at its corner, yes
 
 
+def test_distinctiveness_scale_by_hand():
+    # A one-pixel checkerboard of 50 +- 0.5 (1 ΔL* between neighbours): alpha(+-1, 0) = alpha(0, +-1) = 9 x 1^2,
+    # alpha(0, 0) = alpha(+-1, +-1) = 0, so k_xx = k_yy = 18, k_xy = 0, lambda_min = 18 = kappa_0: 1 - 1/e.
+    board = checkerboard(12, 12, 1, lo=49.5, hi=50.5)[None]
+    factor, lam = distinctiveness(lightness_pair(board, board), matches_of(np.zeros((1, 12, 12, 2))))
+    assert_allclose(lam[0, 2:-2, 2:-2], 18.0, rtol=1e-12)
+    assert_allclose(factor[0, 2:-2, 2:-2], 1.0 - np.exp(-1.0), rtol=1e-6)
+    assert DISTINCTIVENESS_SCALE == 18.0
+    half, _ = distinctiveness(lightness_pair(board, board), matches_of(np.zeros((1, 12, 12, 2))), scale=36.0)
+    assert_allclose(half[0, 2:-2, 2:-2], 1.0 - np.exp(-0.5), rtol=1e-6)
+
+
 # --- contrast ---------------------------------------------------------------------------------------
 
 

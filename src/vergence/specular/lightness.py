@@ -111,15 +111,23 @@ def csf_lowpass(images: object, display: Display) -> np.ndarray:
         raise ValueError(f"images must have shape (..., H, W, C) and not be empty; got {arr.shape}")
     if not np.isfinite(arr).all():
         raise ValueError("images must be finite (no NaN or inf)")
-    h, w = arr.shape[-3], arr.shape[-2]
+    gain = _csf_gain(arr.shape[-3], arr.shape[-2], display)
+    return arr.copy() if gain is None else _csf_apply(arr, gain)
+
+
+def _csf_gain(h: int, w: int, display: Display) -> np.ndarray | None:
+    """The ``(H, W)`` gain of :func:`csf_lowpass` on the DCT-II grid; None when it is 1 everywhere."""
     ppd = pixels_per_degree(display, w)
     fy = np.arange(h)[:, None] / (2.0 * h)
     fx = np.arange(w)[None, :] / (2.0 * w)
     f_cpd = np.hypot(fx, fy) * ppd
     peak = _csf_peak()
     gain = np.where(f_cpd <= peak, 1.0, csf_mannos_sakrison(f_cpd) / csf_mannos_sakrison(peak))
-    if gain.min() == 1.0:
-        return arr.copy()
+    return None if gain.min() == 1.0 else gain
+
+
+def _csf_apply(arr: np.ndarray, gain: np.ndarray) -> np.ndarray:
+    """``arr`` ``(..., H, W, C)`` filtered by ``gain`` ``(H, W)`` in the DCT-II domain."""
     coeff = scipy.fft.dctn(arr, type=2, axes=(-3, -2), norm="ortho")
     coeff *= gain[:, :, None]
     return scipy.fft.idctn(coeff, type=2, axes=(-3, -2), norm="ortho")
@@ -139,8 +147,13 @@ def lightness_from_srgb(srgb: object) -> np.ndarray:
         raise ValueError(f"srgb must have shape (..., 3); got {c.shape}")
     if not np.isfinite(c).all() or c.min(initial=0.0) < 0.0 or c.max(initial=0.0) > 1.0:
         raise ValueError("srgb must be finite and lie in [0, 1]")
+    return _lstar(c)
+
+
+def _lstar(c: np.ndarray) -> np.ndarray:
+    """:func:`lightness_from_srgb` of checked values, in their float dtype."""
     linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    y = linear @ _LUMA
+    y = linear @ _LUMA.astype(c.dtype)
     f = np.where(y > _DELTA**3, np.cbrt(y), y / (3.0 * _DELTA**2) + 4.0 / 29.0)
     return 116.0 * f - 16.0
 
@@ -264,10 +277,12 @@ def perceived_lightness(
     if not isinstance(display, Display):
         raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
     k = auto_exposure(left.sum(axis=0)) if exposure is None else check_positive("exposure", exposure)
+    gain = _csf_gain(left.shape[1], left.shape[2], display)
     out = []
     for rad in (left, right):
-        srgb = np.stack([tonemap(layer, exposure=k) for layer in rad])
-        filtered = np.clip(csf_lowpass(srgb, display), 0.0, 1.0)
-        out.append(lightness_from_srgb(filtered).astype(np.float32))
+        srgb = np.stack([tonemap(layer, exposure=k) for layer in rad])  # float32
+        if gain is not None:
+            srgb = np.clip(_csf_apply(srgb, gain), 0.0, 1.0).astype(np.float32)
+        out.append(_lstar(srgb).astype(np.float32))
     return PerceivedLightness(left=out[0], right=out[1], exposure=float(k),
                               pixels_per_degree=pixels_per_degree(display, left.shape[2]))  # fmt: skip
