@@ -64,9 +64,8 @@ def fill_matches(disparity_px: object) -> np.ndarray:
         ph, pw = v.shape[1] % 2, v.shape[2] % 2
         v = np.pad(v * w[..., None], ((0, 0), (0, ph), (0, pw), (0, 0)))
         w = np.pad(w, ((0, 0), (0, ph), (0, pw)))
-        n, h, wd = w.shape
-        wsum = w.reshape(n, h // 2, 2, wd // 2, 2).sum(axis=(2, 4))
-        vsum = v.reshape(n, h // 2, 2, wd // 2, 2, 2).sum(axis=(2, 4))
+        wsum = w[:, 0::2, 0::2] + w[:, 1::2, 0::2] + w[:, 0::2, 1::2] + w[:, 1::2, 1::2]
+        vsum = v[:, 0::2, 0::2] + v[:, 1::2, 0::2] + v[:, 0::2, 1::2] + v[:, 1::2, 1::2]
         with np.errstate(invalid="ignore", divide="ignore"):
             values.append(np.where(wsum[..., None] > 0, vsum / wsum[..., None], 0.0))
         weights.append(wsum)
