@@ -132,7 +132,7 @@ def test_csf_lowpass_equals_mirrored_fft_reference():
     ref = np.fft.ifft2(np.fft.fft2(ext, axes=(1, 2)) * gain[:, :, None], axes=(1, 2)).real[:, :h, :w]
     assert_allclose(out, ref, atol=1e-12)
     assert np.abs(out - img).max() > 0.05  # pixels fine enough for the CSF to act
-    # A 512 px image across S3's display: Nyquist at 5.7 cpd lies below the peak, nothing changes.
+    # 4 x 512 px across S3's display: at most 5.7 cpd (even diagonally), below the peak: nothing changes.
     wide = np.random.default_rng(5).random((1, 4, 512, 3))
     assert_array_equal(csf_lowpass(wide, S3_DISPLAY), wide)
     assert_allclose(csf_lowpass(np.full((4, 6, 3), 0.3), FINE), 0.3, atol=1e-12)  # the mean is kept
