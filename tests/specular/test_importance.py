@@ -80,7 +80,7 @@ def reference_curvature(left, right, disparity, radius=5, half=1, pixels=None):
 
 def reference_contrast(image: np.ndarray) -> np.ndarray:
     """Weighted standard deviation in the 17 x 17 Gaussian window, pixel by pixel, borders mirrored."""
-    r = CONTRAST_WINDOW // 2
+    r = 8  # S3: 17 x 17
     u = np.arange(-r, r + 1)
     g1 = np.exp(-0.5 * (u / (r / 3.0)) ** 2)
     g2 = np.outer(g1, g1) / g1.sum() ** 2
@@ -244,6 +244,7 @@ def test_distinctiveness_scale_by_hand():
     assert_allclose(lam[0, 2:-2, 2:-2], 18.0, rtol=1e-12)
     assert_allclose(factor[0, 2:-2, 2:-2], 1.0 - np.exp(-1.0), rtol=1e-6)
     assert DISTINCTIVENESS_SCALE == 18.0
+    assert CONTRAST_WINDOW == 17
     half, _ = distinctiveness(lightness_pair(board, board), matches_of(np.zeros((1, 12, 12, 2))), scale=36.0)
     assert_allclose(half[0, 2:-2, 2:-2], 1.0 - np.exp(-0.5), rtol=1e-6)
 
@@ -324,6 +325,7 @@ def test_importance_on_glasses(glasses):
     assert ((out.weight >= 0) & (out.weight <= 1)).all()
     assert_array_equal(out.weight[~m.matched], 0.0)
     assert (out.weight[0] > 0.1).mean() > 0.05  # the first hit has textured, matched regions
+    assert out.weight[1].max() > 0.1  # so has the reflection (the mirror, the glasses' surfaces)
     _, lam = distinctiveness(pair, m)
     idx = np.argwhere(m.matched)[:: max(1, int(m.matched.sum()) // 30)][:30]  # 30 pixels over the layers
     ref = reference_curvature(pair.left, pair.right, m.disparity_px, pixels=idx)[tuple(idx.T)]

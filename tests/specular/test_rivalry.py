@@ -38,7 +38,7 @@ def matches_of(disparity) -> LayerDisparity:
     return LayerDisparity(disparity_px=disparity, distance=dist, epsilon=1.0, window=(81, 9))
 
 
-def reference_rivalry(left, right, disparity, half=RIVALRY_WINDOW // 2):
+def reference_rivalry(left, right, disparity, half=3):  # S3: 7 x 7
     """Pixel by pixel: the mean squared difference of the 7 x 7 patches, the border pixel repeated outside."""
     n_layers, h, w = left.shape
     out = np.full((n_layers, h, w), np.nan)
@@ -164,6 +164,7 @@ def test_rivalry_bad_input():
         fill_matches(np.zeros((4, 5, 2)))
     with pytest.raises(ValueError, match="inf"):
         fill_matches(np.full((1, 4, 5, 2), np.inf))
+    assert RIVALRY_WINDOW == 7  # S3 §3.2
 
 
 def test_rivalry_on_glasses():
