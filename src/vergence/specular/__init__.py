@@ -5,9 +5,34 @@
   scene diameter (:func:`layer_disparity`, :class:`LayerDisparity`); in arcminutes for a display
   (:func:`disparity_arcmin`).
 
+- What the viewer sees of each layer (S3 §3.2): linear tone map, CSF low-pass, CIELAB L*
+  (:func:`perceived_lightness`, :class:`PerceivedLightness`, :func:`csf_lowpass`).
+- Importance = proximity x distinctiveness x contrast (S3 §3.2) (:func:`importance`,
+  :class:`Importance`, :func:`distinctiveness`, :func:`peli_contrast`, :func:`contrast_q`).
+- Rivalry: holes filled, then a 7 x 7 SSD of L* (S3 §3.2) (:func:`rivalry`, :class:`Rivalry`, :func:`fill_matches`).
+
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
 
+from vergence.specular.importance_factors import (
+    CONTRAST_SATURATION_JND,
+    CONTRAST_WINDOW,
+    DISTINCTIVENESS_SCALE,
+    SSD_WINDOW,
+    Importance,
+    contrast_q,
+    distinctiveness,
+    importance,
+    peli_contrast,
+)
+from vergence.specular.lightness import (
+    PerceivedLightness,
+    csf_lowpass,
+    csf_mannos_sakrison,
+    lightness_from_srgb,
+    perceived_lightness,
+    pixels_per_degree,
+)
 from vergence.specular.matching import (
     EPSILON_FRACTION,
     LAYER_MATCH_METHODS,
@@ -17,13 +42,33 @@ from vergence.specular.matching import (
     layer_disparity,
     scene_diameter,
 )
+from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 
 __all__ = [
+    "CONTRAST_SATURATION_JND",
+    "CONTRAST_WINDOW",
+    "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
+    "Importance",
     "LAYER_MATCH_METHODS",
     "LayerDisparity",
     "MATCH_WINDOW",
+    "PerceivedLightness",
+    "RIVALRY_WINDOW",
+    "Rivalry",
+    "SSD_WINDOW",
+    "contrast_q",
+    "csf_lowpass",
+    "csf_mannos_sakrison",
     "disparity_arcmin",
+    "distinctiveness",
+    "fill_matches",
+    "importance",
     "layer_disparity",
+    "lightness_from_srgb",
+    "peli_contrast",
+    "perceived_lightness",
+    "pixels_per_degree",
+    "rivalry",
     "scene_diameter",
 ]
