@@ -10,10 +10,22 @@
 - Importance = proximity x distinctiveness x contrast (S3 §3.2) (:func:`importance`,
   :class:`Importance`, :func:`distinctiveness`, :func:`peli_contrast`, :func:`contrast_q`).
 - Rivalry: holes filled, then a 7 x 7 SSD of L* (S3 §3.2) (:func:`rivalry`, :class:`Rivalry`, :func:`fill_matches`).
+- The cost of a pixel's layered disparities, absolute (S3's or outside the comfort zone only),
+  relative, rivalry and data, with painted weight maps, and its gradient (S3 §3.3, Eq. 2:
+  :func:`disparity_cost`, :class:`CostTerms`, :func:`disparity_cost_gradient`).
 
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
 
+from vergence.specular.cost import (
+    ABSOLUTE_VARIANTS,
+    COST_TERMS,
+    COST_WEIGHTS,
+    RELATIVE_LAMBDA_ARCMIN,
+    CostTerms,
+    disparity_cost,
+    disparity_cost_gradient,
+)
 from vergence.specular.importance_factors import (
     CONTRAST_SATURATION_JND,
     CONTRAST_WINDOW,
@@ -45,8 +57,12 @@ from vergence.specular.matching import (
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 
 __all__ = [
+    "ABSOLUTE_VARIANTS",
     "CONTRAST_SATURATION_JND",
     "CONTRAST_WINDOW",
+    "COST_TERMS",
+    "COST_WEIGHTS",
+    "CostTerms",
     "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
     "Importance",
@@ -54,6 +70,7 @@ __all__ = [
     "LayerDisparity",
     "MATCH_WINDOW",
     "PerceivedLightness",
+    "RELATIVE_LAMBDA_ARCMIN",
     "RIVALRY_WINDOW",
     "Rivalry",
     "SSD_WINDOW",
@@ -61,6 +78,8 @@ __all__ = [
     "csf_lowpass",
     "csf_mannos_sakrison",
     "disparity_arcmin",
+    "disparity_cost",
+    "disparity_cost_gradient",
     "distinctiveness",
     "fill_matches",
     "importance",
