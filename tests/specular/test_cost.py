@@ -47,7 +47,10 @@ def _reference(d, r, imp, o, maps, alpha, variant, zone, lam):
                 mp = (maps["relative"][i, y, x] + maps["relative"][j, y, x]) / 2
                 ww = (imp[i, y, x] * imp[j, y, x]) ** 2
                 for c in range(2):
-                    out[1, y, x] += mp * ww * (abs(d[i, y, x, c] - d[j, y, x, c]) - lam[c]) ** 2
+                    now = d[j, y, x, c] - d[i, y, x, c]
+                    phys = o[j, y, x, c] - o[i, y, x, c]
+                    sigma = np.sign(phys) if phys != 0 else (1.0 if now >= 0 else -1.0)
+                    out[1, y, x] += mp * ww * (sigma * now - lam[c]) ** 2
     total = sum(a * t for a, t in zip(alpha, out))
     return out, total
 
@@ -92,11 +95,13 @@ def _two_layers(mirror, reflection):
 
 
 def test_relative_term_keeps_a_reflection_lambda_behind_its_mirror():
+    physical, r, imp = _two_layers(10.0, 200.0)  # the reflection far behind its mirror
     costs = {}
-    for gap in (0.0, 1.5, 3.0, 6.0):
-        d, r, imp = _two_layers(10.0, 10.0 + gap)
-        costs[gap] = float(disparity_cost(d, r, imp, d, alpha=(0, 1, 0, 0)).total[0, 0])
+    for gap in (-3.0, 0.0, 1.5, 3.0, 6.0):
+        d, _, _ = _two_layers(10.0, 10.0 + gap)
+        costs[gap] = float(disparity_cost(d, r, imp, physical, alpha=(0, 1, 0, 0)).total[0, 0])
     assert costs[3.0] == 0.0 and costs[0.0] > costs[1.5] > 0 and costs[6.0] > 0
+    assert costs[-3.0] > costs[0.0]  # in front of the mirror is worse than on it: the order is kept
 
 
 def test_comfort_variant_costs_only_what_lies_outside_the_zone():

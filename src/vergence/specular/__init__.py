@@ -13,6 +13,7 @@
 - The cost of a pixel's layered disparities, absolute (S3's or outside the comfort zone only),
   relative, rivalry and data, with painted weight maps, and its gradient (S3 §3.3, Eq. 2:
   :func:`disparity_cost`, :class:`CostTerms`, :func:`disparity_cost_gradient`).
+- Per-pixel camera offsets minimising it on a tabulated ``g(y)`` (S3 §3.4: :func:`optimise_offsets`).
 
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
@@ -54,6 +55,7 @@ from vergence.specular.matching import (
     layer_disparity,
     scene_diameter,
 )
+from vergence.specular.optimise import DESCENT_STEPS, FIRST_STEP, RESTARTS, OffsetSolution, optimise_offsets
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 
 __all__ = [
@@ -63,14 +65,18 @@ __all__ = [
     "COST_TERMS",
     "COST_WEIGHTS",
     "CostTerms",
+    "DESCENT_STEPS",
     "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
+    "FIRST_STEP",
     "Importance",
     "LAYER_MATCH_METHODS",
     "LayerDisparity",
     "MATCH_WINDOW",
+    "OffsetSolution",
     "PerceivedLightness",
     "RELATIVE_LAMBDA_ARCMIN",
+    "RESTARTS",
     "RIVALRY_WINDOW",
     "Rivalry",
     "SSD_WINDOW",
@@ -85,6 +91,7 @@ __all__ = [
     "importance",
     "layer_disparity",
     "lightness_from_srgb",
+    "optimise_offsets",
     "peli_contrast",
     "perceived_lightness",
     "pixels_per_degree",

@@ -10,11 +10,13 @@ and ``o_i`` its original (physical) disparity:
   ``"comfort"`` costs only what lies outside the display's comfort zone
   (``a(x) = x - max`` above it, ``x - min`` below it, 0 inside). Vertical disparity is never
   comfortable: it is costed whole in both.
-- relative ``f_p = sum_{i<j} m_p,ij (w_i w_j)^2 ((|dx_i - dx_j| - lambda_x)^2 + (|dy_i - dy_j| - lambda_y)^2)``:
+- relative ``f_p = sum_{i<j} m_p,ij (w_i w_j)^2 sum_c (sigma_ij,c (d_j,c - d_i,c) - lambda_c)^2``:
   S3 writes ``||diag(Q w)(P d - d_p)||^2`` over ordered pairs, where ``(D - lambda)^2 + (-D - lambda)^2``
-  is smallest at ``D = 0`` whatever ``lambda``; over unordered pairs with the absolute difference the
-  term keeps two layers ``lambda`` apart, so a reflection stays behind its mirror instead of being
-  pressed onto it (S3 §1's complaint about on-surface methods). ``lambda = (3', 0')`` (S3 §3.3).
+  is smallest at ``D = 0`` whatever ``lambda``. Over unordered pairs it pulls two layers to
+  ``lambda`` apart, S3's "small relative disparity" (``lambda = (3', 0')``, S3 §3.3: above the 2'
+  at which transparent layers pool into one, S3 §2); ``sigma_ij`` is the sign of the physical
+  difference ``o_j - o_i``, so the pair keeps its physical order: a reflection comes to 3' *behind*
+  its mirror, never in front of it or onto it (S3 §1's complaint about on-surface methods).
   ``m_p,ij = (m_p,i + m_p,j) / 2``.
 - rivalry ``f_r = sum_i m_r,i w_i^2 r_i^2`` (S3's ``||W r||^2``).
 - data ``f_d = sum_i m_d,i w_i^2 |d_i - o_i|^2`` (S3's ``||W (d - d_d)||^2``).
@@ -118,6 +120,14 @@ def _inputs(disparity, rivalry, importance, original, maps, alpha, variant, zone
     return d, r, w, o, m, a
 
 
+def _order(o: np.ndarray, d: np.ndarray, i: int, j: int, c: int) -> np.ndarray:
+    """``sigma_ij``: the sign of the physical difference ``o_j - o_i`` (component ``c``), else of
+    the current one, else +1."""
+    sigma = np.sign(o[j, ..., c] - o[i, ..., c])
+    sigma = np.where(sigma == 0, np.sign(d[j, ..., c] - d[i, ..., c]), sigma)
+    return np.where(sigma == 0, 1.0, sigma)
+
+
 def _outside(x: np.ndarray, variant: str, zone) -> np.ndarray:
     if variant == "screen":
         return x
@@ -165,9 +175,9 @@ def disparity_cost(
     for i in range(n):
         for j in range(i + 1, n):
             pair = 0.5 * (m["relative"][i] + m["relative"][j]) * (w[i] * w[j]) ** 2
-            gap_x = np.abs(d[i, ..., 0] - d[j, ..., 0]) - lam[0]
-            gap_y = np.abs(d[i, ..., 1] - d[j, ..., 1]) - lam[1]
-            relative += pair * (gap_x * gap_x + gap_y * gap_y)
+            for c in range(2):
+                gap = _order(o, d, i, j, c) * (d[j, ..., c] - d[i, ..., c]) - lam[c]
+                relative += pair * gap * gap
     riv = (m["rivalry"] * w2 * r * r).sum(axis=0)
     data = (m["data"] * w2 * ((d - o) ** 2).sum(axis=-1)).sum(axis=0)
     total = a[0] * absolute + a[1] * relative + a[2] * riv + a[3] * data
@@ -188,8 +198,7 @@ def disparity_cost_gradient(
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(df/dd (N, H, W, 2), df/dr (N, H, W))`` of :func:`disparity_cost`'s total at every pixel,
     importance held fixed (S3 §3.4 chains it with the numerical derivative of the tabulated ``g``).
-    0 for a layer without a match. Where ``|d_i - d_j|`` is 0 the relative term's derivative takes
-    ``sign(0) = 0`` (a kink: any value in its subgradient would do)."""
+    0 for a layer without a match (``sigma_ij`` is held fixed: it is piecewise constant)."""
     d, r, w, o, m, a = _inputs(disparity, rivalry, importance, original, {} if maps is None else maps,
                                alpha, variant, zone, lam)  # fmt: skip
     w2 = w * w
@@ -201,10 +210,10 @@ def disparity_cost_gradient(
         for j in range(i + 1, n):
             pair = 0.5 * (m["relative"][i] + m["relative"][j]) * (w[i] * w[j]) ** 2
             for c in range(2):
-                diff = d[i, ..., c] - d[j, ..., c]
-                g = a[1] * 2.0 * pair * (np.abs(diff) - lam[c]) * np.sign(diff)
-                grad_d[i, ..., c] += g
-                grad_d[j, ..., c] -= g
+                sigma = _order(o, d, i, j, c)
+                g = a[1] * 2.0 * pair * (sigma * (d[j, ..., c] - d[i, ..., c]) - lam[c]) * sigma
+                grad_d[j, ..., c] += g
+                grad_d[i, ..., c] -= g
     grad_d += a[3] * 2.0 * (m["data"] * w2)[..., None] * (d - o)
     grad_r = a[2] * 2.0 * m["rivalry"] * w2 * r
     return grad_d, grad_r

@@ -1,0 +1,116 @@
+"""Per-pixel camera offsets that minimise the layered disparity cost (S3 §3.4).
+
+The left eye's shading camera for layer ``i`` sits at offset ``y_i`` on the line to the right eye
+(``y = 1``: the left eye, the physical stereo; ``y = 0``: the right eye's centre, the layer mono).
+The disparity, rivalry and importance of every layer are tabulated at the offsets ``m / K``
+(``K + 1`` renders of the left eye, S3: ``K = 32``); per pixel, :func:`optimise_offsets` runs
+``steps`` steps of gradient descent on the linearly interpolated table (the chain rule of the
+table's slope and the analytic gradient of S3 Eq. 2, :func:`~vergence.specular.disparity_cost_gradient`)
+from S3's starts ``y = (1, s, ..., s)``, ``s = i / (restarts - 1)``, and keeps the best. The
+diffuse (first) layer stays at ``y = 1`` unless told otherwise.
+
+Decisions: a step is ``-step * grad / max |grad|`` (a normalised step: the cost's scale in
+arcmin^2 varies by orders of magnitude between pixels), kept only when it lowers the cost, else
+halved, from :data:`FIRST_STEP`; importance is read from the table at the current offsets but held
+fixed in the derivative. Not built yet: S3's edge-aware blur of the offsets and the low-resolution
+solve with joint-bilateral upsampling.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from vergence.specular import _optimise_kernels
+from vergence.specular.cost import COST_TERMS, COST_WEIGHTS, RELATIVE_LAMBDA_ARCMIN, _inputs
+
+__all__ = ["DESCENT_STEPS", "FIRST_STEP", "RESTARTS", "OffsetSolution", "optimise_offsets"]
+
+#: Gradient steps per start (S3 §3.4).
+DESCENT_STEPS = 32
+#: Starts per pixel (S3 §3.4: y = (1, i/3, ..., i/3), i = 0..3).
+RESTARTS = 4
+#: The first step's length in offset units (a quarter of the range).
+FIRST_STEP = 0.25
+
+
+@dataclass(frozen=True, slots=True)
+class OffsetSolution:
+    """The optimised offsets: ``y (N, H, W)`` in [0, 1] and the cost there, ``cost (H, W)``."""
+
+    y: np.ndarray
+    cost: np.ndarray
+
+
+def optimise_offsets(
+    disparity: object,
+    rivalry: object,
+    importance: object,
+    original: object,
+    *,
+    alpha: object = COST_WEIGHTS,
+    variant: str = "screen",
+    zone: tuple[float, float] | None = None,
+    maps: Mapping[str, object] | None = None,
+    lam: tuple[float, float] = RELATIVE_LAMBDA_ARCMIN,
+    fixed: object = (0,),
+    steps: int = DESCENT_STEPS,
+    restarts: int = RESTARTS,
+) -> OffsetSolution:
+    """Per pixel, the layer offsets minimising S3 Eq. 2 on a tabulated ``g(y)``.
+
+    Parameters
+    ----------
+    disparity : (K + 1, N, H, W, 2) array
+        The disparity of each layer (arcmin, NaN: no match) with its left camera at offset ``m / K``.
+    rivalry, importance : (K + 1, N, H, W) array
+        Likewise (importance in [0, 1]).
+    original : (N, H, W, 2) array
+        The physical disparity (the table at ``y = 1``, usually).
+    alpha, variant, zone, maps, lam
+        As :func:`~vergence.specular.disparity_cost`.
+    fixed : sequence of int
+        Layers kept at ``y = 1`` (default the diffuse first layer).
+    steps, restarts : int
+        Descent steps per start (>= 1) and starts (>= 1; one start is ``y = 1``).
+    """
+    d = np.asarray(disparity, dtype=np.float32)  # the table is large: 33 x N x H x W x 2 at S3's K
+    if d.ndim != 5 or d.shape[-1] != 2 or d.shape[0] < 3 or 0 in d.shape:
+        raise ValueError(f"disparity must have shape (K + 1, N, H, W, 2) with K >= 2; got {d.shape}")
+    kp1, n, h, w, _ = d.shape
+    r = np.asarray(rivalry, dtype=np.float32)
+    imp = np.asarray(importance, dtype=np.float32)
+    for name, arr in (("rivalry", r), ("importance", imp)):
+        if arr.shape != d.shape[:4]:
+            raise ValueError(f"{name} must have shape {d.shape[:4]}; got {arr.shape}")
+    if np.isinf(d).any() or np.isinf(r).any():
+        raise ValueError("disparity and rivalry must not hold inf (NaN marks no match)")
+    if not np.isfinite(imp).all() or imp.min() < 0 or imp.max() > 1:
+        raise ValueError("importance must be finite and in [0, 1]")
+    orig = np.asarray(original, dtype=np.float64)
+    if orig.shape != (n, h, w, 2):
+        raise ValueError(f"original must have shape {(n, h, w, 2)}; got {orig.shape}")
+    # alpha, variant, zone, lam and the maps checked as the cost checks them
+    _, _, _, _, m, a = _inputs(orig, np.zeros((n, h, w)), np.zeros((n, h, w)), orig, {} if maps is None else maps,
+                               alpha, variant, zone, lam)  # fmt: skip
+    for name, v, low in (("steps", steps, 1), ("restarts", restarts, 1)):
+        if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < low:
+            raise ValueError(f"{name} must be an integer >= {low}; got {v!r}")
+    free = np.ones(n, dtype=np.bool_)
+    for i in fixed:
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < n:
+            raise ValueError(f"fixed must list layer indices in [0, {n - 1}]; got {fixed!r}")
+        free[i] = False
+    levels = np.array([1.0]) if restarts == 1 else np.arange(restarts) / (restarts - 1)
+    starts = np.repeat(levels[:, None], n, axis=1)
+    maps4 = np.stack([m[t] for t in COST_TERMS])
+    zlo, zhi = (0.0, 0.0) if zone is None else (float(zone[0]), float(zone[1]))
+    y = np.empty((n, h, w))
+    cost = np.empty((h, w))
+    _optimise_kernels.descend(d, r, imp, orig, maps4, free, starts, int(steps), FIRST_STEP, np.array(a),
+                              variant == "comfort", zlo, zhi, float(lam[0]), float(lam[1]), y, cost)  # fmt: skip
+    y.flags.writeable = False
+    cost.flags.writeable = False
+    return OffsetSolution(y, cost)
