@@ -26,11 +26,15 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from numbers import Integral, Real
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vergence.camera import Camera
 from vergence.specular.matching import MATCH_WINDOW, layer_disparity
+
+if TYPE_CHECKING:  # importing vergence.render imports Mitsuba: only when a render is asked for
+    from vergence.render import RenderResult, Scene, Tracer
 
 __all__ = [
     "MAX_OFFSET_STEPS",
@@ -226,8 +230,8 @@ class OffsetTable:
     disparity_px: np.ndarray
     distance: np.ndarray
     epsilon: float
-    left: object
-    right: object
+    left: RenderResult
+    right: RenderResult
     seconds_render: float
     seconds_match: float
 
@@ -261,7 +265,7 @@ def _check_progress(progress: object) -> None:
         raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
 
 
-def _tracer(scene: object):  # noqa: ANN202
+def _tracer(scene: object) -> Tracer:
     from vergence.render import Scene, Tracer
 
     if isinstance(scene, Tracer):
@@ -272,7 +276,7 @@ def _tracer(scene: object):  # noqa: ANN202
 
 
 def tabulate_offsets(
-    scene: object,
+    scene: Scene | Tracer,
     left: Camera,
     right: Camera,
     *,
@@ -377,7 +381,7 @@ def _level(node: int) -> int:
 
 
 def render_offsets(
-    scene: object,
+    scene: Scene | Tracer,
     left: Camera,
     right: Camera,
     y: object,
@@ -386,7 +390,7 @@ def render_offsets(
     rng: np.random.Generator | None = None,
     ao_distance: float | None = None,
     progress: Progress | None = None,
-):  # noqa: ANN201
+) -> RenderResult:
     """The left eye with every layer of every pixel shaded from its own camera (S3 §3.4, the final render).
 
     Parameters
@@ -409,6 +413,9 @@ def render_offsets(
         layer ``i`` at ``x`` of the camera :func:`offset_camera` ``(left, right, y[i, x])``.
         ``depth`` is the z of the first layer's hit in the left camera frame (every offset camera
         shares that frame's z axis: the baseline is along x). ``settings`` counts the rays of all passes.
+        Without ``rng``, a map of ones gives :meth:`vergence.render.Tracer.render` of ``left`` and a
+        layer of zeros that layer of ``right``, to float rounding (the ray directions are computed
+        by another route than the renderer's pinhole kernel).
 
     Raises
     ------
