@@ -4,7 +4,10 @@
   the same layer of the right eye nearest in 3D, in an 81 x 9 window, with a cutoff at 1/100 of the
   scene diameter (:func:`layer_disparity`, :class:`LayerDisparity`); in arcminutes for a display
   (:func:`disparity_arcmin`).
-
+- Per-layer camera offsets (S3 §3.4): the left eye's shading camera moved along the baseline
+  (:func:`offset_camera`, :func:`offset_rays`), the table of renders and disparities at k + 1
+  offsets (:func:`tabulate_offsets`, :class:`OffsetTable`) and the final render with a camera per
+  layer and pixel (:func:`render_offsets`; it and the table import Mitsuba when called).
 - What the viewer sees of each layer (S3 §3.2): linear tone map, CSF low-pass, CIELAB L*
   (:func:`perceived_lightness`, :class:`PerceivedLightness`, :func:`csf_lowpass`).
 - Importance = proximity x distinctiveness x contrast (S3 §3.2) (:func:`importance`,
@@ -57,6 +60,14 @@ from vergence.specular.matching import (
 )
 from vergence.specular.optimise import DESCENT_STEPS, FIRST_STEP, RESTARTS, OffsetSolution, optimise_offsets
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
+from vergence.specular.offsets import (
+    MAX_OFFSET_STEPS,
+    OffsetTable,
+    offset_camera,
+    offset_rays,
+    render_offsets,
+    tabulate_offsets,
+)
 
 __all__ = [
     "ABSOLUTE_VARIANTS",
@@ -73,7 +84,9 @@ __all__ = [
     "LAYER_MATCH_METHODS",
     "LayerDisparity",
     "MATCH_WINDOW",
+    "MAX_OFFSET_STEPS",
     "OffsetSolution",
+    "OffsetTable",
     "PerceivedLightness",
     "RELATIVE_LAMBDA_ARCMIN",
     "RESTARTS",
@@ -91,10 +104,14 @@ __all__ = [
     "importance",
     "layer_disparity",
     "lightness_from_srgb",
+    "offset_camera",
+    "offset_rays",
     "optimise_offsets",
     "peli_contrast",
     "perceived_lightness",
     "pixels_per_degree",
+    "render_offsets",
     "rivalry",
     "scene_diameter",
+    "tabulate_offsets",
 ]
