@@ -146,6 +146,15 @@ def readonly_copy(array: object) -> np.ndarray:
     return out
 
 
+def readonly_fields(obj: object, *names: str) -> None:
+    """Replace each array field ``names`` of the frozen dataclass ``obj`` by a read-only view of it
+    (the caller's array stays writable; the dataclass's cannot be written through)."""
+    for name in names:
+        view = getattr(obj, name).view()
+        view.flags.writeable = False
+        object.__setattr__(obj, name, view)
+
+
 def as_view(name: str, image: object) -> np.ndarray:
     """:func:`as_image` restricted to grey ``(H, W)`` or RGB ``(H, W, 3)``: a single channel axis is
     dropped, alpha is refused."""

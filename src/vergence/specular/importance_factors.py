@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.ndimage
 
-from vergence._validate import check_positive
+from vergence._validate import check_positive, readonly_fields
 from vergence.specular import _importance_kernels as _k
 from vergence.specular.lightness import PerceivedLightness
 from vergence.specular.matching import LayerDisparity
@@ -212,9 +212,7 @@ class Importance:
             if not isinstance(arr, np.ndarray) or arr.ndim != 3 or arr.shape != shape:
                 raise ValueError(f"{name} must be a numpy array of shape (N, H, W) {shape}; "
                                  f"got {getattr(arr, 'shape', type(arr).__name__)}")  # fmt: skip
-            view = arr.view()
-            view.flags.writeable = False
-            object.__setattr__(self, name, view)
+        readonly_fields(self, "weight", "proximity", "distinctiveness", "contrast")
 
 
 def importance(

@@ -25,7 +25,7 @@ import numpy as np
 import scipy.fft
 import scipy.optimize
 
-from vergence._validate import check_positive
+from vergence._validate import check_positive, readonly_fields
 from vergence.render.tonemap import auto_exposure, tonemap
 from vergence.viewing.geometry import Display
 
@@ -186,10 +186,7 @@ class PerceivedLightness:
                 raise ValueError(f"{name} must be a (N, H, W) numpy array; got {getattr(arr, 'shape', type(arr))}")
         if self.left.shape != self.right.shape:
             raise ValueError(f"right must have the shape of left {self.left.shape}; got {self.right.shape}")
-        for name in ("left", "right"):
-            view = getattr(self, name).view()
-            view.flags.writeable = False
-            object.__setattr__(self, name, view)
+        readonly_fields(self, "left", "right")
 
 
 def _numeric(name: str, value: object) -> np.ndarray:

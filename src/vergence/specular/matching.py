@@ -22,7 +22,7 @@ from numbers import Integral
 
 import numpy as np
 
-from vergence._validate import check_bool, check_in_range
+from vergence._validate import check_bool, check_in_range, readonly_fields
 from vergence.specular import _kernels
 from vergence.viewing.comfort import arcmin_from_pixels
 from vergence.viewing.geometry import Display
@@ -81,10 +81,7 @@ class LayerDisparity:
             raise ValueError(f"disparity_px must have shape (N, H, W, 2); got {self.disparity_px.shape}")
         if self.distance.shape != self.disparity_px.shape[:3]:
             raise ValueError(f"distance must have shape {self.disparity_px.shape[:3]}; got {self.distance.shape}")
-        for name in ("disparity_px", "distance"):
-            view = getattr(self, name).view()
-            view.flags.writeable = False
-            object.__setattr__(self, name, view)
+        readonly_fields(self, "disparity_px", "distance")
 
     @property
     def matched(self) -> np.ndarray:

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vergence._validate import readonly_fields
 from vergence.camera import Camera
 from vergence.specular.matching import MATCH_WINDOW, layer_disparity
 
@@ -244,10 +245,7 @@ class OffsetTable:
         for name, want in shapes.items():
             if getattr(self, name).shape != want:
                 raise ValueError(f"{name} must have shape {want}; got {getattr(self, name).shape}")
-        for name in ("offsets", *shapes):
-            view = getattr(self, name).view()
-            view.flags.writeable = False
-            object.__setattr__(self, name, view)
+        readonly_fields(self, "offsets", *shapes)
 
     @property
     def k(self) -> int:

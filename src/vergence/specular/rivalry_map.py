@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence._validate import readonly_fields
 from vergence.specular import _importance_kernels as _k
 from vergence.specular.importance_factors import _pair
 from vergence.specular.lightness import PerceivedLightness
@@ -108,9 +109,7 @@ class Rivalry:
             if not isinstance(arr, np.ndarray) or arr.shape != want or len(shape) != 3:
                 raise ValueError(f"{name} must be a numpy array of shape {want} with (N, H, W); "
                                  f"got {getattr(arr, 'shape', type(arr).__name__)}")  # fmt: skip
-            view = arr.view()
-            view.flags.writeable = False
-            object.__setattr__(self, name, view)
+        readonly_fields(self, "rivalry", "point_difference", "disparity_px", "filled")
 
 
 def rivalry(lightness: PerceivedLightness, matches: LayerDisparity) -> Rivalry:
