@@ -6,7 +6,9 @@ Each camera's view is made from the others (it left out of the sources, of the d
 and of their checks), by the one-plane baseline, S2's MLS method and ours (per-view depth + ULR), and
 compared with its photo: PSNR (dB) over the pixels the plane baseline covers. Prints one row per view
 and the means, with the split the depth checks were tuned on (kermit and the even-numbered dino views)
-apart from the held-out views (the odd-numbered dino views), and the time of each method; ``--out``
+apart from the held-out views (the odd-numbered dino views), the time of each method and, per view,
+the share of the scored pixels that no checked depth covers (filled by S2's view) with their share of
+the depth view's squared error; ``--out``
 writes each view and its error image (|view - photo| x 4).
 """
 
@@ -37,6 +39,17 @@ def _split(collection: str, names: list[str]) -> list[tuple[str, list[str]]]:
     return [(label, part) for label, part in parts if part]
 
 
+def _hole_share(scores: dict, name: str, photo: np.ndarray) -> tuple[float, float]:
+    """Of the scored pixels (those the plane baseline covers), the share no checked depth covers in
+    the depth view (filled by S2's view), and their share of its squared error, in %."""
+    scored = scores["plane"][name][1].coverage
+    view = scores["depth"][name][1]
+    hole = scored & ~view.coverage
+    error = ((view.image - photo) ** 2).sum(axis=-1)
+    total = error[scored].sum()
+    return 100 * hole.sum() / scored.sum(), 100 * (error[hole].sum() / total if total > 0 else 0.0)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path("/work/shared/data/collections"))
@@ -57,12 +70,14 @@ def main() -> None:
             start = time.perf_counter()
             scores[method] = leave_one_out(col, method=method, names=names, images=images)
             print(f"  {method}: {time.perf_counter() - start:.1f} s")
+        both = {"depth", "plane"} <= set(args.methods)
         print("  " + f"{'view':<16}" + "".join(f"{m:>9}" for m in args.methods)
-              + ("   depth-plane" if {"depth", "plane"} <= set(args.methods) else ""))  # fmt: skip
+              + ("   depth-plane   holes: pixels, error" if both else ""))  # fmt: skip
         for n in names:
             row = "".join(f"{scores[m][n][0]:9.2f}" for m in args.methods)
-            if {"depth", "plane"} <= set(args.methods):
-                row += f"   {scores['depth'][n][0] - scores['plane'][n][0]:+11.2f}"
+            if both:
+                pixels, error = _hole_share(scores, n, images[col.names.index(n)])
+                row += f"   {scores['depth'][n][0] - scores['plane'][n][0]:+11.2f}   {pixels:5.1f} %  {error:5.1f} %"
             print(f"  {n:<16}{row}")
         for label, part in _split(name, names):
             means = "".join(f"{np.mean([scores[m][n][0] for n in part]):9.2f}" for m in args.methods)

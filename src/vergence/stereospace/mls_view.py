@@ -35,9 +35,9 @@ S2_GRID_STEP = 8
 #: Handles kept per source: one per ``S2_HANDLE_CELL_PX`` square cell of the novel view (the first
 #: point, in the collection's order, whose target position falls in it). A dense SfM cloud gives
 #: thousands of handles a source (dino about 6,000), more than the MLS map resolves at its grid
-#: step; one per 4 px cell makes dino's stereo pairs about 30 % faster (168 -> 120 ms, same process)
-#: and changes the views by 0.001-0.003 mean absolute (colours in [0, 1]; measured on three dino
-#: pairs and in tests/stereospace/test_mls_view.py).
+#: step; one per 4 px cell makes dino's 4-source pair 132 -> 95 ms (kermit's 634 points: no change;
+#: benchmarks/stereospace_pair.py) and changes the views by 0.001-0.005 mean absolute (colours in
+#: [0, 1]; tests/stereospace/test_mls_view.py checks dino0011's view).
 S2_HANDLE_CELL_PX = 4.0
 
 
