@@ -186,6 +186,18 @@ def test_build_gives_a_record_for_every_region_vertex(synthetic_space):
         built.vertex((0, 0), 1, 0)
 
 
+def test_build_of_a_loaded_collection_is_the_same_space(synthetic_space):
+    cameras_path, images, built = synthetic_space
+    again = build_space(cameras_path, images=images, collection=built.collection)
+    assert again.collection is built.collection and again.cameras_path == built.cameras_path
+    assert np.array_equal(again.graph.edges, built.graph.edges)
+    assert_allclose(again.psnr_db, built.psnr_db)
+    assert {k: v.quality for k, v in again.vertex_qualities.items()} == {
+        k: v.quality for k, v in built.vertex_qualities.items()}
+    with pytest.raises(TypeError, match="collection must be a Collection"):
+        build_space(cameras_path, images=images, collection="dino")
+
+
 def test_space_folder_round_trip(synthetic_space, tmp_path):
     _, _, built = synthetic_space
     out = save_space(built, tmp_path / "space")

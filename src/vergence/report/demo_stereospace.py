@@ -229,7 +229,8 @@ def map_figure(folder: Path, display: str = MAP_DISPLAY) -> MapFigure:
         from vergence.report.stereospace_map import navigation_map
         from vergence.stereospace import build_space
 
-        built = build_space(Path(folder) / DINO_CAMERAS, images=folder, display=display)
+        built = build_space(Path(folder) / DINO_CAMERAS, images=folder, display=display,
+                            collection=prepared.collection)  # loaded once, by the section
         navigation_map(built, Path(out) / MAP_FILE, state=states[0])
         best = max(built.vertex_qualities.values(), key=lambda v: v.quality)
         names = " + ".join(Path(built.collection.names[c]).stem for c in best.cameras)

@@ -386,6 +386,7 @@ def build_space(
     display: str = DEFAULT_DISPLAY,
     zone: ComfortZone | None = None,
     progress: Progress | None = None,
+    collection: Collection | None = None,
 ) -> BuiltSpace:
     """Build the StereoSpace of a camera file and its images, with a quality per region vertex.
 
@@ -403,6 +404,9 @@ def build_space(
     zone : ComfortZone, optional
     progress : callable, optional
         ``progress(fraction, message)``: the triangulation, then once per leave-one-out view.
+    collection : Collection, optional
+        The collection already loaded from ``cameras_path`` and ``images`` (the load and its point
+        triangulation are skipped; the paths are still recorded for :func:`load_space`).
 
     Raises
     ------
@@ -417,7 +421,10 @@ def build_space(
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
     cam_path, img_dir = Path(os.fspath(cameras_path)).resolve(), Path(os.fspath(images)).resolve()
-    collection = load_collection(cam_path, images=img_dir, progress=progress)
+    if collection is None:
+        collection = load_collection(cam_path, images=img_dir, progress=progress)
+    elif not isinstance(collection, Collection):
+        raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
     graph = camera_graph(collection)
     paths = tuple(tuple(p) for p in capture_paths(graph))
     space, pairs = space_from_graph(collection, graph)
