@@ -45,6 +45,7 @@ from vergence.specular.lightness import (
     PerceivedLightness,
     csf_lowpass,
     csf_mannos_sakrison,
+    layer_lightness,
     lightness_from_srgb,
     perceived_lightness,
     pixels_per_degree,
@@ -59,6 +60,7 @@ from vergence.specular.matching import (
     scene_diameter,
 )
 from vergence.specular.optimise import DESCENT_STEPS, FIRST_STEP, RESTARTS, OffsetSolution, optimise_offsets
+from vergence.specular.tabulated import OffsetAnalysis, analyse_table
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 from vergence.specular.offsets import (
     MAX_OFFSET_STEPS,
@@ -85,6 +87,7 @@ __all__ = [
     "LayerDisparity",
     "MATCH_WINDOW",
     "MAX_OFFSET_STEPS",
+    "OffsetAnalysis",
     "OffsetSolution",
     "OffsetTable",
     "PerceivedLightness",
@@ -93,6 +96,7 @@ __all__ = [
     "RIVALRY_WINDOW",
     "Rivalry",
     "SSD_WINDOW",
+    "analyse_table",
     "contrast_q",
     "csf_lowpass",
     "csf_mannos_sakrison",
@@ -103,6 +107,7 @@ __all__ = [
     "fill_matches",
     "importance",
     "layer_disparity",
+    "layer_lightness",
     "lightness_from_srgb",
     "offset_camera",
     "offset_rays",

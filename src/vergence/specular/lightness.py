@@ -12,7 +12,9 @@ part. The stages, each public:
    the display (:func:`pixels_per_degree`);
 3. :func:`lightness_from_srgb`: CIE 1976 L* (D65 white; 1 ΔL* is about one just-noticeable difference).
 
-:func:`perceived_lightness` runs all three on the layers of both eyes.
+:func:`perceived_lightness` runs all three on the layers of both eyes; :func:`layer_lightness` on
+those of one eye with a given exposure (S3 §3.4's table re-renders only the left eye: the right
+eye's L* is computed once).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ __all__ = [
     "PerceivedLightness",
     "csf_lowpass",
     "csf_mannos_sakrison",
+    "layer_lightness",
     "lightness_from_srgb",
     "perceived_lightness",
     "pixels_per_degree",
@@ -199,22 +202,26 @@ def _numeric(name: str, value: object) -> np.ndarray:
 
 
 def _checked_radiance(eye: str, radiance: object, position: object) -> np.ndarray:
-    """Radiance of one eye with NaN (allowed only where the layer has no surface) replaced by 0."""
-    rad = _numeric(f"{eye}_radiance", radiance)
-    pos = _numeric(f"{eye}_position", position)
+    """Radiance of one eye with NaN (allowed only where the layer has no surface) replaced by 0.
+
+    ``eye`` prefixes the argument names in messages (``left`` names ``left_radiance``; "" names ``radiance``).
+    """
+    rname, pname = (f"{eye}_radiance", f"{eye}_position") if eye else ("radiance", "position")
+    rad = _numeric(rname, radiance)
+    pos = _numeric(pname, position)
     if pos.shape != rad.shape:
-        raise ValueError(f"{eye}_position must have the shape of {eye}_radiance {rad.shape}; got {pos.shape}")
+        raise ValueError(f"{pname} must have the shape of {rname} {rad.shape}; got {pos.shape}")
     if np.isinf(rad).any():
-        raise ValueError(f"{eye}_radiance must not contain inf")
+        raise ValueError(f"{rname} must not contain inf")
     nan = np.isnan(rad)
     surface = np.isfinite(pos).all(axis=-1)
     bad = int((nan.any(axis=-1) & surface).sum())
     if bad:
-        raise ValueError(f"{eye}_radiance must be finite where the layer has a surface (finite {eye}_position); "
+        raise ValueError(f"{rname} must be finite where the layer has a surface (finite {pname}); "
                          f"got NaN at {bad} such pixel(s)")  # fmt: skip
     rad = np.where(nan, 0.0, rad)
     if rad.min() < 0.0:
-        raise ValueError(f"{eye}_radiance must be >= 0; got min {rad.min():g}")
+        raise ValueError(f"{rname} must be >= 0; got min {rad.min():g}")
     return rad
 
 
@@ -277,11 +284,44 @@ def perceived_lightness(
         raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
     k = auto_exposure(left.sum(axis=0)) if exposure is None else check_positive("exposure", exposure)
     gain = _csf_gain(left.shape[1], left.shape[2], display)
-    out = []
-    for rad in (left, right):
-        srgb = np.stack([tonemap(layer, exposure=k) for layer in rad])  # float32
-        if gain is not None:
-            srgb = np.clip(_csf_apply(srgb, gain), 0.0, 1.0).astype(np.float32)
-        out.append(_lstar(srgb).astype(np.float32))
-    return PerceivedLightness(left=out[0], right=out[1], exposure=float(k),
+    return PerceivedLightness(left=_lightness(left, k, gain), right=_lightness(right, k, gain), exposure=float(k),
                               pixels_per_degree=pixels_per_degree(display, left.shape[2]))  # fmt: skip
+
+
+def _lightness(rad: np.ndarray, exposure: float, gain: np.ndarray | None) -> np.ndarray:
+    """L* ``(N, H, W)`` float32 of checked radiance ``(N, H, W, 3)``: tone map, CSF, L*."""
+    srgb = np.stack([tonemap(layer, exposure=exposure) for layer in rad])  # float32
+    if gain is not None:
+        srgb = np.clip(_csf_apply(srgb, gain), 0.0, 1.0).astype(np.float32)
+    return _lstar(srgb).astype(np.float32)
+
+
+def layer_lightness(radiance: object, position: object, display: Display, *, exposure: float) -> np.ndarray:
+    """L* of every layer of one eye, as :func:`perceived_lightness` computes it for each eye (S3 §3.2).
+
+    Parameters
+    ----------
+    radiance : (N, H, W, 3) array_like
+        One eye's layers (:class:`vergence.render.RenderResult`), as in :func:`perceived_lightness`.
+    position : (N, H, W, 3) array_like or None
+        Their positions (NaN radiance is allowed where a layer has no surface); None: the radiance
+        must be finite everywhere (the renderer writes 0 where a layer has no surface).
+    display : vergence.viewing.Display
+    exposure : float, keyword-only
+        The radiance multiplier (> 0) shared with the other eye: ``perceived_lightness(...).exposure``.
+
+    Returns
+    -------
+    (N, H, W) float32
+        Equal to the ``left`` (or ``right``) of :func:`perceived_lightness` with that exposure.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`perceived_lightness`.
+    """
+    rad = _checked_radiance("", radiance, radiance if position is None else position)
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    k = check_positive("exposure", exposure)
+    return _lightness(rad, k, _csf_gain(rad.shape[1], rad.shape[2], display))

@@ -219,6 +219,8 @@ class OffsetTable:
         Per offset, the matched distance in metres (NaN: no match).
     epsilon : float
         The match cutoff, metres, the same at every offset.
+    window : tuple of int
+        The match window ``(width, height)``, pixels.
     left, right : RenderResult
         The two physical renders (``y = 1`` and the right eye); ``radiance[-1]`` is ``left.radiance``.
     seconds_render, seconds_match : float
@@ -231,6 +233,7 @@ class OffsetTable:
     disparity_px: np.ndarray
     distance: np.ndarray
     epsilon: float
+    window: tuple[int, int]
     left: RenderResult
     right: RenderResult
     seconds_render: float
@@ -358,7 +361,7 @@ def tabulate_offsets(
         match = layer_disparity(res.position, right_res.position, window=window, epsilon=epsilon)
         seconds_match += time.perf_counter() - t0
         if m == k:
-            left_res, epsilon = res, match.epsilon
+            left_res, epsilon, window = res, match.epsilon, match.window
             n, h, w = res.n_layers, left.height, left.width
             rad = np.empty((k + 1, n, h, w, 3), np.float32)
             pos = np.empty((k + 1, n, h, w, 3), np.float32) if keep_position else None
@@ -372,7 +375,7 @@ def tabulate_offsets(
     if progress is not None:
         progress(1.0, "done")
     return OffsetTable(offsets=offsets, radiance=rad, position=pos, disparity_px=disp, distance=dist,
-                       epsilon=float(epsilon), left=left_res, right=right_res, seconds_render=seconds_render,
+                       epsilon=float(epsilon), window=window, left=left_res, right=right_res, seconds_render=seconds_render,
                        seconds_match=seconds_match)  # fmt: skip
 
 

@@ -6,14 +6,14 @@ The disparity, rivalry and importance of every layer are tabulated at the offset
 (``K + 1`` renders of the left eye, S3: ``K = 32``); per pixel, :func:`optimise_offsets` runs
 ``steps`` steps of gradient descent on the linearly interpolated table (the chain rule of the
 table's slope and the analytic gradient of S3 Eq. 2, :func:`~vergence.specular.disparity_cost_gradient`)
-from S3's starts ``y = (1, s, ..., s)``, ``s = i / (restarts - 1)``, and keeps the best. The
-diffuse (first) layer stays at ``y = 1`` unless told otherwise.
+from S3's starts ``y = (1, s, ..., s)``, ``s = i / (restarts - 1)``, and keeps the best (among
+equals the first, ``s = 1``). The diffuse (first) layer stays at ``y = 1`` unless told otherwise.
 
 Decisions: a step is ``-step * grad / max |grad|`` (a normalised step: the cost's scale in
 arcmin^2 varies by orders of magnitude between pixels), kept only when it lowers the cost, else
 halved, from :data:`FIRST_STEP`; importance is read from the table at the current offsets but held
-fixed in the derivative. Not built yet: S3's edge-aware blur of the offsets and the low-resolution
-solve with joint-bilateral upsampling.
+fixed in the derivative. S3's edge-aware blur and the low-resolution solve with joint-bilateral
+upsampling are :class:`vergence.specular.OffsetPlanner`'s.
 """
 
 from __future__ import annotations
@@ -103,7 +103,9 @@ def optimise_offsets(
         if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < n:
             raise ValueError(f"fixed must list layer indices in [0, {n - 1}]; got {fixed!r}")
         free[i] = False
-    levels = np.array([1.0]) if restarts == 1 else np.arange(restarts) / (restarts - 1)
+    # y = 1 first: the kernel keeps the first of equal costs, so a pixel whose free layers all lack
+    # importance (cost independent of y) keeps the physical stereo
+    levels = np.array([1.0]) if restarts == 1 else np.arange(restarts)[::-1] / (restarts - 1)
     starts = np.repeat(levels[:, None], n, axis=1)
     maps4 = np.stack([m[t] for t in COST_TERMS])
     zlo, zhi = (0.0, 0.0) if zone is None else (float(zone[0]), float(zone[1]))

@@ -1,0 +1,341 @@
+"""S3 end to end: glass and mirrors made fusible by per-pixel, per-layer camera offsets (S3 §3).
+
+:func:`specular_stereo` composes the public stages of :mod:`vergence.specular` on a scene and a
+shifted-sensor rig:
+
+1. the physical pair and its analysis (S3 §3.1-3.2): the table of the left eye at ``y = m / k``
+   (:func:`~vergence.specular.tabulate_offsets`) and ``g(y)`` (:func:`~vergence.specular.analyse_table`);
+2. the offsets (S3 §3.4): :class:`~vergence.specular.OffsetPlanner` (low-resolution descent,
+   importance-weighted joint bilateral upsampling);
+3. the final render, each layer of the left eye from its own per-pixel camera
+   (:func:`~vergence.specular.render_offsets`), measured again as an independent matcher would: its
+   positions matched against the right eye (:func:`~vergence.specular.layer_disparity`), importance
+   and rivalry of that pair;
+4. S3 §4's baselines, *on-surface* and *near-surface* (:func:`~vergence.specular.on_surface`,
+   :func:`~vergence.specular.near_surface`).
+
+A scene with nothing specular in view (no layer past the first has a surface in either eye) stops
+after the physical pair: the result is that pair (``specular`` False).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vergence._validate import readonly_fields
+from vergence.camera import Camera
+from vergence.specular.cost import COST_WEIGHTS, CostTerms, disparity_cost
+from vergence.specular.importance_factors import importance
+from vergence.specular.lightness import PerceivedLightness, layer_lightness, pixels_per_degree
+from vergence.specular.matching import MATCH_WINDOW, disparity_arcmin, layer_disparity
+from vergence.specular.offsets import render_offsets, tabulate_offsets
+from vergence.specular.planning import PLAN_FACTOR, OffsetPlanner
+from vergence.specular.rivalry_map import rivalry
+from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, near_surface, on_surface
+from vergence.specular.tabulated import analyse_table
+from vergence.viewing.comfort import ComfortZone
+from vergence.viewing.geometry import Display
+
+__all__ = ["DEFAULT_VARIANT", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share", "specular_stereo"]
+
+#: The absolute term :func:`specular_stereo` uses unless told otherwise (chosen in docs/specular.md).
+DEFAULT_VARIANT = "comfort"
+#: Two layers closer than this in depth pool into one (S3 §2: about 2 arcmin); a specular layer at
+#: least this far from its first surface, on the physical side, still reads as a reflection.
+SEPARATION_ARCMIN = 2.0
+
+Progress = Callable[[float, str], None]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LayerState:
+    """What a viewer gets from the left eye's layers against the right eye (S3 §3.2). Arrays are read-only.
+
+    Attributes
+    ----------
+    disparity : (N, H, W, 2) float32
+        Arcmin on the display, NaN where the layer has no match.
+    importance : (N, H, W) float32
+    rivalry : (N, H, W) float32
+        (ΔL*)^2, NaN in a layer with no match at all.
+    present : (N, H, W) bool
+        Where the left eye's layer has a surface.
+    """
+
+    disparity: np.ndarray
+    importance: np.ndarray
+    rivalry: np.ndarray
+    present: np.ndarray
+
+    def __post_init__(self) -> None:
+        readonly_fields(self, "disparity", "importance", "rivalry", "present")
+
+    @property
+    def matched(self) -> np.ndarray:
+        """``(N, H, W)`` bool: the layer pixel has a match."""
+        return ~np.isnan(self.disparity[..., 0])
+
+
+def comfort_share(state: LayerState, zone: ComfortZone) -> np.ndarray:
+    """Per layer, the importance-weighted share of matched pixels whose horizontal disparity lies in ``zone``.
+
+    ``sum w [min <= d_x <= max] / sum w`` over the layer's matched pixels, ``w`` the importance;
+    NaN for a layer with no important matched pixel. (The vertical disparity is not part of the
+    comfort zone; :func:`specular_stereo`'s cost counts it whole.)
+    """
+    if not isinstance(state, LayerState):
+        raise TypeError(f"state must be a LayerState; got {type(state).__name__}")
+    if not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
+    dx = state.disparity[..., 0]
+    w = np.where(state.matched, state.importance, 0.0).astype(np.float64)
+    inside = (dx >= zone.min_arcmin) & (dx <= zone.max_arcmin)
+    total = w.sum(axis=(1, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, (w * inside).sum(axis=(1, 2)) / total, np.nan)
+
+
+def _separated_share(state: LayerState, physical: LayerState) -> np.ndarray:
+    """Per layer past the first, the importance-weighted share of pixels still at least
+    :data:`SEPARATION_ARCMIN` from the first surface on their physical side (NaN: no such pixel)."""
+    d0, p0 = state.disparity[0, ..., 0], physical.disparity[0, ..., 0]
+    out = np.full(state.disparity.shape[0], np.nan)
+    for i in range(1, len(out)):
+        side = np.sign(physical.disparity[i, ..., 0] - p0)
+        ok = state.matched[i] & state.matched[0] & physical.matched[i] & physical.matched[0] & (side != 0)
+        w = np.where(ok, state.importance[i], 0.0).astype(np.float64)
+        if w.sum() > 0:
+            sep = np.where(ok, side * (state.disparity[i, ..., 0] - d0), 0.0)
+            out[i] = float((w * (sep >= SEPARATION_ARCMIN)).sum() / w.sum())
+    return out
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SpecularResult:
+    """:func:`specular_stereo`'s renders, offsets, measurements and timings.
+
+    Attributes
+    ----------
+    physical_left, right, optimised_left, on_surface_left, near_surface_left : RenderResult
+        The left eyes of the four methods and the shared right eye. ``optimised_left`` holds what
+        the per-pixel cameras saw.
+    y : (N, H, W) float32
+        The offsets (1: physical).
+    before, after : LayerState
+        The physical left eye and the optimised one, each measured against the right eye.
+    cost_before, cost_after : CostTerms
+        S3 Eq. 2 of those states (``before`` is the original, so its data term is 0).
+    zone : ComfortZone
+    specular : bool
+        False when nothing specular is in view (then the optimised eye is the physical one).
+    seconds : dict of str to float
+        Wall time per stage.
+    settings : dict
+        What was asked (k, variant, alpha, factor, ...), JSON-ready.
+    """
+
+    physical_left: object
+    right: object
+    optimised_left: object
+    on_surface_left: object
+    near_surface_left: object
+    y: np.ndarray
+    before: LayerState
+    after: LayerState
+    cost_before: CostTerms
+    cost_after: CostTerms
+    zone: ComfortZone
+    specular: bool
+    seconds: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+
+    def report(self) -> dict:
+        """JSON-ready figures: cost terms before and after, and per layer the matched share, the
+        comfort share and the separation share before and after."""
+        names = layer_labels(self.y.shape[0])
+        layers = []
+        share_b, share_a = comfort_share(self.before, self.zone), comfort_share(self.after, self.zone)
+        sep_b = _separated_share(self.before, self.before)
+        sep_a = _separated_share(self.after, self.before)
+        for i, name in enumerate(names):
+            present = int(self.before.present[i].sum())
+            layers.append({
+                "layer": i + 1, "name": name, "pixels": present,
+                "matched_before": _ratio(self.before.matched[i].sum(), present),
+                "matched_after": _ratio(self.after.matched[i].sum(), int(self.after.present[i].sum())),
+                "comfort_share_before": _num(share_b[i]), "comfort_share_after": _num(share_a[i]),
+                "separated_share_before": _num(sep_b[i]), "separated_share_after": _num(sep_a[i]),
+                "offset_mean": float(self.y[i][self.before.present[i]].mean()) if present else None,
+            })  # fmt: skip
+        return {
+            "specular": self.specular,
+            "settings": self.settings,
+            "comfort_zone_arcmin": [self.zone.min_arcmin, self.zone.max_arcmin],
+            "cost_before": self.cost_before.means(),
+            "cost_after": self.cost_after.means(),
+            "layers": layers,
+            "seconds": {k: round(v, 3) for k, v in self.seconds.items()},
+        }
+
+
+def _num(v: float) -> float | None:
+    return None if not math.isfinite(v) else round(float(v), 4)
+
+
+def _ratio(a: int, b: int) -> float | None:
+    return None if b == 0 else round(float(a) / b, 4)
+
+
+def layer_labels(n: int) -> list[str]:
+    """Names of the heap nodes 1..n: ``"1"`` the first hit, then ``R`` (reflection) / ``T`` (refraction) paths."""
+    from vergence.render.results import layer_names
+
+    return layer_names(int(math.log2(n + 1)) - 1)
+
+
+def _state(left, right, right_lightness, display, exposure, epsilon, window) -> LayerState:  # noqa: ANN001
+    match = layer_disparity(left.position, right.position, window=window, epsilon=epsilon)
+    lit = layer_lightness(left.radiance, left.position, display, exposure=exposure)
+    pair = PerceivedLightness(left=lit, right=right_lightness, exposure=exposure,
+                              pixels_per_degree=pixels_per_degree(display, left.camera.width))  # fmt: skip
+    return LayerState(disparity=disparity_arcmin(match.disparity_px, display).astype(np.float32),
+                      importance=importance(pair, match).weight, rivalry=rivalry(pair, match).rivalry,
+                      present=np.isfinite(left.position).all(axis=-1))  # fmt: skip
+
+
+def _has_specular(scene: object) -> bool:
+    """Whether any object of ``scene`` is a mirror or glass (else no layer past the first can exist)."""
+    from vergence.render.scene import Glass, Mirror
+
+    return any(isinstance(scene.materials[obj.material], Glass | Mirror) for obj in scene.objects)
+
+
+def _cost(state: LayerState, original: LayerState, **kw: object) -> CostTerms:
+    return disparity_cost(state.disparity, state.rivalry, state.importance, original.disparity, **kw)
+
+
+def specular_stereo(
+    scene: object,
+    left: Camera,
+    right: Camera,
+    display: Display,
+    *,
+    k: int = 32,
+    max_depth: int = 2,
+    samples: int = 16,
+    alpha: object = COST_WEIGHTS,
+    variant: str = DEFAULT_VARIANT,
+    zone: ComfortZone | None = None,
+    maps: Mapping[str, object] | None = None,
+    factor: int = PLAN_FACTOR,
+    near_arcmin: float = NEAR_SURFACE_ARCMIN,
+    progress: Progress | None = None,
+) -> SpecularResult:
+    """Make the glass and mirrors of ``scene`` fusible on ``display`` (S3 §3): offsets, renders, figures.
+
+    Parameters
+    ----------
+    scene : vergence.render.Scene or vergence.render.Tracer
+    left, right : Camera
+        A shifted-sensor rig (:func:`vergence.rigs.stereo_pair`).
+    display : vergence.viewing.Display
+        Where the pair is shown; its resolution must be known.
+    k : int
+        Offset steps of the table (S3: 32), in [2, :data:`~vergence.specular.MAX_OFFSET_STEPS`].
+    max_depth, samples
+        As :func:`vergence.render.render` (S3 uses D = 2).
+    alpha, maps
+        The cost's weights and painted per-layer maps (:func:`~vergence.specular.disparity_cost`).
+    variant : {"comfort", "screen"}
+        The absolute term: S3's ``"screen"`` or ours, only what lies outside ``zone``.
+    zone : ComfortZone, optional
+        The display's comfort zone (default :class:`~vergence.viewing.ComfortZone`'s ±60 arcmin).
+    factor : int
+        The planner's reduction (:class:`~vergence.specular.OffsetPlanner`).
+    near_arcmin : float
+        The near-surface baseline's offset (:func:`~vergence.specular.near_surface`).
+    progress : callable(fraction, message), optional
+
+    Returns
+    -------
+    SpecularResult
+
+    Raises
+    ------
+    TypeError, ValueError
+        On a bad rig, display, k, weight or map, before the table is rendered (except the render
+        options, checked by the first render).
+    """
+    from vergence.render.tonemap import auto_exposure
+    from vergence.render.limits import check_max_depth
+    from vergence.specular.offsets import _check_rig, _check_steps, _tracer  # the checks tabulate_offsets makes
+
+    tracer = _tracer(scene)  # one Mitsuba scene for the table and the final render
+    left, right = _check_rig(left, right)
+    k = _check_steps(k)
+    max_depth = check_max_depth(max_depth)
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
+    zone = ComfortZone() if zone is None else zone
+    if not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
+    cost_kw = {"alpha": alpha, "variant": variant, "zone": (zone.min_arcmin, zone.max_arcmin)}
+    empty = np.zeros((2 ** (max_depth + 1) - 1, left.height, left.width, 2))  # the weights and maps checked
+    disparity_cost(empty, empty[..., 0], empty[..., 0], empty, maps=maps, **cost_kw)  # now, not after the table
+    report = progress if progress is not None else (lambda f, m: None)
+    seconds: dict[str, float] = {}
+    settings = {"k": k, "max_depth": max_depth, "samples": samples, "variant": variant,
+                "alpha": [float(a) for a in alpha], "factor": factor, "near_surface_arcmin": near_arcmin,
+                "maps": sorted(maps or {})}  # fmt: skip
+
+    def stage(lo: float, hi: float) -> Progress:
+        return lambda f, m: report(lo + (hi - lo) * f, m)
+
+    t0 = time.perf_counter()
+    table = None
+    if _has_specular(tracer.scene):
+        table = tabulate_offsets(tracer, left, right, k=k, max_depth=max_depth, samples=samples,
+                                 progress=stage(0.0, 0.6))  # fmt: skip
+        seconds["tabulate_render"], seconds["tabulate_match"] = table.seconds_render, table.seconds_match
+        phys, right_res, epsilon, window = table.left, table.right, table.epsilon, table.window
+    else:  # no mirror or glass at all: the physical pair is the answer
+        phys, right_res = (tracer.render(cam, max_depth=max_depth, samples=samples) for cam in (left, right))
+        epsilon, window = None, MATCH_WINDOW
+    exposure = auto_exposure(np.asarray(phys.beauty, dtype=np.float64))
+    right_lit = layer_lightness(right_res.radiance, right_res.position, display, exposure=exposure)
+    specular = bool(np.isfinite(phys.position[1:]).any() or np.isfinite(right_res.position[1:]).any())
+    before = _state(phys, right_res, right_lit, display, exposure, epsilon, window)
+    if specular and table is not None:
+        analysis = analyse_table(table, display, exposure=exposure, progress=stage(0.6, 0.8))
+        seconds["tabulate_analyse"] = analysis.seconds
+        del table  # the radiance of every offset is no longer needed
+        planner = OffsetPlanner(analysis, factor=factor)
+        seconds["plan_reduce"] = planner.seconds_reduce
+        plan = planner.solve(maps=maps, **cost_kw)
+        seconds["plan_solve"] = plan.seconds
+        report(0.8, "final render with per-pixel cameras")
+        t1 = time.perf_counter()
+        optimised = render_offsets(tracer, left, right, plan.y, samples=samples)
+        seconds["final_render"] = time.perf_counter() - t1
+        y = plan.y
+        after = _state(optimised, right_res, right_lit, display, exposure, epsilon, window)
+    else:
+        optimised, y, after = phys, np.ones((phys.n_layers, left.height, left.width), np.float32), before
+    report(0.95, "baselines: on-surface, near-surface")
+    t1 = time.perf_counter()
+    on_res = on_surface(phys, right_res)
+    near_res = near_surface(phys, right_res, display, offset_arcmin=near_arcmin)
+    seconds["baselines"] = time.perf_counter() - t1
+    seconds["total"] = time.perf_counter() - t0
+    report(1.0, "done")
+    return SpecularResult(physical_left=phys, right=right_res, optimised_left=optimised, on_surface_left=on_res,
+                          near_surface_left=near_res, y=y, before=before, after=after,
+                          cost_before=_cost(before, before, maps=maps, **cost_kw),
+                          cost_after=_cost(after, before, maps=maps, **cost_kw), zone=zone, specular=specular,
+                          seconds=seconds, settings=settings)  # fmt: skip

@@ -1,0 +1,177 @@
+"""Per-layer camera offsets for a whole image: low-resolution solve, edge-aware upsampling (S3 §3.4).
+
+S3 §3.4 optimises the offsets "in parallel, independently for every pixel", then "the resulting
+optimal camera offset is blurred using an edge-aware filter ... The solution is found at lower
+resolution and later up-sampled [Kopf et al. 2007]. In this step, the contribution of each pixel is
+weighted by its importance". :class:`OffsetPlanner` does that on an
+:class:`~vergence.specular.OffsetAnalysis`:
+
+1. once: the table reduced ``factor`` times in each direction, each block's disparity and rivalry
+   averaged with the importance as weight (:func:`~vergence.specular.weighted_block_mean`), the
+   importance by its plain block mean;
+2. per :meth:`OffsetPlanner.solve` (a weight changed, a map painted): the per-pixel descent on the
+   reduced table (:func:`~vergence.specular.optimise_offsets`), then the joint bilateral upsampling
+   of the offsets (:func:`~vergence.specular.joint_bilateral_upsample`), weighted by each block's
+   physical importance and guided by the layer's physical horizontal disparity at full resolution,
+   so that an offset does not leak across a depth edge of its layer (a mirror's frame, a sphere's
+   rim). The spatial kernel spans ``radius`` low-resolution pixels: it is the edge-aware blur.
+
+Re-solving reuses the reduced table: at 512 x 512, factor 4, it is interactive
+(``benchmarks/specular_optimise.py --planner``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from numbers import Integral
+
+import numpy as np
+
+from vergence._validate import check_positive, readonly_fields
+from vergence.specular.cost import COST_TERMS, COST_WEIGHTS, RELATIVE_LAMBDA_ARCMIN
+from vergence.specular.optimise import DESCENT_STEPS, RESTARTS, optimise_offsets
+from vergence.specular.resample import joint_bilateral_upsample, weighted_block_mean
+from vergence.specular.tabulated import OffsetAnalysis
+
+__all__ = ["PLAN_FACTOR", "PLAN_SIGMA_RANGE", "OffsetPlan", "OffsetPlanner"]
+
+#: Default reduction of the solve (S3 §3.4 "lower resolution"; ours): 4 x 4 pixels per solved pixel.
+PLAN_FACTOR = 4
+#: Default range sigma of the upsampling, arcmin of the layer's physical disparity (ours: twice
+#: S3's relative target lambda_x = 3'; a disparity step of 12' or more keeps its sides apart).
+PLAN_SIGMA_RANGE = 6.0
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class OffsetPlan:
+    """The offsets of every layer and pixel (S3 §3.4). Arrays are read-only.
+
+    Attributes
+    ----------
+    y : (N, H, W) float32
+        Offsets in [0, 1] at full resolution (1: the physical left eye; fixed layers are 1).
+    y_low, cost_low : (N, h, w), (h, w) float64
+        The per-pixel descent's result and cost on the reduced table.
+    factor : int
+        The reduction.
+    seconds : float
+        Wall time of :meth:`OffsetPlanner.solve`.
+    """
+
+    y: np.ndarray
+    y_low: np.ndarray
+    cost_low: np.ndarray
+    factor: int
+    seconds: float
+
+    def __post_init__(self) -> None:
+        readonly_fields(self, "y", "y_low", "cost_low")
+
+
+class OffsetPlanner:
+    """S3 §3.4's optimisation for whole images: reduce the table once, solve many times.
+
+    Parameters
+    ----------
+    analysis : OffsetAnalysis
+        :func:`~vergence.specular.analyse_table`'s ``g(y)``.
+    factor : int, keyword-only
+        Solve on ``ceil(H / factor) x ceil(W / factor)`` pixels (1: every pixel, then the upsampling
+        is an edge-aware blur at full resolution).
+    sigma_space, sigma_range : float, keyword-only
+        The upsampling's spatial sigma (low-resolution pixels) and range sigma (arcmin of the layer's
+        physical horizontal disparity).
+    radius : int, keyword-only
+        The upsampling's reach in low-resolution pixels.
+
+    Examples
+    --------
+    >>> planner = OffsetPlanner(analysis)                       # doctest: +SKIP
+    >>> plan = planner.solve(variant="comfort", zone=(-60, 60))  # doctest: +SKIP
+    >>> plan = planner.solve(alpha=(1, 1, 10, 1), variant="comfort", zone=(-60, 60))  # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        analysis: OffsetAnalysis,
+        *,
+        factor: int = PLAN_FACTOR,
+        sigma_space: float = 1.0,
+        sigma_range: float = PLAN_SIGMA_RANGE,
+        radius: int = 2,
+    ) -> None:
+        if not isinstance(analysis, OffsetAnalysis):
+            raise TypeError(f"analysis must be a vergence.specular.OffsetAnalysis; got {type(analysis).__name__}")
+        if isinstance(factor, bool) or not isinstance(factor, Integral) or not 1 <= factor <= 64:
+            raise ValueError(f"factor must be an integer in [1, 64]; got {factor!r}")
+        self.sigma_space = check_positive("sigma_space", sigma_space)
+        self.sigma_range = check_positive("sigma_range", sigma_range)
+        if isinstance(radius, bool) or not isinstance(radius, Integral) or not 0 <= radius <= 16:
+            raise ValueError(f"radius must be an integer in [0, 16]; got {radius!r}")
+        self.analysis, self.factor, self.radius = analysis, int(factor), int(radius)
+        t0 = time.perf_counter()
+        weight = analysis.importance
+        self._disparity, self._importance = weighted_block_mean(analysis.disparity, weight, self.factor)
+        self._rivalry, _ = weighted_block_mean(analysis.rivalry, weight, self.factor)
+        # the importance of a block is its plain mean: NaN-free, in [0, 1]
+        self._importance = np.nan_to_num(self._importance, nan=0.0)
+        self._guide_high = np.array(analysis.original[..., 0])
+        self._guide_low = np.array(self._disparity[-1, ..., 0])
+        self.seconds_reduce = time.perf_counter() - t0
+
+    @property
+    def low_shape(self) -> tuple[int, int]:
+        """``(h, w)`` of the reduced table."""
+        return self._importance.shape[2:]
+
+    def _reduced_maps(self, maps: Mapping[str, object] | None) -> dict[str, np.ndarray]:
+        shape = self.analysis.importance.shape[1:]
+        if maps is None:
+            return {}
+        if not isinstance(maps, Mapping):
+            raise TypeError(f"maps must be a mapping of term name to (N, H, W) weights; got {type(maps).__name__}")
+        unknown = set(maps) - set(COST_TERMS)
+        if unknown:
+            raise ValueError(f"maps has unknown terms {sorted(unknown)}; the terms are {', '.join(COST_TERMS)}")
+        out = {}
+        for name, value in maps.items():
+            arr = np.asarray(value, dtype=np.float32)
+            if arr.shape != shape:
+                raise ValueError(f"the {name} weight map must have shape {shape}; got {arr.shape}")
+            if not np.isfinite(arr).all() or (arr < 0).any():
+                raise ValueError(f"the {name} weight map must be finite and >= 0")
+            out[name], _ = weighted_block_mean(arr, np.ones(shape, np.float32), self.factor)
+        return out
+
+    def solve(
+        self,
+        *,
+        alpha: object = COST_WEIGHTS,
+        variant: str = "screen",
+        zone: tuple[float, float] | None = None,
+        maps: Mapping[str, object] | None = None,
+        lam: tuple[float, float] = RELATIVE_LAMBDA_ARCMIN,
+        fixed: object = (0,),
+        steps: int = DESCENT_STEPS,
+        restarts: int = RESTARTS,
+    ) -> OffsetPlan:
+        """The offsets minimising S3 Eq. 2 for these weights (arguments as :func:`~vergence.specular.optimise_offsets`).
+
+        ``maps`` are full-resolution ``(N, H, W)`` painted weights by term; they are block-averaged
+        to the solve's resolution.
+        """
+        t0 = time.perf_counter()
+        low_maps = self._reduced_maps(maps)
+        sol = optimise_offsets(self._disparity, self._rivalry, self._importance, self._disparity[-1], alpha=alpha,
+                               variant=variant, zone=zone, maps=low_maps, lam=lam, fixed=fixed, steps=steps,
+                               restarts=restarts)  # fmt: skip
+        y = joint_bilateral_upsample(sol.y, self._importance[-1], self._guide_low, self._guide_high,
+                                     sigma_space=self.sigma_space, sigma_range=self.sigma_range, radius=self.radius,
+                                     fill=1.0)  # fmt: skip
+        y = np.clip(y, 0.0, 1.0).astype(np.float32)
+        for i in fixed:
+            y[i] = 1.0
+        return OffsetPlan(y=y, y_low=np.array(sol.y), cost_low=np.array(sol.cost), factor=self.factor,
+                          seconds=time.perf_counter() - t0)  # fmt: skip
