@@ -1,5 +1,6 @@
 """The example scenes in the repository load and render: ``examples/scenes/quarry`` (issue 10's
-held-out report scene, a non-planar background) and the scenes of ``docs/scenes.md``."""
+held-out report scene, a non-planar background), ``far_mirror.json`` (a mirror reflecting a far
+backdrop, for S3 specular disparity) and the scenes of ``docs/scenes.md``."""
 
 from __future__ import annotations
 
@@ -72,3 +73,37 @@ def test_quarry_files_match_make_py(tmp_path, monkeypatch):
             assert (tmp_path / name).read_text() == (QUARRY / name).read_text(), name
         else:
             np.testing.assert_array_equal(read_image(tmp_path / name), read_image(QUARRY / name), err_msg=name)
+
+
+FAR_MIRROR = EXAMPLES / "scenes" / "far_mirror.json"
+
+
+def test_far_mirror_reflects_only_the_far_backdrop():
+    scene = vr.open_scene(FAR_MIRROR, width=32, height=24)
+    assert (scene.stereo.baseline, scene.stereo.convergence) == (0.065, 2.75)
+    result = vr.render(scene, samples=1)
+    depth = result.depth[np.isfinite(result.depth)]
+    assert 2.3 < depth.min() and depth.max() < 4.8  # the room: first hits 2.4-4.7 m
+    first, reflected = result.position[0], result.position[1]
+    n = np.array([0.5736, 0.0, 0.8192]) / np.hypot(0.5736, 0.8192)
+    on_mirror = np.abs((first - np.array([0.8, 1.25, -2.8])) @ n) < 1e-3
+    assert on_mirror.mean() > 0.15  # the mirror covers about a fifth of the frame
+    assert np.isfinite(reflected[on_mirror]).all()  # every mirror pixel reflects a surface, no sky
+    bounce = np.linalg.norm(reflected[on_mirror] - first[on_mirror], axis=-1)
+    assert bounce.min() > 30.0  # ... and that surface is the backdrop, 35 m away, never the room
+
+
+def test_far_mirror_reflection_lies_outside_the_comfort_zone():
+    from vergence.specular import disparity_arcmin, layer_disparity
+    from vergence.viewing import Display
+
+    scene = vr.open_scene(FAR_MIRROR, width=64, height=48)
+    left, right = vr.render_stereo(scene, baseline=0.065, convergence=2.75, samples=1)
+    matches = layer_disparity(left.position, right.position)
+    arcmin = disparity_arcmin(matches.disparity_px, Display.preset("desktop-24"))[..., 0]
+    room = arcmin[0][matches.matched[0]]
+    mirror = np.abs((left.position[0] - np.array([0.8, 1.25, -2.8])) @ np.array([0.5736, 0.0, 0.8192])) < 1e-3
+    reflection = arcmin[1][mirror & matches.matched[1]]
+    assert matches.matched[1][mirror].mean() > 0.9  # the far reflection stays inside the 81 x 9 window
+    assert np.mean(np.abs(room) < 60.0) > 0.95  # the diffuse room: inside the +-60 arcmin zone
+    assert np.median(reflection) > 75.0  # the reflection: uncrossed, well behind it (83' at 256 px)

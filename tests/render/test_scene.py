@@ -85,7 +85,7 @@ def test_example_scenes_load(path):
 
 
 def test_examples_exist():
-    assert {p.stem for p in EXAMPLES} >= {"spheres_and_mirror", "textured_vase", "fisheye_room"}
+    assert {p.stem for p in EXAMPLES} >= {"spheres_and_mirror", "textured_vase", "fisheye_room", "far_mirror"}
 
 
 BAD = [
