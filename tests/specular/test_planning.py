@@ -1,0 +1,79 @@
+"""The whole-image offset plan (S3 §3.4): the low-resolution solve and its importance-weighted,
+edge-aware upsampling, checked against the per-pixel descent it wraps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from vergence.specular import OffsetAnalysis, OffsetPlanner, optimise_offsets
+from vergence.viewing import Display
+
+ZONE = (-60.0, 60.0)
+
+
+def _analysis(k=8, n=3, h=12, w=16, seed=0):
+    """Disparity that scales with the offset (d(y) = y x physical), rivalry growing as y leaves 1."""
+    rng = np.random.default_rng(seed)
+    ys = np.arange(k + 1) / k
+    physical = rng.normal(0.0, 120.0, (n, h, w, 2)).astype(np.float32)
+    physical[..., 1] *= 0.05
+    disparity = (ys[:, None, None, None, None] * physical[None]).astype(np.float32)
+    rivalry = ((1 - ys)[:, None, None, None] * rng.uniform(0, 3, (n, h, w))[None]).astype(np.float32)
+    importance = np.broadcast_to(rng.uniform(0, 1, (n, h, w)).astype(np.float32), (k + 1, n, h, w)).copy()
+    importance[:, 2, :, : w // 2] = 0.0  # half of layer 3 unimportant
+    return OffsetAnalysis(offsets=ys, disparity=disparity, rivalry=rivalry, importance=importance,
+                          exposure=1.0, display=Display.preset("samsung-2233rz"), seconds=0.0)  # fmt: skip
+
+
+def test_factor_one_radius_zero_is_the_per_pixel_descent():
+    a = _analysis()
+    plan = OffsetPlanner(a, factor=1, radius=0).solve(variant="comfort", zone=ZONE)
+    sol = optimise_offsets(a.disparity, a.rivalry, a.importance, a.original, variant="comfort", zone=ZONE)
+    important = a.importance[-1] > 0
+    assert_array_equal(plan.y[important], sol.y[important].astype(np.float32))
+    assert np.all(plan.y[~important] == 1.0)  # no weight: the physical offset
+    assert np.all(plan.y[0] == 1.0)
+
+
+def test_the_plan_pulls_far_layers_in_and_is_full_resolution():
+    a = _analysis(h=24, w=32)
+    plan = OffsetPlanner(a, factor=4).solve(variant="comfort", zone=ZONE)
+    assert plan.y.shape == (3, 24, 32) and plan.y_low.shape == (3, 6, 8) and plan.factor == 4
+    far = (np.abs(a.original[1, ..., 0]) > 200) & (a.importance[-1, 1] > 0.5)
+    near = (np.abs(a.original[1, ..., 0]) < 30) & (a.importance[-1, 1] > 0.5)
+    assert plan.y[1][far].mean() < plan.y[1][near].mean()
+    assert not plan.y.flags.writeable
+
+
+def test_resolving_with_new_weights_reuses_the_reduction_and_changes_the_answer():
+    a = _analysis(h=24, w=32)
+    planner = OffsetPlanner(a, factor=2)
+    first = planner.solve(variant="comfort", zone=ZONE)
+    data_heavy = planner.solve(alpha=(1, 1, 10, 100), variant="comfort", zone=ZONE)
+    assert data_heavy.y[1:].mean() > first.y[1:].mean()  # a heavy data term keeps the physical stereo
+    maps = {t: np.ones((3, 24, 32)) for t in ("absolute", "relative", "rivalry", "data")}
+    for t in maps:
+        maps[t][1] = 0.0  # layer 2 painted out of every term: its cost no longer depends on y
+    painted = planner.solve(variant="comfort", zone=ZONE, maps=maps)
+    assert np.all(painted.y_low[1] == 1.0)  # ties keep the first start, y = 1
+
+
+def test_bad_inputs():
+    a = _analysis()
+    with pytest.raises(TypeError, match="OffsetAnalysis"):
+        OffsetPlanner("analysis")
+    for kwargs, match in (({"factor": 0}, "factor"), ({"radius": -1}, "radius"), ({"sigma_range": 0}, "sigma_range"),
+                          ({"sigma_space": np.nan}, "sigma_space")):  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            OffsetPlanner(a, **kwargs)
+    planner = OffsetPlanner(a)
+    with pytest.raises(ValueError, match="data weight map must have shape"):
+        planner.solve(maps={"data": np.ones((3, 2, 2))})
+    with pytest.raises(ValueError, match="unknown terms"):
+        planner.solve(maps={"flatness": np.ones((3, 12, 16))})
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        planner.solve(maps={"data": -np.ones((3, 12, 16))})
+    with pytest.raises(ValueError, match="comfort variant needs zone"):
+        planner.solve(variant="comfort")
