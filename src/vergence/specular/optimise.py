@@ -12,8 +12,9 @@ diffuse (first) layer stays at ``y = 1`` unless told otherwise.
 Decisions: a step is ``-step * grad / max |grad|`` (a normalised step: the cost's scale in
 arcmin^2 varies by orders of magnitude between pixels), kept only when it lowers the cost, else
 halved, from :data:`FIRST_STEP`; importance is read from the table at the current offsets but held
-fixed in the derivative. Not built yet: S3's edge-aware blur of the offsets and the low-resolution
-solve with joint-bilateral upsampling.
+fixed in the derivative. S3's low-resolution solve and edge-aware blur of the offsets have their
+stages in :mod:`vergence.specular.resample` (:func:`~vergence.specular.weighted_block_mean`,
+:func:`~vergence.specular.joint_bilateral_upsample`); no pipeline chains them with this function yet.
 """
 
 from __future__ import annotations
