@@ -16,7 +16,9 @@
 - The cost of a pixel's layered disparities, absolute (S3's or outside the comfort zone only),
   relative, rivalry and data, with painted weight maps, and its gradient (S3 §3.3, Eq. 2:
   :func:`disparity_cost`, :class:`CostTerms`, :func:`disparity_cost_gradient`).
-- Per-pixel camera offsets minimising it on a tabulated ``g(y)`` (S3 §3.4: :func:`optimise_offsets`).
+- Per-pixel camera offsets minimising it on a tabulated ``g(y)`` (S3 §3.4: :func:`optimise_offsets`),
+  solved at low resolution and brought back up edge-aware, weighted by importance (S3 §3.4:
+  :func:`weighted_block_mean`, :func:`joint_bilateral_upsample`).
 
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
@@ -61,6 +63,7 @@ from vergence.specular.matching import (
 )
 from vergence.specular.optimise import DESCENT_STEPS, FIRST_STEP, RESTARTS, OffsetSolution, optimise_offsets
 from vergence.specular.tabulated import OffsetAnalysis, analyse_table
+from vergence.specular.resample import joint_bilateral_upsample, weighted_block_mean
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 from vergence.specular.offsets import (
     MAX_OFFSET_STEPS,
@@ -106,6 +109,7 @@ __all__ = [
     "distinctiveness",
     "fill_matches",
     "importance",
+    "joint_bilateral_upsample",
     "layer_disparity",
     "layer_lightness",
     "lightness_from_srgb",
@@ -119,4 +123,5 @@ __all__ = [
     "rivalry",
     "scene_diameter",
     "tabulate_offsets",
+    "weighted_block_mean",
 ]

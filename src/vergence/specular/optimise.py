@@ -13,7 +13,7 @@ Decisions: a step is ``-step * grad / max |grad|`` (a normalised step: the cost'
 arcmin^2 varies by orders of magnitude between pixels), kept only when it lowers the cost, else
 halved, from :data:`FIRST_STEP`; importance is read from the table at the current offsets but held
 fixed in the derivative. S3's edge-aware blur and the low-resolution solve with joint-bilateral
-upsampling are :class:`vergence.specular.OffsetPlanner`'s.
+upsampling are :class:`vergence.specular.OffsetPlanner`'s (stages in :mod:`vergence.specular.resample`).
 """
 
 from __future__ import annotations
