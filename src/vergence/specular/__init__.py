@@ -17,6 +17,9 @@
   relative, rivalry and data, with painted weight maps, and its gradient (S3 §3.3, Eq. 2:
   :func:`disparity_cost`, :class:`CostTerms`, :func:`disparity_cost_gradient`).
 - Per-pixel camera offsets minimising it on a tabulated ``g(y)`` (S3 §3.4: :func:`optimise_offsets`).
+- The baselines S3 §4.1 compares with: every specular layer at the disparity of the surface it is
+  seen on, or a constant offset behind or in front of it (Templin et al. 2012) (:func:`on_surface`,
+  :func:`near_surface`).
 
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
@@ -68,6 +71,7 @@ from vergence.specular.offsets import (
     render_offsets,
     tabulate_offsets,
 )
+from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, SAME_SURFACE_FRACTION, near_surface, on_surface
 
 __all__ = [
     "ABSOLUTE_VARIANTS",
@@ -85,6 +89,7 @@ __all__ = [
     "LayerDisparity",
     "MATCH_WINDOW",
     "MAX_OFFSET_STEPS",
+    "NEAR_SURFACE_ARCMIN",
     "OffsetSolution",
     "OffsetTable",
     "PerceivedLightness",
@@ -92,6 +97,7 @@ __all__ = [
     "RESTARTS",
     "RIVALRY_WINDOW",
     "Rivalry",
+    "SAME_SURFACE_FRACTION",
     "SSD_WINDOW",
     "contrast_q",
     "csf_lowpass",
@@ -104,8 +110,10 @@ __all__ = [
     "importance",
     "layer_disparity",
     "lightness_from_srgb",
+    "near_surface",
     "offset_camera",
     "offset_rays",
+    "on_surface",
     "optimise_offsets",
     "peli_contrast",
     "perceived_lightness",
