@@ -164,6 +164,26 @@ def test_on_surface_keeps_the_physical_layer_where_the_right_eye_sees_another_su
     assert_array_equal(kept, hidden | (u < 0))
 
 
+def test_the_silhouette_of_an_occluder_is_another_surface():
+    """Points 0.3 m in front of the plane along the right eye's rays, with normals across those rays (the rim of a
+    curved occluder): S lies on their tangent planes (n_P . (P - S) = 0), not they on S's, so the layer is kept."""
+    left_eye, right_eye = _pair()
+    cam = right_eye.camera
+    rays = cam.ray_directions()
+    plane = np.array(right_eye.position[0], dtype=np.float64)
+    pos, nrm = np.array(right_eye.position), np.array(right_eye.normal)
+    rim = (slice(3, 7), slice(10, 14))
+    pos[0][rim] = plane[rim] - 0.3 * rays[rim]
+    across = np.cross(rays[rim], [1.0, 0.0, 0.0])
+    nrm[0][rim] = across / np.linalg.norm(across, axis=-1, keepdims=True)
+    rimmed = render.RenderResult(radiance=right_eye.radiance, position=pos, normal=nrm, depth=right_eye.depth,
+                                 beauty=right_eye.beauty, camera=cam, settings=right_eye.settings)  # fmt: skip
+    out = on_surface(left_eye, rimmed)
+    kept = (out.radiance[1] == OWN).all(axis=-1)
+    assert kept[3:7].sum() == 16 + 4  # the 16 pixels seeing the rim, and column 0 (off the right image)
+    assert_array_equal(kept, (out.radiance[2] == OWN).all(axis=-1))
+
+
 def test_a_slanted_floor_is_the_same_surface_everywhere():
     """A plane seen at grazing angles passes the tangent-plane test (a plain 1 % distance would not at 32 px)."""
     left, right = _rig()
