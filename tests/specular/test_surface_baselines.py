@@ -185,19 +185,21 @@ def test_the_silhouette_of_an_occluder_is_another_surface():
 
 
 def test_a_slanted_floor_is_the_same_surface_everywhere():
-    """A plane seen at grazing angles passes the tangent-plane test (a plain 1 % distance would not at 32 px)."""
+    """A tilted floor seen at grazing angles passes the tangent-plane test, at float32 rounding of its points (a
+    plain 1 % distance would fail it at 32 px, and a zero tolerance too)."""
     left, right = _rig()
     n = 3
+    up = np.array([0.15, -1.0, 0.1]) / np.linalg.norm([0.15, -1.0, 0.1])  # y points down: the floor faces up
     eyes = []
     for cam in (left, right):
         d = cam.ray_directions()
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = (0.5 - cam.center[1]) / d[..., 1]  # the floor y = 0.5 (y points down)
+            t = (up @ np.array([0.0, 0.5, 2.0]) - up @ cam.center) / (d @ up)  # the plane through (0, 0.5, 2)
         t[~(t > 0)] = np.nan
         pos = np.full((n, H, W, 3), np.nan, np.float32)
         pos[0] = cam.center + t[..., None] * d
         nrm = np.full_like(pos, np.nan)
-        nrm[0] = (0.0, -1.0, 0.0)
+        nrm[0] = up
         rad = np.zeros((n, H, W, 3), np.float32)
         rad[1:] = OWN if cam is left else 0.5
         eyes.append(render.RenderResult(radiance=rad, position=pos, normal=nrm, depth=pos[0, ..., 2].copy(),
@@ -207,7 +209,7 @@ def test_a_slanted_floor_is_the_same_surface_everywhere():
     u = np.full((H, W), np.nan)
     u[hit] = right.project(eyes[0].position[0][hit].astype(np.float64))[0][:, 0]
     mapped = hit & (u >= -0.5) & (u <= W - 0.5)
-    assert mapped.sum() > W * H // 3
+    assert mapped.sum() > W * H // 5
     assert_array_equal((out.radiance[1:] == 0.5).all(axis=-1), np.broadcast_to(mapped, (2, H, W)))
     gaps = np.linalg.norm(np.diff(eyes[0].position[0], axis=0), axis=-1)  # metres between neighbouring rows
     dist = np.linalg.norm(eyes[0].position[0, :-1] - right.center, axis=-1)
