@@ -71,8 +71,9 @@ def _eye(cam: Camera, depths: list[float], textures: list[np.ndarray]) -> object
             pos[i] = cam.backproject_depth(np.full((cam.height, cam.width), z))
             nrm[i] = (0.0, 0.0, -1.0)
     rad = np.stack(textures).astype(np.float32)
+    depth = int(np.log2(n + 1)) - 1
     return render.RenderResult(radiance=rad, position=pos, normal=nrm, depth=pos[0, ..., 2].copy(),
-                               beauty=rad.sum(axis=0), camera=cam, settings=_settings(int(np.log2(n + 1)) - 1))  # fmt: skip
+                               beauty=rad.sum(axis=0), camera=cam, settings=_settings(depth))  # fmt: skip
 
 
 def _pair(d0: float = 0.9237, d_behind: float = -1.0, d_front: float = 2.0):
@@ -98,7 +99,7 @@ def _expected(right_eye, i: int, x_sample: np.ndarray, d0: float) -> np.ndarray:
 
 
 def _sign(d_layer: float, nominal: float) -> np.ndarray:
-    """Expected s of a plane layer with integer disparity d_layer: +1 where its left pixel has no match in the right image."""
+    """Expected s of a plane layer of integer disparity d_layer: +1 where its left pixel has no match on the right."""
     xs = np.mgrid[0:H, 0:W][1].astype(np.float64)
     return np.where((xs - d_layer < 0) | (xs - d_layer > W - 1), 1.0, nominal)
 

@@ -144,7 +144,7 @@ def _texture_map(left: RenderResult, right: RenderResult, shift_px: np.ndarray) 
 
 
 def on_surface(left: RenderResult, right: RenderResult) -> RenderResult:
-    """The left eye with every specular layer texture-mapped from the right eye onto its first hit (S3 §4.1, *on-surface*).
+    """The left eye with its specular layers mapped from the right eye onto its first hit (S3 §4.1, on-surface).
 
     Parameters
     ----------
@@ -206,7 +206,7 @@ def on_surface(left: RenderResult, right: RenderResult) -> RenderResult:
 def near_surface(
     left: RenderResult, right: RenderResult, display: Display, *, offset_arcmin: float = NEAR_SURFACE_ARCMIN
 ) -> RenderResult:
-    """As :func:`on_surface`, with each specular layer a constant offset behind or in front of the surface (S3 §4.1, *near-surface*).
+    """As :func:`on_surface`, each specular layer a constant offset off the surface (S3 §4.1, near-surface).
 
     Parameters
     ----------
