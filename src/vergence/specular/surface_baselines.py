@@ -41,16 +41,16 @@ if TYPE_CHECKING:  # importing vergence.render imports Mitsuba: only when a resu
 __all__ = ["NEAR_SURFACE_ARCMIN", "SAME_SURFACE_FRACTION", "near_surface", "on_surface"]
 
 #: Offset of the near-surface baseline, arcminutes of vergence: our choice, not S3's (S3 §4.1 says
-#: only "a small constant offset"). 5′ is about 3 pixels on S3's study display (1680 px, 0.282 mm
-#: pitch, 60 cm), a tenth of the ±60′ comfort zone: clearly off the surface, still fused with it.
+#: only "a small constant offset"). 5′ is about 3.1 display pixels on S3's study display (1680 px,
+#: 0.282 mm pitch, 60 cm), a twelfth of the common ±60′ comfort zone (vergence.viewing.ComfortZone).
 NEAR_SURFACE_ARCMIN = 5.0
 
 #: Same-surface test of the texture mapping, as a fraction of the distance from the left eye's point to
 #: the right camera's centre: the right eye sees the left eye's surface point ``S`` when the point
 #: ``P`` it sees at the nearest pixel lies within this distance of ``S``'s tangent plane and ``S``
-#: within it of ``P``'s (see :func:`on_surface`, Notes). 1 % is S3's own matching cutoff
-#: (:data:`~vergence.specular.EPSILON_FRACTION`, 1/100 of the scene diameter) scaled to the point's
-#: distance; a flat surface passes at float32 rounding (1e-7 relative).
+#: within it of ``P``'s (see :func:`on_surface`, Notes). Our choice: the 1/100 of S3's matching
+#: cutoff (:data:`~vergence.specular.EPSILON_FRACTION`, of the scene diameter), here of the point's
+#: distance; a flat surface passes at float32 rounding of its points (about 1e-7 relative).
 SAME_SURFACE_FRACTION = 0.01
 
 
