@@ -114,8 +114,8 @@ def _bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     n, h, w = image.shape[:3]
     x = np.clip(x, 0, w - 1)
     y = np.clip(y, 0, h - 1)
-    x0 = np.clip(np.floor(x), 0, w - 1).astype(np.intp)
-    y0 = np.clip(np.floor(y), 0, h - 1).astype(np.intp)
+    x0 = np.floor(x).astype(np.intp)
+    y0 = np.floor(y).astype(np.intp)
     x1 = np.minimum(x0 + 1, w - 1)
     y1 = np.minimum(y0 + 1, h - 1)
     fx = (x - x0)[..., None]
