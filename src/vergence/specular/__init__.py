@@ -18,7 +18,13 @@
   :func:`disparity_cost`, :class:`CostTerms`, :func:`disparity_cost_gradient`).
 - Per-pixel camera offsets minimising it on a tabulated ``g(y)`` (S3 §3.4: :func:`optimise_offsets`),
   solved at low resolution and brought back up edge-aware, weighted by importance (S3 §3.4:
-  :func:`weighted_block_mean`, :func:`joint_bilateral_upsample`).
+  :func:`weighted_block_mean`, :func:`joint_bilateral_upsample`); the table's analysis
+  (:func:`analyse_table`, :class:`OffsetAnalysis`) and the whole-image plan (:class:`OffsetPlanner`).
+- End to end (S3 §3-4): :func:`specular_stereo` -> :class:`SpecularResult`, measured per layer
+  (:class:`LayerState`, :func:`comfort_share`).
+- The baselines S3 §4.1 compares with: every specular layer at the disparity of the surface it is
+  seen on, or a constant offset behind or in front of it (Templin et al. 2012) (:func:`on_surface`,
+  :func:`near_surface`).
 
 Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
 """
@@ -63,6 +69,16 @@ from vergence.specular.matching import (
 )
 from vergence.specular.optimise import DESCENT_STEPS, FIRST_STEP, RESTARTS, OffsetSolution, optimise_offsets
 from vergence.specular.tabulated import OffsetAnalysis, analyse_table
+from vergence.specular.planning import PLAN_FACTOR, PLAN_SIGMA_RANGE, OffsetPlan, OffsetPlanner
+from vergence.specular.pipeline import (
+    DEFAULT_VARIANT,
+    SEPARATION_ARCMIN,
+    LayerState,
+    SpecularResult,
+    comfort_share,
+    layer_labels,
+    specular_stereo,
+)
 from vergence.specular.resample import joint_bilateral_upsample, weighted_block_mean
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 from vergence.specular.offsets import (
@@ -73,6 +89,7 @@ from vergence.specular.offsets import (
     render_offsets,
     tabulate_offsets,
 )
+from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, SAME_SURFACE_FRACTION, near_surface, on_surface
 
 __all__ = [
     "ABSOLUTE_VARIANTS",
@@ -81,6 +98,7 @@ __all__ = [
     "COST_TERMS",
     "COST_WEIGHTS",
     "CostTerms",
+    "DEFAULT_VARIANT",
     "DESCENT_STEPS",
     "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
@@ -88,18 +106,28 @@ __all__ = [
     "Importance",
     "LAYER_MATCH_METHODS",
     "LayerDisparity",
+    "LayerState",
     "MATCH_WINDOW",
     "MAX_OFFSET_STEPS",
+    "NEAR_SURFACE_ARCMIN",
     "OffsetAnalysis",
+    "OffsetPlan",
+    "OffsetPlanner",
     "OffsetSolution",
     "OffsetTable",
+    "PLAN_FACTOR",
+    "PLAN_SIGMA_RANGE",
     "PerceivedLightness",
     "RELATIVE_LAMBDA_ARCMIN",
     "RESTARTS",
     "RIVALRY_WINDOW",
     "Rivalry",
+    "SAME_SURFACE_FRACTION",
+    "SEPARATION_ARCMIN",
     "SSD_WINDOW",
+    "SpecularResult",
     "analyse_table",
+    "comfort_share",
     "contrast_q",
     "csf_lowpass",
     "csf_mannos_sakrison",
@@ -111,10 +139,13 @@ __all__ = [
     "importance",
     "joint_bilateral_upsample",
     "layer_disparity",
+    "layer_labels",
     "layer_lightness",
     "lightness_from_srgb",
+    "near_surface",
     "offset_camera",
     "offset_rays",
+    "on_surface",
     "optimise_offsets",
     "peli_contrast",
     "perceived_lightness",
@@ -122,6 +153,7 @@ __all__ = [
     "render_offsets",
     "rivalry",
     "scene_diameter",
+    "specular_stereo",
     "tabulate_offsets",
     "weighted_block_mean",
 ]
