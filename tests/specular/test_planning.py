@@ -55,9 +55,12 @@ def test_resolving_with_new_weights_reuses_the_reduction_and_changes_the_answer(
     assert data_heavy.y[1:].mean() > first.y[1:].mean()  # a heavy data term keeps the physical stereo
     maps = {t: np.ones((3, 24, 32)) for t in ("absolute", "relative", "rivalry", "data")}
     for t in maps:
-        maps[t][1] = 0.0  # layer 2 painted out of every term: its cost no longer depends on y
-    painted = planner.solve(variant="comfort", zone=ZONE, maps=maps)
-    assert np.all(painted.y_low[1] == 1.0)  # ties keep the first start, y = 1
+        maps[t][1] = 0.0  # layer 2 painted out of every term ...
+    maps["relative"][:] = 0.0  # ... and of every pair (a pair's weight is the mean of its layers'): its cost
+    # no longer depends on its offset
+    painted = planner.solve(variant="comfort", zone=ZONE, maps=maps, fixed=(0, 2))  # layer 2 the only free one
+    assert np.all(painted.y_low[1] == 1.0)  # every start ties: the first, y = 1, is kept
+    assert np.all(painted.y == 1.0)
 
 
 def test_bad_inputs():
