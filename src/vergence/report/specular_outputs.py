@@ -64,6 +64,7 @@ SPECULAR_OUTPUT_FILES = (
 _GREY = (0.5, 0.5, 0.5)  # NaN and "no surface" in the contact sheets
 _TILE_INCHES = 2.6  # width of one panel of a contact sheet
 _DPI = 100
+_GRID_COLUMNS = 4  # a one-column sheet (the offsets) lays its layers out in rows of this many
 # Disparity (a few mismatched rims reach degrees) and rivalry (Delta L*)^2 have long tails: their colour
 # scales end at this percentile of the finite |values| of the layers shown; beyond it the colour saturates.
 _SCALE_PERCENTILE = 99.0
@@ -91,38 +92,42 @@ def _labelled(image: np.ndarray, text: str) -> np.ndarray:
 def _sheet(path: Path, rows: list[int], names: list[str], columns: list[tuple[str, np.ndarray]], *,
            cmap: str, vmin: float, vmax: float, label: str, title: str,
            marks: tuple[float, ...] = (), extend: str = "neither") -> Path:  # fmt: skip
-    """A contact sheet: one row per layer index of ``rows``, one column per ``(heading, (N, H, W) data)``,
-    one colour bar (``marks``: values drawn as lines across it)."""
+    """A contact sheet of the layers ``rows`` of each ``(heading, (N, H, W) data)`` of ``columns``, one
+    colour bar (``marks``: values drawn as lines across it). Two or more columns: one row per layer;
+    one column: the layers in a grid of up to :data:`_GRID_COLUMNS`."""
     h, w = columns[0][1].shape[1:3]
-    n_rows, n_cols = max(1, len(rows)), len(columns)
+    if len(columns) == 1:
+        heading, data = columns[0]
+        cells = [(r // _GRID_COLUMNS, r % _GRID_COLUMNS, f"{i + 1}: {names[i]}", "", data[i]) for r, i in enumerate(rows)]
+        n_cols = min(_GRID_COLUMNS, max(1, len(rows)))
+    else:
+        cells = [(r, c, heading if r == 0 else "", f"{i + 1}: {names[i]}" if c == 0 else "", data[i])
+                 for r, i in enumerate(rows) for c, (heading, data) in enumerate(columns)]  # fmt: skip
+        n_cols = len(columns)
+    if not cells:  # no layer has a surface: one grey panel says so
+        cells = [(0, 0, "no surface in view", "", np.full((h, w), np.nan))]
+    n_rows = cells[-1][0] + 1
     fig = new_figure(figsize=(n_cols * _TILE_INCHES + 1.3, n_rows * (_TILE_INCHES * h / w + 0.35) + 0.5), dpi=_DPI)
     axes = fig.subplots(n_rows, n_cols, squeeze=False)
+    for ax in axes.ravel():
+        ax.set_axis_off()  # cells of the grid left empty stay blank
     colours = colormaps[cmap].with_extremes(bad=_GREY)
-    im = None
-    for r in range(n_rows):
-        for c, (heading, data) in enumerate(columns):
-            ax = axes[r, c]
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if not rows:  # no layer has a surface: an empty grey panel says so
-                ax.imshow(np.full((h, w), np.nan), cmap=colours, vmin=vmin, vmax=vmax, interpolation="nearest")
-                ax.set_title("no surface in view", fontsize=8)
-                continue
-            i = rows[r]
-            im = ax.imshow(np.ma.masked_invalid(data[i]), cmap=colours, vmin=vmin, vmax=vmax, interpolation="nearest")
-            if r == 0:
-                ax.set_title(heading, fontsize=9)
-            if c == 0:
-                ax.set_ylabel(f"{i + 1}: {names[i]}", fontsize=8)
+    for r, c, heading, side, image in cells:
+        ax = axes[r, c]
+        ax.set_axis_on()
+        ax.set_xticks([])
+        ax.set_yticks([])
+        im = ax.imshow(np.ma.masked_invalid(image), cmap=colours, vmin=vmin, vmax=vmax, interpolation="nearest")
+        ax.set_title(heading, fontsize=9)
+        ax.set_ylabel(side, fontsize=8)
     fig.suptitle(title, fontsize=10)
-    if im is not None:
-        bar = fig.colorbar(im, ax=axes, shrink=0.9 if n_rows < 4 else 0.6, extend=extend)
-        bar.set_label(label, fontsize=8)
-        bar.ax.tick_params(labelsize=7)
-        for v in marks:
-            bar.ax.axhline(v, color="black", linewidth=1.6)
-        if marks:
-            bar.set_ticks(sorted({*marks, 0.0, vmin, vmax}))
+    bar = fig.colorbar(im, ax=axes, shrink=0.9 if n_rows < 4 else 0.6, extend=extend)
+    bar.set_label(label, fontsize=8)
+    bar.ax.tick_params(labelsize=7)
+    for v in marks:
+        bar.ax.axhline(v, color="black", linewidth=1.6)
+    if marks:
+        bar.set_ticks(sorted({*marks, 0.0, vmin, vmax}))
     return save_png(fig, path)
 
 
@@ -225,7 +230,7 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
                           vmax=top if top > 0 else 1.0,
                           label=f"rivalry (dL*)^2 (scale ends at the {_SCALE_PERCENTILE:g}th percentile)",
                           title="S3 §3.2 rivalry (grey: no match)", extend="max"))  # fmt: skip
-    written.append(_sheet(out / "offsets.png", rows, names, [("offset y", _masked(result.y, b.present))], cmap="viridis",
+    written.append(_sheet(out / "offsets.png", rows, names, [("", _masked(result.y, b.present))], cmap="viridis",
                           vmin=0.0, vmax=1.0, label="offset y (1: physical, 0: mono)",
                           title="S3 §3.4 camera offsets (grey: no surface)"))  # fmt: skip
     report = out / "report.json"
