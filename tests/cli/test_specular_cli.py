@@ -215,3 +215,12 @@ def test_weight_maps_scale_layers_and_multiply(tmp_path):
     np.testing.assert_array_equal(maps["rivalry"][1], 1.0)
     np.testing.assert_allclose(maps["data"][2], 128 / 255, rtol=1e-6)
     assert weight_maps([], n_layers=3, width=4, height=3) == {}
+
+
+def test_help_states_the_library_defaults():
+    from vergence.specular import DEFAULT_VARIANT, PLAN_FACTOR
+
+    code, out, _ = _main("specular", "--help")
+    text = " ".join(out.replace("│", " ").split())
+    assert code == 0
+    assert f"Default: {DEFAULT_VARIANT}." in text and f"default {PLAN_FACTOR})" in text

@@ -29,7 +29,7 @@ from vergence.cli._app import app, check_output_path, console, err_console, opti
 
 __all__ = ["specular"]
 
-#: ``--display``'s default: the 22" 1680 x 1050 desktop display of S3's study (S3 §4).
+#: ``--display``'s default: S3's study display (Samsung 2233RZ, 22" 16:10, 1680 px wide, viewed from 60 cm).
 DEFAULT_DISPLAY = "samsung-2233rz"
 # Bytes per offset, layer and pixel that the offset table keeps: radiance (3), disparity (2) and match
 # distance (1), float32 (vergence.specular.tabulate_offsets, Notes: Memory).
