@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +24,8 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import app, check_output_path, console, err_console, options_named, preset_display
+from vergence.cli._app import (app, check_output_path, console, err_console, options_named, preset_display,
+                               scene_rig)
 
 __all__ = ["specular"]
 
@@ -119,29 +119,6 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
     return maps
 
 
-def _stereo_rig(scene, baseline: float | None, convergence: float | None) -> tuple[float, float]:  # noqa: ANN001
-    """(baseline, convergence) from the options or the scene's "stereo" block, checked."""
-    from vergence import render as vr
-    from vergence.viewing import LENGTH_RANGE
-
-    if scene.camera.lens != "pinhole":
-        raise ValueError("vergence specular needs a pinhole scene camera (S3 §3.4 moves the left camera along the "
-                         f"baseline of a shifted-sensor rig); got lens {scene.camera.lens!r}")  # fmt: skip
-    rig = scene.stereo
-    b = baseline if baseline is not None else (rig.baseline if rig else None)
-    h = convergence if convergence is not None else (rig.convergence if rig else None)
-    if b is None or h is None:
-        raise ValueError("the scene has no \"stereo\" block: give --baseline and --convergence")
-    for option, value in (("--baseline", b), ("--convergence", h)):
-        if not LENGTH_RANGE[0] <= value <= LENGTH_RANGE[1]:
-            raise ValueError(f"{option} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); "
-                             f"got {value:g}")  # fmt: skip
-    if b / 2 > vr.MAX_SCENE_EXTENT:
-        raise ValueError(f"--baseline must keep both eyes within {vr.MAX_SCENE_EXTENT:g} m of the origin "
-                         f"(MAX_SCENE_EXTENT); got {b:g} m")  # fmt: skip
-    return b, h
-
-
 def _check_cost(width: int, height: int, depth: int, samples: int, k: int) -> None:
     """Refuse renders past the renderer's limits, and an offset table past its memory limit."""
     from vergence.render.limits import MAX_RENDER_BYTES, render_cost
@@ -221,7 +198,6 @@ def specular(
     from vergence.display import ANAGLYPH_METHODS
     from vergence.io import atomic_folder
     from vergence.report.specular_outputs import SPECULAR_OUTPUT_FILES, write_specular_outputs
-    from vergence.rigs import stereo_pair
     from vergence.specular import (ABSOLUTE_VARIANTS, COST_WEIGHTS, DEFAULT_VARIANT, MAX_OFFSET_STEPS, PLAN_FACTOR,
                                    specular_stereo)
 
@@ -248,7 +224,7 @@ def specular(
             sc = vr.open_scene(scene, width=width, height=height)
         finally:
             quiet.removeFilter(_drop)
-    b, h = _stereo_rig(sc, baseline, convergence)
+    left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
     w_px, h_px = sc.camera.width, sc.camera.height
     _check_cost(w_px, h_px, depth, samples, k)
     maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
@@ -256,7 +232,6 @@ def specular(
     for name in SPECULAR_OUTPUT_FILES:
         check_output_path(out / name, src)
     commit = atomic_folder(out)  # checks --out now (a file of that name is refused before the renders)
-    left, right = stereo_pair(sc.camera.build(), baseline=b, convergence=h)
     if sc.environment.note:
         err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
     columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
