@@ -190,6 +190,14 @@ def test_a_fisheye_camera_is_refused(files, tmp_path):
     assert not out.exists()
 
 
+def test_an_output_path_that_is_a_file_is_refused_before_the_renders(tmp_path):
+    out = tmp_path / "out"
+    out.write_text("keep me")
+    code, _, stderr = _main("specular", "glasses", "--out", str(out), *TINY)
+    assert code == 2 and stderr.startswith("error: ") and stderr.count("\n") == 1, stderr
+    assert out.read_text() == "keep me"
+
+
 def test_weight_maps_scale_layers_and_multiply(tmp_path):
     from vergence.cli.specular import weight_maps
     from vergence.io import write_image

@@ -27,7 +27,7 @@ from vergence.cli import raise_if_interrupted
 from vergence.cli._app import (app, check_output_path, console, err_console, options_named, preset_display,
                                scene_rig)
 
-__all__ = ["specular"]
+__all__ = ["DEFAULT_DISPLAY", "specular", "weight_maps"]
 
 #: ``--display``'s default: S3's study display (Samsung 2233RZ, 22" 16:10, 1680 px wide, viewed from 60 cm).
 DEFAULT_DISPLAY = "samsung-2233rz"
