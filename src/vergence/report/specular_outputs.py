@@ -97,7 +97,7 @@ def _sheet(path: Path, rows: list[int], names: list[str], columns: list[tuple[st
     one column: the layers in a grid of up to :data:`_GRID_COLUMNS`."""
     h, w = columns[0][1].shape[1:3]
     if len(columns) == 1:
-        heading, data = columns[0]
+        data = columns[0][1]
         cells = [(r // _GRID_COLUMNS, r % _GRID_COLUMNS, f"{i + 1}: {names[i]}", "", data[i]) for r, i in enumerate(rows)]
         n_cols = min(_GRID_COLUMNS, max(1, len(rows)))
     else:
