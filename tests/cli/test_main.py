@@ -240,6 +240,7 @@ def test_an_error_raised_after_ctrl_c_still_reads_interrupted(capsys, monkeypatc
     # issue 9: "--seed -1 says expected non-negative integer without naming --seed"
     (["render", "glasses", "--out", "{tmp}", "--seed", "-1"], "error: --seed: must be >= 0 (got -1)"),
     (["budget", "--baseline", "abc"], "error: --baseline: expected a number (got 'abc')"),
+    (["specular", "glasses", "--out", "{tmp}", "--k", "abc"], "error: --k: expected a whole number (got 'abc')"),
     (["budget", "--screen-pixels", "1.5"], "error: --screen-pixels: expected a whole number (got '1.5')"),
     (["budget", "--baseline"], "error: --baseline: needs a value"),
     (["compare"], "error: missing argument IMAGE (usage: vergence compare [OPTIONS] IMAGE REFERENCE)"),

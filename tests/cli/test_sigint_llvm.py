@@ -157,7 +157,7 @@ def test_staged_outputs_do_not_appear_after_a_ctrl_c_not_yet_raised(tmp_path, mo
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("command", ["match", "rectify", "render"])
+@pytest.mark.parametrize("command", ["match", "rectify", "render", "specular"])
 def test_commands_writing_through_atomic_io_commit_nothing_after_a_ctrl_c_not_yet_raised(tmp_path, monkeypatch,
                                                                                          command):
     # The same for the commands that write through vergence.io.atomic_write / atomic_folder: the
@@ -183,6 +183,8 @@ def test_commands_writing_through_atomic_io_commit_nothing_after_a_ctrl_c_not_ye
                     str(tmp_path / "cameras_par.txt"), "--out", str(out)],
         "render": ["render", "tabletop", "--out", str(out), "--width", "16", "--height", "12", "--samples", "2",
                    "--depth", "1"],
+        "specular": ["specular", "glasses", "--out", str(out), "--width", "16", "--height", "12", "--k", "2",
+                     "--samples", "1"],
     }[command]
     before = sorted(p.name for p in tmp_path.iterdir())
     monkeypatch.setattr(cli, "_sigint_seen", True)

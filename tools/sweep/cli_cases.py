@@ -34,6 +34,8 @@ BASES: dict[str, list[str]] = {
     "rectify": ["{fx}/left.png", "{fx}/right.png", "--cameras", "{fx}/cameras_par.txt", "--out", "{case}/rect"],
     "render": ["tabletop", "--out", "{case}/render", "--width", "16", "--height", "12", "--samples", "2",
                "--depth", "1"],
+    "specular": ["glasses", "--out", "{case}/specular", "--width", "16", "--height", "12", "--k", "2", "--samples",
+                 "1"],
     "synthesize": ["{fx}/image.png", "{fx}/depth.npy", "--out", "{case}/synth", "--budget-px", "4"],
     "demo": ["--out", "{case}/demo"],
 }

@@ -34,6 +34,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("render", "Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; "
                "previews."),
     "rig": ("rig", "Plan and render the Quadri-Rig and the Tri-Rig of a shot file (S0 §5–6): plan, render."),
+    "specular": ("specular", "Make the glass and mirrors of SCENE fusible (S3): per-layer camera offsets, renders, "
+                 "per-layer disparity, importance and rivalry before and after, report."),
     "stereospace": ("stereospace", "Browse a calibrated photo collection in stereo (S2): view (a novel view, "
                     "leave-one-out PSNR), build (space, quality, map), pair (the stereo pair at a state)."),
     "synthesize": ("synthesize", "Make the views a display needs from one image and its depth (writes views, "

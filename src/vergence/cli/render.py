@@ -21,8 +21,7 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import app, check_output_path, console, err_console, options_named
-from vergence.viewing import LENGTH_RANGE
+from vergence.cli._app import app, check_output_path, console, err_console, options_named, scene_rig
 
 __all__ = ["render"]
 
@@ -35,25 +34,14 @@ def _drop(record: logging.LogRecord) -> bool:
 
 
 def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
-    """(baseline, convergence) for --eye, from the options or the scene's "stereo" block."""
+    """(left, right, baseline, convergence) for --eye, from the options or the scene's "stereo" block."""
     if eye is None:
         if baseline is not None or convergence is not None:
             raise ValueError("--baseline and --convergence need --eye left, right or both")
         return None
     if eye not in _EYES:
         raise ValueError(f"--eye must be one of {', '.join(_EYES)}; got {eye!r}")
-    if scene.camera.lens != "pinhole":
-        raise ValueError(f"--eye needs a pinhole scene camera (the rig shifts the sensor); got lens {scene.camera.lens!r}")
-    rig = scene.stereo
-    b = baseline if baseline is not None else (rig.baseline if rig else None)
-    h = convergence if convergence is not None else (rig.convergence if rig else None)
-    if b is None or h is None:
-        raise ValueError("--eye needs --baseline and --convergence (the scene has no \"stereo\" block)")
-    for option, value in (("--baseline", b), ("--convergence", h)):
-        # the rig's lengths as the viewing geometry takes them: the sensor shift fx b / (2H) stays finite
-        if not LENGTH_RANGE[0] <= value <= LENGTH_RANGE[1]:
-            raise ValueError(f"{option} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); got {value:g}")
-    return b, h
+    return scene_rig(scene, baseline, convergence, needed_by="--eye")
 
 
 @app.command("render")
@@ -80,7 +68,6 @@ def render(
     from vergence.io import atomic_folder, write_image
     from vergence.render.limits import render_cost
     from vergence.report.preview import save_render
-    from vergence.rigs import stereo_pair
 
     if preview is not None and eye != "both":
         raise ValueError("--preview needs --eye both (a stereo pair)")
@@ -100,11 +87,8 @@ def render(
             quiet.removeFilter(_drop)
         rig = _rig(sc, eye, baseline, convergence)
         stems = ["render"] if rig is None else (["left", "right"] if eye == "both" else [eye])
-        pair = None if rig is None else stereo_pair(sc.camera.build(), baseline=rig[0], convergence=rig[1])
-        reach = 0.0 if pair is None else max(float(np.abs(c.center).max()) for c in pair)
-        if reach > vr.MAX_SCENE_EXTENT:  # the eyes at -+ b/2: the scene's limit holds for them too
-            raise ValueError(f"--baseline must keep both eyes within {vr.MAX_SCENE_EXTENT:g} m of the origin "
-                             f"(MAX_SCENE_EXTENT); they reach {reach:g} m")  # fmt: skip
+        pair = None if rig is None else rig[:2]
+        rig = None if rig is None else rig[2:]
         if isinstance(depth, bool) or not 0 <= depth <= vr.MAX_DEPTH:
             raise ValueError(f"max_depth must be an integer in [0, {vr.MAX_DEPTH}]; got {depth}")
         for name, value in (("samples", samples), ("supersample", supersample)):

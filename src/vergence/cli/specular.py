@@ -1,0 +1,250 @@
+"""``vergence specular``: glass and mirrors made fusible by per-pixel, per-layer camera offsets (S3, issue 12).
+
+Opens a scene file or a built-in scene with its stereo rig, runs
+:func:`vergence.specular.specular_stereo` (the offset table, the per-pixel offsets, the final render
+with a camera per layer and pixel, S3 §4's baselines) and writes its files with
+:func:`vergence.report.specular_outputs.write_specular_outputs` into ``--out``: all or none. Every
+option, weight map and the cost of the renders are checked before the first ray is traced.
+
+``--weight-map`` paints S3 Eq. 2's per-layer, per-pixel weights (S3 §3.3): ``LAYER=FILE`` scales
+every cost term of layer ``LAYER`` (1-based, as ``report.json``'s ``"layer"``), ``TERM:LAYER=FILE``
+only ``TERM`` (:data:`vergence.specular.COST_TERMS`); maps of the same term and layer multiply.
+``FILE`` is a grey image of the render's size: PNG/PGM/JPEG values / max code (so in [0, 1]),
+``.pfm``/``.npy``/``.hdr`` as stored; finite and >= 0.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from vergence.cli import raise_if_interrupted
+from vergence.cli._app import (app, check_output_path, console, err_console, options_named, preset_display,
+                               scene_rig)
+
+__all__ = ["DEFAULT_DISPLAY", "specular", "weight_maps"]
+
+#: ``--display``'s default: S3's study display (Samsung 2233RZ, 22" 16:10, 1680 px wide, viewed from 60 cm).
+DEFAULT_DISPLAY = "samsung-2233rz"
+# Bytes per offset, layer and pixel that the offset table keeps: radiance (3), disparity (2) and match
+# distance (1), float32 (vergence.specular.tabulate_offsets, Notes: Memory).
+_TABLE_LAYER_BYTES = 24
+# OffsetPlanner's range of the reduction factor (checked here too: the planner runs after the table).
+_FACTOR_RANGE = (1, 64)
+# Float files whose values are taken as stored (read with vergence.io.read_disparity: NaN kept, so
+# that it can be refused by name); every other image is read by vergence.io.read_image.
+_FLOAT_MAP_SUFFIXES = (".pfm", ".npy")
+
+
+def _drop(record: logging.LogRecord) -> bool:
+    """A logging filter that lets nothing through."""
+    return False
+
+
+def _weights(text: str | None) -> tuple[float, float, float, float] | None:
+    """``--weights A,P,R,D`` as four finite numbers >= 0 (absolute, relative, rivalry, data)."""
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 4 or not all(math.isfinite(v) and v >= 0 for v in values):
+        raise ValueError(f"--weights must be four numbers >= 0, absolute,relative,rivalry,data (e.g. 1,1,10,0.1); "
+                         f"got {text!r}")  # fmt: skip
+    return values  # type: ignore[return-value]
+
+
+def _read_map(path: Path, spec: str) -> np.ndarray:
+    """The grey weight image of ``--weight-map SPEC`` as float64 ``(H, W)``, or a ValueError naming ``spec``."""
+    from vergence.cli._run import describe_os_error
+    from vergence.io import read_disparity, read_image
+
+    try:
+        if path.suffix.lower() in _FLOAT_MAP_SUFFIXES:
+            arr = read_disparity(path)  # float as stored, single channel; inf becomes NaN, refused below
+        else:
+            arr = read_image(path)
+            if arr.ndim == 3 and (arr == arr[..., :1]).all():
+                arr = arr[..., 0]  # grey stored as RGB
+    except OSError as exc:
+        raise ValueError(f"--weight-map {spec}: {describe_os_error(exc)}") from exc
+    except ValueError as exc:
+        raise ValueError(f"--weight-map {spec}: {exc}") from exc
+    if arr.ndim != 2:
+        raise ValueError(f"--weight-map {spec}: the map must be a grey image; got {arr.shape[2]} distinct channels")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"--weight-map {spec}: the map holds NaN or inf; weights must be finite and >= 0")
+    if (arr < 0).any():
+        raise ValueError(f"--weight-map {spec}: the map holds negative values (down to {arr.min():g}); "
+                         "weights must be finite and >= 0")  # fmt: skip
+    return arr.astype(np.float64)
+
+
+def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> dict[str, np.ndarray]:
+    """The cost's painted maps (term -> ``(N, H, W)``) from ``--weight-map`` specs (see the module's text).
+
+    A term no spec names is left out (weight 1 everywhere). Raises ValueError, naming the spec, on a
+    bad spec, term or layer, an unreadable file, a map of another size, NaN, inf or negative values.
+    """
+    from vergence.specular import COST_TERMS
+
+    maps: dict[str, np.ndarray] = {}
+    for spec in specs:
+        key, sep, name = spec.partition("=")
+        term, colon, layer_text = key.rpartition(":")
+        if not sep or not name or not layer_text:
+            raise ValueError(f"--weight-map must be LAYER=FILE or TERM:LAYER=FILE; got {spec!r}")
+        if colon and term not in COST_TERMS:
+            raise ValueError(f"--weight-map {spec}: unknown cost term {term!r}; the terms are {', '.join(COST_TERMS)}")
+        try:
+            layer = int(layer_text)
+        except ValueError:
+            layer = 0
+        if not 1 <= layer <= n_layers:
+            raise ValueError(f"--weight-map {spec}: LAYER must be a whole number in 1..{n_layers} (the layers of "
+                             f"--depth {int(math.log2(n_layers + 1)) - 1}, as report.json numbers them); "
+                             f"got {layer_text!r}")  # fmt: skip
+        arr = _read_map(Path(name), spec)
+        if arr.shape != (height, width):
+            raise ValueError(f"--weight-map {spec}: the map must be {width} x {height} pixels (the render's "
+                             f"W x H); got {arr.shape[1]} x {arr.shape[0]}")  # fmt: skip
+        for t in (term,) if colon else COST_TERMS:
+            maps.setdefault(t, np.ones((n_layers, height, width)))[layer - 1] *= arr
+    return maps
+
+
+def _check_cost(width: int, height: int, depth: int, samples: int, k: int) -> None:
+    """Refuse renders past the renderer's limits, and an offset table past its memory limit."""
+    from vergence.render.limits import MAX_RENDER_BYTES, render_cost
+
+    with options_named(samples="--samples", max_depth="--depth", width="--width", height="--height"):
+        one = render_cost(width, height, max_depth=depth, samples=samples)
+    if one.problem() is not None:
+        raise ValueError(f"one render of {width}x{height} pixels with --depth {depth}, --samples {samples} "
+                         f"{one.problem()}: lower --width/--height, --depth or --samples")  # fmt: skip
+    n = 2 ** (depth + 1) - 1
+    need = (k + 1) * n * width * height * _TABLE_LAYER_BYTES + one.bytes
+    if need > MAX_RENDER_BYTES:
+        raise ValueError(f"the offset table of --k {k} ({k + 1} renders kept) at {width}x{height} with --depth {depth} "
+                         f"needs an estimated {need / 2**30:.3g} GiB of memory; the limit is "
+                         f"{MAX_RENDER_BYTES / 2**30:g} GiB (MAX_RENDER_BYTES): lower --k, --width/--height or --depth")
+
+
+def _share(v: float | None) -> str:
+    return "-" if v is None else f"{100 * v:.0f} %"
+
+
+def _summary(name: str, result, display_name: str, out: Path, names: list[str]) -> None:  # noqa: ANN001
+    rep = result.report()
+    s, cam = rep["settings"], result.physical_left.camera
+    console.print(f"specular {name}: {cam.width}x{cam.height}, {len(rep['layers'])} layers (D = {s['max_depth']}), "
+                  f"k = {s['k']}, absolute term {s['variant']!r}, weights {s['alpha']}, display {display_name}, "
+                  f"comfort zone {rep['comfort_zone_arcmin'][0]:g}..{rep['comfort_zone_arcmin'][1]:g} arcmin",
+                  highlight=False)  # fmt: skip
+    if not result.specular:
+        console.print("no specular surface in view: the outputs are the physical pair (report.json \"specular\": "
+                      "false)", highlight=False)  # fmt: skip
+    for layer in rep["layers"]:
+        if layer["pixels"]:
+            console.print(f"  layer {layer['layer']} ({layer['name']}): {layer['pixels']} px, comfort share "
+                          f"{_share(layer['comfort_share_before'])} -> {_share(layer['comfort_share_after'])}, "
+                          f"matched {_share(layer['matched_before'])} -> {_share(layer['matched_after'])}, "
+                          f"mean offset {layer['offset_mean']:.3f}", highlight=False)  # fmt: skip
+    b, a = rep["cost_before"], rep["cost_after"]
+    console.print("cost (mean per pixel) before -> after: " + ", ".join(f"{t} {b[t]:.4g} -> {a[t]:.4g}" for t in b),
+                  highlight=False)  # fmt: skip
+    console.print("times: " + ", ".join(f"{k} {v:.2f} s" for k, v in rep["seconds"].items()), highlight=False)
+    console.print(f"wrote {len(names)} files to {out}:", highlight=False)
+    for n in names:
+        console.print(f"  {out / n}", highlight=False)
+
+
+@app.command("specular")
+def specular(
+    scene: str = typer.Argument(..., help="Scene file (.json, docs/scenes.md) or built-in: glasses, stadium, tabletop."),
+    out: Path = typer.Option(..., "--out", help="Output folder (created if missing)."),
+    display: str = typer.Option(DEFAULT_DISPLAY, "--display", help="Display preset the pair is made for (S3's study "
+                                "display by default)."),
+    weights: str | None = typer.Option(None, "--weights", metavar="A,P,R,D", help="Cost weights: absolute, relative, "
+                                       "rivalry, data (S3 §4: 1,1,10,0.1)."),
+    weight_map: list[str] = typer.Option(
+        [], "--weight-map", metavar="[TERM:]LAYER=FILE",
+        help="Painted weights of layer LAYER (1-based), every cost term or only TERM (absolute, relative, rivalry, "
+             "data): a grey image of the render's size (PNG: value / max code). Repeatable; maps multiply.",
+    ),
+    k: int = typer.Option(32, "--k", help="Offset steps of the table (S3: 32): k + 1 renders of the left eye."),
+    width: int | None = typer.Option(None, "--width", help="Image width in pixels (default: the scene's)."),
+    height: int | None = typer.Option(None, "--height", help="Image height in pixels (default: the scene's)."),
+    depth: int = typer.Option(2, "--depth", help="Maximum specular bounces D: 2^(D+1)-1 layers (S3: 2)."),
+    samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
+    absolute: str | None = typer.Option(None, "--absolute", metavar="comfort|screen", help="The absolute term: "
+                                        "'comfort' costs only what lies outside the comfort zone, 'screen' is "
+                                        "S3's (pulls every layer to the screen). Default: comfort."),
+    factor: int | None = typer.Option(None, "--factor", help="Solve the offsets on factor x factor blocks, then "
+                                      "upsample (S3 §3.4; default 4)."),
+    baseline: float | None = typer.Option(None, "--baseline", help="Rig baseline b in metres (default: the scene's)."),
+    convergence: float | None = typer.Option(None, "--convergence", help="Convergence distance H in metres (default: "
+                                             "the scene's)."),
+    anaglyph_method: str = typer.Option("dubois", "--anaglyph", help="Anaglyph method of the *_anaglyph.png files."),
+) -> None:
+    """Make the glass and mirrors of SCENE fusible (S3): per-layer offsets, renders, analysis, report."""
+    from vergence import render as vr
+    from vergence.display import ANAGLYPH_METHODS
+    from vergence.io import atomic_folder
+    from vergence.report.specular_outputs import SPECULAR_OUTPUT_FILES, write_specular_outputs
+    from vergence.specular import (ABSOLUTE_VARIANTS, COST_WEIGHTS, DEFAULT_VARIANT, MAX_OFFSET_STEPS, PLAN_FACTOR,
+                                   specular_stereo)
+
+    variant = DEFAULT_VARIANT if absolute is None else absolute
+    if variant not in ABSOLUTE_VARIANTS:
+        raise ValueError(f"--absolute must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {variant!r}")
+    if not 2 <= k <= MAX_OFFSET_STEPS:
+        raise ValueError(f"--k must be a whole number in [2, {MAX_OFFSET_STEPS}] (offsets m/k, m = 0..k); got {k}")
+    factor = PLAN_FACTOR if factor is None else factor
+    if not _FACTOR_RANGE[0] <= factor <= _FACTOR_RANGE[1]:
+        raise ValueError(f"--factor must be a whole number in [{_FACTOR_RANGE[0]}, {_FACTOR_RANGE[1]}]; got {factor}")
+    if anaglyph_method not in ANAGLYPH_METHODS:
+        raise ValueError(f"--anaglyph must be one of {', '.join(ANAGLYPH_METHODS)}; got {anaglyph_method!r}")
+    if not 0 <= depth <= vr.MAX_DEPTH:
+        raise ValueError(f"--depth must be a whole number in [0, {vr.MAX_DEPTH}]; got {depth}")
+    alpha = _weights(weights)
+    screen = preset_display(display)
+    with options_named(width="--width", height="--height"):
+        # The scene's environment note (a missing HDR map) is printed once, below, after every option
+        # has been checked: the library's log record of it would come first and make a refusal two lines.
+        quiet = logging.getLogger("vergence.render")
+        quiet.addFilter(_drop)
+        try:
+            sc = vr.open_scene(scene, width=width, height=height)
+        finally:
+            quiet.removeFilter(_drop)
+    left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
+    w_px, h_px = sc.camera.width, sc.camera.height
+    _check_cost(w_px, h_px, depth, samples, k)
+    maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
+    src = Path(scene)
+    for name in SPECULAR_OUTPUT_FILES:
+        check_output_path(out / name, src)
+    commit = atomic_folder(out)  # checks --out now (a file of that name is refused before the renders)
+    if sc.environment.note:
+        err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
+    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
+    # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
+    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+        task = bar.add_task(f"specular {sc.name}", total=1.0)
+        report = lambda f, m: bar.update(task, completed=f, description=m)  # noqa: E731
+        with options_named(k="--k", max_depth="--depth", samples="--samples", alpha="--weights",
+                           variant="--absolute", factor="--factor"):  # fmt: skip
+            result = specular_stereo(sc, left, right, screen, k=k, max_depth=depth, samples=samples,
+                                     alpha=COST_WEIGHTS if alpha is None else alpha, variant=variant,
+                                     maps=maps or None, factor=factor, progress=report)  # fmt: skip
+    with commit as tmp:  # all files or none, even on Ctrl-C
+        names = [p.name for p in write_specular_outputs(result, tmp, anaglyph_method=anaglyph_method)]
+        raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM: commit nothing
+    _summary(sc.name, result, display, out, names)
