@@ -29,7 +29,7 @@ def _analysis(k=8, n=3, h=12, w=16, seed=0):
 
 def test_factor_one_radius_zero_is_the_per_pixel_descent():
     a = _analysis()
-    plan = OffsetPlanner(a, factor=1, radius=0).solve(variant="comfort", zone=ZONE)
+    plan = OffsetPlanner(a, factor=1, radius=0, blur_radius=0).solve(variant="comfort", zone=ZONE)
     sol = optimise_offsets(a.disparity, a.rivalry, a.importance, a.original, variant="comfort", zone=ZONE)
     important = a.importance[-1] > 0
     assert_array_equal(plan.y[important], sol.y[important].astype(np.float32))
@@ -63,12 +63,36 @@ def test_resolving_with_new_weights_reuses_the_reduction_and_changes_the_answer(
     assert np.all(painted.y == 1.0)
 
 
+def test_the_blur_evens_out_a_surface_but_keeps_its_edge():
+    """One layer, two surfaces: the left half far behind the zone (150'), the right half inside it
+    (10'); noisy importance makes the per-pixel solutions scatter. The blurred plan varies less
+    within each half than the raw descent, and the two halves keep their own offsets."""
+    k, h, w = 16, 16, 32
+    ys = np.arange(k + 1) / k
+    physical = np.zeros((2, h, w, 2), np.float32)
+    physical[1, :, : w // 2, 0], physical[1, :, w // 2 :, 0] = 150.0, 10.0
+    disparity = (ys[:, None, None, None, None] * physical[None]).astype(np.float32)
+    rng = np.random.default_rng(1)
+    rivalry = ((1 - ys)[:, None, None, None] * rng.uniform(0, 4, (2, h, w))[None]).astype(np.float32)
+    importance = np.broadcast_to(rng.uniform(0.2, 1, (2, h, w)).astype(np.float32), (k + 1, 2, h, w)).copy()
+    a = OffsetAnalysis(offsets=ys, disparity=disparity, rivalry=rivalry, importance=importance, exposure=1.0,
+                       display=Display.preset("samsung-2233rz"), seconds=0.0)  # fmt: skip
+    raw = OffsetPlanner(a, factor=1, radius=0, blur_radius=0).solve(variant="comfort", zone=ZONE).y[1]
+    blurred = OffsetPlanner(a, factor=1, radius=0).solve(variant="comfort", zone=ZONE).y[1]
+    for half in (np.s_[:, : w // 2], np.s_[:, w // 2 :]):
+        assert blurred[half].std() < 0.5 * raw[half].std()
+    # the edge: the far half's offsets do not leak into the near half (a 140' step, sigma_range 6')
+    assert abs(blurred[:, : w // 2].mean() - raw[:, : w // 2].mean()) < 0.05
+    assert abs(blurred[:, w // 2 :].mean() - raw[:, w // 2 :].mean()) < 0.05
+
+
 def test_bad_inputs():
     a = _analysis()
     with pytest.raises(TypeError, match="OffsetAnalysis"):
         OffsetPlanner("analysis")
     for kwargs, match in (({"factor": 0}, "factor"), ({"radius": -1}, "radius"), ({"sigma_range": 0}, "sigma_range"),
-                          ({"sigma_space": np.nan}, "sigma_space")):  # fmt: skip
+                          ({"sigma_space": np.nan}, "sigma_space"), ({"blur_radius": 17}, "blur_radius"),
+                          ({"blur_sigma": -1.0}, "blur_sigma")):  # fmt: skip
         with pytest.raises(ValueError, match=match):
             OffsetPlanner(a, **kwargs)
     planner = OffsetPlanner(a)

@@ -10,11 +10,13 @@ weighted by its importance". :class:`OffsetPlanner` does that on an
    averaged with the importance as weight (:func:`~vergence.specular.weighted_block_mean`), the
    importance by its plain block mean;
 2. per :meth:`OffsetPlanner.solve` (a weight changed, a map painted): the per-pixel descent on the
-   reduced table (:func:`~vergence.specular.optimise_offsets`), then the joint bilateral upsampling
-   of the offsets (:func:`~vergence.specular.joint_bilateral_upsample`), weighted by each block's
-   physical importance and guided by the layer's physical horizontal disparity at full resolution,
-   so that an offset does not leak across a depth edge of its layer (a mirror's frame, a sphere's
-   rim). The spatial kernel spans ``radius`` low-resolution pixels: it is the edge-aware blur.
+   reduced table (:func:`~vergence.specular.optimise_offsets`); S3's edge-aware blur of the offsets,
+   at the solve's resolution (:func:`~vergence.specular.joint_bilateral_upsample` at equal size,
+   ``blur_radius``, ``blur_sigma``); then the joint bilateral upsampling to full resolution (same
+   function, ``radius``, ``sigma_space``). Both are weighted by each block's physical importance and
+   guided by the layer's physical horizontal disparity, so that an offset does not leak across a
+   depth edge of its layer (a mirror's frame, a sphere's rim) while neighbouring pixels of one
+   surface, solved independently and sometimes landing in different local minima, agree.
 
 Re-solving reuses the reduced table: at 512 x 512, factor 4, it is interactive
 (``benchmarks/specular_optimise.py --planner``).
@@ -53,7 +55,7 @@ class OffsetPlan:
     y : (N, H, W) float32
         Offsets in [0, 1] at full resolution (1: the physical left eye; fixed layers are 1).
     y_low, cost_low : (N, h, w), (h, w) float64
-        The per-pixel descent's result and cost on the reduced table.
+        The per-pixel descent's result (before the blur) and cost on the reduced table.
     factor : int
         The reduction.
     seconds : float
@@ -85,6 +87,8 @@ class OffsetPlanner:
         physical horizontal disparity).
     radius : int, keyword-only
         The upsampling's reach in low-resolution pixels.
+    blur_sigma, blur_radius : float, int, keyword-only
+        The edge-aware blur's spatial sigma and reach, low-resolution pixels (``blur_radius = 0``: no blur).
 
     Examples
     --------
@@ -101,6 +105,8 @@ class OffsetPlanner:
         sigma_space: float = 1.0,
         sigma_range: float = PLAN_SIGMA_RANGE,
         radius: int = 2,
+        blur_sigma: float = 2.0,
+        blur_radius: int = 4,
     ) -> None:
         if not isinstance(analysis, OffsetAnalysis):
             raise TypeError(f"analysis must be a vergence.specular.OffsetAnalysis; got {type(analysis).__name__}")
@@ -108,9 +114,11 @@ class OffsetPlanner:
             raise ValueError(f"factor must be an integer in [1, 64]; got {factor!r}")
         self.sigma_space = check_positive("sigma_space", sigma_space)
         self.sigma_range = check_positive("sigma_range", sigma_range)
-        if isinstance(radius, bool) or not isinstance(radius, Integral) or not 0 <= radius <= 16:
-            raise ValueError(f"radius must be an integer in [0, 16]; got {radius!r}")
-        self.analysis, self.factor, self.radius = analysis, int(factor), int(radius)
+        for name, value in (("radius", radius), ("blur_radius", blur_radius)):
+            if isinstance(value, bool) or not isinstance(value, Integral) or not 0 <= value <= 16:
+                raise ValueError(f"{name} must be an integer in [0, 16]; got {value!r}")
+        self.blur_sigma = check_positive("blur_sigma", blur_sigma)
+        self.analysis, self.factor, self.radius, self.blur_radius = analysis, int(factor), int(radius), int(blur_radius)
         t0 = time.perf_counter()
         weight = analysis.importance
         self._disparity, self._importance = weighted_block_mean(analysis.disparity, weight, self.factor)
@@ -167,7 +175,12 @@ class OffsetPlanner:
         sol = optimise_offsets(self._disparity, self._rivalry, self._importance, self._disparity[-1], alpha=alpha,
                                variant=variant, zone=zone, maps=low_maps, lam=lam, fixed=fixed, steps=steps,
                                restarts=restarts)  # fmt: skip
-        y = joint_bilateral_upsample(sol.y, self._importance[-1], self._guide_low, self._guide_high,
+        y_low = sol.y
+        if self.blur_radius:  # S3's edge-aware blur, at the solve's resolution
+            y_low = joint_bilateral_upsample(y_low, self._importance[-1], self._guide_low, self._guide_low,
+                                             sigma_space=self.blur_sigma, sigma_range=self.sigma_range,
+                                             radius=self.blur_radius, fill=1.0)  # fmt: skip
+        y = joint_bilateral_upsample(y_low, self._importance[-1], self._guide_low, self._guide_high,
                                      sigma_space=self.sigma_space, sigma_range=self.sigma_range, radius=self.radius,
                                      fill=1.0)  # fmt: skip
         y = np.clip(y, 0.0, 1.0).astype(np.float32)
