@@ -41,7 +41,10 @@ def glasses():
 
 def test_the_after_state_is_what_an_independent_matcher_measures(glasses):
     result, left, right = glasses
-    match = layer_disparity(result.optimised_left.position, result.right.position)
+    # the cutoff of the physical pair (1 % of its scene diameter), as for every state of the run
+    epsilon = layer_disparity(result.physical_left.position, result.right.position).epsilon
+    assert result.settings["match_epsilon_m"] == epsilon  # the report gives it to any other matcher
+    match = layer_disparity(result.optimised_left.position, result.right.position, epsilon=epsilon)
     assert_allclose(result.after.disparity, disparity_arcmin(match.disparity_px, DISPLAY).astype(np.float32))
     assert_array_equal(result.after.present, np.isfinite(result.optimised_left.position).all(axis=-1))
 
