@@ -127,11 +127,12 @@ def files(tmp_path):
     """Weight maps and scenes for the refusals, by name."""
     from vergence.io import write_image
 
-    paths = {"small": tmp_path / "small.png", "neg": tmp_path / "neg.npy", "nan": tmp_path / "nan.npy",
+    paths = {"small": tmp_path / "small.png", "neg": tmp_path / "neg.npy", "nan": tmp_path / "nan.npy", "huge": tmp_path / "huge.npy",
              "ok": tmp_path / "ok.png", "corrupt": tmp_path / "corrupt.png", "colour": tmp_path / "colour.png",
              "fish": tmp_path / "fish.json"}  # fmt: skip
     write_image(paths["small"], np.ones((H // 2, W // 2), np.float32))
     np.save(paths["neg"], np.full((H, W), -0.5, np.float32))
+    np.save(paths["huge"], np.full((H, W), 1e7, np.float32))
     nan = np.ones((H, W), np.float32)
     nan[3, 4] = np.nan
     np.save(paths["nan"], nan)
@@ -163,9 +164,11 @@ def files(tmp_path):
     (["--weight-map", "{ok}"], "--weight-map must be LAYER=FILE or TERM:LAYER=FILE"),
     (["--k", "1"], "--k must be a whole number in [2, 256]"),
     (["--display", "no-such-display"], "--display: "),
-    (["--weights", "1,1,10"], "--weights must be four numbers >= 0"),
-    (["--weights", "1,1,-10,0.1"], "--weights must be four numbers >= 0"),
-    (["--weights", "1,1,nan,0.1"], "--weights must be four numbers >= 0"),
+    (["--weights", "1,1,10"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weights", "1,1,-10,0.1"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weights", "1,1,nan,0.1"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weights", "1e308,1,1,1"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weight-map", "2={huge}"], "the map holds values up to 1e+07"),
     (["--absolute", "flat"], "--absolute must be one of screen, comfort"),
     (["--factor", "0"], "--factor must be a whole number in [1, 64]"),
     (["--depth", "9"], "--depth must be a whole number in [0, 6]"),
