@@ -66,7 +66,8 @@ def test_every_file_is_written_and_loads(glasses):
         np.testing.assert_array_equal(npz["comfort_zone_arcmin"], [-60.0, 60.0])
     report = json.loads((out / "report.json").read_text())
     assert report["specular"] is True
-    assert set(report["cost_before"]) == set(report["cost_after"]) == {"absolute", "relative", "rivalry", "data", "total"}
+    terms = {"absolute", "relative", "rivalry", "data", "total"}
+    assert set(report["cost_before"]) == set(report["cost_after"]) == terms
     assert report["settings"]["k"] == 2 and report["settings"]["maps"] == ["absolute"]
     assert report["settings"]["variant"] == "comfort"  # DEFAULT_VARIANT
     layer = report["layers"][1]
@@ -127,8 +128,8 @@ def files(tmp_path):
     """Weight maps and scenes for the refusals, by name."""
     from vergence.io import write_image
 
-    paths = {"small": tmp_path / "small.png", "neg": tmp_path / "neg.npy", "nan": tmp_path / "nan.npy", "huge": tmp_path / "huge.npy",
-             "ok": tmp_path / "ok.png", "corrupt": tmp_path / "corrupt.png", "colour": tmp_path / "colour.png",
+    paths = {"small": tmp_path / "small.png", "neg": tmp_path / "neg.npy", "nan": tmp_path / "nan.npy",
+             "huge": tmp_path / "huge.npy", "ok": tmp_path / "ok.png", "corrupt": tmp_path / "corrupt.png", "colour": tmp_path / "colour.png",
              "fish": tmp_path / "fish.json"}  # fmt: skip
     write_image(paths["small"], np.ones((H // 2, W // 2), np.float32))
     np.save(paths["neg"], np.full((H, W), -0.5, np.float32))

@@ -98,7 +98,8 @@ def _sheet(path: Path, rows: list[int], names: list[str], columns: list[tuple[st
     h, w = columns[0][1].shape[1:3]
     if len(columns) == 1:
         data = columns[0][1]
-        cells = [(r // _GRID_COLUMNS, r % _GRID_COLUMNS, f"{i + 1}: {names[i]}", "", data[i]) for r, i in enumerate(rows)]
+        cells = [(r // _GRID_COLUMNS, r % _GRID_COLUMNS, f"{i + 1}: {names[i]}", "", data[i])
+                 for r, i in enumerate(rows)]
         n_cols = min(_GRID_COLUMNS, max(1, len(rows)))
     else:
         cells = [(r, c, heading if r == 0 else "", f"{i + 1}: {names[i]}" if c == 0 else "", data[i])
@@ -219,17 +220,18 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
     reach = _finite_max(np.abs(dx_b[rows]), np.abs(dx_a[rows]), percentile=_SCALE_PERCENTILE)
     lim = max(reach, 1.25 * max(zone.max_arcmin, -zone.min_arcmin))  # the zone always shows on the bar
     written.append(_sheet(out / "analysis_disparity.png", rows, names, _pair(dx_b, dx_a), cmap="RdBu_r", vmin=-lim,
-                          vmax=lim, label="horizontal disparity (arcmin; > 0 behind the screen); lines: "
-                          f"comfort zone; scale ends at the {_SCALE_PERCENTILE:g}th percentile of |d|", title="S3 §3.2 per-layer disparity (grey: no match)",
-                          marks=(zone.min_arcmin, zone.max_arcmin), extend="both"))  # fmt: skip
+                          vmax=lim, marks=(zone.min_arcmin, zone.max_arcmin), extend="both",
+                          title="S3 §3.2 per-layer disparity (grey: no match)",
+                          label="horizontal disparity (arcmin; > 0 behind the screen); lines: comfort zone; "
+                                f"scale ends at the {_SCALE_PERCENTILE:g}th percentile of |d|"))  # fmt: skip
     importance = _pair(_masked(b.importance, b.present), _masked(a.importance, a.present))
     written.append(_sheet(out / "analysis_importance.png", rows, names, importance, cmap="viridis", vmin=0.0,
                           vmax=1.0, label="importance", title="S3 §3.2 importance (grey: no surface)"))
-    top = _finite_max(b.rivalry[rows], a.rivalry[rows], percentile=_SCALE_PERCENTILE) if rows else 0.0
-    written.append(_sheet(out / "analysis_rivalry.png", rows, names, _pair(b.rivalry, a.rivalry), cmap="magma", vmin=0.0,
-                          vmax=top if top > 0 else 1.0,
-                          label=f"rivalry (dL*)^2 (scale ends at the {_SCALE_PERCENTILE:g}th percentile)",
-                          title="S3 §3.2 rivalry (grey: no match)", extend="max"))  # fmt: skip
+    rivalry = _pair(_masked(b.rivalry, b.present), _masked(a.rivalry, a.present))
+    top = _finite_max(rivalry[0][1][rows], rivalry[1][1][rows], percentile=_SCALE_PERCENTILE)
+    written.append(_sheet(out / "analysis_rivalry.png", rows, names, rivalry, cmap="magma", vmin=0.0,
+                          vmax=top if top > 0 else 1.0, extend="max", title="S3 §3.2 rivalry (grey: no surface)",
+                          label=f"rivalry (dL*)^2 (scale ends at the {_SCALE_PERCENTILE:g}th percentile)"))
     written.append(_sheet(out / "offsets.png", rows, names, [("", _masked(result.y, b.present))], cmap="viridis",
                           vmin=0.0, vmax=1.0, label="offset y (1: physical, 0: mono)",
                           title="S3 §3.4 camera offsets (grey: no surface)"))  # fmt: skip
