@@ -232,3 +232,27 @@ def test_stereospace_section_pans_zooms_and_scores_dino(demo, shared_data):
     assert "The navigation map (S2 Fig. 11)" in text
     picture = read_image(demo.index.parent / "stereospace_map.png")
     assert picture.shape[0] > 300 and picture.std() > 0.05
+
+
+# --- issue 12, "The demo grows an S3 section on glasses" ---------------------------------------------
+
+
+def test_specular_section_shows_layers_analysis_and_the_four_methods(demo):
+    from vergence.specular import COST_TERMS
+
+    sp = demo.specular
+    assert sp is not None and sp.report["specular"] is True
+    html = demo.index.read_text(encoding="utf-8")
+    assert "8. Glass and mirrors that fuse: specular disparity (S3)" in html
+    for name in ("physical_left_layers", "analysis_disparity", "analysis_importance", "analysis_rivalry", "offsets",
+                 "physical_anaglyph", "optimised_anaglyph", "on_surface_anaglyph", "near_surface_anaglyph"):  # fmt: skip
+        assert f'src="specular/{name}.png"' in html
+        assert (demo.index.parent / "specular" / f"{name}.png").is_file()
+    # the report's figures are on the page as the report has them
+    cb, ca = sp.report["cost_before"], sp.report["cost_after"]
+    assert set(cb) == {*COST_TERMS, "total"}
+    assert f"rivalry {cb['rivalry']:.0f} -&gt; {ca['rivalry']:.0f}" in html or f"rivalry {cb['rivalry']:.0f} -> {ca['rivalry']:.0f}" in html
+    assert ca["total"] < cb["total"]  # the optimisation lowered the measured cost
+    layers = [layer for layer in sp.report["layers"] if layer["pixels"]]
+    assert layers[0]["offset_mean"] == 1.0  # the diffuse layer keeps the physical offset
+    assert any(layer["offset_mean"] < 0.9 for layer in layers[1:])  # something specular was moved

@@ -30,11 +30,6 @@ __all__ = ["DEFAULT_DISPLAY", "specular", "weight_maps"]
 
 #: ``--display``'s default: S3's study display (Samsung 2233RZ, 22" 16:10, 1680 px wide, viewed from 60 cm).
 DEFAULT_DISPLAY = "samsung-2233rz"
-# Peak memory per offset, layer and pixel of the whole command, bytes: the table keeps radiance,
-# disparity and match distance (24 B, vergence.specular.tabulate_offsets, Notes: Memory), its analysis
-# and the renders add the rest. Measured: peak RSS 3.09 GiB on glasses 512x512, k = 32, D = 2
-# (33 x 7 x 262144 entries: 55 B each, the interpreter and Mitsuba included), rounded up.
-_PEAK_BYTES_PER_ENTRY = 56
 # Largest --weights value and painted weight: the offsets depend only on the ratios of the weights
 # (optimise_offsets normalises its steps), S3 uses 0.1..10, and costs of up to ~1e10 arcmin^2 times
 # 1e6 x 1e6 stay finite in the float32 table the planner solves on (1e6 ^ 2 x 1e10 << 3.4e38).
@@ -126,21 +121,16 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
     return maps
 
 
-def _check_cost(width: int, height: int, depth: int, samples: int, k: int) -> None:
-    """Refuse renders past the renderer's limits, and an offset table past its memory limit."""
-    from vergence.render.limits import MAX_RENDER_BYTES, render_cost
+def _check_render_cost(width: int, height: int, depth: int, samples: int) -> None:
+    """Refuse a render past the renderer's limits before the first of the k + 2 renders (the offset
+    table's memory is checked by :func:`~vergence.specular.specular_stereo`, MAX_TABLE_BYTES)."""
+    from vergence.render.limits import render_cost
 
     with options_named(samples="--samples", max_depth="--depth", width="--width", height="--height"):
         one = render_cost(width, height, max_depth=depth, samples=samples)
     if one.problem() is not None:
         raise ValueError(f"one render of {width}x{height} pixels with --depth {depth}, --samples {samples} "
                          f"{one.problem()}: lower --width/--height, --depth or --samples")  # fmt: skip
-    n = 2 ** (depth + 1) - 1
-    need = max((k + 1) * n * width * height * _PEAK_BYTES_PER_ENTRY, one.bytes)
-    if need > MAX_RENDER_BYTES:
-        raise ValueError(f"the offset table of --k {k} ({k + 1} renders kept) at {width}x{height} with --depth {depth} "
-                         f"needs an estimated {need / 2**30:.3g} GiB of memory; the limit is "
-                         f"{MAX_RENDER_BYTES / 2**30:g} GiB (MAX_RENDER_BYTES): lower --k, --width/--height or --depth")
 
 
 def _share(v: float | None) -> str:
@@ -233,7 +223,7 @@ def specular(
             quiet.removeFilter(_drop)
     left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
     w_px, h_px = sc.camera.width, sc.camera.height
-    _check_cost(w_px, h_px, depth, samples, k)
+    _check_render_cost(w_px, h_px, depth, samples)
     maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
     src = Path(scene)
     for name in SPECULAR_OUTPUT_FILES:

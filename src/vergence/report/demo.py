@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from vergence.report.demo_rigs import demo_shot, section_rig
+from vergence.report.demo_specular import section_specular
 from vergence.report.demo_stereospace import dino_folder, map_figure, section_stereospace
 from vergence.report.html import Figure, Grid, Section, write_report
 from vergence.viewing.budget import DepthBudget, depth_budget
@@ -63,6 +64,7 @@ class DemoResult:
     dibr_quality: object  # vergence.synthesis.ViewQuality of the DIBR right eye against the ray-traced one
     rig_reports: dict  # "quadri"/"tri" -> vergence.rigs.shoot.ShotRender.report (PSNR, DSSIM, coverage)
     stereospace: object = None  # vergence.report.demo_stereospace.StereoSpaceDemo; None without the dino data
+    specular: object = None  # vergence.report.demo_specular.SpecularDemo
 
 
 def stadium_shooting(baseline: float) -> Shooting:
@@ -328,7 +330,10 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
         say("StereoSpace on the dino ring")
         stereo_section, stereospace = section_stereospace(work, say, 7, display=DEMO_DISPLAY,
                                                           map_figure=map_figure(dino_folder()))  # fmt: skip
-        sections = [budget_section, tri_section, stadium_section, dibr_section, *rig_sections, stereo_section]
+        say("S3: glass and mirrors on glasses")
+        specular_section, specular = section_specular(work, say, 8)
+        sections = [budget_section, tri_section, stadium_section, dibr_section, *rig_sections, stereo_section,
+                    specular_section]  # fmt: skip
         say("writing index.html")
         write_report(
             work / "index.html",
@@ -352,6 +357,7 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
         dibr_quality=dibr_quality,
         rig_reports=rig_reports,
         stereospace=stereospace,
+        specular=specular,
     )
 
 

@@ -72,6 +72,7 @@ from vergence.specular.tabulated import OffsetAnalysis, analyse_table
 from vergence.specular.planning import PLAN_FACTOR, PLAN_SIGMA_RANGE, OffsetPlan, OffsetPlanner
 from vergence.specular.pipeline import (
     DEFAULT_VARIANT,
+    MAX_TABLE_BYTES,
     SEPARATION_ARCMIN,
     LayerState,
     SpecularResult,
@@ -109,6 +110,7 @@ __all__ = [
     "LayerState",
     "MATCH_WINDOW",
     "MAX_OFFSET_STEPS",
+    "MAX_TABLE_BYTES",
     "NEAR_SURFACE_ARCMIN",
     "OffsetAnalysis",
     "OffsetPlan",

@@ -37,24 +37,30 @@ def block_mean(values, weights, f, mean, weight_mean, bad_values, bad_weights): 
         inf_v = False
         bad_w = False
         for r in range(r0, r1):
-            for c in range(big_w):
-                wt = float(weights[img, r, c])
-                if not (wt >= 0.0 and wt < math.inf):  # negative, NaN or inf
-                    bad_w = True
-                    continue
-                usable = True
-                for ch in range(nc):
-                    v = values[img, r, c, ch]
-                    if v != v:
-                        usable = False
-                    elif v == math.inf or v == -math.inf:
-                        inf_v = True
-                if not usable or wt == 0.0:
-                    continue
-                bx = c // f
-                sw[bx] += wt
-                for ch in range(nc):
-                    swv[bx, ch] += wt * float(values[img, r, c, ch])
+            for bx in range(wo):  # block by block: no division per pixel
+                acc = 0.0
+                for c in range(bx * f, min(bx * f + f, big_w)):
+                    wt = float(weights[img, r, c])
+                    if not (wt >= 0.0 and wt < math.inf):  # negative, NaN or inf
+                        bad_w = True
+                        continue
+                    t = 0.0
+                    for ch in range(nc):
+                        t += values[img, r, c, ch]
+                    if t - t != 0.0:  # a NaN or inf channel (or an overflowing sum): look closer
+                        usable = True
+                        for ch in range(nc):
+                            v = values[img, r, c, ch]
+                            if v != v:
+                                usable = False
+                            elif v == math.inf or v == -math.inf:
+                                inf_v = True
+                        if not usable:
+                            continue
+                    acc += wt  # weight 0 with finite values adds 0
+                    for ch in range(nc):
+                        swv[bx, ch] += wt * float(values[img, r, c, ch])
+                sw[bx] += acc
         bad_values[item] = inf_v
         bad_weights[item] = bad_w
         rows = r1 - r0

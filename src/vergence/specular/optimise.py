@@ -107,12 +107,19 @@ def optimise_offsets(
     # importance (cost independent of y) keeps the physical stereo
     levels = np.array([1.0]) if restarts == 1 else np.arange(restarts)[::-1] / (restarts - 1)
     starts = np.repeat(levels[:, None], n, axis=1)
-    maps4 = np.stack([m[t] for t in COST_TERMS])
+    # pixel-major, so that the kernel reads one contiguous block per pixel (a transposed copy: the
+    # whole-image table at S3's K = 32 is read once here rather than scattered 128 x 4 times per pixel)
+    tab = np.empty((h, w, n, kp1, 4), np.float32)
+    tab[..., :2] = d.transpose(2, 3, 1, 0, 4)
+    tab[..., 2] = r.transpose(2, 3, 1, 0)
+    tab[..., 3] = imp.transpose(2, 3, 1, 0)
+    maps4 = np.ascontiguousarray(np.stack([m[t] for t in COST_TERMS]).transpose(2, 3, 0, 1))
     zlo, zhi = (0.0, 0.0) if zone is None else (float(zone[0]), float(zone[1]))
     y = np.empty((n, h, w))
     cost = np.empty((h, w))
-    _optimise_kernels.descend(d, r, imp, orig, maps4, free, starts, int(steps), FIRST_STEP, np.array(a),
-                              variant == "comfort", zlo, zhi, float(lam[0]), float(lam[1]), y, cost)  # fmt: skip
+    _optimise_kernels.descend(tab, np.ascontiguousarray(orig.transpose(1, 2, 0, 3)), maps4, free, starts, int(steps),
+                              FIRST_STEP, np.array(a), variant == "comfort", zlo, zhi, float(lam[0]), float(lam[1]),
+                              y, cost)  # fmt: skip
     y.flags.writeable = False
     cost.flags.writeable = False
     return OffsetSolution(y, cost)

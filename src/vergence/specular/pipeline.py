@@ -41,10 +41,17 @@ from vergence.specular.tabulated import analyse_table
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import Display
 
-__all__ = ["DEFAULT_VARIANT", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share", "specular_stereo"]
+__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share", "specular_stereo"]
 
 #: The absolute term :func:`specular_stereo` uses unless told otherwise (chosen in docs/specular.md).
 DEFAULT_VARIANT = "comfort"
+#: Largest memory of the offset table and its analysis (the renders' limit, MAX_RENDER_BYTES): beyond
+#: it the request is refused before anything is rendered.
+MAX_TABLE_BYTES = 8 * 2**30
+# float32 values per offset, layer and pixel: radiance 3, disparity 2, distance 1 (the table);
+# disparity in arcmin 2, rivalry 1, importance 1 (the analysis)
+_TABLE_VALUES = 10
+
 #: Two layers closer than this in depth pool into one (S3 §2: about 2 arcmin); a specular layer at
 #: least this far from its first surface, on the physical side, still reads as a reflection.
 SEPARATION_ARCMIN = 2.0
@@ -285,6 +292,12 @@ def specular_stereo(
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
+    n_layers = 2 ** (max_depth + 1) - 1
+    table_bytes = (k + 1) * n_layers * left.width * left.height * _TABLE_VALUES * 4
+    if table_bytes > MAX_TABLE_BYTES:
+        raise ValueError(f"the offset table of {left.width}x{left.height} pixels, {n_layers} layers and k = {k} would take "
+                         f"{table_bytes / 2**30:.1f} GiB (limit {MAX_TABLE_BYTES / 2**30:.0f} GiB, MAX_TABLE_BYTES): "
+                         "lower k, the image size or max_depth")  # fmt: skip
     cost_kw = {"alpha": alpha, "variant": variant, "zone": (zone.min_arcmin, zone.max_arcmin)}
     empty = np.zeros((2 ** (max_depth + 1) - 1, left.height, left.width, 2))  # the weights and maps checked
     disparity_cost(empty, empty[..., 0], empty[..., 0], empty, maps=maps, **cost_kw)  # now, not after the table

@@ -157,7 +157,8 @@ def joint_bilateral_upsample(
     radius : int, keyword-only
         Half-side of the square window of low-resolution pixels, >= 0.
     fill : float, keyword-only
-        The output where no pixel of the window is usable (S3: 1, the physical stereo camera).
+        The output where no pixel of the window is usable (S3: 1, the physical stereo camera); NaN
+        allowed, to mark those pixels.
 
     Returns
     -------
