@@ -92,7 +92,7 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
     """The cost's painted maps (term -> ``(N, H, W)``) from ``--weight-map`` specs (see the module's text).
 
     A term no spec names is left out (weight 1 everywhere). Raises ValueError, naming the spec, on a
-    bad spec, term or layer, an unreadable file, a map of another size, NaN, inf or negative values.
+    bad spec, term or layer, an unreadable file, a map of another size or values outside [0, 1e6].
     """
     from vergence.specular import COST_TERMS
 
