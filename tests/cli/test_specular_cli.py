@@ -100,8 +100,10 @@ def test_an_independent_matcher_gives_the_analysis_disparities(glasses):
             pos[stem] = npz["position"]
     with np.load(out / "analysis.npz") as npz:
         before, after = npz["disparity_before"], npz["disparity_after"]
+        epsilon, window = float(npz["match_epsilon_m"]), tuple(int(v) for v in npz["match_window"])
     physical = layer_disparity(pos["physical_left"], pos["right"])  # its epsilon serves every offset
-    optimised = layer_disparity(pos["optimised_left"], pos["right"], epsilon=physical.epsilon)
+    assert (epsilon, window) == (physical.epsilon, physical.window)
+    optimised = layer_disparity(pos["optimised_left"], pos["right"], epsilon=epsilon, window=window)
     display = Display.preset("samsung-2233rz")
     for match, stored in ((physical, before), (optimised, after)):
         mine = disparity_arcmin(match.disparity_px, display)

@@ -14,8 +14,11 @@
   anaglyphs tiled 2 x 2 in that order and labelled;
 - ``analysis.npz``: per layer the disparity ``(N, H, W, 2)`` in arcmin before and after
   (horizontal, vertical; NaN: no match), importance and rivalry before and after, ``present``
-  (the physical left eye's layers; ``present_after`` the optimised one's), ``y``, ``layer_names``
-  and ``comfort_zone_arcmin``;
+  (the physical left eye's layers; ``present_after`` the optimised one's), ``y``, ``layer_names``,
+  ``comfort_zone_arcmin`` and the matcher's settings, ``match_epsilon_m`` (the cutoff, metres) and
+  ``match_window`` (width, height): :func:`~vergence.specular.layer_disparity` of
+  ``optimised_left.npz``'s positions against ``right.npz``'s with them, in arcmin
+  (:func:`~vergence.specular.disparity_arcmin`) for the display, gives ``disparity_after``;
 - contact sheets: ``analysis_disparity.png`` (horizontal disparity, a diverging map centred at 0
   with the comfort zone marked on the colour bar), ``analysis_importance.png``,
   ``analysis_rivalry.png`` and ``offsets.png``: one row per layer with a surface somewhere, NaN
@@ -39,6 +42,7 @@ from vergence.io import atomic_write, write_image, write_json
 from vergence.render.tonemap import auto_exposure, tonemap
 from vergence.report._figures import new_figure, save_png
 from vergence.report.preview import save_render
+from vergence.specular.matching import EPSILON_FRACTION, MATCH_WINDOW, scene_diameter
 from vergence.specular.pipeline import SpecularResult, layer_labels
 
 __all__ = ["SPECULAR_METHODS", "SPECULAR_OUTPUT_FILES", "write_specular_outputs"]
@@ -207,6 +211,9 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
     written.append(out / "anaglyphs.png")
 
     b, a, zone = result.before, result.after, result.zone
+    # The matcher's settings, for an independent check: specular_stereo matches every state with the
+    # cutoff of the physical pair (layer_disparity's default) in the default window.
+    epsilon = EPSILON_FRACTION * scene_diameter(result.physical_left.position, result.right.position)
     written.append(_savez(
         out / "analysis.npz",
         disparity_before=b.disparity, disparity_after=a.disparity,
@@ -214,6 +221,7 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
         rivalry_before=b.rivalry, rivalry_after=a.rivalry,
         present=b.present, present_after=a.present, y=np.asarray(result.y, dtype=np.float32),
         layer_names=np.array(names), comfort_zone_arcmin=np.array([zone.min_arcmin, zone.max_arcmin]),
+        match_epsilon_m=np.array(epsilon), match_window=np.array(MATCH_WINDOW),
     ))  # fmt: skip
     rows = [i for i in range(n) if b.present[i].any() or a.present[i].any()]
     dx_b, dx_a = b.disparity[..., 0], a.disparity[..., 0]
