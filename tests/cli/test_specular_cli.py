@@ -66,7 +66,8 @@ def test_every_file_is_written_and_loads(glasses):
         np.testing.assert_array_equal(npz["comfort_zone_arcmin"], [-60.0, 60.0])
     report = json.loads((out / "report.json").read_text())
     assert report["specular"] is True
-    assert set(report["cost_before"]) == set(report["cost_after"]) == {"absolute", "relative", "rivalry", "data", "total"}
+    terms = {"absolute", "relative", "rivalry", "data", "total"}
+    assert set(report["cost_before"]) == set(report["cost_after"]) == terms
     assert report["settings"]["k"] == 2 and report["settings"]["maps"] == ["absolute"]
     assert report["settings"]["variant"] == "comfort"  # DEFAULT_VARIANT
     layer = report["layers"][1]
@@ -99,8 +100,10 @@ def test_an_independent_matcher_gives_the_analysis_disparities(glasses):
             pos[stem] = npz["position"]
     with np.load(out / "analysis.npz") as npz:
         before, after = npz["disparity_before"], npz["disparity_after"]
+        epsilon, window = float(npz["match_epsilon_m"]), tuple(int(v) for v in npz["match_window"])
     physical = layer_disparity(pos["physical_left"], pos["right"])  # its epsilon serves every offset
-    optimised = layer_disparity(pos["optimised_left"], pos["right"], epsilon=physical.epsilon)
+    assert (epsilon, window) == (physical.epsilon, physical.window)
+    optimised = layer_disparity(pos["optimised_left"], pos["right"], epsilon=epsilon, window=window)
     display = Display.preset("samsung-2233rz")
     for match, stored in ((physical, before), (optimised, after)):
         mine = disparity_arcmin(match.disparity_px, display)
@@ -128,10 +131,11 @@ def files(tmp_path):
     from vergence.io import write_image
 
     paths = {"small": tmp_path / "small.png", "neg": tmp_path / "neg.npy", "nan": tmp_path / "nan.npy",
-             "ok": tmp_path / "ok.png", "corrupt": tmp_path / "corrupt.png", "colour": tmp_path / "colour.png",
-             "fish": tmp_path / "fish.json"}  # fmt: skip
+             "huge": tmp_path / "huge.npy", "ok": tmp_path / "ok.png", "corrupt": tmp_path / "corrupt.png",
+             "colour": tmp_path / "colour.png", "fish": tmp_path / "fish.json"}  # fmt: skip
     write_image(paths["small"], np.ones((H // 2, W // 2), np.float32))
     np.save(paths["neg"], np.full((H, W), -0.5, np.float32))
+    np.save(paths["huge"], np.full((H, W), 1e7, np.float32))
     nan = np.ones((H, W), np.float32)
     nan[3, 4] = np.nan
     np.save(paths["nan"], nan)
@@ -163,15 +167,17 @@ def files(tmp_path):
     (["--weight-map", "{ok}"], "--weight-map must be LAYER=FILE or TERM:LAYER=FILE"),
     (["--k", "1"], "--k must be a whole number in [2, 256]"),
     (["--display", "no-such-display"], "--display: "),
-    (["--weights", "1,1,10"], "--weights must be four numbers >= 0"),
-    (["--weights", "1,1,-10,0.1"], "--weights must be four numbers >= 0"),
-    (["--weights", "1,1,nan,0.1"], "--weights must be four numbers >= 0"),
+    (["--weights", "1,1,10"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weights", "1,1,-10,0.1"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weights", "1,1,nan,0.1"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weights", "1e308,1,1,1"], "--weights must be four numbers in [0, 1e+06]"),
+    (["--weight-map", "2={huge}"], "the map holds values up to 1e+07"),
     (["--absolute", "flat"], "--absolute must be one of screen, comfort"),
     (["--factor", "0"], "--factor must be a whole number in [1, 64]"),
     (["--depth", "9"], "--depth must be a whole number in [0, 6]"),
     (["--samples", "0"], "--samples must be >= 1"),
     (["--width", "20000", "--height", "20000"], "lower --width/--height, --depth or --samples"),
-    (["--width", "1024", "--height", "1024", "--k", "256"], "the offset table of --k 256 (257 renders kept)"),
+    (["--width", "1024", "--height", "1024", "--k", "256"], "MAX_TABLE_BYTES"),
 ])  # fmt: skip
 def test_bad_input_is_one_line_and_writes_nothing(files, tmp_path, args, message):
     out = tmp_path / "out"

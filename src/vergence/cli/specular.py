@@ -10,13 +10,12 @@ option, weight map and the cost of the renders are checked before the first ray 
 every cost term of layer ``LAYER`` (1-based, as ``report.json``'s ``"layer"``), ``TERM:LAYER=FILE``
 only ``TERM`` (:data:`vergence.specular.COST_TERMS`); maps of the same term and layer multiply.
 ``FILE`` is a grey image of the render's size: PNG/PGM/JPEG values / max code (so in [0, 1]),
-``.pfm``/``.npy``/``.hdr`` as stored; finite and >= 0.
+``.pfm``/``.npy``/``.hdr`` as stored; finite, in [0, 1e6].
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from pathlib import Path
 
 import numpy as np
@@ -31,9 +30,10 @@ __all__ = ["DEFAULT_DISPLAY", "specular", "weight_maps"]
 
 #: ``--display``'s default: S3's study display (Samsung 2233RZ, 22" 16:10, 1680 px wide, viewed from 60 cm).
 DEFAULT_DISPLAY = "samsung-2233rz"
-# Bytes per offset, layer and pixel that the offset table keeps: radiance (3), disparity (2) and match
-# distance (1), float32 (vergence.specular.tabulate_offsets, Notes: Memory).
-_TABLE_LAYER_BYTES = 24
+# Largest --weights value and painted weight: the offsets depend only on the ratios of the weights
+# (optimise_offsets normalises its steps), S3 uses 0.1..10, and costs of up to ~1e10 arcmin^2 times
+# 1e6 x 1e6 stay finite in the float32 table the planner solves on (1e6 ^ 2 x 1e10 << 3.4e38).
+_MAX_WEIGHT = 1e6
 # OffsetPlanner's range of the reduction factor (checked here too: the planner runs after the table).
 _FACTOR_RANGE = (1, 64)
 # Float files whose values are taken as stored (read with vergence.io.read_disparity: NaN kept, so
@@ -54,9 +54,9 @@ def _weights(text: str | None) -> tuple[float, float, float, float] | None:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
-    if len(values) != 4 or not all(math.isfinite(v) and v >= 0 for v in values):
-        raise ValueError(f"--weights must be four numbers >= 0, absolute,relative,rivalry,data (e.g. 1,1,10,0.1); "
-                         f"got {text!r}")  # fmt: skip
+    if len(values) != 4 or not all(0 <= v <= _MAX_WEIGHT for v in values):  # NaN fails too
+        raise ValueError(f"--weights must be four numbers in [0, {_MAX_WEIGHT:g}], absolute,relative,rivalry,data "
+                         f"(e.g. 1,1,10,0.1); got {text!r}")  # fmt: skip
     return values  # type: ignore[return-value]
 
 
@@ -78,11 +78,13 @@ def _read_map(path: Path, spec: str) -> np.ndarray:
         raise ValueError(f"--weight-map {spec}: {exc}") from exc
     if arr.ndim != 2:
         raise ValueError(f"--weight-map {spec}: the map must be a grey image; got {arr.shape[2]} distinct channels")
+    rule = f"weights must be finite and in [0, {_MAX_WEIGHT:g}]"
     if not np.isfinite(arr).all():
-        raise ValueError(f"--weight-map {spec}: the map holds NaN or inf; weights must be finite and >= 0")
+        raise ValueError(f"--weight-map {spec}: the map holds NaN or inf; {rule}")
     if (arr < 0).any():
-        raise ValueError(f"--weight-map {spec}: the map holds negative values (down to {arr.min():g}); "
-                         "weights must be finite and >= 0")  # fmt: skip
+        raise ValueError(f"--weight-map {spec}: the map holds negative values (down to {arr.min():g}); {rule}")
+    if (arr > _MAX_WEIGHT).any():
+        raise ValueError(f"--weight-map {spec}: the map holds values up to {arr.max():g}; {rule}")
     return arr.astype(np.float64)
 
 
@@ -90,7 +92,7 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
     """The cost's painted maps (term -> ``(N, H, W)``) from ``--weight-map`` specs (see the module's text).
 
     A term no spec names is left out (weight 1 everywhere). Raises ValueError, naming the spec, on a
-    bad spec, term or layer, an unreadable file, a map of another size, NaN, inf or negative values.
+    bad spec, term or layer, an unreadable file, a map of another size or values outside [0, 1e6].
     """
     from vergence.specular import COST_TERMS
 
@@ -108,7 +110,7 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
             layer = 0
         if not 1 <= layer <= n_layers:
             raise ValueError(f"--weight-map {spec}: LAYER must be a whole number in 1..{n_layers} (the layers of "
-                             f"--depth {int(math.log2(n_layers + 1)) - 1}, as report.json numbers them); "
+                             f"--depth {(n_layers + 1).bit_length() - 2}, as report.json numbers them); "
                              f"got {layer_text!r}")  # fmt: skip
         arr = _read_map(Path(name), spec)
         if arr.shape != (height, width):
@@ -119,21 +121,16 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
     return maps
 
 
-def _check_cost(width: int, height: int, depth: int, samples: int, k: int) -> None:
-    """Refuse renders past the renderer's limits, and an offset table past its memory limit."""
-    from vergence.render.limits import MAX_RENDER_BYTES, render_cost
+def _check_render_cost(width: int, height: int, depth: int, samples: int) -> None:
+    """Refuse a render past the renderer's limits before the first of the k + 2 renders (the offset
+    table's memory is checked by :func:`~vergence.specular.specular_stereo`, MAX_TABLE_BYTES)."""
+    from vergence.render.limits import render_cost
 
     with options_named(samples="--samples", max_depth="--depth", width="--width", height="--height"):
         one = render_cost(width, height, max_depth=depth, samples=samples)
     if one.problem() is not None:
         raise ValueError(f"one render of {width}x{height} pixels with --depth {depth}, --samples {samples} "
                          f"{one.problem()}: lower --width/--height, --depth or --samples")  # fmt: skip
-    n = 2 ** (depth + 1) - 1
-    need = (k + 1) * n * width * height * _TABLE_LAYER_BYTES + one.bytes
-    if need > MAX_RENDER_BYTES:
-        raise ValueError(f"the offset table of --k {k} ({k + 1} renders kept) at {width}x{height} with --depth {depth} "
-                         f"needs an estimated {need / 2**30:.3g} GiB of memory; the limit is "
-                         f"{MAX_RENDER_BYTES / 2**30:g} GiB (MAX_RENDER_BYTES): lower --k, --width/--height or --depth")
 
 
 def _share(v: float | None) -> str:
@@ -226,7 +223,7 @@ def specular(
             quiet.removeFilter(_drop)
     left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
     w_px, h_px = sc.camera.width, sc.camera.height
-    _check_cost(w_px, h_px, depth, samples, k)
+    _check_render_cost(w_px, h_px, depth, samples)
     maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
     src = Path(scene)
     for name in SPECULAR_OUTPUT_FILES:

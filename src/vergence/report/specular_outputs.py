@@ -14,8 +14,11 @@
   anaglyphs tiled 2 x 2 in that order and labelled;
 - ``analysis.npz``: per layer the disparity ``(N, H, W, 2)`` in arcmin before and after
   (horizontal, vertical; NaN: no match), importance and rivalry before and after, ``present``
-  (the physical left eye's layers; ``present_after`` the optimised one's), ``y``, ``layer_names``
-  and ``comfort_zone_arcmin``;
+  (the physical left eye's layers; ``present_after`` the optimised one's), ``y``, ``layer_names``,
+  ``comfort_zone_arcmin`` and the matcher's settings, ``match_epsilon_m`` (the cutoff, metres) and
+  ``match_window`` (width, height): :func:`~vergence.specular.layer_disparity` of
+  ``optimised_left.npz``'s positions against ``right.npz``'s with them, in arcmin
+  (:func:`~vergence.specular.disparity_arcmin`) for the display, gives ``disparity_after``;
 - contact sheets: ``analysis_disparity.png`` (horizontal disparity, a diverging map centred at 0
   with the comfort zone marked on the colour bar), ``analysis_importance.png``,
   ``analysis_rivalry.png`` and ``offsets.png``: one row per layer with a surface somewhere, NaN
@@ -39,6 +42,7 @@ from vergence.io import atomic_write, write_image, write_json
 from vergence.render.tonemap import auto_exposure, tonemap
 from vergence.report._figures import new_figure, save_png
 from vergence.report.preview import save_render
+from vergence.specular.matching import EPSILON_FRACTION, MATCH_WINDOW, scene_diameter
 from vergence.specular.pipeline import SpecularResult, layer_labels
 
 __all__ = ["SPECULAR_METHODS", "SPECULAR_OUTPUT_FILES", "write_specular_outputs"]
@@ -98,7 +102,8 @@ def _sheet(path: Path, rows: list[int], names: list[str], columns: list[tuple[st
     h, w = columns[0][1].shape[1:3]
     if len(columns) == 1:
         data = columns[0][1]
-        cells = [(r // _GRID_COLUMNS, r % _GRID_COLUMNS, f"{i + 1}: {names[i]}", "", data[i]) for r, i in enumerate(rows)]
+        cells = [(r // _GRID_COLUMNS, r % _GRID_COLUMNS, f"{i + 1}: {names[i]}", "", data[i])
+                 for r, i in enumerate(rows)]
         n_cols = min(_GRID_COLUMNS, max(1, len(rows)))
     else:
         cells = [(r, c, heading if r == 0 else "", f"{i + 1}: {names[i]}" if c == 0 else "", data[i])
@@ -206,6 +211,9 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
     written.append(out / "anaglyphs.png")
 
     b, a, zone = result.before, result.after, result.zone
+    # The matcher's settings, for an independent check: specular_stereo matches every state with the
+    # cutoff of the physical pair (layer_disparity's default) in the default window.
+    epsilon = EPSILON_FRACTION * scene_diameter(result.physical_left.position, result.right.position)
     written.append(_savez(
         out / "analysis.npz",
         disparity_before=b.disparity, disparity_after=a.disparity,
@@ -213,23 +221,25 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
         rivalry_before=b.rivalry, rivalry_after=a.rivalry,
         present=b.present, present_after=a.present, y=np.asarray(result.y, dtype=np.float32),
         layer_names=np.array(names), comfort_zone_arcmin=np.array([zone.min_arcmin, zone.max_arcmin]),
+        match_epsilon_m=np.array(epsilon), match_window=np.array(MATCH_WINDOW),
     ))  # fmt: skip
     rows = [i for i in range(n) if b.present[i].any() or a.present[i].any()]
     dx_b, dx_a = b.disparity[..., 0], a.disparity[..., 0]
     reach = _finite_max(np.abs(dx_b[rows]), np.abs(dx_a[rows]), percentile=_SCALE_PERCENTILE)
     lim = max(reach, 1.25 * max(zone.max_arcmin, -zone.min_arcmin))  # the zone always shows on the bar
     written.append(_sheet(out / "analysis_disparity.png", rows, names, _pair(dx_b, dx_a), cmap="RdBu_r", vmin=-lim,
-                          vmax=lim, label="horizontal disparity (arcmin; > 0 behind the screen); lines: "
-                          f"comfort zone; scale ends at the {_SCALE_PERCENTILE:g}th percentile of |d|", title="S3 §3.2 per-layer disparity (grey: no match)",
-                          marks=(zone.min_arcmin, zone.max_arcmin), extend="both"))  # fmt: skip
+                          vmax=lim, marks=(zone.min_arcmin, zone.max_arcmin), extend="both",
+                          title="S3 §3.2 per-layer disparity (grey: no match)",
+                          label="horizontal disparity (arcmin; > 0 behind the screen); lines: comfort zone; "
+                                f"scale ends at the {_SCALE_PERCENTILE:g}th percentile of |d|"))  # fmt: skip
     importance = _pair(_masked(b.importance, b.present), _masked(a.importance, a.present))
     written.append(_sheet(out / "analysis_importance.png", rows, names, importance, cmap="viridis", vmin=0.0,
                           vmax=1.0, label="importance", title="S3 §3.2 importance (grey: no surface)"))
-    top = _finite_max(b.rivalry[rows], a.rivalry[rows], percentile=_SCALE_PERCENTILE) if rows else 0.0
-    written.append(_sheet(out / "analysis_rivalry.png", rows, names, _pair(b.rivalry, a.rivalry), cmap="magma", vmin=0.0,
-                          vmax=top if top > 0 else 1.0,
-                          label=f"rivalry (dL*)^2 (scale ends at the {_SCALE_PERCENTILE:g}th percentile)",
-                          title="S3 §3.2 rivalry (grey: no match)", extend="max"))  # fmt: skip
+    rivalry = _pair(_masked(b.rivalry, b.present), _masked(a.rivalry, a.present))
+    top = _finite_max(rivalry[0][1][rows], rivalry[1][1][rows], percentile=_SCALE_PERCENTILE)
+    written.append(_sheet(out / "analysis_rivalry.png", rows, names, rivalry, cmap="magma", vmin=0.0,
+                          vmax=top if top > 0 else 1.0, extend="max", title="S3 §3.2 rivalry (grey: no surface)",
+                          label=f"rivalry (dL*)^2 (scale ends at the {_SCALE_PERCENTILE:g}th percentile)"))
     written.append(_sheet(out / "offsets.png", rows, names, [("", _masked(result.y, b.present))], cmap="viridis",
                           vmin=0.0, vmax=1.0, label="offset y (1: physical, 0: mono)",
                           title="S3 §3.4 camera offsets (grey: no surface)"))  # fmt: skip
