@@ -32,13 +32,7 @@ from vergence.camera import Camera
 from vergence.specular.cost import COST_WEIGHTS, CostTerms, disparity_cost
 from vergence.specular.importance_factors import importance
 from vergence.specular.lightness import PerceivedLightness, layer_lightness, pixels_per_degree
-from vergence.specular.matching import (
-    EPSILON_FRACTION,
-    MATCH_WINDOW,
-    disparity_arcmin,
-    layer_disparity,
-    scene_diameter,
-)
+from vergence.specular.matching import MATCH_WINDOW, disparity_arcmin, layer_disparity
 from vergence.specular.offsets import render_offsets, tabulate_offsets
 from vergence.specular.planning import PLAN_FACTOR, OffsetPlanner
 from vergence.specular.rivalry_map import rivalry
@@ -325,7 +319,7 @@ def specular_stereo(
         phys, right_res, epsilon, window = table.left, table.right, table.epsilon, table.window
     else:  # no mirror or glass at all: the physical pair is the answer
         phys, right_res = (tracer.render(cam, max_depth=max_depth, samples=samples) for cam in (left, right))
-        epsilon, window = EPSILON_FRACTION * scene_diameter(phys.position, right_res.position), MATCH_WINDOW
+        epsilon, window = layer_disparity(phys.position, right_res.position).epsilon, MATCH_WINDOW  # S3's cutoff
     settings["match_epsilon_m"] = float(epsilon)  # the cutoff of every match of the run (S3 §3.2)
     exposure = auto_exposure(np.asarray(phys.beauty, dtype=np.float64))
     right_lit = layer_lightness(right_res.radiance, right_res.position, display, exposure=exposure)
