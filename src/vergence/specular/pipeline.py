@@ -205,14 +205,16 @@ def layer_labels(n: int) -> list[str]:
     return layer_names(int(math.log2(n + 1)) - 1)
 
 
-def _state(left, right, right_lightness, display, exposure, epsilon, window) -> LayerState:  # noqa: ANN001
+def _state(left, right, right_lightness, display, exposure, epsilon, window) -> tuple[LayerState, float]:  # noqa: ANN001
+    """The layers of ``left`` measured against ``right`` and the match's cutoff (``epsilon`` None: S3's default)."""
     match = layer_disparity(left.position, right.position, window=window, epsilon=epsilon)
     lit = layer_lightness(left.radiance, left.position, display, exposure=exposure)
     pair = PerceivedLightness(left=lit, right=right_lightness, exposure=exposure,
                               pixels_per_degree=pixels_per_degree(display, left.camera.width))  # fmt: skip
-    return LayerState(disparity=disparity_arcmin(match.disparity_px, display).astype(np.float32),
-                      importance=importance(pair, match).weight, rivalry=rivalry(pair, match).rivalry,
-                      present=np.isfinite(left.position).all(axis=-1))  # fmt: skip
+    state = LayerState(disparity=disparity_arcmin(match.disparity_px, display).astype(np.float32),
+                       importance=importance(pair, match).weight, rivalry=rivalry(pair, match).rivalry,
+                       present=np.isfinite(left.position).all(axis=-1))  # fmt: skip
+    return state, match.epsilon
 
 
 def _has_specular(scene: object) -> bool:
@@ -319,12 +321,12 @@ def specular_stereo(
         phys, right_res, epsilon, window = table.left, table.right, table.epsilon, table.window
     else:  # no mirror or glass at all: the physical pair is the answer
         phys, right_res = (tracer.render(cam, max_depth=max_depth, samples=samples) for cam in (left, right))
-        epsilon, window = layer_disparity(phys.position, right_res.position).epsilon, MATCH_WINDOW  # S3's cutoff
-    settings["match_epsilon_m"] = float(epsilon)  # the cutoff of every match of the run (S3 §3.2)
+        epsilon, window = None, MATCH_WINDOW  # the physical match's own cutoff (S3 §3.2)
     exposure = auto_exposure(np.asarray(phys.beauty, dtype=np.float64))
     right_lit = layer_lightness(right_res.radiance, right_res.position, display, exposure=exposure)
     specular = bool(np.isfinite(phys.position[1:]).any() or np.isfinite(right_res.position[1:]).any())
-    before = _state(phys, right_res, right_lit, display, exposure, epsilon, window)
+    before, epsilon = _state(phys, right_res, right_lit, display, exposure, epsilon, window)
+    settings["match_epsilon_m"] = epsilon  # the cutoff of every match of the run
     if specular and table is not None:
         analysis = analyse_table(table, display, exposure=exposure, progress=stage(0.6, 0.8))
         seconds["tabulate_analyse"] = analysis.seconds
@@ -338,7 +340,7 @@ def specular_stereo(
         optimised = render_offsets(tracer, left, right, plan.y, samples=samples)
         seconds["final_render"] = time.perf_counter() - t1
         y = plan.y
-        after = _state(optimised, right_res, right_lit, display, exposure, epsilon, window)
+        after, _ = _state(optimised, right_res, right_lit, display, exposure, epsilon, window)
     else:
         optimised, y, after = phys, np.ones((phys.n_layers, left.height, left.width), np.float32), before
     report(0.95, "baselines: on-surface, near-surface")
