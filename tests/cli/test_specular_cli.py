@@ -177,7 +177,7 @@ def files(tmp_path):
     (["--depth", "9"], "--depth must be a whole number in [0, 6]"),
     (["--samples", "0"], "--samples must be >= 1"),
     (["--width", "20000", "--height", "20000"], "lower --width/--height, --depth or --samples"),
-    (["--width", "1024", "--height", "1024", "--k", "256"], "MAX_TABLE_BYTES"),
+    (["--width", "1024", "--height", "1024", "--k", "256"], "(MAX_TABLE_BYTES): lower --k, --width/--height or --depth"),
 ])  # fmt: skip
 def test_bad_input_is_one_line_and_writes_nothing(files, tmp_path, args, message):
     out = tmp_path / "out"

@@ -148,9 +148,9 @@ def test_a_table_past_the_memory_limit_is_refused_before_any_render(monkeypatch)
     monkeypatch.setattr("vergence.specular.offsets._tracer", lambda scene: _NoRender(tracer))
     cam = look_at([0.0, 1.15, 3.2], [0.1, 0.55, -0.6], [0.0, -1.0, 0.0], fov_deg=42.0, width=120, height=80)
     left, right = stereo_pair(cam, baseline=0.065, convergence=3.6)
-    # 257 offsets x 127 layers x 9600 px x 40 B = 12.5 GB
-    assert 257 * 127 * 120 * 80 * 40 > MAX_TABLE_BYTES
-    with pytest.raises(ValueError, match=r"offset table of 120x80 pixels, 127 layers and k = 256 would take 11.7 GiB"):
+    # 257 offsets x 127 layers x 9600 px x 56 B = 17.5 GB
+    assert 257 * 127 * 120 * 80 * 56 > MAX_TABLE_BYTES
+    with pytest.raises(ValueError, match=r"offset table of 120x80 pixels, 127 layers and k = 256 would take about 16.3 GiB"):
         specular_stereo(tracer, left, right, DISPLAY, k=256, max_depth=6)
 
 

@@ -121,16 +121,22 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
     return maps
 
 
-def _check_render_cost(width: int, height: int, depth: int, samples: int) -> None:
-    """Refuse a render past the renderer's limits before the first of the k + 2 renders (the offset
-    table's memory is checked by :func:`~vergence.specular.specular_stereo`, MAX_TABLE_BYTES)."""
+def _check_render_cost(width: int, height: int, depth: int, samples: int, k: int) -> None:
+    """Refuse a render past the renderer's limits, or an offset table past its memory limit, before
+    the first of the k + 2 renders."""
     from vergence.render.limits import render_cost
+    from vergence.specular import MAX_TABLE_BYTES, offset_table_bytes
 
     with options_named(samples="--samples", max_depth="--depth", width="--width", height="--height"):
         one = render_cost(width, height, max_depth=depth, samples=samples)
     if one.problem() is not None:
         raise ValueError(f"one render of {width}x{height} pixels with --depth {depth}, --samples {samples} "
                          f"{one.problem()}: lower --width/--height, --depth or --samples")  # fmt: skip
+    need = offset_table_bytes(width, height, k=k, max_depth=depth)
+    if need > MAX_TABLE_BYTES:
+        raise ValueError(f"the offset table of --k {k} at {width}x{height} with --depth {depth} needs about "
+                         f"{need / 2**30:.1f} GiB of memory; the limit is {MAX_TABLE_BYTES / 2**30:g} GiB "
+                         "(MAX_TABLE_BYTES): lower --k, --width/--height or --depth")  # fmt: skip
 
 
 def _share(v: float | None) -> str:
@@ -223,7 +229,7 @@ def specular(
             quiet.removeFilter(_drop)
     left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
     w_px, h_px = sc.camera.width, sc.camera.height
-    _check_render_cost(w_px, h_px, depth, samples)
+    _check_render_cost(w_px, h_px, depth, samples, k)
     maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
     src = Path(scene)
     for name in SPECULAR_OUTPUT_FILES:

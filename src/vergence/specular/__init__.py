@@ -78,6 +78,7 @@ from vergence.specular.pipeline import (
     SpecularResult,
     comfort_share,
     layer_labels,
+    offset_table_bytes,
     specular_stereo,
 )
 from vergence.specular.resample import joint_bilateral_upsample, weighted_block_mean
@@ -147,6 +148,7 @@ __all__ = [
     "near_surface",
     "offset_camera",
     "offset_rays",
+    "offset_table_bytes",
     "on_surface",
     "optimise_offsets",
     "peli_contrast",

@@ -41,16 +41,29 @@ from vergence.specular.tabulated import analyse_table
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import Display
 
-__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share", "specular_stereo"]
+__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share",
+           "offset_table_bytes", "specular_stereo"]
 
 #: The absolute term :func:`specular_stereo` uses unless told otherwise (chosen in docs/specular.md).
 DEFAULT_VARIANT = "comfort"
 #: Largest memory of the offset table and its analysis (the renders' limit, MAX_RENDER_BYTES): beyond
-#: it the request is refused before anything is rendered.
+#: it the request is refused before anything is rendered (:func:`offset_table_bytes`).
 MAX_TABLE_BYTES = 8 * 2**30
-# float32 values per offset, layer and pixel: radiance 3, disparity 2, distance 1 (the table);
-# disparity in arcmin 2, rivalry 1, importance 1 (the analysis)
-_TABLE_VALUES = 10
+# Peak bytes per offset, layer and pixel of a run: the table's radiance, disparity and distance and
+# the analysis's disparity, rivalry and importance are 40 B of float32; the process peaked at 3.09 GiB
+# for glasses 512 x 512, D = 2, k = 32 (33 x 7 x 262144 entries: 55 B each, /usr/bin/time -v
+# vergence specular glasses --width 512 --height 512)
+_PEAK_BYTES = 56
+
+
+def offset_table_bytes(width: int, height: int, *, k: int, max_depth: int) -> int:
+    """Estimated peak memory (bytes) of :func:`specular_stereo` for a ``width x height`` rig: its
+    offset table and analysis, ``(k + 1) N W H`` entries of about 56 B (measured), ``N = 2^(D+1) - 1``.
+
+    >>> offset_table_bytes(512, 512, k=32, max_depth=2) / 2**30
+    3.158203125
+    """
+    return (k + 1) * (2 ** (max_depth + 1) - 1) * width * height * _PEAK_BYTES
 
 #: Two layers closer than this in depth pool into one (S3 §2: about 2 arcmin); a specular layer at
 #: least this far from its first surface, on the physical side, still reads as a reflection.
@@ -295,9 +308,9 @@ def specular_stereo(
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
     n_layers = 2 ** (max_depth + 1) - 1
-    table_bytes = (k + 1) * n_layers * left.width * left.height * _TABLE_VALUES * 4
+    table_bytes = offset_table_bytes(left.width, left.height, k=k, max_depth=max_depth)
     if table_bytes > MAX_TABLE_BYTES:
-        raise ValueError(f"the offset table of {left.width}x{left.height} pixels, {n_layers} layers and k = {k} would take "
+        raise ValueError(f"the offset table of {left.width}x{left.height} pixels, {n_layers} layers and k = {k} would take about "
                          f"{table_bytes / 2**30:.1f} GiB (limit {MAX_TABLE_BYTES / 2**30:.0f} GiB, MAX_TABLE_BYTES): "
                          "lower k, the image size or max_depth")  # fmt: skip
     cost_kw = {"alpha": alpha, "variant": variant, "zone": (zone.min_arcmin, zone.max_arcmin)}
