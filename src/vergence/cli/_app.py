@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -125,6 +126,25 @@ def display_from_options(
     with options_named(eye_separation="--eye-separation", distance="--viewing-distance", width="--screen-width",
                        resolution="--screen-pixels"):
         return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)
+
+
+def _drop(record: logging.LogRecord) -> bool:
+    """A logging filter that lets nothing through."""
+    return False
+
+
+def open_scene_quietly(spec: str, width: int | None, height: int | None) -> Scene:
+    """:func:`vergence.render.open_scene` without the library's log record of the scene's environment
+    note (a missing HDR map): the command prints the note once, after every option has been checked,
+    so that a refusal stays one line."""
+    from vergence.render import open_scene
+
+    quiet = logging.getLogger("vergence.render")
+    quiet.addFilter(_drop)
+    try:
+        return open_scene(spec, width=width, height=height)
+    finally:
+        quiet.removeFilter(_drop)
 
 
 def scene_rig(scene: Scene, baseline: float | None, convergence: float | None, *,

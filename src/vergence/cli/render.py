@@ -12,7 +12,6 @@ none. Mitsuba is imported only when the command runs.
 
 from __future__ import annotations
 
-import logging
 import time
 from pathlib import Path
 
@@ -21,16 +20,11 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import app, check_output_path, console, err_console, options_named, scene_rig
+from vergence.cli._app import app, check_output_path, console, err_console, open_scene_quietly, options_named, scene_rig
 
 __all__ = ["render"]
 
 _EYES = ("left", "right", "both")
-
-
-def _drop(record: logging.LogRecord) -> bool:
-    """A logging filter that lets nothing through."""
-    return False
 
 
 def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
@@ -77,14 +71,7 @@ def render(
                    "width": "--width", "height": "--height", "baseline": "--baseline",
                    "convergence": "--convergence"}  # fmt: skip
     with options_named(**options_cli):
-        # The scene's environment note (a missing HDR map) is printed once, below, after every option
-        # has been checked: the library's log record of it would come first and make a refusal two lines.
-        quiet = logging.getLogger("vergence.render")
-        quiet.addFilter(_drop)
-        try:
-            sc = vr.open_scene(scene, width=width, height=height)
-        finally:
-            quiet.removeFilter(_drop)
+        sc = open_scene_quietly(scene, width, height)  # its environment note is printed below, once
         rig = _rig(sc, eye, baseline, convergence)
         stems = ["render"] if rig is None else (["left", "right"] if eye == "both" else [eye])
         pair = None if rig is None else rig[:2]

@@ -15,7 +15,6 @@ only ``TERM`` (:data:`vergence.specular.COST_TERMS`); maps of the same term and 
 
 from __future__ import annotations
 
-import logging
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +22,8 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import (app, check_output_path, console, err_console, options_named, preset_display,
-                               scene_rig)
+from vergence.cli._app import (app, check_output_path, console, err_console, open_scene_quietly, options_named,
+                               preset_display, scene_rig)
 
 __all__ = ["DEFAULT_DISPLAY", "specular", "weight_maps"]
 
@@ -39,11 +38,6 @@ _FACTOR_RANGE = (1, 64)
 # Float files whose values are taken as stored (read with vergence.io.read_disparity: NaN kept, so
 # that it can be refused by name); every other image is read by vergence.io.read_image.
 _FLOAT_MAP_SUFFIXES = (".pfm", ".npy")
-
-
-def _drop(record: logging.LogRecord) -> bool:
-    """A logging filter that lets nothing through."""
-    return False
 
 
 def _weights(text: str | None) -> tuple[float, float, float, float] | None:
@@ -219,14 +213,7 @@ def specular(
     alpha = _weights(weights)
     screen = preset_display(display)
     with options_named(width="--width", height="--height"):
-        # The scene's environment note (a missing HDR map) is printed once, below, after every option
-        # has been checked: the library's log record of it would come first and make a refusal two lines.
-        quiet = logging.getLogger("vergence.render")
-        quiet.addFilter(_drop)
-        try:
-            sc = vr.open_scene(scene, width=width, height=height)
-        finally:
-            quiet.removeFilter(_drop)
+        sc = open_scene_quietly(scene, width, height)  # its environment note is printed below, once
     left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
     w_px, h_px = sc.camera.width, sc.camera.height
     _check_render_cost(w_px, h_px, depth, samples, k)
