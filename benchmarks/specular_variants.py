@@ -10,6 +10,7 @@ ours, ``comfort``: only what lies outside the display's comfort zone), one
   at least 2' from the first surface on its physical side (a reflection behind its mirror stays
   behind it; below 2' the two pool into one surface, S3 §2);
 - the mean offset ``y`` (1: physical, 0: mono);
+- the matched share before -> after (of the layer's pixels with a surface);
 
 and the mean cost terms before and after, the matching rate and the stage times. The default
 variant of :func:`~vergence.specular.specular_stereo` is the one this comparison favours
@@ -64,11 +65,12 @@ def main() -> None:
             print("  stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in secs.items()))
             before, after = report["cost_before"], report["cost_after"]
             print("  cost     " + "  ".join(f"{t} {before[t]:9.1f} -> {after[t]:9.1f}" for t in before))
-            print("  layer  name  pixels  matched  comfort before -> after  separated before -> after  mean y")
+            print("  layer  name  pixels  matched before -> after  comfort before -> after  separated before -> after  mean y")
             for layer in report["layers"]:
                 if layer["comfort_share_before"] is None and layer["comfort_share_after"] is None:
                     continue  # no important matched pixel: nothing to judge
-                print(f"  {layer['layer']:5d}  {layer['name']:4s}  {layer['pixels']:6d}  {_fmt(layer['matched_before'])}   "
+                print(f"  {layer['layer']:5d}  {layer['name']:4s}  {layer['pixels']:6d}  {_fmt(layer['matched_before'])} -> "
+                      f"{_fmt(layer['matched_after'])}          "
                       f"{_fmt(layer['comfort_share_before'])} -> {_fmt(layer['comfort_share_after'])}           "
                       f"{_fmt(layer['separated_share_before'])} -> {_fmt(layer['separated_share_after'])}       "
                       f"{layer['offset_mean']:.3f}")  # fmt: skip

@@ -26,7 +26,9 @@
   seen on, or a constant offset behind or in front of it (Templin et al. 2012) (:func:`on_surface`,
   :func:`near_surface`).
 
-Importing this package imports Numba, not Mitsuba: it works on arrays (``RenderResult.position``).
+The analysis works on arrays (``RenderResult.position``, ``radiance``); importing the package also
+imports :mod:`vergence.render` (the tone map of :func:`perceived_lightness` lives there), and with
+it Mitsuba. The table and the final render trace rays.
 """
 
 from vergence.specular.cost import (
