@@ -130,6 +130,8 @@ class _NoRender:
         ({"maps": {"absolute": -np.ones((7, H, W))}}, ValueError, "must be finite and >= 0"),
         ({"zone": (-60, 60)}, TypeError, "ComfortZone"),
         ({"max_depth": -1}, ValueError, "max_depth"),
+        ({"factor": 0}, ValueError, "factor must be an integer in"),
+        ({"near_arcmin": -1.0}, ValueError, "near_arcmin must lie in"),
     ],
 )
 def test_bad_input_is_refused_before_any_render(monkeypatch, kwargs, error, match):

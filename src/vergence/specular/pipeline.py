@@ -290,17 +290,25 @@ def specular_stereo(
     Raises
     ------
     TypeError, ValueError
-        On a bad rig, display, k, weight or map, before the table is rendered (except the render
-        options, checked by the first render).
+        On a bad rig, display, k, factor, near_arcmin, weight or map, before the table is rendered
+        (except the render options, checked by the first render).
     """
     from vergence.render.tonemap import auto_exposure
     from vergence.render.limits import check_max_depth
-    from vergence.specular.offsets import _check_rig, _check_steps, _tracer  # the checks tabulate_offsets makes
+    # the checks tabulate_offsets, OffsetPlanner and near_surface make, here before the first render
+    from vergence.specular.offsets import _check_rig, _check_steps, _tracer
+    from vergence.specular.planning import _check_factor
+    from vergence.specular.surface_baselines import _check_offset_arcmin
 
     tracer = _tracer(scene)  # one Mitsuba scene for the table and the final render
     left, right = _check_rig(left, right)
     k = _check_steps(k)
     max_depth = check_max_depth(max_depth)
+    factor = _check_factor(factor)
+    try:
+        near_arcmin = _check_offset_arcmin(near_arcmin)
+    except (TypeError, ValueError) as exc:  # named as this function's caller knows it
+        raise type(exc)(str(exc).replace("offset_arcmin", "near_arcmin", 1)) from exc
     if not isinstance(display, Display):
         raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
     display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
