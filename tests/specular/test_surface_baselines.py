@@ -285,7 +285,8 @@ def test_near_surface_formula_for_any_plane_and_offset(d0, offset):
     d_behind, d_front = float(np.floor(d0) - 1.0), float(np.ceil(d0) + 2.0)
     left_eye, right_eye = _pair(d0=d0, d_behind=d_behind, d_front=d_front)
     delta = pixels_from_arcmin(offset, DISPLAY) * W / DISPLAY.resolution
-    edges = (-d0 + delta + 0.5) % 1.0, (-d0 - delta + 0.5) % 1.0  # a sample at a half pixel: rounding decides
+    # a sample, or the surface's own projection, at a half pixel of the image's edge: float rounding decides
+    edges = (-d0 + delta + 0.5) % 1.0, (-d0 - delta + 0.5) % 1.0, (-d0 + 0.5) % 1.0
     assume(all(min(e, 1.0 - e) > 1e-6 for e in edges))
     out = near_surface(left_eye, right_eye, DISPLAY, offset_arcmin=offset)
     d = left_eye.camera.focal_px * BASELINE * (1.0 / left_eye.position[0, 0, 0, 2] - 1.0 / CONVERGENCE)

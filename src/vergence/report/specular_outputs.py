@@ -42,7 +42,7 @@ from vergence.io import atomic_write, write_image, write_json
 from vergence.render.tonemap import auto_exposure, tonemap
 from vergence.report._figures import new_figure, save_png
 from vergence.report.preview import save_render
-from vergence.specular.matching import EPSILON_FRACTION, MATCH_WINDOW, scene_diameter
+from vergence.specular.matching import MATCH_WINDOW
 from vergence.specular.pipeline import SpecularResult, layer_labels
 
 __all__ = ["SPECULAR_METHODS", "SPECULAR_OUTPUT_FILES", "write_specular_outputs"]
@@ -212,8 +212,8 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
 
     b, a, zone = result.before, result.after, result.zone
     # The matcher's settings, for an independent check: specular_stereo matches every state with the
-    # cutoff of the physical pair (layer_disparity's default) in the default window.
-    epsilon = EPSILON_FRACTION * scene_diameter(result.physical_left.position, result.right.position)
+    # cutoff of the physical pair (layer_disparity's default, as its settings record) in the default window.
+    epsilon = result.settings["match_epsilon_m"]
     written.append(_savez(
         out / "analysis.npz",
         disparity_before=b.disparity, disparity_after=a.disparity,
