@@ -129,6 +129,8 @@ def _validation_message(errors: Sequence[dict[str, Any]], fields: Sequence[str])
     given = e.get("input")
     if kind == "json_invalid":
         return f"the body is not valid JSON ({e.get('ctx', {}).get('error', e.get('msg', ''))})"
+    if isinstance(given, bytes):
+        return "the body must be JSON, sent with Content-Type: application/json"
     if not loc:
         if kind == "missing":
             return "the body is missing: send the options as a JSON object"
@@ -208,7 +210,8 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
             return _refusal(404, "the workbench page is not installed (vergence/web/static/index.html is missing)")
         return FileResponse(path, media_type="text/html")
 
-    app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
+    if STATIC_DIR.is_dir():  # the page's files (a source tree without them still serves the API)
+        app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
     @app.get("/api/health", summary="The server is up")
     def health() -> dict[str, str]:

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from contextlib import redirect_stderr, redirect_stdout
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import pydantic
 
@@ -137,6 +137,20 @@ def _error_line(stderr: str, code: int) -> str:
     return lines[-1] if lines else f"the command failed with exit code {code}"
 
 
+def _not_a_bool(value: object) -> object:
+    """Refuse ``true``/``false`` for a number (pydantic would read them as 1 and 0)."""
+    if isinstance(value, bool):
+        raise ValueError("expected a number")
+    return value
+
+
+def _checked(annotation: Any) -> Any:
+    """A number type that refuses booleans; other types as they are."""
+    if annotation in (int, float):
+        return Annotated[annotation, pydantic.BeforeValidator(_not_a_bool)]
+    return annotation
+
+
 def _field_name(option: str) -> str:
     return option.lstrip("-").replace("-", "_")
 
@@ -191,10 +205,12 @@ def _twin_of(name: str, command: Any) -> Twin | None:
             default: Any = bool(p.default)
         elif p.multiple:
             kind = "list"
+            annotation = list[_checked(getattr(annotation, "__args__", (str,))[0])]
             default = ... if p.required else None
             annotation = annotation if default is ... else annotation | None
         else:
             kind = "value"
+            annotation = _checked(annotation)
             default = ... if p.required else p.default
             annotation = annotation if default is ... else annotation | None
         help_text = " ".join((p.help or "").split()) + f" Command line: {option}."
