@@ -154,7 +154,27 @@ def test_unknown_commands_and_endpoints_are_404(client):
         "no command 'no-such-command' has a JSON twin; twins: budget, mapping"
     assert "upload" in _refused(client.post("/api/match", json={}), 404)  # reads files: no twin yet
     assert _refused(client.get("/no/such/page"), 404) == "no such page or endpoint: GET /no/such/page"
-    assert _refused(client.get("/api/budget"), 405) == "GET is not allowed on /api/budget"
+    assert _refused(client.get("/api/budget"), 405) == \
+        "GET is not allowed on /api/budget: POST its options as a JSON object"
+    assert _refused(client.get("/api/no-such-thing"), 404) == "no such page or endpoint: GET /api/no-such-thing"
+    assert _refused(client.put("/api/budget", json=BUDGET), 405) == "PUT is not allowed on /api/budget"
+
+
+def test_twins_called_at_once_each_get_their_own_answer(capsys):
+    # the CLI writes to sys.stdout: the twins run one at a time (vergence.web.twins._RUN_LOCK)
+    from concurrent.futures import ThreadPoolExecutor
+
+    from vergence.web.twins import build_twins
+
+    twin = build_twins(["budget"])["budget"]
+    baselines = [0.05 + 0.01 * i for i in range(8)]
+    expected = []
+    for b in baselines:
+        assert main([*BUDGET_ARGS[:2], repr(b), *BUDGET_ARGS[3:]]) == 0
+        expected.append(capsys.readouterr().out)
+    with ThreadPoolExecutor(4) as pool:
+        answers = list(pool.map(lambda b: twin.run(twin.model(**{**BUDGET, "baseline": b})), baselines))
+    assert answers == expected
 
 
 def test_health_and_displays(client):

@@ -250,8 +250,12 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
             200: {"description": f"Exactly what `vergence {name} --json` prints.",
                   "content": {"application/json": {}}}, **_ERRORS})(_twin_endpoint(twin))
 
-    @app.post("/api/{command}", include_in_schema=False)
-    def no_twin(command: str) -> Response:
+    @app.api_route("/api/{command}", methods=["GET", "POST"], include_in_schema=False)
+    def no_twin(command: str, request: Request) -> Response:
+        if request.method == "GET":
+            if command in twins:
+                return _refusal(405, f"GET is not allowed on /api/{command}: POST its options as a JSON object")
+            return _refusal(404, f"no such page or endpoint: GET /api/{command}")
         if command in with_json:
             return _refusal(404, f"vergence {command} reads files: its twin waits for the upload and data-id "
                                  f"layer; twins now: {', '.join(twins)}")
