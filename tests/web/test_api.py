@@ -203,6 +203,23 @@ def test_the_page_is_served_at_the_root(client):
     assert response.content == (STATIC_DIR / "index.html").read_bytes()
 
 
+def test_the_page_folder_is_served_and_nothing_beside_it(monkeypatch, tmp_path):
+    import vergence.web.app as web_app
+
+    static = tmp_path / "static"
+    static.mkdir()
+    (static / "index.html").write_text("<!doctype html><title>workbench</title>")
+    (static / "app.js").write_text("// the page")
+    (tmp_path / "secret.txt").write_text("not for the client")
+    os.symlink(tmp_path / "secret.txt", static / "link.txt")
+    monkeypatch.setattr(web_app, "STATIC_DIR", static)
+    with TestClient(create_app()) as c:
+        assert c.get("/").text == "<!doctype html><title>workbench</title>"
+        assert c.get("/static/app.js").text == "// the page"
+        for path in ("/static/../secret.txt", "/static/%2e%2e/secret.txt", "/static/link.txt", "/static/nope.js"):
+            assert "not for the client" not in _refused(c.get(path), 404)
+
+
 def test_the_openapi_schema_documents_each_twin_field(client):
     schema = client.get("/openapi.json").json()
     post = schema["paths"]["/api/budget"]["post"]
