@@ -10,8 +10,10 @@ import threading
 import time
 import urllib.request
 import warnings
+from pathlib import Path
 
 import pytest
+import typer
 
 pytest.importorskip("fastapi", reason="the web extra is not installed: pip install 'vergence[web]'")
 pytest.importorskip("httpx", reason="FastAPI's test client needs httpx: pip install 'vergence[web]'")
@@ -332,3 +334,42 @@ def test_uvicorn_serves_the_api_on_a_free_port():
         thread.join(30)
         sock.close()
     assert not thread.is_alive()
+
+
+def test_twins_are_built_from_any_command_definition():
+    # a command of our own: flags, a --x/--no-x pair, a repeatable option, an output file left out
+    from vergence.web.twins import _twin_of
+
+    app = typer.Typer()
+
+    @app.command()
+    def fake(level: int = typer.Option(..., "--level", help="A level."),
+             tags: list[str] = typer.Option([], "--tag", help="A tag; repeat."),
+             fast: bool = typer.Option(False, "--fast", help="Go fast."),
+             draw_map: bool = typer.Option(True, "--map/--no-map", help="Draw the map."),
+             plot: Path | None = typer.Option(None, "--plot", help="A figure."),
+             as_json: bool = typer.Option(False, "--json", help="JSON.")) -> None:
+        """Do nothing."""
+
+    twin = _twin_of("fake", typer.main.get_command(app))
+    assert list(twin.model.model_fields) == ["level", "tag", "fast", "map"]
+    request = twin.model(level=3, tag=["a b", "--json"], fast=True, map=False)
+    assert twin.argv(request) == ["fake", "--level=3", "--tag=a b", "--tag=--json", "--fast", "--no-map", "--json"]
+    assert twin.argv(twin.model(level=3)) == ["fake", "--level=3", "--map", "--json"]
+
+    def without_twin(**params):
+        other = typer.Typer()
+        other.command()(params["function"])
+        return _twin_of("other", typer.main.get_command(other))
+
+    def reads_a_file(image: Path = typer.Option(..., "--image"), as_json: bool = typer.Option(False, "--json")):
+        """Reads a file."""
+
+    def writes_files(out: Path = typer.Option(..., "--out"), as_json: bool = typer.Option(False, "--json")):
+        """Writes files."""
+
+    def prints_no_json(level: int = typer.Option(1, "--level")):
+        """No JSON."""
+
+    for function in (reads_a_file, writes_files, prints_no_json):
+        assert without_twin(function=function) is None, function.__name__

@@ -156,8 +156,9 @@ def _field_name(option: str) -> str:
 
 
 def command_params(command: Any) -> list[Any]:
-    """The Click parameters of a built ``vergence`` command, without ``--help``."""
-    return [p for p in command.params if p.name != "help"]
+    """The Click parameters of a built command that carry a value: no ``--help``, no eager option
+    that acts and exits (``--install-completion``)."""
+    return [p for p in command.params if p.name != "help" and p.expose_value and not p.is_eager]
 
 
 def _annotation(param: Any) -> Any:
