@@ -179,6 +179,22 @@ def test_twins_called_at_once_each_get_their_own_answer(capsys):
     assert answers == expected
 
 
+def test_a_bug_is_a_one_line_500(monkeypatch):
+    import vergence.cli.budget as budget_cli
+    from vergence.web.data import DataIndex as Index
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("kaboom")
+
+    monkeypatch.delenv("VERGENCE_DEBUG", raising=False)
+    monkeypatch.setattr(budget_cli, "depth_budget", boom)  # inside the command: the CLI's own report
+    monkeypatch.setattr(Index, "entries", boom)  # in the server itself
+    with TestClient(create_app(), raise_server_exceptions=False) as c:
+        assert _refused(c.post("/api/budget", json=BUDGET), 500) == \
+            "internal error, please report it (VERGENCE_DEBUG=1 shows the traceback): RuntimeError: kaboom"
+        assert _refused(c.get("/api/data"), 500) == "internal error, please report it: RuntimeError: kaboom"
+
+
 def test_health_and_displays(client):
     from vergence import __version__
     from vergence.viewing import DISPLAY_PRESETS

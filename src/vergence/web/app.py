@@ -203,6 +203,11 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
             message = str(exc.detail)
         return _refusal(exc.status_code, message)
 
+    @app.exception_handler(Exception)
+    async def _bug(request: Request, exc: Exception) -> JSONResponse:
+        # a bug of ours, as the CLI reports one (vergence.cli._run): one line, status 500
+        return _refusal(500, f"internal error, please report it: {type(exc).__name__}: {exc}")
+
     @app.get("/", include_in_schema=False)
     def page() -> Response:
         path = STATIC_DIR / "index.html"

@@ -14,6 +14,7 @@ takes uploads and data ids. Output files (``--out``, ``--plot``) are never expos
 
 from __future__ import annotations
 
+import enum
 import io
 import re
 import threading
@@ -125,6 +126,8 @@ class Twin:
 
 def _text(value: object) -> str:
     """A validated value as the command line spells it (``repr`` keeps every digit of a float)."""
+    if isinstance(value, enum.Enum):  # a choice: the command line takes its value
+        value = value.value
     return repr(value) if isinstance(value, float) else str(value)
 
 
