@@ -224,7 +224,8 @@ def _twin_of(name: str, command: Any) -> Twin | None:
     model = pydantic.create_model(  # type: ignore[call-overload]
         "".join(part.capitalize() for part in re.split(r"[-_ ]", name)) + "Options",
         __config__=pydantic.ConfigDict(extra="forbid"),
-        __doc__=f"The options of `vergence {name}`, as JSON fields.",
+        __doc__=(f"The options of `vergence {name}`, as JSON fields (snake_case option names, a list for a "
+                 f"repeatable option, true/false for a flag). JSON has no infinity: send \"inf\" as text."),
         **definitions,
     )
     summary = " ".join((command.help or command.short_help or "").split())
