@@ -256,3 +256,9 @@ def test_specular_section_shows_layers_analysis_and_the_four_methods(demo):
     layers = [layer for layer in sp.report["layers"] if layer["pixels"]]
     assert layers[0]["offset_mean"] == 1.0  # the diffuse layer keeps the physical offset
     assert any(layer["offset_mean"] < 0.9 for layer in layers[1:])  # something specular was moved
+
+
+def test_the_page_says_how_to_start_the_workbench(demo):
+    # issue 13: the demo's index.html links to how to start the workbench
+    html = demo.index.read_text(encoding="utf-8")
+    assert "vergence serve" in html and "http://127.0.0.1:8765" in html

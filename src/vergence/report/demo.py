@@ -340,7 +340,9 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
             title="Vergence demo: a stereoscopic long-lens shot",
             intro=(
                 "Everything on this page was computed by `vergence demo` from built-in data (the StereoSpace "
-                "section: from the dino photographs of the shared data); each figure is a PNG beside this file."
+                "section: from the dino photographs of the shared data); each figure is a PNG beside this file. "
+                "To try it yourself on your display, start the workbench with `vergence serve` (add `--data DIR` "
+                "for your collections and scenes) and open the address it prints, http://127.0.0.1:8765 by default."
             ),
             sections=sections,
         )
