@@ -106,7 +106,7 @@ function niceTicks(lo, hi, count = 5) {
   const mag = 10 ** Math.floor(Math.log10(raw));
   const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((s) => s >= raw);
   const ticks = [];
-  for (let t = Math.ceil(lo / step) * step; t <= hi + step * 1e-9; t += step) ticks.push(Number(t.toPrecision(12)));
+  for (let i = Math.ceil(lo / step); i * step <= hi + step * 1e-9; i++) ticks.push(i === 0 ? 0 : Number((i * step).toPrecision(12)));
   return { lo: Math.min(lo, ticks[0]), hi: Math.max(hi, ticks[ticks.length - 1]), ticks };
 }
 
@@ -281,7 +281,7 @@ function initBudget() {
     setFigure("divergence-depth", firstDiverging ? firstDiverging.depth : null,
       firstDiverging ? `from z ≈ ${fmt(firstDiverging.depth)} m (first sampled depth)` : "not in the scene's depths");
     const list = document.getElementById("warnings");
-    list.replaceChildren(...result.warnings.map((w) => { const li = document.createElement("li"); li.textContent = w; return li; }));
+    list.replaceChildren(...result.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w, title: w })));
     return { dense, firstDiverging, probe, convergence };
   }
 
@@ -345,7 +345,10 @@ function initBudget() {
       if (mine === sequence) document.body.dataset.updates = String(++updates);
     }
   }
-  const later = debounce(update, DEBOUNCE_MS);
+  const debounced = debounce(update, DEBOUNCE_MS);
+  // "pending" from the first keystroke to the answer of the last: "ready" or "error" mean the page
+  // shows the API's answer to the inputs as they are now.
+  const later = () => { document.body.dataset.state = "pending"; debounced(); };
 
   function addConstraint(z, perceived, roundness) {
     const row = document.createElement("tr");
