@@ -34,7 +34,8 @@ def server_url() -> Iterator[str]:
     try:
         from vergence.web import create_app
     except ImportError as exc:
-        pytest.skip(f"vergence.web cannot be imported ({exc}): the server is missing or the web extra is not installed (make setup)")
+        pytest.skip(f"vergence.web cannot be imported ({exc}): the server is missing "
+                    "or the web extra is not installed (make setup)")
     import uvicorn
 
     port = _free_port()

@@ -85,6 +85,7 @@ def test_budget_figures_equal_the_api(workbench, server_url):
         value, text = shown(page, testid)
         assert value == want, testid
         assert leading_number(text) == pytest.approx(want, rel=TEXT_RTOL), (testid, text)
+    assert page.locator('[data-testid="warnings"] li').all_inner_texts() == api["warnings"]
     # this rig diverges in the scene: the limit is shaded, and the first diverging depth is shown
     assert page.locator("#plot-perceived rect.shade").count() == 1
     z_div, _ = shown(page, "divergence-depth")

@@ -125,7 +125,7 @@ function drawPlot(svg, series, opts) {
   const xs = [], ys = [];
   for (const s of series) for (const [x, y] of s.points) {
     if (Number.isFinite(x) && (!opts.xlog || x > 0)) xs.push(x);
-    if (Number.isFinite(y)) ys.push(y);
+    if (Number.isFinite(y) && (!opts.yclip || (y >= opts.yclip[0] && y <= opts.yclip[1]))) ys.push(y);
   }
   if (!xs.length || !ys.length) {
     svg.append(el("text", { x: width / 2, y: height / 2, class: "empty", "text-anchor": "middle" }, opts.empty || "no data"));
@@ -165,6 +165,15 @@ function drawPlot(svg, series, opts) {
     svg.append(el("line", { x1: tx(v.x), x2: tx(v.x), y1: top, y2: height - bottom, class: `vline ${v.cls || ""}` }));
     svg.append(el("text", { x: tx(v.x) + 3, y: height - bottom - 4, class: "vline-label" }, v.label));
   }
+  // Curves leave the frame where they run off (z' and roundness blow up where the eyes turn parallel).
+  const clipId = `${svg.id}-clip`;
+  const defs = el("defs");
+  const clip = el("clipPath", { id: clipId });
+  clip.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom }));
+  defs.append(clip);
+  svg.append(defs);
+  const curves = el("g", { "clip-path": `url(#${clipId})` });
+  svg.append(curves);
   let count = 0;
   for (const s of series) {
     let d = "", pen = false;
@@ -174,9 +183,9 @@ function drawPlot(svg, series, opts) {
       d += `${pen ? "L" : "M"}${tx(x).toFixed(2)},${ty(y).toFixed(2)}`;
       pen = true; count++;
     }
-    if (d) svg.append(el("path", { d, class: `series ${s.cls}`, "data-series": s.label }));
+    if (d) curves.append(el("path", { d, class: `series ${s.cls}`, "data-series": s.label }));
     for (const [x, y] of s.dots || []) {
-      if (Number.isFinite(x) && Number.isFinite(y)) svg.append(el("circle", { cx: tx(x), cy: ty(y), r: 4, class: `dot ${s.cls}` }));
+      if (Number.isFinite(x) && Number.isFinite(y)) curves.append(el("circle", { cx: tx(x), cy: ty(y), r: 4, class: `dot ${s.cls}` }));
     }
   }
   svg.dataset.points = String(count);
@@ -185,6 +194,10 @@ function drawPlot(svg, series, opts) {
 // ---------------------------------------------------------------- page 1: display and budget
 const DENSE_SAMPLES = 120;  // depths sent to /api/budget for the curves (log-spaced over the scene)
 const DEBOUNCE_MS = 200;
+// The plots' vertical ranges: z' up to 4 viewing distances, roundness in [-1, 3]; beyond, the curves
+// leave the frame (they blow up where the eyes turn parallel). The figures above show exact values.
+const PERCEIVED_CAP = 4;
+const ROUNDNESS_CLIP = [-1, 3];
 
 function initBudget() {
   const form = document.getElementById("budget-form");
@@ -268,8 +281,9 @@ function initBudget() {
     if (v === null || v === undefined) node.removeAttribute("data-value"); else node.dataset.value = String(v);
   }
 
-  function showBudget(result, probe, convergence) {
-    const [atH, atProbe, ...dense] = result.depths;
+  function showBudget(result, curves, probe, convergence) {
+    const [atH, atProbe] = result.depths;
+    const dense = curves.depths;
     setFigure("divergence-baseline", result.divergence_baseline, `${fmt(result.divergence_baseline)} m`);
     setFigure("roundness-baseline", result.roundness_baseline, `${fmt(result.roundness_baseline)} m`);
     setFigure("focal-ratio", result.focal_ratio);
@@ -282,24 +296,34 @@ function initBudget() {
       firstDiverging ? `from z ≈ ${fmt(firstDiverging.depth)} m (first sampled depth)` : "not in the scene's depths");
     const list = document.getElementById("warnings");
     list.replaceChildren(...result.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w, title: w })));
-    return { dense, firstDiverging, probe, convergence };
+    return { dense, firstDiverging, probe, convergence, viewingDistance: number("viewing-distance") || 1 };
+  }
+
+  // A budget curve as [z, value] points, broken where the eyes start to diverge (the curve jumps there).
+  function budgetPoints(samples, key) {
+    const points = [];
+    samples.forEach((s, i) => {
+      if (i > 0 && samples[i - 1].diverges !== s.diverges) points.push([s.depth, null]);
+      points.push([s.depth, s[key]]);
+    });
+    return points;
   }
 
   function drawAll(budget, mapping) {
-    const { dense, firstDiverging, probe, convergence } = budget;
+    const { dense, firstDiverging, probe, convergence, viewingDistance } = budget;
     const shade = firstDiverging ? { from: firstDiverging.depth, label: "eyes diverge" } : null;
     const vlines = [{ x: convergence, label: "H", cls: "h" }, { x: probe, label: "z", cls: "probe" }];
     const xrange = dense.length ? [dense[0].depth, dense[dense.length - 1].depth] : null;
     const mapped = mapping ? mapping.samples.filter((s) => s.depth !== null) : [];
     const common = { xlog: true, xrange, shade, vlines, xlabel: "scene depth z (m)" };
     drawPlot(document.getElementById("plot-perceived"), [
-      { points: dense.map((s) => [s.depth, s.perceived_depth]), cls: "budget", label: "budget" },
+      { points: budgetPoints(dense, "perceived_depth"), cls: "budget", label: "budget" },
       ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.perceived_depth]), cls: "psi", label: "psi" }] : []),
-    ], { ...common, ylabel: "z′ (m)" });
+    ], { ...common, ylabel: "z′ (m)", yclip: [0, PERCEIVED_CAP * viewingDistance] });
     drawPlot(document.getElementById("plot-roundness"), [
-      { points: dense.map((s) => [s.depth, s.roundness]), cls: "budget", label: "budget" },
+      { points: budgetPoints(dense, "roundness"), cls: "budget", label: "budget" },
       ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.roundness]), cls: "psi", label: "psi" }] : []),
-    ], { ...common, ylabel: "roundness ρ", yinclude: [0, 1] });
+    ], { ...common, ylabel: "roundness ρ", yinclude: [0, 1], yclip: ROUNDNESS_CLIP });
     const psiSvg = document.getElementById("plot-psi");
     if (!mapping) {
       drawPlot(psiSvg, [], { empty: "add a constraint to build ψ" });
@@ -318,20 +342,24 @@ function initBudget() {
     const mine = ++sequence;
     document.body.dataset.state = "loading";
     const probe = number("probe"), convergence = number("convergence");
-    const body = { ...rigFields(), ...displayFields(true) };
     const readouts = [convergence, probe].filter((v) => v !== null);
-    body.depth = [...readouts, ...denseDepths()];
-    // The CLI line reproduces the figures: the rig, the display and the two readout depths.
-    const cliBody = { ...body, depth: readouts };
-    document.getElementById("cli-budget").value = cliLine("budget", cliBody);
+    // The figures come from the request the CLI line makes (the rig, the display and the two readout
+    // depths): the command prints exactly what the page shows. The curves come from a second request
+    // with the dense depths only.
+    const body = { ...rigFields(), ...displayFields(true), depth: readouts };
+    const dense = denseDepths();
+    document.getElementById("cli-budget").value = cliLine("budget", body);
     const psiBody = constraints().length ? mappingBody() : null;
     document.getElementById("cli-mapping-row").hidden = !psiBody;
     if (psiBody) document.getElementById("cli-mapping").value = cliLine("mapping", psiBody);
     try {
       if (readouts.length < 2) throw new ApiError("enter the convergence distance H and the depth z to look at");
-      const [budget, mapping] = await Promise.all([api("/api/budget", body), psiBody ? api("/api/mapping", psiBody) : null]);
+      if (!dense.length) throw new ApiError("the scene's depths: enter 0 < nearest < farthest, both finite");
+      const [budget, curves, mapping] = await Promise.all([
+        api("/api/budget", body), api("/api/budget", { ...body, depth: dense }),
+        psiBody ? api("/api/mapping", psiBody) : null]);
       if (mine !== sequence) return;  // a newer input is on its way
-      drawAll(showBudget(budget, probe, convergence), mapping);
+      drawAll(showBudget(budget, curves, probe, convergence), mapping);
       document.querySelector(".results").classList.remove("stale");
       showError(null);
       document.body.dataset.state = "ready";
