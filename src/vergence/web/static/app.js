@@ -376,7 +376,8 @@ function initBudget() {
   const debounced = debounce(update, DEBOUNCE_MS);
   // "pending" from the first keystroke to the answer of the last: "ready" or "error" mean the page
   // shows the API's answer to the inputs as they are now.
-  const later = () => { document.body.dataset.state = "pending"; debounced(); };
+  // A new input also retires the request in flight (its answer is for the inputs as they were).
+  const later = () => { sequence++; document.body.dataset.state = "pending"; debounced(); };
 
   function addConstraint(z, perceived, roundness) {
     const row = document.createElement("tr");
