@@ -213,3 +213,27 @@ def test_screenshot_is_not_blank(workbench, tmp_path):
     if os.environ.get("VERGENCE_UPDATE_SCREENSHOTS") == "1":
         SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(path, SCREENSHOT)
+
+
+def test_focal_length_and_sensor_instead_of_the_window(workbench, server_url):
+    page = workbench
+    enter_rig(page)
+    page.check('input[name="window-mode"][value="focal"]')
+    assert page.locator("#window").is_hidden()
+    page.fill("#focal-mm", "50")
+    page.fill("#sensor-mm", "24")
+    page.fill("#screen-pixels", "2560")  # overrides the preset's resolution: sent as --screen-pixels
+    assert settle(page) == "ready", page.locator('[data-testid="error"]').inner_text()
+    line = page.input_value('[data-testid="cli-budget"]')
+    assert "--focal-mm 50 --sensor-mm 24" in line and "--window" not in line
+    assert "--display desktop-24 --screen-pixels 2560" in line
+    body = {"baseline": RIG["baseline"], "convergence": RIG["convergence"], "focal_mm": 50, "sensor_mm": 24,
+            "display": "desktop-24", "screen_pixels": 2560, "depth": [RIG["convergence"], PROBE]}
+    api = post(server_url, "budget", body).json()
+    assert shown(page, "focal-ratio")[0] == api["focal_ratio"]
+    assert shown(page, "perceived-at-probe")[0] == api["depths"][1]["perceived_depth"]
+    # a focal length alone is refused by the API, in its words
+    page.fill("#sensor-mm", "")
+    assert settle(page) == "error"
+    message = post(server_url, "budget", {**body, "sensor_mm": None}).json()
+    assert page.locator('[data-testid="error"]').inner_text() == message.get("error")
