@@ -248,6 +248,9 @@ def test_an_error_raised_after_ctrl_c_still_reads_interrupted(capsys, monkeypatc
     (["mapping", "--nea", "1"], "error: no such option --nea (did you mean --far or --near? vergence mapping --help "
                                 "lists the options)"),
     (["compare", "a", "b", "c"], "error: unexpected argument c (usage: vergence compare [OPTIONS] IMAGE REFERENCE)"),
+    (["serve", "--port", "http"], "error: --port: expected a whole number (got 'http')"),
+    (["serve", "--host", "0.0.0.0"], "error: --host 0.0.0.0 is not a loopback address: anyone who reaches it could "
+                                     "use the workbench; add --allow-remote to serve it anyway"),
 ])
 def test_usage_errors_begin_with_the_option_as_typed(capsys, tmp_path, args, message):
     assert main([a.format(tmp=tmp_path / "out") for a in args]) == 2

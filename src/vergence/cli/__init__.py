@@ -34,6 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("render", "Ray-trace SCENE into the S3 ray tree: per-layer radiance, position, normal; depth; "
                "previews."),
     "rig": ("rig", "Plan and render the Quadri-Rig and the Tri-Rig of a shot file (S0 §5–6): plan, render."),
+    "serve": ("serve", "Run the workbench: a local page and its JSON API (needs the web extra)."),
     "specular": ("specular", "Make the glass and mirrors of SCENE fusible (S3): per-layer camera offsets, renders, "
                  "per-layer disparity, importance and rivalry before and after, report."),
     "stereospace": ("stereospace", "Browse a calibrated photo collection in stereo (S2): view (a novel view, "

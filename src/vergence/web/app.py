@@ -1,0 +1,273 @@
+"""The workbench's server: the page, the JSON API and its refusals (``vergence serve`` runs it).
+
+Every refusal is a JSON object ``{"error": "<one line>"}``: 422 for a bad parameter (FastAPI's own
+validation included, named by its field), 404 for an unknown id or endpoint, 413 for a body over
+:data:`MAX_JSON_BODY`, refused before it is parsed. No CORS headers: the page is served from the
+same origin, and no other site's script may call the API. No algorithm lives here: the twins run
+the ``vergence`` commands (:mod:`vergence.web.twins`), the rest reads the library's tables.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from pydantic import BaseModel
+from starlette.exceptions import HTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from vergence.web.data import DataIndex
+from vergence.web.twins import Twin, TwinError, build_twins, twin_names
+
+__all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
+
+# Largest request body (bytes) the JSON API reads: a command's options fit in a few hundred bytes;
+# 1 MiB leaves room for long lists of depths or constraints and keeps a hostile body out of memory.
+MAX_JSON_BODY = 1 << 20
+
+# The page: index.html, app.js, style.css (no build step, no CDN).
+STATIC_DIR = Path(__file__).parent / "static"
+
+# Longest rendering of a refused value in a message: the line stays one line a person reads.
+_MAX_SHOWN = 40
+
+
+class ErrorBody(BaseModel):
+    """Every refusal: one line saying what was wrong, naming the field or option."""
+
+    error: str
+
+
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    422: {"model": ErrorBody, "description": "A bad parameter: one line naming the field or option."},
+    413: {"model": ErrorBody, "description": f"The body is over {MAX_JSON_BODY} bytes (MAX_JSON_BODY)."},
+}
+
+
+def _refusal(status: int, message: str) -> JSONResponse:
+    return JSONResponse({"error": " ".join(message.split())}, status_code=status)
+
+
+class _BodyLimit:
+    """ASGI middleware: a body over ``limit`` bytes is answered 413 before anyone parses it.
+
+    A declared ``Content-Length`` over the limit is refused unread; a body without one is read
+    up to the limit, then handed on whole.
+    """
+
+    def __init__(self, app: ASGIApp, limit: int) -> None:
+        self.app, self.limit = app, limit
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers", []))
+        declared = headers.get(b"content-length")
+        if declared is not None:
+            if not declared.isdigit():
+                await _refusal(400, f"Content-Length must be a number of bytes; got {declared[:_MAX_SHOWN]!r}")(
+                    scope, receive, send)
+                return
+            if int(declared) > self.limit:
+                await self._too_large(scope, receive, send, f"{int(declared)} bytes")
+                return
+        chunks, size = [], 0
+        while True:
+            message = await receive()
+            if message["type"] != "http.request":
+                break  # the client left
+            chunks.append(message.get("body", b""))
+            size += len(chunks[-1])
+            if size > self.limit:
+                await self._too_large(scope, receive, send, f"more than {self.limit} bytes")
+                return
+            if not message.get("more_body", False):
+                break
+        body, replayed = b"".join(chunks), False
+
+        async def replay() -> Message:
+            nonlocal replayed
+            if not replayed:
+                replayed = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)
+
+    async def _too_large(self, scope: Scope, receive: Receive, send: Send, size: str) -> None:
+        await _refusal(413, f"request body too large: {size}; the limit is {self.limit} bytes (MAX_JSON_BODY)")(
+            scope, receive, send)
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= _MAX_SHOWN else text[:_MAX_SHOWN - 3] + "..."
+
+
+# pydantic's error types, in the words of the CLI's messages (vergence.cli._run).
+_EXPECTED = {
+    "float_parsing": "expected a number", "float_type": "expected a number",
+    "int_parsing": "expected a whole number", "int_type": "expected a whole number",
+    "int_from_float": "expected a whole number", "bool_parsing": "expected true or false",
+    "bool_type": "expected true or false", "string_type": "expected text", "list_type": "expected a list",
+}
+
+
+def _validation_message(errors: Sequence[dict[str, Any]], fields: Sequence[str]) -> str:
+    """The first validation error as one line that begins with the field at fault."""
+    e = errors[0]
+    loc = [str(p) for p in e.get("loc", ()) if p != "body"]
+    kind = e.get("type", "")
+    given = e.get("input")
+    if kind == "json_invalid":
+        return f"the body is not valid JSON ({e.get('ctx', {}).get('error', e.get('msg', ''))})"
+    if isinstance(given, bytes):
+        return "the body must be JSON, sent with Content-Type: application/json"
+    if not loc:
+        if kind == "missing":
+            return "the body is missing: send the options as a JSON object"
+        return f"the body must be a JSON object of options; got {type(given).__name__}"
+    field = loc[0] + "".join(f"[{p}]" for p in loc[1:])
+    if kind == "extra_forbidden":
+        return f"unknown field {loc[0]!r}; valid fields: {', '.join(fields)}"
+    if kind == "missing":
+        return f"missing field {field}"
+    if kind in _EXPECTED:
+        return f"{field}: {_EXPECTED[kind]} (got {_shown(given)})"
+    msg = str(e.get("msg", kind)).removeprefix("Input should be ").removeprefix("Value error, ")
+    return f"{field}: {msg} (got {_shown(given)})"
+
+
+def _twin_endpoint(twin: Twin) -> Any:
+    """The route function of a twin: its body is the twin's model (documented in OpenAPI)."""
+
+    def endpoint(options: BaseModel) -> Response:
+        try:
+            text = twin.run(options)
+        except TwinError as exc:
+            return _refusal(422 if exc.code == 2 else 500, exc.message)
+        return Response(text, media_type="application/json")
+
+    endpoint.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+        [inspect.Parameter("options", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=twin.model)])
+    endpoint.__name__ = f"twin_{twin.name.replace('-', '_')}"
+    endpoint.__doc__ = (f"{twin.summary}\n\nThe twin of `vergence {twin.name} --json`: the options as JSON "
+                        f"fields, the answer exactly the JSON the command prints.")
+    return endpoint
+
+
+def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
+    """The workbench application: the page at ``/``, the JSON API under ``/api``.
+
+    Parameters
+    ----------
+    data_dirs : sequence of str or Path
+        The folders whose collections and scenes the API lists by id (``vergence serve --data``);
+        nothing else on disk is reachable from a request.
+
+    Raises
+    ------
+    ValueError
+        If a data folder does not exist or is not a folder.
+    """
+    from vergence import __version__
+
+    index = DataIndex(data_dirs)
+    twins = build_twins()
+    with_json = twin_names()
+    app = FastAPI(title="Vergence workbench", version=__version__,
+                  description="The JSON API of `vergence serve`: every command that prints `--json` has its twin.")
+    app.add_middleware(_BodyLimit, limit=MAX_JSON_BODY)
+
+    @app.exception_handler(RequestValidationError)
+    async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
+        twin = twins.get(request.url.path.removeprefix("/api/"))
+        fields = list(twin.model.model_fields) if twin is not None else []
+        return _refusal(422, _validation_message(exc.errors(), fields))
+
+    @app.exception_handler(HTTPException)
+    async def _http(request: Request, exc: HTTPException) -> JSONResponse:
+        if exc.status_code == 404 and exc.detail == "Not Found":
+            message = f"no such page or endpoint: {request.method} {request.url.path}"
+        elif exc.status_code == 405:
+            message = f"{request.method} is not allowed on {request.url.path}"
+        else:
+            message = str(exc.detail)
+        return _refusal(exc.status_code, message)
+
+    @app.exception_handler(Exception)
+    async def _bug(request: Request, exc: Exception) -> JSONResponse:
+        # a bug of ours, as the CLI reports one (vergence.cli._run): one line, status 500
+        return _refusal(500, f"internal error, please report it: {type(exc).__name__}: {exc}")
+
+    @app.get("/", include_in_schema=False)
+    def page() -> Response:
+        path = STATIC_DIR / "index.html"
+        if not path.is_file():
+            return _refusal(404, "the workbench page is not installed (vergence/web/static/index.html is missing)")
+        return FileResponse(path, media_type="text/html")
+
+    if STATIC_DIR.is_dir():  # the page's files (a source tree without them still serves the API)
+        app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+
+    @app.get("/api/health", summary="The server is up")
+    def health() -> dict[str, str]:
+        """``{"status": "ok", "version": ...}``."""
+        return {"status": "ok", "version": __version__}
+
+    @app.get("/api/displays", summary="The display presets of vergence.viewing")
+    def displays() -> dict[str, list[dict[str, Any]]]:
+        """The presets of :data:`vergence.viewing.DISPLAY_PRESETS`, sorted by name: eye separation b',
+        viewing distance H' and screen width W' in metres, horizontal resolution in pixels."""
+        from vergence.viewing import DISPLAY_PRESETS
+
+        return {"displays": [{"name": name, "eye_separation": d.eye_separation, "distance": d.distance,
+                              "width": d.width, "resolution": d.resolution}
+                             for name, d in sorted(DISPLAY_PRESETS.items())]}
+
+    @app.get("/api/data", summary="The collections and scenes the server can open, by id")
+    def data() -> dict[str, list[dict[str, str]]]:
+        """The built-in scenes, then the collections (camera files) and scene files of the data
+        folders. Choose one by its ``id``: no request names a path."""
+        entries = index.entries()
+        return {"collections": [e.to_dict() for e in entries if e.kind == "collection"],
+                "scenes": [e.to_dict() for e in entries if e.kind == "scene"]}
+
+    @app.get("/api/data/{entry_id}", summary="One entry of /api/data", responses={404: _ERRORS[422] | {
+        "description": "No entry has this id."}})
+    def data_entry(entry_id: str) -> dict[str, str]:
+        """The entry of an id that ``GET /api/data`` listed."""
+        try:
+            return index.get(entry_id).to_dict()
+        except KeyError as exc:
+            raise HTTPException(404, exc.args[0]) from None
+
+    for name, twin in twins.items():
+        app.post(f"/api/{name}", summary=twin.summary, response_class=Response, responses={
+            200: {"description": f"Exactly what `vergence {name} --json` prints.",
+                  "content": {"application/json": {}}}, **_ERRORS})(_twin_endpoint(twin))
+
+    @app.api_route("/api/{command}", methods=["GET", "POST"], include_in_schema=False)
+    def no_twin(command: str, request: Request) -> Response:
+        if request.method == "GET":
+            if command in twins:
+                return _refusal(405, f"GET is not allowed on /api/{command}: POST its options as a JSON object")
+            return _refusal(404, f"no such page or endpoint: GET /api/{command}")
+        if command in with_json:
+            return _refusal(404, f"vergence {command} reads files: its twin waits for the upload and data-id "
+                                 f"layer; twins now: {', '.join(twins)}")
+        return _refusal(404, f"no command {command!r} has a JSON twin; twins: {', '.join(twins)}")
+
+    app.state.twins = twins
+    app.state.data_index = index
+    return app
+
+
