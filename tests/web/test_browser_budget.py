@@ -237,3 +237,17 @@ def test_focal_length_and_sensor_instead_of_the_window(workbench, server_url):
     assert settle(page) == "error"
     message = post(server_url, "budget", {**body, "sensor_mm": None}).json()
     assert page.locator('[data-testid="error"]').inner_text() == message.get("error")
+
+
+def test_the_page_asks_only_its_own_server(page, server_url):
+    """No CDN, no font service: every request of the page goes to the workbench (it works offline)."""
+    requests: list[str] = []
+    page.on("request", lambda request: requests.append(request.url))
+    page.goto(server_url + "/")
+    assert settle(page) == "ready"
+    page.click('[data-testid="add-constraint"]')
+    assert settle(page) == "ready"
+    assert requests, "the page made no request"
+    outside = [u for u in requests if not (u.startswith(server_url + "/") or u.startswith("data:"))]
+    assert outside == []
+    assert {server_url + "/static/app.js", server_url + "/static/style.css"} <= set(requests)
