@@ -1,0 +1,89 @@
+"""Fixtures of the workbench's browser tests: the app served by uvicorn, and a page in Debian's Chromium.
+
+Each pytest-xdist worker starts its own server on a free port and its own browser; tests marked
+``browser`` skip with a reason when ``vergence.web``, Playwright or ``/usr/bin/chromium`` is missing.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = Path("/usr/bin/chromium")
+# A sandbox-free, quiet, offline headless Chromium: no GPU, no QUIC, no background traffic or updates.
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+SERVER_START_S = 20.0  # the app imports in well under a second; uvicorn binds at once
+VIEWPORT = {"width": 1280, "height": 1000}
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="session")
+def server_url() -> Iterator[str]:
+    """Base URL of ``vergence.web.create_app()`` served by uvicorn in a thread of this worker."""
+    try:
+        from vergence.web import create_app
+    except ImportError as exc:
+        pytest.skip(f"vergence.web cannot be imported ({exc}): the server is missing "
+                    "or the web extra is not installed (make setup)")
+    import uvicorn
+
+    port = _free_port()
+    config = uvicorn.Config(create_app(), host="127.0.0.1", port=port, log_level="warning", lifespan="off")
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, name=f"uvicorn-{port}", daemon=True)
+    thread.start()
+    deadline = time.monotonic() + SERVER_START_S
+    while not server.started:
+        if not thread.is_alive() or time.monotonic() > deadline:
+            raise RuntimeError(f"the workbench server did not start on port {port}")
+        time.sleep(0.02)
+    try:
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)
+
+
+@pytest.fixture(scope="session")
+def _browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
+    """Debian's Chromium driven by Playwright (its own browser download is not available here)."""
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright not installed")
+    if not CHROMIUM.is_file():
+        pytest.skip("Debian's chromium not found at /usr/bin/chromium (make setup installs it)")
+    profile = tmp_path_factory.mktemp("chromium-profile")  # a new, empty user-data dir per worker
+    with sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            str(profile), executable_path=str(CHROMIUM), args=CHROMIUM_ARGS, headless=True,
+            viewport=VIEWPORT)
+        try:
+            yield context
+        finally:
+            context.close()
+
+
+@pytest.fixture
+def page(_browser: object, server_url: str) -> Iterator[object]:
+    """A fresh Playwright page (sync API) on the workbench's server; closed after the test."""
+    pg = _browser.new_page()
+    errors: list[str] = []
+    pg.on("pageerror", lambda exc: errors.append(str(exc)))
+    try:
+        yield pg
+    finally:
+        pg.close()
+    if errors:  # an uncaught JavaScript exception is a failure of the page, whatever the test checked
+        pytest.fail(f"JavaScript errors on the page: {errors}")
