@@ -13,6 +13,7 @@ from vergence.io.cameras import CAMERA_FORMATS, CameraFormat, cameras_for_images
 from vergence.io.cameras_json import read_cameras_json, write_cameras_json
 from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.depth import DEPTH_KINDS, read_depth
+from vergence.io.header import HEADER_FORMATS, ImageHeader, read_header
 from vergence.io.disparity import read_disparity, stores_integers, write_disparity
 from vergence.io.images import read_image, write_image
 from vergence.io.jsonfile import MAX_JSON_BYTES, MAX_JSON_DEPTH, read_json
@@ -24,6 +25,8 @@ __all__ = [
     "CameraFormat",
     "CameraSet",
     "DEPTH_KINDS",
+    "HEADER_FORMATS",
+    "ImageHeader",
     "MAX_JSON_BYTES",
     "MAX_JSON_DEPTH",
     "atomic_folder",
@@ -35,6 +38,7 @@ __all__ = [
     "read_colmap",
     "read_depth",
     "read_disparity",
+    "read_header",
     "read_image",
     "read_json",
     "read_middlebury_par",

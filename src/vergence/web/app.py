@@ -23,6 +23,9 @@ from pydantic import BaseModel
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from vergence.web._errors import MAX_SHOWN as _MAX_SHOWN
+from vergence.web._errors import refusal as _refusal
+from vergence.web._errors import validation_message as _validation_message
 from vergence.web.data import DataIndex
 from vergence.web.twins import Twin, TwinError, build_twins, twin_names
 
@@ -35,9 +38,6 @@ MAX_JSON_BODY = 1 << 20
 # The page: index.html, app.js, style.css (no build step, no CDN).
 STATIC_DIR = Path(__file__).parent / "static"
 
-# Longest rendering of a refused value in a message: the line stays one line a person reads.
-_MAX_SHOWN = 40
-
 
 class ErrorBody(BaseModel):
     """Every refusal: one line saying what was wrong, naming the field or option."""
@@ -49,10 +49,6 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
     422: {"model": ErrorBody, "description": "A bad parameter: one line naming the field or option."},
     413: {"model": ErrorBody, "description": f"The body is over {MAX_JSON_BODY} bytes (MAX_JSON_BODY)."},
 }
-
-
-def _refusal(status: int, message: str) -> JSONResponse:
-    return JSONResponse({"error": " ".join(message.split())}, status_code=status)
 
 
 class _BodyLimit:
@@ -105,45 +101,6 @@ class _BodyLimit:
     async def _too_large(self, scope: Scope, receive: Receive, send: Send, size: str) -> None:
         await _refusal(413, f"request body too large: {size}; the limit is {self.limit} bytes (MAX_JSON_BODY)")(
             scope, receive, send)
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= _MAX_SHOWN else text[:_MAX_SHOWN - 3] + "..."
-
-
-# pydantic's error types, in the words of the CLI's messages (vergence.cli._run).
-_EXPECTED = {
-    "float_parsing": "expected a number", "float_type": "expected a number",
-    "int_parsing": "expected a whole number", "int_type": "expected a whole number",
-    "int_from_float": "expected a whole number", "bool_parsing": "expected true or false",
-    "bool_type": "expected true or false", "string_type": "expected text", "list_type": "expected a list",
-}
-
-
-def _validation_message(errors: Sequence[dict[str, Any]], fields: Sequence[str]) -> str:
-    """The first validation error as one line that begins with the field at fault."""
-    e = errors[0]
-    loc = [str(p) for p in e.get("loc", ()) if p != "body"]
-    kind = e.get("type", "")
-    given = e.get("input")
-    if kind == "json_invalid":
-        return f"the body is not valid JSON ({e.get('ctx', {}).get('error', e.get('msg', ''))})"
-    if isinstance(given, bytes):
-        return "the body must be JSON, sent with Content-Type: application/json"
-    if not loc:
-        if kind == "missing":
-            return "the body is missing: send the options as a JSON object"
-        return f"the body must be a JSON object of options; got {type(given).__name__}"
-    field = loc[0] + "".join(f"[{p}]" for p in loc[1:])
-    if kind == "extra_forbidden":
-        return f"unknown field {loc[0]!r}; valid fields: {', '.join(fields)}"
-    if kind == "missing":
-        return f"missing field {field}"
-    if kind in _EXPECTED:
-        return f"{field}: {_EXPECTED[kind]} (got {_shown(given)})"
-    msg = str(e.get("msg", kind)).removeprefix("Input should be ").removeprefix("Value error, ")
-    return f"{field}: {msg} (got {_shown(given)})"
 
 
 def _twin_endpoint(twin: Twin) -> Any:
