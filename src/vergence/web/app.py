@@ -9,9 +9,13 @@ the ``vergence`` commands (:mod:`vergence.web.twins`), the rest reads the librar
 
 from __future__ import annotations
 
+import contextlib
 import inspect
+import shutil
+import tempfile
+import weakref
 
-from collections.abc import Sequence
+from collections.abc import AsyncIterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +24,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from pydantic import BaseModel
+from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -27,6 +32,10 @@ from vergence.web._errors import MAX_SHOWN as _MAX_SHOWN
 from vergence.web._errors import refusal as _refusal
 from vergence.web._errors import validation_message as _validation_message
 from vergence.web.data import DataIndex
+from vergence.web.job_kinds import JOB_KINDS, JobEnv
+from vergence.web.jobs import JobManager
+from vergence.web.routes import add_job_routes, add_upload_routes
+from vergence.web.uploads import UploadStore
 from vergence.web.twins import Twin, TwinError, build_twins, twin_names
 
 __all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
@@ -55,14 +64,15 @@ class _BodyLimit:
     """ASGI middleware: a body over ``limit`` bytes is answered 413 before anyone parses it.
 
     A declared ``Content-Length`` over the limit is refused unread; a body without one is read
-    up to the limit, then handed on whole.
+    up to the limit, then handed on whole. The paths in ``own_limit`` (``POST /api/uploads``)
+    pass through unread: they stream their body under a limit of their own.
     """
 
-    def __init__(self, app: ASGIApp, limit: int) -> None:
-        self.app, self.limit = app, limit
+    def __init__(self, app: ASGIApp, limit: int, own_limit: frozenset[str] = frozenset()) -> None:
+        self.app, self.limit, self.own_limit = app, limit, own_limit
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
+        if scope["type"] != "http" or scope.get("path") in self.own_limit:
             await self.app(scope, receive, send)
             return
         headers = dict(scope.get("headers", []))
@@ -140,9 +150,21 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     index = DataIndex(data_dirs)
     twins = build_twins()
     with_json = twin_names()
-    app = FastAPI(title="Vergence workbench", version=__version__,
+    workdir = Path(tempfile.mkdtemp(prefix="vergence-web-"))
+    uploads = UploadStore(workdir / "uploads")
+    jobs = JobManager(workdir / "jobs", JobEnv(index, uploads), JOB_KINDS)
+    # removed at shutdown (the lifespan below); also at exit, for an app run without its lifespan
+    cleanup = weakref.finalize(jobs, shutil.rmtree, workdir, ignore_errors=True)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        yield
+        await run_in_threadpool(jobs.shutdown)
+        cleanup()
+
+    app = FastAPI(title="Vergence workbench", version=__version__, lifespan=lifespan,
                   description="The JSON API of `vergence serve`: every command that prints `--json` has its twin.")
-    app.add_middleware(_BodyLimit, limit=MAX_JSON_BODY)
+    app.add_middleware(_BodyLimit, limit=MAX_JSON_BODY, own_limit=frozenset({"/api/uploads"}))
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -212,6 +234,9 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
             200: {"description": f"Exactly what `vergence {name} --json` prints.",
                   "content": {"application/json": {}}}, **_ERRORS})(_twin_endpoint(twin))
 
+    add_job_routes(app, jobs)
+    add_upload_routes(app, uploads)
+
     @app.api_route("/api/{command}", methods=["GET", "POST"], include_in_schema=False)
     def no_twin(command: str, request: Request) -> Response:
         if request.method == "GET":
@@ -225,6 +250,9 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
 
     app.state.twins = twins
     app.state.data_index = index
+    app.state.jobs = jobs
+    app.state.uploads = uploads
+    app.state.workdir = workdir
     return app
 
 
