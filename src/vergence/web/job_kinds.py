@@ -50,15 +50,15 @@ class RenderJob(pydantic.BaseModel):
 
 
 def _prepare_render(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
-    from vergence.render import builtin_scene, open_scene, render, render_cost, tonemap
-    from vergence.render.limits import check_max_depth
+    from vergence.render import MAX_DEPTH, builtin_scene, open_scene, render, render_cost, tonemap
 
     if not isinstance(params, RenderJob):
         raise TypeError(f"params must be a RenderJob; got {type(params).__name__}")
     entry = env.data.get(params.scene)
     if entry.kind != "scene":
         raise ValueError(f"scene: {params.scene!r} is a {entry.kind}, not a scene; GET /api/data lists the scenes")
-    check_max_depth(params.depth)
+    if params.depth > MAX_DEPTH:
+        raise ValueError(f"depth must be at most {MAX_DEPTH} (2^(D+1)-1 layers); got {params.depth}")
     if entry.path is None:
         scene, inputs = builtin_scene(entry.name, width=params.width, height=params.height), (entry.id,)
     else:
