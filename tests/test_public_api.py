@@ -20,9 +20,9 @@ PUBLIC_API = {   'vergence': ['__version__'],
                           'textured_pixels', 'unreliable_pixels', 'weighted_median_filter'],
     'vergence.display': [   'ANAGLYPH_METHODS', 'LAYOUTS', 'anaglyph', 'checkerboard', 'interleave', 'pack', 'side_by_side',
                             'tile_views', 'top_bottom'],
-    'vergence.io': [   'CAMERA_FORMATS', 'CameraFormat', 'CameraSet', 'DEPTH_KINDS', 'MAX_JSON_BYTES', 'MAX_JSON_DEPTH', 'atomic_folder', 'atomic_write', 'cameras_for_images',
+    'vergence.io': [   'CAMERA_FORMATS', 'CameraFormat', 'CameraSet', 'DEPTH_KINDS', 'HEADER_FORMATS', 'ImageHeader', 'MAX_JSON_BYTES', 'MAX_JSON_DEPTH', 'atomic_folder', 'atomic_write', 'cameras_for_images',
                        'read_bundler', 'read_cameras', 'read_cameras_json', 'read_colmap', 'read_depth',
-                       'read_disparity', 'read_image', 'read_json', 'read_middlebury_par', 'read_pfm', 'stores_integers',
+                       'read_disparity', 'read_header', 'read_image', 'read_json', 'read_middlebury_par', 'read_pfm', 'stores_integers',
                        'write_bundler', 'write_cameras', 'write_cameras_json', 'write_colmap', 'write_disparity',
                        'write_image', 'write_json', 'write_middlebury_par', 'write_pfm'],
     'vergence.metrics': ['MAX_REGISTRATION_RADIUS', 'MIN_CONTRAST', 'REGISTRATION_PATCH', 'RegistrationError', 'SSIM_WINDOW',
@@ -58,7 +58,7 @@ PUBLIC_API = {   'vergence': ['__version__'],
                             'perceived_depth_from_depth', 'pixels_from_arcmin', 'psi_from_constraints',
                             'roundness', 'roundness_baseline', 'scene_depth_from_disparity',
                             'shift_sensor_parallax', 'shift_sensor_positions', 'temporal_mapping'],
-    'vergence.web': ['MAX_JSON_BODY', 'create_app']}
+    'vergence.web': ['JobCancelled', 'MAX_JSON_BODY', 'MAX_UPLOAD_BYTES', 'MAX_UPLOAD_PIXELS', 'create_app']}
 
 
 @pytest.mark.parametrize("module", sorted(PUBLIC_API))

@@ -11,9 +11,27 @@ the OpenAPI schema at ``/openapi.json`` (and ``/docs``):
   "format"}``; ``GET /api/data/{id}`` one of them. A client names data by these ids only.
 - ``POST /api/<command>`` (``budget``, ``mapping``): the command's options as JSON fields, the
   answer exactly what ``vergence <command> ... --json`` prints (:mod:`vergence.web.twins`).
+- ``POST /api/uploads[?name=...]``: the body is the file itself (no multipart), Content-Type
+  ``image/png``, ``image/jpeg``, ``image/x-portable-floatmap`` or ``application/octet-stream`` (.npy);
+  the format is told by content (PNG, JPEG, PFM, NPY magic bytes), never by name. Answers 201
+  ``{"id", "kind", "width", "height", "channels", "dtype", "bytes", "name"}``; 413 over
+  :data:`MAX_UPLOAD_BYTES` (from Content-Length, unread, or as the bytes arrive) or over
+  :data:`MAX_UPLOAD_PIXELS` declared by the header (nothing decoded), 422 unknown or corrupt content.
+  ``GET /api/uploads/{id}``: that metadata. Jobs take these ids, never paths
+  (:mod:`vergence.web.uploads`).
+- ``GET /api/jobs``: ``{"kinds": [{"name", "summary", "parameters"}], "jobs": [...]}``.
+  ``POST /api/jobs/{kind}`` (``render``: a scene id of ``/api/data``, width, height, depth,
+  samples): starts a job on the worker pool, 202, or returns the job already submitted with the same
+  kind, parameters and inputs, 200, ``"cached": true``. ``GET /api/jobs/{id}``: ``{"id", "kind",
+  "state", "progress", "message", "error", "result", "files"}`` (state queued, running, done, failed
+  or cancelled). ``GET /api/jobs/{id}/events``: server-sent events, ``progress`` at each change then
+  one ``end``. ``DELETE /api/jobs/{id}``: cancel (202; 409 once finished). ``GET
+  /api/jobs/{id}/files/{name}``: a file the job lists (409 until done). See :mod:`vergence.web.jobs`.
 
 Every refusal is ``{"error": "<one line>"}``: 422 bad parameter, 404 unknown id or endpoint, 405
-wrong method, 413 body over :data:`MAX_JSON_BODY` bytes.
+wrong method, 409 a job in the wrong state, 413 a JSON body over :data:`MAX_JSON_BODY` bytes or an
+upload over its limits, 429 too many jobs at once. Results and uploads live in a temporary folder
+of the app, removed at shutdown.
 """
 
 from __future__ import annotations
@@ -26,5 +44,7 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
     ) from exc
 
 from vergence.web.app import MAX_JSON_BODY, create_app
+from vergence.web.jobs import JobCancelled
+from vergence.web.uploads import MAX_UPLOAD_BYTES, MAX_UPLOAD_PIXELS
 
-__all__ = ["MAX_JSON_BODY", "create_app"]
+__all__ = ["JobCancelled", "MAX_JSON_BODY", "MAX_UPLOAD_BYTES", "MAX_UPLOAD_PIXELS", "create_app"]
