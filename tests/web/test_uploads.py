@@ -135,7 +135,8 @@ def test_too_many_pixels_is_413_without_decoding(client, app, monkeypatch):
 
 
 @pytest.mark.parametrize("data, message", [
-    (b"GIF89a\x01\x00\x01\x00", "unsupported upload: content is not PNG, JPEG, PFM or NPY (first bytes b'GIF89a\\x01\\x00')"),
+    (b"GIF89a\x01\x00\x01\x00",
+     "unsupported upload: content is not PNG, JPEG, PFM or NPY (first bytes b'GIF89a\\x01\\x00')"),
     (b"", "the upload is empty: send the file as the request body"),
     (b"\x89PNG\r\n\x1a\n\x00", "unsupported upload: PNG header is truncated (no IHDR chunk)"),
     (b"PF\nnot a header", "unsupported upload: PFM header is malformed (expected 'PF' or 'Pf', width height, scale)"),

@@ -258,7 +258,8 @@ class JobManager:
         job = self.get(job_id)
         with self._lock:
             if job.state in FINAL_STATES:
-                raise JobRefused(409, f"job {job_id} is already {job.state}; only a queued or running job can be cancelled")
+                raise JobRefused(409, f"job {job_id} is already {job.state}; "
+                                      "only a queued or running job can be cancelled")
             job.cancel_requested.set()
             if job.future is not None and job.future.cancel():
                 self._finish(job, "cancelled")
@@ -346,7 +347,8 @@ class JobManager:
         except (ValueError, TypeError) as exc:
             outcome = {"state": "failed", "error": _one_line(str(exc))}
         except Exception as exc:  # noqa: BLE001 - a bug of ours: reported as the CLI reports one
-            outcome = {"state": "failed", "error": _one_line(f"internal error, please report it: {type(exc).__name__}: {exc}")}
+            error = f"internal error, please report it: {type(exc).__name__}: {exc}"
+            outcome = {"state": "failed", "error": _one_line(error)}
         else:
             outcome = {"state": "done", "result": result}
         with self._lock:

@@ -183,7 +183,8 @@ class UploadStore:
                                        f"{header.pixels:,} pixels; the limit is {self.max_pixels:,} "
                                        "(MAX_UPLOAD_PIXELS)")  # fmt: skip
             if header.pixels == 0:
-                raise UploadError(422, f"the {header.format.upper()} upload declares {header.width} x {header.height} pixels: nothing to read")  # fmt: skip
+                raise UploadError(422, f"the {header.format.upper()} upload declares {header.width} x "
+                                       f"{header.height} pixels: nothing to read")  # fmt: skip
             upload_id = secrets.token_hex(8)
             path = self.folder / f"{upload_id}{HEADER_FORMATS[header.format]}"
             part.rename(path)
@@ -195,8 +196,9 @@ class UploadStore:
                 raise UploadError(422, f"the {header.format.upper()} upload is not valid: {message}") from None
         finally:
             part.unlink(missing_ok=True)
+        shown = " ".join(name.split())[:_MAX_NAME]
         upload = Upload(upload_id, header.format, header.width, header.height, header.channels, header.dtype,
-                        len(data), hashlib.sha256(data).hexdigest(), " ".join(name.split())[:_MAX_NAME], path)  # fmt: skip
+                        len(data), hashlib.sha256(data).hexdigest(), shown, path)  # fmt: skip
         with self._lock:
             self._uploads[upload_id] = upload
             while len(self._uploads) > self.max_uploads:
