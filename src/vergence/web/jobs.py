@@ -176,10 +176,11 @@ class JobManager:
         :data:`JOB_WORKERS`, :data:`MAX_KEPT_JOBS`, :data:`MAX_ACTIVE_JOBS` by default.
     """
 
-    def __init__(self, folder: Path, env: object, kinds: Mapping[str, JobKind] = {}, *, workers: int = JOB_WORKERS,
-                 max_kept: int = MAX_KEPT_JOBS, max_active: int = MAX_ACTIVE_JOBS) -> None:  # fmt: skip
+    def __init__(self, folder: Path, env: object, kinds: Mapping[str, JobKind] | None = None, *,
+                 workers: int = JOB_WORKERS, max_kept: int = MAX_KEPT_JOBS,
+                 max_active: int = MAX_ACTIVE_JOBS) -> None:  # fmt: skip
         self.folder, self.env = Path(folder), env
-        self.kinds: dict[str, JobKind] = dict(kinds)
+        self.kinds: dict[str, JobKind] = dict(kinds or {})
         self.max_kept, self.max_active = max_kept, max_active
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="vergence-job")
         self._lock = threading.Lock()
@@ -252,6 +253,9 @@ class JobManager:
 
     def cancel(self, job_id: str) -> Job:
         """Cancel a queued or running job (a running one stops at its next progress report).
+
+        A running job that returns without reporting progress again (it polled ``cancelled()`` and
+        chose to stop early, or was at its end) is done, with the result it returned.
 
         Raises ``KeyError`` for an unknown id, :class:`JobRefused` (409) for a finished job.
         """
