@@ -219,6 +219,33 @@ def test_eviction_deletes_the_files_of_the_least_recently_used(client, app):
     assert client.post("/api/jobs/slow", json={"tag": "b"}).json()["cached"] is False
 
 
+def test_a_scene_file_is_keyed_by_its_content(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "spheres_and_mirror.json"
+    if not source.is_file():
+        pytest.skip(f"{source} is not in this tree")
+    data = tmp_path / "data"
+    data.mkdir()
+    shutil.copy(source, data / "room.json")
+    with TestClient(create_app([data])) as c:
+        scene_id = next(e["id"] for e in c.get("/api/data").json()["scenes"] if e["name"] == "room.json")
+        body = {**RENDER, "scene": scene_id}
+        first = c.post("/api/jobs/render", json=body).json()
+        assert _wait(c, first["id"])["result"]["scene"] == "room.json"
+        assert c.post("/api/jobs/render", json=body).json()["id"] == first["id"]
+        scene = json.loads((data / "room.json").read_text())
+        scene["environment"]["intensity"] = 0.5
+        (data / "room.json").write_text(json.dumps(scene))  # the same id, new content: a new job
+        second = c.post("/api/jobs/render", json=body).json()
+        assert second["id"] != first["id"] and second["cached"] is False
+        assert _wait(c, second["id"])["state"] == "done"
+        (data / "room.json").write_text("{not json")
+        assert _refused(c.post("/api/jobs/render", json=body), 404) == \
+            f"unknown data id {scene_id!r}; GET /api/data lists the ids"  # no longer a scene: not listed
+
+
 def test_unknown_ids_kinds_and_files_are_404(client):
     for path in ("/api/jobs/nope", "/api/jobs/nope/events", "/api/jobs/nope/files/out.json"):
         assert "unknown job id 'nope'" in _refused(client.get(path), 404)
