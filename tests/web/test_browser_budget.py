@@ -186,14 +186,16 @@ def test_invalid_input_shows_the_api_error(workbench, server_url):
 
 
 def test_pages_not_landed_say_so(workbench):
+    from playwright.sync_api import expect  # waits for the page to switch (a bare is_visible() raced it)
+
     page = workbench
     for link, section in [("stereo", "#page-stereo"), ("specular", "#page-specular")]:
         page.click(f'[data-page-link="{link}"]')
-        assert page.locator(section).is_visible()
+        expect(page.locator(section)).to_be_visible()
         assert "coming as the systems land" in page.locator(section).inner_text().lower()
-        assert page.locator("#page-budget").is_hidden()
+        expect(page.locator("#page-budget")).to_be_hidden()
     page.click('[data-page-link="budget"]')
-    assert page.locator("#page-budget").is_visible()
+    expect(page.locator("#page-budget")).to_be_visible()
 
 
 def test_screenshot_is_not_blank(workbench, tmp_path):
