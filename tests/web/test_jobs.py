@@ -286,7 +286,7 @@ def test_too_many_active_jobs_is_429(client, app):
 
 def test_the_kinds_are_listed_with_their_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
-    assert sorted(kinds) == ["quiet", "render", "slow"]
+    assert sorted(kinds) == ["quiet", "render", "slow", "specular"]
     assert set(kinds["render"]["parameters"]["properties"]) == {"scene", "width", "height", "depth", "samples"}
 
 

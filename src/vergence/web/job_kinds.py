@@ -3,6 +3,10 @@
 - ``render``: a scene of ``GET /api/data`` (built-in or a scene file, by id) ray-traced by
   :func:`vergence.render.render` at a small size; the beauty image as ``beauty.png`` (tone-mapped
   by :func:`vergence.render.tonemap`) and the layer count.
+- ``specular``: a scene of ``GET /api/data`` with its stereo rig made fusible by
+  :func:`vergence.specular.specular_stereo` (S3, issue 12) at a small size; the files of
+  :func:`vergence.report.specular_outputs.write_specular_outputs` and, as the result,
+  :meth:`SpecularResult.report() <vergence.specular.SpecularResult.report>` (``report.json``).
 """
 
 from __future__ import annotations
@@ -19,7 +23,8 @@ if TYPE_CHECKING:
     from vergence.web.data import DataIndex
     from vergence.web.uploads import UploadStore
 
-__all__ = ["JOB_KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "JobEnv", "RenderJob"]
+__all__ = ["JOB_KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "JobEnv", "RenderJob",
+           "SpecularJob"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
 MAX_RENDER_JOB_SIDE = 2048
@@ -27,6 +32,9 @@ MAX_RENDER_JOB_SIDE = 2048
 #: Largest bound on the rays of a render job (:func:`vergence.render.render_cost`): 1e8, about 20 s
 #: at the 4.5 million rays per second measured on two cores (vergence.render.limits).
 MAX_RENDER_JOB_RAYS = 100_000_000
+
+#: Largest side of a specular job, pixels: k + 3 renders and an offset table, for the page's previews.
+MAX_SPECULAR_JOB_SIDE = 640
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,8 +93,86 @@ def _prepare_render(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     return Prepared(inputs, run)
 
 
+class SpecularJob(pydantic.BaseModel):
+    """Parameters of a ``specular`` job (as ``vergence specular``'s options)."""
+
+    model_config = pydantic.ConfigDict(extra="forbid")
+
+    scene: str = pydantic.Field(description="A scene id of GET /api/data with a stereo rig: 'scene:glasses'.")
+    width: int = pydantic.Field(160, ge=1, le=MAX_SPECULAR_JOB_SIDE, description="Image width, pixels.")
+    height: int = pydantic.Field(120, ge=1, le=MAX_SPECULAR_JOB_SIDE, description="Image height, pixels.")
+    k: int = pydantic.Field(16, ge=2, le=32, description="Offset steps of the table (S3: 32): k + 1 left renders.")
+    depth: int = pydantic.Field(2, ge=0, description="Maximum specular bounces D: 2^(D+1)-1 layers (S3: 2).")
+    samples: int = pydantic.Field(4, ge=1, description="Ambient-occlusion rays per diffuse hit.")
+    display: str = pydantic.Field("samsung-2233rz", description="A display preset of GET /api/displays.")
+    variant: str = pydantic.Field("comfort", description="The absolute term: 'comfort' or 'screen' (S3's).")
+    weights: tuple[float, float, float, float] = pydantic.Field(
+        (1.0, 1.0, 10.0, 0.1), description="Cost weights absolute, relative, rivalry, data (S3 §4: 1, 1, 10, 0.1).")
+
+
+#: Largest cost weight of a specular job (as ``vergence specular --weights``).
+_MAX_WEIGHT = 1e6
+
+
+def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
+    from vergence.cli._app import scene_rig
+    from vergence.render import MAX_DEPTH, builtin_scene, open_scene, render_cost
+    from vergence.specular import ABSOLUTE_VARIANTS, MAX_TABLE_BYTES, offset_table_bytes
+    from vergence.viewing.geometry import Display
+
+    if not isinstance(params, SpecularJob):
+        raise TypeError(f"params must be a SpecularJob; got {type(params).__name__}")
+    entry = env.data.get(params.scene)
+    if entry.kind != "scene":
+        raise ValueError(f"scene: {params.scene!r} is a {entry.kind}, not a scene; GET /api/data lists the scenes")
+    if params.depth > MAX_DEPTH:
+        raise ValueError(f"depth must be at most {MAX_DEPTH} (2^(D+1)-1 layers); got {params.depth}")
+    if params.variant not in ABSOLUTE_VARIANTS:
+        raise ValueError(f"variant must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {params.variant!r}")
+    if not all(0 <= w <= _MAX_WEIGHT for w in params.weights):  # NaN fails too
+        raise ValueError(f"weights must be four numbers in [0, {_MAX_WEIGHT:g}], absolute, relative, rivalry, data "
+                         f"(e.g. 1, 1, 10, 0.1); got {list(params.weights)}")  # fmt: skip
+    try:
+        display = Display.preset(params.display)
+    except ValueError as exc:
+        raise ValueError(f"display: {exc}") from exc
+    if entry.path is None:
+        scene, inputs = builtin_scene(entry.name, width=params.width, height=params.height), (entry.id,)
+    else:
+        scene = open_scene(entry.path, width=params.width, height=params.height)
+        inputs = (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
+    left, right, _, _ = scene_rig(scene, None, None, needed_by=f"scene {params.scene!r}: a specular job")
+    cost = render_cost(params.width, params.height, max_depth=params.depth, samples=params.samples)
+    size = f"{params.width}x{params.height} pixels with depth {params.depth}"
+    if cost.problem() is not None:
+        raise ValueError(f"one render of {size}, samples {params.samples} {cost.problem()}")
+    if cost.rays * (params.k + 3) > MAX_RENDER_JOB_RAYS:
+        raise ValueError(f"{params.k + 3} renders of {size}, samples {params.samples} may cast up to "
+                         f"{cost.rays * (params.k + 3):.3g} rays; a job's limit is {MAX_RENDER_JOB_RAYS:.0e} "
+                         "(MAX_RENDER_JOB_RAYS): lower width, height, k, depth or samples")  # fmt: skip
+    need = offset_table_bytes(params.width, params.height, k=params.k, max_depth=params.depth)
+    if need > MAX_TABLE_BYTES:
+        raise ValueError(f"the offset table of k {params.k} at {size} needs about {need / 2**30:.1f} GiB; the limit "
+                         f"is {MAX_TABLE_BYTES / 2**30:g} GiB (MAX_TABLE_BYTES): lower k, width, height or depth")
+
+    def run(ctx: JobContext) -> JobResult:
+        from vergence.report.specular_outputs import write_specular_outputs
+        from vergence.specular import specular_stereo
+
+        result = specular_stereo(scene, left, right, display, k=params.k, max_depth=params.depth,
+                                 samples=params.samples, alpha=params.weights, variant=params.variant,
+                                 progress=ctx.progress)  # fmt: skip
+        ctx.progress(1.0, "writing the outputs")
+        names = tuple(p.name for p in write_specular_outputs(result, ctx.folder))
+        return JobResult(result.report(), names)
+
+    return Prepared(inputs, run)
+
+
 #: Every kind of job, by name (``POST /api/jobs/{name}``).
 JOB_KINDS = {
     "render": JobKind("render", "Ray-trace a scene (vergence.render.render): the beauty image and the layer count.",
                       RenderJob, _prepare_render),
+    "specular": JobKind("specular", "Make a scene's glass and mirrors fusible (S3, vergence.specular): offsets, the "
+                        "four methods' anaglyphs, analysis sheets, report.", SpecularJob, _prepare_specular),
 }

@@ -1,0 +1,96 @@
+"""The workbench's ``specular`` job (issue 13, page 5): S3's pipeline run from the API."""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import pytest
+
+pytest.importorskip("fastapi", reason="the web extra is not installed: pip install 'vergence[web]'")
+pytest.importorskip("httpx", reason="FastAPI's test client needs httpx: pip install 'vergence[web]'")
+
+with warnings.catch_warnings():
+    warnings.filterwarnings("ignore", message="Using `httpx` with `starlette.testclient` is deprecated",
+                            category=UserWarning)
+    from fastapi.testclient import TestClient
+
+from vergence.web import create_app
+
+WAIT_S = 300.0  # k + 3 renders, the table and the figures; the first compiles Numba kernels
+TINY = {"scene": "scene:glasses", "width": 64, "height": 48, "k": 2, "samples": 1}
+
+
+def _wait(client, job_id: str) -> dict:
+    deadline = time.monotonic() + WAIT_S
+    while time.monotonic() < deadline:
+        status = client.get(f"/api/jobs/{job_id}").json()
+        if status["state"] in ("done", "failed", "cancelled"):
+            return status
+        time.sleep(0.05)
+    raise AssertionError(f"job {job_id} never finished: {status}")
+
+
+def _refused(response, status: int) -> str:
+    assert response.status_code == status, response.text
+    body = response.json()
+    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
+    return body["error"]
+
+
+@pytest.fixture(scope="module")
+def client():
+    with TestClient(create_app()) as c:
+        yield c
+
+
+def test_a_tiny_glasses_job_writes_the_outputs_and_its_report(client):
+    import cv2
+    import numpy as np
+
+    first = client.post("/api/jobs/specular", json=TINY)
+    assert first.status_code == 202, first.text
+    job = _wait(client, first.json()["id"])
+    assert job["state"] == "done", job
+    for name in ("physical_anaglyph.png", "optimised_anaglyph.png", "on_surface_anaglyph.png",
+                 "near_surface_anaglyph.png", "anaglyphs.png", "analysis_disparity.png", "analysis_importance.png",
+                 "analysis_rivalry.png", "offsets.png", "report.json"):
+        assert name in job["files"]
+    report = client.get(f"/api/jobs/{job['id']}/files/report.json").json()
+    assert job["result"] == report
+    assert report["settings"]["k"] == 2 and report["settings"]["variant"] == "comfort"
+    assert set(report["cost_before"]) == set(report["cost_after"]) and report["layers"]
+    png = client.get(f"/api/jobs/{job['id']}/files/optimised_anaglyph.png")
+    assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+    arr = cv2.imdecode(np.frombuffer(png.content, np.uint8), cv2.IMREAD_COLOR)
+    assert arr.shape[:2] == (48, 64)
+
+    again = client.post("/api/jobs/specular", json=TINY)
+    assert again.status_code == 200 and again.json()["cached"] is True and again.json()["id"] == job["id"]
+    other = client.post("/api/jobs/specular", json={**TINY, "variant": "screen"}).json()
+    assert other["id"] != job["id"]
+    client.delete(f"/api/jobs/{other['id']}")
+
+
+@pytest.mark.parametrize(("body", "message"), [
+    ({**TINY, "width": 641}, "width: less than or equal to 640 (got 641)"),
+    ({**TINY, "k": 1}, "k: greater than or equal to 2 (got 1)"),
+    ({**TINY, "k": 33}, "k: less than or equal to 32 (got 33)"),
+    ({**TINY, "variant": "loose"}, "variant must be one of screen, comfort; got 'loose'"),
+    ({**TINY, "weights": [1, 1, -1, 0]}, "weights must be four numbers in [0, 1e+06]"),
+    ({**TINY, "weights": [1, 1, 1]}, "weights"),
+    ({**TINY, "display": "nope"}, "display: "),
+    ({**TINY, "depth": 9}, "depth must be at most 6"),
+])
+def test_bad_specular_parameters_are_422(client, body, message):
+    assert message in _refused(client.post("/api/jobs/specular", json=body), 422)
+
+
+def test_an_unknown_scene_is_404(client):
+    assert "scene:nope" in _refused(client.post("/api/jobs/specular", json={**TINY, "scene": "scene:nope"}), 404)
+
+
+def test_the_specular_kind_is_listed_with_its_parameters(client):
+    kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
+    assert set(kinds["specular"]["parameters"]["properties"]) == {
+        "scene", "width", "height", "k", "depth", "samples", "display", "variant", "weights"}
