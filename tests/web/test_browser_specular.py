@@ -1,0 +1,89 @@
+"""Page 5 of the workbench (issue 13), "Specular", in Chromium: runs a tiny ``specular`` job from the
+page, follows it to the end and shows the job's anaglyphs, analysis sheets and report.
+
+Run with ``VERGENCE_UPDATE_SCREENSHOTS=1`` to write the README's screenshot,
+docs/images/workbench_specular.png; otherwise the screenshot stays in the test's temporary folder.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.browser
+
+REPO = Path(__file__).resolve().parents[2]
+SCREENSHOT = REPO / "docs" / "images" / "workbench_specular.png"
+JOB_MS = 300_000  # k + 3 renders, the table and the figures; the first run compiles Numba kernels
+TINY = {"width": 96, "height": 72, "k": 2, "samples": 1}
+
+
+def _run_tiny(page, server_url: str) -> None:
+    page.goto(server_url + "/#specular")
+    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
+    assert page.locator('[data-testid="spec-scene"]').input_value() == "scene:glasses"
+    for name, value in TINY.items():
+        page.locator(f'[data-testid="spec-{name}"]').fill(str(value))
+    page.click('[data-testid="spec-run"]')
+    page.wait_for_function("!document.getElementById('spec-result').hidden "
+                           "|| document.body.dataset.state === 'error'", timeout=JOB_MS)
+    assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
+
+
+def _value(page, testid: str) -> float | None:
+    text = page.locator(f'[data-testid="{testid}"]').get_attribute("data-value")
+    return None if text == "" else float(text)
+
+
+def test_a_tiny_job_from_the_page_shows_the_api_result(page, server_url, tmp_path):
+    from vergence.io import read_image
+
+    _run_tiny(page, server_url)
+    body = {"scene": "scene:glasses", **TINY, "display": "samsung-2233rz", "variant": "comfort",
+            "weights": [1, 1, 10, 0.1]}
+    again = httpx.post(f"{server_url}/api/jobs/specular", json=body, timeout=30).json()
+    assert again["cached"] is True and again["id"] == page.locator("#spec-result").get_attribute("data-job")
+    report = httpx.get(f"{server_url}/api/jobs/{again['id']}", timeout=30).json()["result"]
+    for layer in report["layers"]:
+        n = layer["layer"]
+        assert _value(page, f"spec-pixels-{n}") == layer["pixels"]
+        for key in ("comfort_share_before", "comfort_share_after", "matched_before", "matched_after"):
+            testid = f"spec-{key.replace('_share', '').replace('_', '-')}-{n}"
+            assert _value(page, testid) == layer[key], (testid, layer)
+    for term in report["cost_before"]:
+        assert _value(page, f"spec-cost-before-{term}") == pytest.approx(report["cost_before"][term], rel=1e-12)
+        assert _value(page, f"spec-cost-after-{term}") == pytest.approx(report["cost_after"][term], rel=1e-12)
+    for method in ("physical", "optimised", "on_surface", "near_surface"):
+        img = page.locator(f'[data-testid="spec-anaglyph-{method}"]')
+        img.evaluate("el => el.decode()")
+        assert img.evaluate("el => el.naturalWidth") == TINY["width"]
+    for sheet in ("analysis_disparity", "analysis_importance", "analysis_rivalry", "offsets"):
+        img = page.locator(f'[data-testid="spec-sheet-{sheet}"]')
+        img.evaluate("el => el.decode()")
+        assert img.evaluate("el => el.naturalWidth") > 0
+    assert "painting" in page.locator("#page-specular").inner_text().lower()
+
+    path = tmp_path / "workbench_specular.png"
+    page.screenshot(path=str(path), full_page=True)
+    image = read_image(path)
+    assert image.ndim == 3 and image.shape[0] > 600 and image.shape[1] >= 1200
+    assert float(image.std()) > 0.01
+    assert np.unique(image.reshape(-1, 3), axis=0).shape[0] > 50  # images, tables and text, not one colour
+    if os.environ.get("VERGENCE_UPDATE_SCREENSHOTS") == "1":
+        SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, SCREENSHOT)
+
+
+def test_bad_parameters_show_the_api_error(page, server_url):
+    page.goto(server_url + "/#specular")
+    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
+    page.locator('[data-testid="spec-k"]').fill("1")
+    page.click('[data-testid="spec-run"]')
+    page.wait_for_function("document.body.dataset.state === 'error'", timeout=15_000)
+    assert "k: greater than or equal to 2" in page.locator("#error").inner_text()
+    assert page.locator('[data-testid="spec-run"]').is_enabled()
