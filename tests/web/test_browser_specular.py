@@ -87,3 +87,15 @@ def test_bad_parameters_show_the_api_error(page, server_url):
     page.wait_for_function("document.body.dataset.state === 'error'", timeout=15_000)
     assert "k: greater than or equal to 2" in page.locator("#error").inner_text()
     assert page.locator('[data-testid="spec-run"]').is_enabled()
+
+
+def test_cancel_stops_a_running_job(page, server_url):
+    page.goto(server_url + "/#specular")
+    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
+    for name, value in {"width": 320, "height": 240, "k": 32, "samples": 4}.items():
+        page.locator(f'[data-testid="spec-{name}"]').fill(str(value))
+    page.click('[data-testid="spec-run"]')
+    page.wait_for_function("!document.getElementById('spec-cancel').disabled", timeout=15_000)
+    page.click('[data-testid="spec-cancel"]')
+    page.wait_for_function("document.getElementById('spec-message').textContent === 'cancelled'", timeout=60_000)
+    assert page.locator("#spec-result").is_hidden() and page.locator('[data-testid="spec-run"]').is_enabled()
