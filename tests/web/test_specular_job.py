@@ -90,6 +90,25 @@ def test_an_unknown_scene_is_404(client):
     assert "scene:nope" in _refused(client.post("/api/jobs/specular", json={**TINY, "scene": "scene:nope"}), 404)
 
 
+def test_a_scene_file_without_a_stereo_block_is_422(tmp_path):
+    import json
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "spheres_and_mirror.json"
+    if not source.is_file():
+        pytest.skip(f"{source} is not in this tree")
+    data = tmp_path / "data"
+    data.mkdir()
+    scene = json.loads(source.read_text())
+    del scene["stereo"]
+    (data / "mono.json").write_text(json.dumps(scene))
+    with TestClient(create_app([data])) as c:
+        scene_id = next(e["id"] for e in c.get("/api/data").json()["scenes"] if e["name"] == "mono.json")
+        error = _refused(c.post("/api/jobs/specular", json={**TINY, "scene": scene_id}), 422)
+        assert error == (f"scene {scene_id!r} has no \"stereo\" block (baseline, convergence): a specular job uses "
+                         "the scene's own rig (docs/scenes.md)")
+
+
 def test_the_specular_kind_is_listed_with_its_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
     assert set(kinds["specular"]["parameters"]["properties"]) == {

@@ -141,6 +141,9 @@ def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     else:
         scene = open_scene(entry.path, width=params.width, height=params.height)
         inputs = (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
+    if scene.stereo is None:
+        raise ValueError(f"scene {params.scene!r} has no \"stereo\" block (baseline, convergence): a specular job "
+                         "uses the scene's own rig (docs/scenes.md)")  # fmt: skip
     left, right, _, _ = scene_rig(scene, None, None, needed_by=f"scene {params.scene!r}: a specular job")
     cost = render_cost(params.width, params.height, max_depth=params.depth, samples=params.samples)
     size = f"{params.width}x{params.height} pixels with depth {params.depth}"
