@@ -506,6 +506,9 @@ async function runSpecular() {
   document.getElementById("spec-result").hidden = true;
   document.body.dataset.state = "loading";
   specBusy(true);
+  specJob = null;
+  // Cancel is offered once the job has an id: a click before that would cancel nothing
+  document.getElementById("spec-cancel").disabled = true;
   let job;
   try {
     job = await api("/api/jobs/specular", specRequest());
@@ -516,6 +519,7 @@ async function runSpecular() {
     return;
   }
   specJob = job.id;
+  document.getElementById("spec-cancel").disabled = false;
   const progress = document.getElementById("spec-progress");
   const message = document.getElementById("spec-message");
   specEvents = new EventSource(`/api/jobs/${job.id}/events`);
