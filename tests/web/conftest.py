@@ -87,3 +87,30 @@ def page(_browser: object, server_url: str) -> Iterator[object]:
         pg.close()
     if errors:  # an uncaught JavaScript exception is a failure of the page, whatever the test checked
         pytest.fail(f"JavaScript errors on the page: {errors}")
+
+
+@pytest.fixture
+def check_screenshot(tmp_path: Path):
+    """A function ``(page, name)``: a full-page screenshot that must not be blank (taller than 600 px,
+    at least 1200 wide, pixel std > 0.01, more than 50 colours); with ``VERGENCE_UPDATE_SCREENSHOTS=1``
+    it is also copied to ``docs/images/<name>`` (the README's), else a test run changes no tracked file."""
+    import os
+    import shutil
+
+    import numpy as np
+
+    from vergence.io import read_image
+
+    def check(page: object, name: str) -> None:
+        path = tmp_path / name
+        page.screenshot(path=str(path), full_page=True)
+        image = read_image(path)
+        assert image.ndim == 3 and image.shape[0] > 600 and image.shape[1] >= 1200
+        assert float(image.std()) > 0.01
+        assert np.unique(image.reshape(-1, 3), axis=0).shape[0] > 50  # text, figures and panels, not one colour
+        if os.environ.get("VERGENCE_UPDATE_SCREENSHOTS") == "1":
+            target = Path(__file__).resolve().parents[2] / "docs" / "images" / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, target)
+
+    return check

@@ -11,12 +11,12 @@ NPY dictionary), so a caller can refuse a file that declares too many pixels bef
 from __future__ import annotations
 
 import io
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from vergence.io.images import _jpeg_size, _png_size
+from vergence.io.pfm import _HEADER as _PFM_HEADER  # one pattern for the reader and the header
 
 __all__ = ["HEADER_FORMATS", "ImageHeader", "read_header"]
 
@@ -26,8 +26,6 @@ HEADER_FORMATS = {"png": ".png", "jpeg": ".jpg", "pfm": ".pfm", "npy": ".npy"}
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 _JPEG_MAGIC = b"\xff\xd8\xff"
 _NPY_MAGIC = b"\x93NUMPY"
-# PFM: type, width, height, scale, then one whitespace byte before the raster (vergence.io.pfm).
-_PFM_HEADER = re.compile(rb"\A(P[Ff])\s+(\d+)\s+(\d+)\s+([-+]?[0-9.]+(?:[eE][-+]?\d+)?)\s")
 # PNG colour type -> channels (grey, RGB, palette, grey + alpha, RGBA); bit depth 16 -> uint16.
 _PNG_CHANNELS = {0: 1, 2: 3, 3: 3, 4: 2, 6: 4}
 
