@@ -57,21 +57,29 @@ class RenderJob(pydantic.BaseModel):
     samples: int = pydantic.Field(16, ge=1, description="Ambient-occlusion rays per diffuse hit.")
 
 
-def _prepare_render(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
-    from vergence.render import MAX_DEPTH, builtin_scene, open_scene, render, render_cost, tonemap
+def _open_scene_job(params: pydantic.BaseModel, env: JobEnv) -> tuple[object, tuple[str, ...]]:
+    """The scene of a job's ``scene`` id at its width and height, and the inputs of its cache key
+    (a scene file's content hash with its id); ``depth`` checked against the renderer's limit."""
+    from vergence.render import MAX_DEPTH, builtin_scene, open_scene
 
-    if not isinstance(params, RenderJob):
-        raise TypeError(f"params must be a RenderJob; got {type(params).__name__}")
     entry = env.data.get(params.scene)
     if entry.kind != "scene":
         raise ValueError(f"scene: {params.scene!r} is a {entry.kind}, not a scene; GET /api/data lists the scenes")
     if params.depth > MAX_DEPTH:
         raise ValueError(f"depth must be at most {MAX_DEPTH} (2^(D+1)-1 layers); got {params.depth}")
     if entry.path is None:
-        scene, inputs = builtin_scene(entry.name, width=params.width, height=params.height), (entry.id,)
-    else:
-        scene = open_scene(entry.path, width=params.width, height=params.height)
-        inputs = (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
+        return builtin_scene(entry.name, width=params.width, height=params.height), (entry.id,)
+    scene = open_scene(entry.path, width=params.width, height=params.height)
+    return scene, (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
+
+
+def _prepare_render(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
+    from vergence.render import render, render_cost, tonemap
+
+    if not isinstance(params, RenderJob):
+        raise TypeError(f"params must be a RenderJob; got {type(params).__name__}")
+    scene, inputs = _open_scene_job(params, env)
+    name = env.data.get(params.scene).name
     cost = render_cost(params.width, params.height, max_depth=params.depth, samples=params.samples)
     if cost.problem() is not None:
         raise ValueError(f"{params.width}x{params.height} pixels with depth {params.depth}, samples {params.samples} "
@@ -87,7 +95,7 @@ def _prepare_render(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
         result = render(scene, max_depth=params.depth, samples=params.samples, progress=ctx.progress)
         ctx.progress(1.0, "writing beauty.png")
         write_image(ctx.folder / "beauty.png", tonemap(result.beauty))
-        return JobResult({"scene": entry.name, "width": result.camera.width, "height": result.camera.height,
+        return JobResult({"scene": name, "width": result.camera.width, "height": result.camera.height,
                           "layers": result.n_layers, "variant": result.settings.variant}, ("beauty.png",))  # fmt: skip
 
     return Prepared(inputs, run)
@@ -116,17 +124,12 @@ _MAX_WEIGHT = 1e6
 
 def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     from vergence.cli._app import scene_rig
-    from vergence.render import MAX_DEPTH, builtin_scene, open_scene, render_cost
+    from vergence.render import render_cost
     from vergence.specular import ABSOLUTE_VARIANTS, MAX_TABLE_BYTES, offset_table_bytes
     from vergence.viewing.geometry import Display
 
     if not isinstance(params, SpecularJob):
         raise TypeError(f"params must be a SpecularJob; got {type(params).__name__}")
-    entry = env.data.get(params.scene)
-    if entry.kind != "scene":
-        raise ValueError(f"scene: {params.scene!r} is a {entry.kind}, not a scene; GET /api/data lists the scenes")
-    if params.depth > MAX_DEPTH:
-        raise ValueError(f"depth must be at most {MAX_DEPTH} (2^(D+1)-1 layers); got {params.depth}")
     if params.variant not in ABSOLUTE_VARIANTS:
         raise ValueError(f"variant must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {params.variant!r}")
     if not all(0 <= w <= _MAX_WEIGHT for w in params.weights):  # NaN fails too
@@ -136,11 +139,7 @@ def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
         display = Display.preset(params.display)
     except ValueError as exc:
         raise ValueError(f"display: {exc}") from exc
-    if entry.path is None:
-        scene, inputs = builtin_scene(entry.name, width=params.width, height=params.height), (entry.id,)
-    else:
-        scene = open_scene(entry.path, width=params.width, height=params.height)
-        inputs = (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
+    scene, inputs = _open_scene_job(params, env)
     if scene.stereo is None:
         raise ValueError(f"scene {params.scene!r} has no \"stereo\" block (baseline, convergence): a specular job "
                          "uses the scene's own rig (docs/scenes.md)")  # fmt: skip
