@@ -103,7 +103,8 @@ def test_a_render_job_reports_progress_and_its_png_downloads(client):
     first = client.post("/api/jobs/render", json=RENDER)
     assert first.status_code == 202, first.text
     job = first.json()
-    assert job["cached"] is False and job["kind"] == "render" and job["state"] in ("queued", "running")
+    # a 32 x 24 render on warm kernels can end before the answer is built: "done" is no cache hit
+    assert job["cached"] is False and job["kind"] == "render" and job["state"] in ("queued", "running", "done")
     events = client.get(f"/api/jobs/{job['id']}/events")
     assert events.status_code == 200 and events.headers["content-type"].startswith("text/event-stream")
     blocks = [b for b in events.text.split("\n\n") if b]
