@@ -236,4 +236,5 @@ def test_the_page_asks_only_its_own_server(page, server_url):
     assert requests, "the page made no request"
     outside = [u for u in requests if not (u.startswith(server_url + "/") or u.startswith("data:"))]
     assert outside == []
-    assert {server_url + "/static/app.js", server_url + "/static/style.css"} <= set(requests)
+    assert {server_url + "/static/common.js", server_url + "/static/pages/budget.html",
+            server_url + "/static/style.css"} <= set(requests)

@@ -32,7 +32,7 @@ from vergence.web._errors import MAX_SHOWN as _MAX_SHOWN
 from vergence.web._errors import refusal as _refusal
 from vergence.web._errors import validation_message as _validation_message
 from vergence.web.data import DataIndex
-from vergence.web.job_kinds import JOB_KINDS, JobEnv
+from vergence.web.job_kinds import JobEnv
 from vergence.web.jobs import JobManager
 from vergence.web.routes import add_job_routes, add_upload_routes
 from vergence.web.uploads import UploadStore
@@ -44,8 +44,18 @@ __all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
 # 1 MiB leaves room for long lists of depths or constraints and keeps a hostile body out of memory.
 MAX_JSON_BODY = 1 << 20
 
-# The page: index.html, app.js, style.css (no build step, no CDN).
+# The page: index.html, common.js, xr.js, style.css and pages/<id>.html|js (no build step, no CDN).
 STATIC_DIR = Path(__file__).parent / "static"
+
+# The modules of the pages' own work: each has KINDS (job kinds by name) and may have
+# add_routes(app, jobs) for the page's follow-up requests on a done job (``JobManager.live``).
+_PAGE_MODULES = ("vergence.web.job_kinds",)
+
+
+def _page_modules() -> list[Any]:
+    import importlib
+
+    return [importlib.import_module(name) for name in _PAGE_MODULES]
 
 
 class ErrorBody(BaseModel):
@@ -152,7 +162,9 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     with_json = twin_names()
     workdir = Path(tempfile.mkdtemp(prefix="vergence-web-"))
     uploads = UploadStore(workdir / "uploads")
-    jobs = JobManager(workdir / "jobs", JobEnv(index, uploads), JOB_KINDS)
+    modules = _page_modules()
+    kinds = {name: kind for module in modules for name, kind in module.KINDS.items()}
+    jobs = JobManager(workdir / "jobs", JobEnv(index, uploads), kinds)
     # removed at shutdown (the lifespan below); also at exit, for an app run without its lifespan
     cleanup = weakref.finalize(jobs, shutil.rmtree, workdir, ignore_errors=True)
 
@@ -236,6 +248,9 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
 
     add_job_routes(app, jobs)
     add_upload_routes(app, uploads)
+    for module in modules:
+        if hasattr(module, "add_routes"):
+            module.add_routes(app, jobs)
 
     @app.api_route("/api/{command}", methods=["GET", "POST"], include_in_schema=False)
     def no_twin(command: str, request: Request) -> Response:

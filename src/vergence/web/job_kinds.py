@@ -1,4 +1,4 @@
-"""The kinds of job the workbench runs (:data:`JOB_KINDS`): each checks its request, then calls the library.
+"""The kinds of job the workbench runs (:data:`KINDS`): each checks its request, then calls the library.
 
 - ``render``: a scene of ``GET /api/data`` (built-in or a scene file, by id) ray-traced by
   :func:`vergence.render.render` at a small size; the beauty image as ``beauty.png`` (tone-mapped
@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from vergence.web.data import DataIndex
     from vergence.web.uploads import UploadStore
 
-__all__ = ["JOB_KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "JobEnv", "RenderJob",
+__all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "JobEnv", "RenderJob",
            "SpecularJob"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
@@ -171,8 +171,8 @@ def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     return Prepared(inputs, run)
 
 
-#: Every kind of job, by name (``POST /api/jobs/{name}``).
-JOB_KINDS = {
+#: The kinds of this module, by name (``POST /api/jobs/{name}``; the app gathers every page module's KINDS).
+KINDS = {
     "render": JobKind("render", "Ray-trace a scene (vergence.render.render): the beauty image and the layer count.",
                       RenderJob, _prepare_render),
     "specular": JobKind("specular", "Make a scene's glass and mirrors fusible (S3, vergence.specular): offsets, the "

@@ -82,10 +82,13 @@ class JobRefused(Exception):
 
 @dataclass(frozen=True, slots=True)
 class JobResult:
-    """What a finished job returns: a JSON summary and the names of the files it wrote in its folder."""
+    """What a finished job returns: a JSON summary, the names of the files it wrote in its folder, and
+    ``live``: objects a follow-up request of the page reuses without running the job again (the
+    specular job's planner, a prepared collection); kept in memory while the job is, never sent."""
 
     summary: dict[str, Any]
     files: tuple[str, ...] = ()
+    live: Any = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, slots=True)
@@ -285,6 +288,22 @@ class JobManager:
             if name not in job.result.files:
                 raise KeyError(f"job {job_id} has no file {name!r}; its files: {', '.join(job.result.files) or 'none'}")
             return job.folder / name
+
+    def live(self, job_id: str, kind: str) -> Any:
+        """The in-memory ``live`` objects of a done job of ``kind`` (:attr:`JobResult.live`).
+
+        Raises ``KeyError`` for an unknown id or a job of another kind, :class:`JobRefused` (409)
+        while the job is not done or if it kept nothing.
+        """
+        job = self.get(job_id)
+        with self._lock:
+            if job.kind != kind:
+                raise KeyError(f"job {job_id} is a {job.kind} job, not a {kind} job")
+            if job.state != "done" or job.result is None:
+                raise JobRefused(409, f"job {job_id} is {job.state}: it can be used once it is done")
+            if job.result.live is None:
+                raise JobRefused(409, f"job {job_id} kept nothing to reuse; run it again")
+            return job.result.live
 
     def shutdown(self) -> None:
         """Cancel every job, stop the workers, wait up to :data:`SHUTDOWN_WAIT_S` for running ones."""
