@@ -85,6 +85,39 @@ def test_report_is_json_and_says_what_it_measured(glasses):
         assert report["seconds"][key] >= 0.0
 
 
+def test_reoptimise_equals_a_fresh_run_with_the_new_weights(glasses):
+    """Re-optimising reuses the table: its offsets, renders and figures are those of a run from
+    scratch with the same weights and maps (the table, the planner and the renders are deterministic)."""
+    result, left, right = glasses
+    tracer, _ = _setup("glasses")
+    rng = np.random.default_rng(3)
+    maps = {"absolute": rng.uniform(0.0, 4.0, (7, H, W))}
+    alpha = (2.0, 1.0, 5.0, 0.5)
+    again = result.reoptimise(alpha=alpha, variant="screen", maps=maps)
+    fresh = specular_stereo(tracer, left, right, DISPLAY, k=4, samples=2, alpha=alpha, variant="screen", maps=maps)
+    assert_array_equal(again.y, fresh.y)
+    assert_array_equal(again.optimised_left.radiance, fresh.optimised_left.radiance)
+    assert again.report()["layers"] == fresh.report()["layers"]
+    assert again.report()["cost_after"] == fresh.report()["cost_after"]
+    assert again.settings["variant"] == "screen" and again.settings["maps"] == ["absolute"]
+    assert not np.array_equal(again.y, result.y)  # the new weights moved something
+    # the defaults are the first run's weights and variant: the same offsets
+    assert_array_equal(result.reoptimise().y, result.y)
+    assert again.physical_left is result.physical_left  # the physical pair and baselines are reused
+
+
+def test_reoptimise_refuses_bad_weights_and_a_released_result(glasses):
+    result, _, _ = glasses
+    with pytest.raises(ValueError, match="map"):
+        result.reoptimise(maps={"absolute": np.ones((7, H + 1, W))})
+    with pytest.raises(ValueError, match="variant"):
+        result.reoptimise(variant="nearest")
+    released = result.release()
+    assert_array_equal(released.y, result.y)
+    with pytest.raises(ValueError, match="re-optimise"):
+        released.reoptimise()
+
+
 def test_a_scene_without_glass_or_mirror_is_its_physical_pair():
     tracer, (left, right) = _setup("tabletop")
     result = specular_stereo(tracer, left, right, DISPLAY, k=4, samples=2)

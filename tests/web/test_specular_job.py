@@ -113,3 +113,109 @@ def test_the_specular_kind_is_listed_with_its_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
     assert set(kinds["specular"]["parameters"]["properties"]) == {
         "scene", "width", "height", "k", "depth", "samples", "display", "variant", "weights"}
+
+
+def _upload_npy(client, array) -> str:
+    import io
+
+    import numpy as np
+
+    buffer = io.BytesIO()
+    np.save(buffer, np.asarray(array, dtype=np.float32))
+    response = client.post("/api/uploads?name=paint.npy", content=buffer.getvalue(),
+                           headers={"Content-Type": "application/octet-stream"})
+    assert response.status_code == 201, response.text
+    return response.json()["id"]
+
+
+@pytest.fixture(scope="module")
+def done_job(client) -> dict:
+    first = client.post("/api/jobs/specular", json=TINY)
+    job = _wait(client, first.json()["id"])
+    assert job["state"] == "done", job
+    return job
+
+
+def test_the_job_writes_a_picture_per_layer_to_paint_on(client, done_job):
+    import cv2
+    import numpy as np
+
+    layers = [name for name in done_job["files"] if name.startswith("layer_")]
+    assert layers == [f"layer_{i}.png" for i in range(1, len(done_job["result"]["layers"]) + 1)]
+    png = client.get(f"/api/jobs/{done_job['id']}/files/layer_1.png")
+    assert cv2.imdecode(np.frombuffer(png.content, np.uint8), cv2.IMREAD_COLOR).shape[:2] == (48, 64)
+
+
+def test_reoptimise_with_a_painted_map_equals_the_library(client, done_job):
+    """The job re-solves with the kept table: what it reports is SpecularResult.reoptimise's answer
+    with the same weights and map, and its files are the specular job's files (no layer pictures)."""
+    import numpy as np
+
+    from vergence.specular import specular_stereo  # noqa: F401 - the library the job calls
+
+    paint = np.ones((48, 64), np.float32)
+    paint[:, :32] = 0.0  # the absolute term of layer 2 switched off on the left half
+    body = {"job": done_job["id"], "weights": [1, 1, 5, 0.1], "variant": "screen",
+            "weight_maps": [{"layer": 2, "term": "absolute", "upload": _upload_npy(client, paint)}]}
+    first = client.post("/api/jobs/specular-reoptimise", json=body)
+    assert first.status_code == 202, first.text
+    job = _wait(client, first.json()["id"])
+    assert job["state"] == "done", job
+    assert "optimised_anaglyph.png" in job["files"] and not any(n.startswith("layer_") for n in job["files"])
+    report = job["result"]
+    assert report["settings"]["variant"] == "screen" and report["settings"]["alpha"] == [1, 1, 5, 0.1]
+    assert report["settings"]["maps"] == ["absolute"]
+    base = client.app.state.jobs.live(done_job["id"], "specular")
+    maps = {"absolute": np.ones((7, 48, 64))}
+    maps["absolute"][1] = paint
+    expected = base.reoptimise(alpha=(1, 1, 5, 0.1), variant="screen", maps=maps).report()
+    assert report["layers"] == expected["layers"] and report["cost_after"] == expected["cost_after"]
+    assert report["cost_before"] == expected["cost_before"]
+    again = client.post("/api/jobs/specular-reoptimise", json=body)
+    assert again.status_code == 200 and again.json()["cached"] is True
+
+
+@pytest.mark.parametrize(("change", "status", "message"), [
+    ({"job": "0123456789abcdef"}, 404, "unknown job id '0123456789abcdef'"),
+    ({"variant": "loose"}, 422, "variant must be one of screen, comfort; got 'loose'"),
+    ({"weights": [1, 1, float("nan"), 0]}, 422, "weights"),
+    ({"weight_maps": [{"layer": 2, "term": "comfort", "upload": "x"}]}, 422, "unknown cost term 'comfort'"),
+    ({"weight_maps": [{"layer": 2, "upload": "nope"}]}, 404, "nope"),
+    ({"weight_maps": [{"layer": 0, "upload": "x"}]}, 422, "layer"),
+    ({"extra": 1}, 422, "extra"),
+])
+def test_bad_reoptimise_requests_are_refused(client, done_job, change, status, message):
+    body = {"job": done_job["id"], **change}
+    response = client.post("/api/jobs/specular-reoptimise", content=__import__("json").dumps(body),
+                           headers={"Content-Type": "application/json"})
+    assert message in _refused(response, status)
+
+
+def test_a_map_of_the_wrong_size_or_values_names_the_upload_not_a_path(client, done_job):
+    import numpy as np
+
+    for array, says in ((np.ones((10, 10)), "must be 64 x 48 pixels"), (np.full((48, 64), -1.0), "negative")):
+        upload = _upload_npy(client, array)
+        body = {"job": done_job["id"], "weight_maps": [{"layer": 3, "upload": upload}]}
+        error = _refused(client.post("/api/jobs/specular-reoptimise", json=body), 422)
+        assert says in error and f"upload {upload}" in error
+        assert client.app.state.workdir.as_posix() not in error
+
+
+def test_reoptimise_needs_a_done_specular_job(client):
+    render = client.post("/api/jobs/render", json={"scene": "scene:glasses", "width": 8, "height": 6}).json()
+    _wait(client, render["id"])
+    error = _refused(client.post("/api/jobs/specular-reoptimise", json={"job": render["id"]}), 404)
+    assert "is a render job, not a specular job" in error
+
+
+def test_only_the_most_recent_jobs_keep_their_table(tmp_path):
+    """Past MAX_LIVE_JOBS, the least recently used job drops its live objects: a re-optimise on it is 409."""
+    with TestClient(create_app()) as c:
+        c.app.state.jobs.max_live = 1
+        a = _wait(c, c.post("/api/jobs/specular", json=TINY).json()["id"])
+        b = _wait(c, c.post("/api/jobs/specular", json={**TINY, "variant": "screen"}).json()["id"])
+        assert a["state"] == b["state"] == "done"
+        error = _refused(c.post("/api/jobs/specular-reoptimise", json={"job": a["id"]}), 409)
+        assert "no longer keeps its work in memory" in error and "run it again" in error
+        assert c.post("/api/jobs/specular-reoptimise", json={"job": b["id"]}).status_code == 202

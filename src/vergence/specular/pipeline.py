@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -173,6 +174,37 @@ class SpecularResult:
     specular: bool
     seconds: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
+    _session: _Session | None = field(default=None, repr=False)
+
+    def reoptimise(
+        self,
+        *,
+        alpha: object = None,
+        variant: str | None = None,
+        maps: Mapping[str, object] | None = None,
+        progress: Progress | None = None,
+    ) -> SpecularResult:
+        """The same run with new weights or painted maps: the table is reused (S3 §3.4, interactive).
+
+        Re-solves the offsets with the kept :class:`~vergence.specular.OffsetPlanner`, renders the
+        left eye with the new per-pixel cameras and measures it again, as :func:`specular_stereo`
+        does; the physical pair and the baselines are this result's. ``alpha`` and ``variant``
+        default to this run's; ``maps`` replaces its maps (None: no maps).
+
+        Raises
+        ------
+        ValueError
+            If this result keeps no planner (:meth:`release` was called), or on a bad weight, variant or map.
+        """
+        if self._session is None:
+            raise ValueError("this result keeps no table to re-optimise with (released); run specular_stereo again")
+        alpha = self.settings["alpha"] if alpha is None else alpha
+        variant = self.settings["variant"] if variant is None else variant
+        return _optimise(self._session, alpha=alpha, variant=variant, maps=maps, progress=progress)
+
+    def release(self) -> SpecularResult:
+        """This result without the planner and renderer :meth:`reoptimise` keeps (frees their memory)."""
+        return dataclasses.replace(self, _session=None)
 
     def report(self) -> dict:
         """JSON-ready figures: cost terms before and after, and per layer the matched share, the
@@ -348,31 +380,83 @@ def specular_stereo(
     specular = bool(np.isfinite(phys.position[1:]).any() or np.isfinite(right_res.position[1:]).any())
     before, epsilon = _state(phys, right_res, right_lit, display, exposure, epsilon, window)
     settings["match_epsilon_m"] = epsilon  # the cutoff of every match of the run
+    planner = None
     if specular and table is not None:
         analysis = analyse_table(table, display, exposure=exposure, progress=stage(0.6, 0.8))
         seconds["tabulate_analyse"] = analysis.seconds
         del table  # the radiance of every offset is no longer needed
         planner = OffsetPlanner(analysis, factor=factor)
+        del analysis  # the planner keeps its reduced table
         seconds["plan_reduce"] = planner.seconds_reduce
-        plan = planner.solve(maps=maps, **cost_kw)
-        seconds["plan_solve"] = plan.seconds
-        report(0.8, "final render with per-pixel cameras")
-        t1 = time.perf_counter()
-        optimised = render_offsets(tracer, left, right, plan.y, samples=samples)
-        seconds["final_render"] = time.perf_counter() - t1
-        y = plan.y
-        after, _ = _state(optimised, right_res, right_lit, display, exposure, epsilon, window)
-    else:
-        optimised, y, after = phys, np.ones((phys.n_layers, left.height, left.width), np.float32), before
-    report(0.95, "baselines: on-surface, near-surface")
+    report(0.8, "baselines: on-surface, near-surface")
     t1 = time.perf_counter()
     on_res = on_surface(phys, right_res)
     near_res = near_surface(phys, right_res, display, offset_arcmin=near_arcmin)
     seconds["baselines"] = time.perf_counter() - t1
-    seconds["total"] = time.perf_counter() - t0
+    session = _Session(tracer=tracer, left=left, right=right, display=display, zone=zone, samples=samples,
+                       physical_left=phys, right_render=right_res, right_lightness=right_lit, exposure=exposure,
+                       epsilon=epsilon, window=window, before=before, planner=planner, on_surface_left=on_res,
+                       near_surface_left=near_res, specular=specular, settings=settings,
+                       seconds={**seconds, "total": time.perf_counter() - t0})  # fmt: skip
+    return _optimise(session, alpha=alpha, variant=variant, maps=maps, progress=stage(0.8, 1.0))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _Session:
+    """What :meth:`SpecularResult.reoptimise` reuses: the renderer, the rig, the physical pair and its
+    measurement, the planner (None when nothing is specular), the baselines, and the first run's
+    settings and stage times (``seconds["total"]`` up to the plan)."""
+
+    tracer: object
+    left: Camera
+    right: Camera
+    display: Display
+    zone: ComfortZone
+    samples: int
+    physical_left: object
+    right_render: object
+    right_lightness: np.ndarray
+    exposure: float
+    epsilon: float
+    window: int
+    before: LayerState
+    planner: OffsetPlanner | None
+    on_surface_left: object
+    near_surface_left: object
+    specular: bool
+    settings: dict
+    seconds: dict
+
+
+def _optimise(session: _Session, *, alpha: object, variant: str, maps: Mapping[str, object] | None,
+              progress: Progress | None) -> SpecularResult:  # fmt: skip
+    """S3 §3.4 on a session: the offsets for these weights, the final render and its measurement."""
+    report = progress if progress is not None else (lambda f, m: None)
+    s = session
+    phys, before = s.physical_left, s.before
+    cost_kw = {"alpha": alpha, "variant": variant, "zone": (s.zone.min_arcmin, s.zone.max_arcmin)}
+    n, h, w = phys.n_layers, phys.camera.height, phys.camera.width
+    empty = np.zeros((n, h, w, 2))  # the weights and maps checked before the render
+    disparity_cost(empty, empty[..., 0], empty[..., 0], empty, maps=maps, **cost_kw)
+    seconds = dict(s.seconds)
+    settings = {**s.settings, "variant": variant, "alpha": [float(a) for a in alpha], "maps": sorted(maps or {})}
+    t0 = time.perf_counter()
+    if s.planner is not None:
+        report(0.0, "solving the offsets")
+        plan = s.planner.solve(maps=maps, **cost_kw)
+        seconds["plan_solve"] = plan.seconds
+        report(0.3, "final render with per-pixel cameras")
+        t1 = time.perf_counter()
+        optimised = render_offsets(s.tracer, s.left, s.right, plan.y, samples=s.samples)
+        seconds["final_render"] = time.perf_counter() - t1
+        y = plan.y
+        after, _ = _state(optimised, s.right_render, s.right_lightness, s.display, s.exposure, s.epsilon, s.window)
+    else:
+        optimised, y, after = phys, np.ones((n, h, w), np.float32), before
+    seconds["total"] = s.seconds["total"] + time.perf_counter() - t0
     report(1.0, "done")
-    return SpecularResult(physical_left=phys, right=right_res, optimised_left=optimised, on_surface_left=on_res,
-                          near_surface_left=near_res, y=y, before=before, after=after,
-                          cost_before=_cost(before, before, maps=maps, **cost_kw),
-                          cost_after=_cost(after, before, maps=maps, **cost_kw), zone=zone, specular=specular,
-                          seconds=seconds, settings=settings)  # fmt: skip
+    return SpecularResult(physical_left=phys, right=s.right_render, optimised_left=optimised,
+                          on_surface_left=s.on_surface_left, near_surface_left=s.near_surface_left, y=y,
+                          before=before, after=after, cost_before=_cost(before, before, maps=maps, **cost_kw),
+                          cost_after=_cost(after, before, maps=maps, **cost_kw), zone=s.zone, specular=s.specular,
+                          seconds=seconds, settings=settings, _session=session)  # fmt: skip

@@ -123,7 +123,9 @@ class OffsetPlanner:
             if isinstance(value, bool) or not isinstance(value, Integral) or not 0 <= value <= 16:
                 raise ValueError(f"{name} must be an integer in [0, 16]; got {value!r}")
         self.blur_sigma = check_positive("blur_sigma", blur_sigma)
-        self.analysis, self.factor, self.radius, self.blur_radius = analysis, int(factor), int(radius), int(blur_radius)
+        # the analysis itself is not kept: a planner kept for re-solving holds only the reduced table
+        self.factor, self.radius, self.blur_radius = int(factor), int(radius), int(blur_radius)
+        self._shape = analysis.importance.shape[1:]
         t0 = time.perf_counter()
         weight = analysis.importance
         self._disparity, self._importance = weighted_block_mean(analysis.disparity, weight, self.factor)
@@ -140,7 +142,7 @@ class OffsetPlanner:
         return self._importance.shape[2:]
 
     def _reduced_maps(self, maps: Mapping[str, object] | None) -> dict[str, np.ndarray]:
-        shape = self.analysis.importance.shape[1:]
+        shape = self._shape
         if maps is None:
             return {}
         if not isinstance(maps, Mapping):

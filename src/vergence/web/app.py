@@ -164,7 +164,9 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     uploads = UploadStore(workdir / "uploads")
     modules = _page_modules()
     kinds = {name: kind for module in modules for name, kind in module.KINDS.items()}
-    jobs = JobManager(workdir / "jobs", JobEnv(index, uploads), kinds)
+    # a kind may reuse the live objects of another done job (the specular job's planner): late-bound
+    env = JobEnv(index, uploads, lambda job_id, kind: jobs.live(job_id, kind))
+    jobs = JobManager(workdir / "jobs", env, kinds)
     # removed at shutdown (the lifespan below); also at exit, for an app run without its lifespan
     cleanup = weakref.finalize(jobs, shutil.rmtree, workdir, ignore_errors=True)
 

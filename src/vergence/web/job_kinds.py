@@ -6,14 +6,20 @@
 - ``specular``: a scene of ``GET /api/data`` with its stereo rig made fusible by
   :func:`vergence.specular.specular_stereo` (S3, issue 12) at a small size; the files of
   :func:`vergence.report.specular_outputs.write_specular_outputs` and, as the result,
-  :meth:`SpecularResult.report() <vergence.specular.SpecularResult.report>` (``report.json``).
+  :meth:`SpecularResult.report() <vergence.specular.SpecularResult.report>` (``report.json``); also
+  ``layer_<n>.png``, each layer of the physical left eye tone-mapped alone (the page paints on them).
+  The result stays in memory (``live``) for:
+- ``specular-reoptimise``: a done specular job's run again with new weights and painted per-layer
+  maps (:meth:`SpecularResult.reoptimise <vergence.specular.SpecularResult.reoptimise>`: the table
+  is reused, so this takes a solve and one render); the same files and report.
 """
 
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pydantic
 
@@ -23,8 +29,8 @@ if TYPE_CHECKING:
     from vergence.web.data import DataIndex
     from vergence.web.uploads import UploadStore
 
-__all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "JobEnv", "RenderJob",
-           "SpecularJob"]
+__all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS", "JobEnv",
+           "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
 MAX_RENDER_JOB_SIDE = 2048
@@ -39,10 +45,12 @@ MAX_SPECULAR_JOB_SIDE = 640
 
 @dataclass(frozen=True, slots=True)
 class JobEnv:
-    """What a kind's ``prepare`` may look up: the data folders' entries and the uploads, by id."""
+    """What a kind's ``prepare`` may look up: the data folders' entries, the uploads, and the live
+    objects of a done job (``live(job_id, kind)``, :meth:`JobManager.live <vergence.web.jobs.JobManager.live>`)."""
 
     data: DataIndex
     uploads: UploadStore
+    live: Callable[[str, str], Any]
 
 
 class RenderJob(pydantic.BaseModel):
@@ -165,10 +173,101 @@ def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
                                  samples=params.samples, alpha=params.weights, variant=params.variant,
                                  progress=ctx.progress)  # fmt: skip
         ctx.progress(1.0, "writing the outputs")
-        names = tuple(p.name for p in write_specular_outputs(result, ctx.folder))
-        return JobResult(result.report(), names)
+        return JobResult(result.report(), _write_specular(result, ctx.folder, layers=True), live=result)
 
     return Prepared(inputs, run)
+
+
+def _write_specular(result: Any, folder: Any, *, layers: bool) -> tuple[str, ...]:
+    """The files of ``vergence specular`` and, with ``layers``, ``layer_<n>.png`` per layer of the
+    physical left eye (its radiance alone, the exposure of the whole image; grey: no surface)."""
+    import numpy as np
+
+    from vergence.io import write_image
+    from vergence.render import tonemap
+    from vergence.render.tonemap import auto_exposure
+    from vergence.report.specular_outputs import write_specular_outputs
+
+    names = [p.name for p in write_specular_outputs(result, folder)]
+    if layers:
+        phys = result.physical_left
+        exposure = auto_exposure(np.asarray(phys.beauty, dtype=np.float64))
+        for i in range(phys.n_layers):
+            image = tonemap(np.nan_to_num(phys.radiance[i]), exposure=exposure)
+            image[~np.isfinite(phys.position[i]).all(axis=-1)] = _NO_SURFACE_GREY
+            write_image(folder / f"layer_{i + 1}.png", image)
+            names.append(f"layer_{i + 1}.png")
+    return tuple(names)
+
+
+#: Grey of the pixels without a surface in ``layer_<n>.png``.
+_NO_SURFACE_GREY = 0.35
+
+#: Most painted maps a re-optimise request sends (one per layer and cost term at most: 31 x 5).
+MAX_WEIGHT_MAPS = 160
+
+
+class WeightMap(pydantic.BaseModel):
+    """One painted map (as ``vergence specular --weight-map [TERM:]LAYER=FILE``)."""
+
+    model_config = pydantic.ConfigDict(extra="forbid")
+
+    layer: int = pydantic.Field(ge=1, description="The layer it weights, 1-based as report.json's \"layer\".")
+    term: str | None = pydantic.Field(None, description="One cost term (absolute, relative, rivalry, data); "
+                                                          "none: every term of the layer.")
+    upload: str = pydantic.Field(description="An upload id (POST /api/uploads) of a grey image of the render's "
+                                             "size: PNG values / max code, or .npy/.pfm float as stored, in [0, 1e6].")
+
+
+class SpecularReoptimiseJob(pydantic.BaseModel):
+    """Parameters of a ``specular-reoptimise`` job: a done specular job, new weights and painted maps."""
+
+    model_config = pydantic.ConfigDict(extra="forbid")
+
+    job: str = pydantic.Field(description="The id of a done specular job (its table is reused).")
+    weights: tuple[float, float, float, float] | None = pydantic.Field(
+        None, description="Cost weights absolute, relative, rivalry, data; none: the specular job's.")
+    variant: str | None = pydantic.Field(None, description="'comfort' or 'screen'; none: the specular job's.")
+    weight_maps: list[WeightMap] = pydantic.Field(
+        [], max_length=MAX_WEIGHT_MAPS, description="Painted maps; maps of the same term and layer multiply.")
+
+
+def _prepare_reoptimise(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
+    from vergence.cli.specular import weight_maps
+    from vergence.specular import ABSOLUTE_VARIANTS, COST_TERMS
+
+    if not isinstance(params, SpecularReoptimiseJob):
+        raise TypeError(f"params must be a SpecularReoptimiseJob; got {type(params).__name__}")
+    base = env.live(params.job, "specular")  # KeyError: 404; not done or no longer kept: 409
+    if params.variant is not None and params.variant not in ABSOLUTE_VARIANTS:
+        raise ValueError(f"variant must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {params.variant!r}")
+    if params.weights is not None and not all(0 <= w <= _MAX_WEIGHT for w in params.weights):
+        raise ValueError(f"weights must be four numbers in [0, {_MAX_WEIGHT:g}], absolute, relative, rivalry, data "
+                         f"(e.g. 1, 1, 10, 0.1); got {list(params.weights)}")  # fmt: skip
+    n, h, w = base.y.shape
+    specs, inputs = [], [params.job]
+    for painted in params.weight_maps:
+        if painted.term is not None and painted.term not in COST_TERMS:
+            raise ValueError(f"weight_maps: unknown cost term {painted.term!r}; the terms are {', '.join(COST_TERMS)}")
+        upload = env.uploads.get(painted.upload)
+        specs.append((f"{painted.term + ':' if painted.term else ''}{painted.layer}", upload))
+        inputs.append(upload.sha256)
+    try:
+        maps = weight_maps([f"{spec}={upload.path}" for spec, upload in specs], n_layers=n, width=w, height=h)
+    except ValueError as exc:  # name the upload, never its path on the server
+        message = str(exc)
+        for spec, upload in specs:
+            message = message.replace(f"{spec}={upload.path}", f"{spec} (upload {upload.id})")
+            message = message.replace(str(upload.path), f"upload {upload.id}")
+        raise ValueError(message.replace("--weight-map ", "weight_maps: ")) from None
+
+    def run(ctx: JobContext) -> JobResult:
+        result = base.reoptimise(alpha=params.weights, variant=params.variant, maps=maps or None,
+                                 progress=lambda f, m: ctx.progress(0.9 * f, m))  # fmt: skip
+        ctx.progress(0.9, "writing the outputs")
+        return JobResult(result.report(), _write_specular(result.release(), ctx.folder, layers=False))
+
+    return Prepared(tuple(inputs), run)
 
 
 #: The kinds of this module, by name (``POST /api/jobs/{name}``; the app gathers every page module's KINDS).
@@ -177,4 +276,7 @@ KINDS = {
                       RenderJob, _prepare_render),
     "specular": JobKind("specular", "Make a scene's glass and mirrors fusible (S3, vergence.specular): offsets, the "
                         "four methods' anaglyphs, analysis sheets, report.", SpecularJob, _prepare_specular),
+    "specular-reoptimise": JobKind("specular-reoptimise", "A done specular job with new weights and painted "
+                                   "per-layer maps: the table is reused (S3 §3.4); the same files and report.",
+                                   SpecularReoptimiseJob, _prepare_reoptimise),
 }

@@ -21,6 +21,7 @@ job's files are deleted. Files live in the job's folder under the app's temporar
 from __future__ import annotations
 
 import concurrent.futures
+import dataclasses
 import hashlib
 import json
 import secrets
@@ -40,6 +41,7 @@ __all__ = [
     "JOB_WORKERS",
     "MAX_ACTIVE_JOBS",
     "MAX_KEPT_JOBS",
+    "MAX_LIVE_JOBS",
     "SHUTDOWN_WAIT_S",
     "Job",
     "JobCancelled",
@@ -56,6 +58,10 @@ JOB_WORKERS = 1
 
 #: Finished jobs (done, failed, cancelled) kept with their results; the least recently used go first.
 MAX_KEPT_JOBS = 32
+
+#: Done jobs whose ``live`` objects (:attr:`JobResult.live`) are kept in memory: the most recently
+#: used; an older job keeps its files and result, and a follow-up request on it is told to run it again.
+MAX_LIVE_JOBS = 4
 
 #: Jobs queued or running at once; one more is refused (429) until some finish.
 MAX_ACTIVE_JOBS = 16
@@ -175,16 +181,16 @@ class JobManager:
         Handed to each kind's ``prepare`` (the app's data index and uploads).
     kinds : mapping of str to JobKind
         The kinds it runs; :meth:`register` adds one.
-    workers, max_kept, max_active : int
-        :data:`JOB_WORKERS`, :data:`MAX_KEPT_JOBS`, :data:`MAX_ACTIVE_JOBS` by default.
+    workers, max_kept, max_active, max_live : int
+        :data:`JOB_WORKERS`, :data:`MAX_KEPT_JOBS`, :data:`MAX_ACTIVE_JOBS`, :data:`MAX_LIVE_JOBS` by default.
     """
 
     def __init__(self, folder: Path, env: object, kinds: Mapping[str, JobKind] | None = None, *,
                  workers: int = JOB_WORKERS, max_kept: int = MAX_KEPT_JOBS,
-                 max_active: int = MAX_ACTIVE_JOBS) -> None:  # fmt: skip
+                 max_active: int = MAX_ACTIVE_JOBS, max_live: int = MAX_LIVE_JOBS) -> None:  # fmt: skip
         self.folder, self.env = Path(folder), env
         self.kinds: dict[str, JobKind] = dict(kinds or {})
-        self.max_kept, self.max_active = max_kept, max_active
+        self.max_kept, self.max_active, self.max_live = max_kept, max_active, max_live
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="vergence-job")
         self._lock = threading.Lock()
         self._jobs: OrderedDict[str, Job] = OrderedDict()  # least recently used first
@@ -302,7 +308,8 @@ class JobManager:
             if job.state != "done" or job.result is None:
                 raise JobRefused(409, f"job {job_id} is {job.state}: it can be used once it is done")
             if job.result.live is None:
-                raise JobRefused(409, f"job {job_id} kept nothing to reuse; run it again")
+                raise JobRefused(409, f"job {job_id} no longer keeps its work in memory (only the {self.max_live} "
+                                      "most recently used jobs do, MAX_LIVE_JOBS): run it again")  # fmt: skip
             return job.result.live
 
     def shutdown(self) -> None:
@@ -344,6 +351,9 @@ class JobManager:
         job.version += 1
         if state != "done":
             shutil.rmtree(job.folder, ignore_errors=True)
+        live = [j for j in self._jobs.values() if j.result is not None and j.result.live is not None]
+        for old in live[: max(0, len(live) - self.max_live)]:  # least recently used first
+            old.result = dataclasses.replace(old.result, live=None)
         finished = [j for j in self._jobs.values() if j.state in FINAL_STATES]
         for old in finished[: max(0, len(finished) - self.max_kept)]:
             del self._jobs[old.id]
