@@ -57,7 +57,40 @@ def test_a_tiny_job_from_the_page_shows_the_api_result(page, server_url, check_s
         img = page.locator(f'[data-testid="spec-sheet-{sheet}"]')
         img.evaluate("el => el.decode()")
         assert img.evaluate("el => el.naturalWidth") > 0
-    assert "painting" in page.locator("#page-specular").inner_text().lower()
+
+    # paint layer 2's absolute weight to 0 over the left half of its picture, then re-optimise
+    from playwright.sync_api import expect
+
+    page.select_option('[data-testid="spec-term"]', "absolute")
+    page.locator('[data-testid="spec-brush-size"]').fill("30")
+    canvas = page.locator('[data-testid="spec-canvas"]')
+    expect(canvas).to_be_visible()
+    box = canvas.bounding_box()
+    page.mouse.move(box["x"] + 2, box["y"] + 2)
+    page.mouse.down()
+    for t in range(1, 11):
+        page.mouse.move(box["x"] + box["width"] * 0.25, box["y"] + box["height"] * t / 10)
+    page.mouse.up()
+    expect(page.locator('[data-testid="spec-painted"]')).to_have_attribute("data-maps", "1")
+    layer = page.locator('[data-testid="spec-layer"]').input_value()
+    assert f"layer {layer} · absolute" in page.locator('[data-testid="spec-painted"]').inner_text()
+    base = page.locator("#spec-result").get_attribute("data-job")
+    page.click('[data-testid="spec-reoptimise"]')
+    expect(page.locator("#spec-result")).not_to_have_attribute("data-job", base, timeout=JOB_MS)
+    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=JOB_MS)
+    reopt = page.locator("#spec-result").get_attribute("data-job")
+    status = httpx.get(f"{server_url}/api/jobs/{reopt}", timeout=30).json()
+    assert status["kind"] == "specular-reoptimise" and status["state"] == "done"
+    assert status["result"]["settings"]["maps"] == ["absolute"]
+    assert page.locator("#spec-result").get_attribute("data-base") == base
+    for layer in status["result"]["layers"]:
+        n = layer["layer"]
+        assert _value(page, f"spec-comfort-after-{n}") == layer["comfort_share_after"]
+    for term in status["result"]["cost_after"]:
+        assert _value(page, f"spec-cost-after-{term}") == pytest.approx(status["result"]["cost_after"][term], rel=1e-12)
+    assert "re-optimised with 1 painted map" in page.locator('[data-testid="spec-reopt-message"]').inner_text()
+    assert page.locator('[data-testid="spec-anaglyph-optimised"]').get_attribute("src").startswith(
+        f"/api/jobs/{reopt}/files/")
 
     check_screenshot(page, "workbench_specular.png")
 

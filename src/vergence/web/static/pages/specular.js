@@ -1,14 +1,28 @@
+// Page 5: specular (S3). Runs POST /api/jobs/specular (progress as server-sent events, Cancel), shows the
+// four methods' anaglyphs, the analysis sheets and report.json as tables; then paints per-layer weights on
+// the layer pictures the job wrote (layer_<n>.png) and re-optimises with POST /api/jobs/specular-reoptimise,
+// which reuses the job's offset table (SpecularResult.reoptimise): the painted maps travel as .npy uploads
+// (POST /api/uploads), exactly as `vergence specular --weight-map [TERM:]LAYER=FILE` reads them.
 "use strict";
 
-// ---------------------------------------------------------------- page 5: specular (S3, the `specular` job)
-// Runs POST /api/jobs/specular, follows GET /api/jobs/{id}/events (SSE), cancels with DELETE, then shows the
-// job's files (the four methods' anaglyphs, the analysis sheets) and its result, report.json, as tables.
-// Painting weights and re-optimising are the next step.
 const SPEC_METHODS = [["physical", "Physical"], ["optimised", "Optimised"], ["on_surface", "On surface"],
   ["near_surface", "Near surface"]];
 const SPEC_SHEETS = ["analysis_disparity.png", "analysis_importance.png", "analysis_rivalry.png", "offsets.png"];
-let specJob = null;
-let specEvents = null;
+// Layer 1 (the first hit) keeps the physical left eye in S3 §3.4: painting its weights changes no offset.
+const SPEC_FIXED_LAYER = 1;
+// The painted weight's tint on the picture: blue where it is below 1 (the term matters less), red above.
+const SPEC_TINT_ALPHA = 0.6;
+const SPEC_TINT_SATURATION = 4;  // a weight of 1 + 4 gets the full red tint
+
+const spec = {
+  job: null,       // the job in flight (Cancel)
+  base: null,      // the done specular job whose table re-optimising reuses
+  shown: null,     // the job whose files are shown (the base or its last re-optimisation)
+  width: 0, height: 0,
+  maps: new Map(), // "layer|term" -> Float32Array(width * height) of painted weights (1: unpainted)
+  picture: null,   // ImageData of the chosen layer's picture
+  painting: false,
+};
 
 async function initSpecular() {
   document.body.dataset.state = "loading";
@@ -22,13 +36,22 @@ async function initSpecular() {
     for (const d of displays.displays) select.add(new Option(d.name, d.name));
     if (displays.displays.some((d) => d.name === "samsung-2233rz")) select.value = "samsung-2233rz";
     document.getElementById("spec-run").addEventListener("click", runSpecular);
-    document.getElementById("spec-cancel").addEventListener("click", cancelSpecular);
+    document.getElementById("spec-cancel").addEventListener("click", () => { if (spec.job) cancelJob(spec.job); });
+    document.getElementById("spec-reoptimise").addEventListener("click", reoptimiseSpecular);
+    document.getElementById("spec-clear").addEventListener("click", () => { spec.maps.clear(); specDraw(); });
+    document.getElementById("spec-layer").addEventListener("change", specLoadPicture);
+    document.getElementById("spec-term").addEventListener("change", specDraw);
+    specCanvasEvents(document.getElementById("spec-canvas"));
+    offerVR(document.getElementById("spec-vr"), () => ({
+      left: jobFile(spec.shown, "optimised_left.png"), right: jobFile(spec.shown, "optimised_right.png") }));
     document.body.dataset.state = "ready";
   } catch (exc) {
     showError(exc.message);
     document.body.dataset.state = "error";
   }
 }
+
+function specWeights() { return [...document.querySelectorAll(".spec-weight")].map((el) => Number(el.value)); }
 
 function specRequest() {
   const num = (id) => Number(document.getElementById(id).value);
@@ -37,74 +60,216 @@ function specRequest() {
     width: num("spec-width"), height: num("spec-height"), k: num("spec-k"), samples: num("spec-samples"),
     display: document.getElementById("spec-display").value,
     variant: document.getElementById("spec-variant").value,
-    weights: [...document.querySelectorAll(".spec-weight")].map((el) => Number(el.value)),
+    weights: specWeights(),
   };
 }
 
 function specBusy(busy) {
   document.getElementById("spec-run").disabled = busy;
-  document.getElementById("spec-cancel").disabled = !busy;
+  document.getElementById("spec-reoptimise").disabled = busy;
+  // Cancel is offered once the job has an id (onStart): a click before that would cancel nothing
+  document.getElementById("spec-cancel").disabled = true;
 }
 
-async function runSpecular() {
+function specProgress(status) {
+  document.getElementById("spec-progress").value = status.progress || 0;
+  document.getElementById("spec-message").textContent =
+    `${Math.round(100 * (status.progress || 0))} % ${status.message || ""}`;
+}
+
+// Run a job from the page: busy while it runs, Cancel once it has an id; the final status, or null when
+// it was refused, failed or cancelled (then the message or the error box says so).
+async function specJob(kind, body, messageId) {
   showError(null);
-  if (specEvents) specEvents.close();
-  document.getElementById("spec-result").hidden = true;
   document.body.dataset.state = "loading";
   specBusy(true);
-  specJob = null;
-  // Cancel is offered once the job has an id: a click before that would cancel nothing
-  document.getElementById("spec-cancel").disabled = true;
-  let job;
+  spec.job = null;
+  let status;
   try {
-    job = await api("/api/jobs/specular", specRequest());
+    status = await runJob(kind, body, {
+      onStart: (id) => { spec.job = id; document.getElementById("spec-cancel").disabled = false; },
+      onProgress: specProgress,
+    });
   } catch (exc) {
     showError(exc.message);
+    document.body.dataset.state = "error";
+    return null;
+  } finally {
     specBusy(false);
-    document.body.dataset.state = "error";
-    return;
+    spec.job = null;
   }
-  specJob = job.id;
-  document.getElementById("spec-cancel").disabled = false;
-  const progress = document.getElementById("spec-progress");
-  const message = document.getElementById("spec-message");
-  specEvents = new EventSource(`/api/jobs/${job.id}/events`);
-  specEvents.addEventListener("progress", (ev) => {
-    const status = JSON.parse(ev.data);
-    progress.value = status.progress || 0;
-    message.textContent = `${Math.round(100 * (status.progress || 0))} % ${status.message || ""}`;
-  });
-  specEvents.addEventListener("end", () => { specEvents.close(); finishSpecular(job.id); });
-  specEvents.onerror = () => { specEvents.close(); finishSpecular(job.id); };
-}
-
-async function cancelSpecular() {
-  if (!specJob) return;
-  try { await fetch(`/api/jobs/${specJob}`, { method: "DELETE" }); } catch (exc) { /* reported by the stream */ }
-}
-
-async function finishSpecular(id) {
-  if (id !== specJob) return;
-  specBusy(false);
-  let status;
-  try { status = await api(`/api/jobs/${id}`); } catch (exc) {
-    showError(exc.message);
-    document.body.dataset.state = "error";
-    return;
-  }
-  const message = document.getElementById("spec-message");
+  const message = document.getElementById(messageId);
   if (status.state !== "done") {
     message.textContent = status.state === "cancelled" ? "cancelled" : "";
     if (status.state === "failed") showError(status.error);
     document.body.dataset.state = status.state === "cancelled" ? "ready" : "error";
-    return;
+    return null;
   }
   document.getElementById("spec-progress").value = 1;
-  message.textContent = status.cached ? "done (cached)" : "done";
-  showSpecular(id, status.result);
+  document.getElementById("spec-message").textContent = status.cached ? "done (cached)" : "done";
+  return status;
+}
+
+async function runSpecular() {
+  document.getElementById("spec-result").hidden = true;
+  const status = await specJob("specular", specRequest(), "spec-message");
+  if (!status) return;
+  spec.base = status.id;
+  spec.maps.clear();
+  document.getElementById("spec-reopt-message").textContent = "";
+  specLayers(status.result);
+  showSpecular(status.id, status.result);
+  await specLoadPicture();
   document.body.dataset.state = "ready";
 }
 
+// ---------------------------------------------------------------- painting
+function specLayers(report) {
+  const select = document.getElementById("spec-layer");
+  select.replaceChildren();
+  for (const layer of report.layers) {
+    if (layer.layer === SPEC_FIXED_LAYER || !layer.pixels) continue;
+    select.add(new Option(`${layer.layer} · ${layer.name} (${layer.pixels} px)`, String(layer.layer)));
+  }
+  const none = !select.options.length;
+  document.getElementById("spec-reoptimise").disabled = false;
+  document.getElementById("spec-painted").textContent = none
+    ? "no reflected or refracted layer in view: nothing to paint" : "nothing painted";
+}
+
+function specKey() {
+  return `${document.getElementById("spec-layer").value}|${document.getElementById("spec-term").value}`;
+}
+
+async function specLoadPicture() {
+  const layer = document.getElementById("spec-layer").value;
+  const canvas = document.getElementById("spec-canvas");
+  if (!layer) { canvas.hidden = true; spec.picture = null; return; }
+  const img = new Image();
+  img.src = jobFile(spec.base, `layer_${layer}.png`);
+  try { await img.decode(); } catch (exc) { showError(`layer_${layer}.png: the picture cannot be loaded`); return; }
+  spec.width = img.naturalWidth;
+  spec.height = img.naturalHeight;
+  canvas.width = spec.width;
+  canvas.height = spec.height;
+  canvas.hidden = false;
+  const ctx = canvas.getContext("2d");
+  ctx.drawImage(img, 0, 0);
+  spec.picture = ctx.getImageData(0, 0, spec.width, spec.height);
+  specDraw();
+}
+
+// The picture with the current layer and term's painted weights tinted over it.
+function specDraw() {
+  const canvas = document.getElementById("spec-canvas");
+  if (spec.picture) {
+    const out = new ImageData(new Uint8ClampedArray(spec.picture.data), spec.width, spec.height);
+    const map = spec.maps.get(specKey());
+    if (map) {
+      for (let i = 0; i < map.length; i++) {
+        const w = map[i];
+        if (w === 1) continue;
+        const [r, g, b, a] = w < 1 ? [40, 90, 255, SPEC_TINT_ALPHA * (1 - w)]
+          : [230, 40, 30, SPEC_TINT_ALPHA * Math.min(1, (w - 1) / SPEC_TINT_SATURATION)];
+        out.data[4 * i] += (r - out.data[4 * i]) * a;
+        out.data[4 * i + 1] += (g - out.data[4 * i + 1]) * a;
+        out.data[4 * i + 2] += (b - out.data[4 * i + 2]) * a;
+      }
+    }
+    canvas.getContext("2d").putImageData(out, 0, 0);
+  }
+  const painted = [...spec.maps.entries()].map(([key, map]) => {
+    const [layer, term] = key.split("|");
+    const count = map.reduce((n, w) => n + (w !== 1), 0);
+    return count ? `layer ${layer} · ${term || "every term"}: ${count} px` : null;
+  }).filter(Boolean);
+  const note = document.getElementById("spec-painted");
+  if (document.getElementById("spec-layer").options.length) note.textContent = painted.length ? painted.join("; ") : "nothing painted";
+  note.dataset.maps = String(painted.length);
+}
+
+function specPaintAt(event) {
+  const canvas = event.currentTarget;
+  const rect = canvas.getBoundingClientRect();
+  const cx = (event.clientX - rect.left) * spec.width / rect.width;
+  const cy = (event.clientY - rect.top) * spec.height / rect.height;
+  const radius = Math.max(1, Number(document.getElementById("spec-brush-size").value) || 1);
+  const value = Number(document.getElementById("spec-brush-value").value);
+  if (!(value >= 0 && Number.isFinite(value))) { showError("the brush weight must be a number >= 0"); return; }
+  const key = specKey();
+  if (!spec.maps.has(key)) spec.maps.set(key, new Float32Array(spec.width * spec.height).fill(1));
+  const map = spec.maps.get(key);
+  for (let y = Math.max(0, Math.floor(cy - radius)); y <= Math.min(spec.height - 1, Math.ceil(cy + radius)); y++) {
+    for (let x = Math.max(0, Math.floor(cx - radius)); x <= Math.min(spec.width - 1, Math.ceil(cx + radius)); x++) {
+      if ((x + 0.5 - cx) ** 2 + (y + 0.5 - cy) ** 2 <= radius * radius) map[y * spec.width + x] = value;
+    }
+  }
+  specDraw();
+}
+
+function specCanvasEvents(canvas) {
+  canvas.addEventListener("pointerdown", (event) => {
+    if (!spec.picture) return;
+    spec.painting = true;
+    canvas.setPointerCapture(event.pointerId);
+    specPaintAt(event);
+  });
+  canvas.addEventListener("pointermove", (event) => { if (spec.painting) specPaintAt(event); });
+  for (const name of ["pointerup", "pointercancel"]) canvas.addEventListener(name, () => { spec.painting = false; });
+}
+
+// A float32 (height, width) array as a .npy file (format 1.0, little-endian, C order).
+function specNpy(values, height, width) {
+  let header = `{'descr': '<f4', 'fortran_order': False, 'shape': (${height}, ${width}), }`;
+  header += " ".repeat((64 - ((10 + header.length + 1) % 64)) % 64) + "\n";
+  const bytes = new Uint8Array(10 + header.length + values.byteLength);
+  bytes.set([0x93, 0x4e, 0x55, 0x4d, 0x50, 0x59, 1, 0]);  // \x93NUMPY, version 1.0
+  new DataView(bytes.buffer).setUint16(8, header.length, true);
+  for (let i = 0; i < header.length; i++) bytes[10 + i] = header.charCodeAt(i);
+  bytes.set(new Uint8Array(values.buffer, values.byteOffset, values.byteLength), 10 + header.length);
+  return bytes;
+}
+
+async function specUpload(map, name) {
+  let response;
+  try {
+    response = await fetch(`/api/uploads?name=${encodeURIComponent(name)}`, {
+      method: "POST", headers: { "Content-Type": "application/octet-stream" }, body: specNpy(map, spec.height, spec.width) });
+  } catch (exc) {
+    throw new ApiError("the workbench server does not answer (/api/uploads): is vergence serve still running?");
+  }
+  const data = await response.json().catch(() => null);
+  if (!response.ok) throw new ApiError(data && data.error ? data.error : `/api/uploads: HTTP ${response.status}`);
+  return data.id;
+}
+
+async function reoptimiseSpecular() {
+  if (!spec.base) return;
+  const weightMaps = [];
+  try {
+    for (const [key, map] of spec.maps) {
+      if (map.every((w) => w === 1)) continue;
+      const [layer, term] = key.split("|");
+      const upload = await specUpload(map, `layer${layer}-${term || "all"}.npy`);
+      weightMaps.push({ layer: Number(layer), ...(term ? { term } : {}), upload });
+    }
+  } catch (exc) {
+    showError(exc.message);
+    document.body.dataset.state = "error";
+    return;
+  }
+  const body = { job: spec.base, weights: specWeights(), variant: document.getElementById("spec-variant").value,
+    weight_maps: weightMaps };
+  const status = await specJob("specular-reoptimise", body, "spec-reopt-message");
+  if (!status) return;
+  const s = status.result.seconds;
+  document.getElementById("spec-reopt-message").textContent = `re-optimised with ${weightMaps.length} painted map(s): `
+    + `solve ${fmt(s.plan_solve, 2)} s, render ${fmt(s.final_render ?? 0, 2)} s${status.cached ? " (cached)" : ""}`;
+  showSpecular(status.id, status.result);
+  document.body.dataset.state = "ready";
+}
+
+// ---------------------------------------------------------------- the result
 function specCell(row, value, text, testid) {
   const td = row.insertCell();
   td.textContent = text;
@@ -116,12 +281,12 @@ function specCell(row, value, text, testid) {
 function specShare(v) { return v === null || v === undefined ? "—" : `${(100 * v).toFixed(1)} %`; }
 
 function showSpecular(id, report) {
-  const files = (name) => `/api/jobs/${id}/files/${name}`;
+  spec.shown = id;
   const row = document.getElementById("spec-anaglyphs");
   row.replaceChildren(...SPEC_METHODS.map(([method, label]) => {
     const fig = document.createElement("figure");
     const img = document.createElement("img");
-    img.src = files(`${method}_anaglyph.png`);
+    img.src = jobFile(id, `${method}_anaglyph.png`);
     img.alt = `${label} anaglyph`;
     img.dataset.testid = `spec-anaglyph-${method}`;
     const caption = document.createElement("figcaption");
@@ -132,7 +297,7 @@ function showSpecular(id, report) {
   const sheets = document.getElementById("spec-sheets");
   sheets.replaceChildren(...SPEC_SHEETS.map((name) => {
     const img = document.createElement("img");
-    img.src = files(name);
+    img.src = jobFile(id, name);
     img.alt = name;
     img.dataset.testid = `spec-sheet-${name.replace(".png", "")}`;
     return img;
@@ -159,6 +324,7 @@ function showSpecular(id, report) {
   }
   const result = document.getElementById("spec-result");
   result.dataset.job = id;
+  result.dataset.base = spec.base;
   result.hidden = false;
 }
 
