@@ -36,7 +36,7 @@ from vergence.web.job_kinds import JobEnv
 from vergence.web.jobs import JobManager
 from vergence.web.routes import add_job_routes, add_upload_routes
 from vergence.web.uploads import UploadStore
-from vergence.web.twins import Twin, TwinError, build_twins, twin_names
+from vergence.web.twins import Resolver, Twin, TwinError, build_twins
 
 __all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
 
@@ -123,22 +123,52 @@ class _BodyLimit:
             scope, receive, send)
 
 
-def _twin_endpoint(twin: Twin) -> Any:
+def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path) -> Any:
     """The route function of a twin: its body is the twin's model (documented in OpenAPI)."""
 
     def endpoint(options: BaseModel) -> Response:
         try:
-            text = twin.run(options)
+            text = twin.run(options, resolve, tmp_root=tmp_root)
+        except KeyError as exc:
+            return _refusal(404, str(exc.args[0]))
         except TwinError as exc:
             return _refusal(422 if exc.code == 2 else 500, exc.message)
         return Response(text, media_type="application/json")
 
     endpoint.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
         [inspect.Parameter("options", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=twin.model)])
-    endpoint.__name__ = f"twin_{twin.name.replace('-', '_')}"
+    endpoint.__name__ = f"twin_{twin.name.replace('-', '_').replace(' ', '_')}"
+    files = (" Files are ids: an upload's (POST /api/uploads) or a data entry's (GET /api/data); the answer "
+             "names them so." if twin.reads_files else "")
     endpoint.__doc__ = (f"{twin.summary}\n\nThe twin of `vergence {twin.name} --json`: the options as JSON "
-                        f"fields, the answer exactly the JSON the command prints.")
+                        f"fields, the answer exactly the JSON the command prints.{files}")
     return endpoint
+
+
+def _resolver(index: DataIndex, uploads: UploadStore) -> Resolver:
+    """An id of a twin's request -> the file: an upload's stored file (seen under the name the page
+    gave it, when that is a plain file name with the upload's extension), else a data entry's file."""
+
+    def resolve(ident: str) -> tuple[Path, str, str]:
+        try:
+            upload = uploads.get(ident)
+        except KeyError:
+            pass
+        else:
+            name = upload.name
+            plain = name == Path(name).name and not name.startswith(".") and "\\" not in name
+            same_kind = Path(name).suffix.lower().replace(".jpeg", ".jpg") == upload.path.suffix.lower()
+            return upload.path, ident, name if plain and same_kind else ""
+        try:
+            entry = index.get(ident)
+        except KeyError:
+            raise KeyError(f"unknown id {ident!r}: neither an upload (POST /api/uploads) nor a data entry "
+                           "(GET /api/data)") from None
+        if entry.path is None:
+            raise KeyError(f"{ident!r} is a built-in {entry.kind}, not a file")
+        return entry.path, ident, ""
+
+    return resolve
 
 
 def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
@@ -159,7 +189,6 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
 
     index = DataIndex(data_dirs)
     twins = build_twins()
-    with_json = twin_names()
     workdir = Path(tempfile.mkdtemp(prefix="vergence-web-"))
     uploads = UploadStore(workdir / "uploads")
     modules = _page_modules()
@@ -243,10 +272,14 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
         except KeyError as exc:
             raise HTTPException(404, exc.args[0]) from None
 
-    for name, twin in twins.items():
-        app.post(f"/api/{name}", summary=twin.summary, response_class=Response, responses={
-            200: {"description": f"Exactly what `vergence {name} --json` prints.",
-                  "content": {"application/json": {}}}, **_ERRORS})(_twin_endpoint(twin))
+    resolve = _resolver(index, uploads)
+    twin_root = workdir / "twins"  # each request's temporary folder, removed when it answers
+    twin_root.mkdir()
+    for path, twin in twins.items():
+        extra = {404: _ERRORS[422] | {"description": "An id stands for no file."}} if twin.reads_files else {}
+        app.post(f"/api/{path}", summary=twin.summary, response_class=Response, responses={
+            200: {"description": f"Exactly what `vergence {twin.name} --json` prints.",
+                  "content": {"application/json": {}}}, **_ERRORS, **extra})(_twin_endpoint(twin, resolve, twin_root))
 
     add_job_routes(app, jobs)
     add_upload_routes(app, uploads)
@@ -260,9 +293,10 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
             if command in twins:
                 return _refusal(405, f"GET is not allowed on /api/{command}: POST its options as a JSON object")
             return _refusal(404, f"no such page or endpoint: GET /api/{command}")
-        if command in with_json:
-            return _refusal(404, f"vergence {command} reads files: its twin waits for the upload and data-id "
-                                 f"layer; twins now: {', '.join(twins)}")
+        subs = [path for path in twins if path.startswith(f"{command}/")]
+        if subs:
+            return _refusal(404, f"vergence {command} is a group: POST to its commands' twins: "
+                                 f"{', '.join('/api/' + p for p in subs)}")
         return _refusal(404, f"no command {command!r} has a JSON twin; twins: {', '.join(twins)}")
 
     app.state.twins = twins
