@@ -185,6 +185,15 @@ def _check_plan(depth: object, kind: str, display: Any, controls: dict[str, floa
         plan_parallax(depth, kind=kind, display=display, **controls)
 
 
+def _probe(width: int) -> np.ndarray:
+    """A one-row depth of the input's width, 1 to 2 (metres or pixels): the depth control is checked on
+    it before the real depth exists (matched or rendered in the job); what depends on the data is
+    checked again by the job itself."""
+    import numpy as np
+
+    return np.linspace(1.0, 2.0, max(width, 2))[None, :]
+
+
 def _example(params: SynthesizeJob, env: JobEnv) -> tuple[tuple[str, ...], Any, str]:
     """The example's scene, its cache inputs and the name ``vergence render`` takes."""
     from vergence.render import builtin_scene, open_scene, render_cost
@@ -225,8 +234,6 @@ def _render_example(key: tuple[str, ...], scene: Any, ctx: JobContext) -> tuple[
 
 
 def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
-    import numpy as np
-
     from vergence.depth import MATCHERS
     from vergence.io import DEPTH_KINDS, read_depth
     from vergence.synthesis import FILL_METHODS
@@ -269,11 +276,11 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
         if not 0 <= params.min_disparity < params.max_disparity < uploads["left"].width:
             raise ValueError(f"max_disparity must be > min_disparity >= 0 and below the width "
                              f"{uploads['left'].width}; got min {params.min_disparity}, max {params.max_disparity}")
-        _check_plan(np.array([[1.0, 2.0]]), "disparity", display, controls)  # the options alone
+        _check_plan(_probe(uploads["left"].width), "disparity", display, controls)  # the options alone
         inputs = tuple(u.sha256 for u in uploads.values())
     else:
         inputs, scene, scene_name = _example(params, env)
-        _check_plan(np.array([[1.0, 2.0]]), "metric", display, controls)  # the options alone
+        _check_plan(_probe(params.example_width), "metric", display, controls)  # the options alone
     kind = {"depth": params.depth_kind, "pair": "disparity", "example": "metric"}[source]
 
     def run(ctx: JobContext) -> JobResult:
