@@ -67,6 +67,22 @@ _PAIR_FIELDS = ("max_disparity", "min_disparity", "method")
 _EXAMPLE_FIELDS = ("example_width", "example_height")
 
 
+def _choices(table: str) -> Any:
+    """A field's valid values in its JSON schema (``enum``), read from the library's table when the schema
+    is asked for (the page builds its menus from ``GET /api/jobs``); the job's own check refuses the rest."""
+
+    def extra(schema: dict[str, Any]) -> None:
+        from vergence.depth import MATCHERS
+        from vergence.io import DEPTH_KINDS
+        from vergence.synthesis import FILL_METHODS
+
+        values = {"DEPTH_KINDS": DEPTH_KINDS, "MATCHERS": MATCHERS, "FILL_METHODS": FILL_METHODS,
+                  "ORIGINS": _ORIGINS}[table]  # fmt: skip
+        schema["enum"] = list(values)
+
+    return extra
+
+
 class SynthesizeJob(pydantic.BaseModel):
     """Parameters of a ``synthesize`` job (as ``vergence synthesize``'s options, with ``vergence match``'s
     for a stereo pair). Give ``image`` and ``depth``, or ``left`` and ``right``, or ``example``."""
@@ -81,12 +97,14 @@ class SynthesizeJob(pydantic.BaseModel):
         None, description="A scene id of GET /api/data ('scene:tabletop'), rendered as the input.")
     example_width: int = pydantic.Field(160, ge=1, le=MAX_EXAMPLE_SIDE, description="The example's width, pixels.")
     example_height: int = pydantic.Field(120, ge=1, le=MAX_EXAMPLE_SIDE, description="The example's height, pixels.")
-    depth_kind: str = pydantic.Field("metric", description="What the depth holds: disparity, inverse or metric.")
+    depth_kind: str = pydantic.Field("metric", description="What the depth holds: disparity, inverse or metric.",
+                                     json_schema_extra=_choices("DEPTH_KINDS"))
     depth_scale: float | None = pydantic.Field(
         None, description="PNG depth: stored value / scale = metres (metric) or pixels (disparity); default 1.")
     max_disparity: int = pydantic.Field(64, description="Stereo pair: largest disparity searched (px).")
     min_disparity: int = pydantic.Field(0, description="Stereo pair: smallest disparity searched (px).")
-    method: str = pydantic.Field("sgbm", description="Stereo pair: the matcher (vergence match --method).")
+    method: str = pydantic.Field("sgbm", description="Stereo pair: the matcher (vergence match --method).",
+                                 json_schema_extra=_choices("MATCHERS"))
     display: str = pydantic.Field("desktop-24", description="A display preset of GET /api/displays.")
     budget_arcmin: float | None = pydantic.Field(None, description="Parallax budget +-A arcmin of vergence.")
     budget_px: float | None = pydantic.Field(None, description="Parallax budget +-P image pixels.")
@@ -94,8 +112,10 @@ class SynthesizeJob(pydantic.BaseModel):
         None, description="Depth of the zero-parallax plane, in the depth map's unit.")
     focal_px: float | None = pydantic.Field(None, description="Shift-sensor control: focal length (px).")
     interaxial: float | None = pydantic.Field(None, description="Shift-sensor control: interaxial (m).")
-    origin: str = pydantic.Field("center", description="The original image is the centre or the left view.")
-    fill: str = pydantic.Field("background", description="Hole filling (vergence synthesize --fill).")
+    origin: str = pydantic.Field("center", description="The original image is the centre or the left view.",
+                                 json_schema_extra=_choices("ORIGINS"))
+    fill: str = pydantic.Field("background", description="Hole filling (vergence synthesize --fill).",
+                               json_schema_extra=_choices("FILL_METHODS"))
     smooth_sigma: float | None = pydantic.Field(
         None, description="ATTEST Gaussian pre-smoothing of the parallax map (px); off when null.")
 
