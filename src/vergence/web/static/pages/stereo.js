@@ -243,9 +243,11 @@ function stComfortPlot() {
   }
   for (const t of niceTicks(lo, hi, 6).ticks) {
     if (t < lo || t > hi) continue;
+    svg.append(el("line", { x1: x(t), x2: x(t), y1: 64, y2: 68, class: "frame" }));
     svg.append(el("text", { x: x(t), y: 80, "text-anchor": "middle" }, fmt(t, 3)));
   }
-  svg.append(el("text", { x: width - right, y: 80, "text-anchor": "end", class: "label" }, "arcmin (− in front of the screen)"));
+  svg.append(el("text", { x: (left + width - right) / 2, y: 96, "text-anchor": "middle", class: "label" },
+    "vergence change, arcmin (negative: in front of the screen)"));
 }
 
 async function initStereo() {
