@@ -156,3 +156,25 @@ def test_a_colour_depth_is_refused_on_the_page(page, server_url, tmp_path):
     page.wait_for_function("document.body.dataset.state === 'error'", timeout=15_000)
     assert "depth must be a single-channel map" in page.locator("#error").inner_text()
     assert page.locator('[data-testid="st-run"]').is_enabled()
+
+
+def test_a_stereo_pair_is_matched_from_the_page(page, server_url, tmp_path):
+    from vergence.io import write_image
+
+    rng = np.random.default_rng(1)
+    wide = rng.random((48, 72)).astype(np.float32)
+    write_image(tmp_path / "l.png", wide[:, :64].copy())
+    write_image(tmp_path / "r.png", wide[:, 4:68].copy())  # disparity 4 px everywhere
+    _open(page, server_url)
+    page.check('[data-testid="st-source-pair"]')
+    for field, name in (("left", "l.png"), ("right", "r.png")):
+        page.set_input_files(f'[data-testid="st-file-{field}"]', str(tmp_path / name))
+        _ready(page)
+    page.fill('[data-testid="st-max-disparity"]', "16")
+    page.click('[data-testid="st-run"]')
+    _ready(page)
+    jobs = _shown_figures_equal_the_jobs(page, server_url)
+    assert jobs["a"]["result"]["match"]["max_disparity"] == 16
+    assert page.locator('[data-testid="st-cli-a"]').input_value().startswith(
+        "vergence match l.png r.png --max-disparity 16 --out disparity.pfm && vergence synthesize l.png disparity.pfm "
+        "--out stereo-a --depth-kind disparity")

@@ -185,7 +185,7 @@ def test_the_example_renders_once_for_two_parameter_sets(client):
     ({"example": "scene:tabletop"}, "got depth, example, image"),
     ({"depth": "@small"}, "depth must have the size of image (64x48); got 64x47"),
     ({"depth": "@colour"}, "depth must be a single-channel map (grey PNG, 'Pf' PFM, (H, W) NPY); 'colour_depth.png' "
-                           "has 3 channels (a colour image?)"),
+                           "has 3 channels (a colour image)"),
     ({"depth": "@jpeg"}, "depth must be a PNG, PFM or NPY file (a lossy JPEG would invent depth); got 'depth.jpg'"),
     ({"depth_kind": "height"}, "depth_kind must be one of disparity, inverse, metric; got 'height'"),
     ({"display": "nope"}, "display: "),
@@ -237,3 +237,25 @@ def test_the_kind_is_listed_with_its_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
     assert {"image", "depth", "left", "right", "example", "display", "budget_arcmin", "fill"} <= set(
         kinds["synthesize"]["parameters"]["properties"])
+
+
+def test_the_cli_line_of_the_example_makes_the_same_pair(client, tmp_path, capsys):
+    """What the page's "copy the CLI command" gives (vergence render, then vergence synthesize) writes the
+    job's own pair and figures: the job calls the library as the commands do."""
+    from vergence.cli import main
+
+    body = {"example": "scene:tabletop", "example_width": 48, "example_height": 36, "budget_arcmin": 20.0}
+    job = _wait(client, client.post("/api/jobs/synthesize", json=body).json()["id"])
+    assert job["state"] == "done", job
+    example, out = tmp_path / "example", tmp_path / "stereo-a"
+    assert main(["render", "tabletop", "--width", "48", "--height", "36", "--depth", "0", "--samples", "4",
+                 "--out", str(example)]) == 0
+    capsys.readouterr()
+    assert main(["synthesize", str(example / "render_beauty.png"), str(example / "render_depth.pfm"), "--out", str(out),
+                 "--display", "desktop-24", "--budget-arcmin", "20", "--fill", "background", "--format", "sbs",
+                 "--json"]) == 0  # fmt: skip
+    printed = json.loads(capsys.readouterr().out)
+    for key in ("parallax_range_px", "parallax_range_arcmin", "holes_percent", "warnings", "size", "budget_arcmin"):
+        assert printed[key] == job["result"][key], key
+    served = _decode(client.get(f"/api/jobs/{job['id']}/files/stereo_sbs.png").content)
+    assert np.array_equal(served, _decode((out / "stereo_sbs.png").read_bytes()))

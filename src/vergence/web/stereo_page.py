@@ -41,7 +41,7 @@ if TYPE_CHECKING:
 
 __all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "KINDS", "MAX_EXAMPLE_SIDE", "MAX_STEREO_JOB_PIXELS", "SynthesizeJob"]
 
-#: Largest input of a synthesize job, pixels (12 Mpx, 4000 x 3000): the pair and its sixteen layouts
+#: Largest input of a synthesize job, pixels (12 Mpx, 4000 x 3000): the pair and all its layouts
 #: are written as PNG for the page; larger images are ``vergence synthesize``'s work.
 MAX_STEREO_JOB_PIXELS = 12_000_000
 
@@ -282,7 +282,8 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
                              f"depth); got {_shown(depth_up, 'depth')!r}")  # fmt: skip
         if depth_up.channels != 1:
             raise ValueError(f"depth must be a single-channel map (grey PNG, 'Pf' PFM, (H, W) NPY); "
-                             f"{_shown(depth_up, 'depth')!r} has {depth_up.channels} channels (a colour image?)")
+                             f"{_shown(depth_up, 'depth')!r} has {depth_up.channels} channels "
+                             f"({'grey and alpha' if depth_up.channels == 2 else 'a colour image'})")
         _check_same_size("image", uploads["image"], "depth", depth_up)
         from vergence.cli._app import options_named
 
