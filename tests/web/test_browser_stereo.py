@@ -178,3 +178,18 @@ def test_a_stereo_pair_is_matched_from_the_page(page, server_url, tmp_path):
     assert page.locator('[data-testid="st-cli-a"]').input_value().startswith(
         "vergence match l.png r.png --max-disparity 16 --out disparity.pfm && vergence synthesize l.png disparity.pfm "
         "--out stereo-a --depth-kind disparity")
+
+
+def test_cancel_stops_the_running_job(page, server_url):
+    from playwright.sync_api import expect
+
+    _open(page, server_url)
+    page.fill('[data-testid="st-example-width"]', "640")
+    page.fill('[data-testid="st-example-height"]', "640")
+    page.fill('[data-testid="st-a-budget"]', "31")  # not a cached job of another test
+    page.click('[data-testid="st-example"]')
+    expect(page.locator('[data-testid="st-cancel"]')).to_be_enabled(timeout=15_000)
+    page.click('[data-testid="st-cancel"]')
+    expect(page.locator('[data-testid="st-message"]')).to_have_text("cancelled", timeout=60_000)
+    assert page.locator('[data-testid="st-run"]').is_enabled() and page.locator("#error").is_hidden()
+    expect(page.locator('[data-testid="st-cancel"]')).to_be_disabled()

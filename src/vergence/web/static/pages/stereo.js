@@ -100,6 +100,7 @@ function stCli(set, body, format) {
 function stBusy(busy) {
   document.getElementById("st-run").disabled = busy;
   document.getElementById("st-example").disabled = busy;
+  if (!busy) { stState.running = null; document.getElementById("st-cancel").disabled = true; }
 }
 
 async function stRun() {
@@ -116,11 +117,19 @@ async function stRun() {
   try {
     for (const [k, set] of ["a", "b"].entries()) {
       const status = await runJob("synthesize", bodies[set], {
+        onStart: (id) => { stState.running = id; document.getElementById("st-cancel").disabled = false; },
         onProgress: (s) => {
           progress.value = (k + (s.progress || 0)) / 2;
           message.textContent = `${set.toUpperCase()}: ${Math.round(100 * (s.progress || 0))} % ${s.message || ""}`;
         },
       });
+      if (status.state === "cancelled") {
+        stBusy(false);
+        message.textContent = "cancelled";
+        document.getElementById("st-results").classList.remove("stale");
+        document.body.dataset.state = "ready";
+        return;
+      }
       if (status.state !== "done") {
         throw new ApiError(status.state === "failed" ? `${set.toUpperCase()}: ${status.error}` : `${set.toUpperCase()}: ${status.state}`);
       }
@@ -292,6 +301,7 @@ async function initStereo() {
     stRun();
   });
   document.getElementById("st-run").addEventListener("click", stRun);
+  document.getElementById("st-cancel").addEventListener("click", () => { if (stState.running) cancelJob(stState.running); });
   document.getElementById("st-format").addEventListener("change", (event) => { stState.format = event.target.value; stShowFormat(); });
   document.getElementById("st-wipe").addEventListener("input", (event) => stWipe(Number(event.target.value)));
   const box = document.getElementById("st-wipe-box");
@@ -313,7 +323,10 @@ async function initStereo() {
       }
     });
   }
-  offerVR(document.getElementById("st-vr"), () => ({ left: jobFile(stState.jobs.a, "left.png"), right: jobFile(stState.jobs.a, "right.png") }));
+  offerVR(document.getElementById("st-vr"), () => {
+    if (!stState.jobs.a) throw new Error("synthesize a pair first");
+    return { left: jobFile(stState.jobs.a, "left.png"), right: jobFile(stState.jobs.a, "right.png") };
+  });
   stShowSource();
   document.body.dataset.state = "ready";
 }
