@@ -83,6 +83,19 @@ def check_output_path(out: Path, *inputs: Path) -> None:
             raise ValueError(f"output {out} would overwrite input {p}")
 
 
+# ``vergence synthesize`` (and the workbench's synthesize job) without any depth control: this vergence
+# budget on this display. +-30 arcmin is half the usual +-1 degree comfort zone
+# (vergence.viewing.comfort.ComfortZone), a safe start.
+SYNTHESIS_DISPLAY = "desktop-24"
+SYNTHESIS_BUDGET_ARCMIN = 30.0
+
+
+def layout_file_name(layout: str) -> str:
+    """The file ``vergence synthesize --format LAYOUT`` writes the packed pair (or tiled views) to:
+    ``anaglyph.png``, ``views_tiled.png``, else ``stereo_<layout>.png``."""
+    return {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(layout, f"stereo_{layout}.png")
+
+
 _DISPLAY_LENGTHS = ("--eye-separation", "--viewing-distance", "--screen-width")
 
 

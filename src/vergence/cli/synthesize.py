@@ -8,7 +8,18 @@ from pathlib import Path
 
 import typer
 
-from vergence.cli._app import app, check_output_path, console, err_console, options_named, preset_display, print_json
+from vergence.cli._app import (
+    SYNTHESIS_BUDGET_ARCMIN as DEFAULT_BUDGET_ARCMIN,
+    SYNTHESIS_DISPLAY as DEFAULT_DISPLAY,
+    app,
+    check_output_path,
+    console,
+    err_console,
+    layout_file_name,
+    options_named,
+    preset_display,
+    print_json,
+)
 from vergence.cli._scales import check_scale
 from vergence.cli._staged import staged_outputs
 from vergence.display import LAYOUTS, pack, tile_views
@@ -20,10 +31,6 @@ __all__ = ["synthesize"]
 
 # The stereo-pair layouts of vergence.display, and all views tiled.
 FORMATS = (*LAYOUTS, "views")
-# Without any depth control the pair gets this vergence budget on this display: +-30 arcmin is half
-# the usual +-1 degree comfort zone (vergence.viewing.comfort.ComfortZone), a safe start.
-DEFAULT_DISPLAY = "desktop-24"
-DEFAULT_BUDGET_ARCMIN = 30.0
 # The library's argument names and the options or arguments that set them (its messages begin
 # with the name): a message about ``depth`` speaks of DEPTH, the file the user typed.
 _OPTIONS = {
@@ -113,7 +120,7 @@ def synthesize(
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder")
     names = ["left.png", "right.png"] if views == 2 else [f"view_{k:02d}.png" for k in range(views)]
-    layout = {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(fmt, f"stereo_{fmt}.png")
+    layout = layout_file_name(fmt)
     targets = [out / n for n in [*names, layout, "synthesis.json"]]
     for target in targets:
         check_output_path(target, image, depth)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-from vergence.synthesis.advice import MOSTLY_HOLES_FRACTION, holes_warnings, stereo_warnings
+from vergence.synthesis.advice import MOSTLY_HOLES_FRACTION, holes_warnings, plan_comfort, stereo_warnings
 from vergence.synthesis.blend import baseline_weights, blend_views
 from vergence.synthesis.controls import (
     DEPTH_KINDS,
@@ -149,6 +149,7 @@ __all__ = [
     "interpolate_view",
     "median_refine",
     "nearness_from_depth",
+    "plan_comfort",
     "plan_parallax",
     "refine_camera_warp",
     "render_ibr",

@@ -13,10 +13,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from vergence.synthesis.controls import ParallaxPlan
-from vergence.viewing.comfort import ComfortZone, check_disparity_range
+from vergence.viewing.comfort import ComfortReport, ComfortZone, check_disparity_range
 from vergence.viewing.geometry import Display
 
-__all__ = ["MOSTLY_HOLES_FRACTION", "holes_warnings", "stereo_warnings"]
+__all__ = ["MOSTLY_HOLES_FRACTION", "holes_warnings", "plan_comfort", "stereo_warnings"]
 
 # A view with more than half its pixels filled by hole filling shows more guesswork than picture:
 # hole filling repeats or mirrors the background (S1 §IV.B.2), it does not see the scene.
@@ -89,15 +89,8 @@ def stereo_warnings(plan: ParallaxPlan, display: Display, *, zone: ComfortZone |
     >>> len(stereo_warnings(plan_parallax(depth, budget_px=300.0), Display.preset("desktop-24")))
     2
     """
-    if not isinstance(plan, ParallaxPlan):
-        raise TypeError(f"plan must be a ParallaxPlan; got {type(plan).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
-    if display.resolution is None:
-        raise ValueError("display resolution is unknown: give the screen width in pixels")
     zone = ComfortZone() if zone is None else zone
-    per_px = display.resolution / plan.parallax_px.shape[1]
-    report = check_disparity_range(np.array(plan.range_px) * per_px, display, zone=zone)
+    report, _ = plan_comfort(plan, display, zone=zone)
     out = []
     if report.diverges:
         out.append(
@@ -110,3 +103,63 @@ def stereo_warnings(plan: ParallaxPlan, display: Display, *, zone: ComfortZone |
             f"zone {zone.min_arcmin:+g} .. {zone.max_arcmin:+g} arcmin by {report.excess_arcmin:.4g} arcmin"
         )
     return tuple(out)
+
+
+def plan_comfort(plan: ParallaxPlan, display: Display, *, zone: ComfortZone | None = None) -> tuple[ComfortReport, float]:
+    """The comfort of a planned parallax on ``display``: the report of its range and the share outside ``zone``.
+
+    The image fills the screen width, so one image pixel is ``display.resolution / W`` display
+    pixels; ``plan.range_px`` scaled so is checked with
+    :func:`~vergence.viewing.comfort.check_disparity_range` (comfort zone and the divergence limit,
+    S0 Eq. 8), and every known pixel of ``plan.parallax_px`` scaled so is compared with the zone's
+    limits in display pixels (:meth:`ComfortZone.pixels <vergence.viewing.comfort.ComfortZone.pixels>`,
+    exact vergence angles, S3 §3).
+
+    Parameters
+    ----------
+    plan : ParallaxPlan
+        From :func:`~vergence.synthesis.plan_parallax`; NaN pixels (unknown depth) are left out.
+    display : Display
+        Its resolution must be known.
+    zone : ComfortZone, optional
+        Default ``ComfortZone()``, +-60 arcmin.
+
+    Returns
+    -------
+    report : ComfortReport
+        The range in display pixels and arcmin, the zone's limits, margins, divergence.
+    outside : float
+        The share in [0, 1] of the known pixels whose parallax lies outside the zone (in front of
+        its crossed limit or behind its uncrossed one).
+
+    Examples
+    --------
+    Half the pixels at +-20 image px: on the 1920-px desktop-24 a 1920-px image keeps them
+    inside +-60 arcmin; squeezed to 192 px wide, each image pixel is 10 display pixels and they leave it.
+
+    >>> from vergence.synthesis import plan_parallax
+    >>> wide = plan_parallax(np.tile([[1.0, 4.0]], (1, 960)), budget_px=20.0)
+    >>> report, outside = plan_comfort(wide, Display.preset("desktop-24"))
+    >>> report.inside, outside
+    (True, 0.0)
+    >>> narrow = plan_parallax(np.tile([[1.0, 4.0]], (1, 96)), budget_px=20.0)
+    >>> plan_comfort(narrow, Display.preset("desktop-24"))[1]
+    1.0
+    """
+    if not isinstance(plan, ParallaxPlan):
+        raise TypeError(f"plan must be a ParallaxPlan; got {type(plan).__name__}")
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    if display.resolution is None:
+        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    zone = ComfortZone() if zone is None else zone
+    if not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
+    per_px = display.resolution / plan.parallax_px.shape[1]  # display pixels per image pixel
+    report = check_disparity_range(np.array(plan.range_px) * per_px, display, zone=zone)
+    screen = plan.parallax_px[np.isfinite(plan.parallax_px)].astype(np.float64) * per_px
+    if screen.size == 0:
+        return report, 0.0
+    lo, hi = report.zone_min_px, report.zone_max_px
+    outside = float(np.count_nonzero((screen < lo) | (screen > hi))) / screen.size
+    return report, outside

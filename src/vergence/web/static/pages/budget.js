@@ -236,7 +236,7 @@ function initBudget() {
     }
   });
 
-  for (const button of document.querySelectorAll("[data-copy]")) {
+  for (const button of document.querySelectorAll("#page-budget [data-copy]")) {
     button.addEventListener("click", async () => {
       const field = document.getElementById(button.dataset.copy);
       const note = document.getElementById("copy-note");
