@@ -169,12 +169,14 @@ def _prepare_rig(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     rig = shot.plan()
     views = len(rig.cameras) + (2 if shot.rig == "quadri" else CURVED_TRUTH_VIEWS)
     size = f"{width}x{height} pixels, samples {params.samples}, supersample {params.supersample}"
-    cost = render_cost(width, height, max_depth=_SHOT_MAX_DEPTH, samples=params.samples,
-                       supersample=params.supersample, views=views)  # fmt: skip
-    if cost.problem() is not None:
-        raise ValueError(f"the {views} views of this rig at {size} {cost.problem()}")
-    if cost.rays > MAX_RENDER_JOB_RAYS:
-        raise ValueError(f"the {views} views of this rig at {size} may cast up to {cost.rays:.3g} rays; a job's "
+    # render_shot ray-traces the views one after the other: memory is one view's, rays all of them
+    one = render_cost(width, height, max_depth=_SHOT_MAX_DEPTH, samples=params.samples,
+                      supersample=params.supersample)  # fmt: skip
+    if one.problem() is not None:
+        raise ValueError(f"one view of this rig at {size} {one.problem()}")
+    rays = one.rays * views
+    if rays > MAX_RENDER_JOB_RAYS:
+        raise ValueError(f"the {views} views of this rig at {size} may cast up to {rays:.3g} rays; a job's "
                          f"limit is {MAX_RENDER_JOB_RAYS:.0e} (MAX_RENDER_JOB_RAYS): lower width, samples or "
                          "supersample")  # fmt: skip
     scene_label = params.shot["scene"]
