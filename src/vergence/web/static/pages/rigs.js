@@ -17,7 +17,10 @@ const rigEl = (id) => document.getElementById(id);
 async function initRigs() {
   document.body.dataset.state = "loading";
   try {
-    const [shots, data, displays] = await Promise.all([api("/api/rigs/shots"), api("/api/data"), api("/api/displays")]);
+    // one after the other: the first request of a fresh server imports the renderer (two at once raced it)
+    const shots = await api("/api/rigs/shots");
+    const data = await api("/api/data");
+    const displays = await api("/api/displays");
     rigPresets = shots.shots;
     const presets = rigEl("rig-preset");
     for (const p of rigPresets) presets.add(new Option(p.source === "data" ? `${p.name} (data folder)` : p.name, p.id));
@@ -294,9 +297,10 @@ function rigShapes(shot, plan, basis, reach) {
   const shapes = [];  // {kind, role, pts: [[f, r], ...], name, label}
   const camera = (name, cam, role) => {
     const c = cam.center;
-    for (const dir of rigEdges(cam)) {
+    const start = basis.project(c)[0];
+    for (const dir of rigEdges(cam)) {  // each edge ray runs to the same forward distance, `reach` from the origin
       const along = rigDot(dir, basis.forward);
-      if (along > 1e-9) shapes.push({ kind: "line", role, pts: [basis.project(c), basis.project(rigAdd(c, dir, reach / along))] });
+      if (along > 1e-9 && reach > start) shapes.push({ kind: "line", role, pts: [basis.project(c), basis.project(rigAdd(c, dir, (reach - start) / along))] });
     }
     shapes.push({ kind: "camera", role, pts: [basis.project(c)], name });
   };
@@ -344,7 +348,7 @@ function rigFit(points, box, minExtent) {
   return { scale, at: ([f, r]) => [x0 + (f - f0) * scale, y0 + (r - r0) * scale] };
 }
 
-function rigRender(svg, shapes, fit, { labels }) {
+function rigDrawShapes(svg, shapes, fit, { labels }) {
   svg.replaceChildren();
   const g = el("g", { class: "rig-view" });
   let count = 0;
@@ -354,7 +358,9 @@ function rigRender(svg, shapes, fit, { labels }) {
       g.append(el("line", { x1: pts[0][0], y1: pts[0][1], x2: pts[1][0], y2: pts[1][1], class: `rig-ray ${s.role}` }));
     } else if (s.kind === "plane" || s.kind === "depth") {
       g.append(el("line", { x1: pts[0][0], y1: pts[0][1], x2: pts[1][0], y2: pts[1][1], class: `rig-${s.kind}` }));
-      if (labels) g.append(el("text", { x: pts[1][0] + 4, y: pts[1][1] + 12, class: `rig-${s.kind}-label` }, s.label));
+      // the plane's label above its line, a depth's below (a constraint may sit on the plane)
+      const [x, y] = s.kind === "plane" ? [pts[0][0], Math.min(pts[0][1], pts[1][1]) - 6] : [pts[1][0], Math.max(pts[0][1], pts[1][1]) + 13];
+      if (labels) g.append(el("text", { x, y, "text-anchor": "middle", class: `rig-${s.kind}-label` }, s.label));
     } else if (s.kind === "element") {
       g.append(el("rect", { x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8, class: "rig-element", "data-element": s.name }));
       if (labels) g.append(el("text", { x: pts[0][0] + 7, y: pts[0][1] - 6, class: "label" }, s.name));
@@ -365,9 +371,15 @@ function rigRender(svg, shapes, fit, { labels }) {
     }
   }
   if (!labels) {  // the close-up: names beside the centres, staggered so that neighbours stay legible
-    shapes.filter((s) => s.kind === "camera").forEach((s, i) => {
+    const spots = new Map();  // cameras at one place (a Tri-Rig's subject and reference right) share a label
+    for (const s of shapes.filter((t) => t.kind === "camera")) {
       const [x, y] = fit.at(s.pts[0]);
-      g.append(el("text", { x: x + 6, y: y + (i % 2 ? 14 : -6), class: `rig-name ${s.role}` }, s.name));
+      const key = `${Math.round(x)},${Math.round(y)}`;
+      if (!spots.has(key)) spots.set(key, { x, y, names: [] });
+      spots.get(key).names.push(s.name);
+    }
+    [...spots.values()].forEach((spot, i) => {
+      g.append(el("text", { x: spot.x + 6, y: spot.y + (i % 2 ? 14 : -6), class: "rig-name" }, spot.names.join(" = ")));
     });
   }
   svg.append(g);
@@ -377,22 +389,23 @@ function rigRender(svg, shapes, fit, { labels }) {
 
 function rigDrawTop(shot, plan) {
   const basis = rigBasis(shot, plan);
-  const centres = [...plan.cameras.map((r) => r.camera.center),
-    ...(plan.rig === "quadri" ? [plan.virtual.left.center, plan.virtual.right.center] : [plan.reference_right.center])];
+  const centres = [...plan.cameras.map((r) => r.camera.center), ...(plan.rig === "tri" ? [plan.reference_right.center] : [])];
   const far = plan.rig === "quadri"
     ? Math.max(...plan.elements.map((e) => basis.project(e.point)[0]))
     : Math.max(plan.reference.convergence, ...shot.constraints.map((t) => Number((/z=([^,]+)/.exec(t) || [])[1])).filter(Number.isFinite));
   const reach = 1.15 * Math.max(far, 1e-3);
   const shapes = rigShapes(shot, plan, basis, reach);
   const all = shapes.flatMap((s) => s.pts);
-  rigRender(rigEl("rig-top"), shapes, rigFit(all, RIG_TOP, 1), { labels: true });
+  rigDrawShapes(rigEl("rig-top"), shapes, rigFit(all, RIG_TOP, 1), { labels: true });
   // the close-up: the camera line only, its rays short
+  // (a Quadri-Rig's virtual eyes stand the setback ahead: left out of the close-up)
   const near = centres.map((c) => basis.project(c));
   const spread = Math.max(...near.map((p) => p[1])) - Math.min(...near.map((p) => p[1]));
-  const depth = Math.max(...near.map((p) => p[0])) - Math.min(...near.map((p) => p[0]));
-  const shortReach = Math.max(spread, depth, 0.2) * 0.6;
-  const closeShapes = rigShapes(shot, plan, basis, shortReach).filter((s) => s.kind === "camera" || s.kind === "line");
-  rigRender(rigEl("rig-close"), closeShapes, rigFit(closeShapes.flatMap((s) => s.pts), RIG_CLOSE, 0.2), { labels: false });
+  const last = Math.max(...near.map((p) => p[0]));
+  const shortReach = last + Math.max(spread, 0.2) * 0.6;
+  const closeShapes = rigShapes(shot, plan, basis, shortReach)
+    .filter((s) => (s.kind === "camera" || s.kind === "line") && !(plan.rig === "quadri" && s.role === "virtual"));
+  rigDrawShapes(rigEl("rig-close"), closeShapes, rigFit(closeShapes.flatMap((s) => s.pts), RIG_CLOSE, 0.2), { labels: false });
 }
 
 // ---------------------------------------------------------------- the render job
