@@ -16,6 +16,7 @@ import pytest
 pytestmark = pytest.mark.browser
 
 JOB_MS = 300_000  # a few tiny renders; the first run compiles Numba kernels
+WIDTH = 128  # render width of the job: about a second, and a screenshot that shows the pictures
 READY = "document.body.dataset.state === 'ready'"
 SETTLED = "['ready', 'error'].includes(document.body.dataset.state)"
 
@@ -82,13 +83,13 @@ def test_edit_a_shot_see_its_plan_and_render_it(page, server_url, check_screensh
     # back to the Quadri-Rig, rendered small
     page.select_option('[data-testid="rig-preset"]', "example:stadium-quadri")
     page.wait_for_function(READY, timeout=15_000)
-    for testid, value in {"rig-render-width": "64", "rig-samples": "1"}.items():
+    for testid, value in {"rig-render-width": str(WIDTH), "rig-samples": "2"}.items():
         page.locator(f'[data-testid="{testid}"]').fill(value)
     page.click('[data-testid="rig-run"]')
     page.wait_for_function("!document.getElementById('rig-result').hidden || document.body.dataset.state === 'error'",
                            timeout=JOB_MS)
     assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
-    body = {"shot": _shot(page), "width": 64, "weights": "ulr", "samples": 1, "supersample": 1}
+    body = {"shot": _shot(page), "width": WIDTH, "weights": "ulr", "samples": 2, "supersample": 1}
     again = httpx.post(f"{server_url}/api/jobs/rig", json=body, timeout=30).json()
     assert again["cached"] is True and again["id"] == page.locator("#rig-result").get_attribute("data-job")
     result = httpx.get(f"{server_url}/api/jobs/{again['id']}", timeout=30).json()["result"]
@@ -101,7 +102,7 @@ def test_edit_a_shot_see_its_plan_and_render_it(page, server_url, check_screensh
         img = page.locator(f'[data-testid="rig-img-{name}"]')
         expect(img).to_be_visible()
         img.evaluate("el => el.decode()")
-        assert img.evaluate("el => el.naturalWidth") == 64
+        assert img.evaluate("el => el.naturalWidth") == WIDTH
     check_screenshot(page, "workbench_rigs.png")
 
 

@@ -363,7 +363,7 @@ function rigDrawShapes(svg, shapes, fit, { labels }) {
       if (labels) g.append(el("text", { x, y, "text-anchor": "middle", class: `rig-${s.kind}-label` }, s.label));
     } else if (s.kind === "element") {
       g.append(el("rect", { x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8, class: "rig-element", "data-element": s.name }));
-      if (labels) g.append(el("text", { x: pts[0][0] + 7, y: pts[0][1] - 6, class: "label" }, s.name));
+      if (labels) g.append(el("text", { x: pts[0][0] + 7, y: pts[0][1] + 16, class: "label" }, s.name));
     } else if (s.kind === "camera") {
       const attrs = { cx: pts[0][0], cy: pts[0][1], r: 4, class: `rig-camera ${s.role}` };
       if (s.role !== "virtual") { attrs["data-camera"] = s.name; count++; }
