@@ -96,7 +96,8 @@ def test_edit_a_shot_see_its_plan_and_render_it(page, server_url, check_screensh
     for eye in ("left", "right"):
         row = page.locator(f'#rig-metrics tr[data-method="ulr"][data-eye="{eye}"]')
         for key in ("psnr", "dssim", "coverage"):
-            assert float(row.locator(f'[data-key="{key}"]').get_attribute("data-value")) == result["methods"]["ulr"][eye][key]
+            shown = float(row.locator(f'[data-key="{key}"]').get_attribute("data-value"))
+            assert shown == result["methods"]["ulr"][eye][key]
     for name in ("ulr_left", "ulr_right", "ulr_anaglyph", "truth_left", "truth_right", "ulr_error_left",
                  "ulr_error_right", "camera_subject_left"):
         img = page.locator(f'[data-testid="rig-img-{name}"]')
