@@ -9,6 +9,7 @@ otherwise the screenshot stays in the test's temporary folder.
 from __future__ import annotations
 
 import json
+import urllib.parse
 
 import httpx
 import pytest
@@ -64,6 +65,8 @@ def test_edit_a_shot_see_its_plan_and_render_it(page, server_url, check_screensh
     assert page.locator('[data-testid="rig-preset"]').input_value() == "example:stadium-quadri"
     plan = _check_plan_shown(page, server_url)
     assert _value(page, "rig-fig-setback") == plan["setback"] == 20.0
+    href = page.locator('[data-testid="rig-download"]').get_attribute("href")  # the shot file, to save
+    assert json.loads(urllib.parse.unquote(href.split(",", 1)[1])) == _shot(page)
     # a field changed: the plan follows (debounced), and still equals the API's
     page.locator('[data-testid="rig-setback"]').fill("30")
     page.wait_for_function(READY, timeout=15_000)

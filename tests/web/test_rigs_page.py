@@ -264,3 +264,22 @@ def test_the_job_refuses_sizes_and_costs_past_its_limits(client):
     assert _refused(client.post("/api/jobs/rig", json={"shot": QUADRI, "lens": 3}), 422).startswith(
         "unknown field 'lens'; valid fields: shot, width, weights, samples, supersample")
     assert _refused(client.post("/api/jobs/rig", json={"width": 64}), 422) == "missing field shot"
+
+
+def test_a_running_rig_job_can_be_cancelled(client):
+    body = {"shot": QUADRI, "width": 480, "samples": 4, "supersample": 2}  # about 15 s: 6 views of 480x270
+    job = client.post("/api/jobs/rig", json=body)
+    assert job.status_code == 202, job.text
+    job = job.json()
+    assert client.delete(f"/api/jobs/{job['id']}").status_code == 202
+    final = _wait(client, job["id"])
+    assert final["state"] == "cancelled" and final["files"] == []
+
+
+def test_shot_files_are_indexed_but_not_listed_as_data(client):
+    listed = client.get("/api/data").json()
+    assert set(listed) == {"collections", "scenes"}
+    assert all(not e["id"].startswith("shot-") for e in listed["scenes"] + listed["collections"])
+    shot_id = _presets(client)["quarry-quadri"]["id"]
+    entry = client.get(f"/api/data/{shot_id}").json()
+    assert entry == {"id": shot_id, "kind": "shot", "name": "shots/quarry-quadri.json", "format": "json"}

@@ -196,7 +196,9 @@ function readRigShot() {
 async function rigPlan() {
   const seq = ++rigPlanSeq;
   const shot = readRigShot();
-  rigEl("rig-shot-json").textContent = JSON.stringify(shot, null, 2);
+  const text = JSON.stringify(shot, null, 2);
+  rigEl("rig-shot-json").textContent = text;
+  rigEl("rig-download").href = `data:application/json;charset=utf-8,${encodeURIComponent(text + "\n")}`;
   document.body.dataset.state = "loading";
   try {
     const plan = await api("/api/rigs/plan", shot);
