@@ -283,3 +283,16 @@ def test_shot_files_are_indexed_but_not_listed_as_data(client):
     shot_id = _presets(client)["quarry-quadri"]["id"]
     entry = client.get(f"/api/data/{shot_id}").json()
     assert entry == {"id": shot_id, "kind": "shot", "name": "shots/quarry-quadri.json", "format": "json"}
+
+
+def test_a_data_shot_is_a_preset_only_when_its_scene_is_reachable(tmp_path):
+    data = tmp_path / "data"
+    (data / "shots").mkdir(parents=True)
+    (tmp_path / "outside.json").write_text((EXAMPLES / "scenes" / "far_mirror.json").read_text())
+    (data / "shots" / "builtin.json").write_text(json.dumps(_with(TRI, scene="tabletop")))
+    (data / "shots" / "escapes.json").write_text(json.dumps(_with(TRI, scene="../../outside.json")))
+    (data / "shots" / "broken.json").write_text(json.dumps(_with(TRI, constraints=["z=30,perceived=3"])))
+    with TestClient(create_app([data])) as c:
+        presets = _presets(c)
+    assert sorted(presets) == ["builtin", "stadium-quadri", "stadium-tri"]  # no escape, no shot that cannot plan
+    assert presets["builtin"]["source"] == "data" and presets["builtin"]["shot"]["scene"] == "tabletop"
