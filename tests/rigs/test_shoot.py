@@ -52,3 +52,19 @@ def test_render_shot_refuses_bad_options_before_rendering(kwargs, needle):
 def test_render_shot_refuses_a_non_shot():
     with pytest.raises(TypeError, match="shot"):
         render_shot({"rig": "tri"})
+
+
+def test_error_image_is_the_gained_difference_and_blue_holes():
+    result = render_shot(_tri(), weights=("ulr",), samples=1, supersample=1)
+    err = result.error_image("ulr", "right", gain=4.0)
+    image, truth = result.images["ulr"]["right"], result.truth["right"]
+    covered = result.results["ulr"]["right"].coverage
+    slow = np.clip(4.0 * np.abs(image.astype(np.float64) - truth).mean(axis=-1), 0.0, 1.0)  # by hand
+    assert err.shape == image.shape and err.dtype == np.float32
+    np.testing.assert_allclose(err[covered], np.repeat(slow[covered][:, None], 3, axis=1), atol=1e-6)
+    assert (~covered).any()  # the stadium's Tri-Rig leaves a few pixels unseen
+    np.testing.assert_allclose(err[~covered], np.broadcast_to([0.1, 0.2, 0.8], err[~covered].shape), atol=1e-7)
+    with pytest.raises(KeyError, match="no synthesised ulr/left eye; synthesised: ulr/right"):
+        result.error_image("ulr", "left")
+    with pytest.raises(KeyError, match="bayesian/right"):
+        result.error_image("bayesian", "right")

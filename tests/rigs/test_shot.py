@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from vergence.rigs import QuadriRig, Shot, TriRig, load_shot, shot_from_dict
+from vergence.rigs import EXAMPLE_SHOTS, QuadriRig, Shot, TriRig, load_shot, plan_document, shot_from_dict
 from vergence.viewing import DISPLAY_PRESETS, DirectorConstraint, Display
 
 REPO = Path(__file__).resolve().parents[2]
@@ -198,3 +198,41 @@ def test_every_example_shot_plans(path):
         for rc in rig.cameras:  # every element in front of its real camera and of the virtual eye
             point = dict(rig.elements)[rc.element]
             assert rc.camera.project(point[None])[1][0] > rig.virtual(rc.eye).project(point[None])[1][0] > 0
+
+
+@pytest.mark.parametrize("name", sorted(EXAMPLE_SHOTS))
+def test_example_shots_are_the_files_of_examples_shots(name):
+    assert json.loads((REPO / "examples" / "shots" / f"{name}.json").read_text()) == EXAMPLE_SHOTS[name]
+    assert shot_from_dict(EXAMPLE_SHOTS[name]).scene == "stadium"  # built in: no source tree needed
+
+
+def test_plan_document_rows_by_hand():
+    doc = plan_document(shot_from_dict(QUADRI))
+    assert doc["rig"] == "quadri" and doc["shot"] is None and doc["setback"] == 20.0
+    rows = {r["name"]: r for r in doc["cameras"]}
+    assert list(rows) == ["subject_left", "subject_right", "background_left", "background_right"]
+    # S0 Eq. (10): k = (z_e + s) / z_e, s = 20 m, z_e the subject's depth: the camera looks straight at it
+    # from (0, 1.6, -20), 0.6 m above and 10 m before it; the shifted eyes keep the centre camera's axis
+    z_e = math.hypot(0.6, 10.0)
+    k = (z_e + 20.0) / z_e
+    assert rows["subject_left"]["fx_ratio"] == pytest.approx(k, rel=1e-9)
+    assert rows["subject_left"]["baseline"] == pytest.approx(k * 0.2, rel=1e-9)  # b_e = k b_v
+    assert rows["subject_left"]["baseline"] == rows["subject_right"]["baseline"]
+    assert doc["elements"] == [{"name": "subject", "point": [0.0, 1.0, -30.0]},
+                               {"name": "background", "point": [0.0, 2.0, -63.0]}]
+    tri = plan_document(shot_from_dict(TRI))
+    assert [r["name"] for r in tri["cameras"]] == ["director", "subject", "background"]
+    assert tri["cameras"][0]["baseline"] == 0.0 and tri["cameras"][0]["fx_ratio"] == 1.0
+    # S0 Eq. (5): b_round = b' H / H' with H = 30 m, the tv-55's b' and H'
+    tv = DISPLAY_PRESETS["tv-55"]
+    assert tri["cameras"][1]["baseline"] == pytest.approx(tv.eye_separation * 30.0 / tv.distance, rel=1e-9)
+    assert tri["monotone"] is True and tri["diverges"] is False
+    json.dumps(tri, allow_nan=False)
+
+
+def test_plan_document_refuses_a_non_shot_and_passes_planner_errors():
+    with pytest.raises(TypeError, match="shot must be a vergence.rigs.Shot"):
+        plan_document(QUADRI)
+    bad = _with(QUADRI, ("elements", 0, "point"), [0.0, 1.0, -10.0])  # behind the virtual rig (z = -20)
+    with pytest.raises(ValueError, match="subject"):
+        plan_document(shot_from_dict(bad))

@@ -183,7 +183,7 @@ def test_pages_not_landed_say_so(workbench):
     from playwright.sync_api import expect  # waits for the page to switch (a bare is_visible() raced it)
 
     page = workbench
-    for link, section in [("rigs", "#page-rigs")]:
+    for link, section in [("stereospace", "#page-stereospace")]:
         page.click(f'[data-page-link="{link}"]')
         expect(page.locator(section)).to_be_visible()
         assert "coming as the systems land" in page.locator(section).inner_text().lower()

@@ -38,46 +38,6 @@ def _baseline(a, b) -> float:  # noqa: ANN001
     return float(np.linalg.norm(np.asarray(a.center) - np.asarray(b.center)))
 
 
-def plan_rows(shot, rig) -> list[dict]:  # noqa: ANN001
-    """One row per camera of ``rig``: name, element, eye, camera (``Camera.to_dict()``), fx, fx ratio, baseline.
-
-    The ratio is to the virtual centre camera's fx (Quadri-Rig, S0 Eq. 10) or the director's (Tri-Rig);
-    the baseline is the distance to the other eye's camera of the same element (Quadri-Rig) or to the
-    director (Tri-Rig).
-    """
-    ref = rig.center if shot.rig == "quadri" else rig.director
-    fx0 = float(ref.K[0, 0])
-    rows = []
-    by_key = {(rc.element, rc.eye): rc for rc in rig.cameras}
-    for rc in rig.cameras:
-        if shot.rig == "quadri":
-            other = by_key.get((rc.element, "right" if rc.eye == "left" else "left"))
-            b = _baseline(rc.camera, other.camera) if other is not None else None
-        else:
-            b = _baseline(rc.camera, rig.director)
-        rows.append({"name": rc.name, "element": rc.element, "eye": rc.eye, "camera": rc.camera.to_dict(),
-                     "fx": float(rc.camera.K[0, 0]), "fx_ratio": float(rc.camera.K[0, 0]) / fx0, "baseline": b})
-    return rows
-
-
-def plan_json(shot, rig) -> dict:  # noqa: ANN001
-    """The ``--json`` document of ``vergence rig plan`` (``docs/shots.md``)."""
-    out: dict = {"rig": shot.rig, "shot": None if shot.path is None else str(shot.path), "cameras": plan_rows(shot, rig)}
-    if shot.rig == "quadri":
-        out["virtual"] = {"center": rig.center.to_dict(), "left": rig.left.to_dict(), "right": rig.right.to_dict()}
-        out["elements"] = [{"name": n, "point": [float(v) for v in p]} for n, p in rig.elements]
-        out["setback"] = float(rig.setback)
-    else:
-        ref = rig.reference
-        out["reference"] = {"baseline": ref.baseline, "convergence": ref.convergence, "window": ref.window}
-        out["reference_right"] = rig.reference_right.to_dict()
-        out["control_points"] = [{"disparity": cp.disparity, "value": cp.value, "slope": cp.slope}
-                                 for cp in rig.mapping.control_points]  # fmt: skip
-        out["monotone"] = bool(rig.mapping.monotone)
-        out["diverges"] = bool(rig.mapping.diverges)
-    return out
-
-
 def _print_plan(shot, rig) -> None:  # noqa: ANN001
     title = "Quadri-Rig (S0 §5, Eq. 10)" if shot.rig == "quadri" else "Tri-Rig (S0 §6)"
     ratio_of = "virtual" if shot.rig == "quadri" else "director"
@@ -85,7 +45,9 @@ def _print_plan(shot, rig) -> None:  # noqa: ANN001
     for col in ("camera", "element", "eye", "centre (m)", "fx (px)", f"fx / {ratio_of}", "baseline (m)"):
         table.add_column(col, justify="left" if col in ("camera", "element", "eye", "centre (m)") else "right",
                          no_wrap=col != "centre (m)", min_width=17 if col == "centre (m)" else None)
-    for row, rc in zip(plan_rows(shot, rig), rig.cameras):
+    from vergence.rigs import plan_document
+
+    for row, rc in zip(plan_document(shot, rig)["cameras"], rig.cameras):
         c = " ".join(f"{v:.2f}" for v in rc.camera.center)
         b = "—" if row["baseline"] is None else f"{row['baseline']:.4f}"
         table.add_row(row["name"], row["element"], row["eye"], c, f"{row['fx']:.1f}", f"{row['fx_ratio']:.3f}", b)
@@ -113,7 +75,9 @@ def plan(
         check_output_path(plot, shot)
         _plot(s, rig, plot)
     if as_json:
-        print_json(plan_json(s, rig))
+        from vergence.rigs import plan_document
+
+        print_json(plan_document(s, rig))
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
         return

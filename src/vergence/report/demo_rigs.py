@@ -10,32 +10,15 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
 
 from vergence.report.html import Figure, Grid, Section
+from vergence.rigs.shot import EXAMPLE_SHOTS
 
 __all__ = ["DEMO_RENDER", "DEMO_SHOTS", "S0_TABLE_1", "demo_shot", "section_rig"]
 
 # The demo's shots: examples/shots/stadium-quadri.json and stadium-tri.json (a test checks they agree),
 # rendered with DEMO_SAMPLES AO rays at the size and rays per pixel of DEMO_RENDER.
-_STADIUM_UP = [0.0, 1.0, 0.0]
-DEMO_SHOTS = {
-    "quadri": {
-        "rig": "quadri", "scene": "stadium", "display": "tv-55",
-        "camera": {"position": [0.0, 1.6, -20.0], "look_at": [0.0, 1.0, -30.0], "up": _STADIUM_UP, "fov_deg": 24.0,
-                   "width": 480, "height": 270},
-        "baseline": 0.2, "convergence": 10.0, "setback": 20.0,
-        "elements": [{"name": "subject", "point": [0.0, 1.0, -30.0]},
-                     {"name": "background", "point": [0.0, 2.0, -63.0]}],
-    },
-    "tri": {
-        "rig": "tri", "scene": "stadium", "display": "tv-55",
-        "camera": {"position": [0.0, 2.2, 0.0], "look_at": [0.0, 1.1, -30.0], "up": _STADIUM_UP, "fov_deg": 8.0,
-                   "width": 480, "height": 270},
-        "constraints": ["z=30,perceived=3,roundness=1", "z=65,perceived=6"], "reference": "round",
-        "near": 25.0, "far": None,
-    },
-}  # fmt: skip
+DEMO_SHOTS = {"quadri": EXAMPLE_SHOTS["stadium-quadri"], "tri": EXAMPLE_SHOTS["stadium-tri"]}
 # kind -> (width, height, k for k x k rays per pixel): the Quadri-Rig as `vergence rig render` does it
 # (about 10 s); the Tri-Rig smaller, since its curved-ray truth takes ~100 s at the full size.
 DEMO_RENDER = {"quadri": (480, 270, 3), "tri": (320, 180, 2)}
@@ -59,14 +42,6 @@ S0_TABLE_1 = {
 }
 
 Progress = Callable[[str], None]
-
-
-def _error(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray, gain: float = 4.0) -> np.ndarray:
-    """|image - truth| x gain, mean over channels; uncovered pixels shown in blue."""
-    err = np.clip(gain * np.abs(image.astype(np.float64) - truth).mean(axis=-1), 0.0, 1.0)
-    rgb = np.repeat(err[..., None], 3, axis=-1)
-    rgb[~coverage] = (0.1, 0.2, 0.8)
-    return rgb.astype(np.float32)
 
 
 def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tuple[Section, dict]:
@@ -103,7 +78,7 @@ def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tup
             res = result.results[method].get(eye)
             if res is not None:
                 write_image(out / f"{stem}_{method}_{eye}.png", eyes[eye])
-                write_image(out / f"{stem}_{method}_{eye}_error.png", _error(eyes[eye], result.truth[eye], res.coverage))
+                write_image(out / f"{stem}_{method}_{eye}_error.png", result.error_image(method, eye))
                 error_figs.append(Figure(f"{stem}_{method}_{eye}_error.png",
                                          f"{method.upper()} {eye}: |synthesised - truth| x 4; blue: no source sees it."))  # fmt: skip
             paper = S0_TABLE_1.get(method, {}).get(eye) if kind == "quadri" else None

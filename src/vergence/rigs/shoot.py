@@ -41,6 +41,9 @@ SHOT_SUPERSAMPLE = 3
 # surface the sources see lies beyond it.
 _NEAR_FRACTION = 0.5
 
+# Colour of a pixel no source sees, in error images (the grey error scale cannot reach it).
+_HOLE_RGB = (0.1, 0.2, 0.8)
+
 Progress = Callable[[float, str], None]
 
 
@@ -77,6 +80,30 @@ class ShotRender:
     images: dict
     mapped_disparity: np.ndarray | None
     report: dict = field(default_factory=dict)
+
+    def error_image(self, method: str, eye: str, *, gain: float = 4.0) -> np.ndarray:
+        """The synthesised ``eye`` of ``method`` against its truth: ``gain |image - truth|``, grey, mean over
+        the channels (:func:`vergence.synthesis.error_image`); pixels no source sees (the coverage's holes) blue.
+
+        Returns
+        -------
+        (H, W, 3) float32 in [0, 1]
+
+        Raises
+        ------
+        KeyError
+            For a method that was not run, or an eye that was not synthesised (a Tri-Rig's left eye is the
+            director's image); the message lists the ones there are.
+        """
+        from vergence.synthesis import error_image
+
+        made = [f"{m}/{e}" for m, eyes in self.results.items() for e in eyes]
+        if eye not in self.results.get(method, {}):
+            raise KeyError(f"no synthesised {method}/{eye} eye; synthesised: {', '.join(made)}")
+        res = self.results[method][eye]
+        rgb = np.repeat(error_image(self.images[method][eye], self.truth[eye], gain=gain)[..., None], 3, axis=-1)
+        rgb[~res.coverage] = _HOLE_RGB
+        return rgb
 
 
 def render_shot(

@@ -20,9 +20,12 @@ from __future__ import annotations
 
 import math
 import os
+import types
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_positive_int
 from vergence.camera import Camera, look_at
@@ -31,10 +34,32 @@ from vergence.rigs.quadri import QuadriRig, plan_quadri_rig
 from vergence.rigs.tri import TRI_REFERENCES, TriRig, plan_tri_rig
 from vergence.viewing import DISPLAY_PRESETS, DirectorConstraint, Display
 
-__all__ = ["SHOT_RIGS", "Shot", "ShotCamera", "load_shot", "shot_from_dict"]
+__all__ = ["EXAMPLE_SHOTS", "SHOT_RIGS", "Shot", "ShotCamera", "load_shot", "plan_document", "shot_from_dict"]
 
 SHOT_RIGS = ("quadri", "tri")
 """The rigs a shot file can ask for (its ``"rig"``)."""
+
+_STADIUM_UP = [0.0, 1.0, 0.0]
+EXAMPLE_SHOTS = types.MappingProxyType({
+    "stadium-quadri": {
+        "rig": "quadri", "scene": "stadium", "display": "tv-55",
+        "camera": {"position": [0.0, 1.6, -20.0], "look_at": [0.0, 1.0, -30.0], "up": _STADIUM_UP, "fov_deg": 24.0,
+                   "width": 480, "height": 270},
+        "baseline": 0.2, "convergence": 10.0, "setback": 20.0,
+        "elements": [{"name": "subject", "point": [0.0, 1.0, -30.0]},
+                     {"name": "background", "point": [0.0, 2.0, -63.0]}],
+    },
+    "stadium-tri": {
+        "rig": "tri", "scene": "stadium", "display": "tv-55",
+        "camera": {"position": [0.0, 2.2, 0.0], "look_at": [0.0, 1.1, -30.0], "up": _STADIUM_UP, "fov_deg": 8.0,
+                   "width": 480, "height": 270},
+        "constraints": ["z=30,perceived=3,roundness=1", "z=65,perceived=6"], "reference": "round",
+        "near": 25.0, "far": None,
+    },
+})  # fmt: skip
+"""The example shots whose scene is built in, by name: ``examples/shots/<name>.json`` as parsed JSON (a
+test checks they agree), for programs that run without the source tree (the workbench's presets, the
+demo). Read-only: copy one (``copy.deepcopy``) before changing it; :func:`shot_from_dict` reads it."""
 
 _COMMON = ("rig", "scene", "display", "camera")
 # Per rig: (required keys, optional keys) besides _COMMON.
@@ -340,3 +365,71 @@ def load_shot(path: str | os.PathLike[str]) -> Shot:
         raise type(exc)(f"shot file {path}: {exc}") from None
     return replace(shot, path=Path(path))
 
+
+
+def _distance(a: Camera, b: Camera) -> float:
+    return float(np.linalg.norm(np.asarray(a.center) - np.asarray(b.center)))
+
+
+def plan_document(shot: Shot, rig: QuadriRig | TriRig | None = None) -> dict[str, object]:
+    """The plan of ``shot`` as JSON: what ``vergence rig plan --json`` prints (``docs/shots.md``).
+
+    Parameters
+    ----------
+    shot : Shot
+    rig : QuadriRig or TriRig, optional
+        ``shot.plan()``, when already planned.
+
+    Returns
+    -------
+    dict
+        ``rig``, ``shot`` (the shot file, None without one) and ``cameras``: one row per real camera
+        with ``name``, ``element``, ``eye``, ``camera`` (:meth:`Camera.to_dict`), ``fx`` (px),
+        ``fx_ratio`` (to the virtual centre camera's fx for a Quadri-Rig, S0 Eq. (10), to the
+        director's for a Tri-Rig) and ``baseline`` (m: to the other eye's camera of the same element,
+        Quadri-Rig; to the director, Tri-Rig). A Quadri-Rig adds ``virtual`` (centre, left, right
+        cameras), ``elements`` and ``setback``; a Tri-Rig ``reference`` (psi's reference rig:
+        baseline, convergence, window), ``reference_right``, psi's ``control_points``, ``monotone``
+        and ``diverges``.
+
+    Raises
+    ------
+    ValueError
+        When ``rig`` is None and the planner refuses the shot (``Shot.plan``).
+
+    Examples
+    --------
+    >>> doc = plan_document(shot_from_dict(EXAMPLE_SHOTS["stadium-tri"]))
+    >>> [(c["name"], round(c["baseline"], 3)) for c in doc["cameras"]]
+    [('director', 0.0), ('subject', 0.65), ('background', 0.208)]
+    """
+    if not isinstance(shot, Shot):
+        raise TypeError(f"shot must be a vergence.rigs.Shot; got {type(shot).__name__}")
+    if rig is None:
+        rig = shot.plan()
+    ref = rig.center if shot.rig == "quadri" else rig.director
+    fx0 = float(ref.K[0, 0])
+    by_key = {(rc.element, rc.eye): rc for rc in rig.cameras}
+    rows = []
+    for rc in rig.cameras:
+        if shot.rig == "quadri":
+            other = by_key.get((rc.element, "right" if rc.eye == "left" else "left"))
+            b = _distance(rc.camera, other.camera) if other is not None else None
+        else:
+            b = _distance(rc.camera, rig.director)
+        rows.append({"name": rc.name, "element": rc.element, "eye": rc.eye, "camera": rc.camera.to_dict(),
+                     "fx": float(rc.camera.K[0, 0]), "fx_ratio": float(rc.camera.K[0, 0]) / fx0, "baseline": b})
+    out: dict[str, object] = {"rig": shot.rig, "shot": None if shot.path is None else str(shot.path), "cameras": rows}
+    if shot.rig == "quadri":
+        out["virtual"] = {"center": rig.center.to_dict(), "left": rig.left.to_dict(), "right": rig.right.to_dict()}
+        out["elements"] = [{"name": n, "point": [float(v) for v in p]} for n, p in rig.elements]
+        out["setback"] = float(rig.setback)
+    else:
+        r = rig.reference
+        out["reference"] = {"baseline": r.baseline, "convergence": r.convergence, "window": r.window}
+        out["reference_right"] = rig.reference_right.to_dict()
+        out["control_points"] = [{"disparity": cp.disparity, "value": cp.value, "slope": cp.slope}
+                                 for cp in rig.mapping.control_points]  # fmt: skip
+        out["monotone"] = bool(rig.mapping.monotone)
+        out["diverges"] = bool(rig.mapping.diverges)
+    return out

@@ -49,12 +49,21 @@ STATIC_DIR = Path(__file__).parent / "static"
 
 # The modules of the pages' own work: each has KINDS (job kinds by name) and may have
 # add_routes(app, jobs) for the page's follow-up requests on a done job (``JobManager.live``).
-_PAGE_MODULES = ("vergence.web.job_kinds", "vergence.web.stereo_page")
+_PAGE_MODULES = ("vergence.web.job_kinds", "vergence.web.stereo_page", "vergence.web.rigs_page")
+
+
+# The library packages the requests use, imported when the app is made: two first requests at once
+# on worker threads would otherwise import the same package at once, and a package whose modules
+# import each other can then be seen half-initialised by one of them (a circular-import error).
+_LIBRARY_PACKAGES = ("vergence.render", "vergence.specular", "vergence.synthesis", "vergence.rigs",
+                     "vergence.stereospace", "vergence.depth", "vergence.display", "vergence.viewing")
 
 
 def _page_modules() -> list[Any]:
     import importlib
 
+    for name in _LIBRARY_PACKAGES:
+        importlib.import_module(name)
     return [importlib.import_module(name) for name in _PAGE_MODULES]
 
 

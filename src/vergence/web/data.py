@@ -1,4 +1,4 @@
-"""What the workbench may read: the collections and scenes of the ``--data`` folders, by id.
+"""What the workbench may read: the collections, scenes and shot files of the ``--data`` folders, by id.
 
 A client never sends a path: it chooses an id that :meth:`DataIndex.entries` listed, and the server
 maps it back to the resolved path it found. A file or folder whose resolved path leaves its data
@@ -34,12 +34,13 @@ class DataEntry:
     id : str
         Opaque: ``scene:<name>`` for a built-in scene, else the kind and a hash of the resolved path.
     kind : str
-        ``"collection"`` (a camera file and its images) or ``"scene"`` (a scene file or built-in).
+        ``"collection"`` (a camera file and its images), ``"scene"`` (a scene file or built-in) or
+        ``"shot"`` (a shot file, ``docs/shots.md``: the rig planner's presets).
     name : str
         For people: the path relative to its data folder, or the built-in scene's name.
     format : str
         The camera format of a collection (a name of :data:`vergence.io.CAMERA_FORMATS`),
-        ``"json"`` for a scene file, ``"builtin"`` for a built-in scene.
+        ``"json"`` for a scene or shot file, ``"builtin"`` for a built-in scene.
     path : Path or None
         The resolved path (server side only; None for a built-in scene).
     """
@@ -105,6 +106,18 @@ def _is_scene_file(path: Path) -> bool:
     except (OSError, ValueError, TypeError):
         return False
     return isinstance(data, dict) and {"camera", "environment", "materials", "objects"} <= set(data)
+
+
+def _is_shot_file(path: Path) -> bool:
+    """A JSON object naming a rig of :data:`vergence.rigs.SHOT_RIGS` and a camera (docs/shots.md)."""
+    from vergence.io import read_json
+    from vergence.rigs import SHOT_RIGS
+
+    try:
+        data = read_json(path, what="shot file")
+    except (OSError, ValueError, TypeError):
+        return False
+    return isinstance(data, dict) and data.get("rig") in SHOT_RIGS and "camera" in data
 
 
 def _id(kind: str, path: Path) -> str:
@@ -177,4 +190,6 @@ class DataIndex:
             return DataEntry(_id("collection", resolved), "collection", name, fmt, resolved)
         if resolved.suffix.lower() == ".json" and _is_scene_file(resolved):
             return DataEntry(_id("scene", resolved), "scene", name, "json", resolved)
+        if resolved.suffix.lower() == ".json" and _is_shot_file(resolved):
+            return DataEntry(_id("shot", resolved), "shot", name, "json", resolved)
         return None
