@@ -49,7 +49,7 @@ STATIC_DIR = Path(__file__).parent / "static"
 
 # The modules of the pages' own work: each has KINDS (job kinds by name) and may have
 # add_routes(app, jobs) for the page's follow-up requests on a done job (``JobManager.live``).
-_PAGE_MODULES = ("vergence.web.job_kinds",)
+_PAGE_MODULES = ("vergence.web.job_kinds", "vergence.web.stereospace_page")
 
 
 def _page_modules() -> list[Any]:
