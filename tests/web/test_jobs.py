@@ -251,7 +251,7 @@ def test_unknown_ids_kinds_and_files_are_404(client):
     for path in ("/api/jobs/nope", "/api/jobs/nope/events", "/api/jobs/nope/files/out.json"):
         assert "unknown job id 'nope'" in _refused(client.get(path), 404)
     assert "unknown job id" in _refused(client.delete("/api/jobs/nope"), 404)
-    assert _refused(client.post("/api/jobs/paint", json={}), 404) == "no job kind 'paint'; kinds: quiet, render, slow, specular"
+    assert _refused(client.post("/api/jobs/paint", json={}), 404) == "no job kind 'paint'; kinds: quiet, render, slow, specular, stereospace"
     job = client.post("/api/jobs/slow", json={"tag": "files"}).json()
     _wait(client, job["id"])
     for name in ("beauty.png", "..%2Fout.json", "%2Fetc%2Fpasswd", "%2E%2E"):
@@ -287,7 +287,7 @@ def test_too_many_active_jobs_is_429(client, app):
 
 def test_the_kinds_are_listed_with_their_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
-    assert sorted(kinds) == ["quiet", "render", "slow", "specular"]
+    assert sorted(kinds) == ["quiet", "render", "slow", "specular", "stereospace"]
     assert set(kinds["render"]["parameters"]["properties"]) == {"scene", "width", "height", "depth", "samples"}
 
 
