@@ -234,6 +234,7 @@ async function ssShowPair(inMove = false) {
     img.src = answer.images.packed;
     await img.decode();
   } catch (exc) {
+    document.getElementById("ss-view").classList.add("stale");  // the image shown is not this state's
     if (inMove) throw exc;
     showError(exc.message);
     document.body.dataset.state = "error";
@@ -241,6 +242,7 @@ async function ssShowPair(inMove = false) {
   }
   if (job !== SS.job) return;
   SS.pair = answer;
+  document.getElementById("ss-view").classList.remove("stale");
   const q = answer.quality;
   ssSet("ss-range", q ? q.range_arcmin : null, q && q.range_arcmin !== null
     ? `${fmt(q.range_arcmin, 3)}′ (zone ${fmt(q.zone_arcmin[1] - q.zone_arcmin[0], 3)}′${q.fits_with_shift ? ", fits with a shift" : ""})`
@@ -251,7 +253,8 @@ async function ssShowPair(inMove = false) {
     SS.vr = true;
     offerVR(document.getElementById("ss-vr"), () => ({ left: SS.pair.images.left, right: SS.pair.images.right }));
   }
-  if (!inMove) { showError(null); document.body.dataset.state = "ready"; }
+  showError(null);  // a pair that could not be shown before (its error) is gone
+  if (!inMove) document.body.dataset.state = "ready";
 }
 
 function ssDrawMap(view) {
