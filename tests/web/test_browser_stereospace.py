@@ -100,6 +100,33 @@ def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_scree
     _check_view(page, zoomed["state"])
     assert zoomed["state"]["interocular"] > moved["state"]["interocular"]
 
+    # the mouse: the wheel down over the view is one zoom step down, a drag right by an eighth of the view
+    # (and a bit) one pan step right
+    box = page.locator('[data-testid="ss-view"]').bounding_box()
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    before = {k: zoomed["state"][k] for k in ("region", "li", "lj")}
+    page.mouse.move(cx, cy)
+    page.mouse.wheel(0, 100)
+    page.wait_for_function(f"JSON.parse(document.getElementById('ss-interocular').dataset.value) !== "
+                           f"{zoomed['state']['interocular']!r} || document.body.dataset.state === 'error'",
+                           timeout=MOVE_MS)  # fmt: skip
+    _wait_ready(page, MOVE_MS)
+    wheeled = httpx.post(f"{server_url}/api/stereospace/{job}/move",
+                         json={"state": before, "zoom": -result["zoom_step"]}, timeout=30).json()
+    _check_view(page, wheeled["state"])
+    before = {k: wheeled["state"][k] for k in ("region", "li", "lj")}
+    sign = -1 if wheeled["state"]["swapped"] else 1
+    page.mouse.move(cx, cy)
+    page.mouse.down()
+    page.mouse.move(cx + box["width"] / 8 * 1.2, cy, steps=4)
+    page.mouse.up()
+    page.wait_for_function(f"JSON.parse(document.getElementById('ss-li').dataset.value) !== {before['li']!r} "
+                           f"|| document.body.dataset.state === 'error'", timeout=MOVE_MS)  # fmt: skip
+    _wait_ready(page, MOVE_MS)
+    dragged = httpx.post(f"{server_url}/api/stereospace/{job}/move",
+                         json={"state": before, "pan": sign * result["pan_step"]}, timeout=30).json()
+    _check_view(page, dragged["state"])
+
     # another format: side by side is twice as wide
     page.locator('[data-testid="ss-format"]').select_option("sbs")
     page.wait_for_function(f"document.getElementById('ss-pair').naturalWidth === {2 * result['default_width']}",

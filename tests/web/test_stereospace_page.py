@@ -109,10 +109,12 @@ def test_the_job_prepares_kermit_and_its_map(client, kermit):
     shown = np.array([r["start"]["eyes"]["left"], r["start"]["eyes"]["right"]])
     np.testing.assert_allclose(np.sort(shown, axis=0), np.sort(eyes, axis=0), atol=1e-12)
     np.testing.assert_allclose(r["start"]["stereo_camera"], eyes.mean(axis=0), atol=1e-12)
-    assert r["start"]["interocular"] == pytest.approx(float(np.linalg.norm(np.diff(prepared.space.eyes(start), axis=0))))
+    baseline = np.diff(prepared.space.eyes(start), axis=0)
+    assert r["start"]["interocular"] == pytest.approx(float(np.linalg.norm(baseline)))
     m = client.get(f"/api/jobs/{job['id']}/files/map.json").json()
     assert [c["name"] for c in m["cameras"]] == list(prepared.collection.names)
-    np.testing.assert_allclose([[c["x"], c["y"]] for c in m["cameras"]], _map_xy(prepared, prepared.centers), atol=1e-12)
+    centers = [[c["x"], c["y"]] for c in m["cameras"]]
+    np.testing.assert_allclose(centers, _map_xy(prepared, prepared.centers), atol=1e-12)
     assert m["segments"] == prepared.segment_cameras.tolist() and len(m["paths"]) == r["paths"]
     assert 0 < len(m["points"]) <= MAX_MAP_POINTS
     # the same request again is the cached job

@@ -321,7 +321,8 @@ def _pair(live: _Live, job_id: str, body: PairRequest) -> dict[str, Any]:
         cached = key in live.pairs
         result = _result(live, key)
         t1 = time.perf_counter()
-        stem = hashlib.sha256(json.dumps([list(state.region), state.li, state.lj, body.width]).encode()).hexdigest()[:16]
+        stem = hashlib.sha256(json.dumps([list(state.region), state.li, state.lj, body.width]).encode())
+        stem = stem.hexdigest()[:16]
         images = {}
         # the packed image now (the page shows it at once); each view when it is first asked (Enter VR)
         for role in ("packed", "left", "right"):

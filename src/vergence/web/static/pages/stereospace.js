@@ -25,7 +25,9 @@ async function initStereospace() {
     for (const d of displays.displays) if (d.resolution) display.add(new Option(d.name, d.name));
     if ([...display.options].some((o) => o.value === "desktop-24")) display.value = "desktop-24";
     document.getElementById("ss-prepare").addEventListener("click", ssPrepare);
-    document.getElementById("ss-cancel").addEventListener("click", () => { if (SS.preparing) cancelJob(SS.preparing); });
+    document.getElementById("ss-cancel").addEventListener("click", () => {
+      if (SS.preparing) cancelJob(SS.preparing);
+    });
     for (const button of document.querySelectorAll("#ss-controls button")) {
       button.addEventListener("click", () => ssMove(Number(button.dataset.pan || 0), Number(button.dataset.zoom || 0)));
     }
@@ -245,7 +247,8 @@ async function ssShowPair(inMove = false) {
   document.getElementById("ss-view").classList.remove("stale");
   const q = answer.quality;
   ssSet("ss-range", q ? q.range_arcmin : null, q && q.range_arcmin !== null
-    ? `${fmt(q.range_arcmin, 3)}′ (zone ${fmt(q.zone_arcmin[1] - q.zone_arcmin[0], 3)}′${q.fits_with_shift ? ", fits with a shift" : ""})`
+    ? `${fmt(q.range_arcmin, 3)}′ (zone ${fmt(q.zone_arcmin[1] - q.zone_arcmin[0], 3)}′`
+      + `${q.fits_with_shift ? ", fits with a shift" : ""})`
     : "— (mono)");
   document.getElementById("ss-caption").textContent = `The stereo view: ${answer.format}, ${answer.width} × `
     + `${answer.height} per view, ${answer.cached ? "cached" : `${fmt(1000 * answer.seconds.pair, 3)} ms`}.`;
