@@ -288,3 +288,15 @@ def test_views_serve_only_the_names_the_server_made(client, kermit):
     for name in ("..%2Fmap.json", "../map.json", "%2Fetc%2Fpasswd"):  # never a path
         _refused(client.get(f"/api/stereospace/{job['id']}/views/{name}"), 404)
     assert MAX_PAIR_FILES >= 3  # a pair's three images fit
+
+
+def test_the_follow_ups_are_documented_in_openapi(bare):
+    paths = bare.get("/openapi.json").json()["paths"]
+    move = paths["/api/stereospace/{job_id}/move"]["post"]["requestBody"]["content"]["application/json"]["schema"]
+    assert set(move["properties"]) == {"state", "pan", "zoom"}
+    assert set(move["properties"]["state"]["properties"]) == {"region", "li", "lj"}  # inlined, no dangling $ref
+    pair = paths["/api/stereospace/{job_id}/pair"]["post"]["requestBody"]["content"]["application/json"]["schema"]
+    assert set(pair["properties"]) == {"state", "format", "width"}
+    assert "/api/stereospace/{job_id}/views/{name}" in paths
+    kinds = {k["name"]: k for k in bare.get("/api/jobs").json()["kinds"]}
+    assert set(kinds["stereospace"]["parameters"]["properties"]) == {"collection", "grid_step", "display"}

@@ -378,6 +378,25 @@ def _write(live: _Live, name: str) -> Path:
     return path
 
 
+def _body_schema(model: type[pydantic.BaseModel]) -> dict[str, Any]:
+    """The OpenAPI request body of a route that validates ``model`` itself: its JSON schema with the
+    nested models inlined (their ``$defs`` refs would not resolve inside the OpenAPI document)."""
+    schema = model.model_json_schema()
+    defs = schema.pop("$defs", {})
+
+    def inline(node: Any) -> Any:
+        if isinstance(node, dict):
+            ref = node.get("$ref", "")
+            if ref.startswith("#/$defs/"):
+                return inline(defs[ref.removeprefix("#/$defs/")])
+            return {k: inline(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [inline(v) for v in node]
+        return node
+
+    return {"requestBody": {"required": True, "content": {"application/json": {"schema": inline(schema)}}}}
+
+
 def add_routes(app: FastAPI, jobs: JobManager) -> None:
     """``POST /api/stereospace/{job_id}/move`` and ``/pair``, ``GET /api/stereospace/{job_id}/views/{name}``."""
 
@@ -401,7 +420,7 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
             return refusal(exc.status, exc.message)
 
     @app.post(f"/api/{KIND}/{{job_id}}/move", summary="Pan and zoom through the StereoSpace (S2 §4.1)",
-              responses={404: _ERROR, 409: _ERROR, 422: _ERROR})
+              responses={404: _ERROR, 409: _ERROR, 422: _ERROR}, openapi_extra=_body_schema(MoveRequest))
     async def move(job_id: str, request: Request) -> Response:
         """Body ``{state: {region, li, lj}, pan, zoom}`` (pan, then zoom, collection units; each at most
         ``max_move`` of the job's result). Answers ``{event, steps, state}``: event ``moved``, ``jumped``
@@ -410,7 +429,7 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
         return await answer(job_id, request, MoveRequest, _move)
 
     @app.post(f"/api/{KIND}/{{job_id}}/pair", summary="The stereo pair of a state, in a display format",
-              responses={404: _ERROR, 409: _ERROR, 422: _ERROR})
+              responses={404: _ERROR, 409: _ERROR, 422: _ERROR}, openapi_extra=_body_schema(PairRequest))
     async def pair(job_id: str, request: Request) -> Response:
         """Body ``{state, format, width}``. Answers ``{state, format, width, height, images: {packed,
         left, right}, swapped, quality, cached, seconds}``: the images' URLs (PNG), the disparity
