@@ -257,7 +257,8 @@ def _coarse_candidates(space, current, p, unit, cos_max, baseline) -> list[_Cand
     regions = np.array([r for r in space.regions if r != tuple(current)], dtype=np.int64).reshape(-1, 2)
     grid = np.linspace(0.0, 1.0, JUMP_SAMPLES)
     seg = space.segments
-    s0, u = np.ascontiguousarray(seg[:, 0], dtype=np.float64), np.ascontiguousarray(seg[:, 1] - seg[:, 0], dtype=np.float64)
+    s0 = np.ascontiguousarray(seg[:, 0], dtype=np.float64)
+    u = np.ascontiguousarray(seg[:, 1] - seg[:, 0], dtype=np.float64)
     n = len(regions)
     found, agrees = np.zeros(n, np.bool_), np.zeros(n, np.bool_)
     best_k, best_dist = np.zeros(n, np.int64), np.zeros(n, np.float64)
@@ -266,8 +267,9 @@ def _coarse_candidates(space, current, p, unit, cos_max, baseline) -> list[_Cand
                       np.ascontiguousarray(baseline, dtype=np.float64), float(space.tolerance),
                       found, best_k, best_dist, agrees)  # fmt: skip
     g = len(grid)
-    return [_Candidate((int(regions[r, 0]), int(regions[r, 1])), np.array([grid[best_k[r] // g], grid[best_k[r] % g]]),
-                       float(best_dist[r]), bool(agrees[r])) for r in np.flatnonzero(found)]  # fmt: skip
+    return [_Candidate((int(regions[r, 0]), int(regions[r, 1])),
+                       np.array([grid[best_k[r] // g], grid[best_k[r] % g]]), float(best_dist[r]), bool(agrees[r]))
+            for r in np.flatnonzero(found)]  # fmt: skip
 
 
 def _closest_in_cone(space, region, p, unit, cos_max, baseline, *, refinements: int) -> _Candidate | None:
