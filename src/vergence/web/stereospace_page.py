@@ -17,13 +17,14 @@
   :func:`vergence.display.pack`), written as PNG into the job's folder under names the server makes;
   ``GET /api/stereospace/{job_id}/views/{name}`` serves them (a name it did not make is 404).
 
-Speed (the shared two-core machine, load average about 3 from other work; ``POST`` through FastAPI's
-test client, medians of 12 nearby states): dino (48 views of 640 x 480, 6,487 triangulated points)
-prepares in 3.5-4.5 s (triangulation about 1.5-3 s). A pair at the page's working width of 320 px:
-43 ms of :func:`~vergence.stereospace.stereo_pair` with ``grid_step`` 16 (the page's "fast", 65 ms
-the whole request: packed PNG 12 ms, disparity range, map data), 91 ms with S2's grid 8 (140 ms the
-request); at 640 px 75 ms (16) and 185 ms (8). kermit (9 cameras): 44 ms at 320 px, grid 8. A move
-inside a region is 3-5 ms; one that jumps searches every region (dino: 4,371) and takes 0.3-1 s.
+Speed (the shared two-core machine at load average 3-4 from other work, so ranges over three runs;
+``POST`` through FastAPI's test client, medians of 12 nearby states): dino (48 views of 640 x 480,
+6,487 triangulated points) prepares in 3.5-6 s (the triangulation is most of it). A pair at the
+page's working width of 320 px: :func:`~vergence.stereospace.stereo_pair` 21-44 ms with
+``grid_step`` 16 (the page's "fast"; 41-68 ms the whole request with the packed PNG, the disparity
+range and the map data), 25-91 ms with S2's grid 8 (43-140 ms the request); at 640 px 35-83 ms
+(16) and 66-185 ms (8). kermit (9 cameras), grid 8, 320 px: 15-44 ms. A move inside a region
+takes 3-9 ms; one that jumps searches every region's tessellation (dino: 4,371 regions) in 76-141 ms.
 The last :data:`PAIR_CACHE` pairs of a job are kept, so a change of format re-packs without
 rendering again, and the left and right PNGs (for Enter VR) are written only when asked.
 """
