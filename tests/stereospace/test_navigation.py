@@ -219,3 +219,32 @@ def test_moves_stay_in_the_space(seg, li, lj, v):
         zoomed = space.zoom(state, v)
         if v > 0 and zoomed.event == "moved":  # s_w is convex in (li, lj): a step up the gradient rises
             assert _sw(space, zoomed.state) >= _sw(space, state) - 1e-12
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_coarse_search_matches_the_per_region_loop_on_larger_spaces(seed):
+    """The Numba kernel against its slow twin (``_closest_in_cone`` without refinement, region by
+    region) on random spaces of 9 segments (45 regions, triangles included), random cones and moves."""
+    from vergence.stereospace.navigation import _closest_in_cone, _coarse_candidates
+
+    rng = np.random.default_rng(100 + seed)
+    space = StereoSpace(rng.uniform(-1, 1, (9, 2, 3)))
+    current = (int(rng.integers(0, 4)), int(rng.integers(4, 9)))
+    li, lj = rng.uniform(0, 1, 2)
+    p = space.point(current[0], li, current[1], lj)
+    baseline = np.diff(space._eyes(current, li, lj), axis=0)[0]
+    i, j = sorted(int(k) for k in rng.integers(0, 9, 2))
+    unit = space.point(i, 0.5, j, 0.5) - p + 0.2 * rng.normal(size=4)
+    unit /= np.linalg.norm(unit)  # towards the space, so that some regions lie in the cone
+    cos_max = math.cos(math.radians(float(rng.uniform(30.0, 80.0))))
+    fast = {c.region: c for c in _coarse_candidates(space, current, p, unit, cos_max, baseline)}
+    slow = {}
+    for region in space.regions:
+        found = _closest_in_cone(space, region, p, unit, cos_max, baseline, refinements=0)
+        if region != current and found is not None:
+            slow[region] = found
+    assert len(slow) >= 3 and fast.keys() == slow.keys()
+    for region, c in slow.items():
+        assert fast[region].agrees == c.agrees
+        assert fast[region].distance == pytest.approx(c.distance, abs=1e-12)
+        assert_allclose(fast[region].lam, c.lam)

@@ -228,3 +228,34 @@ def test_coincident_eyes_give_one_unrectified_view(plane):
     assert res.rectification is None and res.point[3] == 0.0
     assert_array_equal(res.left, res.right)
     assert_array_equal(res.rectified[0].R, res.cameras[0].R)
+
+
+def test_a_smaller_width_renders_the_same_extent_on_fewer_pixels(plane):
+    col, prep = plane
+    state = StereoState((0, 0), 0.2, 0.9)
+    full = stereo_pair(prep, state)
+    same = stereo_pair(prep, state, width=W)
+    assert_array_equal(same.left, full.left)
+    half = stereo_pair(prep, state, width=W // 2, layout="sbs")
+    assert half.left.shape == (H // 2, W // 2) and half.packed.shape == (H // 2, W)
+    cam_l, cam_r = half.rectified
+    assert (cam_l.width, cam_l.height) == (W // 2, H // 2)
+    xl, _ = cam_l.project(col.points)
+    xr, _ = cam_r.project(col.points)
+    assert_allclose(xl[:, 1], xr[:, 1], atol=1e-9)  # rows still agree
+    # a point lands where the full-size pixel lands after a 2x resize: u' = (u + 1/2) / 2 - 1/2
+    xf, _ = full.rectified[0].project(col.points)
+    assert_allclose(xl, (xf + 0.5) / 2.0 - 0.5, atol=1e-9)
+    # the slow reference: the full-size view averaged over 2 x 2 blocks (inside, where both are covered)
+    ref = full.left.reshape(H // 2, 2, W // 2, 2).mean(axis=(1, 3))
+    inner = (slice(3, -3), slice(3, -3))
+    covered = (ref[inner] > 0) & (half.left[inner] > 0)
+    assert covered.mean() > 0.5
+    assert np.median(np.abs(ref[inner] - half.left[inner])[covered]) < 0.03
+
+
+@pytest.mark.parametrize("width", [0, W + 1, 2.5, True])
+def test_bad_width_is_refused(plane, width):
+    _, prep = plane
+    with pytest.raises(ValueError, match=r"width must be a whole number of pixels in \[1, 64\]"):
+        stereo_pair(prep, StereoState((0, 0), 0.2, 0.9), width=width)

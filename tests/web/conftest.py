@@ -22,6 +22,16 @@ SERVER_START_S = 20.0  # the app imports in well under a second; uvicorn binds a
 VIEWPORT = {"width": 1280, "height": 1000}
 
 
+def shared_collections() -> Path | None:
+    """The shared collections folder (kermit, dino) when it exists: ``$VERGENCE_SHARED_DATA/collections``,
+    else ``<repository>/../shared/data/collections`` (the rule of
+    :func:`vergence.report.demo_stereospace.dino_folder`); None without it."""
+    from vergence.report.demo_stereospace import dino_folder
+
+    folder = dino_folder().parent
+    return folder if folder.is_dir() else None
+
+
 def _free_port() -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
@@ -30,7 +40,8 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="session")
 def server_url() -> Iterator[str]:
-    """Base URL of ``vergence.web.create_app()`` served by uvicorn in a thread of this worker."""
+    """Base URL of ``vergence.web.create_app()`` served by uvicorn in a thread of this worker, with the
+    shared collections folder as its data folder when it exists (:func:`shared_collections`)."""
     try:
         from vergence.web import create_app
     except ImportError as exc:
@@ -39,7 +50,8 @@ def server_url() -> Iterator[str]:
     import uvicorn
 
     port = _free_port()
-    config = uvicorn.Config(create_app(), host="127.0.0.1", port=port, log_level="warning", lifespan="off")
+    folder = shared_collections()
+    config = uvicorn.Config(create_app([folder] if folder else []), host="127.0.0.1", port=port, log_level="warning", lifespan="off")
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, name=f"uvicorn-{port}", daemon=True)
     thread.start()

@@ -179,15 +179,19 @@ def test_invalid_input_shows_the_api_error(workbench, server_url):
     assert error.is_hidden()
 
 
-def test_pages_not_landed_say_so(workbench):
+def test_every_page_is_live(workbench):
+    """Every system has landed: each link opens its page (its markup loaded, no placeholder)."""
     from playwright.sync_api import expect  # waits for the page to switch (a bare is_visible() raced it)
 
     page = workbench
-    for link, section in [("stereospace", "#page-stereospace")]:
+    for link in ("stereo", "stereospace", "rigs", "specular"):
         page.click(f'[data-page-link="{link}"]')
-        expect(page.locator(section)).to_be_visible()
-        assert "coming as the systems land" in page.locator(section).inner_text().lower()
+        section = page.locator(f"#page-{link}")
+        expect(section).to_be_visible()
+        expect(section).not_to_have_class("page placeholder")
+        assert "coming as the systems land" not in section.inner_text().lower()
         expect(page.locator("#page-budget")).to_be_hidden()
+    assert page.locator("nav a.soon").count() == 0
     page.click('[data-page-link="budget"]')
     expect(page.locator("#page-budget")).to_be_visible()
 

@@ -272,6 +272,19 @@ def _fit(cam: Camera, width: int, height: int) -> Camera:
     return Camera(K=K, R=cam.R, t=cam.t, width=width, height=height)
 
 
+def _resized(cam: Camera, width: int) -> Camera:
+    """``cam`` imaging the same extent on ``width`` x ``round(height * width / W)`` pixels.
+
+    Pixel centres sit at integer coordinates, so a pixel ``u`` of the old image is ``s (u + 1/2) - 1/2``
+    in the new one (``s`` the scale of its axis): ``K' = [[sx, 0, (sx - 1)/2], [0, sy, (sy - 1)/2],
+    [0, 0, 1]] K`` -- what resizing the image does.
+    """
+    height = max(1, round(cam.height * width / cam.width))
+    sx, sy = width / cam.width, height / cam.height
+    scale = np.array([[sx, 0.0, (sx - 1.0) / 2.0], [0.0, sy, (sy - 1.0) / 2.0], [0.0, 0.0, 1.0]])
+    return Camera(K=scale @ cam.K, R=cam.R, t=cam.t, width=width, height=height)
+
+
 def _rectified_cameras(first: Camera, second: Camera, tolerance: float):
     """(left, right) rectified cameras of the image size, the Rectification and whether swapped."""
     baseline = second.center - first.center
@@ -298,6 +311,7 @@ def stereo_pair(
     *,
     layout: str | None = None,
     method: str | ViewMethod = "mls",
+    width: int | None = None,
 ) -> StereoPairResult:
     """The stereo pair of a state: two novel views rectified together, optionally packed.
 
@@ -312,12 +326,19 @@ def stereo_pair(
         A key of :data:`vergence.display.LAYOUTS` for ``packed``.
     method : str or callable
         ``"mls"`` (S2 §3.1, :func:`~vergence.stereospace.s2_view`) or ``method(prepared, camera)``.
+    width : int, optional
+        Width of the views in pixels, at most the collection's image width (default: that width);
+        the height follows the aspect ratio. The rectified cameras image the same extent on fewer
+        pixels (their intrinsics scaled as a resize scales them), so a smaller working width costs
+        proportionally less (the MLS grid keeps its spacing in pixels: fewer nodes too), e.g. for
+        interactive browsing (the workbench's StereoSpace page).
 
     Raises
     ------
     ValueError
         A region that does not exist, parameters outside [0, 1], an unknown layout or method, a
-        pair that cannot be rectified (baseline along the viewing direction).
+        width that is not a whole number in [1, image width], a pair that cannot be rectified
+        (baseline along the viewing direction).
     """
     if layout is not None and (not isinstance(layout, str) or layout not in LAYOUTS):
         raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}; got {layout!r}")
@@ -329,6 +350,12 @@ def stereo_pair(
     space = prepared.space
     first, second = pair_cameras(space, prepared.collection, state, segment_cameras=prepared.segment_cameras)
     (cam_l, cam_r), rect, swapped = _rectified_cameras(first, second, space.tolerance)
+    if width is not None:
+        full = cam_l.width
+        if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or not 1 <= width <= full:
+            raise ValueError(f"width must be a whole number of pixels in [1, {full}] (the image width); got {width!r}")
+        if width != full:
+            cam_l, cam_r = _resized(cam_l, int(width)), _resized(cam_r, int(width))
     left = np.asarray(render(prepared, cam_l), dtype=np.float32)  # type: ignore[arg-type]
     right = left if rect is None else np.asarray(render(prepared, cam_r), dtype=np.float32)  # type: ignore[arg-type]
     for name, view in (("left", left), ("right", right)):

@@ -27,6 +27,10 @@ the OpenAPI schema at ``/openapi.json`` (and ``/docs``):
   or cancelled). ``GET /api/jobs/{id}/events``: server-sent events, ``progress`` at each change then
   one ``end``. ``DELETE /api/jobs/{id}``: cancel (202; 409 once finished). ``GET
   /api/jobs/{id}/files/{name}``: a file the job lists (409 until done). See :mod:`vergence.web.jobs`.
+- ``POST /api/jobs/stereospace`` (a collection id of ``/api/data``), then on the done job
+  ``POST /api/stereospace/{id}/move`` ``{state, pan, zoom}`` (S2 §4.1: moved, jumped or stopped),
+  ``POST /api/stereospace/{id}/pair`` ``{state, format, width}`` (the pair's PNG URLs) and
+  ``GET /api/stereospace/{id}/views/{name}``: page 3, :mod:`vergence.web.stereospace_page`.
 
 Every refusal is ``{"error": "<one line>"}``: 422 bad parameter, 404 unknown id or endpoint, 405
 wrong method, 409 a job in the wrong state, 413 a JSON body over :data:`MAX_JSON_BODY` bytes or an

@@ -49,7 +49,8 @@ STATIC_DIR = Path(__file__).parent / "static"
 
 # The modules of the pages' own work: each has KINDS (job kinds by name) and may have
 # add_routes(app, jobs) for the page's follow-up requests on a done job (``JobManager.live``).
-_PAGE_MODULES = ("vergence.web.job_kinds", "vergence.web.stereo_page", "vergence.web.rigs_page")
+_PAGE_MODULES = ("vergence.web.job_kinds", "vergence.web.stereo_page", "vergence.web.rigs_page",
+                 "vergence.web.stereospace_page")
 
 
 # The library packages the requests use, imported when the app is made: two first requests at once

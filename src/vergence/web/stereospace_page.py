@@ -1,0 +1,455 @@
+"""Page 3 of the workbench, the StereoSpace browser (S2): the ``stereospace`` job and its follow-ups.
+
+- ``POST /api/jobs/stereospace`` ``{collection, grid_step, display}``: a collection of ``GET /api/data``
+  (by id) read by :func:`vergence.stereospace.load_collection` (sparse points matched and triangulated
+  when the camera file has none), made ready for fast pairs by
+  :class:`vergence.stereospace.PreparedCollection` (camera graph, StereoSpace, decoded images), and a
+  start state chosen by :func:`vergence.report.demo_stereospace.start_state` (three consecutive cameras
+  of a capture path, smallest disparity range on ``display``). Its files: ``map.json``, the navigation
+  map's data (S2 §4.3.1, Fig. 11: the top view of :func:`vergence.stereospace.map_frame` with the
+  cameras, graph segments, capture paths and sparse points); its result: the start state as the page
+  draws it. The prepared collection stays in memory (``live``) for the follow-ups.
+- ``POST /api/stereospace/{job_id}/move`` ``{state, pan, zoom}``: S2 §4.1's navigation,
+  :func:`vergence.stereospace.pan` then :func:`vergence.stereospace.zoom` (collection units), jumping
+  at a region's border to the closest point of another region in the cone, or stopping there.
+- ``POST /api/stereospace/{job_id}/pair`` ``{state, format, width}``: the stereo pair of the state
+  (:func:`vergence.stereospace.stereo_pair` at that working width, packed by
+  :func:`vergence.display.pack`), written as PNG into the job's folder under names the server makes;
+  ``GET /api/stereospace/{job_id}/views/{name}`` serves them (a name it did not make is 404).
+
+Speed (the shared two-core machine at load average 3-4 from other work, so ranges over three runs;
+``POST`` through FastAPI's test client, medians of 12 nearby states): dino (48 views of 640 x 480,
+6,487 triangulated points) prepares in 3.5-6 s (the triangulation is most of it). A pair at the
+page's working width of 320 px: :func:`~vergence.stereospace.stereo_pair` 21-44 ms with
+``grid_step`` 16 (the page's "fast"; 41-68 ms the whole request with the packed PNG, the disparity
+range and the map data), 25-91 ms with S2's grid 8 (43-140 ms the request); at 640 px 35-83 ms
+(16) and 66-185 ms (8). kermit (9 cameras), grid 8, 320 px: 15-44 ms. A move inside a region
+takes 3-9 ms; one that jumps searches every region's tessellation (dino: 4,371 regions) in 76-141 ms.
+The last :data:`PAIR_CACHE` pairs of a job are kept, so a change of format re-packs without
+rendering again, and the left and right PNGs (for Enter VR) are written only when asked.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pydantic
+from fastapi import FastAPI, Request
+from fastapi.responses import FileResponse, JSONResponse, Response
+from starlette.concurrency import run_in_threadpool
+
+from vergence.web._errors import refusal, validation_message
+from vergence.web.jobs import JobContext, JobKind, JobManager, JobRefused, JobResult, Prepared
+
+__all__ = ["DEFAULT_PAIR_WIDTH", "KIND", "KINDS", "MAX_MAP_POINTS", "MAX_MOVE_EXTENTS", "MAX_PAIR_FILES",
+           "MAX_PAIR_WIDTH", "MIN_PAIR_WIDTH", "PAIR_CACHE", "MoveRequest", "PairRequest", "StateModel",
+           "StereoSpaceJob", "add_routes"]
+
+KIND = "stereospace"
+
+#: Working width of a pair by default, pixels: half of a 640-wide collection, about 15 ms a pair.
+DEFAULT_PAIR_WIDTH = 320
+#: Narrowest and widest pair a request may ask (never wider than the collection's images either).
+MIN_PAIR_WIDTH = 32
+MAX_PAIR_WIDTH = 4096
+#: Pairs of a job kept in memory (a change of format re-packs one without rendering it again).
+PAIR_CACHE = 4
+#: PNG files of a job's pairs kept on disk; the oldest are deleted beyond it.
+MAX_PAIR_FILES = 96
+#: Sparse points sent with the map at most (a fixed random subset beyond): the impostor of the scene.
+MAX_MAP_POINTS = 2000
+#: Largest |pan| or |zoom| of one move, in extents of the collection (the diagonal of its cameras'
+#: bounding box): a bigger step is no browsing move (and would only jump or stop).
+MAX_MOVE_EXTENTS = 1.0
+# Pan and zoom steps the page offers, as fractions of the start's interocular distance.
+_PAN_STEP, _ZOOM_STEP = 0.25, 0.25
+# The map frames the cameras and the central points (as vergence.report.stereospace_map does).
+_POINT_PERCENTILES = (2.0, 98.0)
+
+
+class StereoSpaceJob(pydantic.BaseModel):
+    """Parameters of a ``stereospace`` job."""
+
+    model_config = pydantic.ConfigDict(extra="forbid")
+
+    collection: str = pydantic.Field(description="A collection id of GET /api/data (a camera file and its images).")
+    grid_step: int = pydantic.Field(8, ge=2, le=64, description="Grid spacing of the MLS maps of the pair's views, "
+                                    "pixels (S2: 8; 16 is about 4 times cheaper on dense points).")
+    display: str = pydantic.Field("desktop-24", description="A display preset of GET /api/displays (with a "
+                                  "resolution): the start state and the pairs' disparity range are judged on it.")
+
+
+class StateModel(pydantic.BaseModel):
+    """A state of the StereoSpace: segments ``region = [i, j]`` and the eyes' parameters on them."""
+
+    model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    region: tuple[int, int] = pydantic.Field(description="Segments [i, j] of the first and second eye, i <= j.")
+    li: float = pydantic.Field(ge=0.0, le=1.0, description="First eye's parameter on segment i.")
+    lj: float = pydantic.Field(ge=0.0, le=1.0, description="Second eye's parameter on segment j (li <= lj if i == j).")
+
+
+class MoveRequest(pydantic.BaseModel):
+    """A move of S2 §4.1 from a state: the pan, then the zoom."""
+
+    model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    state: StateModel
+    pan: float = pydantic.Field(0.0, description="Move the view position by this (collection units) at constant "
+                                "interocular distance; positive from the first eye towards the second.")
+    zoom: float = pydantic.Field(0.0, description="Change the interocular distance by this (collection units).")
+
+
+class PairRequest(pydantic.BaseModel):
+    """The stereo pair of a state in a display format."""
+
+    model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    state: StateModel
+    format: str = pydantic.Field("anaglyph", description="A layout of vergence.display (anaglyph, sbs, tb, ...).")
+    width: int = pydantic.Field(DEFAULT_PAIR_WIDTH, ge=MIN_PAIR_WIDTH, le=MAX_PAIR_WIDTH,
+                                description="Working width of each view, pixels (at most the images' width).")
+
+
+@dataclass(eq=False)
+class _Live:
+    """What a done job keeps for its follow-ups: the prepared collection, the map frame, the pairs."""
+
+    prepared: Any  # PreparedCollection
+    frame: np.ndarray
+    display: Any  # Display
+    folder: Path
+    extent: float
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    pairs: OrderedDict = field(default_factory=OrderedDict)  # (region, li, lj, width) -> StereoPairResult
+    files: OrderedDict = field(default_factory=OrderedDict)  # name -> (path, pair key, role), oldest first
+
+    def to_map(self, points: object) -> np.ndarray:
+        """Map coordinates of world points: :meth:`vergence.stereospace.BuiltSpace.to_map`'s frame."""
+        return (np.asarray(points, dtype=np.float64) - self.prepared.centers.mean(axis=0)) @ self.frame[:2].T
+
+
+def _xy(p: np.ndarray) -> list[float]:
+    return [float(p[0]), float(p[1])]
+
+
+def _state(state: Any) -> dict[str, Any]:
+    return {"region": list(state.region), "li": state.li, "lj": state.lj}
+
+
+def _view(live: _Live, state: Any) -> dict[str, Any]:
+    """A state as the page shows it: parameters, stereo point, and on the map the eyes and the region."""
+    from vergence.stereospace import pair_cameras
+
+    prepared = live.prepared
+    space, cams, names = prepared.space, prepared.segment_cameras, prepared.collection.names
+    i, j = state.region
+    eyes = space.eyes(state)
+    first, second = pair_cameras(space, prepared.collection, state, segment_cameras=cams)
+    # the left eye: the smaller x in the first eye's camera frame (vergence.stereospace.pair's decision)
+    swapped = bool((second.center - first.center) @ first.R[0] < 0.0)
+    left, right = live.to_map(eyes[::-1] if swapped else eyes)
+    point = space.point(i, state.li, j, state.lj)
+    corners = [(0, 0), (1, 0), (1, 1), (0, 1)] if i != j else [(0, 0), (0, 1), (1, 1)]
+    seg = space.segments
+    outline = live.to_map(np.array([(seg[i, a] + seg[j, b]) / 2.0 for a, b in corners]))
+    return {**_state(state), "stereo_point": [float(v) for v in point], "interocular": float(point[3]),
+            "swapped": swapped, "eyes": {"left": _xy(left), "right": _xy(right)},
+            "stereo_camera": _xy((left + right) / 2.0), "region_outline": [_xy(p) for p in outline],
+            "segments": [[names[cams[s, 0]], names[cams[s, 1]]] for s in (i, j)]}  # fmt: skip
+
+
+def _map(live: _Live, paths: list[list[int]]) -> dict[str, Any]:
+    """The navigation map's data (S2 Fig. 11) in the top view's coordinates."""
+    col = live.prepared.collection
+    centers = live.to_map(col.centers)
+    axes = live.to_map(col.centers + np.array([c.R[2] for c in col.cameras])) - centers
+    norms = np.linalg.norm(axes, axis=1, keepdims=True)
+    axes = np.divide(axes, norms, out=np.zeros_like(axes), where=norms > 0)
+    pts = col.points
+    if len(pts) > MAX_MAP_POINTS:
+        pts = pts[np.sort(np.random.default_rng(0).choice(len(pts), MAX_MAP_POINTS, replace=False))]
+    low, high = centers.min(axis=0), centers.max(axis=0)
+    p2 = live.to_map(pts) if len(pts) else np.zeros((0, 2))
+    if len(p2):
+        low = np.minimum(low, np.percentile(p2, _POINT_PERCENTILES[0], axis=0))
+        high = np.maximum(high, np.percentile(p2, _POINT_PERCENTILES[1], axis=0))
+    return {"cameras": [{"name": n, "x": float(c[0]), "y": float(c[1]), "dx": float(a[0]), "dy": float(a[1])}
+                        for n, c, a in zip(col.names, centers, axes)],
+            "segments": live.prepared.segment_cameras.tolist(), "paths": paths,
+            "points": [[round(float(x), 6), round(float(y), 6)] for x, y in p2],
+            "bounds": [float(low[0]), float(low[1]), float(high[0]), float(high[1])]}  # fmt: skip
+
+
+def _images_folder(path: Path) -> Path:
+    """The images of a collection: the camera file's folder (COLMAP's ``sparse/0/`` looks two up for ``images/``)."""
+    if path.name.lower() == "cameras.txt" and len(path.parents) > 2 and (path.parents[2] / "images").is_dir():
+        return path.parents[2] / "images"
+    return path.parent
+
+
+def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
+    from vergence.viewing import Display
+
+    if not isinstance(params, StereoSpaceJob):
+        raise TypeError(f"params must be a StereoSpaceJob; got {type(params).__name__}")
+    entry = env.data.get(params.collection)
+    if entry.kind != "collection":
+        raise ValueError(f"collection: {params.collection!r} is a {entry.kind}, not a collection; "
+                         "GET /api/data lists the collections")  # fmt: skip
+    try:
+        display = Display.preset(params.display)
+    except ValueError as exc:
+        raise ValueError(f"display: {exc}") from None
+    if display.resolution is None:
+        raise ValueError(f"display: preset {params.display!r} has no resolution")
+    cameras_path = entry.path
+    images = _images_folder(cameras_path)
+    inputs = (entry.id, hashlib.sha256(cameras_path.read_bytes()).hexdigest())
+
+    def run(ctx: JobContext) -> JobResult:
+        from vergence.report.demo_stereospace import start_state
+        from vergence.stereospace import PreparedCollection, StereoState, capture_paths, load_collection, map_frame
+
+        t0 = time.perf_counter()
+        ctx.progress(0.0, f"reading {entry.name}")
+        collection = load_collection(cameras_path, images=images,
+                                     progress=lambda f, m: ctx.progress(0.6 * float(f), m))  # fmt: skip
+        ctx.progress(0.6, f"decoding {len(collection)} images, projecting {collection.point_count} points")
+        prepared = PreparedCollection(collection, grid_step=params.grid_step)
+        ctx.progress(0.9, "choosing the start state")
+        note = ""
+        try:
+            start, _, _ = start_state(prepared, display)
+        except ValueError as exc:  # no three consecutive cameras see a point: the first segment's two cameras
+            start = StereoState(prepared.space.regions[0], 0.0, 1.0)
+            note = f"start: {exc}; the first segment's two cameras are the start"
+        extent = float(np.linalg.norm(np.ptp(collection.centers, axis=0))) or 1.0
+        live = _Live(prepared, map_frame(collection), display, ctx.folder / "views", extent)
+        live.folder.mkdir()
+        paths = [[int(k) for k in p] for p in capture_paths(prepared.graph)]
+        (ctx.folder / "map.json").write_text(json.dumps(_map(live, paths)))
+        view = _view(live, start)
+        first = collection.cameras[0]
+        summary = {"collection": params.collection, "name": entry.name, "cameras": len(collection),
+                   "points": collection.point_count, "points_source": collection.points_source,
+                   "segments": len(prepared.space.segments), "regions": len(prepared.space.regions),
+                   "paths": len(paths), "image_width": first.width, "image_height": first.height,
+                   "grid_step": params.grid_step, "display": params.display, "start": view,
+                   "pan_step": _PAN_STEP * view["interocular"] or 0.01 * extent,
+                   "zoom_step": _ZOOM_STEP * view["interocular"] or 0.01 * extent,
+                   "max_move": MAX_MOVE_EXTENTS * extent, "formats": _formats(),
+                   "default_width": min(DEFAULT_PAIR_WIDTH, first.width), "min_width": MIN_PAIR_WIDTH,
+                   "warnings": list(collection.warnings) + ([note] if note else []),
+                   "seconds": time.perf_counter() - t0}  # fmt: skip
+        return JobResult(summary, ("map.json",), live=live)
+
+    return Prepared(inputs, run)
+
+
+def _formats() -> list[str]:
+    from vergence.display import LAYOUTS
+
+    return list(LAYOUTS)
+
+
+#: The kinds of this module (``POST /api/jobs/stereospace``).
+KINDS = {KIND: JobKind(KIND, "Prepare a photo collection for stereo browsing (S2, vergence.stereospace): camera "
+                       "graph, StereoSpace, decoded images, start state and the navigation map.",
+                       StereoSpaceJob, _prepare)}
+
+_ERROR = {"content": {"application/json": {"example": {"error": "one line"}}}}
+
+
+class _Refused(Exception):
+    def __init__(self, status: int, message: str) -> None:
+        super().__init__(message)
+        self.status, self.message = status, message
+
+
+def _checked_state(live: _Live, model: StateModel) -> Any:
+    from vergence.stereospace import StereoState
+
+    try:
+        return live.prepared.space.check_state(StereoState(tuple(model.region), model.li, model.lj))
+    except (ValueError, TypeError) as exc:
+        raise _Refused(422, f"state: {exc}") from None
+
+
+def _move(live: _Live, body: MoveRequest) -> dict[str, Any]:
+    from vergence.stereospace import pan, zoom
+
+    for name in ("pan", "zoom"):
+        v = getattr(body, name)
+        if abs(v) > MAX_MOVE_EXTENTS * live.extent:
+            raise _Refused(422, f"{name} must be at most {MAX_MOVE_EXTENTS * live.extent:.4g} in size (the "
+                                f"collection's extent, collection units); got {v:g}")  # fmt: skip
+    state = _checked_state(live, body.state)
+    steps = []
+    for name, fn in (("pan", pan), ("zoom", zoom)):
+        v = getattr(body, name)
+        if v == 0.0:
+            continue
+        moved = fn(live.prepared.space, state, v)
+        steps.append({"action": name, "by": v, "event": moved.event, "from": _state(state), "to": _state(moved.state)})
+        state = moved.state
+    events = {s["event"] for s in steps}
+    event = "jumped" if "jumped" in events else "stopped" if "stopped" in events else "moved"
+    return {"event": event, "steps": steps, "state": _view(live, state)}
+
+
+def _pair(live: _Live, job_id: str, body: PairRequest) -> dict[str, Any]:
+    from vergence.display import LAYOUTS
+    from vergence.stereospace import pair_quality
+
+    if body.format not in LAYOUTS:
+        raise _Refused(422, f"format must be one of {', '.join(LAYOUTS)}; got {body.format!r}")
+    full = live.prepared.collection.cameras[0].width
+    if body.width > full:
+        raise _Refused(422, f"width must be at most {full} (the collection's image width); got {body.width}")
+    state = _checked_state(live, body.state)
+    key = (state.region, state.li, state.lj, body.width)
+    t0 = time.perf_counter()
+    with live.lock:
+        cached = key in live.pairs
+        result = _result(live, key)
+        t1 = time.perf_counter()
+        stem = hashlib.sha256(json.dumps([list(state.region), state.li, state.lj, body.width]).encode())
+        stem = stem.hexdigest()[:16]
+        images = {}
+        # the packed image now (the page shows it at once); each view when it is first asked (Enter VR)
+        for role in ("packed", "left", "right"):
+            name = f"{stem}-{body.format if role == 'packed' else role}.png"
+            if name not in live.files:
+                live.files[name] = (live.folder / name, key, body.format if role == "packed" else role)
+                while len(live.files) > MAX_PAIR_FILES:
+                    _, (old, _, _) = live.files.popitem(last=False)
+                    old.unlink(missing_ok=True)
+            live.files.move_to_end(name)
+            if role == "packed":
+                _write(live, name)
+            images[role] = f"/api/stereospace/{job_id}/views/{name}"
+        t2 = time.perf_counter()
+    quality = None
+    if result.rectification is not None:
+        q = pair_quality(live.prepared.collection, result.cameras, live.display, trim=0.01)
+        quality = {k: q[k] for k in ("points_seen", "disparity_arcmin", "range_arcmin", "zone_arcmin", "inside",
+                                     "fits_with_shift")}  # fmt: skip
+    height, width = result.left.shape[:2]
+    return {"state": _view(live, state), "format": body.format, "width": int(width), "height": int(height),
+            "images": images, "swapped": result.swapped, "quality": quality, "cached": cached,
+            "seconds": {"pair": t1 - t0, "files": t2 - t1}}  # fmt: skip
+
+
+def _result(live: _Live, key: tuple) -> Any:
+    """The pair of ``key`` (region, li, lj, width) from the cache, else made (call under ``live.lock``)."""
+    from vergence.stereospace import StereoState, stereo_pair
+
+    result = live.pairs.get(key)
+    if result is None:
+        try:
+            result = stereo_pair(live.prepared, StereoState(*key[:3]), width=key[3])
+        except ValueError as exc:
+            raise _Refused(422, f"this pair cannot be shown: {exc}") from None
+        live.pairs[key] = result
+        while len(live.pairs) > PAIR_CACHE:
+            live.pairs.popitem(last=False)
+    live.pairs.move_to_end(key)
+    return result
+
+
+def _write(live: _Live, name: str) -> Path:
+    """The PNG of a registered name, written if it is not yet (call under ``live.lock``)."""
+    from vergence.display import pack
+    from vergence.io import write_image
+
+    path, key, role = live.files[name]
+    if not path.is_file():
+        result = _result(live, key)
+        image = getattr(result, role) if role in ("left", "right") else pack(result.left, result.right, layout=role)
+        write_image(path, np.clip(image, 0.0, 1.0))
+    return path
+
+
+def _body_schema(model: type[pydantic.BaseModel]) -> dict[str, Any]:
+    """The OpenAPI request body of a route that validates ``model`` itself: its JSON schema with the
+    nested models inlined (their ``$defs`` refs would not resolve inside the OpenAPI document)."""
+    schema = model.model_json_schema()
+    defs = schema.pop("$defs", {})
+
+    def inline(node: Any) -> Any:
+        if isinstance(node, dict):
+            ref = node.get("$ref", "")
+            if ref.startswith("#/$defs/"):
+                return inline(defs[ref.removeprefix("#/$defs/")])
+            return {k: inline(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [inline(v) for v in node]
+        return node
+
+    return {"requestBody": {"required": True, "content": {"application/json": {"schema": inline(schema)}}}}
+
+
+def add_routes(app: FastAPI, jobs: JobManager) -> None:
+    """``POST /api/stereospace/{job_id}/move`` and ``/pair``, ``GET /api/stereospace/{job_id}/views/{name}``."""
+
+    def live_of(job_id: str) -> _Live:
+        try:
+            return jobs.live(job_id, KIND)
+        except KeyError as exc:
+            raise _Refused(404, str(exc.args[0])) from None
+        except JobRefused as exc:
+            raise _Refused(exc.status, exc.message) from None
+
+    async def answer(job_id: str, request: Request, model: type[pydantic.BaseModel], work: Any) -> Response:
+        try:
+            body = model.model_validate_json(await request.body() or b"{}")
+        except pydantic.ValidationError as exc:
+            return refusal(422, validation_message(exc.errors(), list(model.model_fields)))
+        try:
+            live = live_of(job_id)
+            return JSONResponse(await run_in_threadpool(work, live, body))
+        except _Refused as exc:
+            return refusal(exc.status, exc.message)
+
+    @app.post(f"/api/{KIND}/{{job_id}}/move", summary="Pan and zoom through the StereoSpace (S2 §4.1)",
+              responses={404: _ERROR, 409: _ERROR, 422: _ERROR}, openapi_extra=_body_schema(MoveRequest))
+    async def move(job_id: str, request: Request) -> Response:
+        """Body ``{state: {region, li, lj}, pan, zoom}`` (pan, then zoom, collection units; each at most
+        ``max_move`` of the job's result). Answers ``{event, steps, state}``: event ``moved``, ``jumped``
+        (to another region at its border) or ``stopped`` (no region in the cone), and the new state as
+        the page shows it (parameters, stereo point, eyes and region on the map)."""
+        return await answer(job_id, request, MoveRequest, _move)
+
+    @app.post(f"/api/{KIND}/{{job_id}}/pair", summary="The stereo pair of a state, in a display format",
+              responses={404: _ERROR, 409: _ERROR, 422: _ERROR}, openapi_extra=_body_schema(PairRequest))
+    async def pair(job_id: str, request: Request) -> Response:
+        """Body ``{state, format, width}``. Answers ``{state, format, width, height, images: {packed,
+        left, right}, swapped, quality, cached, seconds}``: the images' URLs (PNG), the disparity
+        range on the job's display (None for coincident eyes) and the time taken."""
+        return await answer(job_id, request, PairRequest, lambda live, body: _pair(live, job_id, body))
+
+    @app.get(f"/api/{KIND}/{{job_id}}/views/{{name}}", summary="An image of a pair (a name /pair answered)",
+             response_class=FileResponse, responses={404: _ERROR, 409: _ERROR})
+    def view(job_id: str, name: str) -> Response:  # sync: starlette runs it in its thread pool
+        """Only the names ``/pair`` answered and still kept (the last :data:`MAX_PAIR_FILES`)."""
+        try:
+            live = live_of(job_id)
+        except _Refused as exc:
+            return refusal(exc.status, exc.message)
+        with live.lock:
+            if name not in live.files:
+                return refusal(404, f"job {job_id} has no pair image {name[:40]!r}: ask POST /api/{KIND}/{job_id}/pair")
+            try:
+                path = _write(live, name)
+            except _Refused as exc:
+                return refusal(exc.status, exc.message)
+        return FileResponse(path, media_type="image/png", headers={"Cache-Control": "no-cache"})
