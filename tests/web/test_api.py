@@ -284,7 +284,9 @@ def test_data_lists_collections_and_scenes_by_id(data_tree):
         listed = c.get("/api/data").json()
         collections = {e["name"]: e for e in listed["collections"]}
         assert {n: e["format"] for n, e in collections.items()} == {
+            "tabletop (rendered: 12 views on an arc)": "builtin", "stadium (rendered: 12 views on an arc)": "builtin",
             "bundle/bundle.out": "bundler", "colmap/sparse/cameras.txt": "colmap", "dino/dino_par.txt": "middlebury"}
+        assert [e["id"] for e in listed["collections"][:2]] == ["collection:tabletop", "collection:stadium"]
         scenes = {e["name"]: e for e in listed["scenes"]}
         assert list(scenes)[:3] == ["glasses", "stadium", "tabletop"] and scenes["glasses"]["id"] == "scene:glasses"
         assert set(scenes) == {"glasses", "stadium", "tabletop", "room.json"}

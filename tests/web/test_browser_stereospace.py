@@ -1,5 +1,6 @@
-"""Page 3 of the workbench (issue 13), "StereoSpace browser", in Chromium: prepares the kermit collection
-(Bundler, 9 cameras: the fast one) from the page, checks that the state and the map it shows are the
+"""Page 3 of the workbench (issue 13), "StereoSpace browser", in Chromium: prepares a collection from the
+page (the built-in tabletop one, 12 views ray-traced by the job, which a fresh clone has; and the shared
+kermit collection, Bundler, 9 cameras, when the shared data is there), checks that the state and the map it shows are the
 API's answer, moves with the keyboard (arrow key, +) and checks each new state against
 ``POST /api/stereospace/{job}/move``.
 
@@ -18,18 +19,24 @@ from vergence.report.demo_stereospace import dino_folder
 
 KERMIT = dino_folder().parent / "kermit"  # the rule of the browser tests' server (conftest.shared_collections)
 
-pytestmark = [pytest.mark.browser,
-              pytest.mark.skipif(not KERMIT.is_dir(),
-                                 reason="the shared kermit collection is missing (set VERGENCE_SHARED_DATA to the "
-                                        "folder holding collections/kermit)")]  # fmt: skip
+pytestmark = pytest.mark.browser
 
 JOB_MS = 120_000  # loading and preparing kermit takes well under a second; the first pair compiles nothing
 MOVE_MS = 60_000
 
 
-def _kermit(server_url: str) -> dict:
+# (collection id or name prefix, cameras, screenshot): kermit's is the README's
+COLLECTIONS = [
+    pytest.param(("collection:tabletop", 12, "workbench_stereospace_tabletop.png"), id="builtin-tabletop"),
+    pytest.param(("kermit/", 9, "workbench_stereospace.png"), id="kermit", marks=pytest.mark.skipif(
+        not KERMIT.is_dir(), reason="the shared kermit collection is missing (set VERGENCE_SHARED_DATA to the "
+                                    "folder holding collections/kermit)")),
+]
+
+
+def _collection(server_url: str, wanted: str) -> dict:
     cols = httpx.get(f"{server_url}/api/data", timeout=30).json()["collections"]
-    return next(c for c in cols if c["name"].startswith("kermit/"))
+    return next(c for c in cols if c["id"] == wanted or c["name"].startswith(wanted))
 
 
 def _value(page, testid: str):
@@ -54,10 +61,12 @@ def _wait_ready(page, timeout: int) -> None:
     assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
 
 
-def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_screenshot):
+@pytest.mark.parametrize("case", COLLECTIONS)
+def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_screenshot, case):
     from playwright.sync_api import expect
 
-    kermit = _kermit(server_url)
+    wanted, cameras, screenshot = case
+    kermit = _collection(server_url, wanted)
     page.goto(server_url + "/#stereospace")
     page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
     page.locator('[data-testid="ss-collection"]').select_option(kermit["id"])
@@ -68,7 +77,7 @@ def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_scree
     status = httpx.get(f"{server_url}/api/jobs/{job}", timeout=30).json()
     assert status["kind"] == "stereospace" and status["state"] == "done"
     result = status["result"]
-    assert result["cameras"] == 9 and result["collection"] == kermit["id"]
+    assert result["cameras"] == cameras and result["collection"] == kermit["id"]
     _check_view(page, result["start"])
     # the map: one dot per camera, the current region drawn
     assert page.locator("#ss-map circle.ss-camera").count() == result["cameras"]
@@ -136,4 +145,4 @@ def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_scree
     page.wait_for_function(f"document.getElementById('ss-pair').naturalWidth === {result['default_width']}",
                            timeout=MOVE_MS)
     _wait_ready(page, MOVE_MS)
-    check_screenshot(page, "workbench_stereospace.png")
+    check_screenshot(page, screenshot)

@@ -302,3 +302,24 @@ def test_the_follow_ups_are_documented_in_openapi(bare):
     assert "/api/stereospace/{job_id}/views/{name}" in paths
     kinds = {k["name"]: k for k in bare.get("/api/jobs").json()["kinds"]}
     assert set(kinds["stereospace"]["parameters"]["properties"]) == {"collection", "grid_step", "display"}
+
+
+def test_a_built_in_collection_is_ray_traced_by_the_job(bare):
+    """A fresh clone has no photo collection: the built-in ones are rendered by the job
+    (vergence.stereospace.render_collection), then prepared and browsed as any other."""
+    cols = bare.get("/api/data").json()["collections"]
+    assert [c["id"] for c in cols] == ["collection:tabletop", "collection:stadium"]
+    first = bare.post("/api/jobs/stereospace", json={"collection": "collection:tabletop", "grid_step": 16})
+    assert first.status_code == 202, first.text
+    job = _wait(bare, first.json()["id"])
+    assert job["state"] == "done", job
+    result = job["result"]
+    assert result["cameras"] == 12 and result["points"] > 500 and result["points_source"] == "triangulated"
+    assert (result["image_width"], result["image_height"]) == (320, 240)
+    state = {k: result["start"][k] for k in ("region", "li", "lj")}
+    pair = bare.post(f"/api/stereospace/{job['id']}/pair", json={"state": state, "format": "anaglyph", "width": 160})
+    assert pair.status_code == 200, pair.text
+    moved = bare.post(f"/api/stereospace/{job['id']}/move", json={"state": state, "pan": result["pan_step"]})
+    assert moved.status_code == 200 and moved.json()["event"] in ("moved", "jumped", "stopped")
+    again = bare.post("/api/jobs/stereospace", json={"collection": "collection:tabletop", "grid_step": 16})
+    assert again.status_code == 200 and again.json()["cached"] is True

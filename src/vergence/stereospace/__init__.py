@@ -14,6 +14,8 @@
   navigation through it by zoom and pan with jumps between regions (S2 §4.1).
 - The stereo pair at a state (:func:`stereo_pair`: two novel views rectified together, packed for a
   display) and a quality value of a pair (:func:`pair_quality`: comfort and rectification distortion).
+- A collection ray-traced from a scene (:func:`render_collection`: cameras on an arc, images and a
+  camera file; a fresh clone's collection).
 - A built space (:func:`build_space`: graph, regions, leave-one-out PSNR, a quality per region
   vertex, :func:`vertex_quality`), saved to and loaded from a folder (:func:`save_space`,
   :func:`load_space`), and the frame of its top-view navigation map (:func:`map_frame`, S2 §4.3.1).
@@ -69,6 +71,12 @@ from vergence.stereospace.depths import (
     source_depths,
 )
 from vergence.stereospace.views import NOVEL_VIEW_METHODS, NovelView, leave_one_out, novel_view, plane_view
+from vergence.stereospace.rendered import (
+    COLLECTION_ARC_DEG,
+    COLLECTION_VIEWS,
+    MAX_COLLECTION_VIEWS,
+    render_collection,
+)
 from vergence.stereospace.build import (
     DEFAULT_DISPLAY,
     DISPARITY_TRIM,
@@ -95,6 +103,8 @@ from vergence.stereospace.mls_view import (
 
 __all__ = [
     "BuiltSpace",
+    "COLLECTION_ARC_DEG",
+    "COLLECTION_VIEWS",
     "CONSISTENCY_TOLERANCE",
     "CONSISTENCY_VIEWS",
     "CONSISTENCY_VOTES",
@@ -109,6 +119,7 @@ __all__ = [
     "JUMP_SAMPLES",
     "MATCH_NEIGHBOURS",
     "MAX_AXIS_ANGLE_DEG",
+    "MAX_COLLECTION_VIEWS",
     "MAX_REPROJECTION_ERROR_PX",
     "MIN_SHARED_POINTS",
     "MLS_MIN_HANDLES",
@@ -156,6 +167,7 @@ __all__ = [
     "pan",
     "plane_view",
     "project_distorted",
+    "render_collection",
     "s2_view",
     "save_space",
     "source_depth",

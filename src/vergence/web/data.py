@@ -14,12 +14,20 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MAX_DATA_DEPTH", "MAX_DATA_FILES", "DataEntry", "DataIndex", "check_data_dirs"]
+__all__ = ["BUILTIN_COLLECTIONS", "MAX_DATA_DEPTH", "MAX_DATA_FILES", "DataEntry", "DataIndex", "check_data_dirs"]
 
 # Folder levels below a data folder that are searched (a collection's cameras sit at most in
 # dataset/sparse/0/); and files looked at in all, so that a huge folder cannot stall a request.
 MAX_DATA_DEPTH = 4
 MAX_DATA_FILES = 20_000
+
+# The built-in collections: ray-traced from these built-in scenes when a job opens them
+# (vergence.stereospace.render_collection), so that a fresh clone has a collection to browse. Not
+# glasses: its mirror and glass would be warped as if they were diffuse surfaces (S2's views are).
+BUILTIN_COLLECTIONS = ("tabletop", "stadium")
+
+# Views of a built-in collection (vergence.stereospace.COLLECTION_VIEWS, without importing the library here).
+COLLECTION_VIEWS = 12
 
 # Bytes read to tell a camera file from a scene file.
 _SNIFF_BYTES = 4096
@@ -141,10 +149,13 @@ class DataIndex:
         self.roots = check_data_dirs(data_dirs)
 
     def entries(self) -> list[DataEntry]:
-        """Every entry: the built-in scenes first, then what the data folders hold, sorted by name."""
+        """Every entry: the built-in scenes and collections first, then what the data folders hold,
+        sorted by name."""
         from vergence.render.builtin import BUILTIN_SCENES
 
         found = [DataEntry(f"scene:{n}", "scene", n, "builtin", None) for n in BUILTIN_SCENES]
+        found += [DataEntry(f"collection:{n}", "collection", f"{n} (rendered: {COLLECTION_VIEWS} views on an arc)",
+                            "builtin", None) for n in BUILTIN_COLLECTIONS]
         for root in self.roots:
             found += sorted(self._search(root), key=lambda e: (e.kind, e.name))
         return found

@@ -211,18 +211,30 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
         raise ValueError(f"display: {exc}") from None
     if display.resolution is None:
         raise ValueError(f"display: preset {params.display!r} has no resolution")
-    cameras_path = entry.path
-    images = _images_folder(cameras_path)
-    inputs = (entry.id, hashlib.sha256(cameras_path.read_bytes()).hexdigest())
+    if entry.path is None:  # a built-in collection: ray-traced by the job (the same for every run)
+        inputs: tuple[str, ...] = (entry.id,)
+    else:
+        inputs = (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
 
     def run(ctx: JobContext) -> JobResult:
         from vergence.report.demo_stereospace import start_state
         from vergence.stereospace import PreparedCollection, StereoState, capture_paths, load_collection, map_frame
 
         t0 = time.perf_counter()
-        ctx.progress(0.0, f"reading {entry.name}")
+        if entry.path is None:
+            from vergence.render import builtin_scene
+            from vergence.stereospace import render_collection
+
+            rendered = ctx.folder / "collection"
+            rendered.mkdir()
+            cameras_path = render_collection(builtin_scene(entry.id.split(":", 1)[1]), rendered,
+                                             progress=lambda f, m: ctx.progress(0.3 * float(f), m))  # fmt: skip
+            images, start = rendered, 0.3
+        else:
+            cameras_path, images, start = entry.path, _images_folder(entry.path), 0.0
+        ctx.progress(start, f"reading {entry.name}")
         collection = load_collection(cameras_path, images=images,
-                                     progress=lambda f, m: ctx.progress(0.6 * float(f), m))  # fmt: skip
+                                     progress=lambda f, m: ctx.progress(start + (0.6 - start) * float(f), m))  # fmt: skip
         ctx.progress(0.6, f"decoding {len(collection)} images, projecting {collection.point_count} points")
         prepared = PreparedCollection(collection, grid_step=params.grid_step)
         ctx.progress(0.9, "choosing the start state")
