@@ -26,6 +26,7 @@ with warnings.catch_warnings():
 
 from vergence.cli import main
 from vergence.web import MAX_JSON_BODY, create_app
+from web_checks import refused as _refused
 from vergence.web.app import STATIC_DIR
 from vergence.web.data import DataIndex
 
@@ -46,15 +47,6 @@ MAPPING_ARGS = ["mapping", "--reference-baseline", "0.65", "--convergence", "30"
 def client():
     with TestClient(create_app()) as c:
         yield c
-
-
-def _refused(response, status: int) -> str:
-    """The one-line message of a refusal, after checking its status and shape."""
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and isinstance(body["error"], str)
-    assert "\n" not in body["error"] and body["error"]
-    return body["error"]
 
 
 @pytest.mark.parametrize("path, body, argv", [("/api/budget", BUDGET, BUDGET_ARGS),

@@ -25,6 +25,7 @@ with warnings.catch_warnings():
     from fastapi.testclient import TestClient
 
 from vergence.web import create_app
+from web_checks import refused as _refused
 
 SHIFT = 6  # px: the right view is the left one moved left by SHIFT (x_left - x_right = SHIFT)
 
@@ -54,13 +55,6 @@ def client(tmp_path_factory):
                                       "r.png 100 0 100 0 100 80 0 0 1 1 0 0 0 1 0 0 0 1 -0.1 0 0\n")
     with TestClient(create_app([data])) as c:
         yield c
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
 
 
 def _upload(client, content: bytes, content_type: str = "image/png", name: str = "") -> str:

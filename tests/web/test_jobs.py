@@ -19,10 +19,15 @@ with warnings.catch_warnings():
     from fastapi.testclient import TestClient
 
 from vergence.web import create_app
+from web_checks import FINAL_STATES, refused as _refused, wait_job
 from vergence.web.jobs import JOB_WORKERS, JobKind, JobResult, Prepared
 
 WAIT_S = 120.0  # the first render compiles Numba kernels and Mitsuba's LLVM variant: ~10 s on two cores
 RENDER = {"scene": "scene:tabletop", "width": 32, "height": 24, "depth": 1, "samples": 2}
+
+
+def _wait(client, job_id: str, states=FINAL_STATES) -> dict:
+    return wait_job(client, job_id, timeout=WAIT_S, states=states)
 
 
 class Steps(pydantic.BaseModel):
@@ -62,23 +67,6 @@ def _quiet(params, env):  # noqa: ANN001, ANN202 - a test kind: no progress, che
 
 
 QUIET = JobKind("quiet", "A test kind: never reports progress.", Steps, _quiet)
-
-
-def _wait(client, job_id: str, states=("done", "failed", "cancelled")) -> dict:
-    deadline = time.monotonic() + WAIT_S
-    while time.monotonic() < deadline:
-        status = client.get(f"/api/jobs/{job_id}").json()
-        if status["state"] in states:
-            return status
-        time.sleep(0.02)
-    raise AssertionError(f"job {job_id} never reached {states}: {status}")
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
 
 
 @pytest.fixture

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import copy
 import json
-import time
 import warnings
 from pathlib import Path
 
@@ -22,6 +21,7 @@ with warnings.catch_warnings():
 from vergence.cli import main
 from vergence.rigs import EXAMPLE_SHOTS
 from vergence.web import create_app
+from web_checks import refused as _refused, wait_job
 from vergence.web.job_kinds import MAX_RENDER_JOB_RAYS
 from vergence.web.rigs_page import MAX_RIG_JOB_SIDE
 
@@ -30,6 +30,10 @@ EXAMPLES = REPO / "examples"
 SHOT_FILES = sorted((EXAMPLES / "shots").glob("*.json"))
 WAIT_S = 300.0  # a handful of tiny renders; the first compiles Numba kernels
 TINY = {"width": 48, "samples": 1, "supersample": 1}
+
+
+def _wait(client, job_id: str) -> dict:
+    return wait_job(client, job_id, timeout=WAIT_S)
 
 
 @pytest.fixture(scope="module")
@@ -44,23 +48,6 @@ def _cli(capsys, *args: str) -> tuple[int, str, str]:
     code = main(list(args))
     out, err = capsys.readouterr()
     return code, out, err
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
-
-
-def _wait(client, job_id: str) -> dict:
-    deadline = time.monotonic() + WAIT_S
-    while time.monotonic() < deadline:
-        status = client.get(f"/api/jobs/{job_id}").json()
-        if status["state"] in ("done", "failed", "cancelled"):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(f"job {job_id} never finished: {status}")
 
 
 def _presets(client) -> dict[str, dict]:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 import warnings
 
 import pytest
@@ -16,26 +15,14 @@ with warnings.catch_warnings():
     from fastapi.testclient import TestClient
 
 from vergence.web import create_app
+from web_checks import refused as _refused, wait_job
 
 WAIT_S = 300.0  # k + 3 renders, the table and the figures; the first compiles Numba kernels
 TINY = {"scene": "scene:glasses", "width": 64, "height": 48, "k": 2, "samples": 1}
 
 
 def _wait(client, job_id: str) -> dict:
-    deadline = time.monotonic() + WAIT_S
-    while time.monotonic() < deadline:
-        status = client.get(f"/api/jobs/{job_id}").json()
-        if status["state"] in ("done", "failed", "cancelled"):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(f"job {job_id} never finished: {status}")
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
+    return wait_job(client, job_id, timeout=WAIT_S)
 
 
 @pytest.fixture(scope="module")

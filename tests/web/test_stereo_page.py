@@ -23,6 +23,7 @@ from vergence.io import write_image
 from vergence.synthesis import plan_comfort, synthesize_stereo
 from vergence.viewing import Display
 from vergence.web import create_app
+from web_checks import refused as _refused, wait_job
 from vergence.web.stereo_page import MAX_EXAMPLE_SIDE
 
 WAIT_S = 300.0  # the first job compiles the warping kernels (and, for the example, the renderer's)
@@ -30,20 +31,7 @@ W, H = 64, 48
 
 
 def _wait(client, job_id: str) -> dict:
-    deadline = time.monotonic() + WAIT_S
-    while time.monotonic() < deadline:
-        status = client.get(f"/api/jobs/{job_id}").json()
-        if status["state"] in ("done", "failed", "cancelled"):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(f"job {job_id} never finished: {status}")
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
+    return wait_job(client, job_id, timeout=WAIT_S)
 
 
 def _png(image: np.ndarray, tmp_path, name: str = "x.png") -> bytes:

@@ -5,7 +5,6 @@ dino (Middlebury, 48 views: slow enough to be caught running); tests that need t
 
 from __future__ import annotations
 
-import time
 import warnings
 
 import numpy as np
@@ -20,26 +19,14 @@ with warnings.catch_warnings():
     from fastapi.testclient import TestClient
 
 from vergence.web import create_app
+from web_checks import refused as _refused, wait_job
 from vergence.web.stereospace_page import MAX_MAP_POINTS, MAX_PAIR_FILES
 
 WAIT_S = 120.0  # kermit prepares in well under a second, dino in a few seconds
 
 
 def _wait(client, job_id: str) -> dict:
-    deadline = time.monotonic() + WAIT_S
-    while time.monotonic() < deadline:
-        status = client.get(f"/api/jobs/{job_id}").json()
-        if status["state"] in ("done", "failed", "cancelled"):
-            return status
-        time.sleep(0.05)
-    raise AssertionError(f"job {job_id} never finished: {status}")
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
+    return wait_job(client, job_id, timeout=WAIT_S)
 
 
 @pytest.fixture(scope="module")

@@ -21,6 +21,7 @@ with warnings.catch_warnings():
 
 from vergence.io import write_image, write_pfm
 from vergence.web import MAX_JSON_BODY, MAX_UPLOAD_BYTES, MAX_UPLOAD_PIXELS, create_app
+from web_checks import refused as _refused
 
 
 @pytest.fixture
@@ -32,13 +33,6 @@ def app():
 def client(app):
     with TestClient(app) as c:
         yield c
-
-
-def _refused(response, status: int) -> str:
-    assert response.status_code == status, response.text
-    body = response.json()
-    assert list(body) == ["error"] and "\n" not in body["error"] and body["error"]
-    return body["error"]
 
 
 def _file(tmp_path, name: str, image) -> bytes:  # noqa: ANN001
