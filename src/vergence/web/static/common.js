@@ -247,5 +247,15 @@ async function cancelJob(id) {
   try { await fetch(`/api/jobs/${id}`, { method: "DELETE" }); } catch (exc) { /* the event stream reports it */ }
 }
 
+// After runJob: whether the job is done. If not, says so: "cancelled" in the message element (the page is
+// ready again), or the job's one-line error in the error box (the page is in error).
+function jobDone(status, message) {
+  if (status.state === "done") return true;
+  message.textContent = status.state === "cancelled" ? "cancelled" : "";
+  if (status.state === "failed") showError(status.error);
+  document.body.dataset.state = status.state === "cancelled" ? "ready" : "error";
+  return false;
+}
+
 // The URL of a done job's file.
 function jobFile(id, name) { return `/api/jobs/${id}/files/${encodeURIComponent(name)}`; }

@@ -445,12 +445,7 @@ async function rigRender() {
     return;
   }
   rigBusy(false);
-  if (status.state !== "done") {
-    message.textContent = status.state === "cancelled" ? "cancelled" : "";
-    if (status.state === "failed") showError(status.error);
-    document.body.dataset.state = status.state === "cancelled" ? "ready" : "error";
-    return;
-  }
+  if (!jobDone(status, message)) return;
   progress.value = 1;
   message.textContent = status.cached ? "done (cached)" : "done";
   rigShowResult(status.id, status.result, status.files);

@@ -99,12 +99,7 @@ async function specJob(kind, body, messageId) {
     spec.job = null;
   }
   const message = document.getElementById(messageId);
-  if (status.state !== "done") {
-    message.textContent = status.state === "cancelled" ? "cancelled" : "";
-    if (status.state === "failed") showError(status.error);
-    document.body.dataset.state = status.state === "cancelled" ? "ready" : "error";
-    return null;
-  }
+  if (!jobDone(status, message)) return null;
   document.getElementById("spec-progress").value = 1;
   document.getElementById("spec-message").textContent = status.cached ? "done (cached)" : "done";
   return status;

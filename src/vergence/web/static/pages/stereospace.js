@@ -72,12 +72,7 @@ async function ssPrepare() {
   SS.preparing = null;
   document.getElementById("ss-cancel").disabled = true;
   document.getElementById("ss-prepare").disabled = false;
-  if (status.state !== "done") {
-    message.textContent = status.state === "cancelled" ? "cancelled" : "";
-    if (status.state === "failed") showError(status.error);
-    document.body.dataset.state = status.state === "cancelled" ? "ready" : "error";
-    return;
-  }
+  if (!jobDone(status, message)) return;
   progress.value = 1;
   const r = status.result;
   message.textContent = `${status.cached ? "done (cached)" : "done"}: ${r.cameras} cameras, ${r.points} points, `
