@@ -95,3 +95,26 @@ def test_bad_scene_or_folder(tmp_path):
     with pytest.raises(ValueError, match="pinhole"):
         render_collection(dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, lens="fisheye",
                                                                                 fov_deg=180)), tmp_path)
+
+
+def test_the_start_is_the_most_comfortable_of_its_candidates(tabletop):
+    """start_state: among the states between three consecutive cameras of a capture path, the smallest
+    disparity range on the display (every candidate scored here through the public functions)."""
+    from vergence.stereospace import (PreparedCollection, capture_paths, pair_cameras, pair_quality, start_state,
+                                      state_near)
+    from vergence.viewing import Display
+
+    path, folder, _ = tabletop
+    prepared = PreparedCollection(load_collection(path, images=folder), grid_step=16)
+    display = Display.preset("desktop-24")
+    state, (p, q, r), best = start_state(prepared, display)
+    ranges = []
+    for cams in capture_paths(prepared.graph):
+        for a, b, c in zip(cams, cams[1:], cams[2:]):
+            candidate = state_near(prepared, a, b, c, 0.5)
+            pair = pair_cameras(prepared.space, prepared.collection, candidate, segment_cameras=prepared.segment_cameras)
+            ranges.append(pair_quality(prepared.collection, pair, display)["range_arcmin"])
+    assert best == min(r for r in ranges if r is not None)
+    assert state == state_near(prepared, p, q, r, 0.5)
+    with pytest.raises(ValueError, match="not joined by a segment"):
+        state_near(prepared, 0, VIEWS - 1, 1, 0.5)

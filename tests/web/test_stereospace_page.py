@@ -83,7 +83,7 @@ def _map_xy(prepared, points):
 
 # ---------------------------------------------------------------- the job
 def test_the_job_prepares_kermit_and_its_map(client, kermit):
-    from vergence.report.demo_stereospace import start_state
+    from vergence.stereospace import start_state
     from vergence.viewing import Display
 
     job, prepared = kermit

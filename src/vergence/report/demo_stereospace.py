@@ -41,7 +41,7 @@ import numpy as np
 from vergence.report.html import Figure, Grid, Section
 
 __all__ = ["LOO_VIEWS", "PAN_STEP", "StereoSpaceDemo", "ZOOM_STEP", "dino_folder", "section_stereospace",
-           "spread_views", "start_state"]
+           "spread_views"]
 
 DINO_CAMERAS = "dino_par.txt"
 #: The display preset of the map's qualities: the preset nearest the demo's television (1.2 m at 3 m).
@@ -92,60 +92,6 @@ def dino_folder() -> Path:
     root = os.environ.get("VERGENCE_SHARED_DATA")
     base = Path(root) if root else Path(__file__).resolve().parents[3].parent / "shared" / "data"
     return base / "collections" / "dino"
-
-
-def _segment(prepared, a: int, b: int) -> int:
-    """Index of the segment joining cameras ``a`` and ``b``."""
-    hits = np.flatnonzero(((prepared.segment_cameras[:, 0] == a) & (prepared.segment_cameras[:, 1] == b))
-                          | ((prepared.segment_cameras[:, 0] == b) & (prepared.segment_cameras[:, 1] == a)))  # fmt: skip
-    if hits.size == 0:
-        raise ValueError(f"cameras {a} and {b} are not joined by a segment of the graph")
-    return int(hits[0])
-
-
-def _near(prepared, segment: int, camera: int, fraction: float) -> float:
-    """The parameter of the point ``fraction`` of the way along ``segment`` from its end ``camera``."""
-    return fraction if int(prepared.segment_cameras[segment, 0]) == camera else 1.0 - fraction
-
-
-def _state_near(prepared, p: int, q: int, r: int, fraction: float):
-    """The state with the eyes ``fraction`` of a segment from camera ``q``, on ``p-q`` and ``q-r``."""
-    from vergence.stereospace import StereoState
-
-    i, j = _segment(prepared, p, q), _segment(prepared, q, r)
-    li, lj = _near(prepared, i, q, fraction), _near(prepared, j, q, fraction)
-    if i > j:
-        i, j, li, lj = j, i, lj, li
-    return StereoState((i, j), li, lj)
-
-
-def start_state(prepared, display) -> tuple[object, tuple[int, int, int], float]:
-    """The start of the sequences: the state, its cameras ``(p, q, r)`` and its disparity range (arcmin).
-
-    Every three consecutive cameras ``p, q, r`` of a capture path give the state with the eyes at the
-    middles of segments ``p-q`` and ``q-r``; the one whose pair has the smallest disparity range on
-    ``display`` (:func:`~vergence.stereospace.pair_quality`) wins, the first on a tie.
-
-    Raises
-    ------
-    ValueError
-        If no capture path has three cameras, or no candidate pair sees a point of the collection.
-    """
-    from vergence.stereospace import capture_paths, pair_cameras, pair_quality
-
-    best = None
-    for path in capture_paths(prepared.graph):
-        for p, q, r in zip(path, path[1:], path[2:]):
-            if len({p, q, r}) < 3:
-                continue
-            state = _state_near(prepared, p, q, r, 0.5)
-            cams = pair_cameras(prepared.space, prepared.collection, state, segment_cameras=prepared.segment_cameras)
-            quality = pair_quality(prepared.collection, cams, display)
-            if quality["range_arcmin"] is not None and (best is None or quality["range_arcmin"] < best[2]):
-                best = (state, (int(p), int(q), int(r)), float(quality["range_arcmin"]))
-    if best is None:
-        raise ValueError("no three consecutive cameras of a capture path see a common point")
-    return best
 
 
 def _walk(space, start, move, step: float, frames: int) -> tuple[Frame, ...]:
@@ -276,7 +222,7 @@ def section_stereospace(
         (S2 Fig. 11) with the sequences' states, written into ``out``; shown first when given.
     """
     from vergence.io import write_image
-    from vergence.stereospace import PreparedCollection, load_collection, pan, zoom
+    from vergence.stereospace import PreparedCollection, load_collection, pan, start_state, state_near, zoom
     from vergence.synthesis import error_image
 
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 2:
@@ -297,7 +243,7 @@ def section_stereospace(
     start, (p, q, r), range_arcmin = start_state(prepared, display)
     s0 = float(space.point(start.region[0], start.li, start.region[1], start.lj)[3])
     pan_frames = _walk(space, start, pan, PAN_STEP * s0, frames)
-    zoom_frames = _walk(space, _state_near(prepared, p, q, r, 0.25), zoom, ZOOM_STEP * s0, frames)
+    zoom_frames = _walk(space, state_near(prepared, p, q, r, 0.25), zoom, ZOOM_STEP * s0, frames)
     figures: list[Figure | Grid] = []
     # S2 Fig. 11, the navigation map: drawn by the caller's map_figure (the lead wires the report's map
     # function in here); nothing is drawn in its place without one.

@@ -16,6 +16,8 @@
   display) and a quality value of a pair (:func:`pair_quality`: comfort and rectification distortion).
 - A collection ray-traced from a scene (:func:`render_collection`: cameras on an arc, images and a
   camera file; a fresh clone's collection).
+- Where browsing starts (:func:`start_state`: the most comfortable state between three consecutive
+  cameras of a capture path; :func:`state_near`).
 - A built space (:func:`build_space`: graph, regions, leave-one-out PSNR, a quality per region
   vertex, :func:`vertex_quality`), saved to and loaded from a folder (:func:`save_space`,
   :func:`load_space`), and the frame of its top-view navigation map (:func:`map_frame`, S2 §4.3.1).
@@ -57,6 +59,7 @@ from vergence.stereospace.pair import (
     stereo_pair,
 )
 from vergence.stereospace.quality import pair_quality
+from vergence.stereospace.start import start_state, state_near
 from vergence.stereospace.sources import neighbours
 from vergence.stereospace.depths import (
     CONSISTENCY_TOLERANCE,
@@ -173,6 +176,8 @@ __all__ = [
     "source_depth",
     "source_depths",
     "space_from_graph",
+    "start_state",
+    "state_near",
     "stereo_pair",
     "stereo_point",
     "tangent",

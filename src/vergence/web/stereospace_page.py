@@ -4,7 +4,7 @@
   (by id) read by :func:`vergence.stereospace.load_collection` (sparse points matched and triangulated
   when the camera file has none), made ready for fast pairs by
   :class:`vergence.stereospace.PreparedCollection` (camera graph, StereoSpace, decoded images), and a
-  start state chosen by :func:`vergence.report.demo_stereospace.start_state` (three consecutive cameras
+  start state chosen by :func:`vergence.stereospace.start_state` (three consecutive cameras
   of a capture path, smallest disparity range on ``display``). Its files: ``map.json``, the navigation
   map's data (S2 §4.3.1, Fig. 11: the top view of :func:`vergence.stereospace.map_frame` with the
   cameras, graph segments, capture paths and sparse points); its result: the start state as the page
@@ -217,7 +217,7 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
         inputs = (entry.id, hashlib.sha256(entry.path.read_bytes()).hexdigest())
 
     def run(ctx: JobContext) -> JobResult:
-        from vergence.report.demo_stereospace import start_state
+        from vergence.stereospace import start_state
         from vergence.stereospace import PreparedCollection, StereoState, capture_paths, load_collection, map_frame
 
         t0 = time.perf_counter()
