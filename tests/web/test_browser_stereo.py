@@ -193,3 +193,28 @@ def test_cancel_stops_the_running_job(page, server_url):
     expect(page.locator('[data-testid="st-message"]')).to_have_text("cancelled", timeout=60_000)
     assert page.locator('[data-testid="st-run"]').is_enabled() and page.locator("#error").is_hidden()
     expect(page.locator('[data-testid="st-cancel"]')).to_be_disabled()
+
+
+def test_each_set_chooses_its_depth_control(page, server_url):
+    """A: a budget in image pixels; B: the shift-sensor rig (focal length, interaxial, convergence); each
+    job gets only its control's fields (`vergence synthesize` takes exactly one) and the CLI line says so."""
+    _open(page, server_url)
+    page.fill('[data-testid="st-example-width"]', str(SIZE["width"]))
+    page.fill('[data-testid="st-example-height"]', str(SIZE["height"]))
+    page.select_option('[data-testid="st-a-control"]', "px")
+    page.fill('[data-testid="st-a-budget-px"]', "3")
+    page.select_option('[data-testid="st-b-control"]', "sensor")
+    page.fill('[data-testid="st-b-focal"]', "100")
+    page.fill('[data-testid="st-b-interaxial"]', "0.02")
+    page.fill('[data-testid="st-b-convergence"]', "2")
+    page.click('[data-testid="st-example"]')
+    _ready(page)
+    jobs = _shown_figures_equal_the_jobs(page, server_url)
+    a, b = jobs["a"]["result"], jobs["b"]["result"]
+    assert a["budget_px"] == 3 and a["budget_arcmin"] is None
+    assert b["control"] == "shift-sensor" and b["budget_px"] is None and b["budget_arcmin"] is None
+    assert max(abs(a["comfort"]["min_px"]), abs(a["comfort"]["max_px"])) > 0
+    cli = page.locator('[data-testid="st-cli-a"]').input_value()
+    assert "--budget-px 3" in cli and "--budget-arcmin" not in cli
+    cli_b = page.locator('[data-testid="st-cli-b"]').input_value()
+    assert "--focal-px 100" in cli_b and "--interaxial 0.02" in cli_b and "--convergence 2" in cli_b

@@ -65,11 +65,29 @@ function stBody(set) {
     body.max_disparity = Number(document.getElementById("st-max-disparity").value);
   }
   body.display = document.getElementById("st-display").value;
+  const control = document.querySelector(`#st-form [data-set="${set}"][data-field="control"]`).value;
   for (const input of document.querySelectorAll(`#st-form [data-set="${set}"]`)) {
+    const field = input.dataset.field;
+    if (field === "control" || (ST_CONTROL_FIELDS.has(field) && !ST_CONTROLS[control].fields.includes(field))) continue;
     const value = input.tagName === "SELECT" ? input.value : stNumber(input);
-    if (value !== null) body[input.dataset.field] = value;
+    if (value !== null) body[field] = value;
   }
   return body;
+}
+
+// The depth controls of `vergence synthesize` (exactly one per set) and the fields each sends.
+const ST_CONTROLS = {
+  arcmin: { label: "budget, arcmin", fields: ["budget_arcmin"] },
+  px: { label: "budget, pixels", fields: ["budget_px"] },
+  sensor: { label: "shift-sensor rig", fields: ["focal_px", "interaxial"] },
+};
+const ST_CONTROL_FIELDS = new Set(Object.values(ST_CONTROLS).flatMap((c) => c.fields));
+
+function stControls() {
+  for (const select of document.querySelectorAll(".st-control")) {
+    for (const [value, c] of Object.entries(ST_CONTROLS)) select.add(new Option(c.label, value));
+    select.value = "arcmin";
+  }
 }
 
 // The same with the CLI: vergence synthesize (after vergence render or vergence match for those inputs).
@@ -92,7 +110,9 @@ function stCli(set, body, format) {
     if (body.depth_scale !== undefined) options.depth_scale = body.depth_scale;
   }
   options.display = body.display;
-  for (const key of ["budget_arcmin", "convergence", "smooth_sigma", "fill"]) if (body[key] !== undefined) options[key] = body[key];
+  for (const key of ["budget_arcmin", "budget_px", "focal_px", "interaxial", "convergence", "smooth_sigma", "fill"]) {
+    if (body[key] !== undefined) options[key] = body[key];
+  }
   options.format = format;
   return before + cliLine("synthesize", options).replace("vergence synthesize", `vergence synthesize ${q(image)} ${q(depth)}`);
 }
@@ -274,6 +294,7 @@ async function initStereo() {
       for (const name of params.fill.enum) fill.add(new Option(name, name));
       fill.value = params.fill.default;
     }
+    stControls();
   } catch (exc) {
     showError(exc.message);
     document.body.dataset.state = "error";
