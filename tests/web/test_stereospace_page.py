@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import warnings
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -29,11 +31,15 @@ def _wait(client, job_id: str) -> dict:
     return wait_job(client, job_id, timeout=WAIT_S)
 
 
+# ../shared/data/collections beside the checkout (the rule of the shared_data fixture, which skips instead)
+SHARED_COLLECTIONS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "collections"
+
+
 @pytest.fixture(scope="module")
-def client(shared_data):
-    if not (shared_data / "collections").is_dir():
-        pytest.skip(f"the shared collections are missing ({shared_data / 'collections'})")
-    with TestClient(create_app([shared_data / "collections"])) as c:
+def client():
+    """The app with the shared collections when they are there (kermit, dino), else the built-in ones only."""
+    folders = [SHARED_COLLECTIONS] if SHARED_COLLECTIONS.is_dir() else []
+    with TestClient(create_app(folders)) as c:
         yield c
 
 
@@ -62,6 +68,15 @@ def kermit(client, shared_data):
     assert job["state"] == "done", job
     folder = shared_data / "collections" / "kermit"
     return job, PreparedCollection(load_collection(folder / "bundle.out", images=folder))
+
+
+@pytest.fixture(scope="module")
+def browsed(client) -> dict:
+    """A done job on the built-in tabletop collection (12 views ray-traced by the job: no shared data needed)."""
+    first = client.post("/api/jobs/stereospace", json={"collection": "collection:tabletop", "grid_step": 16})
+    job = _wait(client, first.json()["id"])
+    assert job["state"] == "done", job
+    return job
 
 
 def _state(view: dict) -> dict:
@@ -175,8 +190,8 @@ def test_a_long_pan_jumps_at_the_region_border(client, kermit):
     ({"state": {"region": [10, 21], "li": 0.5, "lj": 0.5}, "zoom": -1e9}, "zoom must be at most"),
     ({"state": {"region": [10, 21], "li": 0.5, "lj": 0.5}, "tilt": 1}, "unknown field 'tilt'"),
 ])  # fmt: skip
-def test_a_move_refuses_bad_states_and_steps(client, kermit, body, message):
-    job, _ = kermit
+def test_a_move_refuses_bad_states_and_steps(client, browsed, body, message):
+    job = browsed
     assert message in _refused(client.post(f"/api/stereospace/{job['id']}/move", json=body), 422)
 
 
@@ -187,8 +202,8 @@ def test_a_move_refuses_bad_states_and_steps(client, kermit, body, message):
     b'[1, 2]',
     b'{"state": ',
 ])  # fmt: skip
-def test_a_move_refuses_nan_infinity_and_bad_json(client, kermit, raw):
-    job, _ = kermit
+def test_a_move_refuses_nan_infinity_and_bad_json(client, browsed, raw):
+    job = browsed
     response = client.post(f"/api/stereospace/{job['id']}/move", content=raw,
                            headers={"Content-Type": "application/json"})
     _refused(response, 422)
@@ -260,18 +275,18 @@ def test_a_pair_is_the_library_pair_as_png(client, kermit):
     ({"format": "hologram"}, 422, "format must be one of anaglyph"),
     ({"width": 16}, 422, "width: greater than or equal to 32"),
     ({"width": 10_000}, 422, "width: less than or equal to 4096"),
-    ({"width": 1000}, 422, "width must be at most 640 (the collection's image width)"),
+    ({"width": 1000}, 422, "width must be at most 320 (the collection's image width)"),
     ({"state": {"region": [10, 21], "li": 2.0, "lj": 0.5}}, 422, "state[li]: less than or equal to 1"),
     ({"state": {"region": [99, 99], "li": 0.0, "lj": 1.0}}, 422, "state: region (99, 99) does not exist"),
 ])  # fmt: skip
-def test_a_pair_refuses_bad_formats_widths_and_states(client, kermit, body, status, message):
-    job, _ = kermit
+def test_a_pair_refuses_bad_formats_widths_and_states(client, browsed, body, status, message):
+    job = browsed
     full = {"state": _state(job["result"]["start"]), **body}
     assert message in _refused(client.post(f"/api/stereospace/{job['id']}/pair", json=full), status)
 
 
-def test_views_serve_only_the_names_the_server_made(client, kermit):
-    job, _ = kermit
+def test_views_serve_only_the_names_the_server_made(client, browsed):
+    job = browsed
     for name in ("map.json", "0123456789abcdef-left.png", "x" * 300):
         assert "has no pair image" in _refused(client.get(f"/api/stereospace/{job['id']}/views/{name}"), 404)
     for name in ("..%2Fmap.json", "../map.json", "%2Fetc%2Fpasswd"):  # never a path
