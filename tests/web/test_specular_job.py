@@ -200,8 +200,9 @@ def test_only_the_most_recent_jobs_keep_their_table(tmp_path):
     """Past MAX_LIVE_JOBS, the least recently used job drops its live objects: a re-optimise on it is 409."""
     with TestClient(create_app()) as c:
         c.app.state.jobs.max_live = 1
-        a = _wait(c, c.post("/api/jobs/specular", json=TINY).json()["id"])
-        b = _wait(c, c.post("/api/jobs/specular", json={**TINY, "variant": "screen"}).json()["id"])
+        small = {**TINY, "width": 24, "height": 18}
+        a = _wait(c, c.post("/api/jobs/specular", json=small).json()["id"])
+        b = _wait(c, c.post("/api/jobs/specular", json={**small, "variant": "screen"}).json()["id"])
         assert a["state"] == b["state"] == "done"
         error = _refused(c.post("/api/jobs/specular-reoptimise", json={"job": a["id"]}), 409)
         assert "no longer keeps its work in memory" in error and "run it again" in error
