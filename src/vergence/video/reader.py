@@ -172,8 +172,8 @@ def open_frames(path: str | os.PathLike[str], *, fps: float | None = None) -> Fr
     Parameters
     ----------
     path : str or os.PathLike
-        A video file (any container and codec FFmpeg reads: ``.mp4``, ``.mkv``, ``.mov``...) or a folder
-        of numbered images.
+        A video file (any container and codec FFmpeg reads: ``.mp4``, ``.mkv``, ``.mov``...), a folder
+        of numbered images, or one image (a clip of one frame; :data:`FRAME_SUFFIXES`).
     fps : float, optional
         Frame rate of a folder (default :data:`DEFAULT_FOLDER_FPS`); for a video, overrides the
         rate of its header.
@@ -209,10 +209,11 @@ def open_frames(path: str | os.PathLike[str], *, fps: float | None = None) -> Fr
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"no such video or frame folder: {p}")
-    if p.is_dir():
+    image = p.is_file() and p.suffix.lower() in FRAME_SUFFIXES
+    if p.is_dir() or image:
         from vergence.io import read_header
 
-        files = _folder_files(p)
+        files = _folder_files(p) if p.is_dir() else (p,)
         try:
             header = read_header(files[0])
             width, height = header.width, header.height
