@@ -211,17 +211,10 @@ def open_frames(path: str | os.PathLike[str], *, fps: float | None = None) -> Fr
         raise FileNotFoundError(f"no such video or frame folder: {p}")
     image = p.is_file() and p.suffix.lower() in FRAME_SUFFIXES
     if p.is_dir() or image:
-        from vergence.io import read_header
+        from vergence.io import read_image
 
         files = _folder_files(p) if p.is_dir() else (p,)
-        try:
-            header = read_header(files[0])
-            width, height = header.width, header.height
-        except (ValueError, OSError):
-            from vergence.io import read_image
-
-            first = read_image(files[0])
-            height, width = first.shape[:2]
+        height, width = read_image(files[0]).shape[:2]  # the first frame sets the clip's size
         info = VideoInfo(frames=len(files), fps=float(fps or DEFAULT_FOLDER_FPS), width=int(width), height=int(height))
         return FrameReader(p, info, files)
     return FrameReader(p, _video_info(p, fps), None)
@@ -237,8 +230,15 @@ def _video_info(path: Path, fps: float | None) -> VideoInfo:
             width, height = stream.codec_context.width, stream.codec_context.height
             rate = stream.average_rate or stream.guessed_rate or stream.base_rate
             frames = int(stream.frames)
-            if frames <= 0:  # containers without a frame count (e.g. some .mkv): count the packets
-                frames = sum(1 for packet in container.demux(stream) if packet.size)
+            if frames <= 0:  # containers without a frame count (e.g. .mkv): count the packets
+                frames = 0
+                try:
+                    for packet in container.demux(stream):
+                        frames += 1 if packet.size else 0
+                except av.EOFError:  # an empty or cut stream ends the count
+                    pass
+    except av.EOFError:
+        raise ValueError(f"video {path} ends before its first frame: a zero-length (or truncated) clip") from None
     except av.FFmpegError as exc:
         raise ValueError(f"cannot read video {path}: {_reason(exc)}") from None
     if frames < 1:

@@ -101,23 +101,29 @@ class VideoWriter:
 
         av = require_av()
         stack = ExitStack()
-        tmp = stack.enter_context(atomic_write(self.path))
-        options = {"movflags": "+faststart"} if self.path.suffix.lower() in (".mp4", ".mov") else {}
-        self._container = stack.enter_context(av.open(str(tmp), mode="w", options=options))
-        rate = Fraction(self.fps).limit_denominator(1001)
-        stream = self._container.add_stream("libx264", rate=rate)
-        stream.width, stream.height, stream.pix_fmt = self.width, self.height, self.pixel_format
-        stream.options = {"crf": str(self.crf)}
-        self._stream = stream
         self._audio_in = self._audio_out = None
-        if self.audio_from is not None:
-            source = stack.enter_context(av.open(str(self.audio_from)))
-            if not source.streams.audio:
-                stack.close()
-                raise ValueError(f"audio_from {self.audio_from} holds no audio stream")
-            self._audio_in = source.streams.audio[0]
-            self._audio_out = self._container.add_stream_from_template(self._audio_in)
-            self._audio_source = source
+        try:
+            if self.audio_from is not None:  # checked before the output file is started
+                try:
+                    source = stack.enter_context(av.open(str(self.audio_from)))
+                except av.FFmpegError as exc:
+                    raise ValueError(f"audio_from {self.audio_from} cannot be read: {exc}") from None
+                if not source.streams.audio:
+                    raise ValueError(f"audio_from {self.audio_from} holds no audio stream")
+                self._audio_in, self._audio_source = source.streams.audio[0], source
+            tmp = stack.enter_context(atomic_write(self.path))
+            options = {"movflags": "+faststart"} if self.path.suffix.lower() in (".mp4", ".mov") else {}
+            self._container = stack.enter_context(av.open(str(tmp), mode="w", options=options))
+            rate = Fraction(self.fps).limit_denominator(1001)
+            stream = self._container.add_stream("libx264", rate=rate)
+            stream.width, stream.height, stream.pix_fmt = self.width, self.height, self.pixel_format
+            stream.options = {"crf": str(self.crf)}
+            self._stream = stream
+            if self._audio_in is not None:
+                self._audio_out = self._container.add_stream_from_template(self._audio_in)
+        except BaseException as err:
+            if not stack.__exit__(type(err), err, err.__traceback__):
+                raise
         self._stack = stack
         return self
 
