@@ -341,9 +341,11 @@ def analyze_clip(
         if stereo and vertical:
             from vergence.depth import measure_row_alignment
 
+            import cv2
+
             try:
                 dy = measure_row_alignment(a, b).median_abs_dy_px
-            except ValueError:  # too few features: no measure for this frame
+            except (ValueError, cv2.error):  # too few features, or RANSAC found no model: no measure here
                 dy = None
         per_frame.append(FrameStats(frame=k, disparity_px=_keys(np.percentile(values, PERCENTILES)),
                                     outside_comfort=float(outside.mean()), diverging=float(diverging.mean()),
