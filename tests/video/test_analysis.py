@@ -176,3 +176,25 @@ def test_analysis_refusals(clips):
         analyze_clip("clip.mp4", TV)
     with pytest.raises(ValueError, match="min_disparity must be < max_disparity; got 4 and 4"):
         analyze_clip(clip, TV, min_disparity=4, max_disparity=4)
+
+
+def test_vertical_disparity_on_reduced_views_is_scaled_back(clips, monkeypatch):
+    # a real vertical offset: the right view moved down by 2 px; measured on views halved in width
+    # (VERTICAL_MAX_WIDTH = 80 for the 160-px clip) and scaled back to full-resolution pixels
+    import vergence.video.analysis as analysis
+    from vergence.video import StereoClip
+
+    clip = open_stereo(clips.stereo)
+
+    class Shifted(StereoClip):
+        def pairs(self, start=0, stop=None):
+            for left, right in StereoClip.pairs(self, start, stop):
+                yield left, np.concatenate([right[:1].repeat(2, axis=0), right[:-2]], axis=0)
+
+    shifted = Shifted(clip.reader, clip.layout)
+    full = analyze_clip(shifted, TV, every=12)
+    monkeypatch.setattr(analysis, "VERTICAL_MAX_WIDTH", 80)
+    reduced = analyze_clip(shifted, TV, every=12)
+    for a, b in zip(full.shots, reduced.shots):
+        assert a.vertical_px == pytest.approx(2.0, abs=VERTICAL_TOL_PX)
+        assert b.vertical_px == pytest.approx(2.0, abs=VERTICAL_TOL_PX)

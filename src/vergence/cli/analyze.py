@@ -53,6 +53,8 @@ def analyze(
     max_disparity: int | None = typer.Option(None, "--max-disparity", help="Stereo: largest disparity searched (px); "
                                              "default width/8, rounded up to 16."),
     method: str = typer.Option("sgbm", "--method", help="Stereo: matcher (as vergence match)."),
+    vertical: bool = typer.Option(True, "--vertical/--no-vertical", help="Stereo: measure the vertical disparity of "
+                                  "feature matches (SIFT; about as slow as the matching)."),
     fps: float | None = typer.Option(None, "--fps", help="Frame rate of an image folder (default 24)."),
     report: Path | None = typer.Option(None, "--report", help="Write analysis.json, disparity.png, a thumbnail per "
                                        "shot and index.html into this folder."),
@@ -92,7 +94,7 @@ def analyze(
 
             result = analyze_clip(clip, display, zone=zone, every=every, min_disparity=min_disparity,
                                   max_disparity=max_disparity, method=method, budget_arcmin=budget_arcmin,
-                                  progress=progress)  # fmt: skip
+                                  vertical=vertical, progress=progress)  # fmt: skip
     data = {"input": str(input_path), "depth": None if depth is None else str(depth),
             **({"layout": clip.layout} if kind == "stereo" else {}), **result.to_dict()}  # fmt: skip
     data["display"] = {"preset": display_preset, **dataclasses.asdict(display)}

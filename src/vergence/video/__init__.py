@@ -8,6 +8,7 @@ frame by frame, never held whole in memory.
 from vergence.video.analysis import (
     HISTOGRAM_STEP_PX,
     PERCENTILES,
+    VERTICAL_MAX_WIDTH,
     WINDOW_BAND,
     WINDOW_MIN_PX,
     WINDOW_SHARE,
@@ -17,7 +18,7 @@ from vergence.video.analysis import (
     analyze_clip,
 )
 from vergence.video.clips import CLIP_SHOTS, ClipShot, TestClips, make_test_clips
-from vergence.video.cuts import CUT_BINS, CUT_THRESHOLD, MIN_SHOT_FRAMES, ShotCuts, detect_cuts, histogram_change
+from vergence.video.cuts import CUT_BINS, CUT_SAMPLE_SIDE, CUT_THRESHOLD, MIN_SHOT_FRAMES, ShotCuts, detect_cuts, histogram_change
 from vergence.video.layout import LAYOUT_TAGS, STEREO_LAYOUTS, VIDEO_LAYOUTS, guess_layout, layout_video_name, split_frame
 from vergence.video.reader import DEFAULT_FOLDER_FPS, FRAME_SUFFIXES, FrameReader, VideoInfo, open_frames
 from vergence.video.sources import DepthClip, StereoClip, open_depth_clip, open_stereo
@@ -26,6 +27,7 @@ from vergence.video.writer import DEFAULT_CRF, DEFAULT_PIXEL_FORMAT, PIXEL_FORMA
 __all__ = [
     "CLIP_SHOTS",
     "CUT_BINS",
+    "CUT_SAMPLE_SIDE",
     "CUT_THRESHOLD",
     "ClipAnalysis",
     "ClipShot",
@@ -46,6 +48,7 @@ __all__ = [
     "ShotStats",
     "StereoClip",
     "TestClips",
+    "VERTICAL_MAX_WIDTH",
     "VIDEO_LAYOUTS",
     "VideoInfo",
     "VideoWriter",

@@ -21,7 +21,8 @@ parallax is ``s = -D N / W`` display pixels and its vergence change comes from
 - a stereo-window violation: crossed disparity (``D > WINDOW_MIN_PX``) on at least
   :data:`WINDOW_SHARE` of the pixels of the left or right edge band (:data:`WINDOW_BAND` of the width):
   an object in front of the screen cut by the frame's edge;
-- for a stereo clip, the vertical disparity of SIFT matches (:func:`vergence.depth.measure_row_alignment`).
+- for a stereo clip, the vertical disparity of SIFT matches (:func:`vergence.depth.measure_row_alignment`),
+  median of ``|y_right - y_left|``, on views reduced to at most ``VERTICAL_MAX_WIDTH`` px wide.
 
 Per shot (cuts from :func:`vergence.video.detect_cuts`): the percentiles of all its pixels (from a
 histogram of :data:`HISTOGRAM_STEP_PX` bins), the vergence angle of each (``disparity_arcmin``: the
@@ -47,6 +48,7 @@ from vergence.video.sources import DepthClip, StereoClip
 __all__ = [
     "HISTOGRAM_STEP_PX",
     "PERCENTILES",
+    "VERTICAL_MAX_WIDTH",
     "WINDOW_BAND",
     "WINDOW_MIN_PX",
     "WINDOW_SHARE",
@@ -64,6 +66,9 @@ HISTOGRAM_STEP_PX = 1.0 / 16.0
 WINDOW_BAND = 0.02
 WINDOW_MIN_PX = 0.5
 WINDOW_SHARE = 0.1
+# Vertical disparity is measured on views reduced to at most this width (SIFT on a 1080p pair costs
+# about 2 s on 2 cores, as much as the matching); the offsets are scaled back to full-resolution px.
+VERTICAL_MAX_WIDTH = 960
 # Default matching range of a stereo clip: +- this share of the view width, rounded up to 16 px.
 _SEARCH_SHARE = 1.0 / 8.0
 # Largest thumbnail side kept per shot (for the report).
@@ -343,8 +348,11 @@ def analyze_clip(
 
             import cv2
 
+            f = max(1.0, width / VERTICAL_MAX_WIDTH)
+            small = [v if f == 1.0 else cv2.resize(v, (round(width / f), round(height / f)),
+                                                   interpolation=cv2.INTER_AREA) for v in (a, b)]  # fmt: skip
             try:
-                dy = measure_row_alignment(a, b).median_abs_dy_px
+                dy = f * measure_row_alignment(*small).median_abs_dy_px
             except (ValueError, cv2.error):  # too few features, or RANSAC found no model: no measure here
                 dy = None
         per_frame.append(FrameStats(frame=k, disparity_px=_keys(np.percentile(values, PERCENTILES)),
