@@ -100,3 +100,27 @@ def test_bad_input_is_one_line_and_exit_code_2(clips, tmp_path, capsys, args, me
     code, out, err = _run(capsys, ["analyze", *(a.format(**names) for a in args)])
     assert code == 2
     assert out == "" and err.count("\n") == 1 and err.startswith(message), err
+
+
+def test_single_images_stereo_and_2d_plus_depth(clips, tmp_path, capsys):
+    from vergence.io import write_image
+    from vergence.video import open_stereo
+
+    with np.load(clips.truth) as truth:
+        depth, disparity = truth["depth"][0], truth["disparity"][0]
+    frame = next(open_stereo(clips.stereo).reader.frames())
+    write_image(tmp_path / "pair-lr.png", frame)  # Bino's tag
+    code, out, err = _run(capsys, ["analyze", str(tmp_path / "pair-lr.png"), "--display", "tv-55", "--json"])
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["frames"] == 1 and data["layout"] == "sbs"
+    assert data["shots"][0]["disparity_px"]["p50"] == pytest.approx(np.nanmedian(disparity), abs=0.75)
+    write_image(tmp_path / "image.png", frame[:, : clips.width])
+    np.save(tmp_path / "depth.npy", depth)
+    code, out, err = _run(capsys, ["analyze", str(tmp_path / "image.png"), "--depth", str(tmp_path / "depth.npy"),
+                                   "--depth-kind", "metric", "--display", "tv-55", "--budget-arcmin", "20", "--json"])
+    assert code == 0, err
+    shot = json.loads(out)["shots"][0]
+    # one image is one shot: its nearness range fills the +-20 arcmin budget, as vergence synthesize does
+    assert shot["disparity_arcmin"]["p1"] <= 20.0 + 1e-6 and shot["disparity_arcmin"]["p99"] >= -20.0 - 1e-6
+    assert max(shot["disparity_arcmin"]["p1"], -shot["disparity_arcmin"]["p99"]) > 19.0

@@ -189,3 +189,18 @@ def test_depth_clip_refusals(tmp_path):
     clip = open_depth_clip(colour, depth=colour, kind="metric", scale=100.0)
     image, depth = next(clip.pairs())
     assert image.shape == (16, 32, 3) and depth.shape == (16, 32) and depth.dtype == np.float32
+
+
+def test_a_consumer_that_stops_early_does_not_hang(clips):
+    # Closing a decoder with frames in flight hung FFmpeg's frame threads (thread_type="AUTO", within 5
+    # tries on the rendered clip): run in a child process so that a regression fails on the timeout
+    # instead of hanging the suite.
+    import subprocess
+    import sys
+
+    path = clips.stereo
+    code = ("import sys; from vergence.video import open_frames\n"
+            "for _ in range(30): next(open_frames(sys.argv[1]).frames())\n"
+            "print('ok')")
+    done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "ok", done.stderr

@@ -77,6 +77,11 @@ class FrameReader:
         self.info = info
         self._files = files
 
+    @property
+    def files(self) -> tuple[Path, ...] | None:
+        """The frame files of a folder (or the one image), in order; None for a video file."""
+        return self._files
+
     def __repr__(self) -> str:
         i = self.info
         return f"FrameReader({str(self.path)!r}, frames={i.frames}, fps={i.fps:g}, size={i.width}x{i.height})"
@@ -120,12 +125,11 @@ class FrameReader:
         try:
             with av.open(str(self.path)) as container:
                 stream = container.streams.video[0]
-                stream.thread_type = "AUTO"
-                for frame in container.decode(stream):
-                    if k >= stop:
-                        break
+                # Slice threads only: FFmpeg's frame threads hang when a decoder with frames in flight is
+                # closed (a consumer that stops early), measured with thread_type="AUTO" on PyAV 18.
+                stream.thread_type = "SLICE"
+                for rgb in self._decoded(container, stream, stop):
                     if k >= start:
-                        rgb = frame.to_ndarray(format="rgb24")
                         if rgb.shape[:2] != (self.info.height, self.info.width):
                             raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
                                              f"the stream is {self.info.width}x{self.info.height}")
@@ -137,6 +141,33 @@ class FrameReader:
         if k < stop:
             raise ValueError(f"video {self.path} stops after {k} frames; its header announces {self.info.frames}: "
                              "truncated")
+
+
+    @staticmethod
+    def _decoded(container: object, stream: object, stop: int) -> Iterator[np.ndarray]:
+        """The first ``stop`` frames as uint8 RGB arrays, in batches of the frames each packet releases.
+
+        A batch is converted before it is handed on, so the caller's generator is never suspended
+        inside PyAV's decoder, and the decoder is drained when the caller stops early (a consumer
+        that takes one frame) before the container closes.
+        """
+        done = 0
+        try:
+            for packet in container.demux(stream):
+                batch = [frame.to_ndarray(format="rgb24") for frame in stream.decode(packet)]
+                for rgb in batch:
+                    if done >= stop:
+                        return
+                    done += 1
+                    yield rgb
+                if done >= stop:
+                    return
+        finally:
+            try:
+                for _ in stream.decode(None):  # drain the decoder before the container closes
+                    pass
+            except require_av().FFmpegError:  # a damaged stream: its own error is already on its way
+                pass
 
 
 def _reason(exc: Exception) -> str:

@@ -127,7 +127,7 @@ class DepthClip:
             yield image, next(depth_frames)
 
     def _depth_maps(self, start: int, stop: int | None) -> Iterator[np.ndarray]:
-        files = self.depth._files
+        files = self.depth.files
         if files is not None and files[0].suffix.lower() in (".pfm", ".npy", ".png", ".pgm"):
             from vergence.io import read_depth
 
@@ -239,7 +239,7 @@ def open_depth_clip(path: str | os.PathLike[str], *, depth: str | os.PathLike[st
         if (b.width, b.height) != (a.width, a.height):
             raise ValueError(f"depth clip {Path(depth).name} is {b.width}x{b.height}; the colour clip "
                              f"{Path(path).name} is {a.width}x{a.height}")
-    video_depth = stored is None or stored._files is None or stored._files[0].suffix.lower() not in (
+    video_depth = stored is None or stored.files is None or stored.files[0].suffix.lower() not in (
         ".pfm", ".npy", ".png", ".pgm")
     if kind != "inverse" and scale is None and video_depth:
         raise ValueError(f"{kind} depth stored as video frames needs a scale (8-bit value / scale = "
