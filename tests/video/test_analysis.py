@@ -198,3 +198,31 @@ def test_vertical_disparity_on_reduced_views_is_scaled_back(clips, monkeypatch):
     for a, b in zip(full.shots, reduced.shots):
         assert a.vertical_px == pytest.approx(2.0, abs=VERTICAL_TOL_PX)
         assert b.vertical_px == pytest.approx(2.0, abs=VERTICAL_TOL_PX)
+
+
+@pytest.mark.parametrize("layout", ["half-sbs", "tb"])
+def test_other_layouts_measure_disparity_in_full_resolution_pixels(clips, truth, tmp_path, layout):
+    # The first shot repacked: half side by side squeezes each view to half its width (the disparity
+    # halves in the file, and is doubled back by the stretch); top-bottom keeps it.
+    import cv2
+
+    from vergence.video import VideoWriter, layout_video_name
+
+    n = clips.cuts[0]
+    path = tmp_path / layout_video_name("repacked", layout)
+    w, h = clips.width, clips.height
+    size = (w, h) if layout == "half-sbs" else (w, 2 * h)
+    with VideoWriter(path, fps=24, width=size[0], height=size[1], crf=12) as video:
+        for left, right in open_stereo(clips.stereo).pairs(0, n):
+            if layout == "half-sbs":
+                left, right = (cv2.resize(v, (w // 2, h), interpolation=cv2.INTER_AREA) for v in (left, right))
+                video.write(np.clip(np.concatenate([left, right], axis=1), 0, 1))
+            else:
+                video.write(np.concatenate([left, right], axis=0))
+    clip = open_stereo(path)
+    assert clip.layout == layout and (clip.width, clip.height) == (w, h)
+    result = analyze_clip(clip, TV, every=4, vertical=False)
+    expected = np.nanpercentile(truth["disparity"][:n], 50)
+    # half width: one file pixel is two view pixels, so twice the full-resolution tolerance
+    tol = 2 * STEREO_TOL_PX if layout == "half-sbs" else STEREO_TOL_PX
+    assert result.shots[0].disparity_px["p50"] == pytest.approx(expected, abs=tol)

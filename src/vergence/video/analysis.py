@@ -39,11 +39,15 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vergence.video.cuts import CUT_THRESHOLD, MIN_SHOT_FRAMES, detect_cuts
 from vergence.video.sources import DepthClip, StereoClip
+
+if TYPE_CHECKING:
+    from vergence.viewing import ComfortZone, Display
 
 __all__ = [
     "HISTOGRAM_STEP_PX",
@@ -203,9 +207,9 @@ def _suggest(d1: float, d99: float, lo: float, hi: float) -> dict:
 
 def analyze_clip(
     clip: StereoClip | DepthClip,
-    display: object,
+    display: Display,
     *,
-    zone: object = None,
+    zone: ComfortZone | None = None,
     every: int = 1,
     min_disparity: int | None = None,
     max_disparity: int | None = None,
@@ -247,7 +251,7 @@ def analyze_clip(
         Bad options, a display without resolution, and the errors of reading the clip, matching
         (an untextured frame) or planning the parallax (a flat depth shot).
     """
-    from vergence.viewing import ComfortZone, Display, arcmin_from_pixels, pixels_from_arcmin
+    from vergence.viewing import ComfortZone, Display, arcmin_from_pixels
 
     if not isinstance(clip, StereoClip | DepthClip):
         raise TypeError(f"clip must be a StereoClip or a DepthClip; got {type(clip).__name__}")
