@@ -124,3 +124,14 @@ def test_single_images_stereo_and_2d_plus_depth(clips, tmp_path, capsys):
     # one image is one shot: its nearness range fills the +-20 arcmin budget, as vergence synthesize does
     assert shot["disparity_arcmin"]["p1"] <= 20.0 + 1e-6 and shot["disparity_arcmin"]["p99"] >= -20.0 - 1e-6
     assert max(shot["disparity_arcmin"]["p1"], -shot["disparity_arcmin"]["p99"]) > 19.0
+
+
+def test_options_of_the_other_kind_of_input_are_refused(clips, capsys):
+    code, out, err = _run(capsys, ["analyze", str(clips.rgbd), "--display", "tv-55", "--method", "bm",
+                                   "--no-vertical"])
+    assert code == 2 and err.startswith("error: --method, --no-vertical apply to a stereo INPUT; clips_RGBD.mp4 is "
+                                        "read as 2d+depth")
+    code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--budget-arcmin", "20"])
+    assert code == 2 and err.startswith("error: --budget-arcmin apply to a 2d+depth INPUT")
+    code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--method", "nope"])
+    assert code == 2 and err.startswith("error: --method must be one of bm, ncc, sad, sgbm, ssd; got 'nope'")

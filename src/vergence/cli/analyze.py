@@ -40,21 +40,22 @@ def analyze(
                                     "default from its name (_RGBD) and --depth, else stereo."),
     layout: str | None = typer.Option(None, "--layout", help="Stereo layout: sbs, half-sbs, tb, half-tb; default "
                                       "from the name's tag (_LRF_Full_SBS, _Half_SBS, _LR, _TB, -lr, -tb...)."),
-    depth_kind: str = typer.Option("inverse", "--depth-kind", help="2D + depth: what the depth holds: disparity, "
-                                   "inverse (iw3's, default), metric."),
+    depth_kind: str | None = typer.Option(None, "--depth-kind", help="2D + depth: what the depth holds: disparity, "
+                                          "inverse (iw3's, default), metric."),
     depth_scale: float | None = typer.Option(None, "--depth-scale", help="2D + depth: stored 8-bit value / scale = "
                                              "metres or pixels (needed for metric or disparity depth in a video)."),
-    budget_arcmin: float = typer.Option(SYNTHESIS_BUDGET_ARCMIN, "--budget-arcmin", help="2D + depth: the parallax "
-                                        "budget of vergence synthesize, fitted per shot (+-A arcmin)."),
+    budget_arcmin: float | None = typer.Option(None, "--budget-arcmin", help="2D + depth: the parallax budget of "
+                                               "vergence synthesize, fitted per shot (+-A arcmin); default "
+                                               f"{SYNTHESIS_BUDGET_ARCMIN:g}."),
     comfort_arcmin: float = typer.Option(60.0, "--comfort-arcmin", help="The comfort zone, +-C arcmin of vergence."),
     every: int = typer.Option(1, "--every", help="Analyse every Nth frame (matching is slow); cuts use all frames."),
     min_disparity: int | None = typer.Option(None, "--min-disparity", help="Stereo: smallest disparity searched "
                                              "(px); default -width/8, rounded up to 16."),
     max_disparity: int | None = typer.Option(None, "--max-disparity", help="Stereo: largest disparity searched (px); "
                                              "default width/8, rounded up to 16."),
-    method: str = typer.Option("sgbm", "--method", help="Stereo: matcher (as vergence match)."),
-    vertical: bool = typer.Option(True, "--vertical/--no-vertical", help="Stereo: measure the vertical disparity of "
-                                  "feature matches (SIFT; about as slow as the matching)."),
+    method: str | None = typer.Option(None, "--method", help="Stereo: matcher (as vergence match); default sgbm."),
+    no_vertical: bool = typer.Option(False, "--no-vertical", help="Stereo: skip the vertical disparity of feature "
+                                     "matches (SIFT on views at most 960 px wide)."),
     fps: float | None = typer.Option(None, "--fps", help="Frame rate of an image folder (default 24)."),
     report: Path | None = typer.Option(None, "--report", help="Write analysis.json, disparity.png, a thumbnail per "
                                        "shot and index.html into this folder."),
@@ -73,11 +74,16 @@ def analyze(
         raise FileNotFoundError(f"INPUT {input_path} does not exist")
     if kind is None:
         kind = "2d+depth" if depth is not None or (layout is None and guess_layout(input_path) == "rgbd") else "stereo"
-    if kind == "stereo" and depth is not None:
-        raise ValueError("--depth goes with a 2D + depth INPUT; got --input-kind stereo")
-    if kind == "2d+depth" and layout is not None:
-        raise ValueError("--layout describes a stereo INPUT; a 2D + depth one is colour left, depth right (_RGBD) "
-                         "or two clips (--depth)")
+    given = {"stereo": [o for o, v in (("--layout", layout), ("--method", method), ("--min-disparity", min_disparity),
+                                      ("--max-disparity", max_disparity), ("--no-vertical", no_vertical or None))
+                        if v is not None],
+             "2d+depth": [o for o, v in (("--depth", depth), ("--depth-kind", depth_kind),
+                                         ("--depth-scale", depth_scale), ("--budget-arcmin", budget_arcmin))
+                          if v is not None]}
+    other = "2d+depth" if kind == "stereo" else "stereo"
+    if given[other]:
+        raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
+                         "(--input-kind)")
     if report is not None:
         check_output_path(report, input_path, *([depth] if depth is not None else []))
         if report.exists() and not report.is_dir():
@@ -87,14 +93,15 @@ def analyze(
         if kind == "stereo":
             clip = open_stereo(input_path, layout=layout, fps=fps)
         else:
-            clip = open_depth_clip(input_path, depth=depth, kind=depth_kind, scale=depth_scale, fps=fps)
+            clip = open_depth_clip(input_path, depth=depth, kind=depth_kind or "inverse", scale=depth_scale, fps=fps)
         with err_console.status(f"analysing {clip.frames} frames", spinner="dots") as status:
             def progress(done: int, total: int) -> None:
                 status.update(f"analysing frame {done} of {total}")
 
             result = analyze_clip(clip, display, zone=zone, every=every, min_disparity=min_disparity,
-                                  max_disparity=max_disparity, method=method, budget_arcmin=budget_arcmin,
-                                  vertical=vertical, progress=progress)  # fmt: skip
+                                  max_disparity=max_disparity, method=method or "sgbm",
+                                  budget_arcmin=SYNTHESIS_BUDGET_ARCMIN if budget_arcmin is None else budget_arcmin,
+                                  vertical=not no_vertical, progress=progress)  # fmt: skip
     data = {"input": str(input_path), "depth": None if depth is None else str(depth),
             **({"layout": clip.layout} if kind == "stereo" else {}), **result.to_dict()}  # fmt: skip
     data["display"] = {"preset": display_preset, **dataclasses.asdict(display)}

@@ -264,6 +264,10 @@ def analyze_clip(
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
     if isinstance(every, bool) or not isinstance(every, int | np.integer) or every < 1:
         raise ValueError(f"every must be an integer >= 1; got {every!r}")
+    from vergence.depth import MATCHERS
+
+    if not isinstance(method, str) or method not in MATCHERS:
+        raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
     stereo = isinstance(clip, StereoClip)
     width, height = clip.width, clip.height
     if stereo:
