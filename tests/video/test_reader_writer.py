@@ -204,3 +204,14 @@ def test_a_consumer_that_stops_early_does_not_hang(clips):
             "print('ok')")
     done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "ok", done.stderr
+
+
+def test_without_pyav_the_error_names_the_extra(monkeypatch, tmp_path):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "av", None)  # `import av` now raises ImportError
+    with pytest.raises(ImportError, match=r"install the video extra, pip install 'vergence\[video\]'"):
+        VideoWriter(tmp_path / "a.mp4", fps=24, width=8, height=8).__enter__()
+    # image folders need no decoder
+    write_image(tmp_path / "f_1.png", np.zeros((4, 6, 3)))
+    assert open_frames(tmp_path).info.frames == 1

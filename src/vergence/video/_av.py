@@ -22,7 +22,7 @@ def require_av() -> ModuleType:
     """The ``av`` module, or an ImportError that names the extra to install."""
     try:
         import av
-    except ImportError as exc:  # pragma: no cover - exercised where the extra is missing
+    except ImportError as exc:
         raise ImportError("reading and writing video needs PyAV: install the video extra, "
                           "pip install 'vergence[video]'") from exc
     av.logging.set_level(av.logging.PANIC)  # FFmpeg's own messages would bypass our one-line errors
