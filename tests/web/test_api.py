@@ -145,7 +145,7 @@ def test_a_body_over_the_limit_is_413_declared_or_streamed(client):
 
 def test_unknown_commands_and_endpoints_are_404(client):
     assert _refused(client.post("/api/no-such-command", json={}), 404).startswith(
-        "no command 'no-such-command' has a JSON twin; twins: budget, compare, ")
+        "no command 'no-such-command' has a JSON twin; twins: analyze, budget, compare, ")
     assert _refused(client.get("/no/such/page"), 404) == "no such page or endpoint: GET /no/such/page"
     assert _refused(client.get("/api/budget"), 405) == \
         "GET is not allowed on /api/budget: POST its options as a JSON object"

@@ -64,8 +64,8 @@ def _upload(client, content: bytes, content_type: str = "image/png", name: str =
 
 
 def test_every_command_that_prints_json_has_its_twin(client):
-    assert sorted(client.app.state.twins) == ["budget", "compare", "evaluate-disparity", "interpolate", "mapping",
-                                              "match", "rectify", "rig/plan", "synthesize"]
+    assert sorted(client.app.state.twins) == ["analyze", "budget", "compare", "evaluate-disparity", "interpolate",
+                                              "mapping", "match", "rectify", "rig/plan", "synthesize"]
     fields = client.app.state.twins["match"].model.model_fields
     assert {"left", "right", "mask", "max_disparity"} <= set(fields) and "out" not in fields
     assert "preview" not in fields and "confidence" not in fields

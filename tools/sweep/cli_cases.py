@@ -15,12 +15,15 @@ import numpy as np
 from tools.sweep import hostile
 
 # Options whose value is a path the command writes (the rest of the path options are inputs).
-OUTPUT_OPTIONS = frozenset({"out", "plot", "error_path", "preview", "confidence", "json_out"})
+OUTPUT_OPTIONS = frozenset({"out", "plot", "error_path", "preview", "confidence", "json_out", "report"})
 
 _LENGTHS = ["--eye-separation", "0.063", "--viewing-distance", "2.2", "--screen-width", "1.1"]
 
 # A valid invocation per command on the fixtures ({fx}) writing into the case folder ({case}).
 BASES: dict[str, list[str]] = {
+    # one 2D + depth image: a clip of one frame, no video decoder needed
+    "analyze": ["{fx}/image.png", "--depth", "{fx}/depth.npy", "--depth-kind", "metric", "--display", "tv-55",
+                "--report", "{case}/report"],
     "budget": ["--baseline", "0.1", "--convergence", "3", "--window", "1", *_LENGTHS, "--screen-pixels", "1920",
                "--depth", "5"],
     "mapping": ["--reference-baseline", "0.5", "--convergence", "20", "--window", "2.5", *_LENGTHS,

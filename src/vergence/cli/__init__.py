@@ -18,6 +18,8 @@ __all__ = ["COMMANDS", "EXIT_INTERRUPTED", "app", "main"]
 # name -> (module in vergence.cli, one-line summary for ``vergence --help``). A new command is one
 # row here and a module that registers it with ``@app.command(name)``; keep the rows sorted.
 COMMANDS: dict[str, tuple[str, str]] = {
+    "analyze": ("analyze", "Comfort of a stereo or 2D + depth clip on a display: disparity percentiles, comfort, "
+                "divergence, stereo window, vertical disparity and a suggested retargeting, per frame and per shot."),
     "budget": ("budget", "Depth budget of a rig on a display: divergence and roundness baselines, z' and "
                "roundness per depth (S0 §2)."),
     "compare": ("compare", "Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."),

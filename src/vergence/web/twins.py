@@ -40,7 +40,7 @@ __all__ = ["OUTPUT_NAMES", "OUTPUT_OPTIONS", "UNREACHABLE_INPUTS", "Resolver", "
            "command_params", "twin_names"]
 
 # Options that write files on the server: never exposed by a twin (the answer is the JSON).
-OUTPUT_OPTIONS = frozenset({"--out", "--plot", "--json-out", "--error-image", "--preview", "--confidence"})
+OUTPUT_OPTIONS = frozenset({"--out", "--plot", "--json-out", "--error-image", "--preview", "--confidence", "--report"})
 
 # Input options that name a folder (--masks: Middlebury's nonocc/all/disc) or a side file (--image-list:
 # Bundler's list.txt) that no upload or data id stands for: not exposed (the command's default applies).

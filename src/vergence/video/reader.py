@@ -1,0 +1,282 @@
+"""Frames of a video file or of a numbered image folder, one at a time (never all in memory).
+
+:func:`open_frames` gives a :class:`FrameReader`: its :class:`VideoInfo` (frame count, frame rate,
+size) is known before any frame is decoded, and :meth:`FrameReader.frames` yields float32 RGB
+frames in [0, 1]. Videos are decoded with PyAV (the ``video`` extra, see
+:mod:`vergence.video._av`); folders hold one image per frame, ordered by the last number in the
+file name (``frame_9.png`` before ``frame_10.png``).
+
+Refused in one line (``ValueError``, or ``OSError`` for a file that cannot be read at all): a file
+FFmpeg cannot open or that holds no video stream, a clip of zero frames, a folder with no numbered
+images or with two images of one number, a frame that cannot be decoded, and a video that ends
+before the frame count of its header (truncated): the message says at which frame it stopped.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vergence.video._av import require_av
+
+__all__ = ["DEFAULT_FOLDER_FPS", "FRAME_SUFFIXES", "FrameReader", "VideoInfo", "open_frames"]
+
+# The frame rate given to an image folder when the caller names none (cinema's 24 frames/s).
+DEFAULT_FOLDER_FPS = 24.0
+# Image files a folder of frames may hold (read by vergence.io.read_image); depth folders may also
+# hold .pfm/.npy/.pgm maps (vergence.io.read_depth).
+FRAME_SUFFIXES = (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".pfm", ".npy", ".tif", ".tiff")
+
+
+@dataclass(frozen=True, slots=True)
+class VideoInfo:
+    """What is known of a clip before decoding it.
+
+    Attributes
+    ----------
+    frames : int
+        Number of frames (>= 1).
+    fps : float
+        Frames per second (> 0).
+    width, height : int
+        Size of a stored frame, pixels (both views together for a packed stereo frame).
+    """
+
+    frames: int
+    fps: float
+    width: int
+    height: int
+
+    def __post_init__(self) -> None:
+        for name in ("frames", "width", "height"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1; got {value!r}")
+        if not (isinstance(self.fps, int | float) and math.isfinite(self.fps) and self.fps > 0):
+            raise ValueError(f"fps must be a finite number > 0; got {self.fps!r}")
+
+
+class FrameReader:
+    """A clip's frames, decoded on demand. Build it with :func:`open_frames`.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The video file or the image folder.
+    info : VideoInfo
+    """
+
+    def __init__(self, path: Path, info: VideoInfo, files: tuple[Path, ...] | None) -> None:
+        self.path = path
+        self.info = info
+        self._files = files
+
+    @property
+    def files(self) -> tuple[Path, ...] | None:
+        """The frame files of a folder (or the one image), in order; None for a video file."""
+        return self._files
+
+    def __repr__(self) -> str:
+        i = self.info
+        return f"FrameReader({str(self.path)!r}, frames={i.frames}, fps={i.fps:g}, size={i.width}x{i.height})"
+
+    def frames(self, start: int = 0, stop: int | None = None) -> Iterator[np.ndarray]:
+        """Yield frames ``start`` to ``stop`` (exclusive; default the last) as float32 ``(H, W, 3)`` in [0, 1].
+
+        Raises
+        ------
+        ValueError
+            A range outside ``[0, frames]``, a frame that cannot be decoded, or a video that ends before
+            ``stop`` (the message names the frame where it stopped).
+        """
+        n = self.info.frames
+        stop = n if stop is None else stop
+        for name, value in (("start", start), ("stop", stop)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
+                raise TypeError(f"{name} must be an integer; got {type(value).__name__}")
+        if not 0 <= start <= stop <= n:
+            raise ValueError(f"frame range must satisfy 0 <= start <= stop <= {n}; got start={start}, stop={stop}")
+        if self._files is not None:
+            yield from self._folder_frames(start, stop)
+        else:
+            yield from self._video_frames(start, stop)
+
+    def _folder_frames(self, start: int, stop: int) -> Iterator[np.ndarray]:
+        from vergence.io import read_image
+
+        for k in range(start, stop):
+            image = read_image(self._files[k])
+            if image.ndim == 2:
+                image = np.repeat(image[:, :, None], 3, axis=2)
+            if image.shape[:2] != (self.info.height, self.info.width):
+                raise ValueError(f"frame {k} of {self.path} ({self._files[k].name}) is {image.shape[1]}x"
+                                 f"{image.shape[0]}; the first frame is {self.info.width}x{self.info.height}")
+            yield image
+
+    def _video_frames(self, start: int, stop: int) -> Iterator[np.ndarray]:
+        av = require_av()
+        k = 0
+        try:
+            with av.open(str(self.path)) as container:
+                stream = container.streams.video[0]
+                # Slice threads only: FFmpeg's frame threads hang when a decoder with frames in flight is
+                # closed (a consumer that stops early), measured with thread_type="AUTO" on PyAV 18.
+                stream.thread_type = "SLICE"
+                for rgb in self._decoded(container, stream, stop):
+                    if k >= start:
+                        if rgb.shape[:2] != (self.info.height, self.info.width):
+                            raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
+                                             f"the stream is {self.info.width}x{self.info.height}")
+                        yield rgb.astype(np.float32) / np.float32(255.0)
+                    k += 1
+        except av.FFmpegError as exc:
+            raise ValueError(f"video {self.path} cannot be decoded past frame {k} of {self.info.frames} "
+                             f"({_reason(exc)}): damaged or truncated") from None
+        if k < stop:
+            raise ValueError(f"video {self.path} stops after {k} frames; its header announces {self.info.frames}: "
+                             "truncated")
+
+
+    @staticmethod
+    def _decoded(container: object, stream: object, stop: int) -> Iterator[np.ndarray]:
+        """The first ``stop`` frames as uint8 RGB arrays, in batches of the frames each packet releases.
+
+        A batch is converted before it is handed on, so the caller's generator is never suspended
+        inside PyAV's decoder, and the decoder is drained when the caller stops early (a consumer
+        that takes one frame) before the container closes.
+        """
+        done = 0
+        try:
+            for packet in container.demux(stream):
+                batch = [frame.to_ndarray(format="rgb24") for frame in stream.decode(packet)]
+                for rgb in batch:
+                    if done >= stop:
+                        return
+                    done += 1
+                    yield rgb
+                if done >= stop:
+                    return
+        finally:
+            try:
+                for _ in stream.decode(None):  # drain the decoder before the container closes
+                    pass
+            except require_av().FFmpegError:  # a damaged stream: its own error is already on its way
+                pass
+
+
+def _reason(exc: Exception) -> str:
+    text = getattr(exc, "strerror", None) or str(exc)
+    return " ".join(str(text).split())
+
+
+def _frame_number(path: Path) -> int | None:
+    found = re.findall(r"\d+", path.stem)
+    return int(found[-1]) if found else None
+
+
+def _folder_files(folder: Path) -> tuple[Path, ...]:
+    numbered: dict[int, Path] = {}
+    for p in folder.iterdir():
+        if p.name.startswith(".") or p.suffix.lower() not in FRAME_SUFFIXES or not p.is_file():
+            continue
+        k = _frame_number(p)
+        if k is None:
+            continue
+        if k in numbered:
+            raise ValueError(f"frame folder {folder} holds two frames numbered {k}: {numbered[k].name} and {p.name}")
+        numbered[k] = p
+    if not numbered:
+        raise ValueError(f"frame folder {folder} holds no numbered frames ({', '.join(FRAME_SUFFIXES)}): "
+                         "a zero-length clip")
+    return tuple(numbered[k] for k in sorted(numbered))
+
+
+def open_frames(path: str | os.PathLike[str], *, fps: float | None = None) -> FrameReader:
+    """Open a video file or a folder of numbered images as a :class:`FrameReader`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A video file (any container and codec FFmpeg reads: ``.mp4``, ``.mkv``, ``.mov``...), a folder
+        of numbered images, or one image (a clip of one frame; :data:`FRAME_SUFFIXES`).
+    fps : float, optional
+        Frame rate of a folder (default :data:`DEFAULT_FOLDER_FPS`); for a video, overrides the
+        rate of its header.
+
+    Returns
+    -------
+    FrameReader
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        A file FFmpeg cannot open or without a video stream, zero frames, a folder without numbered
+        frames, an ``fps`` that is not a finite number > 0.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, numpy as np
+    >>> from vergence.io import write_image
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> for k in range(3):
+    ...     write_image(folder / f"frame_{k:03d}.png", np.full((4, 6, 3), k / 4))
+    >>> reader = open_frames(folder)
+    >>> reader.info
+    VideoInfo(frames=3, fps=24.0, width=6, height=4)
+    >>> [round(float(f[0, 0, 0]), 3) for f in reader.frames()]
+    [0.0, 0.251, 0.502]
+    """
+    if fps is not None and not (isinstance(fps, int | float) and not isinstance(fps, bool) and math.isfinite(fps)
+                                and fps > 0):
+        raise ValueError(f"fps must be a finite number > 0; got {fps!r}")
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"no such video or frame folder: {p}")
+    image = p.is_file() and p.suffix.lower() in FRAME_SUFFIXES
+    if p.is_dir() or image:
+        from vergence.io import read_image
+
+        files = _folder_files(p) if p.is_dir() else (p,)
+        height, width = read_image(files[0]).shape[:2]  # the first frame sets the clip's size
+        info = VideoInfo(frames=len(files), fps=float(fps or DEFAULT_FOLDER_FPS), width=int(width), height=int(height))
+        return FrameReader(p, info, files)
+    return FrameReader(p, _video_info(p, fps), None)
+
+
+def _video_info(path: Path, fps: float | None) -> VideoInfo:
+    av = require_av()
+    try:
+        with av.open(str(path)) as container:
+            if not container.streams.video:
+                raise ValueError(f"{path} holds no video stream")
+            stream = container.streams.video[0]
+            width, height = stream.codec_context.width, stream.codec_context.height
+            rate = stream.average_rate or stream.guessed_rate or stream.base_rate
+            frames = int(stream.frames)
+            if frames <= 0:  # containers without a frame count (e.g. .mkv): count the packets
+                frames = 0
+                try:
+                    for packet in container.demux(stream):
+                        frames += 1 if packet.size else 0
+                except av.EOFError:  # an empty or cut stream ends the count
+                    pass
+    except av.EOFError:
+        raise ValueError(f"video {path} ends before its first frame: a zero-length (or truncated) clip") from None
+    except av.FFmpegError as exc:
+        raise ValueError(f"cannot read video {path}: {_reason(exc)}") from None
+    if frames < 1:
+        raise ValueError(f"video {path} holds no frames: a zero-length clip")
+    if not width or not height:
+        raise ValueError(f"cannot read video {path}: its video stream has no frame size")
+    rate_value = float(fps) if fps is not None else (float(rate) if rate else 0.0)
+    if not rate_value > 0:
+        raise ValueError(f"video {path} declares no frame rate: give one (fps)")
+    return VideoInfo(frames=frames, fps=rate_value, width=int(width), height=int(height))
