@@ -16,6 +16,7 @@ from vergence.depth.evaluate import (
     evaluate_disparity,
     mask_agreement,
     middlebury_regions,
+    nonoccluded_mask,
     read_middlebury_masks,
 )
 from vergence.depth.matching import (
@@ -72,6 +73,7 @@ __all__ = [
     "match_sgbm",
     "measure_row_alignment",
     "middlebury_regions",
+    "nonoccluded_mask",
     "read_middlebury_masks",
     "rectify_cameras",
     "rectify_pair",
