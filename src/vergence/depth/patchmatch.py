@@ -16,7 +16,7 @@ on as many cores as there are rows.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -24,13 +24,7 @@ from vergence._validate import check_in_range, check_positive, check_positive_in
 from vergence.depth import _kernels
 from vergence.depth._pair import MAX_BLOCK_SIZE, check_block_size, check_disparity_range, stereo_pair_u8
 
-__all__ = ["PATCHMATCH_DEFAULTS", "PatchMatchResult", "match_patchmatch", "patchmatch_stereo"]
-
-PATCHMATCH_DEFAULTS = {"window": 35, "step": 2, "gamma": 10.0, "alpha": 0.9, "tau_color": 10.0,
-                       "tau_gradient": 2.0, "iterations": 3}
-"""PMS §4 settings (window 35 x 35, gamma 10, alpha 0.9, tau_col 10, tau_grad 2, 3 iterations), except
-``step``: the window is sampled every 2nd pixel (18 x 18 votes instead of 35 x 35), chosen on the
-training scenes of ``benchmarks/stereo_split.json`` (see ``benchmarks/stereo_table.py``)."""
+__all__ = ["PatchMatchParameters", "PatchMatchResult", "match_patchmatch", "patchmatch_stereo"]
 
 # Plane refinement stops when the disparity move falls below this (PMS §3.3: 0.1 px).
 _REFINE_STOP_PX = 0.1
@@ -38,6 +32,50 @@ _REFINE_STOP_PX = 0.1
 _LR_TOLERANCE_PX = 1.0
 # Disparity resolution of the weighted median of the filled pixels, pixels.
 _MEDIAN_BIN_PX = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class PatchMatchParameters:
+    """Settings of :func:`patchmatch_stereo`: PMS §4 (window 35 x 35, gamma 10, alpha 0.9, tau_col 10,
+    tau_grad 2, 3 iterations), except ``step``, chosen on the training scenes of
+    ``benchmarks/stereo_split.json`` (``benchmarks/stereo_table.py --tune``).
+
+    Attributes
+    ----------
+    window : int
+        Side of the square support window, pixels (odd, 3 to ``MAX_BLOCK_SIZE``; PMS: 35).
+    step : int
+        The window is sampled every ``step`` pixels (1: every pixel, as in PMS); at most half the window.
+    gamma : float
+        Colour scale of the support weights ``w = exp(-|I_p - I_q|_1 / gamma)``, 8-bit levels (PMS Eq. 4).
+    alpha : float
+        Weight of the gradient term against the colour term, in [0, 1] (PMS Eq. 5).
+    tau_color, tau_gradient : float
+        Truncations of the colour (L1 over the channels, 8-bit levels) and gradient costs (PMS Eq. 5).
+    iterations : int
+        Propagation iterations (PMS §3.2).
+    """
+
+    window: int = 35
+    step: int = 2
+    gamma: float = 10.0
+    alpha: float = 0.9
+    tau_color: float = 10.0
+    tau_gradient: float = 2.0
+    iterations: int = 3
+
+    def __post_init__(self) -> None:
+        win = check_positive_int("window", self.window)
+        if win % 2 == 0 or win < 3 or win > MAX_BLOCK_SIZE:
+            raise ValueError(f"window must be an odd number of pixels in [3, {MAX_BLOCK_SIZE}]; got {win}")
+        stp = check_positive_int("step", self.step)
+        if stp > win // 2:
+            raise ValueError(f"step must be at most half the window ({win // 2} px); got {stp}")
+        check_positive("gamma", self.gamma)
+        check_in_range("alpha", self.alpha, 0.0, 1.0)
+        check_positive("tau_color", self.tau_color)
+        check_positive("tau_gradient", self.tau_gradient)
+        check_positive_int("iterations", self.iterations)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -63,22 +101,6 @@ class PatchMatchResult:
         readonly_fields(self, "disparity", "raw", "planes")
 
 
-def _parameters(window: object, step: object, gamma: object, alpha: object, tau_color: object,
-                tau_gradient: object, iterations: object, shape: tuple[int, ...]) -> dict:
-    win = check_positive_int("window", window)
-    if win % 2 == 0 or win < 3 or win > MAX_BLOCK_SIZE:
-        raise ValueError(f"window must be an odd number of pixels in [3, {MAX_BLOCK_SIZE}]; got {win}")
-    if win > min(shape[:2]):
-        raise ValueError(f"window must not exceed the image's smaller side ({min(shape[:2])} px); got {win}")
-    stp = check_positive_int("step", step)
-    if stp > win // 2:
-        raise ValueError(f"step must be at most half the window ({win // 2} px); got {stp}")
-    return {"radius": win // 2, "step": stp, "gamma": check_positive("gamma", gamma),
-            "alpha": check_in_range("alpha", alpha, 0.0, 1.0), "tau_color": check_positive("tau_color", tau_color),
-            "tau_gradient": check_positive("tau_gradient", tau_gradient),
-            "iterations": check_positive_int("iterations", iterations)}
-
-
 def _gradient_x(img: np.ndarray) -> np.ndarray:
     """Central x-difference of the grey value (mean of the channels), 8-bit levels per pixel; one-sided at the edges."""
     grey = img.mean(axis=2)
@@ -95,13 +117,7 @@ def patchmatch_stereo(
     *,
     max_disparity: int,
     min_disparity: int = 0,
-    window: int = PATCHMATCH_DEFAULTS["window"],
-    step: int = PATCHMATCH_DEFAULTS["step"],
-    gamma: float = PATCHMATCH_DEFAULTS["gamma"],
-    alpha: float = PATCHMATCH_DEFAULTS["alpha"],
-    tau_color: float = PATCHMATCH_DEFAULTS["tau_color"],
-    tau_gradient: float = PATCHMATCH_DEFAULTS["tau_gradient"],
-    iterations: int = PATCHMATCH_DEFAULTS["iterations"],
+    parameters: PatchMatchParameters | None = None,
     rng: np.random.Generator | None = None,
 ) -> PatchMatchResult:
     """PatchMatch Stereo (Bleyer, Rhemann & Rother 2011) of a rectified pair.
@@ -112,18 +128,8 @@ def patchmatch_stereo(
         Rectified pair in [0, 1] (or 8/16-bit), same size, both grey or both colour.
     max_disparity, min_disparity : int
         Disparity range, pixels: every plane's disparity at its own pixel stays inside it.
-    window : int
-        Side of the square support window, pixels (odd; PMS: 35).
-    step : int
-        The window is sampled every ``step`` pixels (1: every pixel, as in PMS).
-    gamma : float
-        Colour scale of the support weights ``w = exp(-|I_p - I_q|_1 / gamma)``, 8-bit levels (PMS Eq. 4: 10).
-    alpha : float
-        Weight of the gradient term against the colour term, in [0, 1] (PMS Eq. 5: 0.9).
-    tau_color, tau_gradient : float
-        Truncations of the colour (L1 over the channels, 8-bit levels) and gradient costs (PMS: 10 and 2).
-    iterations : int
-        Propagation iterations (PMS: 3).
+    parameters : PatchMatchParameters, optional
+        Window, sampling step, weights and iterations; default ``PatchMatchParameters()``.
     rng : numpy.random.Generator, optional
         Source of the random planes and moves; default ``numpy.random.default_rng(0)`` (reproducible).
 
@@ -134,9 +140,10 @@ def patchmatch_stereo(
     Raises
     ------
     ValueError
-        On a pair of different sizes or channel counts, a disparity range wider than the image, an even
-        or oversized window, a step above half the window, ``alpha`` outside [0, 1], a non-positive
-        ``gamma``, truncation or iteration count.
+        On a pair of different sizes or channel counts, a disparity range wider than the image, or a
+        window wider than the image's smaller side (:class:`PatchMatchParameters` checks the rest).
+    TypeError
+        When ``parameters`` is not a :class:`PatchMatchParameters` or ``rng`` not a Generator.
 
     Notes
     -----
@@ -155,13 +162,22 @@ def patchmatch_stereo(
     >>> rng = np.random.default_rng(1)
     >>> right = rng.random((30, 60)).astype(np.float32)
     >>> left = np.roll(right, 4, axis=1)  # a left pixel x sees the right pixel x - 4
-    >>> res = patchmatch_stereo(left, right, max_disparity=8, window=9, step=1)
+    >>> res = patchmatch_stereo(left, right, max_disparity=8, parameters=PatchMatchParameters(window=9, step=1))
     >>> float(np.median(res.disparity[:, 10:]))
     4.0
     """
     a8, b8 = stereo_pair_u8(left, right)
     lo, hi, _ = check_disparity_range(max_disparity, min_disparity, a8.shape[1])
-    prm = _parameters(window, step, gamma, alpha, tau_color, tau_gradient, iterations, a8.shape)
+    if parameters is None:
+        parameters = PatchMatchParameters()
+    elif not isinstance(parameters, PatchMatchParameters):
+        raise TypeError(f"parameters must be a PatchMatchParameters; got {type(parameters).__name__}")
+    if parameters.window > min(a8.shape[:2]):
+        raise ValueError(f"window must not exceed the image's smaller side ({min(a8.shape[:2])} px); "
+                         f"got {parameters.window}")
+    prm = {"radius": parameters.window // 2, "step": parameters.step, "gamma": float(parameters.gamma),
+           "alpha": float(parameters.alpha), "tau_color": float(parameters.tau_color),
+           "tau_gradient": float(parameters.tau_gradient), "iterations": parameters.iterations}
     if rng is None:
         rng = np.random.default_rng(0)
     elif not isinstance(rng, np.random.Generator):
@@ -225,17 +241,27 @@ def _post_process(planes_l: np.ndarray, planes_r: np.ndarray, guide_u8: np.ndarr
 
 
 def match_patchmatch(
-    left: object, right: object, *, max_disparity: int, min_disparity: int = 0, block_size: int | None = None
+    left: object,
+    right: object,
+    *,
+    max_disparity: int,
+    min_disparity: int = 0,
+    block_size: int | None = None,
+    parameters: PatchMatchParameters | None = None,
 ) -> np.ndarray:
-    """:func:`patchmatch_stereo` with its defaults (``block_size`` is its ``window``), as a :data:`MATCHERS` entry.
+    """:func:`patchmatch_stereo` as a :data:`~vergence.depth.MATCHERS` entry: its post-processed disparity.
 
-    Returns the left-right checked disparity (NaN where the check failed), for the refinement of
-    :func:`~vergence.depth.compute_disparity` to fill.
+    ``block_size``, when given, replaces the window of ``parameters`` (default ``PatchMatchParameters()``),
+    and the sampling step shrinks to at most half of it.
     """
-    a, _ = stereo_pair_u8(left, right)
-    window = check_block_size(block_size, PATCHMATCH_DEFAULTS["window"], shape=a.shape, minimum=3,
-                              matcher="patchmatch")
-    step = min(PATCHMATCH_DEFAULTS["step"], window // 2)
-    res = patchmatch_stereo(left, right, max_disparity=max_disparity, min_disparity=min_disparity, window=window,
-                            step=step)
-    return res.raw.copy()
+    if parameters is None:
+        parameters = PatchMatchParameters()
+    elif not isinstance(parameters, PatchMatchParameters):
+        raise TypeError(f"parameters must be a PatchMatchParameters; got {type(parameters).__name__}")
+    if block_size is not None:
+        a, _ = stereo_pair_u8(left, right)
+        window = check_block_size(block_size, parameters.window, shape=a.shape, minimum=3, matcher="patchmatch")
+        parameters = replace(parameters, window=window, step=min(parameters.step, window // 2))
+    res = patchmatch_stereo(left, right, max_disparity=max_disparity, min_disparity=min_disparity,
+                            parameters=parameters)
+    return res.disparity.copy()
