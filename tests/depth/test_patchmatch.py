@@ -234,3 +234,17 @@ def test_refusals_of_the_functions_and_the_cli(capsys, tmp_path):
                      "--out", str(tmp_path / "d.pfm"), *extra])
         err = capsys.readouterr().err
         assert code == 2 and err.startswith(message) and err.count("\n") == 1, err
+
+
+def test_compute_disparity_keeps_the_left_right_check_and_the_smoothing_choice():
+    left, right, d = _slanted_pair(h=30, w=60)
+    prm = PatchMatchParameters(window=9, step=1)
+    res = patchmatch_stereo(left, right, max_disparity=12, parameters=prm)
+    kept = compute_disparity(left, right, max_disparity=12, method="patchmatch", patchmatch=prm, keep_invalid=True)
+    np.testing.assert_array_equal(np.isnan(kept.disparity), np.isnan(res.raw))
+    np.testing.assert_array_equal(kept.matched, np.isfinite(res.raw))
+    assert np.isnan(res.raw[:, :3]).all()  # the left columns match outside the right image
+    plain = compute_disparity(left, right, max_disparity=12, method="patchmatch", patchmatch=prm, smoothing="none")
+    np.testing.assert_array_equal(plain.disparity, res.filled)
+    full = compute_disparity(left, right, max_disparity=12, method="patchmatch", patchmatch=prm)
+    np.testing.assert_array_equal(full.disparity, res.disparity)

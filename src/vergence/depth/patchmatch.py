@@ -87,6 +87,8 @@ class PatchMatchResult:
     disparity : (H, W) float32
         Left disparity after the left-right check, plane-based filling and the weighted median of the
         filled pixels (PMS §3.4), pixels; every pixel known.
+    filled : (H, W) float32
+        The same before the weighted median: the left-right checked map with its holes filled from the planes.
     raw : (H, W) float32
         Left disparity of the planes, NaN where the left-right check failed (occlusions, mismatches).
     planes : (H, W, 3) float32
@@ -94,11 +96,12 @@ class PatchMatchResult:
     """
 
     disparity: np.ndarray
+    filled: np.ndarray
     raw: np.ndarray
     planes: np.ndarray
 
     def __post_init__(self) -> None:
-        readonly_fields(self, "disparity", "raw", "planes")
+        readonly_fields(self, "disparity", "filled", "raw", "planes")
 
 
 def _gradient_x(img: np.ndarray) -> np.ndarray:
@@ -236,7 +239,8 @@ def _post_process(planes_l: np.ndarray, planes_r: np.ndarray, guide_u8: np.ndarr
     final = _kernels.weighted_median(np.ascontiguousarray(filled, np.float32), np.ascontiguousarray(guide),
                                      ~consistent, np.ones((h, w), bool), lut.astype(np.float32), prm["radius"],
                                      prm["step"], d_min, _MEDIAN_BIN_PX, nbins)
-    return PatchMatchResult(disparity=final.astype(np.float32), raw=raw.astype(np.float32),
+    return PatchMatchResult(disparity=final.astype(np.float32), filled=filled.astype(np.float32),
+                            raw=raw.astype(np.float32),
                             planes=planes_l.astype(np.float32))
 
 
@@ -249,19 +253,27 @@ def match_patchmatch(
     block_size: int | None = None,
     parameters: PatchMatchParameters | None = None,
 ) -> np.ndarray:
-    """:func:`patchmatch_stereo` as a :data:`~vergence.depth.MATCHERS` entry: its post-processed disparity.
+    """:func:`patchmatch_stereo` as a :data:`~vergence.depth.MATCHERS` entry: its left-right checked disparity
+    (``raw``: NaN where the check failed), for a refinement to fill.
 
     ``block_size``, when given, replaces the window of ``parameters`` (default ``PatchMatchParameters()``),
     and the sampling step shrinks to at most half of it.
     """
+    res = patchmatch_stereo(left, right, max_disparity=max_disparity, min_disparity=min_disparity,
+                            parameters=_with_window(left, right, block_size, parameters))
+    return res.raw.copy()
+
+
+def _with_window(left: object, right: object, block_size: int | None,
+                 parameters: PatchMatchParameters | None) -> PatchMatchParameters:
+    """``parameters`` (default ``PatchMatchParameters()``) with ``block_size``, when given, as the window;
+    the sampling step shrinks to at most half of it."""
     if parameters is None:
         parameters = PatchMatchParameters()
     elif not isinstance(parameters, PatchMatchParameters):
         raise TypeError(f"parameters must be a PatchMatchParameters; got {type(parameters).__name__}")
-    if block_size is not None:
-        a, _ = stereo_pair_u8(left, right)
-        window = check_block_size(block_size, parameters.window, shape=a.shape, minimum=3, matcher="patchmatch")
-        parameters = replace(parameters, window=window, step=min(parameters.step, window // 2))
-    res = patchmatch_stereo(left, right, max_disparity=max_disparity, min_disparity=min_disparity,
-                            parameters=parameters)
-    return res.disparity.copy()
+    if block_size is None:
+        return parameters
+    a, _ = stereo_pair_u8(left, right)
+    window = check_block_size(block_size, parameters.window, shape=a.shape, minimum=3, matcher="patchmatch")
+    return replace(parameters, window=window, step=min(parameters.step, window // 2))
