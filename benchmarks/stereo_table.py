@@ -118,7 +118,7 @@ def tune(grid: list[PatchMatchParameters]) -> None:
     post-processing), and refined by our pipeline from the left-right checked map or from that output."""
     names = SPLIT["train"]
     for prm in grid:
-        rows = {"pms": [], "refine(raw)": [], "refine(pms)": []}
+        rows = {"pms": [], "pms-no-median": [], "refine(raw)": [], "refine(pms)": []}
         seconds = 0.0
         for name in names:
             left, right, truth, nonocc, ndisp = load(name)
@@ -126,6 +126,7 @@ def tune(grid: list[PatchMatchParameters]) -> None:
             res = patchmatch_stereo(left, right, max_disparity=ndisp - 1, parameters=prm)
             seconds += time.perf_counter() - t0
             rows["pms"].append(bad(res.disparity, truth, nonocc))
+            rows["pms-no-median"].append(bad(res.filled, truth, nonocc))
             rows["refine(raw)"].append(bad(refine_disparity(res.raw, left).disparity, truth, nonocc))
             rows["refine(pms)"].append(bad(refine_disparity(res.disparity, left).disparity, truth, nonocc))
         for k, v in rows.items():
@@ -139,6 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tune", action="store_true", help="score PatchMatch variants on the training scenes only")
     ap.add_argument("--step", type=int, nargs="*", default=None, help="--tune: the window steps to try")
     ap.add_argument("--window", type=int, nargs="*", default=None, help="--tune: the windows to try")
+    ap.add_argument("--gamma", type=float, nargs="*", default=None, help="--tune: the gammas to try")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"shared data not found at {DATA}; see shared/data/SOURCES.md", file=sys.stderr)
@@ -148,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.tune:
         steps = args.step or [PatchMatchParameters().step]
         windows = args.window or [PatchMatchParameters().window]
-        tune([PatchMatchParameters(window=w, step=s) for w in windows for s in steps])
+        gammas = args.gamma or [PatchMatchParameters().gamma]
+        tune([PatchMatchParameters(window=w, step=s, gamma=g) for w in windows for s in steps for g in gammas])
     else:
         table(args.scenes, PatchMatchParameters())
     return 0

@@ -191,13 +191,15 @@ def gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads):
 
 
 @numba.njit(cache=True)
-def window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, sgn, alpha, tau_color, tau_grad,
+def window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn, alpha, tau_color, tau_grad,
                 bound):  # pragma: no cover - compiled
     """PMS Eq. (2)-(5) over gathered samples: ``sum w rho(q, q + sgn (a q_x + b q_y + c))``, stopped at ``bound``.
 
     ``rho = (1 - alpha) min(|I_q - I'_q'|_1, tau_color) + alpha min(|grad I_q - grad I'_q'|, tau_grad)`` with
-    I' linearly interpolated along the row and clamped at the image edge. Every term is >= 0, so the sum
-    stops as soon as it reaches ``bound`` (such a plane cannot win).
+    I' linearly interpolated along the row and clamped at the image edge: ``other`` and ``other_grad`` are
+    the other view sampled every ``1 / up`` pixel (``up * (W - 1) + 1`` columns; cubic in-between samples
+    make the linear interpolation nearly cubic). Every term is >= 0, so the sum stops as soon as it
+    reaches ``bound`` (such a plane cannot win).
     """
     w = other.shape[1]
     ch = other.shape[2]
@@ -205,7 +207,7 @@ def window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, sgn, al
     for s in range(m):
         u = us[s]
         v = vs[s]
-        xm = u + sgn * (a * u + b * v + c)
+        xm = up * (u + sgn * (a * u + b * v + c))
         if xm < 0.0:
             xm = 0.0
         elif xm > w - 1:
@@ -237,8 +239,9 @@ def plane_cost(y, x, a, b, c, img, grad, other, other_grad, lut, radius, step, s
         return np.inf
     us, vs, wts, cols, grads = _buffers(radius, step, img.shape[2])
     m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
-    return window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, sgn, alpha, tau_color, tau_grad,
-                       np.inf)
+    up = (other.shape[1] - 1) // (img.shape[1] - 1)
+    return window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn, alpha, tau_color,
+                       tau_grad, np.inf)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -265,6 +268,7 @@ def all_costs(planes, img, grad, other, other_grad, lut, radius, step, sgn, alph
               d_max):  # pragma: no cover - compiled
     """:func:`plane_cost` of every pixel's own plane."""
     h, w = planes.shape[:2]
+    up = (other.shape[1] - 1) // (w - 1)
     out = np.empty((h, w))
     for y in numba.prange(h):
         us, vs, wts, cols, grads = _buffers(radius, step, img.shape[2])
@@ -274,20 +278,20 @@ def all_costs(planes, img, grad, other, other_grad, lut, radius, step, sgn, alph
                 out[y, x] = np.inf
                 continue
             m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
-            out[y, x] = window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, sgn, alpha, tau_color,
-                                    tau_grad, np.inf)
+            out[y, x] = window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn, alpha,
+                                    tau_color, tau_grad, np.inf)
     return out
 
 
 @numba.njit(cache=True)
-def _try_plane(planes, costs, y, x, a, b, c, win, m, other, other_grad, sgn, alpha, tau_color, tau_grad, d_min,
+def _try_plane(planes, costs, y, x, a, b, c, win, m, other, other_grad, up, sgn, alpha, tau_color, tau_grad, d_min,
                d_max):  # pragma: no cover - compiled
     """Adopt the plane ``(a, b, c)`` at ``(x, y)`` if its cost over the gathered window ``win`` is lower."""
     if not (d_min <= a * x + b * y + c <= d_max):
         return
     us, vs, wts, cols, grads = win
-    cost = window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, sgn, alpha, tau_color, tau_grad,
-                       costs[y, x])
+    cost = window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn, alpha, tau_color,
+                       tau_grad, costs[y, x])
     if cost < costs[y, x]:
         costs[y, x] = cost
         planes[y, x, 0] = a
@@ -296,7 +300,7 @@ def _try_plane(planes, costs, y, x, a, b, c, win, m, other, other_grad, sgn, alp
 
 
 @numba.njit(cache=True)
-def _refine_pixel(planes, costs, y, x, win, m, other, other_grad, sgn, alpha, tau_color, tau_grad, d_min, d_max,
+def _refine_pixel(planes, costs, y, x, win, m, other, other_grad, up, sgn, alpha, tau_color, tau_grad, d_min, d_max,
                   dz_start, dz_stop, seed, index):  # pragma: no cover - compiled
     """Plane refinement (PMS §3.3): random moves of the disparity (up to ``dz``) and of the normal (up to
     ``dn`` per component) at the pixel, both halved after each try, from ``dz_start`` and 1 until ``dz < dz_stop``."""
@@ -319,7 +323,7 @@ def _refine_pixel(planes, costs, y, x, win, m, other, other_grad, sgn, alpha, ta
             continue
         a1 = -nx / nz
         b1 = -ny / nz
-        _try_plane(planes, costs, y, x, a1, b1, z1 - a1 * x - b1 * y, win, m, other, other_grad, sgn, alpha,
+        _try_plane(planes, costs, y, x, a1, b1, z1 - a1 * x - b1 * y, win, m, other, other_grad, up, sgn, alpha,
                    tau_color, tau_grad, d_min, d_max)
 
 
@@ -334,6 +338,7 @@ def sweep_rows(planes, costs, img, grad, other, other_grad, lut, radius, step, s
     updated in place.
     """
     h, w = costs.shape
+    up = (other.shape[1] - 1) // (w - 1)
     for y in numba.prange(h):
         win = _buffers(radius, step, img.shape[2])
         us, vs, wts, cols, grads = win
@@ -343,8 +348,8 @@ def sweep_rows(planes, costs, img, grad, other, other_grad, lut, radius, step, s
             m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
             if 0 <= xn < w:
                 _try_plane(planes, costs, y, x, planes[y, xn, 0], planes[y, xn, 1], planes[y, xn, 2], win, m,
-                           other, other_grad, sgn, alpha, tau_color, tau_grad, d_min, d_max)
-            _refine_pixel(planes, costs, y, x, win, m, other, other_grad, sgn, alpha, tau_color, tau_grad, d_min,
+                           other, other_grad, up, sgn, alpha, tau_color, tau_grad, d_min, d_max)
+            _refine_pixel(planes, costs, y, x, win, m, other, other_grad, up, sgn, alpha, tau_color, tau_grad, d_min,
                           d_max, dz_start, dz_stop, seed, (y * w + x) * 64)
 
 
@@ -353,6 +358,7 @@ def sweep_columns(planes, costs, img, grad, other, other_grad, lut, radius, step
                   d_min, d_max, forward):  # pragma: no cover - compiled
     """Spatial propagation down (``forward``) or up every column, in parallel over the columns (PMS §3.2)."""
     h, w = costs.shape
+    up = (other.shape[1] - 1) // (w - 1)
     for x in numba.prange(w):
         win = _buffers(radius, step, img.shape[2])
         us, vs, wts, cols, grads = win
@@ -362,7 +368,7 @@ def sweep_columns(planes, costs, img, grad, other, other_grad, lut, radius, step
             if 0 <= yn < h:
                 m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
                 _try_plane(planes, costs, y, x, planes[yn, x, 0], planes[yn, x, 1], planes[yn, x, 2], win, m,
-                           other, other_grad, sgn, alpha, tau_color, tau_grad, d_min, d_max)
+                           other, other_grad, up, sgn, alpha, tau_color, tau_grad, d_min, d_max)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -372,6 +378,7 @@ def view_propagation(planes, costs, other_planes, img, grad, other, other_grad, 
     ``x' = round(x + sgn d)``, transferred to this view: ``d = a' x' + b' y + c'`` with ``x' = x + sgn d``
     gives ``(a, b, c) = (a', b', c') / (1 - sgn a')``."""
     h, w = costs.shape
+    up = (other.shape[1] - 1) // (w - 1)
     for y in numba.prange(h):
         win = _buffers(radius, step, img.shape[2])
         us, vs, wts, cols, grads = win
@@ -385,7 +392,7 @@ def view_propagation(planes, costs, other_planes, img, grad, other, other_grad, 
                 continue
             m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
             _try_plane(planes, costs, y, x, other_planes[y, xo, 0] / den, other_planes[y, xo, 1] / den,
-                       other_planes[y, xo, 2] / den, win, m, other, other_grad, sgn, alpha, tau_color, tau_grad,
+                       other_planes[y, xo, 2] / den, win, m, other, other_grad, up, sgn, alpha, tau_color, tau_grad,
                        d_min, d_max)
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 
 from vergence._validate import check_in_range, check_positive, check_positive_int, readonly_fields
@@ -30,6 +31,11 @@ __all__ = ["PatchMatchParameters", "PatchMatchResult", "match_patchmatch", "patc
 _REFINE_STOP_PX = 0.1
 # Left-right check tolerance, pixels (PMS §3.4: "differ by more than 1").
 _LR_TOLERANCE_PX = 1.0
+# The matched view is resampled every 1/_UPSAMPLE pixel along the rows (cubic), and the cost interpolates
+# linearly between those samples: PMS's linear interpolation loses contrast half-way between pixels, so
+# that a half-pixel disparity of a fine texture costs as much as a wrong one (measured on a 3-px texture
+# shifted by 9.5 px: 45 % of the pixels passed the left-right check, against 93 % at 6 px).
+_UPSAMPLE = 2
 # Disparity resolution of the weighted median of the filled pixels, pixels.
 _MEDIAN_BIN_PX = 0.1
 
@@ -114,6 +120,16 @@ def _gradient_x(img: np.ndarray) -> np.ndarray:
     return g
 
 
+def _upsampled(img: np.ndarray) -> np.ndarray:
+    """``img`` (H, W[, C]) resampled along the rows at ``x = i / _UPSAMPLE``, ``i = 0 .. _UPSAMPLE (W - 1)`` (cubic)."""
+    h, w = img.shape[:2]
+    xs = np.arange(_UPSAMPLE * (w - 1) + 1, dtype=np.float32) / _UPSAMPLE
+    map_x = np.broadcast_to(xs, (h, xs.size)).copy()
+    map_y = np.broadcast_to(np.arange(h, dtype=np.float32)[:, None], (h, xs.size)).copy()
+    out = cv2.remap(img, map_x, map_y, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(h, xs.size, *img.shape[2:])
+
+
 def patchmatch_stereo(
     left: object,
     right: object,
@@ -151,7 +167,8 @@ def patchmatch_stereo(
     Notes
     -----
     Matching cost of plane ``f`` at pixel p (PMS Eq. 2-5): ``m(p, f) = sum_{q in W_p} w(p, q) rho(q, q')``,
-    ``q' = q_x - (a q_x + b q_y + c)`` in the right image (linearly interpolated),
+    ``q' = q_x - (a q_x + b q_y + c)`` in the right image (PMS interpolates linearly; here linearly between
+    cubic samples every half pixel, which keeps the contrast of fine textures at half-pixel disparities),
     ``rho = (1 - alpha) min(|I_q - I_q'|_1, tau_col) + alpha min(|dI_q/dx - dI_q'/dx|, tau_grad)``.
     Refinement (§3.3): the disparity at p moves by up to ``(max - min) / 2`` and the normal by up to 1
     per component, both halved until the disparity move is below 0.1 px. Post-processing (§3.4):
@@ -193,8 +210,8 @@ def patchmatch_stereo(
     d_min, d_max = float(lo), float(hi)
     seeds = [np.uint64(s) for s in rng.integers(0, 2**63, size=2 + 2 * prm["iterations"], dtype=np.int64)]
     views = {
-        "left": (img_l, grad_l, img_r, grad_r, -1.0),
-        "right": (img_r, grad_r, img_l, grad_l, 1.0),
+        "left": (img_l, grad_l, _upsampled(img_r), _upsampled(grad_r), -1.0),
+        "right": (img_r, grad_r, _upsampled(img_l), _upsampled(grad_l), 1.0),
     }
     fixed = (prm["radius"], prm["step"])
     weights = (prm["alpha"], prm["tau_color"], prm["tau_gradient"], d_min, d_max)
