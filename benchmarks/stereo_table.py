@@ -73,7 +73,8 @@ def load(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.nd
         folder = DATA / "multiview" / name
         lf, rf, ndisp = "view1.png", "view5.png", MULTIVIEW_DISPARITIES
         truth = read_disparity(folder / "disp1.png", scale=2)
-        nonocc = middlebury_regions(truth, truth_right=read_disparity(folder / "disp5.png", scale=2), border=0)["nonocc"]
+        truth_right = read_disparity(folder / "disp5.png", scale=2)
+        nonocc = middlebury_regions(truth, truth_right=truth_right, border=0)["nonocc"]
     return read_image(folder / lf), read_image(folder / rf), truth, nonocc, ndisp
 
 
@@ -130,8 +131,8 @@ def tune(grid: list[PatchMatchParameters]) -> None:
             rows["refine(raw)"].append(bad(refine_disparity(res.raw, left).disparity, truth, nonocc))
             rows["refine(pms)"].append(bad(refine_disparity(res.disparity, left).disparity, truth, nonocc))
         for k, v in rows.items():
-            print(f"{prm} {k:12s} mean {statistics.mean(v):6.2f} | " + " ".join(f"{n} {b:.2f}" for n, b in zip(names, v))
-                  + f" | {seconds:.0f} s", flush=True)
+            scenes = " ".join(f"{n} {b:.2f}" for n, b in zip(names, v, strict=True))
+            print(f"{prm} {k:12s} mean {statistics.mean(v):6.2f} | {scenes} | {seconds:.0f} s", flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,4 @@
-"""PatchMatch Stereo (Bleyer, Rhemann & Rother 2011): kernels against slow references, a slanted plane, the LR check, refusals."""
+"""PatchMatch Stereo (Bleyer, Rhemann & Rother 2011): kernels against slow references, a slanted plane, LR check, refusals."""
 
 from __future__ import annotations
 
@@ -228,7 +228,8 @@ def test_refusals_of_the_functions_and_the_cli(capsys, tmp_path):
     from vergence.io import write_image
     write_image(tmp_path / "l.png", img)
     for extra, message in ((["--method", "patchmatch", "--pm-step", "0"], "error: --pm-step must be"),
-                           (["--pm-alpha", "0.5"], "error: --pm-alpha: for --method patchmatch only; got --method sgbm"),
+                           (["--pm-alpha", "0.5"],
+                            "error: --pm-alpha: for --method patchmatch only; got --method sgbm"),
                            (["--method", "patchmatch", "--pm-alpha", "2"], "error: --pm-alpha must lie in [0, 1]")):
         code = main(["match", str(tmp_path / "l.png"), str(tmp_path / "l.png"), "--max-disparity", "8",
                      "--out", str(tmp_path / "d.pfm"), *extra])

@@ -35,7 +35,8 @@ def evaluate_disparity(
 ) -> None:
     """Score ESTIMATE against TRUTH: % bad pixels and RMS over nonocc / all / disc (/ textureless)."""
     if masks is not None and (truth_right is not None or image is not None or border is not None):
-        raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right, --image or --border")
+        raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right, --image "
+                         "or --border")
     with options_named(scale="--estimate-scale"):
         est = read_disparity(estimate, scale=estimate_scale)
     with options_named(scale="--truth-scale"):

@@ -160,7 +160,8 @@ def match(
     pm_iterations: int | None = typer.Option(
         None, "--pm-iterations", help=f"patchmatch: propagation iterations (default {_PM.iterations})."),
     pm_gamma: float | None = typer.Option(
-        None, "--pm-gamma", help=f"patchmatch: colour scale of the support weights, 8-bit levels (default {_PM.gamma:g})."),
+        None, "--pm-gamma",
+        help=f"patchmatch: colour scale of the support weights, 8-bit levels (default {_PM.gamma:g})."),
     pm_alpha: float | None = typer.Option(
         None, "--pm-alpha", help=f"patchmatch: weight of the gradient cost, 0 to 1 (default {_PM.alpha:g})."),
     pm_tau_color: float | None = typer.Option(

@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from vergence._validate import as_float_array, as_image, check_bool, check_positive, check_same_hw
+from vergence._validate import as_float_array, as_image, check_bool, check_finite, check_positive, check_same_hw
 
 __all__ = [
     "RegionScore",
@@ -98,8 +98,8 @@ def nonoccluded_mask(truth: object, truth_right: object, *, tolerance: float = E
     t = _truth("truth", truth)
     tr = _truth("truth_right", truth_right)
     check_same_hw("truth_right", tr, "truth", t)
-    tol = float(tolerance) if isinstance(tolerance, int | float | np.floating) and not isinstance(tolerance, bool) else None
-    if tol is None or not (tol >= 0.0 and np.isfinite(tol)):
+    tol = check_finite("tolerance", tolerance)
+    if tol < 0.0:
         raise ValueError(f"tolerance must be a finite number of pixels >= 0; got {tolerance!r}")
     h, w = t.shape
     known = np.isfinite(t)
@@ -360,7 +360,8 @@ def evaluate_disparity(
                                      border=EVAL_IGNORE_BORDER if border is None else border)
     else:
         if image is not None or truth_right is not None or border is not None:
-            raise ValueError("masks replace the computed regions: pass image, truth_right and border only without masks")
+            raise ValueError("masks replace the computed regions: pass image, truth_right and border only "
+                             "without masks")
         if not isinstance(masks, dict) or not masks:
             raise TypeError("masks must be a non-empty dict of region name -> boolean (H, W) mask")
         regions = {}
