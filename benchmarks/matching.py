@@ -1,4 +1,4 @@
-"""Matching speed at 1920x1080 with 128 disparities: a plain OpenCV SGBM 3-way call vs our pipeline.
+"""Matching speed at 1920x1080 with 128 disparities: a plain OpenCV SGBM 3-way call vs our pipeline and PatchMatch.
 
 The pair is synthetic but built from real photographs (``../shared/data/stereo``, Middlebury 2001
 scenes, Scharstein & Szeliski 2002): a slanted background textured with ``poster`` and three
@@ -8,7 +8,12 @@ process, interleaved, several times; the script prints the medians (and the spre
 ratio, the time our refinement adds on top of our own SGBM call, and the bad-pixel rates
 (|error| > 1 px over the whole image minus a 10 px border) on this scene.
 
-Run: ``.venv/bin/python benchmarks/matching.py [--repeats N]``
+PatchMatch Stereo (``compute_disparity(method="patchmatch")``, Bleyer et al. 2011) is timed on the same
+scene (``--pm-repeats`` runs, default 1: it takes minutes) and, with the raw SGBM call and our default
+again, on a Middlebury pair at half size (dolls view1 / view5, 695 x 555, 128 disparities;
+Scharstein & Pal 2007), all in this process.
+
+Run: ``.venv/bin/python benchmarks/matching.py [--repeats N] [--pm-repeats N] [--no-patchmatch]``
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from vergence.depth import compute_disparity, fill_occlusions, match_sgbm, unrel
 from vergence.io import read_image
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "stereo"
+DOLLS = DATA.parent / "multiview" / "dolls"
 H, W, NUM_DISPARITIES = 1080, 1920, 128
 BORDER = 10  # pixels ignored at the image edges when scoring, as in the Middlebury evaluation
 
@@ -79,6 +85,8 @@ def _bad(estimate: np.ndarray, truth: np.ndarray) -> float:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--pm-repeats", type=int, default=1, help="PatchMatch runs per scene (minutes each at 1080p)")
+    ap.add_argument("--no-patchmatch", action="store_true", help="time the SGBM pipelines only")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"shared data not found at {DATA}; see shared/data/SOURCES.md", file=sys.stderr)
@@ -114,7 +122,41 @@ def main(argv: list[str] | None = None) -> int:
           f"({refine / med(t_match):.2f} x the matching; {100 * frac:.1f} % of pixels re-estimated)")
     print(f"  ratio ours / raw        {med(t_ours) / med(t_raw):.2f}")
     print(f"  bad pixels (>1 px)      raw {_bad(raw_d, truth):.2f} %   ours {_bad(ours.disparity, truth):.2f} %")
+    if args.no_patchmatch:
+        return 0
+    compute_disparity(left[:64, :256], right[:64, :256], max_disparity=31, method="patchmatch")  # compile
+    t_pm = []
+    for _ in range(args.pm_repeats):
+        t0 = time.perf_counter()
+        pm = compute_disparity(left, right, max_disparity=NUM_DISPARITIES - 1, method="patchmatch")
+        t_pm.append(time.perf_counter() - t0)
+    print(f"  patchmatch              {med(t_pm):.3f} ({args.pm_repeats} run{'s' if args.pm_repeats > 1 else ''}); "
+          f"ratio patchmatch / raw {med(t_pm) / med(t_raw):.1f}; bad pixels {_bad(pm.disparity, truth):.2f} %")
+    _half_size(args, raw_matcher)
     return 0
+
+
+def _half_size(args: argparse.Namespace, raw_matcher: cv2.StereoSGBM) -> None:
+    """The three contestants on a Middlebury 2005 pair at half size (dolls view1 / view5, 128 disparities)."""
+    left, right = read_image(DOLLS / "view1.png"), read_image(DOLLS / "view5.png")
+    lu, ru = np.rint(left * 255).astype(np.uint8), np.rint(right * 255).astype(np.uint8)
+    times: dict[str, list[float]] = {"raw": [], "default": [], "patchmatch": []}
+    for k in range(max(args.repeats, args.pm_repeats)):
+        t0 = time.perf_counter()
+        raw_matcher.compute(lu, ru)
+        times["raw"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        compute_disparity(left, right, max_disparity=NUM_DISPARITIES - 1)
+        times["default"].append(time.perf_counter() - t0)
+        if k < args.pm_repeats:
+            t0 = time.perf_counter()
+            compute_disparity(left, right, max_disparity=NUM_DISPARITIES - 1, method="patchmatch")
+            times["patchmatch"].append(time.perf_counter() - t0)
+    med = {k: statistics.median(v) for k, v in times.items()}
+    print(f"dolls view1/view5 {left.shape[1]}x{left.shape[0]}, {NUM_DISPARITIES} disparities (median s)")
+    print(f"  raw OpenCV SGBM 3-way {med['raw']:.3f}   default {med['default']:.3f} "
+          f"(ratio {med['default'] / med['raw']:.2f})   patchmatch {med['patchmatch']:.2f} "
+          f"(ratio {med['patchmatch'] / med['raw']:.1f})")
 
 
 if __name__ == "__main__":

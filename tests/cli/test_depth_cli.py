@@ -304,7 +304,7 @@ def test_evaluate_errors(capsys, tsukuba, tmp_path):
     assert code == 2 and "no Middlebury masks" in err
     code, _, err = _run(capsys, "evaluate-disparity", gt, gt, "--estimate-scale", "16", "--truth-scale", "16",
                         "--masks", str(tsukuba), "--image", str(tsukuba / "im3.png"))
-    assert code == 2 and "--masks replaces the computed regions; do not combine it with --truth-right or --image" in err
+    assert code == 2 and "--masks replaces the computed regions; do not combine it with --truth-right, --image or --border" in err
 
 
 def test_match_refuses_a_uniform_pair_and_warns_on_a_mostly_flat_one(capsys, tmp_path):

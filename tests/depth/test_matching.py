@@ -13,6 +13,7 @@ from vergence.depth import (
     evaluate_disparity,
     match_blocks,
     match_bm,
+    match_patchmatch,
     match_sgbm,
     middlebury_regions,
     read_middlebury_masks,
@@ -108,15 +109,15 @@ def test_bm_settings_are_the_documented_ones(monkeypatch):
 
 
 def test_matcher_table_is_the_dispatch():
-    assert tuple(MATCHERS) == ("bm", "ncc", "sad", "sgbm", "ssd")
-    assert MATCHERS["sgbm"] is match_sgbm and MATCHERS["bm"] is match_bm
+    assert tuple(MATCHERS) == ("bm", "ncc", "patchmatch", "sad", "sgbm", "ssd")
+    assert MATCHERS["sgbm"] is match_sgbm and MATCHERS["bm"] is match_bm and MATCHERS["patchmatch"] is match_patchmatch
     rng = np.random.default_rng(1)
     right = rng.random((24, 64)).astype(np.float32)
     left = np.roll(right, 4, axis=1)
     for cost in ("ncc", "sad", "ssd"):
         np.testing.assert_array_equal(MATCHERS[cost](left, right, max_disparity=16, min_disparity=0, block_size=None),
                                       match_blocks(left, right, max_disparity=16, cost=cost))
-    with pytest.raises(ValueError, match="method must be one of bm, ncc, sad, sgbm, ssd; got 'census'"):
+    with pytest.raises(ValueError, match="method must be one of bm, ncc, patchmatch, sad, sgbm, ssd; got 'census'"):
         compute_disparity(left, right, max_disparity=16, method="census")
 
 
@@ -171,7 +172,7 @@ def test_bad_input():
         compute_disparity(img, img, max_disparity=5, min_disparity=5)
     with pytest.raises(TypeError, match="max_disparity must be an integer number of pixels; got float"):
         compute_disparity(img, img, max_disparity=10.5)
-    with pytest.raises(ValueError, match="method must be one of bm, ncc, sad, sgbm, ssd; got 'census'"):
+    with pytest.raises(ValueError, match="method must be one of bm, ncc, patchmatch, sad, sgbm, ssd; got 'census'"):
         compute_disparity(img, img, max_disparity=10, method="census")
     with pytest.raises(ValueError, match="block_size must be odd; got 4"):
         match_sgbm(img, img, max_disparity=10, block_size=4)

@@ -273,7 +273,7 @@ def test_sweep_kin_refusals():
     with pytest.raises(ValueError, match=r"^smoothing must be one of median, none; got \['median'\]$"):
         refine_disparity(d, img, smoothing=["median"])
     pair = np.random.default_rng(0).random((20, 60)).astype(np.float32)
-    with pytest.raises(ValueError, match=r"^method must be one of bm, ncc, sad, sgbm, ssd; got \['sgbm'\]$"):
+    with pytest.raises(ValueError, match=r"^method must be one of bm, ncc, patchmatch, sad, sgbm, ssd; got \['sgbm'\]$"):
         compute_disparity(pair, pair, max_disparity=15, method=["sgbm"])
     with pytest.raises(ValueError, match=r"hi - lo finite; got lo=-1e\+308, hi=1e\+308"):
         disparity_preview(d, lo=-1e308, hi=1e308)

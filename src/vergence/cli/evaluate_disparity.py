@@ -22,14 +22,21 @@ def evaluate_disparity(
     estimate_scale: float | None = typer.Option(None, "--estimate-scale", help="PNG/PGM estimate: value / scale."),
     truth_scale: float | None = typer.Option(None, "--truth-scale", help="PNG/PGM truth: value / scale."),
     masks: Path | None = typer.Option(None, "--masks", help="Folder with Middlebury nonocc.png, all.png, disc.png."),
-    truth_right: Path | None = typer.Option(None, "--truth-right", help="Right ground truth for the computed nonocc."),
+    truth_right: Path | None = typer.Option(
+        None, "--truth-right", help="Right ground truth for the computed nonocc (Middlebury 2005/2006: disp5.png "
+        "beside disp1.png, with --truth-scale 2 --border 0)."
+    ),
+    border: int | None = typer.Option(
+        None, "--border", help="Pixels ignored at each edge by the computed regions (default 10, as StereoMatcher)."
+    ),
     image: Path | None = typer.Option(None, "--image", help="Left image: adds the computed textureless region."),
     threshold: float = typer.Option(1.0, "--threshold", help="Bad pixel: |error| > threshold (px)."),
     as_json: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Score ESTIMATE against TRUTH: % bad pixels and RMS over nonocc / all / disc (/ textureless)."""
-    if masks is not None and (truth_right is not None or image is not None):
-        raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right or --image")
+    if masks is not None and (truth_right is not None or image is not None or border is not None):
+        raise ValueError("--masks replaces the computed regions; do not combine it with --truth-right, --image "
+                         "or --border")
     with options_named(scale="--estimate-scale"):
         est = read_disparity(estimate, scale=estimate_scale)
     with options_named(scale="--truth-scale"):
@@ -40,8 +47,8 @@ def evaluate_disparity(
     official = read_middlebury_masks(masks) if masks is not None else None
     img = read_image(image) if image is not None else None
     with options_named(threshold="--threshold", image="--image", truth_right="--truth-right", estimate="ESTIMATE",
-                       truth="TRUTH", mask="--masks"):
-        scores = evaluate(est, gt, masks=official, image=img, truth_right=right, threshold=threshold)
+                       truth="TRUTH", mask="--masks", border="--border"):
+        scores = evaluate(est, gt, masks=official, image=img, truth_right=right, threshold=threshold, border=border)
     data = {name: s.to_dict() for name, s in scores.items()}
     if as_json:
         print_json(data)

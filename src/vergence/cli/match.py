@@ -13,10 +13,19 @@ import typer
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
-from vergence.depth import MATCHERS, MAX_BLOCK_SIZE, SMOOTHING_METHODS, compute_disparity, disparity_preview
+from vergence.depth import (
+    MATCHERS,
+    MAX_BLOCK_SIZE,
+    SMOOTHING_METHODS,
+    PatchMatchParameters,
+    compute_disparity,
+    disparity_preview,
+)
 from vergence.io import atomic_write, read_image, stores_integers, write_disparity, write_image
 
 __all__ = ["match"]
+
+_PM = PatchMatchParameters()  # the defaults the help text shows
 
 
 # The largest value of a 16-bit PNG/PGM sample: stored disparity x scale must not exceed it.
@@ -122,7 +131,8 @@ def match(
     right: Path = typer.Argument(..., help="Right image (same size; both grey or both colour)."),
     max_disparity: int = typer.Option(..., "--max-disparity", help="Largest disparity searched (px)."),
     min_disparity: int = typer.Option(0, "--min-disparity", help="Smallest disparity searched (px)."),
-    method: str = typer.Option("sgbm", "--method", help=f"Matcher: {', '.join(MATCHERS)}."),
+    method: str = typer.Option("sgbm", "--method", help=f"Matcher: {', '.join(MATCHERS)} (patchmatch: PatchMatch "
+                               "Stereo, slanted windows, Bleyer et al. 2011; slower, see the README's table)."),
     smoothing: str = typer.Option(
         "median", "--smoothing", help=f"Edge-aware smoothing: {', '.join(SMOOTHING_METHODS)}."
     ),
@@ -145,10 +155,35 @@ def match(
     ),
     confidence: Path | None = typer.Option(None, "--confidence", help="Also write the confidence map (grey image)."),
     as_json: bool = typer.Option(False, "--json", help="Print a summary as JSON."),
+    pm_step: int | None = typer.Option(
+        None, "--pm-step", help=f"patchmatch: sample the window every N px (default {_PM.step}; 1 = every pixel)."),
+    pm_iterations: int | None = typer.Option(
+        None, "--pm-iterations", help=f"patchmatch: propagation iterations (default {_PM.iterations})."),
+    pm_gamma: float | None = typer.Option(
+        None, "--pm-gamma",
+        help=f"patchmatch: colour scale of the support weights, 8-bit levels (default {_PM.gamma:g})."),
+    pm_alpha: float | None = typer.Option(
+        None, "--pm-alpha", help=f"patchmatch: weight of the gradient cost, 0 to 1 (default {_PM.alpha:g})."),
+    pm_tau_color: float | None = typer.Option(
+        None, "--pm-tau-color", help=f"patchmatch: colour cost truncation, 8-bit levels (default {_PM.tau_color:g})."),
+    pm_tau_gradient: float | None = typer.Option(
+        None, "--pm-tau-gradient", help=f"patchmatch: gradient cost truncation (default {_PM.tau_gradient:g})."),
 ) -> None:
     """Compute the disparity map of LEFT (x_left - x_right, px) and write it to --out."""
     if block_size is not None and not (1 <= block_size <= MAX_BLOCK_SIZE and block_size % 2 == 1):
         raise ValueError(f"--block-size must be an odd number of pixels in [1, {MAX_BLOCK_SIZE}]; got {block_size}")
+    pm_given = {"step": pm_step, "iterations": pm_iterations, "gamma": pm_gamma, "alpha": pm_alpha,
+                "tau_color": pm_tau_color, "tau_gradient": pm_tau_gradient}
+    pm_given = {k: v for k, v in pm_given.items() if v is not None}
+    pm_options = {k: "--pm-" + k.replace("_", "-") for k in ("step", "iterations", "gamma", "alpha", "tau_color",
+                                                               "tau_gradient")}
+    patchmatch = None
+    if pm_given:
+        if method != "patchmatch":
+            raise ValueError(f"{', '.join(pm_options[k] for k in pm_given)}: for --method patchmatch only; "
+                             f"got --method {method}")
+        with options_named(**pm_options):
+            patchmatch = PatchMatchParameters(**pm_given)
     extra = [p for p in (preview, confidence) if p is not None]
     integers = _check_outputs(out, scale, preview, confidence, min_disparity, max_disparity)
     for o in (out, *extra):
@@ -156,12 +191,13 @@ def match(
     start = time.perf_counter()
     names = {"block_size": "--block-size", "max_disparity": "--max-disparity", "min_disparity": "--min-disparity",
              "method": "--method", "smoothing": "--smoothing", "left and right": "LEFT and RIGHT", "left": "LEFT",
-             "right": "RIGHT", "valid": "--mask"}
+             "right": "RIGHT", "valid": "--mask", "window": "--block-size", **pm_options}
     with err_console.status(f"matching ({method})", spinner="dots"), options_named(**names):
         a, b = read_image(left), read_image(right)
         valid = _mask(mask, a.shape[:2]) if mask is not None else None
         result = compute_disparity(a, b, max_disparity=max_disparity, min_disparity=min_disparity, method=method,
-                                   smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size, valid=valid)
+                                   smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size, valid=valid,
+                                   patchmatch=patchmatch)
     seconds = time.perf_counter() - start
     disparity, stored_warning = _storable(result.disparity, scale) if integers else (result.disparity, None)
     warnings = [*result.warnings, *([stored_warning] if stored_warning else [])]

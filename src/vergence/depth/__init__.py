@@ -2,6 +2,7 @@
 
 - :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000).
 - :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
+- :mod:`~vergence.depth.patchmatch`: PatchMatch Stereo, slanted support windows (Bleyer et al. 2011).
 - :mod:`~vergence.depth.texture`: where an image has texture to match (uniform pairs are refused).
 - :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
 - :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
@@ -16,6 +17,7 @@ from vergence.depth.evaluate import (
     evaluate_disparity,
     mask_agreement,
     middlebury_regions,
+    nonoccluded_mask,
     read_middlebury_masks,
 )
 from vergence.depth.matching import (
@@ -25,6 +27,7 @@ from vergence.depth.matching import (
     match_sgbm,
     sgbm_parameters,
 )
+from vergence.depth.patchmatch import PatchMatchParameters, PatchMatchResult, match_patchmatch, patchmatch_stereo
 from vergence.depth.preview import disparity_preview
 from vergence.depth.rectify import (
     Rectification,
@@ -52,6 +55,8 @@ __all__ = [
     "MAX_BLOCK_SIZE",
     "MIN_TEXTURE",
     "MIN_TEXTURED_PERCENT",
+    "PatchMatchParameters",
+    "PatchMatchResult",
     "Rectification",
     "RectifiedPair",
     "RefinedDisparity",
@@ -69,9 +74,12 @@ __all__ = [
     "mask_agreement",
     "match_blocks",
     "match_bm",
+    "match_patchmatch",
     "match_sgbm",
     "measure_row_alignment",
     "middlebury_regions",
+    "nonoccluded_mask",
+    "patchmatch_stereo",
     "read_middlebury_masks",
     "rectify_cameras",
     "rectify_pair",

@@ -19,7 +19,8 @@ import numpy as np
 from vergence._validate import as_image, check_bool, check_positive_int
 from vergence.depth._pair import check_block_size, check_disparity_range, stereo_pair_u8
 from vergence.depth.block import COSTS, match_blocks
-from vergence.depth.refine import RefinedDisparity, refine_disparity
+from vergence.depth.patchmatch import PatchMatchParameters, match_patchmatch, patchmatch_stereo
+from vergence.depth.refine import SMOOTHING_METHODS, RefinedDisparity, confidence_map, refine_disparity
 from vergence.depth.texture import LOW_TEXTURED_PERCENT, MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_pixels
 
 __all__ = ["MATCHERS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
@@ -111,9 +112,11 @@ def match_bm(
 
 
 MATCHERS: MappingProxyType[str, Callable[..., np.ndarray]] = MappingProxyType(dict(sorted(
-    {"bm": match_bm, "sgbm": match_sgbm, **{c: partial(match_blocks, cost=c) for c in COSTS}}.items())))
+    {"bm": match_bm, "sgbm": match_sgbm, "patchmatch": match_patchmatch,
+     **{c: partial(match_blocks, cost=c) for c in COSTS}}.items())))
 """Matcher name -> ``matcher(left, right, *, max_disparity, min_disparity, block_size)`` giving raw
-disparity (NaN = no answer); read-only: OpenCV's ``bm`` and ``sgbm``, and one window matcher per
+disparity (NaN = no answer); read-only: OpenCV's ``bm`` and ``sgbm``, PatchMatch Stereo
+(:func:`~vergence.depth.patchmatch.match_patchmatch`, Bleyer et al. 2011), and one window matcher per
 :data:`~vergence.depth.block.COSTS` entry. :func:`compute_disparity`, its error message and the CLI's
 ``--method`` choices all read this table."""
 
@@ -129,6 +132,7 @@ def compute_disparity(
     keep_invalid: bool = False,
     block_size: int | None = None,
     valid: object = None,
+    patchmatch: PatchMatchParameters | None = None,
 ) -> RefinedDisparity:
     """Disparity of a rectified pair: matching then refinement (our default pipeline).
 
@@ -140,10 +144,15 @@ def compute_disparity(
         Disparity search range, pixels; it must fit inside the image width.
     method : str
         A name of :data:`MATCHERS`: ``sgbm``: :func:`match_sgbm` (default); ``bm``: :func:`match_bm`;
+        ``patchmatch``: :func:`~vergence.depth.patchmatch.patchmatch_stereo` (PatchMatch Stereo, slanted
+        windows, with its own refinement; slower, see the README's table for when it pays);
         ``sad``/``ssd``/``ncc``: :func:`~vergence.depth.block.match_blocks` with that window cost.
     smoothing : str
         A name of :data:`~vergence.depth.refine.SMOOTHING_METHODS` (``median``, ``none``):
-        the edge-aware smoothing of :func:`~vergence.depth.refine.refine_disparity`.
+        the edge-aware smoothing of :func:`~vergence.depth.refine.refine_disparity`. With
+        ``patchmatch`` the refinement is PatchMatch Stereo's own (left-right check, plane-based filling,
+        then, with ``median``, the weighted median of the filled pixels: PMS §3.4), which scored better on
+        the training scenes than our refinement of its left-right checked map (``benchmarks/stereo_table.py --tune``).
     keep_invalid : bool
         Keep NaN where the matcher gave no answer; by default every pixel gets a disparity
         (background extrapolation, S1 §III.B).
@@ -153,6 +162,9 @@ def compute_disparity(
         The pixels of ``left`` that hold image content, e.g. :attr:`~vergence.depth.RectifiedPair.left_valid`
         (rectification leaves black borders). Outside it the disparity is NaN whatever ``keep_invalid``:
         nothing is matched there, no pixel is filled from there, and the texture share counts inside only.
+    patchmatch : PatchMatchParameters, optional
+        Settings of ``method="patchmatch"`` (default ``PatchMatchParameters()``; ``block_size`` replaces
+        its window); refused with another method.
 
     Returns
     -------
@@ -181,6 +193,11 @@ def compute_disparity(
     if not isinstance(method, str) or method not in MATCHERS:
         raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
     keep_invalid = check_bool("keep_invalid", keep_invalid)
+    if patchmatch is not None:
+        if method != "patchmatch":
+            raise ValueError(f"patchmatch parameters apply to method 'patchmatch' only; got method {method!r}")
+        if not isinstance(patchmatch, PatchMatchParameters):
+            raise TypeError(f"patchmatch must be a PatchMatchParameters; got {type(patchmatch).__name__}")
     a, _ = stereo_pair_u8(left, right)  # the arguments' errors before the texture's
     check_disparity_range(max_disparity, min_disparity, a.shape[1])
     check_block_size(block_size, 1, shape=a.shape)
@@ -200,15 +217,40 @@ def compute_disparity(
         "the disparity elsewhere is extrapolated from it, not measured"
         for name in ("left", "right") if textured[name] < LOW_TEXTURED_PERCENT
     )
-    raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
-                           block_size=block_size)
-    raw[~inside] = np.nan
-    result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
+    if method == "patchmatch":
+        result = _patchmatch_refined(left, right, max_disparity, min_disparity, smoothing, keep_invalid, block_size,
+                                     patchmatch, inside)
+    else:
+        raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
+                               block_size=block_size)
+        raw[~inside] = np.nan
+        result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
     disparity, confidence = result.disparity.copy(), result.confidence.copy()
     disparity[~inside] = np.nan
     confidence[~inside] = 0.0
     return dataclasses.replace(result, disparity=disparity, confidence=confidence, matched=result.matched & inside,
                                textured_percent=textured["left"], warnings=warnings)
+
+
+def _patchmatch_refined(left: object, right: object, max_disparity: int, min_disparity: int, smoothing: str,
+                        keep_invalid: bool, block_size: int | None, parameters: PatchMatchParameters | None,
+                        inside: np.ndarray) -> RefinedDisparity:
+    """PatchMatch Stereo with its own refinement (PMS §3.4); ``smoothing="none"`` stops before its median."""
+    if not isinstance(smoothing, str) or smoothing not in SMOOTHING_METHODS:
+        raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_METHODS)}; got {smoothing!r}")
+    prm = PatchMatchParameters() if parameters is None else parameters
+    if block_size is not None:
+        a, _ = stereo_pair_u8(left, right)
+        window = check_block_size(block_size, prm.window, shape=a.shape, minimum=3, matcher="patchmatch")
+        prm = dataclasses.replace(prm, window=window, step=min(prm.step, window // 2))
+    res = patchmatch_stereo(left, right, max_disparity=max_disparity, min_disparity=min_disparity, parameters=prm)
+    matched = np.isfinite(res.raw) & inside
+    if not matched.any():
+        raise ValueError("the matcher found no reliable disparity; check the disparity range and the image pair")
+    out = (res.disparity if smoothing == "median" else res.filled).copy()
+    if keep_invalid:
+        out[~matched] = np.nan
+    return RefinedDisparity(out, confidence_map(res.raw, out), matched)
 
 
 def _valid_mask(valid: object, hw: tuple[int, int]) -> np.ndarray:
