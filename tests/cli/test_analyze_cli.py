@@ -134,4 +134,4 @@ def test_options_of_the_other_kind_of_input_are_refused(clips, capsys):
     code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--budget-arcmin", "20"])
     assert code == 2 and err.startswith("error: --budget-arcmin apply to a 2d+depth INPUT")
     code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--method", "nope"])
-    assert code == 2 and err.startswith("error: --method must be one of bm, ncc, sad, sgbm, ssd; got 'nope'")
+    assert code == 2 and err.startswith("error: --method must be one of bm, ncc, patchmatch, sad, sgbm, ssd; got 'nope'")
