@@ -49,7 +49,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vergence.video.sources import DepthClip, StereoClip
-from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
+from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter, grey_levels
 from vergence.video.writer import DEFAULT_CRF, PIXEL_FORMATS
 
 if TYPE_CHECKING:
@@ -288,7 +288,7 @@ def convert_clip(
     from vergence.video import _segments
     from vergence.video._matching import default_search_px, match_padded
     from vergence.video.cuts import detect_cuts
-    from vergence.video.stability import stabilize_disparity
+    from vergence.video._kernels import stabilize_kernel
     from vergence.video.writer import VideoWriter
     from vergence.viewing import Display
     from vergence.viewing.mapping import BlendedMapping, temporal_weights
@@ -315,8 +315,8 @@ def convert_clip(
         pixel_format = "yuv444p" if layout.startswith("anaglyph") else "yuv420p"
     if pixel_format not in PIXEL_FORMATS:
         raise ValueError(f"pixel_format must be one of {', '.join(PIXEL_FORMATS)}; got {pixel_format!r}")
-    _check_number("threshold", threshold, 0.0, 1.0)
-    _check_number("alpha", alpha, 0.0, 1.0, lo_open=True)
+    threshold = _check_number("threshold", threshold, 0.0, 1.0)
+    alpha = _check_number("alpha", alpha, 0.0, 1.0, lo_open=True)
     transition = _check_number("transition", transition, 0.0, 1e9)
     if not out.parent.is_dir():
         raise FileNotFoundError(f"out folder {out.parent} does not exist")
@@ -404,17 +404,16 @@ def convert_clip(
                 for m in meters[s]:
                     m.reset()
             raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
-            d = raw if prev is None or not stabilize else stabilize_disparity(prev[0], left, prev[1], raw,
-                                                                              threshold=threshold, alpha=alpha)  # fmt: skip
+            grey = grey_levels(left)
+            d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold, alpha)
             stores[s][k - a] = d
             known = d[np.isfinite(d)]
             if known.size:
                 p1, p99 = np.percentile(known, [1, 99])
                 lows[s], highs[s] = min(lows[s], float(p1)), max(highs[s], float(p99))
-            grey = left.mean(axis=2, dtype=np.float32)
             meters[s][0].add(grey, raw)
             meters[s][1].add(grey, d)
-            prev = (left, d)
+            prev = (grey, d)
             count += 1
             report("matching", count, todo)
         for s in stores:
@@ -462,17 +461,19 @@ def convert_clip(
             else:
                 image, depth = item
                 raw = nearness_from_depth(depth, kind=clip.kind)
-                d = raw if prev is None or not stabilize else stabilize_disparity(prev[0], image, prev[1], raw,
-                                                                                  threshold=threshold, alpha=alpha)  # fmt: skip
-                grey = image.mean(axis=2, dtype=np.float32)
+                grey = grey_levels(image)
+                d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
+                                                                               threshold, alpha)  # fmt: skip
                 if prev is None:
                     for m in meters[s]:
                         m.reset()
                 meters[s][0].add(grey, raw)
                 meters[s][1].add(grey, d)
-                prev = (image, d)
+                prev = (grey, d)
             result = synthesize_stereo(image, d, kind="disparity", mapping=psi, display=display, origin=origin)
-            sink.write(np.clip(pack(result.left, result.right, layout=layout), 0.0, 1.0), k)
+            packed = np.clip(pack(result.left, result.right, layout=layout), 0.0, 1.0)
+            packed *= np.float32(255.0)
+            sink.write(np.rint(packed, out=packed).astype(np.uint8), k)  # 8 bits as VideoWriter rounds them
             count += 1
             report("converting", count, todo)
             if k == b - 1:
