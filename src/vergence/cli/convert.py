@@ -132,8 +132,9 @@ def convert(
         console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px "
                       f"(psi slope {shot.mapping.gain:.4g}){note}", highlight=False)  # fmt: skip
     before, after = result.flicker_before.mean_px, result.flicker_after.mean_px
-    console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "
-                  f"({result.flicker_after.pairs} frame pairs)", highlight=False)  # fmt: skip
+    if result.flicker_after.pairs:
+        console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "
+                      f"({result.flicker_after.pairs} frame pairs)", highlight=False)  # fmt: skip
     console.print(f"wrote {result.frames} frames ({result.frames / result.seconds:.2f} fps) to {result.out}",
                   highlight=False)  # fmt: skip
     if result.stopped is not None:
