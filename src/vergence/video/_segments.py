@@ -13,7 +13,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+from collections.abc import Callable
 from pathlib import Path
+
+import numpy as np
 
 from vergence.video._av import require_av
 
@@ -113,3 +116,59 @@ def join_folders(segments: list[Path], out: Path) -> None:
                     os.link(f, tmp / f.name)
                 except OSError:
                     shutil.copy2(f, tmp / f.name)
+
+
+class Stopped:
+    """Wraps a frame stream; a ValueError mid-way (truncated or damaged input) ends it and is kept."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.reason: str | None = None
+
+    def wrap(self, items):
+        it = iter(items)
+        while True:
+            try:
+                item = next(it)
+            except StopIteration:
+                return
+            except ValueError as exc:
+                self.reason = str(exc)
+                return
+            self.count += 1
+            yield item
+
+
+def counted(items, report: Callable[[str, int, int], None], phase: str, total: int):
+    for k, item in enumerate(items, 1):
+        yield item
+        report(phase, k, total)
+
+
+class Segment:
+    """One shot's output: a VideoWriter, or an atomic folder of PNG frames."""
+
+    def __init__(self, path: Path, images: bool, fps: float, shape: tuple[int, ...], pixel_format: str, crf: int,
+                 writer: type) -> None:  # fmt: skip
+        self.path, self.images = path, images
+        if images:
+            from vergence.io import atomic_folder
+
+            self._ctx = atomic_folder(path)
+        else:
+            self._ctx = writer(path, fps=fps, width=shape[1], height=shape[0], pixel_format=pixel_format, crf=crf)
+
+    def __enter__(self) -> Segment:
+        self._target = self._ctx.__enter__()
+        return self
+
+    def write(self, frame: np.ndarray, k: int) -> None:
+        if self.images:
+            from vergence.io import write_image
+
+            write_image(self._target / f"frame_{k:06d}.png", frame)
+        else:
+            self._target.write(frame)
+
+    def __exit__(self, *exc: object) -> None:
+        self._ctx.__exit__(*exc)

@@ -194,27 +194,6 @@ def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, displa
     return plan_parallax(row, kind="disparity", budget_arcmin=budget_arcmin, display=display).mapping
 
 
-class _Stopped:
-    """Wraps a frame stream; a ValueError mid-way (truncated or damaged input) ends it and is kept."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.reason: str | None = None
-
-    def wrap(self, items):
-        it = iter(items)
-        while True:
-            try:
-                item = next(it)
-            except StopIteration:
-                return
-            except ValueError as exc:
-                self.reason = str(exc)
-                return
-            self.count += 1
-            yield item
-
-
 def convert_clip(
     clip: StereoClip | DepthClip,
     out: str | os.PathLike[str],
@@ -342,10 +321,10 @@ def convert_clip(
     report = progress or (lambda phase, done, total: None)
 
     # Pass 1: cuts, and the nearness range of each frame of a 2D + depth clip.
-    guard = _Stopped()
+    guard = _segments.Stopped()
     ranges: list[tuple[float, float]] = []
     if stereo:
-        cuts = detect_cuts(_counted(guard.wrap(clip.lefts()), report, "shots", clip.frames))
+        cuts = detect_cuts(_segments.counted(guard.wrap(clip.lefts()), report, "shots", clip.frames))
     else:
         def colour_frames():
             for image, depth in guard.wrap(clip.pairs()):
@@ -356,7 +335,7 @@ def convert_clip(
                 yield image
 
         try:
-            cuts = detect_cuts(_counted(colour_frames(), report, "shots", clip.frames))
+            cuts = detect_cuts(_segments.counted(colour_frames(), report, "shots", clip.frames))
         except ValueError as exc:
             if guard.count == 0 and guard.reason is not None:
                 raise ValueError(guard.reason) from None
@@ -452,7 +431,7 @@ def convert_clip(
                 continue
             a, b = shots[s]
             if k == a:
-                sink = _Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, VideoWriter)
+                sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, VideoWriter)
                 sink.__enter__()
                 prev = None
             psi = psi_at(k)
@@ -517,38 +496,3 @@ def convert_clip(
                       pixel_format=None if images else pixel_format, shots=conversions,
                       flicker_before=combined(0), flicker_after=combined(1), stopped=guard.reason,
                       seconds=time.perf_counter() - started)  # fmt: skip
-
-
-def _counted(items, report: Callable[[str, int, int], None], phase: str, total: int):
-    for k, item in enumerate(items, 1):
-        yield item
-        report(phase, k, total)
-
-
-class _Segment:
-    """One shot's output: a VideoWriter, or an atomic folder of PNG frames."""
-
-    def __init__(self, path: Path, images: bool, fps: float, shape: tuple[int, ...], pixel_format: str, crf: int,
-                 writer: type) -> None:  # fmt: skip
-        self.path, self.images = path, images
-        if images:
-            from vergence.io import atomic_folder
-
-            self._ctx = atomic_folder(path)
-        else:
-            self._ctx = writer(path, fps=fps, width=shape[1], height=shape[0], pixel_format=pixel_format, crf=crf)
-
-    def __enter__(self) -> _Segment:
-        self._target = self._ctx.__enter__()
-        return self
-
-    def write(self, frame: np.ndarray, k: int) -> None:
-        if self.images:
-            from vergence.io import write_image
-
-            write_image(self._target / f"frame_{k:06d}.png", frame)
-        else:
-            self._target.write(frame)
-
-    def __exit__(self, *exc: object) -> None:
-        self._ctx.__exit__(*exc)
