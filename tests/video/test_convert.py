@@ -17,10 +17,11 @@ from vergence.viewing import Display
 
 DISPLAY = Display.preset("tv-55")
 BUDGET_ARCMIN = 30.0
-# The analysis of the output matches its views again (SGBM, quarter-pixel steps) after an H.264 round trip:
-# its 1st/99th percentiles may pass the budget by half a view pixel (on tv-55 with 160-px views one view
-# pixel is 12 display pixels, about 8.7 arcmin at 3 m).
-MATCH_TOLERANCE_PX = 0.5
+# The analysis of the output matches its views again (SGBM, quarter-pixel steps) after two H.264 round trips
+# (the input's and the output's): its 1st/99th percentiles pass the budget by up to 0.58 view px on the
+# clips of examples/video/convert_clips.py (on tv-55 with 160-px views one view pixel is 12 display pixels,
+# about 8.7 arcmin at 3 m); the conversion itself maps each shot's range exactly onto the budget.
+MATCH_TOLERANCE_PX = 0.75
 # Two H.264 encodes (CRF 18) of the same frames: mean absolute difference of the decoded frames.
 CODEC_MEAN_ATOL = 2.0 / 255
 
