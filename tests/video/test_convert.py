@@ -151,3 +151,12 @@ def test_refusals(clips, tmp_path):
         convert_clip(clip, tmp_path / "o.mp4", Display(eye_separation=0.065, distance=3.0, width=1.2))
     with pytest.raises(ValueError, match=r"out must be a \.mp4, \.mkv, \.mov file or a folder without extension"):
         convert_clip(clip, tmp_path / "o.avi", DISPLAY)
+
+
+def test_preset_is_checked_and_used(clips, tmp_path):
+    from vergence.video import VideoWriter
+
+    with pytest.raises(ValueError, match="preset must be one of ultrafast, .*veryslow; got 'quick'"):
+        VideoWriter(tmp_path / "x.mp4", fps=24, width=16, height=16, preset="quick")
+    r = convert_clip(open_depth_clip(clips.rgbd), tmp_path / "fast_LRF_Full_SBS.mp4", DISPLAY, preset="ultrafast")
+    assert open_frames(r.out).info.frames == clips.frames

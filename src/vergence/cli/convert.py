@@ -17,7 +17,7 @@ __all__ = ["convert"]
 # What INPUT holds: a packed stereo clip, or colour + depth (as vergence analyze).
 INPUT_KINDS = ("stereo", "2d+depth")
 _OPTIONS = {"layout": "--format", "kind": "--depth-kind", "scale": "--depth-scale", "fps": "--fps",
-            "budget_arcmin": "--budget-arcmin", "pixel_format": "--pixel-format", "crf": "--crf",
+            "budget_arcmin": "--budget-arcmin", "pixel_format": "--pixel-format", "crf": "--crf", "preset": "--preset",
             "origin": "--origin", "threshold": "--static-threshold", "alpha": "--stabilize-alpha",
             "transition": "--transition", "method": "--method", "min_disparity": "--min-disparity",
             "max_disparity": "--max-disparity", "out": "--out"}  # fmt: skip
@@ -37,6 +37,8 @@ def convert(
     pixel_format: str | None = typer.Option(None, "--pixel-format", help="yuv420p (every player; default) or "
                                             "yuv444p (default for anaglyphs: no chroma crosstalk)."),
     crf: int = typer.Option(18, "--crf", help="x264 quality: 0 lossless, 18 visually lossless, 51 worst."),
+    preset: str = typer.Option("medium", "--preset", help="x264 speed: ultrafast ... veryslow (faster: larger "
+                               "files at the same --crf)."),
     images: bool = typer.Option(False, "--images", help="Write PNG frames into a folder instead of a video."),
     depth: Path | None = typer.Option(None, "--depth", help="The depth clip of a colour INPUT (same length and size)."),
     kind: str | None = typer.Option(None, "--input-kind", help=f"What INPUT holds: {', '.join(INPUT_KINDS)}; "
@@ -122,7 +124,8 @@ def convert(
 
             result = convert_clip(
                 clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
-                origin=origin, stabilize=not no_stabilize, threshold=static_threshold, alpha=stabilize_alpha,
+                preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
+                alpha=stabilize_alpha,
                 transition=transition, method=method or "sgbm", min_disparity=min_disparity,
                 max_disparity=max_disparity, resume=resume, progress=progress,
             )  # fmt: skip

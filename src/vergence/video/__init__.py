@@ -24,7 +24,7 @@ from vergence.video.layout import LAYOUT_TAGS, STEREO_LAYOUTS, VIDEO_LAYOUTS, gu
 from vergence.video.reader import DEFAULT_FOLDER_FPS, FRAME_SUFFIXES, FrameReader, VideoInfo, open_frames
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter, disparity_flicker, stabilize_disparity
 from vergence.video.sources import DepthClip, StereoClip, open_depth_clip, open_stereo
-from vergence.video.writer import DEFAULT_CRF, DEFAULT_PIXEL_FORMAT, PIXEL_FORMATS, VideoWriter
+from vergence.video.writer import DEFAULT_CRF, DEFAULT_PIXEL_FORMAT, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS, VideoWriter
 
 __all__ = [
     "CLIP_SHOTS",
@@ -38,6 +38,7 @@ __all__ = [
     "DEFAULT_CRF",
     "DEFAULT_FOLDER_FPS",
     "DEFAULT_PIXEL_FORMAT",
+    "DEFAULT_PRESET",
     "DepthClip",
     "FRAME_SUFFIXES",
     "Flicker",
@@ -65,6 +66,7 @@ __all__ = [
     "WINDOW_BAND",
     "WINDOW_MIN_PX",
     "WINDOW_SHARE",
+    "X264_PRESETS",
     "analyze_clip",
     "convert_clip",
     "converted_path",

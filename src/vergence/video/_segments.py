@@ -149,14 +149,15 @@ class Segment:
     """One shot's output: a VideoWriter, or an atomic folder of PNG frames."""
 
     def __init__(self, path: Path, images: bool, fps: float, shape: tuple[int, ...], pixel_format: str, crf: int,
-                 writer: type) -> None:  # fmt: skip
+                 preset: str, writer: type) -> None:  # fmt: skip
         self.path, self.images = path, images
         if images:
             from vergence.io import atomic_folder
 
             self._ctx = atomic_folder(path)
         else:
-            self._ctx = writer(path, fps=fps, width=shape[1], height=shape[0], pixel_format=pixel_format, crf=crf)
+            self._ctx = writer(path, fps=fps, width=shape[1], height=shape[0], pixel_format=pixel_format, crf=crf,
+                              preset=preset)
 
     def __enter__(self) -> Segment:
         self._target = self._ctx.__enter__()

@@ -50,7 +50,7 @@ import numpy as np
 
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter, grey_levels
-from vergence.video.writer import DEFAULT_CRF, PIXEL_FORMATS
+from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
 
 if TYPE_CHECKING:
     from vergence.viewing import Display
@@ -203,6 +203,7 @@ def convert_clip(
     layout: str = "sbs",
     pixel_format: str | None = None,
     crf: int = DEFAULT_CRF,
+    preset: str = DEFAULT_PRESET,
     origin: str | None = None,
     stabilize: bool = True,
     threshold: float = STATIC_THRESHOLD,
@@ -234,6 +235,8 @@ def convert_clip(
         mixes the colours of the two views at edges), else ``yuv420p``.
     crf : int
         x264 quality (0 = lossless).
+    preset : str
+        x264 speed, one of :data:`~vergence.video.X264_PRESETS`.
     origin : {"left", "center"}, optional
         Where the original view sits; default ``"left"`` for a stereo clip, ``"center"`` for 2D + depth.
     stabilize : bool
@@ -289,11 +292,14 @@ def convert_clip(
     out = Path(out)
     images = out.suffix.lower() not in VIDEO_SUFFIXES
     if images and out.suffix:
-        raise ValueError(f"out must be a {', '.join(VIDEO_SUFFIXES)} file or a folder without extension; got {out.name!r}")
+        raise ValueError(f"out must be a {', '.join(VIDEO_SUFFIXES)} file or a folder without extension; "
+                         f"got {out.name!r}")
     if pixel_format is None:
         pixel_format = "yuv444p" if layout.startswith("anaglyph") else "yuv420p"
     if pixel_format not in PIXEL_FORMATS:
         raise ValueError(f"pixel_format must be one of {', '.join(PIXEL_FORMATS)}; got {pixel_format!r}")
+    if preset not in X264_PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(X264_PRESETS)}; got {preset!r}")
     threshold = _check_number("threshold", threshold, 0.0, 1.0)
     alpha = _check_number("alpha", alpha, 0.0, 1.0, lo_open=True)
     transition = _check_number("transition", transition, 0.0, 1e9)
@@ -349,7 +355,8 @@ def convert_clip(
     suffix = out.suffix.lower() if not images else ""
     manifest = {"inputs": [str(Path(p).resolve()) for p in _inputs(clip)], "kind": "stereo" if stereo else "2d+depth",
                 "frames": n, "shots": [list(s) for s in shots], "layout": layout, "pixel_format": pixel_format,
-                "crf": int(crf), "budget_arcmin": budget, "origin": origin, "stabilize": bool(stabilize),
+                "crf": int(crf), "preset": preset, "budget_arcmin": budget, "origin": origin,
+                "stabilize": bool(stabilize),
                 "threshold": float(threshold), "alpha": float(alpha), "transition": transition,
                 "display": [display.eye_separation, display.distance, display.width, display.resolution],
                 **({"method": method, "min_disparity": lo_d, "max_disparity": hi_d} if stereo else
@@ -384,7 +391,8 @@ def convert_clip(
                     m.reset()
             raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
             grey = grey_levels(left)
-            d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold, alpha)
+            d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold,
+                                                                           alpha)  # fmt: skip
             stores[s][k - a] = d
             known = d[np.isfinite(d)]
             if known.size:
@@ -431,7 +439,8 @@ def convert_clip(
                 continue
             a, b = shots[s]
             if k == a:
-                sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, VideoWriter)
+                sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, preset,
+                                         VideoWriter)  # fmt: skip
                 sink.__enter__()
                 prev = None
             psi = psi_at(k)
