@@ -5,7 +5,7 @@ on a depth ramp, a nearer textured square moving across it) and the full side-by
 the same scene (the square 24 px, the background 8 px apart). Then, in this process, interleaved:
 
 - ``convert_clip`` 2D + depth -> full SBS H.264 (decode of both passes, cut detection, stabilisation,
-  synthesis, packing, encoding, the join), and the reference: ``synthesize_stereo`` alone on frames
+  synthesis, packing, encoding with x264's default preset and with ``veryfast``, the join), and the reference: ``synthesize_stereo`` alone on frames
   already in memory with a fixed budget (what ``vergence synthesize`` does per image);
 - ``convert_clip`` stereo -> retargeted SBS, and its reference: ``compute_disparity`` alone per pair
   (the matching that bounds it).
@@ -71,13 +71,17 @@ def main() -> None:
     frames_2d = [(left, depth) for left, _, depth in scene[: args.frames]]
     pairs = [(left, right) for left, right, _ in scene[: args.stereo_frames]]
 
-    def convert(clip, name):
+    def convert(clip, name, preset="medium"):
         out = folder / layout_video_name(name, "sbs")
-        convert_clip(clip, out, display, budget_arcmin=30.0, min_disparity=-SEARCH, max_disparity=SEARCH)
+        convert_clip(clip, out, display, budget_arcmin=30.0, min_disparity=-SEARCH, max_disparity=SEARCH,
+                     preset=preset)  # fmt: skip
         out.unlink()
 
     def convert_2d():
         convert(open_depth_clip(rgbd_path), "out_2d")
+
+    def convert_2d_veryfast():
+        convert(open_depth_clip(rgbd_path), "out_2d", "veryfast")
 
     def convert_stereo():
         convert(open_stereo(stereo_path), "out_stereo")
@@ -93,16 +97,18 @@ def main() -> None:
     # warm-up: Numba kernels, OpenCV, x264
     for fn in (convert_2d, synthesize_only):
         fn()
-    runs = {"convert 2D+depth -> SBS": [], "synthesize_stereo only": [], "convert stereo -> SBS": [],
+    runs = {"convert 2D+depth -> SBS": [], "convert 2D+depth -> SBS, veryfast": [], "synthesize_stereo only": [], "convert stereo -> SBS": [],
             "compute_disparity only": []}
     for _ in range(args.repeats):
         runs["convert 2D+depth -> SBS"].append(timed(convert_2d))
+        runs["convert 2D+depth -> SBS, veryfast"].append(timed(convert_2d_veryfast))
         runs["synthesize_stereo only"].append(timed(synthesize_only))
         runs["convert stereo -> SBS"].append(timed(convert_stereo))
         runs["compute_disparity only"].append(timed(match_only))
     print(f"1920x1080 per view, {args.frames} frames (2D + depth), {args.stereo_frames} frames (stereo); "
           f"medians of {args.repeats}")
-    for name, frames in (("convert 2D+depth -> SBS", args.frames), ("synthesize_stereo only", args.frames),
+    for name, frames in (("convert 2D+depth -> SBS", args.frames), ("convert 2D+depth -> SBS, veryfast", args.frames),
+                         ("synthesize_stereo only", args.frames),
                          ("convert stereo -> SBS", args.stereo_frames), ("compute_disparity only", args.stereo_frames)):
         wall = report(name, runs[name])
         print(f"{'':44s} = {frames / wall:6.2f} frames/s")
