@@ -160,3 +160,38 @@ def test_preset_is_checked_and_used(clips, tmp_path):
         VideoWriter(tmp_path / "x.mp4", fps=24, width=16, height=16, preset="quick")
     r = convert_clip(open_depth_clip(clips.rgbd), tmp_path / "fast_LRF_Full_SBS.mp4", DISPLAY, preset="ultrafast")
     assert open_frames(r.out).info.frames == clips.frames
+
+
+def test_audio_is_copied_into_the_joined_video(clips, tmp_path):
+    import av
+
+    from vergence.video import VideoWriter
+
+    sound = tmp_path / "sound.mka"
+    with av.open(str(sound), "w") as out:
+        stream = out.add_stream("aac", rate=48000)
+        samples = (0.1 * np.sin(np.linspace(0, 440 * 2 * np.pi, 48000))).astype(np.float32)[None, :]
+        frame = av.AudioFrame.from_ndarray(samples, format="fltp", layout="mono")
+        frame.sample_rate = 48000
+        for packet in [*stream.encode(frame), *stream.encode(None)]:
+            out.mux(packet)
+    with_audio = tmp_path / "talk_RGBD.mp4"
+    with VideoWriter(with_audio, fps=24, width=2 * clips.width, height=clips.height, audio_from=sound) as video:
+        for frame in open_frames(clips.rgbd).frames():
+            video.write(frame)
+    r = convert_clip(open_depth_clip(with_audio), tmp_path / "talk_LRF_Full_SBS.mp4", DISPLAY)
+    with av.open(str(r.out)) as container:
+        assert len(container.streams.audio) == 1 and container.streams.audio[0].codec_context.name == "aac"
+        audio_packets = sum(1 for p in container.demux(container.streams.audio[0]) if p.dts is not None)
+    assert audio_packets > 0 and open_frames(r.out).info.frames == clips.frames
+
+
+def test_a_transition_blends_the_mappings_only_around_the_cut(clips, tmp_path):
+    clip = open_stereo(clips.stereo)  # the RGBD clip's shots share one psi (its depth is normalised per shot)
+    hard = convert_clip(clip, tmp_path / "hard_LRF_Full_SBS", DISPLAY, budget_arcmin=BUDGET_ARCMIN)
+    soft = convert_clip(clip, tmp_path / "soft_LRF_Full_SBS", DISPLAY, budget_arcmin=BUDGET_ARCMIN, transition=4.0)
+    a, b = (np.stack(list(open_frames(r.out).frames())) for r in (hard, soft))
+    changed = [k for k in range(clips.frames) if not np.array_equal(a[k], b[k])]
+    # ramp [c - 2, c + 2]: the weights are fractional at c - 1, c, c + 1 (w = 0.25, 0.5, 0.75 of the next shot)
+    c = clips.cuts[0]
+    assert changed and set(changed) <= {c - 1, c, c + 1}
