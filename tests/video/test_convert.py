@@ -145,6 +145,8 @@ def test_refusals(clips, tmp_path):
         convert_clip(clip, tmp_path / "o.mp4", DISPLAY, layout="rgbd")
     with pytest.raises(ValueError, match=r"budget_arcmin must be in \(0, 600\]; got -1"):
         convert_clip(clip, tmp_path / "o.mp4", DISPLAY, budget_arcmin=-1)
+    with pytest.raises(ValueError, match=r"crf must be an integer in \[0, 51\]; got 99"):
+        convert_clip(clip, tmp_path / "o.mp4", DISPLAY, crf=99)
     with pytest.raises(ValueError, match="origin must be one of left, center; got 'right'"):
         convert_clip(clip, tmp_path / "o.mp4", DISPLAY, origin="right")
     with pytest.raises(ValueError, match="display resolution is unknown"):
@@ -195,3 +197,19 @@ def test_a_transition_blends_the_mappings_only_around_the_cut(clips, tmp_path):
     # ramp [c - 2, c + 2]: the weights are fractional at c - 1, c, c + 1 (w = 0.25, 0.5, 0.75 of the next shot)
     c = clips.cuts[0]
     assert changed and set(changed) <= {c - 1, c, c + 1}
+
+
+def test_an_error_before_any_shot_is_finished_leaves_no_work_folder(tmp_path):
+    from vergence.io import write_image
+
+    flat = tmp_path / "flat"
+    flat.mkdir()
+    for k in range(2):
+        write_image(flat / f"c_{k}.png", np.full((8, 16, 3), 0.5, np.float32))
+    depth = tmp_path / "depth"
+    depth.mkdir()
+    for k in range(2):
+        np.save(depth / f"d_{k}.npy", np.full((8, 16), 2.0, np.float32))
+    with pytest.raises(ValueError, match=r"shot 0 \(frames 0-1\) has flat depth \(one nearness everywhere\): no range"):
+        convert_clip(open_depth_clip(flat, depth=depth, kind="metric"), tmp_path / "o_LRF_Full_SBS.mp4", DISPLAY)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["depth", "flat"]

@@ -187,7 +187,7 @@ def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, displa
     if not (math.isfinite(lo) and math.isfinite(hi)):
         raise ValueError(f"shot {s} (frames {shot[0]}-{shot[1] - 1}) has no known depth or disparity")
     if not hi > lo:
-        raise ValueError(f"shot {s} (frames {shot[0]}-{shot[1] - 1}) has flat depth ({lo:g} everywhere): no "
+        raise ValueError(f"shot {s} (frames {shot[0]}-{shot[1] - 1}) has flat depth (one nearness everywhere): no "
                          "range to map into the budget")
     row = np.full((1, width), lo, np.float32)
     row[0, -1] = hi  # the shot's range at the clip's width: the budget in px depends on it
@@ -298,6 +298,8 @@ def convert_clip(
         pixel_format = "yuv444p" if layout.startswith("anaglyph") else "yuv420p"
     if pixel_format not in PIXEL_FORMATS:
         raise ValueError(f"pixel_format must be one of {', '.join(PIXEL_FORMATS)}; got {pixel_format!r}")
+    if isinstance(crf, bool) or not isinstance(crf, int | np.integer) or not 0 <= crf <= 51:
+        raise ValueError(f"crf must be an integer in [0, 51]; got {crf!r}")
     if preset not in X264_PRESETS:
         raise ValueError(f"preset must be one of {', '.join(X264_PRESETS)}; got {preset!r}")
     threshold = _check_number("threshold", threshold, 0.0, 1.0)
@@ -330,7 +332,8 @@ def convert_clip(
     guard = _segments.Stopped()
     ranges: list[tuple[float, float]] = []
     if stereo:
-        cuts = detect_cuts(_segments.counted(guard.wrap(clip.lefts()), report, "shots", clip.frames))
+        def colour_frames():
+            yield from guard.wrap(clip.lefts())
     else:
         def colour_frames():
             for image, depth in guard.wrap(clip.pairs()):
@@ -340,15 +343,13 @@ def convert_clip(
                                   else (math.nan, math.nan))  # fmt: skip
                 yield image
 
-        try:
-            cuts = detect_cuts(_segments.counted(colour_frames(), report, "shots", clip.frames))
-        except ValueError as exc:
-            if guard.count == 0 and guard.reason is not None:
-                raise ValueError(guard.reason) from None
-            raise exc
+    try:
+        cuts = detect_cuts(_segments.counted(colour_frames(), report, "shots", clip.frames))
+    except ValueError:
+        if guard.count == 0 and guard.reason is not None:  # broken before its first frame: nothing to keep
+            raise ValueError(guard.reason) from None
+        raise
     n = guard.count
-    if stereo and n == 0 and guard.reason is not None:
-        raise ValueError(guard.reason)
     shots = cuts.shots
     cut_frames = [a for a, _ in shots[1:]]
 
@@ -363,127 +364,135 @@ def convert_clip(
                    {"depth_kind": clip.kind, "depth_scale": clip.scale})}  # fmt: skip
     work = _segments.work_folder(out)
     _segments.prepare_work(work, manifest, resume)
-    segments = [_segments.segment_path(work, s, a, b, images, suffix) for s, (a, b) in enumerate(shots)]
-    reused = [seg.exists() for seg in segments]
-    done = list(reused)
-    shot_of = np.zeros(max(n, 1), np.int64)
-    for s, (a, b) in enumerate(shots):
-        shot_of[a:b] = s
-    meters = [(FlickerMeter(threshold), FlickerMeter(threshold)) for _ in shots]  # before, after
-
-    # Pass 2 (stereo): matched, stabilised disparity of the unfinished shots, kept in the work folder.
-    range_in: list[tuple[float, float]] = []
-    if stereo:
-        lows, highs = [math.inf] * len(shots), [-math.inf] * len(shots)
-        stores: dict[int, np.ndarray] = {}
-        todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
-        count, prev = 0, None
-        for k, (left, right) in enumerate(clip.pairs(0, n)):
-            s = int(shot_of[k])
-            if done[s]:
-                continue
-            a, b = shots[s]
-            if s not in stores:
-                stores[s] = np.lib.format.open_memmap(work / f"disparity_{s:04d}.npy", mode="w+", dtype=np.float32,
-                                                      shape=(b - a, height, width))  # fmt: skip
-                prev = None
-                for m in meters[s]:
-                    m.reset()
-            raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
-            grey = grey_levels(left)
-            d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold,
-                                                                           alpha)  # fmt: skip
-            stores[s][k - a] = d
-            known = d[np.isfinite(d)]
-            if known.size:
-                p1, p99 = np.percentile(known, [1, 99])
-                lows[s], highs[s] = min(lows[s], float(p1)), max(highs[s], float(p99))
-            meters[s][0].add(grey, raw)
-            meters[s][1].add(grey, d)
-            prev = (grey, d)
-            count += 1
-            report("matching", count, todo)
-        for s in stores:
-            stores[s].flush()
-        range_in = [(lows[s], highs[s]) for s in range(len(shots))]
-    else:
-        for a, b in shots:
-            with np.errstate(all="ignore"):
-                range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
-                                 float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
-    mappings = [None if (stereo and done[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
-                for s in range(len(shots))]  # fmt: skip
-
-    def psi_at(k: int):
-        s = int(shot_of[k])
-        if transition == 0 or not cut_frames:
-            return mappings[s]
-        w = temporal_weights(float(k), cut_frames, transition=transition)
-        if w.max() == 1.0:
-            return mappings[int(np.argmax(w))]
-        return BlendedMapping(tuple(mappings), w)  # Lang et al. 2010: psi_t = sum_k w_k(t) psi_k
-
-    if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
-        raise ValueError("--resume with a transition needs every shot's mapping: run without --resume")
-
-    # Pass 3: render, pack and encode the unfinished shots, one segment each.
-    todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
-    count = 0
-    sink = None
-    prev = None
     try:
-        source = clip.lefts(0, n) if stereo else clip.pairs(0, n)
-        for k, item in enumerate(source):
-            s = int(shot_of[k])
-            if done[s]:
-                continue
-            a, b = shots[s]
-            if k == a:
-                sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, preset,
-                                         VideoWriter)  # fmt: skip
-                sink.__enter__()
-                prev = None
-            psi = psi_at(k)
-            if stereo:
-                image, d = item, np.asarray(np.load(work / f"disparity_{s:04d}.npy", mmap_mode="r")[k - a])
-            else:
-                image, depth = item
-                raw = nearness_from_depth(depth, kind=clip.kind)
-                grey = grey_levels(image)
-                d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
-                                                                               threshold, alpha)  # fmt: skip
-                if prev is None:
+        segments = [_segments.segment_path(work, s, a, b, images, suffix) for s, (a, b) in enumerate(shots)]
+        reused = [seg.exists() for seg in segments]
+        done = list(reused)
+        shot_of = np.zeros(max(n, 1), np.int64)
+        for s, (a, b) in enumerate(shots):
+            shot_of[a:b] = s
+        meters = [(FlickerMeter(threshold), FlickerMeter(threshold)) for _ in shots]  # before, after
+
+        # Pass 2 (stereo): matched, stabilised disparity of the unfinished shots, kept in the work folder.
+        range_in: list[tuple[float, float]] = []
+        if stereo:
+            lows, highs = [math.inf] * len(shots), [-math.inf] * len(shots)
+            stores: dict[int, np.ndarray] = {}
+            todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
+            count, prev = 0, None
+            for k, (left, right) in enumerate(clip.pairs(0, n)):
+                s = int(shot_of[k])
+                if done[s]:
+                    continue
+                a, b = shots[s]
+                if s not in stores:
+                    stores[s] = np.lib.format.open_memmap(work / f"disparity_{s:04d}.npy", mode="w+", dtype=np.float32,
+                                                          shape=(b - a, height, width))  # fmt: skip
+                    prev = None
                     for m in meters[s]:
                         m.reset()
+                raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
+                grey = grey_levels(left)
+                d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold,
+                                                                               alpha)  # fmt: skip
+                stores[s][k - a] = d
+                known = d[np.isfinite(d)]
+                if known.size:
+                    p1, p99 = np.percentile(known, [1, 99])
+                    lows[s], highs[s] = min(lows[s], float(p1)), max(highs[s], float(p99))
                 meters[s][0].add(grey, raw)
                 meters[s][1].add(grey, d)
                 prev = (grey, d)
-            result = synthesize_stereo(image, d, kind="disparity", mapping=psi, display=display, origin=origin)
-            packed = np.clip(pack(result.left, result.right, layout=layout), 0.0, 1.0)
-            packed *= np.float32(255.0)
-            sink.write(np.rint(packed, out=packed).astype(np.uint8), k)  # 8 bits as VideoWriter rounds them
-            count += 1
-            report("converting", count, todo)
-            if k == b - 1:
-                sink, opened = None, sink
-                opened.__exit__(None, None, None)
-                done[s] = True
-                if stereo:
-                    (work / f"disparity_{s:04d}.npy").unlink(missing_ok=True)
-    except BaseException as err:
-        if sink is not None:
-            sink.__exit__(type(err), err, err.__traceback__)
-        raise
-    if not segments or not all(done):
-        raise ValueError(f"conversion of {_inputs(clip)[0]} left shots unfinished")
+                count += 1
+                report("matching", count, todo)
+            for s in stores:
+                stores[s].flush()
+            range_in = [(lows[s], highs[s]) for s in range(len(shots))]
+        else:
+            for a, b in shots:
+                with np.errstate(all="ignore"):
+                    range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
+                                     float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
+        mappings = [None if (stereo and done[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
+                    for s in range(len(shots))]  # fmt: skip
 
-    if images:
-        _segments.join_folders(segments, out)
-    else:
-        reader = clip.reader if stereo else clip.colour
-        audio = reader.path if reader.files is None else None
-        _segments.join_videos(segments, out, audio, n / clip.fps)
-    shutil.rmtree(work, ignore_errors=True)
+        def psi_at(k: int):
+            s = int(shot_of[k])
+            if transition == 0 or not cut_frames:
+                return mappings[s]
+            w = temporal_weights(float(k), cut_frames, transition=transition)
+            if w.max() == 1.0:
+                return mappings[int(np.argmax(w))]
+            return BlendedMapping(tuple(mappings), w)  # Lang et al. 2010: psi_t = sum_k w_k(t) psi_k
+
+        if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
+            raise ValueError("--resume with a transition needs every shot's mapping: run without --resume")
+
+        # Pass 3: render, pack and encode the unfinished shots, one segment each.
+        todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
+        count = 0
+        sink = None
+        prev = None
+        try:
+            source = clip.lefts(0, n) if stereo else clip.pairs(0, n)
+            for k, item in enumerate(source):
+                s = int(shot_of[k])
+                if done[s]:
+                    continue
+                a, b = shots[s]
+                if k == a:
+                    sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, preset,
+                                             VideoWriter)  # fmt: skip
+                    sink.__enter__()
+                    prev = None
+                psi = psi_at(k)
+                if stereo:
+                    image, d = item, np.asarray(np.load(work / f"disparity_{s:04d}.npy", mmap_mode="r")[k - a])
+                else:
+                    image, depth = item
+                    raw = nearness_from_depth(depth, kind=clip.kind)
+                    grey = grey_levels(image)
+                    d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
+                                                                                   threshold, alpha)  # fmt: skip
+                    if prev is None:
+                        for m in meters[s]:
+                            m.reset()
+                    meters[s][0].add(grey, raw)
+                    meters[s][1].add(grey, d)
+                    prev = (grey, d)
+                result = synthesize_stereo(image, d, kind="disparity", mapping=psi, display=display, origin=origin)
+                packed = np.clip(pack(result.left, result.right, layout=layout), 0.0, 1.0)
+                packed *= np.float32(255.0)
+                sink.write(np.rint(packed, out=packed).astype(np.uint8), k)  # 8 bits as VideoWriter rounds them
+                count += 1
+                report("converting", count, todo)
+                if k == b - 1:
+                    sink, opened = None, sink
+                    opened.__exit__(None, None, None)
+                    done[s] = True
+                    if stereo:
+                        (work / f"disparity_{s:04d}.npy").unlink(missing_ok=True)
+        except BaseException as err:
+            if sink is not None:
+                sink.__exit__(type(err), err, err.__traceback__)
+            raise
+        if not segments or not all(done):
+            raise ValueError(f"conversion of {_inputs(clip)[0]} left shots unfinished")
+
+        if images:
+            _segments.join_folders(segments, out)
+        else:
+            reader = clip.reader if stereo else clip.colour
+            audio = reader.path if reader.files is None else None
+            _segments.join_videos(segments, out, audio, n / clip.fps)
+        shutil.rmtree(work, ignore_errors=True)
+    except BaseException:
+        # Nothing finished (a bad option found by planning, Ctrl-C in the first shot): no work folder left behind;
+        # finished shots stay for --resume.
+        finished = work.is_dir() and any(p.name.startswith("shot_") for p in work.iterdir())
+        if not finished:
+            shutil.rmtree(work, ignore_errors=True)
+        raise
 
     def combined(which: int) -> Flicker:
         total = count_px = pixels = pairs = 0
