@@ -129,6 +129,8 @@ def test_a_clip_that_breaks_mid_way_keeps_the_frames_before(clips, tmp_path):
 def test_converted_path_names_and_refusals(tmp_path):
     assert converted_path(tmp_path, "movie_RGBD.mp4", "sbs") == tmp_path / "movie_LRF_Full_SBS.mp4"
     assert converted_path(tmp_path, "movie-lr.mkv", "anaglyph", images=True) == tmp_path / "movie_Anaglyph"
+    assert converted_path(tmp_path, "trip_LRF_Full_SBS.mp4", "half-sbs") == tmp_path / "trip_Half_SBS.mp4"
+    assert converted_path(tmp_path, "a_Full_TB_b.mp4", "sbs") == tmp_path / "a_b_LRF_Full_SBS.mp4"
     assert converted_path(tmp_path / "x.mkv", "in.mp4", "tb").name == "x_Full_TB.mkv"
     assert converted_path(tmp_path / "x_Anaglyph.mp4", "in.mp4", "anaglyph").name == "x_Anaglyph.mp4"
     with pytest.raises(ValueError, match="out x_Half_SBS.mp4 is tagged 'half-sbs'; the output layout is 'sbs'"):

@@ -151,6 +151,7 @@ def converted_path(out: str | os.PathLike[str], source: str | os.PathLike[str], 
         stem = Path(source).stem if Path(source).suffix else Path(source).name
         for pattern, _ in LAYOUT_TAGS:
             stem = re.sub(pattern, "", stem)
+        stem = re.sub(r"[-_.\s]+$", "", re.sub(r"([-_])[-_]+", r"\1", stem)) or "converted"  # "a_LRF_Full_SBS" -> "a"
         return o / layout_video_name(stem, layout, suffix="" if images else ".mp4")
     suffix = o.suffix.lower()
     if images == (suffix in VIDEO_SUFFIXES):
