@@ -448,7 +448,7 @@ def convert_clip(
                     prev = None
                 psi = psi_at(k)
                 if stereo:
-                    image, d = item, np.asarray(np.load(work / f"disparity_{s:04d}.npy", mmap_mode="r")[k - a])
+                    image, d = item, np.array(stores[s][k - a])
                 else:
                     image, depth = item
                     raw = nearness_from_depth(depth, kind=clip.kind)
@@ -472,6 +472,7 @@ def convert_clip(
                     opened.__exit__(None, None, None)
                     done[s] = True
                     if stereo:
+                        stores.pop(s, None)  # the map closes with its last reference
                         (work / f"disparity_{s:04d}.npy").unlink(missing_ok=True)
         except BaseException as err:
             if sink is not None:
