@@ -21,6 +21,8 @@ import numpy as np
 from vergence.video._av import require_av
 
 MANIFEST = "manifest.json"
+# Frames that may wait for the encoder thread of a segment (each a packed 8-bit frame: 12 MB at 3840x1080).
+QUEUED_FRAMES = 3
 
 
 def work_folder(out: Path) -> Path:
@@ -146,7 +148,12 @@ def counted(items, report: Callable[[str, int, int], None], phase: str, total: i
 
 
 class Segment:
-    """One shot's output: a VideoWriter, or an atomic folder of PNG frames."""
+    """One shot's output: a VideoWriter, or an atomic folder of PNG frames, fed by a worker thread.
+
+    Encoding (x264, PNG) runs in its own thread while the caller synthesises the next frame (PyAV and
+    the PNG writer release the GIL); at most :data:`QUEUED_FRAMES` frames wait. An error of the worker
+    is raised by the next ``write`` or by ``__exit__``; the segment is then abandoned (nothing renamed).
+    """
 
     def __init__(self, path: Path, images: bool, fps: float, shape: tuple[int, ...], pixel_format: str, crf: int,
                  preset: str, writer: type) -> None:  # fmt: skip
@@ -157,19 +164,47 @@ class Segment:
             self._ctx = atomic_folder(path)
         else:
             self._ctx = writer(path, fps=fps, width=shape[1], height=shape[0], pixel_format=pixel_format, crf=crf,
-                              preset=preset)
+                               preset=preset)  # fmt: skip
+        self._error: BaseException | None = None
 
     def __enter__(self) -> Segment:
+        import queue
+        import threading
+
         self._target = self._ctx.__enter__()
+        self._queue: queue.Queue = queue.Queue(maxsize=QUEUED_FRAMES)
+        self._thread = threading.Thread(target=self._work, name=f"segment {self.path.name}", daemon=True)
+        self._thread.start()
         return self
 
+    def _work(self) -> None:
+        while True:
+            item = self._queue.get()
+            if item is None:
+                return
+            if self._error is not None:
+                continue  # drain after an error
+            frame, k = item
+            try:
+                if self.images:
+                    from vergence.io import write_image
+
+                    write_image(self._target / f"frame_{k:06d}.png", frame)
+                else:
+                    self._target.write(frame)
+            except BaseException as err:  # raised in the caller's thread
+                self._error = err
+
     def write(self, frame: np.ndarray, k: int) -> None:
-        if self.images:
-            from vergence.io import write_image
+        if self._error is not None:
+            raise self._error
+        self._queue.put((frame, k))
 
-            write_image(self._target / f"frame_{k:06d}.png", frame)
-        else:
-            self._target.write(frame)
-
-    def __exit__(self, *exc: object) -> None:
-        self._ctx.__exit__(*exc)
+    def __exit__(self, exc_type: object, exc: BaseException | None, tb: object) -> None:
+        self._queue.put(None)
+        self._thread.join()
+        if exc is None and self._error is not None:
+            err = self._error
+            self._ctx.__exit__(type(err), err, err.__traceback__)
+            raise err
+        self._ctx.__exit__(exc_type, exc, tb)
