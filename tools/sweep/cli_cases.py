@@ -24,6 +24,9 @@ BASES: dict[str, list[str]] = {
     # one 2D + depth image: a clip of one frame, no video decoder needed
     "analyze": ["{fx}/image.png", "--depth", "{fx}/depth.npy", "--depth-kind", "metric", "--display", "tv-55",
                 "--report", "{case}/report"],
+    # one 2D + depth image to a folder of one frame: no video encoder needed
+    "convert": ["{fx}/image.png", "--depth", "{fx}/depth.npy", "--depth-kind", "metric", "--display", "tv-55",
+                "--out", "{case}/converted", "--images"],
     "budget": ["--baseline", "0.1", "--convergence", "3", "--window", "1", *_LENGTHS, "--screen-pixels", "1920",
                "--depth", "5"],
     "mapping": ["--reference-baseline", "0.5", "--convergence", "20", "--window", "2.5", *_LENGTHS,

@@ -23,6 +23,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "budget": ("budget", "Depth budget of a rig on a display: divergence and roundness baselines, z' and "
                "roundness per depth (S0 §2)."),
     "compare": ("compare", "Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."),
+    "convert": ("convert", "Retarget a stereo or 2D + depth clip into a display's parallax budget, shot by shot, as "
+                "a stereo video (temporal stability, audio copied, --resume per shot)."),
     "demo": ("demo", "Run the main job on built-in data and write OUT/index.html."),
     "evaluate-disparity": ("evaluate_disparity", "Score ESTIMATE against TRUTH: % bad pixels and RMS over "
                            "nonocc / all / disc (/ textureless)."),

@@ -36,13 +36,14 @@ the linear map of the range onto the zone.
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vergence.video._matching import default_search_px
+from vergence.video._matching import match_padded as _match
 from vergence.video.cuts import CUT_THRESHOLD, MIN_SHOT_FRAMES, detect_cuts
 from vergence.video.sources import DepthClip, StereoClip
 
@@ -73,8 +74,6 @@ WINDOW_SHARE = 0.1
 # Vertical disparity is measured on views reduced to at most this width (SIFT on a 1080p pair costs
 # about 2 s on 2 cores, as much as the matching); the offsets are scaled back to full-resolution px.
 VERTICAL_MAX_WIDTH = 960
-# Default matching range of a stereo clip: +- this share of the view width, rounded up to 16 px.
-_SEARCH_SHARE = 1.0 / 8.0
 # Largest thumbnail side kept per shot (for the report).
 _THUMBNAIL_PX = 320
 
@@ -271,7 +270,7 @@ def analyze_clip(
     stereo = isinstance(clip, StereoClip)
     width, height = clip.width, clip.height
     if stereo:
-        search = int(math.ceil(width * _SEARCH_SHARE / 16.0) * 16)
+        search = default_search_px(width)
         lo_d = -search if min_disparity is None else int(min_disparity)
         hi_d = search if max_disparity is None else int(max_disparity)
         if lo_d >= hi_d:
@@ -408,24 +407,6 @@ def _crossed_share(d: np.ndarray) -> float:
     """Share of an edge band's pixels with a crossed disparity above WINDOW_MIN_PX (unknown pixels count as not)."""
     with np.errstate(invalid="ignore"):
         return float((d > WINDOW_MIN_PX).mean())
-
-
-def _match(left: np.ndarray, right: np.ndarray, lo: int, hi: int, method: str) -> np.ndarray:
-    """Disparity of the left view, float64, NaN where unmatched; both views padded by the search range.
-
-    OpenCV's matchers leave the first ``max_disparity`` and the last ``-min_disparity`` columns
-    unmatched (their candidates fall outside the other image): padding both views with their edge
-    columns moves that blind band into the padding, so pixels near the edges whose match lies
-    inside the other view are measured.
-    """
-    import cv2
-
-    from vergence.depth import compute_disparity
-
-    pad = hi - lo
-    a, b = (cv2.copyMakeBorder(v, 0, 0, pad, pad, cv2.BORDER_REPLICATE) for v in (left, right))
-    d = compute_disparity(a, b, min_disparity=lo, max_disparity=hi, method=method, keep_invalid=True).disparity
-    return d[:, pad:pad + left.shape[1]].astype(np.float64)
 
 
 def _thumbnail(view: np.ndarray) -> np.ndarray:

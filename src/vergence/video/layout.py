@@ -66,9 +66,21 @@ LAYOUT_TAGS: tuple[tuple[str, str], ...] = (
     (r"-(?:tb|ab)" + _END, "tb"),
 )
 
-# The tag :func:`layout_video_name` gives each layout (each one guessed back by the table above).
+# The tag :func:`layout_video_name` gives each layout: the stereo layouts and rgbd are guessed back by the
+# table above; the display-only layouts of vergence.display (anaglyph, interleaved, checkerboard,
+# cross-eyed) get a tag for people that guess_layout leaves unread (a clip in them cannot be split
+# back into its views; Bino's "-rl" is refused as right-first).
 _NAME_TAGS = {"sbs": "_LRF_Full_SBS", "half-sbs": "_Half_SBS", "tb": "_Full_TB", "half-tb": "_Half_TB",
-              "rgbd": "_RGBD"}
+              "rgbd": "_RGBD", "anaglyph": "_Anaglyph", "checkerboard": "_Checkerboard", "columns": "_Columns",
+              "rows": "_Rows", "cross-eyed": "-rl"}
+
+
+def _name_tag(layout: str) -> str | None:
+    if layout in _NAME_TAGS:
+        return _NAME_TAGS[layout]
+    if layout.startswith("anaglyph-"):  # anaglyph-METHOD of vergence.display.LAYOUTS
+        return "_Anaglyph_" + layout.split("-", 1)[1].replace("-", "_").title()
+    return None
 
 
 def guess_layout(path: str | Path) -> str | None:
@@ -97,10 +109,17 @@ def guess_layout(path: str | Path) -> str | None:
 
 
 def layout_video_name(stem: str, layout: str, *, suffix: str = ".mp4") -> str:
-    """A file name that carries ``layout``'s tag, e.g. ``clip_LRF_Full_SBS.mp4``; :func:`guess_layout` reads it back."""
-    if layout not in _NAME_TAGS:
-        raise ValueError(f"layout must be one of {', '.join(_NAME_TAGS)}; got {layout!r}")
-    return f"{stem}{_NAME_TAGS[layout]}{suffix}"
+    """A file name that carries ``layout``'s tag, e.g. ``clip_LRF_Full_SBS.mp4``.
+
+    ``layout`` is one of :data:`VIDEO_LAYOUTS` (:func:`guess_layout` reads the name back) or another
+    layout of :data:`vergence.display.LAYOUTS` (``_Anaglyph``, ``_Rows``... : named, not read back).
+    """
+    from vergence.display import LAYOUTS
+
+    tag = _name_tag(layout) if isinstance(layout, str) and (layout in VIDEO_LAYOUTS or layout in LAYOUTS) else None
+    if tag is None:
+        raise ValueError(f"layout must be one of {', '.join(dict.fromkeys([*VIDEO_LAYOUTS, *LAYOUTS]))}; got {layout!r}")
+    return f"{stem}{tag}{suffix}"
 
 
 def split_frame(frame: np.ndarray, layout: str) -> tuple[np.ndarray, np.ndarray]:

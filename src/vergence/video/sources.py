@@ -148,7 +148,9 @@ class DepthClip:
             yield self._depth_values(frame, k)
 
     def _depth_values(self, grey_rgb: np.ndarray, k: int) -> np.ndarray:
-        grey = grey_rgb.mean(axis=2, dtype=np.float32)
+        from vergence.video.stability import grey_levels
+
+        grey = grey_levels(grey_rgb)
         if self.kind == "inverse":
             return grey if self.scale is None else (grey / np.float32(self.scale)).astype(np.float32)
         values = np.rint(grey * 255.0).astype(np.float32) / np.float32(self.scale)

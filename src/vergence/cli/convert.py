@@ -1,0 +1,145 @@
+"""``vergence convert``: retarget a stereo or 2D + depth clip into a display's parallax budget, as video."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import typer
+
+from vergence.cli import raise_if_interrupted
+from vergence.cli._app import SYNTHESIS_BUDGET_ARCMIN, app, check_output_path, console, err_console, options_named, \
+    preset_display  # fmt: skip
+from vergence.display import LAYOUTS
+
+__all__ = ["convert"]
+
+# What INPUT holds: a packed stereo clip, or colour + depth (as vergence analyze).
+INPUT_KINDS = ("stereo", "2d+depth")
+_OPTIONS = {"layout": "--format", "kind": "--depth-kind", "scale": "--depth-scale", "fps": "--fps",
+            "budget_arcmin": "--budget-arcmin", "pixel_format": "--pixel-format", "crf": "--crf", "preset": "--preset",
+            "origin": "--origin", "threshold": "--static-threshold", "alpha": "--stabilize-alpha",
+            "transition": "--transition", "method": "--method", "min_disparity": "--min-disparity",
+            "max_disparity": "--max-disparity", "out": "--out"}  # fmt: skip
+_PHASES = {"shots": "finding cuts", "matching": "matching", "converting": "converting"}
+
+
+@app.command("convert")
+def convert(
+    input_path: Path = typer.Argument(..., metavar="INPUT", help="A stereo video or image folder (SBS or TB, full or "
+                                      "half), or a 2D + depth one (iw3's _RGBD, or colour with --depth)."),
+    out: Path = typer.Option(..., "--out", help="Output .mp4/.mkv/.mov (its name gets the layout tag, e.g. "
+                             "_LRF_Full_SBS), or an existing folder to write it into; with --images, a folder."),
+    display_preset: str = typer.Option(..., "--display", help="Display preset (vergence budget --help lists them)."),
+    budget_arcmin: float = typer.Option(SYNTHESIS_BUDGET_ARCMIN, "--budget-arcmin", help="Parallax budget +-A "
+                                        "arcmin of vergence on the display, fitted per shot."),
+    fmt: str = typer.Option("sbs", "--format", help=f"Output layout: {', '.join(LAYOUTS)}."),
+    pixel_format: str | None = typer.Option(None, "--pixel-format", help="yuv420p (every player; default) or "
+                                            "yuv444p (default for anaglyphs: no chroma crosstalk)."),
+    crf: int = typer.Option(18, "--crf", help="x264 quality: 0 lossless, 18 visually lossless, 51 worst."),
+    preset: str = typer.Option("medium", "--preset", help="x264 speed: ultrafast ... veryslow (faster: larger "
+                               "files at the same --crf)."),
+    images: bool = typer.Option(False, "--images", help="Write PNG frames into a folder instead of a video."),
+    depth: Path | None = typer.Option(None, "--depth", help="The depth clip of a colour INPUT (same length and size)."),
+    kind: str | None = typer.Option(None, "--input-kind", help=f"What INPUT holds: {', '.join(INPUT_KINDS)}; "
+                                    "default from its name (_RGBD) and --depth, else stereo."),
+    layout: str | None = typer.Option(None, "--layout", help="Stereo INPUT layout: sbs, half-sbs, tb, half-tb; "
+                                      "default from the name's tag."),
+    depth_kind: str | None = typer.Option(None, "--depth-kind", help="2D + depth: disparity, inverse (iw3's, "
+                                          "default), metric."),
+    depth_scale: float | None = typer.Option(None, "--depth-scale", help="2D + depth: stored 8-bit value / scale "
+                                             "= metres or pixels."),
+    origin: str | None = typer.Option(None, "--origin", help="left: keep the original view as the left one "
+                                      "(stereo default); center: both views around it (2D + depth default)."),
+    no_stabilize: bool = typer.Option(False, "--no-stabilize", help="Do not filter the disparity in time on "
+                                      "static content."),
+    static_threshold: float = typer.Option(0.03, "--static-threshold", help="Grey-level change (0-1) below which a "
+                                           "pixel is static (stabilisation and flicker measure)."),
+    stabilize_alpha: float = typer.Option(0.25, "--stabilize-alpha", help="Weight of the new disparity on static "
+                                          "pixels (1 = no filter)."),
+    transition: float = typer.Option(0.0, "--transition", help="Frames over which the mapping ramps across a cut "
+                                     "(0 = reset at the cut)."),
+    method: str | None = typer.Option(None, "--method", help="Stereo: matcher (as vergence match); default sgbm."),
+    min_disparity: int | None = typer.Option(None, "--min-disparity", help="Stereo: smallest disparity searched "
+                                             "(px); default -width/8, rounded up to 16."),
+    max_disparity: int | None = typer.Option(None, "--max-disparity", help="Stereo: largest disparity searched (px)."),
+    fps: float | None = typer.Option(None, "--fps", help="Frame rate of an image folder (default 24)."),
+    resume: bool = typer.Option(False, "--resume", help="Reuse the finished shots of an interrupted run (its work "
+                                "folder .OUT.parts beside the output)."),
+) -> None:
+    """Retarget a stereo or 2D + depth clip into +-A arcmin on a display, shot by shot, as a stereo video.
+
+    2D + depth: each frame's pair synthesised with its shot's mapping (as vergence synthesize). Stereo:
+    each frame matched, its disparity mapped into the budget, the right view re-synthesised from the
+    left (or both, --origin center). The mapping is reset at cuts; the disparity is filtered in time on
+    static content (the flicker before and after is printed). Audio is copied; the output appears only
+    when complete; a clip that breaks mid-way keeps the frames before and exits with code 2.
+    """
+    from vergence.video import converted_path, guess_layout, open_depth_clip, open_stereo
+    from vergence.video.convert import convert_clip
+
+    display = preset_display(display_preset)
+    if kind is not None and kind not in INPUT_KINDS:
+        raise ValueError(f"--input-kind must be one of {', '.join(INPUT_KINDS)}; got {kind!r}")
+    if fmt not in LAYOUTS:
+        raise ValueError(f"--format must be one of {', '.join(LAYOUTS)}; got {fmt!r}")
+    if not input_path.exists():
+        raise FileNotFoundError(f"INPUT {input_path} does not exist")
+    if kind is None:
+        kind = "2d+depth" if depth is not None or (layout is None and guess_layout(input_path) == "rgbd") else "stereo"
+    given = {"stereo": [o for o, v in (("--layout", layout), ("--method", method), ("--min-disparity", min_disparity),
+                                      ("--max-disparity", max_disparity)) if v is not None],
+             "2d+depth": [o for o, v in (("--depth", depth), ("--depth-kind", depth_kind),
+                                         ("--depth-scale", depth_scale)) if v is not None]}  # fmt: skip
+    other = "2d+depth" if kind == "stereo" else "stereo"
+    if given[other]:
+        raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
+                         "(--input-kind)")
+    with options_named(**_OPTIONS):
+        target = converted_path(out, input_path, fmt, images=images)
+    inputs = [input_path, *([depth] if depth is not None else [])]
+    check_output_path(target, *inputs)
+    if not target.parent.is_dir():
+        raise FileNotFoundError(f"--out folder {target.parent} does not exist")
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    with options_named(**_OPTIONS):
+        if kind == "stereo":
+            clip = open_stereo(input_path, layout=layout, fps=fps)
+        else:
+            clip = open_depth_clip(input_path, depth=depth, kind=depth_kind or "inverse", scale=depth_scale, fps=fps)
+        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                   TextColumn("{task.fields[fps]}"), TimeRemainingColumn())  # fmt: skip
+        # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
+        with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+            tasks: dict[str, tuple[int, float]] = {}
+
+            def progress(phase: str, done: int, total: int) -> None:
+                raise_if_interrupted()
+                if phase not in tasks:
+                    tasks[phase] = (bar.add_task(_PHASES[phase], total=total, fps=""), time.perf_counter())
+                task, t0 = tasks[phase]
+                rate = done / max(time.perf_counter() - t0, 1e-9)
+                bar.update(task, completed=done, fps=f"{rate:.1f} fps")
+
+            result = convert_clip(
+                clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
+                preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
+                alpha=stabilize_alpha,
+                transition=transition, method=method or "sgbm", min_disparity=min_disparity,
+                max_disparity=max_disparity, resume=resume, progress=progress,
+            )  # fmt: skip
+    for k, shot in enumerate(result.shots):
+        lo, hi = shot.range_px
+        note = " (reused)" if shot.reused else ""
+        console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px "
+                      f"(psi slope {shot.mapping.gain:.4g}){note}", highlight=False)  # fmt: skip
+    before, after = result.flicker_before.mean_px, result.flicker_after.mean_px
+    if result.flicker_after.pairs:
+        console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "
+                      f"({result.flicker_after.pairs} frame pairs)", highlight=False)  # fmt: skip
+    console.print(f"wrote {result.frames} frames ({result.frames / result.seconds:.2f} fps) to {result.out}",
+                  highlight=False)  # fmt: skip
+    if result.stopped is not None:
+        raise ValueError(f"INPUT {input_path.name} stopped after frame {result.frames - 1}: {result.stopped}; the "
+                         f"{result.frames} frames before are in {result.out}")

@@ -1,0 +1,518 @@
+"""Retarget a stereo or 2D + depth clip into a display's parallax budget, shot by shot, as video.
+
+:func:`convert_clip` is ``vergence convert``. The clip is read in passes, frame by frame (never whole):
+
+1. **Shots**: the cuts (:func:`vergence.video.detect_cuts`) and, for 2D + depth, each frame's
+   nearness range. A clip that cannot be decoded past frame ``k`` (truncated, damaged) is converted up
+   to ``k``; the result says where it stopped (:attr:`Conversion.stopped`).
+2. **Disparity** (stereo only): each frame matched (the library's matcher, as ``vergence analyze``),
+   stabilised (below), kept in the work folder for pass 3; the shot's range is the lowest 1st and the
+   highest 99th percentile of its frames.
+3. **Render**: each frame's disparity mapped into the budget and the pair synthesised
+   (:func:`vergence.synthesis.synthesize_stereo`, as ``vergence synthesize``), packed into the
+   layout (:func:`vergence.display.pack`) and encoded; each shot is a segment of the work folder
+   (:mod:`vergence.video._segments`), joined with the input's audio at the end.
+
+**Mapping.** One linear psi per shot maps the shot's range (nearness ``q`` of 2D + depth, or the
+matched disparity ``D = x_left - x_right`` of a stereo clip, as a ``"disparity"`` depth map) onto
+``+-budget_arcmin`` of vergence on the display (:func:`vergence.synthesis.plan_parallax`, budget mode:
+the image fills the display's width). Frame ``t`` uses the temporal operator of Lang et al. (2010),
+``psi_t = sum_k w_k(t) psi_k`` (:func:`vergence.viewing.temporal_mapping`): with ``transition = 0``
+(default) the mapping is reset at each cut and constant within a shot, so a shot's depth does not
+breathe; ``transition = T`` frames ramps from one shot's psi to the next over ``T`` frames around the
+cut (frames in the ramp may then pass the budget by the difference of the two psi).
+
+**Stability.** Before mapping, the disparity (nearness) map is filtered in time on content whose
+colour does not change (:func:`vergence.video.stabilize_disparity`, reset at cuts), which takes out the
+flicker of matching noise and of a compressed depth video. The filtered map stays within the range of
+the raw maps it averages, so the budget still holds. :attr:`Conversion.flicker_before` and
+``flicker_after`` give the frame-to-frame change of the output's parallax on static content
+(:func:`vergence.video.disparity_flicker` times the shot's psi slope), without and with the filter.
+
+**Views.** A stereo clip keeps its left view and re-synthesises the right one (``origin="left"``,
+default) or synthesises both around the left camera (``origin="center"``: half the disocclusions in
+each view); a 2D + depth clip is the centre (default) or the left view, as ``vergence synthesize``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from vergence.video.sources import DepthClip, StereoClip
+from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter, grey_levels
+from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
+
+if TYPE_CHECKING:
+    from vergence.viewing import Display
+    from vergence.viewing.mapping_operators import LinearMapping
+
+__all__ = ["CONVERT_ORIGINS", "VIDEO_SUFFIXES", "Conversion", "ShotConversion", "convert_clip", "converted_path"]
+
+# Where the original view sits among the output views: the left view, or the centre of the pair.
+CONVERT_ORIGINS = ("left", "center")
+# Output containers (anything else is an image folder of PNG frames).
+VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ShotConversion:
+    """One shot, ``[start, end)``, and the linear psi that maps its range into the budget.
+
+    ``range_in`` is the shot's nearness (2D + depth) or disparity (stereo, px) range; ``range_px``
+    the output parallax ``P = x_r - x_l`` it maps to (positive behind the screen); ``reused`` is True
+    when ``--resume`` found its segment finished.
+    """
+
+    start: int
+    end: int
+    mapping: LinearMapping
+    range_in: tuple[float, float]
+    range_px: tuple[float, float]
+    reused: bool
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Conversion:
+    """What :func:`convert_clip` wrote.
+
+    Attributes
+    ----------
+    out : pathlib.Path
+        The video file or the image folder.
+    kind : str
+        ``"stereo"`` or ``"2d+depth"``.
+    frames : int
+        Frames converted (fewer than the clip's when it stopped early).
+    fps : float
+    layout, pixel_format : str
+        Output layout (:data:`vergence.display.LAYOUTS`) and chroma format (None for images).
+    shots : tuple of ShotConversion
+    flicker_before, flicker_after : Flicker
+        Frame-to-frame change of the output parallax on static content (px of the views), without and
+        with the stabilisation, over the shots converted in this run.
+    stopped : str or None
+        Why the input ended before its announced length (the frames before were converted), else None.
+    seconds : float
+        Wall time of the whole conversion.
+    """
+
+    out: Path
+    kind: str
+    frames: int
+    fps: float
+    layout: str
+    pixel_format: str | None
+    shots: tuple[ShotConversion, ...]
+    flicker_before: Flicker
+    flicker_after: Flicker
+    stopped: str | None
+    seconds: float
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready summary."""
+        return {
+            "out": str(self.out), "kind": self.kind, "frames": self.frames, "fps": self.fps, "layout": self.layout,
+            "pixel_format": self.pixel_format, "stopped": self.stopped, "seconds": self.seconds,
+            "flicker_before_px": self.flicker_before.mean_px, "flicker_after_px": self.flicker_after.mean_px,
+            "shots": [{"start": s.start, "end": s.end, "range_in": list(s.range_in), "range_px": list(s.range_px),
+                       "gain": s.mapping.gain, "reused": s.reused} for s in self.shots],
+        }  # fmt: skip
+
+
+def converted_path(out: str | os.PathLike[str], source: str | os.PathLike[str], layout: str, *,
+                   images: bool = False) -> Path:  # fmt: skip
+    """The output path of a conversion, its name carrying the layout tag (:func:`~vergence.video.layout_video_name`).
+
+    ``out`` an existing folder: the output goes inside it, named after ``source`` (its own layout tag
+    taken off) with ``layout``'s tag, a ``.mp4`` (or, with ``images``, a folder). ``out`` a file name:
+    its tag is added when it carries none; a tag of another layout is refused.
+
+    Examples
+    --------
+    >>> converted_path("movie.mp4", "in_RGBD.mp4", "sbs").name
+    'movie_LRF_Full_SBS.mp4'
+    >>> converted_path("movie_Half_SBS.mkv", "in.mp4", "half-sbs").name
+    'movie_Half_SBS.mkv'
+    """
+    from vergence.video.layout import LAYOUT_TAGS, guess_layout, layout_video_name
+
+    o = Path(out)
+    if o.is_dir():
+        stem = Path(source).stem if Path(source).suffix else Path(source).name
+        for pattern, _ in LAYOUT_TAGS:
+            stem = re.sub(pattern, "", stem)
+        stem = re.sub(r"[-_.\s]+$", "", re.sub(r"([-_])[-_]+", r"\1", stem)) or "converted"  # "a_LRF_Full_SBS" -> "a"
+        return o / layout_video_name(stem, layout, suffix="" if images else ".mp4")
+    suffix = o.suffix.lower()
+    if images == (suffix in VIDEO_SUFFIXES):
+        what = "a folder (no extension)" if images else f"a {', '.join(VIDEO_SUFFIXES)} file or an existing folder"
+        raise ValueError(f"out must be {what}; got {o.name!r}")
+    stem = o.name[: len(o.name) - len(o.suffix)] if suffix else o.name
+    guessed = guess_layout(o)
+    if guessed == layout or stem.endswith(layout_video_name("", layout, suffix="")):
+        return o
+    if guessed is not None:
+        raise ValueError(f"out {o.name} is tagged {guessed!r}; the output layout is {layout!r}")
+    return o.with_name(layout_video_name(stem, layout, suffix=o.suffix))
+
+
+def _check_number(name: str, value: object, lo: float, hi: float, *, lo_open: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number; got {value!r}")
+    if value > hi or value < lo or (lo_open and value == lo):
+        raise ValueError(f"{name} must be in {'(' if lo_open else '['}{lo:g}, {hi:g}]; got {value!r}")
+    return float(value)
+
+
+def _inputs(clip: StereoClip | DepthClip) -> list[Path]:
+    if isinstance(clip, StereoClip):
+        return [clip.reader.path]
+    return [clip.colour.path] + ([] if clip.depth is None else [clip.depth.path])
+
+
+def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, display: Display, s: int,
+                  shot: tuple[int, int]) -> LinearMapping:  # fmt: skip
+    """The linear psi of a shot whose nearness (disparity) runs over ``[lo, hi]``, at the clip's width."""
+    from vergence.synthesis import plan_parallax
+
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ValueError(f"shot {s} (frames {shot[0]}-{shot[1] - 1}) has no known depth or disparity")
+    if not hi > lo:
+        raise ValueError(f"shot {s} (frames {shot[0]}-{shot[1] - 1}) has flat depth (one nearness everywhere): no "
+                         "range to map into the budget")
+    row = np.full((1, width), lo, np.float32)
+    row[0, -1] = hi  # the shot's range at the clip's width: the budget in px depends on it
+    return plan_parallax(row, kind="disparity", budget_arcmin=budget_arcmin, display=display).mapping
+
+
+def convert_clip(
+    clip: StereoClip | DepthClip,
+    out: str | os.PathLike[str],
+    display: Display,
+    *,
+    budget_arcmin: float = 30.0,
+    layout: str = "sbs",
+    pixel_format: str | None = None,
+    crf: int = DEFAULT_CRF,
+    preset: str = DEFAULT_PRESET,
+    origin: str | None = None,
+    stabilize: bool = True,
+    threshold: float = STATIC_THRESHOLD,
+    alpha: float = STABILIZE_ALPHA,
+    transition: float = 0.0,
+    method: str = "sgbm",
+    min_disparity: int | None = None,
+    max_disparity: int | None = None,
+    resume: bool = False,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> Conversion:
+    """Retarget ``clip`` into ``+-budget_arcmin`` on ``display`` and write it to ``out`` (module docstring).
+
+    Parameters
+    ----------
+    clip : StereoClip or DepthClip
+        From :func:`~vergence.video.open_stereo` or :func:`~vergence.video.open_depth_clip`.
+    out : str or os.PathLike
+        A ``.mp4``/``.mkv``/``.mov`` file (H.264), or a folder (no extension) of PNG frames
+        ``frame_000000.png``...; never one of the clip's files. Its parent folder must exist.
+    display : vergence.viewing.Display
+        With its ``resolution``; the view fills its width.
+    budget_arcmin : float
+        The parallax budget, ``+-A`` arcmin of vergence (as ``vergence synthesize``).
+    layout : str
+        A key of :data:`vergence.display.LAYOUTS`.
+    pixel_format : str, optional
+        A key of :data:`~vergence.video.PIXEL_FORMATS`; default ``yuv444p`` for anaglyphs (4:2:0
+        mixes the colours of the two views at edges), else ``yuv420p``.
+    crf : int
+        x264 quality (0 = lossless).
+    preset : str
+        x264 speed, one of :data:`~vergence.video.X264_PRESETS`.
+    origin : {"left", "center"}, optional
+        Where the original view sits; default ``"left"`` for a stereo clip, ``"center"`` for 2D + depth.
+    stabilize : bool
+        Filter the disparity in time on static content (:func:`~vergence.video.stabilize_disparity`).
+    threshold, alpha : float
+        That filter's parameters (:data:`~vergence.video.STATIC_THRESHOLD`, :data:`~vergence.video.STABILIZE_ALPHA`);
+        ``threshold`` is also the flicker measure's.
+    transition : float
+        Frames over which psi ramps across a cut (0: reset at the cut).
+    method, min_disparity, max_disparity
+        Stereo clips: the matcher and its search range, as :func:`~vergence.video.analyze_clip`.
+    resume : bool
+        Reuse the finished shots of an interrupted run with the same input and options (its work
+        folder ``.NAME.parts`` beside ``out``).
+    progress : callable(phase, done, total), optional
+        Called after each frame of each pass (``"shots"``, ``"matching"``, ``"converting"``).
+
+    Returns
+    -------
+    Conversion
+
+    Raises
+    ------
+    ValueError
+        Bad options, an ``out`` that is an input, a clip that stops before its first frame, a shot
+        without depth range, and the errors of matching and synthesis. A clip that breaks mid-way is
+        not an error here: the frames before are written and :attr:`Conversion.stopped` says why.
+    """
+    from vergence.display import LAYOUTS, pack
+    from vergence.synthesis import nearness_from_depth, synthesize_stereo
+    from vergence.video import _segments
+    from vergence.video._matching import default_search_px, match_padded
+    from vergence.video.cuts import detect_cuts
+    from vergence.video._kernels import stabilize_kernel
+    from vergence.video.writer import VideoWriter
+    from vergence.viewing import Display
+    from vergence.viewing.mapping import BlendedMapping, temporal_weights
+
+    started = time.perf_counter()
+    if not isinstance(clip, StereoClip | DepthClip):
+        raise TypeError(f"clip must be a StereoClip or a DepthClip; got {type(clip).__name__}")
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    if display.resolution is None:
+        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    budget = _check_number("budget_arcmin", budget_arcmin, 0.0, 600.0, lo_open=True)
+    if not isinstance(layout, str) or layout not in LAYOUTS:
+        raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}; got {layout!r}")
+    stereo = isinstance(clip, StereoClip)
+    origin = ("left" if stereo else "center") if origin is None else origin
+    if origin not in CONVERT_ORIGINS:
+        raise ValueError(f"origin must be one of {', '.join(CONVERT_ORIGINS)}; got {origin!r}")
+    out = Path(out)
+    images = out.suffix.lower() not in VIDEO_SUFFIXES
+    if images and out.suffix:
+        raise ValueError(f"out must be a {', '.join(VIDEO_SUFFIXES)} file or a folder without extension; "
+                         f"got {out.name!r}")
+    if pixel_format is None:
+        pixel_format = "yuv444p" if layout.startswith("anaglyph") else "yuv420p"
+    if pixel_format not in PIXEL_FORMATS:
+        raise ValueError(f"pixel_format must be one of {', '.join(PIXEL_FORMATS)}; got {pixel_format!r}")
+    if isinstance(crf, bool) or not isinstance(crf, int | np.integer) or not 0 <= crf <= 51:
+        raise ValueError(f"crf must be an integer in [0, 51]; got {crf!r}")
+    if preset not in X264_PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(X264_PRESETS)}; got {preset!r}")
+    threshold = _check_number("threshold", threshold, 0.0, 1.0)
+    alpha = _check_number("alpha", alpha, 0.0, 1.0, lo_open=True)
+    transition = _check_number("transition", transition, 0.0, 1e9)
+    if not out.parent.is_dir():
+        raise FileNotFoundError(f"out folder {out.parent} does not exist")
+    for p in _inputs(clip):
+        if out.resolve() == Path(p).resolve():
+            raise ValueError(f"out {out} would overwrite input {p}")
+    width, height = clip.width, clip.height
+    if stereo:
+        from vergence.depth import MATCHERS
+
+        if not isinstance(method, str) or method not in MATCHERS:
+            raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
+        search = default_search_px(width)
+        lo_d = -search if min_disparity is None else int(min_disparity)
+        hi_d = search if max_disparity is None else int(max_disparity)
+        if lo_d >= hi_d:
+            raise ValueError(f"min_disparity must be < max_disparity; got {lo_d} and {hi_d}")
+    packed_shape = pack(np.zeros((height, width, 3), np.float32), np.zeros((height, width, 3), np.float32),
+                        layout=layout).shape  # fmt: skip
+    if not images and pixel_format == "yuv420p" and (packed_shape[0] % 2 or packed_shape[1] % 2):
+        raise ValueError(f"yuv420p needs an even frame size; {layout} frames of these views are "
+                         f"{packed_shape[1]}x{packed_shape[0]} (use yuv444p)")
+    report = progress or (lambda phase, done, total: None)
+
+    # Pass 1: cuts, and the nearness range of each frame of a 2D + depth clip.
+    guard = _segments.Stopped()
+    ranges: list[tuple[float, float]] = []
+    if stereo:
+        def colour_frames():
+            yield from guard.wrap(clip.lefts())
+    else:
+        def colour_frames():
+            for image, depth in guard.wrap(clip.pairs()):
+                q = nearness_from_depth(depth, kind=clip.kind)
+                with np.errstate(all="ignore"):
+                    ranges.append((float(np.nanmin(q)), float(np.nanmax(q))) if np.isfinite(q).any()
+                                  else (math.nan, math.nan))  # fmt: skip
+                yield image
+
+    try:
+        cuts = detect_cuts(_segments.counted(colour_frames(), report, "shots", clip.frames))
+    except ValueError:
+        if guard.count == 0 and guard.reason is not None:  # broken before its first frame: nothing to keep
+            raise ValueError(guard.reason) from None
+        raise
+    n = guard.count
+    shots = cuts.shots
+    cut_frames = [a for a, _ in shots[1:]]
+
+    suffix = out.suffix.lower() if not images else ""
+    manifest = {"inputs": [str(Path(p).resolve()) for p in _inputs(clip)], "kind": "stereo" if stereo else "2d+depth",
+                "frames": n, "shots": [list(s) for s in shots], "layout": layout, "pixel_format": pixel_format,
+                "crf": int(crf), "preset": preset, "budget_arcmin": budget, "origin": origin,
+                "stabilize": bool(stabilize),
+                "threshold": float(threshold), "alpha": float(alpha), "transition": transition,
+                "display": [display.eye_separation, display.distance, display.width, display.resolution],
+                **({"method": method, "min_disparity": lo_d, "max_disparity": hi_d} if stereo else
+                   {"depth_kind": clip.kind, "depth_scale": clip.scale})}  # fmt: skip
+    work = _segments.work_folder(out)
+    _segments.prepare_work(work, manifest, resume)
+    try:
+        segments = [_segments.segment_path(work, s, a, b, images, suffix) for s, (a, b) in enumerate(shots)]
+        reused = [seg.exists() for seg in segments]
+        done = list(reused)
+        shot_of = np.zeros(max(n, 1), np.int64)
+        for s, (a, b) in enumerate(shots):
+            shot_of[a:b] = s
+        meters = [(FlickerMeter(threshold), FlickerMeter(threshold)) for _ in shots]  # before, after
+
+        # Pass 2 (stereo): matched, stabilised disparity of the unfinished shots, kept in the work folder.
+        range_in: list[tuple[float, float]] = []
+        if stereo:
+            lows, highs = [math.inf] * len(shots), [-math.inf] * len(shots)
+            stores: dict[int, np.ndarray] = {}
+            todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
+            count, prev = 0, None
+            for k, (left, right) in enumerate(clip.pairs(0, n)):
+                s = int(shot_of[k])
+                if done[s]:
+                    continue
+                a, b = shots[s]
+                if s not in stores:
+                    stores[s] = np.lib.format.open_memmap(work / f"disparity_{s:04d}.npy", mode="w+", dtype=np.float32,
+                                                          shape=(b - a, height, width))  # fmt: skip
+                    prev = None
+                    for m in meters[s]:
+                        m.reset()
+                raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
+                grey = grey_levels(left)
+                d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold,
+                                                                               alpha)  # fmt: skip
+                stores[s][k - a] = d
+                known = d[np.isfinite(d)]
+                if known.size:
+                    p1, p99 = np.percentile(known, [1, 99])
+                    lows[s], highs[s] = min(lows[s], float(p1)), max(highs[s], float(p99))
+                meters[s][0].add(grey, raw)
+                meters[s][1].add(grey, d)
+                prev = (grey, d)
+                count += 1
+                report("matching", count, todo)
+            for s in stores:
+                stores[s].flush()
+            range_in = [(lows[s], highs[s]) for s in range(len(shots))]
+        else:
+            for a, b in shots:
+                with np.errstate(all="ignore"):
+                    range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
+                                     float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
+        mappings = [None if (stereo and done[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
+                    for s in range(len(shots))]  # fmt: skip
+
+        def psi_at(k: int):
+            s = int(shot_of[k])
+            if transition == 0 or not cut_frames:
+                return mappings[s]
+            w = temporal_weights(float(k), cut_frames, transition=transition)
+            if w.max() == 1.0:
+                return mappings[int(np.argmax(w))]
+            return BlendedMapping(tuple(mappings), w)  # Lang et al. 2010: psi_t = sum_k w_k(t) psi_k
+
+        if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
+            raise ValueError("--resume with a transition needs every shot's mapping: run without --resume")
+
+        # Pass 3: render, pack and encode the unfinished shots, one segment each.
+        todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
+        count = 0
+        sink = None
+        prev = None
+        try:
+            source = clip.lefts(0, n) if stereo else clip.pairs(0, n)
+            for k, item in enumerate(source):
+                s = int(shot_of[k])
+                if done[s]:
+                    continue
+                a, b = shots[s]
+                if k == a:
+                    sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, preset,
+                                             VideoWriter)  # fmt: skip
+                    sink.__enter__()
+                    prev = None
+                psi = psi_at(k)
+                if stereo:
+                    image, d = item, np.array(stores[s][k - a])
+                else:
+                    image, depth = item
+                    raw = nearness_from_depth(depth, kind=clip.kind)
+                    grey = grey_levels(image)
+                    d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
+                                                                                   threshold, alpha)  # fmt: skip
+                    if prev is None:
+                        for m in meters[s]:
+                            m.reset()
+                    meters[s][0].add(grey, raw)
+                    meters[s][1].add(grey, d)
+                    prev = (grey, d)
+                result = synthesize_stereo(image, d, kind="disparity", mapping=psi, display=display, origin=origin)
+                packed = np.clip(pack(result.left, result.right, layout=layout), 0.0, 1.0)
+                packed *= np.float32(255.0)
+                sink.write(np.rint(packed, out=packed).astype(np.uint8), k)  # 8 bits as VideoWriter rounds them
+                count += 1
+                report("converting", count, todo)
+                if k == b - 1:
+                    sink, opened = None, sink
+                    opened.__exit__(None, None, None)
+                    done[s] = True
+                    if stereo:
+                        stores.pop(s, None)  # the map closes with its last reference
+                        (work / f"disparity_{s:04d}.npy").unlink(missing_ok=True)
+        except BaseException as err:
+            if sink is not None:
+                sink.__exit__(type(err), err, err.__traceback__)
+            raise
+        if not segments or not all(done):
+            raise ValueError(f"conversion of {_inputs(clip)[0]} left shots unfinished")
+
+        if images:
+            _segments.join_folders(segments, out)
+        else:
+            reader = clip.reader if stereo else clip.colour
+            audio = reader.path if reader.files is None else None
+            _segments.join_videos(segments, out, audio, n / clip.fps)
+        shutil.rmtree(work, ignore_errors=True)
+    except BaseException:
+        # Nothing finished (a bad option found by planning, Ctrl-C in the first shot): no work folder left behind;
+        # finished shots stay for --resume.
+        finished = work.is_dir() and any(p.name.startswith("shot_") for p in work.iterdir())
+        if not finished:
+            shutil.rmtree(work, ignore_errors=True)
+        raise
+
+    def combined(which: int) -> Flicker:
+        total = count_px = pixels = pairs = 0
+        for s, pair in enumerate(meters):
+            m = pair[which]
+            gain = abs(mappings[s].gain) if mappings[s] is not None else 0.0
+            total += gain * m.total
+            count_px, pixels, pairs = count_px + m.count, pixels + m.pixels, pairs + m.pairs
+        return Flicker(mean_px=total / count_px if count_px else math.nan, pairs=pairs,
+                       static_share=count_px / pixels if pixels else 0.0)  # fmt: skip
+
+    conversions = tuple(
+        ShotConversion(start=a, end=b, mapping=mappings[s], range_in=range_in[s],
+                       range_px=(math.nan, math.nan) if mappings[s] is None else  # P = psi(-q), psi increasing
+                       (float(mappings[s](-range_in[s][1])), float(mappings[s](-range_in[s][0]))), reused=reused[s])
+        for s, (a, b) in enumerate(shots)
+    )  # fmt: skip
+    return Conversion(out=out, kind="stereo" if stereo else "2d+depth", frames=n, fps=float(clip.fps), layout=layout,
+                      pixel_format=None if images else pixel_format, shots=conversions,
+                      flicker_before=combined(0), flicker_after=combined(1), stopped=guard.reason,
+                      seconds=time.perf_counter() - started)  # fmt: skip

@@ -1,0 +1,106 @@
+"""``vergence convert`` end to end on the rendered clips: outputs, flicker line, resume, one-line refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("av", reason="the video extra is not installed: pip install 'vergence[video]'")
+
+from vergence.cli import main  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory):
+    from vergence.video import make_test_clips
+
+    # 8 frames per shot: the smallest clip whose shots pass MIN_SHOT_FRAMES (6)
+    return make_test_clips(tmp_path_factory.mktemp("convert_clips"), frames_per_shot=8)
+
+
+def _run(capsys, args):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_rgbd_to_sbs_names_the_output_and_prints_shots_and_flicker(clips, tmp_path, capsys):
+    from vergence.video import open_stereo
+
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path, "--display", "tv-55",
+                                   "--budget-arcmin", "20"])  # fmt: skip
+    assert code == 0, err
+    target = tmp_path / "clips_LRF_Full_SBS.mp4"
+    assert target.is_file() and open_stereo(target).frames == 16
+    assert "shot 0: frames 0-7" in out and "shot 1: frames 8-15" in out
+    assert "flicker on static content:" in out and f"wrote 16 frames" in out
+
+
+def test_stereo_to_anaglyph_and_to_frames(clips, tmp_path, capsys):
+    code, out, err = _run(capsys, ["convert", clips.stereo, "--out", tmp_path / "ana.mp4", "--display", "tv-55",
+                                   "--format", "anaglyph", "--origin", "center", "--no-stabilize"])  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "ana_Anaglyph.mp4").is_file()
+    assert "0.0000 px before" not in out  # flicker is still measured without the filter
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path / "frames", "--images", "--display",
+                                   "tv-55", "--format", "tb"])  # fmt: skip
+    assert code == 0, err
+    assert len(list((tmp_path / "frames_Full_TB").glob("frame_*.png"))) == 16
+
+
+def test_truncated_input_keeps_the_frames_before_and_exits_2(clips, tmp_path, capsys):
+    data = clips.rgbd.read_bytes()
+    cut = tmp_path / "cut_RGBD.mp4"
+    cut.write_bytes(data[: int(len(data) * 0.75)])
+    code, out, err = _run(capsys, ["convert", cut, "--out", tmp_path, "--display", "tv-55"])
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("error: INPUT cut_RGBD.mp4 stopped after frame "), err
+    assert (tmp_path / "cut_LRF_Full_SBS.mp4").is_file()
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["{stereo}", "--out", "{stereo}", "--display", "tv-55"], "error: output"),
+    (["{missing}", "--out", "{tmp}/o.mp4", "--display", "tv-55"], "error: INPUT"),
+    (["{junk}", "--out", "{tmp}/o.mp4", "--display", "tv-55"], "error: cannot read video"),
+    (["{plain}", "--out", "{tmp}/o.mp4", "--display", "tv-55"], "error: cannot guess the stereo layout"),
+    (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--format", "rgbd"], "error: --format must be"),
+    (["{stereo}", "--out", "{tmp}/o_Half_SBS.mp4", "--display", "tv-55"], "error: --out o_Half_SBS.mp4 is tagged"),
+    (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--depth-kind", "metric"],
+     "error: --depth-kind apply to a 2d+depth INPUT"),
+    (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--budget-arcmin", "0"],
+     "error: --budget-arcmin must be in (0, 600]"),
+    (["{stereo}", "--out", "{tmp}/nowhere/o.mp4", "--display", "tv-55"], "error: --out folder"),
+])  # fmt: skip
+def test_bad_input_is_one_line_and_exit_code_2(clips, tmp_path, capsys, args, message):
+    plain = tmp_path / "plain.mp4"
+    plain.write_bytes(clips.stereo.read_bytes())
+    (tmp_path / "junk_LR.mp4").write_bytes(b"junk")
+    names = {"plain": plain, "stereo": clips.stereo, "junk": tmp_path / "junk_LR.mp4", "tmp": tmp_path,
+             "missing": tmp_path / "missing_LR.mp4"}
+    code, out, err = _run(capsys, ["convert", *(a.format(**names) for a in args)])
+    assert code == 2
+    assert out == "" and err.count("\n") == 1 and err.startswith(message), err
+    assert not list(tmp_path.glob("o*"))
+
+
+def test_resume_after_an_interrupted_run(clips, tmp_path, capsys, monkeypatch):
+    import vergence.video.convert as conversion
+
+    real = conversion.convert_clip
+
+    def interrupted(*args, progress, **kwargs):
+        def stop(phase, done, total):
+            progress(phase, done, total)
+            if phase == "converting" and done == 10:
+                raise KeyboardInterrupt
+
+        return real(*args, progress=stop, **kwargs)
+
+    monkeypatch.setattr(conversion, "convert_clip", interrupted)
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path, "--display", "tv-55"])
+    assert code == 130 and not (tmp_path / "clips_LRF_Full_SBS.mp4").exists()
+    monkeypatch.setattr(conversion, "convert_clip", real)
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path, "--display", "tv-55", "--resume"])
+    assert code == 0, err
+    assert "shot 0: frames 0-7" in out and "(reused)" in out.splitlines()[0] and "(reused)" not in out.splitlines()[1]
+    assert not np.isnan(float(out.split("flicker on static content: ")[1].split(" px")[0]))
