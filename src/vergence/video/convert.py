@@ -36,6 +36,7 @@ each view); a 2D + depth clip is the centre (default) or the left view, as ``ver
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import re
@@ -48,6 +49,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vergence.video._shots import ShotJob, render_shot, run_on_dask
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter, grey_levels
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
@@ -215,6 +217,8 @@ def convert_clip(
     max_disparity: int | None = None,
     resume: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
+    workers: int = 1,
+    scheduler: str | None = None,
 ) -> Conversion:
     """Retarget ``clip`` into ``+-budget_arcmin`` on ``display`` and write it to ``out`` (module docstring).
 
@@ -253,7 +257,16 @@ def convert_clip(
         Reuse the finished shots of an interrupted run with the same input and options (its work
         folder ``.NAME.parts`` beside ``out``).
     progress : callable(phase, done, total), optional
-        Called after each frame of each pass (``"shots"``, ``"matching"``, ``"converting"``).
+        Called after each frame of each pass (``"shots"``, ``"matching"``, ``"converting"``); with Dask,
+        ``"converting"`` as each shot finishes.
+    workers : int
+        Above 1 (with ``scheduler`` None or ``"local"``), the shots are rendered as Dask tasks on a new
+        ``LocalCluster`` of that many one-thread processes (needs ``pip install 'vergence[dask]'``).
+    scheduler : str, optional
+        ``"local"`` (the default when ``workers > 1``), or the address of a running Dask scheduler
+        (``tcp://host:8786``) whose workers see the same paths. Each shot is one task (its frame range,
+        the input paths and its psi; never frames), writing its own segment; the output is the same as
+        the serial run's (byte for byte with ``--images``).
 
     Returns
     -------
@@ -267,16 +280,26 @@ def convert_clip(
         not an error here: the frames before are written and :attr:`Conversion.stopped` says why.
     """
     from vergence.display import LAYOUTS, pack
-    from vergence.synthesis import nearness_from_depth, synthesize_stereo
+    from vergence.synthesis import nearness_from_depth
     from vergence.video import _segments
     from vergence.video._matching import default_search_px, match_padded
     from vergence.video.cuts import detect_cuts
     from vergence.video._kernels import stabilize_kernel
-    from vergence.video.writer import VideoWriter
     from vergence.viewing import Display
-    from vergence.viewing.mapping import BlendedMapping, temporal_weights
 
     started = time.perf_counter()
+    if isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1; got {workers!r}")
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        raise ValueError(f"scheduler must be 'local' or a scheduler address; got {scheduler!r}")
+    parallel = workers > 1 or (scheduler is not None and scheduler != "local")
+    if parallel:
+        from vergence.video._shots import DASK_HINT
+
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise ImportError(f"dask.distributed is not installed: {DASK_HINT}") from None
     if not isinstance(clip, StereoClip | DepthClip):
         raise TypeError(f"clip must be a StereoClip or a DepthClip; got {type(clip).__name__}")
     if not isinstance(display, Display):
@@ -408,6 +431,7 @@ def convert_clip(
                 report("matching", count, todo)
             for s in stores:
                 stores[s].flush()
+            stores.clear()  # each shot's render opens its own map
             range_in = [(lows[s], highs[s]) for s in range(len(shots))]
         else:
             for a, b in shots:
@@ -417,67 +441,44 @@ def convert_clip(
         mappings = [None if (stereo and done[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
                     for s in range(len(shots))]  # fmt: skip
 
-        def psi_at(k: int):
-            s = int(shot_of[k])
-            if transition == 0 or not cut_frames:
-                return mappings[s]
-            w = temporal_weights(float(k), cut_frames, transition=transition)
-            if w.max() == 1.0:
-                return mappings[int(np.argmax(w))]
-            return BlendedMapping(tuple(mappings), w)  # Lang et al. 2010: psi_t = sum_k w_k(t) psi_k
-
         if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
             raise ValueError("--resume with a transition needs every shot's mapping: run without --resume")
 
-        # Pass 3: render, pack and encode the unfinished shots, one segment each.
-        todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
+        # Pass 3: render, pack and encode the unfinished shots, one segment each (a job per shot: _shots).
+        jobs = [ShotJob(clip=clip, shot=s, start=a, end=b, segment=segments[s],
+                        disparity=(work / f"disparity_{s:04d}.npy") if stereo else None, images=images,
+                        packed_shape=tuple(packed_shape), layout=layout, pixel_format=pixel_format, crf=int(crf),
+                        preset=preset, origin=origin, display=display, mappings=tuple(mappings),
+                        cut_frames=tuple(cut_frames), transition=transition, stabilize=bool(stabilize),
+                        threshold=threshold, alpha=alpha)
+                for s, (a, b) in enumerate(shots) if not done[s]]  # fmt: skip
+        todo = sum(job.end - job.start for job in jobs)
         count = 0
-        sink = None
-        prev = None
-        try:
-            source = clip.lefts(0, n) if stereo else clip.pairs(0, n)
-            for k, item in enumerate(source):
-                s = int(shot_of[k])
-                if done[s]:
-                    continue
-                a, b = shots[s]
-                if k == a:
-                    sink = _segments.Segment(segments[s], images, clip.fps, packed_shape, pixel_format, crf, preset,
-                                             VideoWriter)  # fmt: skip
-                    sink.__enter__()
-                    prev = None
-                psi = psi_at(k)
-                if stereo:
-                    image, d = item, np.array(stores[s][k - a])
-                else:
-                    image, depth = item
-                    raw = nearness_from_depth(depth, kind=clip.kind)
-                    grey = grey_levels(image)
-                    d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
-                                                                                   threshold, alpha)  # fmt: skip
-                    if prev is None:
-                        for m in meters[s]:
-                            m.reset()
-                    meters[s][0].add(grey, raw)
-                    meters[s][1].add(grey, d)
-                    prev = (grey, d)
-                result = synthesize_stereo(image, d, kind="disparity", mapping=psi, display=display, origin=origin)
-                packed = np.clip(pack(result.left, result.right, layout=layout), 0.0, 1.0)
-                packed *= np.float32(255.0)
-                sink.write(np.rint(packed, out=packed).astype(np.uint8), k)  # 8 bits as VideoWriter rounds them
+
+        def finished(job: ShotJob, shot_meters) -> None:
+            nonlocal count
+            if shot_meters is not None:
+                meters[job.shot] = shot_meters
+            done[job.shot] = True
+            if parallel:
+                count += job.end - job.start
+                report("converting", count, todo)
+
+        if parallel and jobs:
+            run_on_dask(jobs, "local" if scheduler is None else scheduler, workers, finished)
+        else:
+            def tick() -> None:
+                nonlocal count
                 count += 1
                 report("converting", count, todo)
-                if k == b - 1:
-                    sink, opened = None, sink
-                    opened.__exit__(None, None, None)
-                    done[s] = True
-                    if stereo:
-                        stores.pop(s, None)  # the map closes with its last reference
-                        (work / f"disparity_{s:04d}.npy").unlink(missing_ok=True)
-        except BaseException as err:
-            if sink is not None:
-                sink.__exit__(type(err), err, err.__traceback__)
-            raise
+
+            source = clip.lefts(0, n) if stereo else clip.pairs(0, n)
+            at = 0
+            for job in jobs:
+                for _ in itertools.islice(source, job.start - at):  # frames of reused shots
+                    pass
+                finished(job, render_shot(job, source, tick))
+                at = job.end
         if not segments or not all(done):
             raise ValueError(f"conversion of {_inputs(clip)[0]} left shots unfinished")
 
