@@ -104,3 +104,26 @@ def test_resume_after_an_interrupted_run(clips, tmp_path, capsys, monkeypatch):
     assert code == 0, err
     assert "shot 0: frames 0-7" in out and "(reused)" in out.splitlines()[0] and "(reused)" not in out.splitlines()[1]
     assert not np.isnan(float(out.split("flicker on static content: ")[1].split(" px")[0]))
+
+
+def test_workers_on_dask_write_the_serial_frames(clips, tmp_path, capsys):
+    pytest.importorskip("distributed", reason="dask.distributed is not installed: pip install 'vergence[dask]'")
+    args = ["convert", clips.rgbd, "--display", "tv-55", "--images"]
+    assert _run(capsys, [*args, "--out", tmp_path / "serial"])[0] == 0
+    code, out, err = _run(capsys, [*args, "--out", tmp_path / "dask", "--workers", "2"])
+    assert code == 0, err
+    assert "wrote 16 frames" in out
+    serial, dask = (sorted(tmp_path.glob(f"{n}_LRF_Full_SBS/*.png")) for n in ("serial", "dask"))
+    assert len(serial) == 16 and [p.read_bytes() for p in serial] == [p.read_bytes() for p in dask]
+
+
+def test_bad_scheduler_address_is_one_line_exit_2(clips, tmp_path, capsys, monkeypatch):
+    pytest.importorskip("distributed", reason="dask.distributed is not installed: pip install 'vergence[dask]'")
+    from vergence.video import _shots
+
+    monkeypatch.setattr(_shots, "CONNECT_TIMEOUT_S", 1)
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path / "x", "--images", "--display", "tv-55",
+                                   "--scheduler", "tcp://127.0.0.1:9"])  # fmt: skip
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and "cannot reach the Dask scheduler" in err, err
+    assert not any(tmp_path.iterdir())

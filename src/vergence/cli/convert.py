@@ -20,7 +20,8 @@ _OPTIONS = {"layout": "--format", "kind": "--depth-kind", "scale": "--depth-scal
             "budget_arcmin": "--budget-arcmin", "pixel_format": "--pixel-format", "crf": "--crf", "preset": "--preset",
             "origin": "--origin", "threshold": "--static-threshold", "alpha": "--stabilize-alpha",
             "transition": "--transition", "method": "--method", "min_disparity": "--min-disparity",
-            "max_disparity": "--max-disparity", "out": "--out"}  # fmt: skip
+            "max_disparity": "--max-disparity", "out": "--out",
+            "workers": "--workers", "scheduler": "--scheduler"}  # fmt: skip
 _PHASES = {"shots": "finding cuts", "matching": "matching", "converting": "converting"}
 
 
@@ -66,6 +67,11 @@ def convert(
     fps: float | None = typer.Option(None, "--fps", help="Frame rate of an image folder (default 24)."),
     resume: bool = typer.Option(False, "--resume", help="Reuse the finished shots of an interrupted run (its work "
                                 "folder .OUT.parts beside the output)."),
+    workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
+                                "processes (N > 1; pip install 'vergence[dask]')."),
+    scheduler: str | None = typer.Option(None, "--scheduler", help="local (default with --workers > 1), or the "
+                                         "address of a running Dask scheduler (tcp://host:8786) whose workers see "
+                                         "the same paths."),
 ) -> None:
     """Retarget a stereo or 2D + depth clip into +-A arcmin on a display, shot by shot, as a stereo video.
 
@@ -73,7 +79,8 @@ def convert(
     each frame matched, its disparity mapped into the budget, the right view re-synthesised from the
     left (or both, --origin center). The mapping is reset at cuts; the disparity is filtered in time on
     static content (the flicker before and after is printed). Audio is copied; the output appears only
-    when complete; a clip that breaks mid-way keeps the frames before and exits with code 2.
+    when complete; a clip that breaks mid-way keeps the frames before and exits with code 2. With
+    --workers N or --scheduler, each shot is a Dask task writing its own segment (the same output).
     """
     from vergence.video import converted_path, guess_layout, open_depth_clip, open_stereo
     from vergence.video.convert import convert_clip
@@ -95,6 +102,11 @@ def convert(
     if given[other]:
         raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
                          "(--input-kind)")
+    if workers > 1 or (scheduler is not None and scheduler != "local"):
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise ValueError("--workers and --scheduler need dask.distributed: pip install 'vergence[dask]'") from None
     with options_named(**_OPTIONS):
         target = converted_path(out, input_path, fmt, images=images)
     inputs = [input_path, *([depth] if depth is not None else [])]
@@ -127,7 +139,8 @@ def convert(
                 preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
                 alpha=stabilize_alpha,
                 transition=transition, method=method or "sgbm", min_disparity=min_disparity,
-                max_disparity=max_disparity, resume=resume, progress=progress,
+                max_disparity=max_disparity, resume=resume, progress=progress, workers=workers,
+                scheduler=scheduler,
             )  # fmt: skip
     for k, shot in enumerate(result.shots):
         lo, hi = shot.range_px
