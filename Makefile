@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml | $(VENV)/bin/python
 	  { echo "libLLVM >= 15 not found: installing Debian's libllvm15 for Mitsuba"; \
 	    apt-get update && apt-get install -y libllvm15; }
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[test,web,browser,video]"
+	$(PY) -m pip install --quiet -e ".[test,web,browser,video,dask]"
 	@command -v chromium >/dev/null 2>&1 || \
 	  { echo "chromium not found: installing Debian's chromium for the workbench's browser tests"; \
 	    { apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y chromium; } || \
