@@ -29,6 +29,13 @@ the raw maps it averages, so the budget still holds. :attr:`Conversion.flicker_b
 ``flicker_after`` give the frame-to-frame change of the output's parallax on static content
 (:func:`vergence.video.disparity_flicker` times the shot's psi slope), without and with the filter.
 
+**Scale-out.** Each shot's render (pass 3) is a job of :mod:`vergence.video._shots`: the clip's paths,
+the shot's frame range, its psi and the options, never frames; it decodes its own frames and writes its
+segment atomically. The serial run loops over the jobs; ``workers > 1`` or ``scheduler`` submits one Dask
+task per shot (``dask.distributed``, the ``dask`` extra) and the joined output is the same (byte for
+byte as PNG frames; H.264 through PyAV is not byte-reproducible even run to run). Passes 1 and 2 (cuts,
+a stereo clip's matching) stay in the caller.
+
 **Views.** A stereo clip keeps its left view and re-synthesises the right one (``origin="left"``,
 default) or synthesises both around the left camera (``origin="center"``: half the disocclusions in
 each view); a 2D + depth clip is the centre (default) or the left view, as ``vergence synthesize``.
