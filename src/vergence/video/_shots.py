@@ -10,6 +10,7 @@ the shots ran (ARCHITECTURE.md, "Scale-out").
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -51,6 +52,51 @@ class ShotJob:
     threshold: float
     alpha: float
     threads: int | None = None  # Numba/OpenCV threads for this task (its share of the host's cores)
+    # A stereo shot whose matching runs in the task too: (min_disparity, max_disparity, method, budget_arcmin);
+    # its psi (mappings[shot], None until then) follows from the matched range. Only without a transition.
+    match: tuple[int, int, str, float] | None = None
+
+
+def match_shot(clip: StereoClip, start: int, end: int, store: Path, lo_d: int, hi_d: int, method: str,
+               stabilize: bool, threshold: float, alpha: float, source: Iterator | None = None,
+               report: Callable[[], None] | None = None) -> tuple[tuple[FlickerMeter, FlickerMeter], tuple[float, float]]:  # fmt: skip
+    """Pass 2 of one stereo shot: match frames ``[start, end)``, stabilise, write them to ``store`` (``.npy``).
+
+    Returns the flicker meters (before, after stabilisation) and the shot's disparity range: the
+    lowest 1st and the highest 99th percentile of its frames. ``source``: the clip's pairs already at
+    ``start`` (the serial pass shares one decoder); else the shot's own range is decoded.
+    """
+    from vergence.video._kernels import stabilize_kernel
+    from vergence.video._matching import match_padded
+    from vergence.video.stability import grey_levels
+
+    if source is None:
+        source = clip.pairs(start, end)
+    meters = (FlickerMeter(threshold), FlickerMeter(threshold))
+    lo, hi = math.inf, -math.inf
+    disparity = np.lib.format.open_memmap(store, mode="w+", dtype=np.float32, shape=(end - start, clip.height,
+                                                                                      clip.width))  # fmt: skip
+    prev = None
+    for k in range(start, end):
+        left, right = next(source)
+        raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
+        grey = grey_levels(left)
+        d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold, alpha)
+        disparity[k - start] = d
+        known = d[np.isfinite(d)]
+        if known.size:
+            p1, p99 = np.percentile(known, [1, 99])
+            lo, hi = min(lo, float(p1)), max(hi, float(p99))
+        meters[0].add(grey, raw)
+        meters[1].add(grey, d)
+        prev = (grey, d)
+        if report is not None:
+            report()
+    disparity.flush()
+    del disparity  # closed before the render opens it again
+    for m in meters:
+        m.reset()
+    return meters, (lo, hi)
 
 
 def psi_at(job: ShotJob, k: int):
@@ -135,8 +181,22 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     return meters
 
 
-def _task(job: ShotJob) -> tuple[int, tuple[FlickerMeter, FlickerMeter] | None]:
-    return job.shot, render_shot(job)
+def _task(job: ShotJob) -> tuple[int, tuple | None, tuple[float, float] | None, object]:
+    """One Dask task: (shot, meters, matched range or None, its psi or None)."""
+    from dataclasses import replace
+
+    if job.match is None:
+        return job.shot, render_shot(job), None, None
+    from vergence.video.convert import _shot_mapping
+
+    _limit_threads(job.threads)
+    lo_d, hi_d, method, budget = job.match
+    meters, range_in = match_shot(job.clip, job.start, job.end, job.disparity, lo_d, hi_d, method, job.stabilize,
+                                  job.threshold, job.alpha)  # fmt: skip
+    mapping = _shot_mapping(*range_in, job.clip.width, budget, job.display, job.shot, (job.start, job.end))
+    mappings = tuple(mapping if s == job.shot else m for s, m in enumerate(job.mappings))
+    render_shot(replace(job, mappings=mappings))
+    return job.shot, meters, range_in, mapping
 
 
 def open_client(scheduler: str, workers: int):
@@ -167,8 +227,8 @@ def threads_per_task(client) -> int:
 
 
 def run_on_dask(jobs: list[ShotJob], scheduler: str, workers: int,
-                on_done: Callable[[ShotJob, tuple | None], None]) -> None:  # fmt: skip
-    """Submit one task per job; ``on_done(job, meters)`` as each shot finishes (in finishing order)."""
+                on_done: Callable[..., None]) -> None:  # fmt: skip
+    """Submit one task per job; ``on_done(job, meters, range_in, mapping)`` as each shot finishes (in finishing order)."""
     from dataclasses import replace
 
     client, cluster = open_client(scheduler, workers)
@@ -181,8 +241,8 @@ def run_on_dask(jobs: list[ShotJob], scheduler: str, workers: int,
                                  pure=False) for job in jobs]  # fmt: skip
         try:
             for future in as_completed(futures):
-                shot, meters = future.result()
-                on_done(by_shot[shot], meters)
+                shot, meters, range_in, mapping = future.result()
+                on_done(by_shot[shot], meters, range_in, mapping)
         except BaseException:
             for f in futures:
                 f.cancel()

@@ -56,9 +56,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vergence.video._shots import ShotJob, render_shot, run_on_dask
+from vergence.video._shots import ShotJob, match_shot, render_shot, run_on_dask
 from vergence.video.sources import DepthClip, StereoClip
-from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter, grey_levels
+from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
 
 if TYPE_CHECKING:
@@ -289,9 +289,8 @@ def convert_clip(
     from vergence.display import LAYOUTS, pack
     from vergence.synthesis import nearness_from_depth
     from vergence.video import _segments
-    from vergence.video._matching import default_search_px, match_padded
+    from vergence.video._matching import default_search_px
     from vergence.video.cuts import detect_cuts
-    from vergence.video._kernels import stabilize_kernel
     from vergence.viewing import Display
 
     started = time.perf_counter()
@@ -399,53 +398,37 @@ def convert_clip(
         segments = [_segments.segment_path(work, s, a, b, images, suffix) for s, (a, b) in enumerate(shots)]
         reused = [seg.exists() for seg in segments]
         done = list(reused)
-        shot_of = np.zeros(max(n, 1), np.int64)
-        for s, (a, b) in enumerate(shots):
-            shot_of[a:b] = s
         meters = [(FlickerMeter(threshold), FlickerMeter(threshold)) for _ in shots]  # before, after
 
         # Pass 2 (stereo): matched, stabilised disparity of the unfinished shots, kept in the work folder.
         range_in: list[tuple[float, float]] = []
+        # With Dask and no transition, each stereo shot is matched in its own task (ShotJob.match).
+        match_in_tasks = stereo and parallel and transition == 0
         if stereo:
-            lows, highs = [math.inf] * len(shots), [-math.inf] * len(shots)
-            stores: dict[int, np.ndarray] = {}
+            range_in = [(math.inf, -math.inf)] * len(shots)
             todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
-            count, prev = 0, None
-            for k, (left, right) in enumerate(clip.pairs(0, n)):
-                s = int(shot_of[k])
-                if done[s]:
-                    continue
-                a, b = shots[s]
-                if s not in stores:
-                    stores[s] = np.lib.format.open_memmap(work / f"disparity_{s:04d}.npy", mode="w+", dtype=np.float32,
-                                                          shape=(b - a, height, width))  # fmt: skip
-                    prev = None
-                    for m in meters[s]:
-                        m.reset()
-                raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
-                grey = grey_levels(left)
-                d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold,
-                                                                               alpha)  # fmt: skip
-                stores[s][k - a] = d
-                known = d[np.isfinite(d)]
-                if known.size:
-                    p1, p99 = np.percentile(known, [1, 99])
-                    lows[s], highs[s] = min(lows[s], float(p1)), max(highs[s], float(p99))
-                meters[s][0].add(grey, raw)
-                meters[s][1].add(grey, d)
-                prev = (grey, d)
+            count = 0
+
+            def matched() -> None:
+                nonlocal count
                 count += 1
                 report("matching", count, todo)
-            for s in stores:
-                stores[s].flush()
-            stores.clear()  # each shot's render opens its own map
-            range_in = [(lows[s], highs[s]) for s in range(len(shots))]
+
+            pairs, at = clip.pairs(0, n), 0
+            for s, (a, b) in enumerate(shots):
+                if done[s] or match_in_tasks:
+                    continue
+                for _ in itertools.islice(pairs, a - at):  # frames of reused shots
+                    pass
+                meters[s], range_in[s] = match_shot(clip, a, b, work / f"disparity_{s:04d}.npy", lo_d, hi_d, method,
+                                                    stabilize, threshold, alpha, pairs, matched)  # fmt: skip
+                at = b
         else:
             for a, b in shots:
                 with np.errstate(all="ignore"):
                     range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
                                      float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
-        mappings = [None if (stereo and done[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
+        mappings = [None if (stereo and (done[s] or match_in_tasks)) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
                     for s in range(len(shots))]  # fmt: skip
 
         if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
@@ -457,15 +440,18 @@ def convert_clip(
                         packed_shape=tuple(packed_shape), layout=layout, pixel_format=pixel_format, crf=int(crf),
                         preset=preset, origin=origin, display=display, mappings=tuple(mappings),
                         cut_frames=tuple(cut_frames), transition=transition, stabilize=bool(stabilize),
-                        threshold=threshold, alpha=alpha)
+                        threshold=threshold, alpha=alpha,
+                        match=(lo_d, hi_d, method, budget) if match_in_tasks else None)
                 for s, (a, b) in enumerate(shots) if not done[s]]  # fmt: skip
         todo = sum(job.end - job.start for job in jobs)
         count = 0
 
-        def finished(job: ShotJob, shot_meters) -> None:
+        def finished(job: ShotJob, shot_meters, shot_range=None, mapping=None) -> None:
             nonlocal count
             if shot_meters is not None:
                 meters[job.shot] = shot_meters
+            if mapping is not None:
+                range_in[job.shot], mappings[job.shot] = shot_range, mapping
             done[job.shot] = True
             if parallel:
                 count += job.end - job.start
