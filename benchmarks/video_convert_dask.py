@@ -4,7 +4,8 @@ The rendered test clips (:func:`vergence.video.make_test_clips`; their shots rep
 more shots than workers) are converted to full SBS H.264, 2D + depth and stereo, by ``convert_clip``
 serially (Numba's threads over all cores, x264 in a second thread) and with ``workers=2`` (one
 single-thread process per worker, Numba/OpenCV limited to its share of the cores; the cluster's start
-and stop are inside the time, as on the command line). Medians of interleaved runs.
+and stop are inside the time, as on the command line), and on a 2-worker cluster already running
+(``scheduler=ADDRESS``: the tasks alone). Medians of interleaved runs.
 
 Run: ``.venv/bin/python benchmarks/video_convert_dask.py [--frames-per-shot N] [--width W] [--repeats N]``
 """
@@ -41,9 +42,14 @@ def main() -> None:
                             shots=shots)  # fmt: skip
     display = Display.preset("tv-55")
 
-    def convert(open_clip, name, workers):
+    from distributed import LocalCluster
+
+    # A cluster already running (--scheduler ADDRESS): the tasks without the cluster's start and stop.
+    running = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+
+    def convert(open_clip, name, workers, scheduler=None):
         out = folder / f"{name}_LRF_Full_SBS.mp4"
-        result = convert_clip(open_clip(), out, display, budget_arcmin=30.0, workers=workers)
+        result = convert_clip(open_clip(), out, display, budget_arcmin=30.0, workers=workers, scheduler=scheduler)
         assert len(result.shots) == args.shots, result.shots
         out.unlink()
 
@@ -51,9 +57,13 @@ def main() -> None:
         "2D+depth, serial": lambda: convert(lambda: open_depth_clip(clips.rgbd), "rgbd", 1),
         f"2D+depth, Dask {args.workers} workers": lambda: convert(lambda: open_depth_clip(clips.rgbd), "rgbd",
                                                                   args.workers),
+        f"2D+depth, running {args.workers}-worker cluster": lambda: convert(lambda: open_depth_clip(clips.rgbd),
+                                                                            "rgbd", 1, running.scheduler_address),
         "stereo, serial": lambda: convert(lambda: open_stereo(clips.stereo), "stereo", 1),
         f"stereo, Dask {args.workers} workers": lambda: convert(lambda: open_stereo(clips.stereo), "stereo",
                                                                 args.workers),
+        f"stereo, running {args.workers}-worker cluster": lambda: convert(lambda: open_stereo(clips.stereo), "stereo",
+                                                                          1, running.scheduler_address),
     }  # fmt: skip
     for fn in cases.values():  # warm-up: Numba caches, x264, the workers' imports
         fn()
@@ -66,6 +76,7 @@ def main() -> None:
     for name in cases:
         wall = report(name, runs[name])
         print(f"{'':44s} = {clips.frames / wall:6.2f} frames/s")
+    running.close()
     shutil.rmtree(folder)
 
 
