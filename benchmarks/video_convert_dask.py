@@ -45,7 +45,8 @@ def main() -> None:
     from distributed import LocalCluster
 
     # A cluster already running (--scheduler ADDRESS): the tasks without the cluster's start and stop.
-    running = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    running = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
 
     def convert(open_clip, name, workers, scheduler=None):
         out = folder / f"{name}_LRF_Full_SBS.mp4"

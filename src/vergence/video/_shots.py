@@ -206,7 +206,10 @@ def open_client(scheduler: str, workers: int):
     except ImportError:
         raise ImportError(f"dask.distributed is not installed: {DASK_HINT}") from None
     if scheduler == "local":
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        # No dashboard; the scheduler's small HTTP server (health, metrics) on a free local port, not 8787
+        # (a warning when that port is taken).
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
