@@ -47,3 +47,20 @@ def test_bad_scheduler_address_is_one_clear_error(clips, tmp_path, monkeypatch):
 def test_bad_workers_is_refused(clips, tmp_path):
     with pytest.raises(ValueError, match="workers must be an integer >= 1"):
         convert_clip(open_depth_clip(clips.rgbd), tmp_path / "out", DISPLAY, workers=0)
+
+
+def test_dask_resume_after_an_interruption_gives_the_serial_frames(clips, tmp_path):
+    out = tmp_path / "res"
+
+    def stop_at_first_shot(phase, done, total):
+        if phase == "converting":
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        convert_clip(open_stereo(clips.stereo), out, DISPLAY, workers=2, progress=stop_at_first_shot)
+    work = tmp_path / ".res.parts"
+    assert not out.exists() and list(work.glob("shot_*"))  # the finished shot stays (the other may have finished too)
+    r = convert_clip(open_stereo(clips.stereo), out, DISPLAY, workers=2, resume=True)
+    assert any(s.reused for s in r.shots) and not work.exists()
+    serial = convert_clip(open_stereo(clips.stereo), tmp_path / "serial", DISPLAY)
+    assert _frames(r.out) == _frames(serial.out)
