@@ -229,28 +229,28 @@ def threads_per_task(client) -> int:
     return max(1, (os.cpu_count() or 1) // crowded)
 
 
-def run_on_dask(jobs: list[ShotJob], scheduler: str, workers: int,
-                on_done: Callable[..., None]) -> None:  # fmt: skip
-    """Submit one task per job; ``on_done(job, meters, range_in, mapping)`` as each shot finishes (in finishing order)."""
+def close_client(client, cluster) -> None:
+    """Close what :func:`open_client` opened."""
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def run_on_dask(jobs: list[ShotJob], client, on_done: Callable[..., None]) -> None:
+    """Submit one task per job to ``client``; ``on_done(job, meters, range_in, mapping)`` as each shot finishes."""
     from dataclasses import replace
 
-    client, cluster = open_client(scheduler, workers)
-    try:
-        from distributed import as_completed
+    from distributed import as_completed
 
-        threads = threads_per_task(client)
-        by_shot = {job.shot: job for job in jobs}
-        futures = [client.submit(_task, replace(job, threads=threads), key=f"vergence-shot-{job.shot}-{os.getpid()}",
-                                 pure=False) for job in jobs]  # fmt: skip
-        try:
-            for future in as_completed(futures):
-                shot, meters, range_in, mapping = future.result()
-                on_done(by_shot[shot], meters, range_in, mapping)
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    threads = threads_per_task(client)
+    by_shot = {job.shot: job for job in jobs}
+    futures = [client.submit(_task, replace(job, threads=threads), key=f"vergence-shot-{job.shot}-{os.getpid()}",
+                             pure=False) for job in jobs]  # fmt: skip
+    try:
+        for future in as_completed(futures):
+            shot, meters, range_in, mapping = future.result()
+            on_done(by_shot[shot], meters, range_in, mapping)
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise

@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vergence.video._shots import ShotJob, match_shot, render_shot, run_on_dask
+from vergence.video._shots import ShotJob, close_client, match_shot, open_client, render_shot, run_on_dask
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
@@ -285,7 +285,48 @@ def convert_clip(
         Bad options, an ``out`` that is an input, a clip that stops before its first frame, a shot
         without depth range, and the errors of matching and synthesis. A clip that breaks mid-way is
         not an error here: the frames before are written and :attr:`Conversion.stopped` says why.
+        An unreachable ``scheduler`` (before any pass over the clip).
+    ImportError
+        ``workers > 1`` or ``scheduler`` without ``dask.distributed`` (``pip install 'vergence[dask]'``).
     """
+    if isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1; got {workers!r}")
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        raise ValueError(f"scheduler must be 'local' or a scheduler address; got {scheduler!r}")
+    options = {name: value for name, value in locals().items() if name not in ("workers", "scheduler")}
+    if workers == 1 and scheduler in (None, "local"):
+        return _convert_clip(**options, client=None)
+    # The cluster first: an unreachable scheduler is refused before the passes over the clip.
+    client, cluster = open_client("local" if scheduler is None else scheduler, int(workers))
+    try:
+        return _convert_clip(**options, client=client)
+    finally:
+        close_client(client, cluster)
+
+
+def _convert_clip(
+    clip: StereoClip | DepthClip,
+    out: str | os.PathLike[str],
+    display: Display,
+    *,
+    budget_arcmin: float = 30.0,
+    layout: str = "sbs",
+    pixel_format: str | None = None,
+    crf: int = DEFAULT_CRF,
+    preset: str = DEFAULT_PRESET,
+    origin: str | None = None,
+    stabilize: bool = True,
+    threshold: float = STATIC_THRESHOLD,
+    alpha: float = STABILIZE_ALPHA,
+    transition: float = 0.0,
+    method: str = "sgbm",
+    min_disparity: int | None = None,
+    max_disparity: int | None = None,
+    resume: bool = False,
+    progress: Callable[[str, int, int], None] | None = None,
+    client: object = None,
+) -> Conversion:
+    """:func:`convert_clip` on ``client`` (a ``dask.distributed`` Client; None: serial)."""
     from vergence.display import LAYOUTS, pack
     from vergence.synthesis import nearness_from_depth
     from vergence.video import _segments
@@ -294,18 +335,7 @@ def convert_clip(
     from vergence.viewing import Display
 
     started = time.perf_counter()
-    if isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1:
-        raise ValueError(f"workers must be an integer >= 1; got {workers!r}")
-    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
-        raise ValueError(f"scheduler must be 'local' or a scheduler address; got {scheduler!r}")
-    parallel = workers > 1 or (scheduler is not None and scheduler != "local")
-    if parallel:
-        from vergence.video._shots import DASK_HINT
-
-        try:
-            import distributed  # noqa: F401
-        except ImportError:
-            raise ImportError(f"dask.distributed is not installed: {DASK_HINT}") from None
+    parallel = client is not None
     if not isinstance(clip, StereoClip | DepthClip):
         raise TypeError(f"clip must be a StereoClip or a DepthClip; got {type(clip).__name__}")
     if not isinstance(display, Display):
@@ -458,7 +488,7 @@ def convert_clip(
                 report("converting", count, todo)
 
         if parallel and jobs:
-            run_on_dask(jobs, "local" if scheduler is None else scheduler, workers, finished)
+            run_on_dask(jobs, client, finished)
         else:
             def tick() -> None:
                 nonlocal count
