@@ -127,3 +127,41 @@ def test_bad_scheduler_address_is_one_line_exit_2(clips, tmp_path, capsys, monke
     assert code == 2
     assert len(err.strip().splitlines()) == 1 and "cannot reach the Dask scheduler" in err, err
     assert not any(tmp_path.iterdir())
+
+
+def test_batch_converts_each_video_and_skip_errors_reports_the_broken_one(clips, tmp_path, capsys):
+    import shutil
+
+    src, dst = tmp_path / "in", tmp_path / "out"
+    src.mkdir(), dst.mkdir()
+    shutil.copy(clips.rgbd, src / "a_RGBD.mp4")
+    shutil.copy(clips.stereo, src / "b_LRF_Full_SBS.mp4")
+    (src / "c_LRF_Full_SBS.mp4").write_bytes(b"not a video")
+    args = ["convert", src, "--batch", "--out", dst, "--display", "tv-55", "--images"]
+    code, out, err = _run(capsys, args)
+    assert code == 2 and err.strip().splitlines()[-1].startswith("error: c_LRF_Full_SBS.mp4: cannot read video"), err
+    code, out, err = _run(capsys, [*args, "--skip-errors", "--resume"])
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert lines[0].startswith("skipped c_LRF_Full_SBS.mp4:") and "1 of 3 files skipped" in lines[-1], err
+    assert "converted 2 of 3 files" in out
+    assert sorted(p.name for p in dst.iterdir()) == ["a_LRF_Full_SBS", "b_LRF_Full_SBS"]
+    assert all(len(list((dst / n).glob("*.png"))) == 16 for n in ("a_LRF_Full_SBS", "b_LRF_Full_SBS"))
+
+
+def test_batch_on_dask_writes_the_serial_frames(clips, tmp_path, capsys):
+    pytest.importorskip("distributed", reason="dask.distributed is not installed: pip install 'vergence[dask]'")
+    import shutil
+
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(clips.rgbd, src / "a_RGBD.mp4")
+    shutil.copy(clips.stereo, src / "b_LRF_Full_SBS.mp4")
+    for name, extra in (("serial", []), ("dask", ["--workers", "2"])):
+        (tmp_path / name).mkdir()
+        code, out, err = _run(capsys, ["convert", src, "--batch", "--out", tmp_path / name, "--display", "tv-55",
+                                       "--images", *extra])  # fmt: skip
+        assert code == 0, err
+    for n in ("a_LRF_Full_SBS", "b_LRF_Full_SBS"):
+        a, b = (sorted((tmp_path / d / n).glob("*.png")) for d in ("serial", "dask"))
+        assert len(a) == 16 and [p.read_bytes() for p in a] == [p.read_bytes() for p in b]

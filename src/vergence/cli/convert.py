@@ -69,6 +69,10 @@ def convert(
                                 "folder .OUT.parts beside the output)."),
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
                                 "processes (N > 1; pip install 'vergence[dask]')."),
+    batch: bool = typer.Option(False, "--batch", help="INPUT is a folder: convert each .mp4/.mkv/.mov in it into the "
+                               "--out folder (kind and layout guessed per file; one Dask cluster for all)."),
+    skip_errors: bool = typer.Option(False, "--skip-errors", help="--batch: a file that fails is reported in one "
+                                     "line and skipped (exit code 2 at the end); default: stop at it."),
     scheduler: str | None = typer.Option(None, "--scheduler", help="local (default with --workers > 1), or the "
                                          "address of a running Dask scheduler (tcp://host:8786) whose workers see "
                                          "the same paths."),
@@ -92,67 +96,111 @@ def convert(
         raise ValueError(f"--format must be one of {', '.join(LAYOUTS)}; got {fmt!r}")
     if not input_path.exists():
         raise FileNotFoundError(f"INPUT {input_path} does not exist")
-    if kind is None:
-        kind = "2d+depth" if depth is not None or (layout is None and guess_layout(input_path) == "rgbd") else "stereo"
-    given = {"stereo": [o for o, v in (("--layout", layout), ("--method", method), ("--min-disparity", min_disparity),
-                                      ("--max-disparity", max_disparity)) if v is not None],
-             "2d+depth": [o for o, v in (("--depth", depth), ("--depth-kind", depth_kind),
-                                         ("--depth-scale", depth_scale)) if v is not None]}  # fmt: skip
-    other = "2d+depth" if kind == "stereo" else "stereo"
-    if given[other]:
-        raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
-                         "(--input-kind)")
     if workers > 1 or (scheduler is not None and scheduler != "local"):
         try:
             import distributed  # noqa: F401
         except ImportError:
             raise ValueError("--workers and --scheduler need dask.distributed: pip install 'vergence[dask]'") from None
-    with options_named(**_OPTIONS):
-        target = converted_path(out, input_path, fmt, images=images)
-    inputs = [input_path, *([depth] if depth is not None else [])]
-    check_output_path(target, *inputs)
-    if not target.parent.is_dir():
-        raise FileNotFoundError(f"--out folder {target.parent} does not exist")
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    run_workers, run_scheduler = workers, scheduler
 
-    with options_named(**_OPTIONS):
-        if kind == "stereo":
-            clip = open_stereo(input_path, layout=layout, fps=fps)
-        else:
-            clip = open_depth_clip(input_path, depth=depth, kind=depth_kind or "inverse", scale=depth_scale, fps=fps)
-        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
-                   TextColumn("{task.fields[fps]}"), TimeRemainingColumn())  # fmt: skip
-        # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
-        with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-            tasks: dict[str, tuple[int, float]] = {}
+    def one(input_path: Path, kind: str | None) -> None:
+        if kind is None:
+            kind = "2d+depth" if depth is not None or (layout is None and guess_layout(input_path) == "rgbd") else "stereo"
+        given = {"stereo": [o for o, v in (("--layout", layout), ("--method", method), ("--min-disparity", min_disparity),
+                                          ("--max-disparity", max_disparity)) if v is not None],
+                 "2d+depth": [o for o, v in (("--depth", depth), ("--depth-kind", depth_kind),
+                                             ("--depth-scale", depth_scale)) if v is not None]}  # fmt: skip
+        other = "2d+depth" if kind == "stereo" else "stereo"
+        if given[other]:
+            raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
+                             "(--input-kind)")
+        with options_named(**_OPTIONS):
+            target = converted_path(out, input_path, fmt, images=images)
+        inputs = [input_path, *([depth] if depth is not None else [])]
+        check_output_path(target, *inputs)
+        if not target.parent.is_dir():
+            raise FileNotFoundError(f"--out folder {target.parent} does not exist")
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-            def progress(phase: str, done: int, total: int) -> None:
-                raise_if_interrupted()
-                if phase not in tasks:
-                    tasks[phase] = (bar.add_task(_PHASES[phase], total=total, fps=""), time.perf_counter())
-                task, t0 = tasks[phase]
-                rate = done / max(time.perf_counter() - t0, 1e-9)
-                bar.update(task, completed=done, fps=f"{rate:.1f} fps")
+        with options_named(**_OPTIONS):
+            if kind == "stereo":
+                clip = open_stereo(input_path, layout=layout, fps=fps)
+            else:
+                clip = open_depth_clip(input_path, depth=depth, kind=depth_kind or "inverse", scale=depth_scale, fps=fps)
+            columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                       TextColumn("{task.fields[fps]}"), TimeRemainingColumn())  # fmt: skip
+            # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
+            with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+                tasks: dict[str, tuple[int, float]] = {}
 
-            result = convert_clip(
-                clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
-                preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
-                alpha=stabilize_alpha,
-                transition=transition, method=method or "sgbm", min_disparity=min_disparity,
-                max_disparity=max_disparity, resume=resume, progress=progress, workers=workers,
-                scheduler=scheduler,
-            )  # fmt: skip
-    for k, shot in enumerate(result.shots):
-        lo, hi = shot.range_px
-        note = " (reused)" if shot.reused else ""
-        console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px "
-                      f"(psi slope {shot.mapping.gain:.4g}){note}", highlight=False)  # fmt: skip
-    before, after = result.flicker_before.mean_px, result.flicker_after.mean_px
-    if result.flicker_after.pairs:
-        console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "
-                      f"({result.flicker_after.pairs} frame pairs)", highlight=False)  # fmt: skip
-    console.print(f"wrote {result.frames} frames ({result.frames / result.seconds:.2f} fps) to {result.out}",
-                  highlight=False)  # fmt: skip
-    if result.stopped is not None:
-        raise ValueError(f"INPUT {input_path.name} stopped after frame {result.frames - 1}: {result.stopped}; the "
-                         f"{result.frames} frames before are in {result.out}")
+                def progress(phase: str, done: int, total: int) -> None:
+                    raise_if_interrupted()
+                    if phase not in tasks:
+                        tasks[phase] = (bar.add_task(_PHASES[phase], total=total, fps=""), time.perf_counter())
+                    task, t0 = tasks[phase]
+                    rate = done / max(time.perf_counter() - t0, 1e-9)
+                    bar.update(task, completed=done, fps=f"{rate:.1f} fps")
+
+                result = convert_clip(
+                    clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
+                    preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
+                    alpha=stabilize_alpha,
+                    transition=transition, method=method or "sgbm", min_disparity=min_disparity,
+                    max_disparity=max_disparity, resume=resume, progress=progress, workers=run_workers,
+                    scheduler=run_scheduler,
+                )  # fmt: skip
+        for k, shot in enumerate(result.shots):
+            lo, hi = shot.range_px
+            note = " (reused)" if shot.reused else ""
+            slope = "" if shot.mapping is None else f" (psi slope {shot.mapping.gain:.4g})"  # None: a reused stereo shot
+            console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px"
+                          f"{slope}{note}", highlight=False)  # fmt: skip
+        before, after = result.flicker_before.mean_px, result.flicker_after.mean_px
+        if result.flicker_after.pairs:
+            console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "
+                          f"({result.flicker_after.pairs} frame pairs)", highlight=False)  # fmt: skip
+        console.print(f"wrote {result.frames} frames ({result.frames / result.seconds:.2f} fps) to {result.out}",
+                      highlight=False)  # fmt: skip
+        if result.stopped is not None:
+            raise ValueError(f"INPUT {input_path.name} stopped after frame {result.frames - 1}: {result.stopped}; the "
+                             f"{result.frames} frames before are in {result.out}")
+
+    if not batch:
+        if not input_path.exists():
+            raise FileNotFoundError(f"INPUT {input_path} does not exist")
+        one(input_path, kind)
+        return
+    if depth is not None:
+        raise ValueError("--depth applies to one INPUT, not to --batch")
+    if not input_path.is_dir():
+        raise ValueError(f"--batch needs INPUT to be a folder of videos; got {input_path}")
+    if not out.is_dir():
+        raise ValueError(f"--batch needs --out to be an existing folder; got {out}")
+    from vergence.video import VIDEO_SUFFIXES
+
+    files = sorted(p for p in input_path.iterdir() if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES)
+    if not files:
+        raise ValueError(f"--batch: no {', '.join(VIDEO_SUFFIXES)} file in {input_path}")
+    cluster = None
+    if workers > 1 and scheduler in (None, "local"):  # one cluster for every file
+        from vergence.video._shots import local_cluster
+
+        cluster = local_cluster(workers)
+        run_workers, run_scheduler = 1, cluster.scheduler_address
+    skipped: list[str] = []
+    try:
+        for path in files:
+            console.print(f"{path.name}:", highlight=False)
+            try:
+                one(path, kind)
+            except (ValueError, TypeError, OSError) as exc:
+                if not skip_errors:
+                    raise type(exc)(f"{path.name}: {exc}") from exc
+                err_console.print(f"skipped {path.name}: {exc}", highlight=False, soft_wrap=True)
+                skipped.append(path.name)
+    finally:
+        if cluster is not None:
+            cluster.close()
+    console.print(f"converted {len(files) - len(skipped)} of {len(files)} files", highlight=False)
+    if skipped:
+        raise ValueError(f"--skip-errors: {len(skipped)} of {len(files)} files skipped ({', '.join(skipped)})")

@@ -199,17 +199,25 @@ def _task(job: ShotJob) -> tuple[int, tuple | None, tuple[float, float] | None, 
     return job.shot, meters, range_in, mapping
 
 
+def local_cluster(workers: int):
+    """A ``LocalCluster`` of ``workers`` one-thread processes, without dashboard."""
+    try:
+        from distributed import LocalCluster
+    except ImportError:
+        raise ImportError(f"dask.distributed is not installed: {DASK_HINT}") from None
+    # The scheduler's small HTTP server (health, metrics) on a free local port, not 8787 (a warning when taken).
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
+
+
 def open_client(scheduler: str, workers: int):
     """A ``dask.distributed`` Client: a new ``LocalCluster`` of ``workers`` processes, or a running scheduler."""
     try:
-        from distributed import Client, LocalCluster
+        from distributed import Client
     except ImportError:
         raise ImportError(f"dask.distributed is not installed: {DASK_HINT}") from None
     if scheduler == "local":
-        # No dashboard; the scheduler's small HTTP server (health, metrics) on a free local port, not 8787
-        # (a warning when that port is taken).
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
+        cluster = local_cluster(workers)
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None

@@ -134,7 +134,7 @@ class Conversion:
             "pixel_format": self.pixel_format, "stopped": self.stopped, "seconds": self.seconds,
             "flicker_before_px": self.flicker_before.mean_px, "flicker_after_px": self.flicker_after.mean_px,
             "shots": [{"start": s.start, "end": s.end, "range_in": list(s.range_in), "range_px": list(s.range_px),
-                       "gain": s.mapping.gain, "reused": s.reused} for s in self.shots],
+                       "gain": None if s.mapping is None else s.mapping.gain, "reused": s.reused} for s in self.shots],
         }  # fmt: skip
 
 
