@@ -68,7 +68,7 @@ def convert(
     resume: bool = typer.Option(False, "--resume", help="Reuse the finished shots of an interrupted run (its work "
                                 "folder .OUT.parts beside the output)."),
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
-                                "processes (N > 1; pip install 'vergence[dask]')."),
+                                "processes (N > 1; needs the dask extra of vergence)."),
     batch: bool = typer.Option(False, "--batch", help="INPUT is a folder: convert each .mp4/.mkv/.mov in it into the "
                                "--out folder (kind and layout guessed per file; one Dask cluster for all)."),
     skip_errors: bool = typer.Option(False, "--skip-errors", help="--batch: a file that fails is reported in one "
