@@ -60,6 +60,7 @@ def test_dask_resume_after_an_interruption_gives_the_serial_frames(clips, tmp_pa
         convert_clip(open_stereo(clips.stereo), out, DISPLAY, workers=2, progress=stop_at_first_shot)
     work = tmp_path / ".res.parts"
     assert not out.exists() and list(work.glob("shot_*"))  # the finished shot stays (the other may have finished too)
+    assert [p.name for p in tmp_path.iterdir()] == [".res.parts"]  # no partial output beside it
     r = convert_clip(open_stereo(clips.stereo), out, DISPLAY, workers=2, resume=True)
     assert any(s.reused for s in r.shots) and not work.exists()
     serial = convert_clip(open_stereo(clips.stereo), tmp_path / "serial", DISPLAY)
