@@ -309,24 +309,25 @@ def _convert_clip(
     out: str | os.PathLike[str],
     display: Display,
     *,
-    budget_arcmin: float = 30.0,
-    layout: str = "sbs",
-    pixel_format: str | None = None,
-    crf: int = DEFAULT_CRF,
-    preset: str = DEFAULT_PRESET,
-    origin: str | None = None,
-    stabilize: bool = True,
-    threshold: float = STATIC_THRESHOLD,
-    alpha: float = STABILIZE_ALPHA,
-    transition: float = 0.0,
-    method: str = "sgbm",
-    min_disparity: int | None = None,
-    max_disparity: int | None = None,
-    resume: bool = False,
-    progress: Callable[[str, int, int], None] | None = None,
-    client: object = None,
+    budget_arcmin: float,
+    layout: str,
+    pixel_format: str | None,
+    crf: int,
+    preset: str,
+    origin: str | None,
+    stabilize: bool,
+    threshold: float,
+    alpha: float,
+    transition: float,
+    method: str,
+    min_disparity: int | None,
+    max_disparity: int | None,
+    resume: bool,
+    progress: Callable[[str, int, int], None] | None,
+    client: object,
 ) -> Conversion:
-    """:func:`convert_clip` on ``client`` (a ``dask.distributed`` Client; None: serial)."""
+    """:func:`convert_clip` on ``client`` (a ``dask.distributed`` Client; None: serial); every option is
+    given by :func:`convert_clip`, whose signature holds the defaults."""
     from vergence.display import LAYOUTS, pack
     from vergence.synthesis import nearness_from_depth
     from vergence.video import _segments
