@@ -138,8 +138,6 @@ def test_reoptimise_with_a_painted_map_equals_the_library(client, done_job):
     with the same weights and map, and its files are the specular job's files (no layer pictures)."""
     import numpy as np
 
-    from vergence.specular import specular_stereo  # noqa: F401 - the library the job calls
-
     paint = np.ones((48, 64), np.float32)
     paint[:, :32] = 0.0  # the absolute term of layer 2 switched off on the left half
     body = {"job": done_job["id"], "weights": [1, 1, 5, 0.1], "variant": "screen",

@@ -10,8 +10,8 @@ written in our JSON camera format without points, so that
 collection without a reconstruction. The truth of every camera is known, which a real collection's
 is not.
 
-Cost: the built-in scenes at 320 x 240, 12 views: about 0.75 s of rendering and 0.2-0.3 s of
-triangulation (1,600-2,600 points) on two cores.
+Cost: the built-in scenes at 320 x 240, 12 views: about 0.45 s of rendering and 0.26-0.32 s of
+triangulation (2,177 and 2,608 points) on two cores (``benchmarks/stereospace_rendered.py``).
 """
 
 from __future__ import annotations
