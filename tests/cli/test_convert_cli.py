@@ -165,3 +165,34 @@ def test_batch_on_dask_writes_the_serial_frames(clips, tmp_path, capsys):
     for n in ("a_LRF_Full_SBS", "b_LRF_Full_SBS"):
         a, b = (sorted((tmp_path / d / n).glob("*.png")) for d in ("serial", "dask"))
         assert len(a) == 16 and [p.read_bytes() for p in a] == [p.read_bytes() for p in b]
+
+
+def test_option_defaults_are_the_library_defaults():
+    # The command keeps literal defaults (importing vergence.video would slow every command's start); they must
+    # stay those of convert_clip.
+    import inspect
+
+    import typer
+
+    from vergence.cli.convert import _OPTIONS, convert
+    from vergence.video import convert_clip
+
+    library = inspect.signature(convert_clip).parameters
+    cli = {p.default.param_decls[0]: p.default.default for p in inspect.signature(convert).parameters.values()
+           if isinstance(p.default, typer.models.OptionInfo)}  # fmt: skip
+    names = {"--static-threshold": "threshold", "--stabilize-alpha": "alpha", **{v: k for k, v in _OPTIONS.items()}}
+    checked = [flag for flag in cli if names.get(flag) in library and library[names[flag]].default is not
+               inspect.Parameter.empty and cli[flag] is not None]  # fmt: skip
+    assert {"--split-frames", "--crf", "--preset", "--static-threshold", "--stabilize-alpha", "--transition"} <= set(checked)
+    for flag in checked:
+        assert cli[flag] == library[names[flag]].default, flag
+
+
+def test_split_frames_cuts_a_shot_into_pieces_with_the_same_frames(clips, tmp_path, capsys):
+    args = ["convert", clips.rgbd, "--display", "tv-55", "--images"]
+    assert _run(capsys, [*args, "--out", tmp_path / "whole", "--split-frames", "0"])[0] == 0
+    assert _run(capsys, [*args, "--out", tmp_path / "split", "--split-frames", "3"])[0] == 0
+    whole, split = (sorted(tmp_path.glob(f"{n}_LRF_Full_SBS/*.png")) for n in ("whole", "split"))
+    assert len(whole) == 16 and [p.read_bytes() for p in whole] == [p.read_bytes() for p in split]
+    code, _, err = _run(capsys, [*args, "--out", tmp_path / "bad", "--split-frames", "-2"])
+    assert code == 2 and "--split-frames must be an integer >= 0" in err and len(err.strip().splitlines()) == 1

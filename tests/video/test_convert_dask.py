@@ -16,16 +16,17 @@ def _frames(folder):
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
 
-# stereo without a transition: each task matches its own shot; with one, the caller matches (a ramp needs
-# every shot's psi before any render)
-@pytest.mark.parametrize(("kind", "transition"), [("2d+depth", 0.0), ("stereo", 0.0), ("stereo", 3.0)])
-def test_dask_png_frames_are_byte_identical_to_the_serial_ones(clips, tmp_path, kind, transition):
+# Each shot (or piece: split 4 cuts the 12-frame shots into 3) is a task of matching (stereo), then of rendering;
+# a transition ramps between the shots' psi, all known once the matching is done.
+@pytest.mark.parametrize(("kind", "transition", "split"), [("2d+depth", 0.0, 240), ("stereo", 0.0, 240),
+                                                          ("stereo", 3.0, 240), ("2d+depth", 0.0, 4), ("stereo", 0.0, 4)])
+def test_dask_png_frames_are_byte_identical_to_the_serial_ones(clips, tmp_path, kind, transition, split):
     # H.264 through PyAV is not byte-reproducible run to run here; PNG frames are, so they are compared.
     def clip():
         return open_depth_clip(clips.rgbd) if kind == "2d+depth" else open_stereo(clips.stereo)
 
-    serial = convert_clip(clip(), tmp_path / "serial", DISPLAY, transition=transition)
-    dask = convert_clip(clip(), tmp_path / "dask", DISPLAY, transition=transition, workers=2)
+    serial = convert_clip(clip(), tmp_path / "serial", DISPLAY, transition=transition, split_frames=split)
+    dask = convert_clip(clip(), tmp_path / "dask", DISPLAY, transition=transition, workers=2, split_frames=split)
     a, b = _frames(serial.out), _frames(dask.out)
     assert len(a) == clips.frames and list(a) == list(b)
     assert all(a[k] == b[k] for k in a)

@@ -21,7 +21,7 @@ _OPTIONS = {"layout": "--format", "kind": "--depth-kind", "scale": "--depth-scal
             "origin": "--origin", "threshold": "--static-threshold", "alpha": "--stabilize-alpha",
             "transition": "--transition", "method": "--method", "min_disparity": "--min-disparity",
             "max_disparity": "--max-disparity", "out": "--out",
-            "workers": "--workers", "scheduler": "--scheduler"}  # fmt: skip
+            "workers": "--workers", "scheduler": "--scheduler", "split_frames": "--split-frames"}  # fmt: skip
 _PHASES = {"shots": "finding cuts", "matching": "matching", "converting": "converting"}
 
 
@@ -76,6 +76,9 @@ def convert(
     scheduler: str | None = typer.Option(None, "--scheduler", help="local (default with --workers > 1), or the "
                                          "address of a running Dask scheduler (tcp://host:8786) whose workers see "
                                          "the same paths."),
+    split_frames: int = typer.Option(240, "--split-frames", help="Split shots longer than N frames into pieces "
+                                     "(each a task), each warming the disparity filter up on the frames before it; "
+                                     "0 = never."),
 ) -> None:
     """Retarget a stereo or 2D + depth clip into +-A arcmin on a display, shot by shot, as a stereo video.
 
@@ -84,7 +87,8 @@ def convert(
     left (or both, --origin center). The mapping is reset at cuts; the disparity is filtered in time on
     static content (the flicker before and after is printed). Audio is copied; the output appears only
     when complete; a clip that breaks mid-way keeps the frames before and exits with code 2. With
-    --workers N or --scheduler, each shot is a Dask task writing its own segment (the same output).
+    --workers N or --scheduler, each shot (a long one split into pieces) is a Dask task writing its
+    own segment (the same output).
     """
     from vergence.video import converted_path, guess_layout, open_depth_clip, open_stereo
     from vergence.video.convert import convert_clip
@@ -147,7 +151,7 @@ def convert(
                     alpha=stabilize_alpha,
                     transition=transition, method=method or "sgbm", min_disparity=min_disparity,
                     max_disparity=max_disparity, resume=resume, progress=progress, workers=run_workers,
-                    scheduler=run_scheduler,
+                    scheduler=run_scheduler, split_frames=split_frames,
                 )  # fmt: skip
         for k, shot in enumerate(result.shots):
             lo, hi = shot.range_px

@@ -55,6 +55,24 @@ def prepare_work(work: Path, manifest: dict, resume: bool) -> None:
     found.write_text(json.dumps(manifest, indent=1))
 
 
+def write_range(work: Path, piece: int, range_in: tuple[float, float]) -> None:
+    """Record a matched piece's disparity range (a later ``--resume`` needs it for its shot's psi)."""
+    from vergence.io import atomic_write
+
+    with atomic_write(work / f"range_{piece:04d}.json") as tmp:
+        tmp.write_text(json.dumps(list(range_in)))
+
+
+def read_range(work: Path, piece: int) -> tuple[float, float]:
+    """A finished piece's disparity range, as :func:`write_range` recorded it."""
+    path = work / f"range_{piece:04d}.json"
+    try:
+        lo, hi = json.loads(path.read_text())
+        return float(lo), float(hi)
+    except (OSError, ValueError, TypeError) as exc:
+        raise ValueError(f"--resume: {path} is missing or damaged ({type(exc).__name__}): run without --resume") from None
+
+
 def join_videos(segments: list[Path], out: Path, audio_from: Path | None, duration_s: float) -> None:
     """Copy the packets of ``segments`` one after the other into ``out`` (atomically), then the audio.
 

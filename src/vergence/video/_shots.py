@@ -1,11 +1,23 @@
-"""One shot's render as a self-contained job, run in a loop (serial) or as Dask tasks (``--workers``).
+"""One piece of a shot as a self-contained job, run in a loop (serial) or as Dask tasks (``--workers``).
 
-A :class:`ShotJob` carries the clip (its readers hold paths and stream facts, never frames), the shot's
-frame range, its mapping inputs and the options; :func:`render_shot` decodes its own frames, renders
-them and writes the shot's segment atomically (:class:`vergence.video._segments.Segment`). A stereo
-shot's stabilised disparity is read from its ``.npy`` file in the work folder (pass 2, in the caller).
-The segments are joined by the caller, so the result does not depend on where or in which order
-the shots ran (ARCHITECTURE.md, "Scale-out").
+A :class:`ShotJob` carries the clip (its readers hold paths and stream facts, never frames), the
+piece's frame range, its mapping inputs and the options; :func:`match_shot` (stereo) and
+:func:`render_shot` decode their own frames, and each piece's segment is written atomically
+(:class:`vergence.video._segments.Segment`). The segments are joined by the caller, so the result does
+not depend on where or in which order the pieces ran (ARCHITECTURE.md, "Scale-out").
+
+**Pieces.** A shot longer than ``split_frames`` is split into pieces of at most that many frames
+(:func:`split_shots`), each a job. The disparity filter of :func:`vergence.video.stabilize_disparity`
+is recursive, so a piece does not start cold: it first runs the filter over the
+:func:`warmup_frames` frames before its start (decoded, and for a stereo clip matched, again; not
+rendered). On a static pixel the state before the warm-up weighs ``(1 - alpha)^K`` after ``K``
+frames, so with ``K = ceil(log(SPLIT_TOLERANCE) / log(1 - alpha))`` (25 frames at the default
+alpha 0.25) a piece's filtered disparity differs from the unsplit shot's by at most
+:data:`SPLIT_TOLERANCE` (1e-3) of the difference between the raw and the filtered map at the warm-up's
+first frame (a fraction of a pixel: about 1e-4 px on the test clips). A pixel unknown through the whole
+warm-up keeps no older value. The serial run uses the same pieces, so both give the same bytes. Each
+piece's flicker meter counts the pair across its start (the warm-up's last frame), so the pairs
+measured are those of the unsplit shot.
 """
 
 from __future__ import annotations
@@ -25,6 +37,41 @@ from vergence.video.stability import FlickerMeter
 DASK_HINT = "pip install 'vergence[dask]'"
 # Seconds to wait for a running scheduler (--scheduler ADDRESS) before giving up.
 CONNECT_TIMEOUT_S = 10
+# Shots longer than this (frames) are split into pieces (10 s at 24 frames/s), each its own task.
+SPLIT_FRAMES = 240
+# Weight left to the filter's state from before a piece's warm-up (module docstring).
+SPLIT_TOLERANCE = 1e-3
+
+
+def warmup_frames(alpha: float, stabilize: bool = True, tolerance: float = SPLIT_TOLERANCE) -> int:
+    """Frames a piece runs the disparity filter over before its start (at least 1: the flicker pair across it).
+
+    Examples
+    --------
+    >>> warmup_frames(0.25), warmup_frames(1.0), warmup_frames(0.25, stabilize=False)
+    (25, 1, 1)
+    """
+    if not stabilize or alpha >= 1.0:
+        return 1
+    return max(1, math.ceil(math.log(tolerance) / math.log1p(-alpha)))
+
+
+def split_shots(shots: list[tuple[int, int]], split_frames: int, warmup: int) -> list[tuple[int, int, int, int]]:
+    """Pieces ``(shot, start, end, warmup)`` of ``shots``: a shot longer than ``split_frames`` is cut into
+    ``ceil(length / split_frames)`` pieces of near-equal length; a piece after a shot's first runs the
+    filter over ``min(warmup, start - shot start)`` frames first. ``split_frames`` 0: no shot is split.
+
+    Examples
+    --------
+    >>> split_shots([(0, 5), (5, 15)], 4, 2)
+    [(0, 0, 3, 0), (0, 3, 5, 2), (1, 5, 9, 0), (1, 9, 12, 2), (1, 12, 15, 2)]
+    """
+    pieces = []
+    for s, (a, b) in enumerate(shots):
+        count = 1 if split_frames <= 0 else max(1, math.ceil((b - a) / split_frames))
+        edges = [a + round(i * (b - a) / count) for i in range(count + 1)]
+        pieces += [(s, p, q, 0 if p == a else min(warmup, p - a)) for p, q in zip(edges, edges[1:])]
+    return pieces
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,7 +83,7 @@ class ShotJob:
     start: int
     end: int
     segment: Path
-    disparity: Path | None  # stereo: the shot's stabilised disparity, (end - start, H, W) float32
+    disparity: Path | None  # stereo: the piece's stabilised disparity, (end - start, H, W) float32
     images: bool
     packed_shape: tuple[int, ...]
     layout: str
@@ -52,44 +99,53 @@ class ShotJob:
     threshold: float
     alpha: float
     threads: int | None = None  # Numba/OpenCV threads for this task (its share of the host's cores)
-    # A stereo shot whose matching runs in the task too: (min_disparity, max_disparity, method, budget_arcmin);
-    # its psi (mappings[shot], None until then) follows from the matched range. Only without a transition.
-    match: tuple[int, int, str, float] | None = None
+    piece: int = 0  # index among the conversion's pieces (the key of its results)
+    warmup: int = 0  # frames before start run through the disparity filter only (module docstring)
+    # A stereo piece's matching: (min_disparity, max_disparity, method); run by match_shot before any render.
+    match: tuple[int, int, str] | None = None
 
 
-def match_shot(clip: StereoClip, start: int, end: int, store: Path, lo_d: int, hi_d: int, method: str,
-               stabilize: bool, threshold: float, alpha: float, source: Iterator | None = None,
+def match_shot(job: ShotJob, source: Iterator | None = None,
                report: Callable[[], None] | None = None) -> tuple[tuple[FlickerMeter, FlickerMeter], tuple[float, float]]:  # fmt: skip
-    """Pass 2 of one stereo shot: match frames ``[start, end)``, stabilise, write them to ``store`` (``.npy``).
+    """Pass 2 of one stereo piece: match frames ``[start - warmup, end)``, stabilise, write ``[start, end)``
+    to ``job.disparity`` (``.npy``).
 
-    Returns the flicker meters (before, after stabilisation) and the shot's disparity range: the
+    Returns the flicker meters (before, after stabilisation) and the piece's disparity range: the
     lowest 1st and the highest 99th percentile of its frames. ``source``: the clip's pairs already at
-    ``start`` (the serial pass shares one decoder); else the shot's own range is decoded.
+    ``start - warmup`` (the serial pass shares one decoder); else the piece's own range is decoded.
     """
     from vergence.video._kernels import stabilize_kernel
     from vergence.video._matching import match_padded
     from vergence.video.stability import grey_levels
 
+    _limit_threads(job.threads)
+    clip, start, end, first = job.clip, job.start, job.end, job.start - job.warmup
+    lo_d, hi_d, method = job.match
     if source is None:
-        source = clip.pairs(start, end)
-    meters = (FlickerMeter(threshold), FlickerMeter(threshold))
+        source = clip.pairs(first, end)
+    meters = (FlickerMeter(job.threshold), FlickerMeter(job.threshold))
     lo, hi = math.inf, -math.inf
-    disparity = np.lib.format.open_memmap(store, mode="w+", dtype=np.float32, shape=(end - start, clip.height,
-                                                                                      clip.width))  # fmt: skip
+    disparity = np.lib.format.open_memmap(job.disparity, mode="w+", dtype=np.float32,
+                                          shape=(end - start, clip.height, clip.width))  # fmt: skip
     prev = None
-    for k in range(start, end):
+    for k in range(first, end):
         left, right = next(source)
         raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
         grey = grey_levels(left)
-        d = raw if prev is None or not stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, threshold, alpha)
+        d = raw if prev is None or not job.stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
+                                                                           job.threshold, job.alpha)  # fmt: skip
+        prev = (grey, d)
+        for m, value in zip(meters, (raw, d)):
+            m.add(grey, value)
+            if k < start:
+                m.restart()  # a warm-up frame: only the pair across start is counted
+        if k < start:
+            continue
         disparity[k - start] = d
         known = d[np.isfinite(d)]
         if known.size:
             p1, p99 = np.percentile(known, [1, 99])
             lo, hi = min(lo, float(p1)), max(hi, float(p99))
-        meters[0].add(grey, raw)
-        meters[1].add(grey, d)
-        prev = (grey, d)
         if report is not None:
             report()
     disparity.flush()
@@ -126,11 +182,12 @@ def _limit_threads(threads: int | None) -> None:
 
 def render_shot(job: ShotJob, source: Iterator | None = None,
                 report: Callable[[], None] | None = None) -> tuple[FlickerMeter, FlickerMeter] | None:  # fmt: skip
-    """Render frames ``[start, end)`` of ``job.clip`` and write the shot's segment; return its flicker meters.
+    """Render frames ``[start, end)`` of ``job.clip`` and write the piece's segment; return its flicker meters.
 
-    ``source`` is the clip's frame iterator already at ``start`` (the serial loop shares one decoder);
-    without it the job opens its own range (a Dask task). The meters (before, after stabilisation;
-    2D + depth only, else None) come back without their last frame.
+    ``source`` is the clip's frame iterator already at ``start - warmup`` (a stereo piece: at
+    ``start``; the serial loop shares one decoder); without it the job opens its own range (a Dask
+    task). A 2D + depth piece first runs the disparity filter over its warm-up frames. The meters
+    (before, after stabilisation; 2D + depth only, else None) come back without their last frame.
     """
     from vergence.display import pack
     from vergence.synthesis import nearness_from_depth, synthesize_stereo
@@ -142,17 +199,17 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     _limit_threads(job.threads)
     clip, a, b = job.clip, job.start, job.end
     stereo = isinstance(clip, StereoClip)
+    first = a if stereo else a - job.warmup
     if source is None:
-        source = clip.lefts(a, b) if stereo else clip.pairs(a, b)
+        source = clip.lefts(a, b) if stereo else clip.pairs(first, b)
     meters = None if stereo else (FlickerMeter(job.threshold), FlickerMeter(job.threshold))
     store = np.load(job.disparity, mmap_mode="r") if stereo else None
     prev = None
     try:
         with _segments.Segment(job.segment, job.images, clip.fps, job.packed_shape, job.pixel_format, job.crf,
                                job.preset, VideoWriter) as sink:  # fmt: skip
-            for k in range(a, b):
+            for k in range(first, b):
                 item = next(source)
-                psi = psi_at(job, k)
                 if stereo:
                     image, d = item, np.array(store[k - a])
                 else:
@@ -161,10 +218,14 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
                     grey = grey_levels(image)
                     d = raw if prev is None or not job.stabilize else stabilize_kernel(
                         prev[0], grey, prev[1], raw, job.threshold, job.alpha)  # fmt: skip
-                    meters[0].add(grey, raw)
-                    meters[1].add(grey, d)
                     prev = (grey, d)
-                result = synthesize_stereo(image, d, kind="disparity", mapping=psi, display=job.display,
+                    for m, value in zip(meters, (raw, d)):
+                        m.add(grey, value)
+                        if k < a:
+                            m.restart()  # a warm-up frame: only the pair across start is counted
+                    if k < a:
+                        continue
+                result = synthesize_stereo(image, d, kind="disparity", mapping=psi_at(job, k), display=job.display,
                                            origin=job.origin)  # fmt: skip
                 packed = np.clip(pack(result.left, result.right, layout=job.layout), 0.0, 1.0)
                 packed *= np.float32(255.0)
@@ -181,22 +242,15 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     return meters
 
 
-def _task(job: ShotJob) -> tuple[int, tuple | None, tuple[float, float] | None, object]:
-    """One Dask task: (shot, meters, matched range or None, its psi or None)."""
-    from dataclasses import replace
+def _match_task(job: ShotJob) -> tuple[int, tuple, tuple[float, float]]:
+    """One Dask task of pass 2: (piece, meters, matched range)."""
+    meters, range_in = match_shot(job)
+    return job.piece, meters, range_in
 
-    if job.match is None:
-        return job.shot, render_shot(job), None, None
-    from vergence.video.convert import _shot_mapping
 
-    _limit_threads(job.threads)
-    lo_d, hi_d, method, budget = job.match
-    meters, range_in = match_shot(job.clip, job.start, job.end, job.disparity, lo_d, hi_d, method, job.stabilize,
-                                  job.threshold, job.alpha)  # fmt: skip
-    mapping = _shot_mapping(*range_in, job.clip.width, budget, job.display, job.shot, (job.start, job.end))
-    mappings = tuple(mapping if s == job.shot else m for s, m in enumerate(job.mappings))
-    render_shot(replace(job, mappings=mappings))
-    return job.shot, meters, range_in, mapping
+def _render_task(job: ShotJob) -> tuple[int, tuple | None]:
+    """One Dask task of pass 3: (piece, meters or None)."""
+    return job.piece, render_shot(job)
 
 
 def local_cluster(workers: int):
@@ -244,20 +298,22 @@ def close_client(client, cluster) -> None:
         cluster.close()
 
 
-def run_on_dask(jobs: list[ShotJob], client, on_done: Callable[..., None]) -> None:
-    """Submit one task per job to ``client``; ``on_done(job, meters, range_in, mapping)`` as each shot finishes."""
+def run_on_dask(jobs: list[ShotJob], client, on_done: Callable[..., None], *, match: bool = False) -> None:
+    """Submit one task per job to ``client`` (its match with ``match``, else its render); ``on_done(job, *result)``
+    as each piece finishes (``meters, range_in`` of a match, ``meters`` of a render)."""
     from dataclasses import replace
 
     from distributed import as_completed
 
     threads = threads_per_task(client)
-    by_shot = {job.shot: job for job in jobs}
-    futures = [client.submit(_task, replace(job, threads=threads), key=f"vergence-shot-{job.shot}-{os.getpid()}",
+    by_piece = {job.piece: job for job in jobs}
+    task, phase = (_match_task, "match") if match else (_render_task, "render")
+    futures = [client.submit(task, replace(job, threads=threads), key=f"vergence-{phase}-{job.piece}-{os.getpid()}",
                              pure=False) for job in jobs]  # fmt: skip
     try:
         for future in as_completed(futures):
-            shot, meters, range_in, mapping = future.result()
-            on_done(by_shot[shot], meters, range_in, mapping)
+            piece, *result = future.result()
+            on_done(by_piece[piece], *result)
     except BaseException:
         for f in futures:
             f.cancel()

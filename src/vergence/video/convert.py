@@ -29,12 +29,15 @@ the raw maps it averages, so the budget still holds. :attr:`Conversion.flicker_b
 ``flicker_after`` give the frame-to-frame change of the output's parallax on static content
 (:func:`vergence.video.disparity_flicker` times the shot's psi slope), without and with the filter.
 
-**Scale-out.** Each shot's render (pass 3) is a job of :mod:`vergence.video._shots`: the clip's paths,
-the shot's frame range, its psi and the options, never frames; it decodes its own frames and writes its
-segment atomically. The serial run loops over the jobs; ``workers > 1`` or ``scheduler`` submits one Dask
-task per shot (``dask.distributed``, the ``dask`` extra) and the joined output is the same (byte for
-byte as PNG frames; H.264 through PyAV is not byte-reproducible even run to run). Passes 1 and 2 (cuts,
-a stereo clip's matching) stay in the caller.
+**Scale-out.** Each shot, or each piece of a shot longer than ``split_frames`` (240 frames by default),
+is a job of :mod:`vergence.video._shots`: the clip's paths, the piece's frame range, its psi and the
+options, never frames; it decodes its own frames (the reader seeks) and writes its segment atomically.
+A piece first runs the disparity filter over the frames before it, so the filtered maps are those of
+the unsplit shot to 1e-3 of the filter's state (:mod:`vergence.video._shots`). The serial run loops
+over the jobs; ``workers > 1`` or ``scheduler`` submits one Dask task per piece and pass
+(``dask.distributed``, the ``dask`` extra): a stereo clip's matching (pass 2), then, once every psi is
+known, the renders (pass 3). The joined output is the same (byte for byte as PNG frames; H.264 through
+PyAV is not byte-reproducible even run to run). Pass 1 (cuts, ranges) stays in the caller.
 
 **Views.** A stereo clip keeps its left view and re-synthesises the right one (``origin="left"``,
 default) or synthesises both around the left camera (``origin="center"``: half the disocclusions in
@@ -50,13 +53,23 @@ import re
 import shutil
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vergence.video._shots import ShotJob, close_client, match_shot, open_client, render_shot, run_on_dask
+from vergence.video._shots import (
+    SPLIT_FRAMES,
+    ShotJob,
+    close_client,
+    match_shot,
+    open_client,
+    render_shot,
+    run_on_dask,
+    split_shots,
+    warmup_frames,
+)
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
@@ -65,7 +78,7 @@ if TYPE_CHECKING:
     from vergence.viewing import Display
     from vergence.viewing.mapping_operators import LinearMapping
 
-__all__ = ["CONVERT_ORIGINS", "VIDEO_SUFFIXES", "Conversion", "ShotConversion", "convert_clip", "converted_path"]
+__all__ = ["CONVERT_ORIGINS", "SPLIT_FRAMES", "VIDEO_SUFFIXES", "Conversion", "ShotConversion", "convert_clip", "converted_path"]
 
 # Where the original view sits among the output views: the left view, or the centre of the pair.
 CONVERT_ORIGINS = ("left", "center")
@@ -204,6 +217,29 @@ def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, displa
     return plan_parallax(row, kind="disparity", budget_arcmin=budget_arcmin, display=display).mapping
 
 
+class _SharedSource:
+    """The serial run's decoder, shared by consecutive pieces; a piece that starts before it (a warm-up, or a
+    piece after a reused one far behind) opens its own range (the reader seeks)."""
+
+    def __init__(self, open_range: Callable, frames: int) -> None:
+        self._open, self._frames = open_range, frames
+        self._it = None
+        self._at = 0
+
+    def at(self, start: int):
+        """The iterator, at frame ``start``."""
+        if self._it is None or start < self._at:
+            self._it, self._at = self._open(start, self._frames), start
+        for _ in itertools.islice(self._it, start - self._at):  # frames of reused pieces
+            pass
+        self._at = start
+        return self._it
+
+    def moved(self, end: int) -> None:
+        """The last user took the frames up to ``end``."""
+        self._at = end
+
+
 def convert_clip(
     clip: StereoClip | DepthClip,
     out: str | os.PathLike[str],
@@ -226,6 +262,7 @@ def convert_clip(
     progress: Callable[[str, int, int], None] | None = None,
     workers: int = 1,
     scheduler: str | None = None,
+    split_frames: int = SPLIT_FRAMES,
 ) -> Conversion:
     """Retarget ``clip`` into ``+-budget_arcmin`` on ``display`` and write it to ``out`` (module docstring).
 
@@ -274,6 +311,12 @@ def convert_clip(
         (``tcp://host:8786``) whose workers see the same paths. Each shot is one task (its frame range,
         the input paths and its psi; never frames), writing its own segment; the output is the same as
         the serial run's (byte for byte with ``--images``).
+    split_frames : int
+        Shots longer than this many frames are split into pieces of at most that length, each its own
+        job (task), which first runs the disparity filter over the frames before it (a warm-up of
+        :func:`~vergence.video._shots.warmup_frames`, 25 at the default ``alpha``: the filtered
+        disparity then differs from the unsplit shot's by at most 1e-3 of the filter's state at the
+        warm-up's first frame). The serial run splits the same way. 0: never split.
 
     Returns
     -------
@@ -293,6 +336,8 @@ def convert_clip(
         raise ValueError(f"workers must be an integer >= 1; got {workers!r}")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ValueError(f"scheduler must be 'local' or a scheduler address; got {scheduler!r}")
+    if isinstance(split_frames, bool) or not isinstance(split_frames, int | np.integer) or split_frames < 0:
+        raise ValueError(f"split_frames must be an integer >= 0 (0: never split); got {split_frames!r}")
     options = {name: value for name, value in locals().items() if name not in ("workers", "scheduler")}
     if workers == 1 and scheduler in (None, "local"):
         return _convert_clip(**options, client=None)
@@ -324,6 +369,7 @@ def _convert_clip(
     max_disparity: int | None,
     resume: bool,
     progress: Callable[[str, int, int], None] | None,
+    split_frames: int,
     client: object,
 ) -> Conversion:
     """:func:`convert_clip` on ``client`` (a ``dask.distributed`` Client; None: serial); every option is
@@ -418,7 +464,7 @@ def _convert_clip(
     manifest = {"inputs": [str(Path(p).resolve()) for p in _inputs(clip)], "kind": "stereo" if stereo else "2d+depth",
                 "frames": n, "shots": [list(s) for s in shots], "layout": layout, "pixel_format": pixel_format,
                 "crf": int(crf), "preset": preset, "budget_arcmin": budget, "origin": origin,
-                "stabilize": bool(stabilize),
+                "stabilize": bool(stabilize), "split_frames": split_frames,
                 "threshold": float(threshold), "alpha": float(alpha), "transition": transition,
                 "display": [display.eye_separation, display.distance, display.width, display.resolution],
                 **({"method": method, "min_disparity": lo_d, "max_disparity": hi_d} if stereo else
@@ -426,83 +472,90 @@ def _convert_clip(
     work = _segments.work_folder(out)
     _segments.prepare_work(work, manifest, resume)
     try:
-        segments = [_segments.segment_path(work, s, a, b, images, suffix) for s, (a, b) in enumerate(shots)]
-        reused = [seg.exists() for seg in segments]
-        done = list(reused)
-        meters = [(FlickerMeter(threshold), FlickerMeter(threshold)) for _ in shots]  # before, after
+        pieces = split_shots(shots, split_frames, warmup_frames(alpha, stabilize))
+        segments = [_segments.segment_path(work, s, a, b, images, suffix) for s, a, b, _ in pieces]
+        done = [seg.exists() for seg in segments]
+        reused = [all(d for (s2, *_), d in zip(pieces, done) if s2 == s) for s in range(len(shots))]
+        meters = [(FlickerMeter(threshold), FlickerMeter(threshold)) for _ in pieces]  # before, after
+        jobs = [ShotJob(clip=clip, shot=s, start=a, end=b, segment=segments[i],
+                        disparity=(work / f"disparity_{i:04d}.npy") if stereo else None, images=images,
+                        packed_shape=tuple(packed_shape), layout=layout, pixel_format=pixel_format, crf=int(crf),
+                        preset=preset, origin=origin, display=display, mappings=(), cut_frames=tuple(cut_frames),
+                        transition=transition, stabilize=bool(stabilize), threshold=threshold, alpha=alpha, piece=i,
+                        warmup=w, match=(lo_d, hi_d, method) if stereo else None)
+                for i, (s, a, b, w) in enumerate(pieces) if not done[i]]  # fmt: skip
+        source = _SharedSource(clip.pairs, n)
 
-        # Pass 2 (stereo): matched, stabilised disparity of the unfinished shots, kept in the work folder.
+        # Pass 2 (stereo): each unfinished piece matched and stabilised, its disparity kept in the work folder; the
+        # range of every piece of a shot that is not wholly reused (a finished piece's from its record).
         range_in: list[tuple[float, float]] = []
-        # With Dask and no transition, each stereo shot is matched in its own task (ShotJob.match).
-        match_in_tasks = stereo and parallel and transition == 0
         if stereo:
-            range_in = [(math.inf, -math.inf)] * len(shots)
-            todo = sum(b - a for (a, b), d in zip(shots, done) if not d)
+            piece_range: dict[int, tuple[float, float]] = {}
+            for i, (s, *_) in enumerate(pieces):
+                if done[i] and not reused[s]:
+                    piece_range[i] = _segments.read_range(work, i)
+            todo = sum(job.end - job.start for job in jobs)
             count = 0
 
-            def matched() -> None:
+            def matched(job: ShotJob, piece_meters, piece_range_in) -> None:
                 nonlocal count
-                count += 1
-                report("matching", count, todo)
+                meters[job.piece], piece_range[job.piece] = piece_meters, piece_range_in
+                _segments.write_range(work, job.piece, piece_range_in)
+                if parallel:
+                    count += job.end - job.start
+                    report("matching", count, todo)
 
-            pairs, at = clip.pairs(0, n), 0
-            for s, (a, b) in enumerate(shots):
-                if done[s] or match_in_tasks:
-                    continue
-                for _ in itertools.islice(pairs, a - at):  # frames of reused shots
-                    pass
-                meters[s], range_in[s] = match_shot(clip, a, b, work / f"disparity_{s:04d}.npy", lo_d, hi_d, method,
-                                                    stabilize, threshold, alpha, pairs, matched)  # fmt: skip
-                at = b
+            if parallel and jobs:
+                run_on_dask(jobs, client, matched, match=True)
+            else:
+                def tick() -> None:
+                    nonlocal count
+                    count += 1
+                    report("matching", count, todo)
+
+                for job in jobs:
+                    matched(job, *match_shot(job, source.at(job.start - job.warmup), tick))
+                    source.moved(job.end)
+            for s in range(len(shots)):
+                ranges_s = [piece_range[i] for i, (s2, *_) in enumerate(pieces) if s2 == s and i in piece_range]
+                range_in.append((min((r[0] for r in ranges_s), default=math.inf),
+                                 max((r[1] for r in ranges_s), default=-math.inf)))  # fmt: skip
         else:
             for a, b in shots:
                 with np.errstate(all="ignore"):
                     range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
                                      float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
-        mappings = [None if (stereo and (done[s] or match_in_tasks)) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
+        mappings = [None if (stereo and reused[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
                     for s in range(len(shots))]  # fmt: skip
-
         if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
             raise ValueError("--resume with a transition needs every shot's mapping: run without --resume")
 
-        # Pass 3: render, pack and encode the unfinished shots, one segment each (a job per shot: _shots).
-        jobs = [ShotJob(clip=clip, shot=s, start=a, end=b, segment=segments[s],
-                        disparity=(work / f"disparity_{s:04d}.npy") if stereo else None, images=images,
-                        packed_shape=tuple(packed_shape), layout=layout, pixel_format=pixel_format, crf=int(crf),
-                        preset=preset, origin=origin, display=display, mappings=tuple(mappings),
-                        cut_frames=tuple(cut_frames), transition=transition, stabilize=bool(stabilize),
-                        threshold=threshold, alpha=alpha,
-                        match=(lo_d, hi_d, method, budget) if match_in_tasks else None)
-                for s, (a, b) in enumerate(shots) if not done[s]]  # fmt: skip
+        # Pass 3: render, pack and encode the unfinished pieces, one segment each (a job per piece: _shots).
+        jobs = [replace(job, mappings=tuple(mappings)) for job in jobs]
         todo = sum(job.end - job.start for job in jobs)
         count = 0
 
-        def finished(job: ShotJob, shot_meters, shot_range=None, mapping=None) -> None:
+        def rendered(job: ShotJob, piece_meters) -> None:
             nonlocal count
-            if shot_meters is not None:
-                meters[job.shot] = shot_meters
-            if mapping is not None:
-                range_in[job.shot], mappings[job.shot] = shot_range, mapping
-            done[job.shot] = True
+            if piece_meters is not None:
+                meters[job.piece] = piece_meters
+            done[job.piece] = True
             if parallel:
                 count += job.end - job.start
                 report("converting", count, todo)
 
         if parallel and jobs:
-            run_on_dask(jobs, client, finished)
+            run_on_dask(jobs, client, rendered)
         else:
             def tick() -> None:
                 nonlocal count
                 count += 1
                 report("converting", count, todo)
 
-            source = clip.lefts(0, n) if stereo else clip.pairs(0, n)
-            at = 0
+            source = _SharedSource(clip.lefts if stereo else clip.pairs, n)
             for job in jobs:
-                for _ in itertools.islice(source, job.start - at):  # frames of reused shots
-                    pass
-                finished(job, render_shot(job, source, tick))
-                at = job.end
+                rendered(job, render_shot(job, source.at(job.start if stereo else job.start - job.warmup), tick))
+                source.moved(job.end)
         if not segments or not all(done):
             raise ValueError(f"conversion of {_inputs(clip)[0]} left shots unfinished")
 
@@ -523,7 +576,7 @@ def _convert_clip(
 
     def combined(which: int) -> Flicker:
         total = count_px = pixels = pairs = 0
-        for s, pair in enumerate(meters):
+        for (s, *_), pair in zip(pieces, meters):
             m = pair[which]
             gain = abs(mappings[s].gain) if mappings[s] is not None else 0.0
             total += gain * m.total

@@ -137,7 +137,12 @@ class FlickerMeter:
         self._last: tuple[np.ndarray, np.ndarray] | None = None
 
     def reset(self) -> None:
+        """Forget the last frame (a cut: no pair across it)."""
         self._last = None
+
+    def restart(self) -> None:
+        """Clear the sums, keep the last frame (a piece's warm-up: only the pair across its start counts)."""
+        self.total, self.count, self.pixels, self.pairs = 0.0, 0, 0, 0
 
     def add(self, grey: np.ndarray, disparity: np.ndarray, gain: float = 1.0) -> None:
         """Add frame ``t`` (its grey levels and disparity); ``gain`` scales its change (an output's psi slope)."""
