@@ -50,6 +50,11 @@ from vergence.viewing import Display, LinearMapping
 IDENTITY = LinearMapping(0.0, 1.0, 0.0, 1.0)
 
 
+def _as_8bit(image: np.ndarray) -> np.ndarray:
+    """The direct render as 8 bits, as the clips store their views."""
+    return np.rint(image * 255.0) / 255.0
+
+
 def _scores(image: np.ndarray, truth: np.ndarray, visible: np.ndarray) -> tuple[float, float, float, float]:
     """Mean PSNR (all, visible) over frames and mean absolute error in levels (all, visible)."""
     diff = np.abs(image - truth).mean(axis=3) * 255.0
@@ -66,7 +71,7 @@ def main() -> None:
     parser.add_argument("--crf", type=int, default=12)
     parser.add_argument("--display", default="tv-55")
     parser.add_argument("--budget-arcmin", type=float, default=30.0)
-    parser.add_argument("--out", type=Path, help="keep the clips and the conversions here (default: a temporary folder)")
+    parser.add_argument("--out", type=Path, help="keep the clips and conversions here (default: a temporary folder)")
     args = parser.parse_args()
     folder = args.out or Path(tempfile.mkdtemp(prefix="retarget_truth_"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -79,7 +84,6 @@ def main() -> None:
     print(f"test clips: {clips.frames} frames, {w}x{h} per view, crf {args.crf}, in {time.perf_counter() - start:.1f} s; "
           f"{args.display}, +-{args.budget_arcmin:g} arcmin, origin left, PNG frames")  # fmt: skip
     inputs = np.stack(list(open_frames(clips.stereo).frames()))
-    q8 = lambda a: np.rint(a * 255.0) / 255.0  # noqa: E731 - the direct render as 8 bits, as the clips store it
     for kind, clip in (("2d+depth", open_depth_clip(clips.rgbd)), ("stereo", open_stereo(clips.stereo))):
         out = folder / f"{kind.replace('+', '_')}_LRF_Full_SBS"
         conversion = convert_clip(clip, out, display, budget_arcmin=args.budget_arcmin, origin="left")
@@ -93,7 +97,7 @@ def main() -> None:
                 rig = retargeted_rig(shot, conv.mapping, focal_px=focal, kind="disparity")
             views = render_retargeted(shot, rig, frames_per_shot=n, width=w, height=h)
             a, b = conv.start, conv.end
-            left, right = q8(views.left), q8(views.right)
+            left, right = _as_8bit(views.left), _as_8bit(views.right)
             converted = _scores(frames[a:b, :, w:], right, views.visible)
             unretargeted = _scores(inputs[a:b, :, w:], right, views.visible)
             floor = _scores(frames[a:b, :, :w], left, np.ones_like(views.visible))

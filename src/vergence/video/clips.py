@@ -376,6 +376,7 @@ def render_retargeted(shot: ClipShot, rig: ClipShot, *, frames_per_shot: int, wi
     j0 = np.clip(np.floor(x_left), 0, width - 1).astype(np.intp)
     j1 = np.clip(np.ceil(x_left), 0, width - 1).astype(np.intp)
     z0, z1 = np.take_along_axis(depth_l, j0, axis=2), np.take_along_axis(depth_l, j1, axis=2)
-    visible = inside & (depth_r >= np.fmin(z0, z1) * (1.0 - VISIBLE_RTOL)) & (depth_r <= np.fmax(z0, z1) * (1.0 + VISIBLE_RTOL))
+    low, high = np.fmin(z0, z1) * (1.0 - VISIBLE_RTOL), np.fmax(z0, z1) * (1.0 + VISIBLE_RTOL)
+    visible = inside & (depth_r >= low) & (depth_r <= high)
     return RetargetedViews(left=np.stack(r.lefts).astype(np.float32), right=np.stack(r.rights).astype(np.float32),
                            parallax_px=-np.stack(r.disparities), visible=visible)  # fmt: skip
