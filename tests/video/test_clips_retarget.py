@@ -134,3 +134,41 @@ def test_the_same_rig_renders_the_clip_again():
     rig = retargeted_rig(shot, psi, focal_px=focal, kind="metric")
     assert_allclose((rig.baseline, rig.convergence), (0.1, 1.2), rtol=1e-12)
     assert views.visible.dtype == bool and views.parallax_px.dtype == np.float32
+
+
+def _seen_by_left_loop(depth_left, depth_right, focal, baseline, convergence):
+    """Slow reference of the visibility rule, pixel by pixel."""
+    from vergence.video.clips import VISIBLE_RTOL
+
+    h, w = depth_right.shape
+    seen = np.zeros((h, w), bool)
+    for y in range(h):
+        for x in range(w):
+            z = float(depth_right[y, x])
+            if not np.isfinite(z):
+                continue
+            x_l = x - focal * baseline * (1.0 / convergence - 1.0 / z)
+            if not -0.5 <= x_l <= w - 0.5:
+                continue
+            a = depth_left[y, min(max(int(np.floor(x_l)), 0), w - 1)]
+            b = depth_left[y, min(max(int(np.ceil(x_l)), 0), w - 1)]
+            seen[y, x] = min(a, b) * (1 - VISIBLE_RTOL) <= z <= max(a, b) * (1 + VISIBLE_RTOL)
+    return seen
+
+
+def test_visibility_matches_the_rule_pixel_by_pixel():
+    from vergence.video.clips import _seen_by_left
+
+    # a wall at 4 m seen with P = 100 * 0.1 * (1/3 - 1/4) = 0.83 px: only the right view's first column
+    # shows what the left view does not (x_l = 0 - 0.83 < -0.5)
+    wall = np.full((2, 12), 4.0)
+    expected = np.ones((2, 12), bool)
+    expected[:, 0] = False
+    assert np.array_equal(_seen_by_left(wall, wall, 100.0, 0.1, 3.0), expected)
+    rng = np.random.default_rng(7)
+    left = rng.choice([2.0, 4.0], size=(6, 40)) * (1.0 + 0.004 * rng.standard_normal((6, 40)))
+    right = rng.choice([2.0, 4.0], size=(6, 40)) * (1.0 + 0.004 * rng.standard_normal((6, 40)))
+    right[0, 3] = np.nan
+    got = _seen_by_left(left, right, 100.0, 0.1, 3.0)
+    want = _seen_by_left_loop(left, right, 100.0, 0.1, 3.0)
+    assert np.array_equal(got, want) and 0.1 < got.mean() < 0.9

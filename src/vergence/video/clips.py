@@ -147,6 +147,26 @@ def _right_camera(left: Camera, baseline: float, convergence: float) -> Camera:
     return stereo_pair(middle, baseline=baseline, convergence=convergence)[1]
 
 
+def _seen_by_left(depth_left: np.ndarray, depth_right: np.ndarray, focal_px: float, baseline: float,
+                  convergence: float) -> np.ndarray:  # fmt: skip
+    """``(..., H, W)`` bool: right-view pixels whose point the left view sees (:attr:`RetargetedViews.visible`).
+
+    A right pixel ``x_r`` of depth ``z`` is at ``x_l = x_r - P``, ``P = f b (1/H - 1/z)``; seen when
+    ``x_l`` lies within the left view and the left depths at ``floor(x_l)`` and ``ceil(x_l)`` bracket
+    ``z`` within :data:`VISIBLE_RTOL`. Unknown depth (NaN) is not seen.
+    """
+    width = depth_right.shape[-1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_left = np.arange(width, dtype=np.float64) - focal_px * baseline * (1.0 / convergence - 1.0 / depth_right)
+    inside = np.isfinite(x_left) & (x_left >= -0.5) & (x_left <= width - 0.5)
+    x_left = np.where(inside, x_left, 0.0)
+    j0 = np.clip(np.floor(x_left), 0, width - 1).astype(np.intp)
+    j1 = np.clip(np.ceil(x_left), 0, width - 1).astype(np.intp)
+    z0, z1 = np.take_along_axis(depth_left, j0, axis=-1), np.take_along_axis(depth_left, j1, axis=-1)
+    low, high = np.fmin(z0, z1) * (1.0 - VISIBLE_RTOL), np.fmax(z0, z1) * (1.0 + VISIBLE_RTOL)
+    return inside & (depth_right >= low) & (depth_right <= high)
+
+
 def make_test_clips(folder: str | os.PathLike[str], *, frames_per_shot: int = 12, width: int = 160, height: int = 90,
                     crf: int = 12, name: str = "clips", shots: tuple[ClipShot, ...] = CLIP_SHOTS) -> TestClips:  # fmt: skip
     """Render the shots of ``shots`` and write the stereo video, the RGBD video and the truth into ``folder``.
@@ -367,16 +387,6 @@ def render_retargeted(shot: ClipShot, rig: ClipShot, *, frames_per_shot: int, wi
     if isinstance(frames_per_shot, bool) or not isinstance(frames_per_shot, int) or frames_per_shot < 2:
         raise ValueError(f"frames_per_shot must be an integer >= 2; got {frames_per_shot!r}")
     r = _render_shot(shot, frames_per_shot, width, height, retarget=rig)
-    depth_l, depth_r = np.stack(r.depths), np.stack(r.right_depths)
-    focal = r.focal_px
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_left = np.arange(width, dtype=np.float64) - focal * rig.baseline * (1.0 / rig.convergence - 1.0 / depth_r)
-    inside = np.isfinite(x_left) & (x_left >= -0.5) & (x_left <= width - 0.5)
-    x_left = np.where(inside, x_left, 0.0)
-    j0 = np.clip(np.floor(x_left), 0, width - 1).astype(np.intp)
-    j1 = np.clip(np.ceil(x_left), 0, width - 1).astype(np.intp)
-    z0, z1 = np.take_along_axis(depth_l, j0, axis=2), np.take_along_axis(depth_l, j1, axis=2)
-    low, high = np.fmin(z0, z1) * (1.0 - VISIBLE_RTOL), np.fmax(z0, z1) * (1.0 + VISIBLE_RTOL)
-    visible = inside & (depth_r >= low) & (depth_r <= high)
+    visible = _seen_by_left(np.stack(r.depths), np.stack(r.right_depths), r.focal_px, rig.baseline, rig.convergence)
     return RetargetedViews(left=np.stack(r.lefts).astype(np.float32), right=np.stack(r.rights).astype(np.float32),
                            parallax_px=-np.stack(r.disparities), visible=visible)  # fmt: skip
