@@ -23,7 +23,6 @@ from vergence.video import (
 )
 from vergence.viewing import Display, LinearMapping
 
-from .conftest import FRAMES_PER_SHOT
 
 DISPLAY = Display.preset("tv-55")
 # The rig's parallax against psi(-q) of the truth depth: float32 maps of about +-3.5 px (measured
@@ -60,7 +59,7 @@ def rgbd_left(clips, tmp_path_factory):
     for s, (shot, conv) in enumerate(zip(CLIP_SHOTS, conversion.shots)):
         focal = builtin_scene(shot.scene, width=clips.width, height=clips.height).camera.build().focal_px
         rig = retargeted_rig(shot, conv.mapping, focal_px=focal, kind="inverse", near=near[s], far=far[s])
-        views = render_retargeted(shot, rig, frames_per_shot=FRAMES_PER_SHOT, width=clips.width, height=clips.height)
+        views = render_retargeted(shot, rig, frames_per_shot=clips.cuts[0], width=clips.width, height=clips.height)
         shots.append((shot, conv, rig, views))
     return frames, shots
 
