@@ -17,8 +17,22 @@ from vergence.video.analysis import (
     ShotStats,
     analyze_clip,
 )
+<<<<<<< HEAD
 from vergence.video.convert import CONVERT_ORIGINS, SPLIT_FRAMES, VIDEO_SUFFIXES, Conversion, ShotConversion, convert_clip, converted_path
 from vergence.video.clips import CLIP_SHOTS, ClipShot, TestClips, make_test_clips
+=======
+from vergence.video.convert import CONVERT_ORIGINS, VIDEO_SUFFIXES, Conversion, ShotConversion, convert_clip, converted_path
+from vergence.video.clips import (
+    CLIP_SHOTS,
+    VISIBLE_RTOL,
+    ClipShot,
+    RetargetedViews,
+    TestClips,
+    make_test_clips,
+    render_retargeted,
+    retargeted_rig,
+)
+>>>>>>> h-direct
 from vergence.video.cuts import CUT_BINS, CUT_SAMPLE_SIDE, CUT_THRESHOLD, MIN_SHOT_FRAMES, ShotCuts, detect_cuts, histogram_change
 from vergence.video.layout import LAYOUT_TAGS, STEREO_LAYOUTS, VIDEO_LAYOUTS, guess_layout, layout_video_name, split_frame
 from vergence.video.reader import DEFAULT_FOLDER_FPS, FRAME_SUFFIXES, FrameReader, VideoInfo, open_frames
@@ -50,7 +64,11 @@ __all__ = [
     "MIN_SHOT_FRAMES",
     "PERCENTILES",
     "PIXEL_FORMATS",
+<<<<<<< HEAD
     "SPLIT_FRAMES",
+=======
+    "RetargetedViews",
+>>>>>>> h-direct
     "STABILIZE_ALPHA",
     "STATIC_THRESHOLD",
     "STEREO_LAYOUTS",
@@ -62,6 +80,7 @@ __all__ = [
     "VERTICAL_MAX_WIDTH",
     "VIDEO_LAYOUTS",
     "VIDEO_SUFFIXES",
+    "VISIBLE_RTOL",
     "VideoInfo",
     "VideoWriter",
     "WINDOW_BAND",
@@ -80,6 +99,8 @@ __all__ = [
     "open_depth_clip",
     "open_frames",
     "open_stereo",
+    "render_retargeted",
+    "retargeted_rig",
     "split_frame",
     "stabilize_disparity",
 ]
