@@ -17,11 +17,7 @@ from vergence.video.analysis import (
     ShotStats,
     analyze_clip,
 )
-<<<<<<< HEAD
 from vergence.video.convert import CONVERT_ORIGINS, SPLIT_FRAMES, VIDEO_SUFFIXES, Conversion, ShotConversion, convert_clip, converted_path
-from vergence.video.clips import CLIP_SHOTS, ClipShot, TestClips, make_test_clips
-=======
-from vergence.video.convert import CONVERT_ORIGINS, VIDEO_SUFFIXES, Conversion, ShotConversion, convert_clip, converted_path
 from vergence.video.clips import (
     CLIP_SHOTS,
     VISIBLE_RTOL,
@@ -32,7 +28,6 @@ from vergence.video.clips import (
     render_retargeted,
     retargeted_rig,
 )
->>>>>>> h-direct
 from vergence.video.cuts import CUT_BINS, CUT_SAMPLE_SIDE, CUT_THRESHOLD, MIN_SHOT_FRAMES, ShotCuts, detect_cuts, histogram_change
 from vergence.video.layout import LAYOUT_TAGS, STEREO_LAYOUTS, VIDEO_LAYOUTS, guess_layout, layout_video_name, split_frame
 from vergence.video.reader import DEFAULT_FOLDER_FPS, FRAME_SUFFIXES, FrameReader, VideoInfo, open_frames
@@ -64,11 +59,8 @@ __all__ = [
     "MIN_SHOT_FRAMES",
     "PERCENTILES",
     "PIXEL_FORMATS",
-<<<<<<< HEAD
-    "SPLIT_FRAMES",
-=======
     "RetargetedViews",
->>>>>>> h-direct
+    "SPLIT_FRAMES",
     "STABILIZE_ALPHA",
     "STATIC_THRESHOLD",
     "STEREO_LAYOUTS",
