@@ -6,6 +6,16 @@ frames in [0, 1]. Videos are decoded with PyAV (the ``video`` extra, see
 :mod:`vergence.video._av`); folders hold one image per frame, ordered by the last number in the
 file name (``frame_9.png`` before ``frame_10.png``).
 
+A range ``frames(start, stop)`` of a video seeks to the keyframe at or before ``start`` and decodes
+from there, naming each frame by its timestamp (frame k at ``start_time + k / rate``): a Dask task or
+a shot late in a long clip decodes one GOP (x264: up to 250 frames) before its first frame, not the
+whole clip before it. The frames are those of a decode from frame 0, bit for bit. Where the
+timestamps do not number the frames (no timestamps, a variable frame rate, a gap, a header that
+counts frames the stream does not hold: checked on the packets from the last keyframe to the end,
+and frame by frame after the seek), or FFmpeg refuses the seek or lands past ``start``, the reader
+decodes from frame 0 as it always did. A stream whose timestamps drift off the grid in the middle
+and come back to it by its last keyframe is outside what these checks see.
+
 Refused in one line (``ValueError``, or ``OSError`` for a file that cannot be read at all): a file
 FFmpeg cannot open or that holds no video stream, a clip of zero frames, a folder with no numbered
 images or with two images of one number, a frame that cannot be decoded, and a video that ends
@@ -156,7 +166,9 @@ class FrameReader:
                                 if rgb.shape[:2] != (self.info.height, self.info.width):
                                     raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
                                                      f"the stream is {self.info.width}x{self.info.height}")
-                                yield rgb.astype(np.float32) / np.float32(255.0)
+                                out = rgb.astype(np.float32)
+                                out /= np.float32(255.0)
+                                yield out
                                 wanted = k + 1
                             k += 1
                             if k >= stop:
