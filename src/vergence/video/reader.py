@@ -105,6 +105,9 @@ class FrameReader:
     def frames(self, start: int = 0, stop: int | None = None) -> Iterator[np.ndarray]:
         """Yield frames ``start`` to ``stop`` (exclusive; default the last) as float32 ``(H, W, 3)`` in [0, 1].
 
+        A video is decoded from the keyframe at or before ``start`` where its timestamps number its
+        frames, else from frame 0 (the module docstring); the frames are the same either way.
+
         Raises
         ------
         ValueError
