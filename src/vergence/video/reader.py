@@ -6,6 +6,16 @@ frames in [0, 1]. Videos are decoded with PyAV (the ``video`` extra, see
 :mod:`vergence.video._av`); folders hold one image per frame, ordered by the last number in the
 file name (``frame_9.png`` before ``frame_10.png``).
 
+A range ``frames(start, stop)`` of a video seeks to the keyframe at or before ``start`` and decodes
+from there, naming each frame by its timestamp (frame k at ``start_time + k / rate``): a Dask task or
+a shot late in a long clip decodes one GOP (x264: up to 250 frames) before its first frame, not the
+whole clip before it. The frames are those of a decode from frame 0, bit for bit. Where the
+timestamps do not number the frames (no timestamps, a variable frame rate, a gap, a header that
+counts frames the stream does not hold: checked on the packets from the last keyframe to the end,
+and frame by frame after the seek), or FFmpeg refuses the seek or lands past ``start``, the reader
+decodes from frame 0 as it always did. A stream whose timestamps drift off the grid in the middle
+and come back to it by its last keyframe is outside what these checks see.
+
 Refused in one line (``ValueError``, or ``OSError`` for a file that cannot be read at all): a file
 FFmpeg cannot open or that holds no video stream, a clip of zero frames, a folder with no numbered
 images or with two images of one number, a frame that cannot be decoded, and a video that ends
@@ -19,6 +29,7 @@ import os
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +43,11 @@ DEFAULT_FOLDER_FPS = 24.0
 # Image files a folder of frames may hold (read by vergence.io.read_image); depth folders may also
 # hold .pfm/.npy/.pgm maps (vergence.io.read_depth).
 FRAME_SUFFIXES = (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".pfm", ".npy", ".tif", ".tiff")
+# How far a frame's timestamp may sit from its slot on the frame-rate grid, in frames: containers round
+# timestamps to their time base (Matroska's millisecond puts a frame at 24 frames/s up to 0.012 of a frame
+# off); a timestamp further off means the timestamps do not number the frames, and the reader does not
+# seek. A quarter leaves room for rounding at up to 500 frames/s in milliseconds.
+_PTS_SLACK = Fraction(1, 4)
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +105,9 @@ class FrameReader:
     def frames(self, start: int = 0, stop: int | None = None) -> Iterator[np.ndarray]:
         """Yield frames ``start`` to ``stop`` (exclusive; default the last) as float32 ``(H, W, 3)`` in [0, 1].
 
+        A video is decoded from the keyframe at or before ``start`` where its timestamps number its
+        frames, else from frame 0 (the module docstring); the frames are the same either way.
+
         Raises
         ------
         ValueError
@@ -120,54 +139,128 @@ class FrameReader:
             yield image
 
     def _video_frames(self, start: int, stop: int) -> Iterator[np.ndarray]:
+        """Frames ``start`` to ``stop`` of the video: seeking to the keyframe at or before ``start`` when the
+        stream's timestamps number its frames (:class:`_FrameGrid`), else decoding from frame 0."""
+        if start == stop:
+            return
         av = require_av()
-        k = 0
-        try:
-            with av.open(str(self.path)) as container:
-                stream = container.streams.video[0]
-                # Slice threads only: FFmpeg's frame threads hang when a decoder with frames in flight is
-                # closed (a consumer that stops early), measured with thread_type="AUTO" on PyAV 18.
-                stream.thread_type = "SLICE"
-                for rgb in self._decoded(container, stream, stop):
-                    if k >= start:
-                        if rgb.shape[:2] != (self.info.height, self.info.width):
-                            raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
-                                             f"the stream is {self.info.width}x{self.info.height}")
-                        yield rgb.astype(np.float32) / np.float32(255.0)
-                    k += 1
-        except av.FFmpegError as exc:
-            raise ValueError(f"video {self.path} cannot be decoded past frame {k} of {self.info.frames} "
-                             f"({_reason(exc)}): damaged or truncated") from None
-        if k < stop:
-            raise ValueError(f"video {self.path} stops after {k} frames; its header announces {self.info.frames}: "
-                             "truncated")
-
+        wanted = start  # the next frame the caller gets
+        for seeking in (True, False) if start > 0 else (False,):
+            k: int | None = None if seeking else 0  # index of the next frame out of the decoder; None: unknown yet
+            try:
+                with av.open(str(self.path)) as container:
+                    stream = container.streams.video[0]
+                    # Slice threads only: FFmpeg's frame threads hang when a decoder with frames in flight is
+                    # closed (a consumer that stops early), measured with thread_type="AUTO" on PyAV 18.
+                    stream.thread_type = "SLICE"
+                    grid = _seek(container, stream, wanted, self.info.frames) if seeking else None
+                    if seeking and grid is None:
+                        continue  # not a constant-rate grid, or a seek FFmpeg refused: from frame 0
+                    decoded = self._decoded(container, stream)
+                    try:
+                        for frame in decoded:
+                            if grid is not None:  # the frame's index from its timestamp, checked
+                                j = grid.index(frame.pts)
+                                if j is None or ((j > wanted or not frame.key_frame) if k is None else j != k):
+                                    break  # no grid after all, or a seek past the frame wanted: from frame 0
+                                k = j
+                            if k >= wanted:
+                                rgb = frame.to_ndarray(format="rgb24")
+                                if rgb.shape[:2] != (self.info.height, self.info.width):
+                                    raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
+                                                     f"the stream is {self.info.width}x{self.info.height}")
+                                out = rgb.astype(np.float32)
+                                out /= np.float32(255.0)
+                                yield out
+                                wanted = k + 1
+                            k += 1
+                            if k >= stop:
+                                return
+                        else:
+                            if k is not None:
+                                raise ValueError(f"video {self.path} stops after {k} frames; its header announces "
+                                                 f"{self.info.frames}: truncated")
+                            # a seek that found no frame (into a cut file): from frame 0, which names where it stops
+                    finally:
+                        decoded.close()  # drains the decoder before the container closes
+            except av.FFmpegError as exc:
+                if k is None:
+                    continue  # nothing decoded since the seek: from frame 0, which names where it fails
+                raise ValueError(f"video {self.path} cannot be decoded past frame {k} of {self.info.frames} "
+                                 f"({_reason(exc)}): damaged or truncated") from None
 
     @staticmethod
-    def _decoded(container: object, stream: object, stop: int) -> Iterator[np.ndarray]:
-        """The first ``stop`` frames as uint8 RGB arrays, in batches of the frames each packet releases.
+    def _decoded(container: object, stream: object) -> Iterator[object]:
+        """The decoded frames (``av.VideoFrame``), in batches of the frames each packet releases.
 
-        A batch is converted before it is handed on, so the caller's generator is never suspended
-        inside PyAV's decoder, and the decoder is drained when the caller stops early (a consumer
-        that takes one frame) before the container closes.
+        A batch is taken out of the decoder before it is handed on, so the caller's generator is never
+        suspended inside PyAV's decoder, and the decoder is drained when the caller stops early (a
+        consumer that takes one frame) before the container closes.
         """
-        done = 0
         try:
             for packet in container.demux(stream):
-                batch = [frame.to_ndarray(format="rgb24") for frame in stream.decode(packet)]
-                for rgb in batch:
-                    if done >= stop:
-                        return
-                    done += 1
-                    yield rgb
-                if done >= stop:
-                    return
+                yield from list(stream.decode(packet))
         finally:
             try:
                 for _ in stream.decode(None):  # drain the decoder before the container closes
                     pass
             except require_av().FFmpegError:  # a damaged stream: its own error is already on its way
                 pass
+
+
+@dataclass(frozen=True, slots=True)
+class _FrameGrid:
+    """The timestamps of a constant-rate stream: frame k at ``origin + k * ticks``, in the stream's time base.
+
+    ``origin`` is the stream's start time and ``ticks = 1 / (rate * time_base)`` a frame's duration in
+    time-base units (512 for 24 frames/s in MP4's 1/12288; 41.67 in Matroska's milliseconds).
+    """
+
+    origin: int
+    ticks: Fraction
+
+    def index(self, pts: int | None) -> int | None:
+        """The frame whose slot holds ``pts`` (nearest slot); None for no timestamp or one off the grid."""
+        if pts is None:
+            return None
+        x = (pts - self.origin) / self.ticks
+        k = round(x)
+        return k if abs(x - k) <= _PTS_SLACK else None
+
+    def pts(self, k: int) -> int:
+        """The timestamp of frame ``k``'s slot, rounded to the time base."""
+        return self.origin + round(k * self.ticks)
+
+
+def _grid(stream: object) -> _FrameGrid | None:
+    """The stream's frame grid from its start time, time base and average rate; None if one is missing."""
+    rate, time_base, origin = stream.average_rate, stream.time_base, stream.start_time
+    if not rate or not time_base or origin is None or rate <= 0 or time_base <= 0:
+        return None
+    return _FrameGrid(int(origin), 1 / (Fraction(rate) * Fraction(time_base)))
+
+
+def _seek(container: object, stream: object, k: int, frames: int) -> _FrameGrid | None:
+    """Seek to the keyframe at or before frame ``k``: the stream's grid, or None where seeking is not reliable.
+
+    Reliable means: the stream has a grid (:func:`_grid`), and the packets from the last keyframe to the
+    end carry the timestamps of frames ``j`` to ``frames - 1``, one each (a variable frame rate, a gap or
+    a count in the header that the stream does not hold fails this); the frames decoded after the seek
+    are checked against the grid one by one (in ``FrameReader._video_frames``).
+    """
+    av = require_av()
+    grid = _grid(stream)
+    if grid is None:
+        return None
+    try:
+        container.seek(grid.pts(frames - 1), stream=stream, backward=True, any_frame=False)
+        tail = [grid.index(packet.pts) for packet in container.demux(stream) if packet.size]
+        if not tail or None in tail or sorted(tail) != list(range(frames - len(tail), frames)):
+            return None
+        container.seek(grid.pts(k), stream=stream, backward=True, any_frame=False)
+    except av.FFmpegError:
+        return None
+    return grid
 
 
 def _reason(exc: Exception) -> str:

@@ -105,6 +105,9 @@ class VideoWriter:
         self.audio_from = None if audio_from is None else Path(audio_from)
         self.frames_written = 0
         self._stack: ExitStack | None = None
+        # More options for x264 (FFmpeg's names, e.g. {"g": "8"}: a keyframe every 8 frames), set before
+        # the writer opens: what the reader's seeking tests need, not an option of the API.
+        self._x264_options: dict[str, str] = {}
 
     def __enter__(self) -> VideoWriter:
         from vergence.io import atomic_write
@@ -127,7 +130,7 @@ class VideoWriter:
             rate = Fraction(self.fps).limit_denominator(1001)
             stream = self._container.add_stream("libx264", rate=rate)
             stream.width, stream.height, stream.pix_fmt = self.width, self.height, self.pixel_format
-            stream.options = {"crf": str(self.crf), "preset": self.preset}
+            stream.options = {"crf": str(self.crf), "preset": self.preset, **self._x264_options}
             self._stream = stream
             if self._audio_in is not None:
                 self._audio_out = self._container.add_stream_from_template(self._audio_in)
