@@ -21,3 +21,65 @@ def stabilize_kernel(previous_grey: np.ndarray, grey: np.ndarray, previous: np.n
             else:
                 out[y, x] = d
     return out
+
+
+@nb.njit(cache=True, parallel=True)
+def grey_kernel(frame: np.ndarray) -> np.ndarray:
+    """Mean of R, G, B of a float32 ``(H, W, 3)`` frame, summed in float32 in :func:`grey_levels`' order."""
+    h, w = frame.shape[0], frame.shape[1]
+    out = np.empty((h, w), np.float32)
+    third = np.float32(1.0 / 3.0)
+    for y in nb.prange(h):
+        for x in range(w):
+            out[y, x] = (frame[y, x, 0] + frame[y, x, 1] + frame[y, x, 2]) * third
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def unit_float_kernel(rgb: np.ndarray) -> np.ndarray:
+    """uint8 ``(H, W, C)`` to float32 ``v / 255`` (the bits of ``rgb.astype(float32) / float32(255)``)."""
+    h, w, c = rgb.shape
+    out = np.empty((h, w, c), np.float32)
+    scale = np.float32(255.0)
+    for y in nb.prange(h):
+        for x in range(w):
+            for k in range(c):
+                out[y, x, k] = np.float32(rgb[y, x, k]) / scale
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def to_uint8_kernel(src: np.ndarray, out: np.ndarray) -> None:
+    """``out = rint(clip(src, 0, 1) * 255)`` as uint8 (NaN -> 0), for float32 ``(H, W, C)`` views."""
+    h, w, c = src.shape
+    scale = np.float32(255.0)
+    for y in nb.prange(h):
+        for x in range(w):
+            for k in range(c):
+                v = src[y, x, k]
+                if not v > 0.0:
+                    v = np.float32(0.0)
+                elif v > 1.0:
+                    v = np.float32(1.0)
+                out[y, x, k] = np.uint8(np.rint(v * scale))
+
+
+@nb.njit(cache=True, parallel=True)
+def flicker_kernel(previous_grey: np.ndarray, grey: np.ndarray, previous: np.ndarray, disparity: np.ndarray,
+                   threshold: np.float32) -> tuple[float, int]:  # fmt: skip
+    """Sum and count of ``|D_t - D_{t-1}|`` over static (grey change <= threshold, in float32), known pixels."""
+    h, w = disparity.shape
+    sums = np.zeros(h, np.float64)
+    counts = np.zeros(h, np.int64)
+    for y in nb.prange(h):
+        s = 0.0
+        n = 0
+        for x in range(w):
+            if abs(grey[y, x] - previous_grey[y, x]) <= threshold:
+                change = abs(disparity[y, x] - previous[y, x])
+                if np.isfinite(change):
+                    s += change
+                    n += 1
+        sums[y] = s
+        counts[y] = n
+    return sums.sum(), counts.sum()

@@ -180,6 +180,33 @@ def _limit_threads(threads: int | None) -> None:
     cv2.setNumThreads(int(threads))
 
 
+# Layouts packed straight into 8 bits: where each view's block sits, (row, column) in view sizes (left, right).
+_BLOCKS = {"sbs": ((0, 0), (0, 1)), "tb": ((0, 0), (1, 0)), "cross-eyed": ((0, 1), (0, 0))}
+
+
+def packed_uint8(left: np.ndarray, right: np.ndarray, layout: str) -> np.ndarray:
+    """``rint(clip(pack(left, right, layout), 0, 1) * 255)`` as uint8, as :class:`~vergence.video.VideoWriter` rounds.
+
+    Full side-by-side, top-bottom and cross-eyed frames of float32 RGB views are written in one parallel
+    pass per view (no float frame in between); other layouts are packed by :func:`vergence.display.pack` first.
+    """
+    from vergence.display import pack
+    from vergence.video._kernels import to_uint8_kernel
+
+    rgb = left.ndim == 3 and left.shape[2] == 3 and left.dtype == right.dtype == np.float32 and left.shape == right.shape
+    if layout in _BLOCKS and rgb:
+        h, w = left.shape[:2]
+        (ly, lx), (ry, rx) = _BLOCKS[layout]
+        out = np.empty((h * (1 + max(ly, ry)), w * (1 + max(lx, rx)), 3), np.uint8)
+        to_uint8_kernel(left, out[ly * h:(ly + 1) * h, lx * w:(lx + 1) * w])
+        to_uint8_kernel(right, out[ry * h:(ry + 1) * h, rx * w:(rx + 1) * w])
+        return out
+    packed = np.ascontiguousarray(pack(left, right, layout=layout), dtype=np.float32)
+    out = np.empty(packed.shape, np.uint8)
+    to_uint8_kernel(packed if packed.ndim == 3 else packed[:, :, None], out if out.ndim == 3 else out[:, :, None])
+    return out
+
+
 def render_shot(job: ShotJob, source: Iterator | None = None,
                 report: Callable[[], None] | None = None) -> tuple[FlickerMeter, FlickerMeter] | None:  # fmt: skip
     """Render frames ``[start, end)`` of ``job.clip`` and write the piece's segment; return its flicker meters.
@@ -189,7 +216,6 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     task). A 2D + depth piece first runs the disparity filter over its warm-up frames. The meters
     (before, after stabilisation; 2D + depth only, else None) come back without their last frame.
     """
-    from vergence.display import pack
     from vergence.synthesis import nearness_from_depth, synthesize_stereo
     from vergence.video import _segments
     from vergence.video._kernels import stabilize_kernel
@@ -227,9 +253,7 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
                         continue
                 result = synthesize_stereo(image, d, kind="disparity", mapping=psi_at(job, k), display=job.display,
                                            origin=job.origin)  # fmt: skip
-                packed = np.clip(pack(result.left, result.right, layout=job.layout), 0.0, 1.0)
-                packed *= np.float32(255.0)
-                sink.write(np.rint(packed, out=packed).astype(np.uint8), k)  # 8 bits as VideoWriter rounds them
+                sink.write(packed_uint8(result.left, result.right, job.layout), k)
                 if report is not None:
                     report()
     finally:

@@ -143,6 +143,8 @@ class FrameReader:
         stream's timestamps number its frames (:class:`_FrameGrid`), else decoding from frame 0."""
         if start == stop:
             return
+        from vergence.video._kernels import unit_float_kernel
+
         av = require_av()
         wanted = start  # the next frame the caller gets
         for seeking in (True, False) if start > 0 else (False,):
@@ -169,9 +171,7 @@ class FrameReader:
                                 if rgb.shape[:2] != (self.info.height, self.info.width):
                                     raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
                                                      f"the stream is {self.info.width}x{self.info.height}")
-                                out = rgb.astype(np.float32)
-                                out /= np.float32(255.0)
-                                yield out
+                                yield unit_float_kernel(rgb)  # v / 255 in float32, one parallel pass
                                 wanted = k + 1
                             k += 1
                             if k >= stop:

