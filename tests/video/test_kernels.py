@@ -69,3 +69,16 @@ def test_flicker_kernel_against_a_loop():
     got_total, got_count = flicker_kernel(g0, g1, d0, d1, np.float32(0.03))
     assert got_count == count and count > 10
     assert got_total == pytest.approx(total, rel=1e-6)
+
+
+def test_rgbd_kernel_is_the_float_split_then_grey():
+    from vergence.video._kernels import rgbd_kernel
+    from vergence.video.layout import split_frame
+    from vergence.video.stability import grey_levels
+
+    rgbd = np.random.default_rng(2).integers(0, 256, (5, 12, 3), dtype=np.uint8)
+    image, grey = rgbd_kernel(rgbd)
+    colour, depth = split_frame(unit_float_kernel(rgbd), "rgbd")
+    assert np.array_equal(image, colour) and image.flags.c_contiguous
+    assert np.array_equal(grey, grey_levels(np.ascontiguousarray(depth)))
+    assert np.array_equal(grey, grey_levels(depth.astype(np.float64)))  # the NumPy path of grey_levels too

@@ -90,7 +90,7 @@ def stereo_warnings(plan: ParallaxPlan, display: Display, *, zone: ComfortZone |
     2
     """
     zone = ComfortZone() if zone is None else zone
-    report, _ = plan_comfort(plan, display, zone=zone)
+    report = _range_report(plan, display, zone)
     out = []
     if report.diverges:
         out.append(
@@ -103,6 +103,20 @@ def stereo_warnings(plan: ParallaxPlan, display: Display, *, zone: ComfortZone |
             f"zone {zone.min_arcmin:+g} .. {zone.max_arcmin:+g} arcmin by {report.excess_arcmin:.4g} arcmin"
         )
     return tuple(out)
+
+
+def _range_report(plan: ParallaxPlan, display: Display, zone: ComfortZone) -> ComfortReport:
+    """The report of ``plan.range_px`` on ``display`` (the arguments checked): no pass over the pixels."""
+    if not isinstance(plan, ParallaxPlan):
+        raise TypeError(f"plan must be a ParallaxPlan; got {type(plan).__name__}")
+    if not isinstance(display, Display):
+        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    if display.resolution is None:
+        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    if not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
+    per_px = display.resolution / plan.parallax_px.shape[1]  # display pixels per image pixel
+    return check_disparity_range(np.array(plan.range_px) * per_px, display, zone=zone)
 
 
 def plan_comfort(plan: ParallaxPlan, display: Display, *, zone: ComfortZone | None = None) -> tuple[ComfortReport, float]:
@@ -146,17 +160,9 @@ def plan_comfort(plan: ParallaxPlan, display: Display, *, zone: ComfortZone | No
     >>> plan_comfort(narrow, Display.preset("desktop-24"))[1]
     1.0
     """
-    if not isinstance(plan, ParallaxPlan):
-        raise TypeError(f"plan must be a ParallaxPlan; got {type(plan).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
-    if display.resolution is None:
-        raise ValueError("display resolution is unknown: give the screen width in pixels")
     zone = ComfortZone() if zone is None else zone
-    if not isinstance(zone, ComfortZone):
-        raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
+    report = _range_report(plan, display, zone)
     per_px = display.resolution / plan.parallax_px.shape[1]  # display pixels per image pixel
-    report = check_disparity_range(np.array(plan.range_px) * per_px, display, zone=zone)
     screen = plan.parallax_px[np.isfinite(plan.parallax_px)].astype(np.float64) * per_px
     if screen.size == 0:
         return report, 0.0

@@ -83,3 +83,23 @@ def flicker_kernel(previous_grey: np.ndarray, grey: np.ndarray, previous: np.nda
         sums[y] = s
         counts[y] = n
     return sums.sum(), counts.sum()
+
+
+@nb.njit(cache=True, parallel=True)
+def rgbd_kernel(rgbd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An iw3 RGBD uint8 frame ``(H, 2W, 3)`` to its colour, float32 ``(H, W, 3)`` ``v / 255``, and its depth
+    half's grey level, float32 ``(H, W)``: the bits of :func:`unit_float_kernel` then :func:`grey_kernel`."""
+    h, w = rgbd.shape[0], rgbd.shape[1] // 2
+    image = np.empty((h, w, 3), np.float32)
+    grey = np.empty((h, w), np.float32)
+    scale = np.float32(255.0)
+    third = np.float32(1.0 / 3.0)
+    for y in nb.prange(h):
+        for x in range(w):
+            for k in range(3):
+                image[y, x, k] = np.float32(rgbd[y, x, k]) / scale
+            r = np.float32(rgbd[y, w + x, 0]) / scale
+            g = np.float32(rgbd[y, w + x, 1]) / scale
+            b = np.float32(rgbd[y, w + x, 2]) / scale
+            grey[y, x] = (r + g + b) * third
+    return image, grey

@@ -114,6 +114,14 @@ class FrameReader:
             A range outside ``[0, frames]``, a frame that cannot be decoded, or a video that ends before
             ``stop`` (the message names the frame where it stopped).
         """
+        stop = self._check_range(start, stop)
+        if self._files is not None:
+            yield from self._folder_frames(start, stop)
+        else:
+            yield from self._video_frames(start, stop)
+
+    def _check_range(self, start: object, stop: object) -> int:
+        """``stop`` (None: the frame count) after checking ``0 <= start <= stop <= frames``."""
         n = self.info.frames
         stop = n if stop is None else stop
         for name, value in (("start", start), ("stop", stop)):
@@ -121,10 +129,7 @@ class FrameReader:
                 raise TypeError(f"{name} must be an integer; got {type(value).__name__}")
         if not 0 <= start <= stop <= n:
             raise ValueError(f"frame range must satisfy 0 <= start <= stop <= {n}; got start={start}, stop={stop}")
-        if self._files is not None:
-            yield from self._folder_frames(start, stop)
-        else:
-            yield from self._video_frames(start, stop)
+        return int(stop)
 
     def _folder_frames(self, start: int, stop: int) -> Iterator[np.ndarray]:
         from vergence.io import read_image
@@ -138,9 +143,10 @@ class FrameReader:
                                  f"{image.shape[0]}; the first frame is {self.info.width}x{self.info.height}")
             yield image
 
-    def _video_frames(self, start: int, stop: int) -> Iterator[np.ndarray]:
+    def _video_frames(self, start: int, stop: int, as_float: bool = True) -> Iterator[np.ndarray]:
         """Frames ``start`` to ``stop`` of the video: seeking to the keyframe at or before ``start`` when the
-        stream's timestamps number its frames (:class:`_FrameGrid`), else decoding from frame 0."""
+        stream's timestamps number its frames (:class:`_FrameGrid`), else decoding from frame 0. ``as_float``
+        False: the decoded uint8 RGB frames (:mod:`vergence.video.sources` converts what it needs itself)."""
         if start == stop:
             return
         from vergence.video._kernels import unit_float_kernel
@@ -171,7 +177,7 @@ class FrameReader:
                                 if rgb.shape[:2] != (self.info.height, self.info.width):
                                     raise ValueError(f"frame {k} of video {self.path} is {rgb.shape[1]}x{rgb.shape[0]}; "
                                                      f"the stream is {self.info.width}x{self.info.height}")
-                                yield unit_float_kernel(rgb)  # v / 255 in float32, one parallel pass
+                                yield unit_float_kernel(rgb) if as_float else rgb  # v / 255 in float32
                                 wanted = k + 1
                             k += 1
                             if k >= stop:

@@ -117,10 +117,19 @@ class DepthClip:
 
     def pairs(self, start: int = 0, stop: int | None = None) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Yield ``(image, depth)``: float32 ``(H, W, 3)`` and float32 ``(H, W)`` in the kind's unit, NaN = unknown."""
+        if self.depth is None and self.colour.files is None:  # an RGBD video: split from its 8-bit frames
+            from vergence.video._kernels import rgbd_kernel
+
+            stop = self.colour._check_range(start, stop)
+            for frame in self.colour._video_frames(start, stop, as_float=False):
+                check_splits(frame.shape[1], frame.shape[0], "rgbd")
+                image, grey = rgbd_kernel(frame)  # the colour and the depth's grey level in one pass
+                yield image, self._depth_levels(grey)
+            return
         if self.depth is None:
-            for k, frame in enumerate(self.colour.frames(start, stop), start):
+            for frame in self.colour.frames(start, stop):
                 image, grey = split_frame(frame, "rgbd")
-                yield image, self._depth_values(grey, k)
+                yield image, self._depth_values(grey)
             return
         depth_frames = self._depth_maps(start, stop)
         for k, image in enumerate(self.colour.frames(start, stop), start):
@@ -144,13 +153,16 @@ class DepthClip:
                                      f"frames are {self.width}x{self.height}")
                 yield d
             return
-        for k, frame in enumerate(self.depth.frames(start, stop), start):
-            yield self._depth_values(frame, k)
+        for frame in self.depth.frames(start, stop):
+            yield self._depth_values(frame)
 
-    def _depth_values(self, grey_rgb: np.ndarray, k: int) -> np.ndarray:
+    def _depth_values(self, grey_rgb: np.ndarray) -> np.ndarray:
         from vergence.video.stability import grey_levels
 
-        grey = grey_levels(grey_rgb)
+        return self._depth_levels(grey_levels(grey_rgb))
+
+    def _depth_levels(self, grey: np.ndarray) -> np.ndarray:
+        """A depth frame's grey levels in [0, 1] to the kind's unit (module docstring)."""
         if self.kind == "inverse":
             return grey if self.scale is None else (grey / np.float32(self.scale)).astype(np.float32)
         values = np.rint(grey * 255.0).astype(np.float32) / np.float32(self.scale)
