@@ -64,22 +64,32 @@ def to_uint8_kernel(src: np.ndarray, out: np.ndarray) -> None:
                 out[y, x, k] = np.uint8(np.rint(v * scale))
 
 
+@nb.njit(cache=True)
+def _flicker_row(previous_grey, grey, previous, disparity, threshold):  # pragma: no cover - compiled
+    s = 0.0
+    n = 0
+    for x in range(disparity.shape[0]):
+        if abs(grey[x] - previous_grey[x]) <= threshold:
+            change = abs(disparity[x] - previous[x])
+            if np.isfinite(change):
+                s += change
+                n += 1
+    return s, n
+
+
 @nb.njit(cache=True, parallel=True)
 def flicker_kernel(previous_grey: np.ndarray, grey: np.ndarray, previous: np.ndarray, disparity: np.ndarray,
                    threshold: np.float32) -> tuple[float, int]:  # fmt: skip
-    """Sum and count of ``|D_t - D_{t-1}|`` over static (grey change <= threshold, in float32), known pixels."""
-    h, w = disparity.shape
+    """Sum and count of ``|D_t - D_{t-1}|`` over static (grey change <= threshold, in float32), known pixels.
+
+    One row per call of ``_flicker_row``: accumulating in the ``prange`` body trips Numba 0.68.0's
+    reduction analysis ("unexpected cycle in lookup()").
+    """
+    h = disparity.shape[0]
     sums = np.zeros(h, np.float64)
     counts = np.zeros(h, np.int64)
     for y in nb.prange(h):
-        s = 0.0
-        n = 0
-        for x in range(w):
-            if abs(grey[y, x] - previous_grey[y, x]) <= threshold:
-                change = abs(disparity[y, x] - previous[y, x])
-                if np.isfinite(change):
-                    s += change
-                    n += 1
+        s, n = _flicker_row(previous_grey[y], grey[y], previous[y], disparity[y], threshold)
         sums[y] = s
         counts[y] = n
     return sums.sum(), counts.sum()
