@@ -484,7 +484,6 @@ def _convert_clip(
                         transition=transition, stabilize=bool(stabilize), threshold=threshold, alpha=alpha, piece=i,
                         warmup=w, match=(lo_d, hi_d, method) if stereo else None)
                 for i, (s, a, b, w) in enumerate(pieces) if not done[i]]  # fmt: skip
-        source = _SharedSource(clip.pairs, n)
 
         # Pass 2 (stereo): each unfinished piece matched and stabilised, its disparity kept in the work folder; the
         # range of every piece of a shot that is not wholly reused (a finished piece's from its record).
@@ -513,6 +512,7 @@ def _convert_clip(
                     count += 1
                     report("matching", count, todo)
 
+                source = _SharedSource(clip.pairs, n)
                 for job in jobs:
                     matched(job, *match_shot(job, source.at(job.start - job.warmup), tick))
                     source.moved(job.end)
