@@ -15,10 +15,9 @@ frames, so with ``K = ceil(log(SPLIT_TOLERANCE) / log(1 - alpha))`` (25 frames a
 alpha 0.25) a piece's filtered disparity differs from the unsplit shot's by at most
 :data:`SPLIT_TOLERANCE` (1e-3) of the difference between the raw and the filtered map at the warm-up's
 first frame (tested: the 8-bit frames of a split shot lie within one level of the unsplit ones; on the
-test clips they are equal).
-A pixel unknown through the whole warm-up keeps no older value. The serial run uses the same pieces, so both give the same bytes. Each
-piece's flicker meter counts the pair across its start (the warm-up's last frame), so the pairs
-measured are those of the unsplit shot.
+test clips they are equal). A pixel unknown through the whole warm-up keeps no older value. The
+serial run uses the same pieces, so both give the same bytes. Each piece's flicker meter counts the
+pair across its start (the warm-up's last frame), so the pairs measured are those of the unsplit shot.
 """
 
 from __future__ import annotations
