@@ -105,6 +105,37 @@ class ShotJob:
     match: tuple[int, int, str] | None = None
 
 
+class _Filtered:
+    """A piece's disparity filter (:func:`vergence.video.stabilize_disparity`, from the piece's first frame) and
+    its flicker meters (before, after); :meth:`step` takes one frame, a warm-up frame counting no pair but
+    the one across the piece's start."""
+
+    def __init__(self, job: ShotJob) -> None:
+        self.job = job
+        self.meters = (FlickerMeter(job.threshold), FlickerMeter(job.threshold))
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+
+    def step(self, colour: np.ndarray, raw: np.ndarray, warmup: bool) -> np.ndarray:
+        from vergence.video._kernels import stabilize_kernel
+        from vergence.video.stability import grey_levels
+
+        job, prev = self.job, self._prev
+        grey = grey_levels(colour)
+        d = raw if prev is None or not job.stabilize else stabilize_kernel(prev[0], grey, prev[1], raw, job.threshold,
+                                                                           job.alpha)  # fmt: skip
+        self._prev = (grey, d)
+        for m, value in zip(self.meters, (raw, d)):
+            m.add(grey, value)
+            if warmup:
+                m.restart()  # only the pair across the piece's start is counted
+        return d
+
+    def finish(self) -> tuple[FlickerMeter, FlickerMeter]:
+        for m in self.meters:
+            m.reset()  # the last frame stays behind
+        return self.meters
+
+
 def match_shot(job: ShotJob, source: Iterator | None = None,
                report: Callable[[], None] | None = None) -> tuple[tuple[FlickerMeter, FlickerMeter], tuple[float, float]]:  # fmt: skip
     """Pass 2 of one stereo piece: match frames ``[start - warmup, end)``, stabilise, write ``[start, end)``
@@ -114,31 +145,20 @@ def match_shot(job: ShotJob, source: Iterator | None = None,
     lowest 1st and the highest 99th percentile of its frames. ``source``: the clip's pairs already at
     ``start - warmup`` (the serial pass shares one decoder); else the piece's own range is decoded.
     """
-    from vergence.video._kernels import stabilize_kernel
     from vergence.video._matching import match_padded
-    from vergence.video.stability import grey_levels
 
     _limit_threads(job.threads)
     clip, start, end, first = job.clip, job.start, job.end, job.start - job.warmup
     lo_d, hi_d, method = job.match
     if source is None:
         source = clip.pairs(first, end)
-    meters = (FlickerMeter(job.threshold), FlickerMeter(job.threshold))
+    filtered = _Filtered(job)
     lo, hi = math.inf, -math.inf
     disparity = np.lib.format.open_memmap(job.disparity, mode="w+", dtype=np.float32,
                                           shape=(end - start, clip.height, clip.width))  # fmt: skip
-    prev = None
     for k in range(first, end):
         left, right = next(source)
-        raw = match_padded(left, right, lo_d, hi_d, method).astype(np.float32)
-        grey = grey_levels(left)
-        d = raw if prev is None or not job.stabilize else stabilize_kernel(prev[0], grey, prev[1], raw,
-                                                                           job.threshold, job.alpha)  # fmt: skip
-        prev = (grey, d)
-        for m, value in zip(meters, (raw, d)):
-            m.add(grey, value)
-            if k < start:
-                m.restart()  # a warm-up frame: only the pair across start is counted
+        d = filtered.step(left, match_padded(left, right, lo_d, hi_d, method).astype(np.float32), k < start)
         if k < start:
             continue
         disparity[k - start] = d
@@ -150,9 +170,7 @@ def match_shot(job: ShotJob, source: Iterator | None = None,
             report()
     disparity.flush()
     del disparity  # closed before the render opens it again
-    for m in meters:
-        m.reset()
-    return meters, (lo, hi)
+    return filtered.finish(), (lo, hi)
 
 
 def psi_at(job: ShotJob, k: int):
@@ -218,8 +236,6 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     """
     from vergence.synthesis import nearness_from_depth, synthesize_stereo
     from vergence.video import _segments
-    from vergence.video._kernels import stabilize_kernel
-    from vergence.video.stability import grey_levels
     from vergence.video.writer import VideoWriter
 
     _limit_threads(job.threads)
@@ -228,9 +244,8 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     first = a if stereo else a - job.warmup
     if source is None:
         source = clip.lefts(a, b) if stereo else clip.pairs(first, b)
-    meters = None if stereo else (FlickerMeter(job.threshold), FlickerMeter(job.threshold))
+    filtered = None if stereo else _Filtered(job)
     store = np.load(job.disparity, mmap_mode="r") if stereo else None
-    prev = None
     try:
         with _segments.Segment(job.segment, job.images, clip.fps, job.packed_shape, job.pixel_format, job.crf,
                                job.preset, VideoWriter) as sink:  # fmt: skip
@@ -240,15 +255,7 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
                     image, d = item, np.array(store[k - a])
                 else:
                     image, depth = item
-                    raw = nearness_from_depth(depth, kind=clip.kind)
-                    grey = grey_levels(image)
-                    d = raw if prev is None or not job.stabilize else stabilize_kernel(
-                        prev[0], grey, prev[1], raw, job.threshold, job.alpha)  # fmt: skip
-                    prev = (grey, d)
-                    for m, value in zip(meters, (raw, d)):
-                        m.add(grey, value)
-                        if k < a:
-                            m.restart()  # a warm-up frame: only the pair across start is counted
+                    d = filtered.step(image, nearness_from_depth(depth, kind=clip.kind), k < a)
                     if k < a:
                         continue
                 result = synthesize_stereo(image, d, kind="disparity", mapping=psi_at(job, k), display=job.display,
@@ -260,10 +267,8 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
         del store  # the map closes with its last reference, before its file is removed
     if stereo:
         job.disparity.unlink(missing_ok=True)
-    else:
-        for m in meters:
-            m.reset()  # the last frame stays behind
-    return meters
+        return None
+    return filtered.finish()
 
 
 def _match_task(job: ShotJob) -> tuple[int, tuple, tuple[float, float]]:
