@@ -82,3 +82,20 @@ def test_rgbd_kernel_is_the_float_split_then_grey():
     assert np.array_equal(image, colour) and image.flags.c_contiguous
     assert np.array_equal(grey, grey_levels(np.ascontiguousarray(depth)))
     assert np.array_equal(grey, grey_levels(depth.astype(np.float64)))  # the NumPy path of grey_levels too
+
+
+@pytest.mark.parametrize("layout", ["sbs", "tb", "half-sbs"])
+def test_stereo_lefts_of_a_video_are_the_left_views_of_its_pairs(tmp_path, layout):
+    from vergence.video import VideoWriter, open_stereo
+    from vergence.video.layout import layout_video_name
+
+    path = tmp_path / layout_video_name("clip", layout)
+    rng = np.random.default_rng(0)
+    shape = (32, 48) if layout != "tb" else (64, 24)
+    with VideoWriter(path, fps=24, width=shape[1], height=shape[0]) as out:
+        for _ in range(3):
+            out.write(rng.random((*shape, 3)).astype(np.float32))
+    clip = open_stereo(path)
+    lefts = list(clip.lefts(1, 3))
+    assert len(lefts) == 2 and all(np.array_equal(a, b[0]) for a, b in zip(lefts, clip.pairs(1, 3)))
+    assert lefts[0].flags.c_contiguous

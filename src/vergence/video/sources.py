@@ -69,6 +69,15 @@ class StereoClip:
 
     def lefts(self, start: int = 0, stop: int | None = None) -> Iterator[np.ndarray]:
         """Yield the left views only (what shot detection looks at)."""
+        if self.reader.files is None and self.layout in ("sbs", "tb"):  # a full-size video: convert the left view only
+            from vergence.video._kernels import unit_float_kernel
+
+            stop = self.reader._check_range(start, stop)
+            for frame in self.reader._video_frames(start, stop, as_float=False):
+                h, w = frame.shape[:2]
+                check_splits(w, h, self.layout)
+                yield unit_float_kernel(frame[:, : w // 2] if self.layout == "sbs" else frame[: h // 2])
+            return
         for left, _ in self.pairs(start, stop):
             yield left
 
