@@ -67,6 +67,9 @@ def test_truncated_input_keeps_the_frames_before_and_exits_2(clips, tmp_path, ca
     (["{stereo}", "--out", "{tmp}/o_Half_SBS.mp4", "--display", "tv-55"], "error: --out o_Half_SBS.mp4 is tagged"),
     (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--depth-kind", "metric"],
      "error: --depth-kind apply to a 2d+depth INPUT"),
+    # the input's --layout, not the output's --format
+    (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--layout", "lr"],
+     "error: --layout must be one of sbs, half-sbs, tb, half-tb; got 'lr'"),
     (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--budget-arcmin", "0"],
      "error: --budget-arcmin must be in (0, 600]"),
     (["{stereo}", "--out", "{tmp}/nowhere/o.mp4", "--display", "tv-55"], "error: --out folder"),

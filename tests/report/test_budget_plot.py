@@ -76,7 +76,7 @@ def test_bad_input(tmp_path, kw, error, match):
 def test_bad_set_ups_and_missing_folder(tmp_path):
     with pytest.raises(TypeError, match="^shooting must be a Shooting; got NoneType"):
         plot_budget(None, TV, near=1.0, far=2.0, path=tmp_path / "b.png")  # type: ignore[arg-type]
-    with pytest.raises(TypeError, match="^display must be a Display; got str"):
+    with pytest.raises(TypeError, match="^display must be a vergence.viewing.Display; got str"):
         plot_budget(ROUND, "tv-55", near=1.0, far=2.0, path=tmp_path / "b.png")  # type: ignore[arg-type]
     with pytest.raises(FileNotFoundError, match="does not exist"):
         plot_budget(ROUND, TV, near=1.0, far=2.0, path=tmp_path / "nope" / "b.png")

@@ -134,7 +134,7 @@ def test_shot_validates_when_built_directly():
     shot = shot_from_dict(TRI)
     with pytest.raises(ValueError, match="rig must be one of quadri, tri; got 'penta'"):
         replace(shot, rig="penta")
-    with pytest.raises(TypeError, match="display must be a Display; got str"):
+    with pytest.raises(TypeError, match="display must be a vergence.viewing.Display; got str"):
         replace(shot, display="tv-55")
     with pytest.raises(ValueError, match="reference must be one of round, div"):
         replace(shot, reference="flat")

@@ -321,9 +321,9 @@ def test_build_kermit(shared_data, tmp_path):
 
 
 def test_vertex_quality_checks_its_arguments(col):
-    with pytest.raises(TypeError, match="display must be a Display"):
+    with pytest.raises(TypeError, match="display must be a vergence.viewing.Display"):
         vertex_quality(col, (0, 1), "desktop-24", psnr_db=(20.0, 20.0))
-    with pytest.raises(ValueError, match="display must have a resolution"):
+    with pytest.raises(ValueError, match="^display resolution is unknown: give the screen width in pixels$"):
         vertex_quality(col, (0, 1), Display(0.065, 0.6, 0.5), psnr_db=(20.0, 20.0))
     with pytest.raises(TypeError, match="pair of camera indices"):
         vertex_quality(col, (0, 1.0), DESKTOP, psnr_db=(20.0, 20.0))

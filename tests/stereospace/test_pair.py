@@ -175,6 +175,10 @@ def test_quality_on_known_disparities(tmp_path):
     assert wide["inside"] and wide["fits_with_shift"]
     # the reversed pair is the same pair, swapped
     assert pair_quality(col, cams[::-1], display)["swapped"]
+    with pytest.raises(TypeError, match="^display must be a vergence.viewing.Display; got str$"):
+        pair_quality(col, cams, "desktop-24")
+    with pytest.raises(ValueError, match="^display resolution is unknown: give the screen width in pixels$"):
+        pair_quality(col, cams, Display(0.065, 0.6, 0.5))
 
 
 def test_toed_in_pair_has_rectification_distortion(plane):

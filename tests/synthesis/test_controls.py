@@ -108,7 +108,7 @@ def test_views_offsets():
         (np.full((2, 2), np.nan), {"budget_px": 5.0}, ValueError, "at least one known value"),
         (np.ones(3), {"budget_px": 5.0}, ValueError, r"depth must have shape \(H, W\); got \(3,\)"),
         (DEPTH, {"kind": "sonar", "budget_px": 5.0}, ValueError, "kind must be one of disparity, inverse, metric; got 'sonar'"),
-        (DEPTH, {"budget_px": 5.0, "display": "tv"}, TypeError, "display must be a Display; got str"),
+        (DEPTH, {"budget_px": 5.0, "display": "tv"}, TypeError, "display must be a vergence.viewing.Display; got str"),
         # Issue 9: inverse depth outside [0, 1] (MPEG's normalised 1/Z) is not a depth.
         (np.array([[0.5, 2.0]]), {"kind": "inverse", "budget_px": 5.0}, ValueError, r"depth must lie in \[0, 1\] for inverse depth .*got \[0.5, 2\]"),
         (np.array([[-0.5, 1.0]]), {"kind": "inverse", "budget_px": 5.0}, ValueError, r"depth must lie in \[0, 1\] for inverse depth .*got \[-0.5, 1\]"),

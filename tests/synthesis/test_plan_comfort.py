@@ -62,7 +62,7 @@ def test_the_warnings_read_the_same_report():
 
 @pytest.mark.parametrize(("args", "kwargs", "error", "message"), [
     ((None, Display.preset("desktop-24")), {}, TypeError, "plan must be a ParallaxPlan"),
-    (("plan", "desktop-24"), {}, TypeError, "display must be a Display"),
+    (("plan", "desktop-24"), {}, TypeError, "display must be a vergence.viewing.Display"),
     (("plan", Display(0.065, 0.6, 0.5)), {}, ValueError, "display resolution is unknown"),
     (("plan", Display.preset("desktop-24")), {"zone": 60.0}, TypeError, "zone must be a ComfortZone"),
 ])

@@ -177,7 +177,7 @@ def test_bad_depths(depths, error, match):
 def test_bad_set_ups():
     with pytest.raises(TypeError, match="^shooting must be a Shooting; got tuple"):
         depth_budget((0.1, 30.0, 3.0), TV)  # type: ignore[arg-type]
-    with pytest.raises(TypeError, match="^display must be a Display; got str"):
+    with pytest.raises(TypeError, match="^display must be a vergence.viewing.Display; got str"):
         depth_budget(RIG, "tv-55")  # type: ignore[arg-type]
 
 

@@ -161,16 +161,16 @@ TV_PX = Display(eye_separation=0.065, distance=3.0, width=1.2, resolution=1920)
         # wrong objects: TypeError naming the argument, never AttributeError
         (lambda: roundness(30.0, TV, RIG), TypeError, "^shooting must be a Shooting; got Display$"),
         (lambda: disparity(30.0, "rig"), TypeError, "^shooting must be a Shooting; got str$"),
-        (lambda: perceived_depth(0.0, "tv"), TypeError, "^display must be a Display; got str$"),
-        (lambda: perceived_depth_from_depth(30.0, RIG, None), TypeError, "^display must be a Display; got NoneType$"),
+        (lambda: perceived_depth(0.0, "tv"), TypeError, "^display must be a vergence.viewing.Display; got str$"),
+        (lambda: perceived_depth_from_depth(30.0, RIG, None), TypeError, "^display must be a vergence.viewing.Display; got NoneType$"),
         (lambda: scene_depth_from_disparity(0.1, "rig"), TypeError, "^shooting must be a Shooting; got str$"),
-        (lambda: divergence_baseline(1.0, "tv"), TypeError, "^display must be a Display; got str$"),
-        (lambda: roundness_baseline(1.0, None), TypeError, "^display must be a Display; got NoneType$"),
+        (lambda: divergence_baseline(1.0, "tv"), TypeError, "^display must be a vergence.viewing.Display; got str$"),
+        (lambda: roundness_baseline(1.0, None), TypeError, "^display must be a vergence.viewing.Display; got NoneType$"),
         (lambda: focal_ratio(1, 2), TypeError, "^shooting must be a Shooting; got int$"),
-        (lambda: divergence_depth(RIG, 1), TypeError, "^display must be a Display; got int$"),
-        (lambda: arcmin_from_pixels(1.0, "tv"), TypeError, "^display must be a Display; got str$"),
-        (lambda: ComfortZone().pixels("tv"), TypeError, "^display must be a Display; got str$"),
-        (lambda: check_disparity_range([0.0, 1.0], "tv"), TypeError, "^display must be a Display; got str$"),
+        (lambda: divergence_depth(RIG, 1), TypeError, "^display must be a vergence.viewing.Display; got int$"),
+        (lambda: arcmin_from_pixels(1.0, "tv"), TypeError, "^display must be a vergence.viewing.Display; got str$"),
+        (lambda: ComfortZone().pixels("tv"), TypeError, "^display must be a vergence.viewing.Display; got str$"),
+        (lambda: check_disparity_range([0.0, 1.0], "tv"), TypeError, "^display must be a vergence.viewing.Display; got str$"),
         (lambda: depth_budget(RIG, TV, "far"), TypeError, "^depths must be numeric; got str$"),
         # 1e308: a clean error, not an overflow warning
         (lambda: scene_depth_from_disparity(1e308, RIG), ValueError,
@@ -229,3 +229,25 @@ def test_subnormal_ranges_and_ramps_give_exact_results_without_overflow_warnings
     assert np.all(slopes >= 0) and np.all(np.isfinite(slopes))
     with pytest.raises(ValueError, match=r"^target_max - target_min = 4.94066e-324 is too narrow to give each of the 2 bins"):
         SaliencyMapping([0.0, 1.0, 2.0], [1.0, 1.0], 0.0, 5e-324)
+
+
+def test_check_display_is_the_one_display_check():
+    import doctest
+
+    from vergence.viewing import check_display, geometry
+
+    assert check_display(TV) is TV
+    assert check_display(TV_PX, name="target_display", resolution=True) is TV_PX
+    with pytest.raises(TypeError, match=r"^target_display must be a vergence\.viewing\.Display; got str$"):
+        check_display("tv-55", name="target_display")
+    with pytest.raises(TypeError, match=r"^display must be a vergence\.viewing\.Display; got NoneType$"):
+        check_display(None, resolution=True)
+    with pytest.raises(ValueError, match="^target_display resolution is unknown: give the screen width in pixels$"):
+        check_display(TV, name="target_display", resolution=True)
+    with pytest.raises(ValueError, match="^display resolution is unknown: give the screen width in pixels$"):
+        TV.pixel_pitch  # noqa: B018 - the property speaks as check_display
+    finder = doctest.DocTestFinder()
+    runner = doctest.DocTestRunner()
+    for test in finder.find(check_display, "check_display", globs=vars(geometry)):
+        runner.run(test)
+    assert runner.tries >= 3 and runner.failures == 0

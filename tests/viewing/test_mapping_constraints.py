@@ -257,7 +257,7 @@ def test_unsatisfiable_or_bad_constraints(constraints, near, far, error, match):
 def test_bad_rig_or_display_type():
     with pytest.raises(TypeError, match="reference must be a Shooting; got tuple"):
         psi_from_constraints((0.1, 30.0, 3.0), TV, ["z=30,perceived=3"], near=10.0, far=100.0)
-    with pytest.raises(TypeError, match="display must be a Display; got str"):
+    with pytest.raises(TypeError, match="display must be a vergence.viewing.Display; got str"):
         psi_from_constraints(Shooting(B_ROUND, H, W), "tv", ["z=30,perceived=3"], near=10.0, far=100.0)
 
 
@@ -339,5 +339,5 @@ def test_mapped_functions_bad_input():
         mapped_roundness(float("nan"), identity, ref, TV)
     with pytest.raises(TypeError, match="psi must be a DisparityMapping; got function"):
         mapped_roundness(10.0, lambda d: d, ref, TV)
-    with pytest.raises(TypeError, match="display must be a Display"):
+    with pytest.raises(TypeError, match="display must be a vergence.viewing.Display"):
         mapped_perceived_depth(10.0, identity, ref, None)

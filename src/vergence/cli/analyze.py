@@ -18,13 +18,22 @@ from vergence.cli._app import (
     preset_display,
     print_json,
 )
+from vergence.cli._video import (
+    DEPTH_KIND_OPTION,
+    DEPTH_SCALE_OPTION,
+    FPS_OPTION,
+    INPUT_KIND_OPTION,
+    LAYOUT_OPTION,
+    MAX_DISPARITY_OPTION,
+    METHOD_OPTION,
+    MIN_DISPARITY_OPTION,
+    check_input_kind,
+    open_input,
+)
 
 __all__ = ["analyze"]
 
-# What INPUT holds: a packed stereo clip, or colour + depth.
-INPUT_KINDS = ("stereo", "2d+depth")
-_OPTIONS = {"layout": "--layout", "kind": "--depth-kind", "scale": "--depth-scale", "fps": "--fps",
-            "every": "--every", "min_disparity": "--min-disparity", "max_disparity": "--max-disparity",
+_OPTIONS = {"every": "--every", "min_disparity": "--min-disparity", "max_disparity": "--max-disparity",
             "method": "--method", "budget_arcmin": "--budget-arcmin", "crossed_arcmin": "--comfort-arcmin",
             "uncrossed_arcmin": "--comfort-arcmin"}
 
@@ -36,64 +45,44 @@ def analyze(
     display_preset: str = typer.Option(..., "--display", help="Display preset (vergence budget --help lists them)."),
     depth: Path | None = typer.Option(None, "--depth", help="The depth clip of a colour INPUT (video, folder or "
                                       "image, same length and size)."),
-    kind: str | None = typer.Option(None, "--input-kind", help=f"What INPUT holds: {', '.join(INPUT_KINDS)}; "
-                                    "default from its name (_RGBD) and --depth, else stereo."),
-    layout: str | None = typer.Option(None, "--layout", help="Stereo layout: sbs, half-sbs, tb, half-tb; default "
-                                      "from the name's tag (_LRF_Full_SBS, _Half_SBS, _LR, _TB, -lr, -tb...)."),
-    depth_kind: str | None = typer.Option(None, "--depth-kind", help="2D + depth: what the depth holds: disparity, "
-                                          "inverse (iw3's, default), metric."),
-    depth_scale: float | None = typer.Option(None, "--depth-scale", help="2D + depth: stored 8-bit value / scale = "
-                                             "metres or pixels (needed for metric or disparity depth in a video)."),
+    kind: str | None = INPUT_KIND_OPTION,
+    layout: str | None = LAYOUT_OPTION,
+    depth_kind: str | None = DEPTH_KIND_OPTION,
+    depth_scale: float | None = DEPTH_SCALE_OPTION,
     budget_arcmin: float | None = typer.Option(None, "--budget-arcmin", help="2D + depth: the parallax budget of "
                                                "vergence synthesize, fitted per shot (+-A arcmin); default "
                                                f"{SYNTHESIS_BUDGET_ARCMIN:g}."),
     comfort_arcmin: float = typer.Option(60.0, "--comfort-arcmin", help="The comfort zone, +-C arcmin of vergence."),
     every: int = typer.Option(1, "--every", help="Analyse every Nth frame (matching is slow); cuts use all frames."),
-    min_disparity: int | None = typer.Option(None, "--min-disparity", help="Stereo: smallest disparity searched "
-                                             "(px); default -width/8, rounded up to 16."),
-    max_disparity: int | None = typer.Option(None, "--max-disparity", help="Stereo: largest disparity searched (px); "
-                                             "default width/8, rounded up to 16."),
-    method: str | None = typer.Option(None, "--method", help="Stereo: matcher (as vergence match); default sgbm."),
+    min_disparity: int | None = MIN_DISPARITY_OPTION,
+    max_disparity: int | None = MAX_DISPARITY_OPTION,
+    method: str | None = METHOD_OPTION,
     no_vertical: bool = typer.Option(False, "--no-vertical", help="Stereo: skip the vertical disparity of feature "
                                      "matches (SIFT on views at most 960 px wide)."),
-    fps: float | None = typer.Option(None, "--fps", help="Frame rate of an image folder (default 24)."),
+    fps: float | None = FPS_OPTION,
     report: Path | None = typer.Option(None, "--report", help="Write analysis.json, disparity.png, a thumbnail per "
                                        "shot and index.html into this folder."),
     as_json: bool = typer.Option(False, "--json", help="Print the analysis as JSON."),
 ) -> None:
     """Comfort of a stereo or 2D + depth clip on a display: disparity percentiles, comfort, divergence,
     stereo window, vertical disparity and a suggested retargeting, per frame and per shot."""
-    from vergence.video import guess_layout, open_depth_clip, open_stereo
     from vergence.video.analysis import analyze_clip
     from vergence.viewing import ComfortZone
 
     display = preset_display(display_preset)
-    if kind is not None and kind not in INPUT_KINDS:
-        raise ValueError(f"--input-kind must be one of {', '.join(INPUT_KINDS)}; got {kind!r}")
+    check_input_kind(kind)
     if not input_path.exists():
         raise FileNotFoundError(f"INPUT {input_path} does not exist")
-    if kind is None:
-        kind = "2d+depth" if depth is not None or (layout is None and guess_layout(input_path) == "rgbd") else "stereo"
-    given = {"stereo": [o for o, v in (("--layout", layout), ("--method", method), ("--min-disparity", min_disparity),
-                                      ("--max-disparity", max_disparity), ("--no-vertical", no_vertical or None))
-                        if v is not None],
-             "2d+depth": [o for o, v in (("--depth", depth), ("--depth-kind", depth_kind),
-                                         ("--depth-scale", depth_scale), ("--budget-arcmin", budget_arcmin))
-                          if v is not None]}
-    other = "2d+depth" if kind == "stereo" else "stereo"
-    if given[other]:
-        raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
-                         "(--input-kind)")
+    clip, kind = open_input(input_path, kind, depth=depth, layout=layout, depth_kind=depth_kind,
+                            depth_scale=depth_scale, fps=fps, depth_only={"--budget-arcmin": budget_arcmin},
+                            stereo_only={"--method": method, "--min-disparity": min_disparity,
+                                         "--max-disparity": max_disparity, "--no-vertical": no_vertical or None})
     if report is not None:
         check_output_path(report, input_path, *([depth] if depth is not None else []))
         if report.exists() and not report.is_dir():
             raise ValueError(f"--report {report} is a file; give a folder")
     with options_named(**_OPTIONS):
         zone = ComfortZone(crossed_arcmin=comfort_arcmin, uncrossed_arcmin=comfort_arcmin)
-        if kind == "stereo":
-            clip = open_stereo(input_path, layout=layout, fps=fps)
-        else:
-            clip = open_depth_clip(input_path, depth=depth, kind=depth_kind or "inverse", scale=depth_scale, fps=fps)
         with err_console.status(f"analysing {clip.frames} frames", spinner="dots") as status:
             def progress(done: int, total: int) -> None:
                 status.update(f"analysing frame {done} of {total}")

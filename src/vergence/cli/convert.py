@@ -10,14 +10,23 @@ import typer
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import SYNTHESIS_BUDGET_ARCMIN, app, check_output_path, console, err_console, options_named, \
     preset_display  # fmt: skip
+from vergence.cli._video import (
+    DEPTH_KIND_OPTION,
+    DEPTH_SCALE_OPTION,
+    FPS_OPTION,
+    INPUT_KIND_OPTION,
+    LAYOUT_OPTION,
+    MAX_DISPARITY_OPTION,
+    METHOD_OPTION,
+    MIN_DISPARITY_OPTION,
+    check_input_kind,
+    open_input,
+)
 from vergence.display import LAYOUTS
 
 __all__ = ["convert"]
 
-# What INPUT holds: a packed stereo clip, or colour + depth (as vergence analyze).
-INPUT_KINDS = ("stereo", "2d+depth")
-_OPTIONS = {"layout": "--format", "kind": "--depth-kind", "scale": "--depth-scale", "fps": "--fps",
-            "budget_arcmin": "--budget-arcmin", "pixel_format": "--pixel-format", "crf": "--crf", "preset": "--preset",
+_OPTIONS = {"layout": "--format", "budget_arcmin": "--budget-arcmin", "pixel_format": "--pixel-format", "crf": "--crf", "preset": "--preset",
             "origin": "--origin", "threshold": "--static-threshold", "alpha": "--stabilize-alpha",
             "transition": "--transition", "method": "--method", "min_disparity": "--min-disparity",
             "max_disparity": "--max-disparity", "out": "--out",
@@ -42,14 +51,10 @@ def convert(
                                "files at the same --crf)."),
     images: bool = typer.Option(False, "--images", help="Write PNG frames into a folder instead of a video."),
     depth: Path | None = typer.Option(None, "--depth", help="The depth clip of a colour INPUT (same length and size)."),
-    kind: str | None = typer.Option(None, "--input-kind", help=f"What INPUT holds: {', '.join(INPUT_KINDS)}; "
-                                    "default from its name (_RGBD) and --depth, else stereo."),
-    layout: str | None = typer.Option(None, "--layout", help="Stereo INPUT layout: sbs, half-sbs, tb, half-tb; "
-                                      "default from the name's tag."),
-    depth_kind: str | None = typer.Option(None, "--depth-kind", help="2D + depth: disparity, inverse (iw3's, "
-                                          "default), metric."),
-    depth_scale: float | None = typer.Option(None, "--depth-scale", help="2D + depth: stored 8-bit value / scale "
-                                             "= metres or pixels."),
+    kind: str | None = INPUT_KIND_OPTION,
+    layout: str | None = LAYOUT_OPTION,
+    depth_kind: str | None = DEPTH_KIND_OPTION,
+    depth_scale: float | None = DEPTH_SCALE_OPTION,
     origin: str | None = typer.Option(None, "--origin", help="left: keep the original view as the left one "
                                       "(stereo default); center: both views around it (2D + depth default)."),
     no_stabilize: bool = typer.Option(False, "--no-stabilize", help="Do not filter the disparity in time on "
@@ -60,11 +65,10 @@ def convert(
                                           "pixels (1 = no filter)."),
     transition: float = typer.Option(0.0, "--transition", help="Frames over which the mapping ramps across a cut "
                                      "(0 = reset at the cut)."),
-    method: str | None = typer.Option(None, "--method", help="Stereo: matcher (as vergence match); default sgbm."),
-    min_disparity: int | None = typer.Option(None, "--min-disparity", help="Stereo: smallest disparity searched "
-                                             "(px); default -width/8, rounded up to 16."),
-    max_disparity: int | None = typer.Option(None, "--max-disparity", help="Stereo: largest disparity searched (px)."),
-    fps: float | None = typer.Option(None, "--fps", help="Frame rate of an image folder (default 24)."),
+    method: str | None = METHOD_OPTION,
+    min_disparity: int | None = MIN_DISPARITY_OPTION,
+    max_disparity: int | None = MAX_DISPARITY_OPTION,
+    fps: float | None = FPS_OPTION,
     resume: bool = typer.Option(False, "--resume", help="Reuse the finished shots of an interrupted run (its work "
                                 "folder .OUT.parts beside the output)."),
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
@@ -90,12 +94,11 @@ def convert(
     --workers N or --scheduler, each shot (a long one split into pieces) is a Dask task writing its
     own segment (the same output).
     """
-    from vergence.video import converted_path, guess_layout, open_depth_clip, open_stereo
+    from vergence.video import converted_path
     from vergence.video.convert import convert_clip
 
     display = preset_display(display_preset)
-    if kind is not None and kind not in INPUT_KINDS:
-        raise ValueError(f"--input-kind must be one of {', '.join(INPUT_KINDS)}; got {kind!r}")
+    check_input_kind(kind)
     if fmt not in LAYOUTS:
         raise ValueError(f"--format must be one of {', '.join(LAYOUTS)}; got {fmt!r}")
     if not input_path.exists():
@@ -108,16 +111,9 @@ def convert(
     run_workers, run_scheduler = workers, scheduler
 
     def one(input_path: Path, kind: str | None) -> None:
-        if kind is None:
-            kind = "2d+depth" if depth is not None or (layout is None and guess_layout(input_path) == "rgbd") else "stereo"
-        given = {"stereo": [o for o, v in (("--layout", layout), ("--method", method), ("--min-disparity", min_disparity),
-                                          ("--max-disparity", max_disparity)) if v is not None],
-                 "2d+depth": [o for o, v in (("--depth", depth), ("--depth-kind", depth_kind),
-                                             ("--depth-scale", depth_scale)) if v is not None]}  # fmt: skip
-        other = "2d+depth" if kind == "stereo" else "stereo"
-        if given[other]:
-            raise ValueError(f"{', '.join(given[other])} apply to a {other} INPUT; {input_path.name} is read as {kind} "
-                             "(--input-kind)")
+        stereo_only = {"--method": method, "--min-disparity": min_disparity, "--max-disparity": max_disparity}
+        clip, _ = open_input(input_path, kind, depth=depth, layout=layout, depth_kind=depth_kind,
+                             depth_scale=depth_scale, fps=fps, stereo_only=stereo_only)
         with options_named(**_OPTIONS):
             target = converted_path(out, input_path, fmt, images=images)
         inputs = [input_path, *([depth] if depth is not None else [])]
@@ -127,10 +123,6 @@ def convert(
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
         with options_named(**_OPTIONS):
-            if kind == "stereo":
-                clip = open_stereo(input_path, layout=layout, fps=fps)
-            else:
-                clip = open_depth_clip(input_path, depth=depth, kind=depth_kind or "inverse", scale=depth_scale, fps=fps)
             columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
                        TextColumn("{task.fields[fps]}"), TimeRemainingColumn())  # fmt: skip
             # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).

@@ -18,6 +18,7 @@ from vergence.viewing.geometry import (
     CARDBOARD_ROUNDNESS,
     Display,
     Shooting,
+    check_display,
     divergence_baseline,
     divergence_depth,
     perceived_depth_from_depth,
@@ -72,8 +73,7 @@ def plot_budget(
     """
     if not isinstance(shooting, Shooting):
         raise TypeError(f"shooting must be a Shooting; got {type(shooting).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    check_display(display)
     near = check_positive("near", near)
     far = check_positive("far", far)
     if not near < far:

@@ -32,7 +32,7 @@ from vergence.camera import Camera, look_at
 from vergence.rigs.cameras import check_element_name
 from vergence.rigs.quadri import QuadriRig, plan_quadri_rig
 from vergence.rigs.tri import TRI_REFERENCES, TriRig, plan_tri_rig
-from vergence.viewing import DISPLAY_PRESETS, DirectorConstraint, Display
+from vergence.viewing import DISPLAY_PRESETS, DirectorConstraint, Display, check_display
 
 __all__ = ["EXAMPLE_SHOTS", "SHOT_RIGS", "Shot", "ShotCamera", "load_shot", "plan_document", "shot_from_dict"]
 
@@ -169,9 +169,9 @@ class Shot:
     def __post_init__(self) -> None:
         if self.rig not in SHOT_RIGS:
             raise ValueError(f"rig must be one of {', '.join(SHOT_RIGS)}; got {self.rig!r}")
-        for name, cls in (("display", Display), ("view", ShotCamera)):
-            if not isinstance(getattr(self, name), cls):
-                raise TypeError(f"{name} must be a {cls.__name__}; got {type(getattr(self, name)).__name__}")
+        check_display(self.display)
+        if not isinstance(self.view, ShotCamera):
+            raise TypeError(f"view must be a ShotCamera; got {type(self.view).__name__}")
         if self.reference not in TRI_REFERENCES:
             raise ValueError(f"reference must be one of {', '.join(TRI_REFERENCES)}; got {self.reference!r}")
 

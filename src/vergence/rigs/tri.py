@@ -33,7 +33,7 @@ from vergence.camera import Camera
 from vergence.rigs.cameras import RigCamera
 from vergence.rigs.distortion import WorldDistortion
 from vergence.rigs.stereo import _right_of
-from vergence.viewing import ConstrainedMapping, DirectorConstraint, Display, Shooting, psi_from_constraints
+from vergence.viewing import ConstrainedMapping, DirectorConstraint, Display, Shooting, check_display, psi_from_constraints
 
 __all__ = ["TRI_REFERENCES", "TriRig", "plan_tri_rig"]
 
@@ -192,8 +192,7 @@ def plan_tri_rig(
     """
     if not isinstance(director, Camera):
         raise TypeError(f"director must be a vergence.camera.Camera; got {type(director).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    check_display(display)
     if reference not in TRI_REFERENCES:
         raise ValueError(f"reference must be one of {', '.join(TRI_REFERENCES)}; got {reference!r}")
     items = _constraints(constraints)

@@ -29,7 +29,7 @@ import scipy.optimize
 
 from vergence._validate import check_positive, readonly_fields
 from vergence.render.tonemap import auto_exposure, tonemap
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 
 __all__ = [
     "PerceivedLightness",
@@ -74,8 +74,7 @@ def pixels_per_degree(display: Display, width_px: int) -> float:
     >>> round(pixels_per_degree(Display.preset("samsung-2233rz"), 1680), 1)
     37.1
     """
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    check_display(display)
     if isinstance(width_px, bool) or not isinstance(width_px, int | np.integer) or width_px < 1:
         raise ValueError(f"width_px must be an integer >= 1; got {width_px!r}")
     pitch = display.width / int(width_px)
@@ -280,8 +279,7 @@ def perceived_lightness(
     right = _checked_radiance("right", right_radiance, right_position)
     if right.shape != left.shape:
         raise ValueError(f"right_radiance must have the shape of left_radiance {left.shape}; got {right.shape}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    check_display(display)
     k = auto_exposure(left.sum(axis=0)) if exposure is None else check_positive("exposure", exposure)
     gain = _csf_gain(left.shape[1], left.shape[2], display)
     return PerceivedLightness(left=_lightness(left, k, gain), right=_lightness(right, k, gain), exposure=float(k),
@@ -321,7 +319,6 @@ def layer_lightness(radiance: object, position: object, display: Display, *, exp
         As :func:`perceived_lightness`.
     """
     rad = _checked_radiance("", radiance, radiance if position is None else position)
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    check_display(display)
     k = check_positive("exposure", exposure)
     return _lightness(rad, k, _csf_gain(rad.shape[1], rad.shape[2], display))

@@ -25,7 +25,7 @@ import numpy as np
 from vergence._validate import check_bool, check_in_range, readonly_fields
 from vergence.specular import _kernels
 from vergence.viewing.comfort import arcmin_from_pixels
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 
 __all__ = [
     "EPSILON_FRACTION",
@@ -329,10 +329,8 @@ def disparity_arcmin(disparity_px: object, display: Display, *, exact: bool = Tr
         raise ValueError(f"disparity_px must have shape (..., H, W, 2) with H, W >= 1; got {arr.shape}")
     if np.isinf(arr).any():
         raise ValueError("disparity_px must not contain inf (NaN marks a pixel with no match)")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    check_display(display, resolution=True)
     check_bool("exact", exact)
-    display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
     scale = display.resolution / arr.shape[-2]  # display pixels per image pixel
     out = np.full(arr.shape, np.nan)
     for axis, exact_axis in ((0, exact), (1, False)):

@@ -40,7 +40,7 @@ from vergence.specular.rivalry_map import rivalry
 from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, near_surface, on_surface
 from vergence.specular.tabulated import analyse_table
 from vergence.viewing.comfort import ComfortZone
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 
 __all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share",
            "offset_table_bytes", "specular_stereo"]
@@ -341,9 +341,7 @@ def specular_stereo(
         near_arcmin = _check_offset_arcmin(near_arcmin)
     except (TypeError, ValueError) as exc:  # named as this function's caller knows it
         raise type(exc)(str(exc).replace("offset_arcmin", "near_arcmin", 1)) from exc
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
-    display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
+    check_display(display, resolution=True)
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")

@@ -33,7 +33,7 @@ from vergence._validate import check_finite
 from vergence.specular.matching import layer_disparity
 from vergence.specular.offsets import _check_rig
 from vergence.viewing.comfort import MAX_VERGENCE_ARCMIN, pixels_from_arcmin
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 
 if TYPE_CHECKING:  # importing vergence.render imports Mitsuba: only when a result is checked
     from vergence.render import RenderResult
@@ -66,13 +66,6 @@ def _check_pair(left: object, right: object) -> tuple[RenderResult, RenderResult
                          f"got {right.radiance.shape}")  # fmt: skip
     _check_rig(left.camera, right.camera)
     return left, right
-
-
-def _check_display(display: object) -> Display:
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
-    display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
-    return display
 
 
 def _check_offset_arcmin(offset_arcmin: object) -> float:
@@ -259,7 +252,7 @@ def near_surface(
     0.118
     """
     left, right = _check_pair(left, right)
-    display = _check_display(display)
+    display = check_display(display, resolution=True)
     offset = _check_offset_arcmin(offset_arcmin)
     n, h, w = left.radiance.shape[:3]
     if n == 1:

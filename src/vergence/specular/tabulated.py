@@ -29,7 +29,7 @@ from vergence.specular.lightness import PerceivedLightness, layer_lightness, pix
 from vergence.specular.matching import LayerDisparity, disparity_arcmin
 from vergence.specular.offsets import OffsetTable
 from vergence.specular.rivalry_map import rivalry
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 
 __all__ = ["OffsetAnalysis", "analyse_table"]
 
@@ -124,8 +124,7 @@ def analyse_table(
 
     if not isinstance(table, OffsetTable):
         raise TypeError(f"table must be a vergence.specular.OffsetTable; got {type(table).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
+    check_display(display)
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
     t0 = time.perf_counter()

@@ -58,7 +58,7 @@ from vergence.stereospace.pair import PreparedCollection, space_from_graph
 from vergence.stereospace.quality import pair_quality
 from vergence.stereospace.space import StereoSpace, StereoState
 from vergence.stereospace.views import leave_one_out
-from vergence.viewing import ComfortZone, Display
+from vergence.viewing import ComfortZone, Display, check_display
 
 __all__ = [
     "DEFAULT_DISPLAY",
@@ -188,10 +188,7 @@ def vertex_quality(
     """
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
-    if display.resolution is None:
-        raise ValueError("display must have a resolution (screen width in pixels)")
+    check_display(display, resolution=True)
     if not (isinstance(cameras, tuple | list) and len(cameras) == 2
             and all(isinstance(c, int | np.integer) and not isinstance(c, bool) for c in cameras)):  # fmt: skip
         raise TypeError(f"cameras must be a pair of camera indices; got {cameras!r}")

@@ -13,7 +13,7 @@ import numpy as np
 from vergence.camera import Camera
 from vergence.depth import rectify_cameras
 from vergence.stereospace.collection import Collection
-from vergence.viewing import ComfortZone, Display, check_disparity_range
+from vergence.viewing import ComfortZone, Display, check_disparity_range, check_display
 
 __all__ = ["pair_quality"]
 
@@ -81,16 +81,13 @@ def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display
         raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
     if not (isinstance(cameras, tuple | list) and len(cameras) == 2 and all(isinstance(c, Camera) for c in cameras)):
         raise TypeError("cameras must be a pair of Camera instances")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    check_display(display, resolution=True)
     if isinstance(trim, bool) or not isinstance(trim, int | float) or not 0.0 <= trim < 0.5:
         raise ValueError(f"trim must be a fraction in [0, 0.5); got {trim!r}")
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
-    scale = display.resolution / cameras[0].width if display.resolution else None
-    if scale is None:
-        raise ValueError("display must have a resolution (screen width in pixels)")
+    scale = display.resolution / cameras[0].width
     first, second = cameras
     swapped = bool((second.center - first.center) @ first.R[0] < 0.0)
     left, right = (second, first) if swapped else (first, second)

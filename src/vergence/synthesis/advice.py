@@ -14,7 +14,7 @@ import numpy as np
 
 from vergence.synthesis.controls import ParallaxPlan
 from vergence.viewing.comfort import ComfortReport, ComfortZone, check_disparity_range
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 
 __all__ = ["MOSTLY_HOLES_FRACTION", "holes_warnings", "plan_comfort", "stereo_warnings"]
 
@@ -109,10 +109,7 @@ def _range_report(plan: ParallaxPlan, display: Display, zone: ComfortZone) -> Co
     """The report of ``plan.range_px`` on ``display`` (the arguments checked): no pass over the pixels."""
     if not isinstance(plan, ParallaxPlan):
         raise TypeError(f"plan must be a ParallaxPlan; got {type(plan).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
-    if display.resolution is None:
-        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    check_display(display, resolution=True)
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
     per_px = display.resolution / plan.parallax_px.shape[1]  # display pixels per image pixel

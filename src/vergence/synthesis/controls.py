@@ -30,7 +30,7 @@ from vergence._validate import check_finite, check_positive, check_positive_int
 from vergence.io.depth import DEPTH_KINDS
 from vergence.synthesis._checks import check_map
 from vergence.viewing.comfort import arcmin_from_pixels, pixels_from_arcmin
-from vergence.viewing.geometry import Display
+from vergence.viewing.geometry import Display, check_display
 from vergence.viewing.mapping import DisparityMapping, LinearMapping
 
 __all__ = [
@@ -164,9 +164,7 @@ def _finite_pair(name: str, value: object) -> tuple[float, float]:
 
 def _display_px(display: Display, image_width: int) -> float:
     """Display pixels per image pixel when the image fills the screen width."""
-    if display.resolution is None:
-        raise ValueError("display resolution is unknown: give the screen width in pixels")
-    return display.resolution / image_width
+    return check_display(display, resolution=True).resolution / image_width
 
 
 def plan_parallax(
@@ -244,8 +242,8 @@ def plan_parallax(
             "give exactly one control: budget_px or budget_arcmin, focal_px with interaxial, or mapping; "
             f"got {', '.join(modes) if modes else 'none'}"
         )
-    if display is not None and not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    if display is not None:
+        check_display(display)
     q_min, q_max = float(np.nanmin(q)), float(np.nanmax(q))
     p_min, p_max = -q_max, -q_min  # input parallax p = -q: uncrossed positive, like P
     p_c = None

@@ -250,14 +250,11 @@ def analyze_clip(
         Bad options, a display without resolution, and the errors of reading the clip, matching
         (an untextured frame) or planning the parallax (a flat depth shot).
     """
-    from vergence.viewing import ComfortZone, Display, arcmin_from_pixels
+    from vergence.viewing import ComfortZone, arcmin_from_pixels, check_display
 
     if not isinstance(clip, StereoClip | DepthClip):
         raise TypeError(f"clip must be a StereoClip or a DepthClip; got {type(clip).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
-    if display.resolution is None:
-        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    check_display(display, resolution=True)
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")

@@ -379,16 +379,13 @@ def _convert_clip(
     from vergence.video import _segments
     from vergence.video._matching import default_search_px
     from vergence.video.cuts import detect_cuts
-    from vergence.viewing import Display
+    from vergence.viewing import check_display
 
     started = time.perf_counter()
     parallel = client is not None
     if not isinstance(clip, StereoClip | DepthClip):
         raise TypeError(f"clip must be a StereoClip or a DepthClip; got {type(clip).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a vergence.viewing.Display; got {type(display).__name__}")
-    if display.resolution is None:
-        raise ValueError("display resolution is unknown: give the screen width in pixels")
+    check_display(display, resolution=True)
     budget = _check_number("budget_arcmin", budget_arcmin, 0.0, 600.0, lo_open=True)
     if not isinstance(layout, str) or layout not in LAYOUTS:
         raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}; got {layout!r}")

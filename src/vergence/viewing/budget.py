@@ -19,6 +19,7 @@ from vergence.viewing.geometry import (
     CARDBOARD_ROUNDNESS,
     Display,
     Shooting,
+    check_display,
     disparity,
     divergence_baseline,
     divergence_depth,
@@ -210,8 +211,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     """
     if not isinstance(shooting, Shooting):
         raise TypeError(f"shooting must be a Shooting; got {type(shooting).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    check_display(display)
     if depths is None:
         z = np.array(default_depths(shooting))
     else:

@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from vergence._validate import check_finite, check_in_range
-from vergence.viewing.geometry import MAX_ABS_DISPARITY, Display, _check_type, _out, _real_array
+from vergence.viewing.geometry import MAX_ABS_DISPARITY, Display, _out, _real_array, check_display
 
 __all__ = [
     "ARCMIN_PER_RADIAN",
@@ -94,9 +94,8 @@ def _checked(name: str, values: object, display: object, exact: object) -> np.nd
     if arr.size == 0 or np.isnan(arr).all():
         raise ValueError(f"{name} must hold at least one value that is not NaN (NaN marks an invalid pixel "
                          f"of a map); got {arr.size} value(s), none valid")
-    _check_type("display", display, Display)
+    check_display(display, resolution=True)
     _check_exact(exact)
-    display.pixel_pitch  # noqa: B018 - the resolution must be known: raises the documented ValueError
     return arr
 
 
@@ -243,7 +242,7 @@ class ComfortZone:
         return self.uncrossed_arcmin
 
     def _parallax(self, display: Display, exact: bool) -> tuple[float, float]:
-        _check_type("display", display, Display)
+        check_display(display)
         _check_exact(exact)
         s = _parallax_from_arcmin(np.array([self.min_arcmin, self.max_arcmin]), display, exact)
         return float(s[0]), float(s[1])
@@ -367,7 +366,7 @@ def check_disparity_range(
     (True, 7.2, 230.5)
     """
     values = _real_array("parallax_px", parallax_px, allow_nan=True)
-    _check_type("display", display, Display)
+    check_display(display)
     finite = values[np.isfinite(values)]
     if finite.size == 0:
         raise ValueError(f"parallax_px must hold at least one finite value; got {values.size} values, none finite")

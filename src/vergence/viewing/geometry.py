@@ -29,6 +29,7 @@ __all__ = [
     "MAX_SCENE_DEPTH",
     "ROUNDNESS_RANGE",
     "Shooting",
+    "check_display",
     "disparity",
     "divergence_baseline",
     "divergence_depth",
@@ -154,9 +155,55 @@ class Display:
     @property
     def pixel_pitch(self) -> float:
         """Width of one pixel in metres; needs ``resolution``."""
-        if self.resolution is None:
-            raise ValueError("display resolution is unknown: give the screen width in pixels")
-        return self.width / self.resolution
+        return self.width / check_display(self, resolution=True).resolution
+
+
+def check_display(display: object, *, name: str = "display", resolution: bool = False) -> Display:
+    """``display`` itself if it is a :class:`Display` (with a known ``resolution`` when asked), else an error.
+
+    The one check of a display argument that every public function of the package runs, so that all
+    speak alike.
+
+    Parameters
+    ----------
+    display : object
+        The argument to check.
+    name : str, optional
+        The argument's name in the message (default ``"display"``; e.g. ``"target_display"``).
+    resolution : bool, optional
+        Whether the horizontal pixel count must be known (conversions to pixels and arcminutes).
+
+    Returns
+    -------
+    Display
+        ``display``, unchanged.
+
+    Raises
+    ------
+    TypeError
+        If ``display`` is not a :class:`Display`: ``"NAME must be a vergence.viewing.Display; got TYPE"``.
+    ValueError
+        If ``resolution`` is true and ``display.resolution`` is None:
+        ``"NAME resolution is unknown: give the screen width in pixels"``.
+
+    Examples
+    --------
+    >>> check_display(Display(0.065, 3.0, 1.2, resolution=1920), resolution=True).resolution
+    1920
+    >>> check_display("tv-55", name="target_display")
+    Traceback (most recent call last):
+        ...
+    TypeError: target_display must be a vergence.viewing.Display; got str
+    >>> check_display(Display(0.065, 3.0, 1.2), resolution=True)
+    Traceback (most recent call last):
+        ...
+    ValueError: display resolution is unknown: give the screen width in pixels
+    """
+    if not isinstance(display, Display):
+        raise TypeError(f"{name} must be a vergence.viewing.Display; got {type(display).__name__}")
+    if resolution and display.resolution is None:
+        raise ValueError(f"{name} resolution is unknown: give the screen width in pixels")
+    return display
 
 
 # Typical viewing set-ups; eye separation 65 mm (adult mean). Screen widths are the diagonal times
@@ -276,7 +323,7 @@ def perceived_depth(d: object, display: Display) -> float | np.ndarray:
     3.0
     """
     d_ = _disparities("d", d)
-    _check_type("display", display, Display)
+    check_display(display)
     return _out(_perceived_depth(d_, display))
 
 
@@ -321,7 +368,7 @@ def roundness(z: object, shooting: Shooting, display: Display) -> float | np.nda
 def divergence_baseline(window: float, display: Display) -> float:
     """Largest baseline with no ocular divergence at any depth: ``b_div = b'W / W'`` (S0 Eq. 3)."""
     w = _length("window", window)
-    _check_type("display", display, Display)
+    check_display(display)
     return display.eye_separation * w / display.width
 
 
@@ -329,7 +376,7 @@ def roundness_baseline(convergence: float, display: Display, *, roundness: float
     """Baseline giving roundness ``rho`` on the convergence plane: ``b = rho b' H / H'`` (S0 Eq. 5)."""
     rho = _roundness("roundness", roundness)
     h = _length("convergence", convergence)
-    _check_type("display", display, Display)
+    check_display(display)
     return rho * display.eye_separation * h / display.distance
 
 
@@ -370,7 +417,7 @@ def divergence_depth(shooting: Shooting, display: Display) -> float:
 
 def _check_rig(shooting: object, display: object) -> None:
     _check_type("shooting", shooting, Shooting)
-    _check_type("display", display, Display)
+    check_display(display)
 
 
 def _eq2_denominator(z: np.ndarray, shooting: Shooting, display: Display) -> np.ndarray:

@@ -33,6 +33,7 @@ from vergence.viewing.geometry import (
     _length,
     _perceived_depth,
     _roundness,
+    check_display,
     scene_depth_from_disparity,
 )
 from vergence.viewing.mapping_hermite import pchip_slopes
@@ -458,8 +459,7 @@ def psi_from_constraints(
     """
     if not isinstance(reference, Shooting):
         raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    check_display(display)
     z_near = _length("near", near, (LENGTH_RANGE[0], MAX_SCENE_DEPTH))
     z_far = _length_or_inf("far", far)
     if not z_near < z_far:

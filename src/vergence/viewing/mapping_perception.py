@@ -18,11 +18,11 @@ from vergence.viewing.geometry import (
     MAX_SCENE_DEPTH,
     Display,
     Shooting,
-    _check_type,
     _out,
     _perceived_depth,
     _real_array,
     _roundness,
+    check_display,
 )
 from vergence.viewing.mapping_operators import DisparityMapping
 
@@ -61,7 +61,7 @@ def psi_value_for_depth(perceived: float, display: Display) -> float:
     0.0
     """
     zp = _length_or_inf("perceived", perceived, where=_VIEWER)
-    _check_type("display", display, Display)
+    check_display(display)
     limit = display.divergence_disparity
     return limit if math.isinf(zp) else limit * (1.0 - display.distance / zp)
 
@@ -111,8 +111,7 @@ def _check_setup(psi: object, reference: object, display: object) -> None:
         raise TypeError(f"psi must be a DisparityMapping; got {type(psi).__name__}")
     if not isinstance(reference, Shooting):
         raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
-    if not isinstance(display, Display):
-        raise TypeError(f"display must be a Display; got {type(display).__name__}")
+    check_display(display)
 
 
 def mapped_perceived_depth(
