@@ -133,6 +133,7 @@ def compute_disparity(
     block_size: int | None = None,
     valid: object = None,
     patchmatch: PatchMatchParameters | None = None,
+    planes: bool = False,
 ) -> RefinedDisparity:
     """Disparity of a rectified pair: matching then refinement (our default pipeline).
 
@@ -165,6 +166,11 @@ def compute_disparity(
     patchmatch : PatchMatchParameters, optional
         Settings of ``method="patchmatch"`` (default ``PatchMatchParameters()``; ``block_size`` replaces
         its window); refused with another method.
+    planes : bool
+        Fill the unmatched pixels of planar colour segments from their robust disparity planes before the
+        background filling (:func:`~vergence.depth.planes.fill_from_planes`; ``refine_disparity(planes=True)``):
+        for large weakly textured surfaces; off by default (see the README's table for the figures).
+        Not with ``patchmatch``, which fills from its own planes (PMS §3.4).
 
     Returns
     -------
@@ -193,6 +199,10 @@ def compute_disparity(
     if not isinstance(method, str) or method not in MATCHERS:
         raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
     keep_invalid = check_bool("keep_invalid", keep_invalid)
+    planes = check_bool("planes", planes)
+    if planes and method == "patchmatch":
+        raise ValueError("planes applies to the refinement of the other methods; method 'patchmatch' fills "
+                         "from its own planes (PMS §3.4)")
     if patchmatch is not None:
         if method != "patchmatch":
             raise ValueError(f"patchmatch parameters apply to method 'patchmatch' only; got method {method!r}")
@@ -224,7 +234,8 @@ def compute_disparity(
         raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
                                block_size=block_size)
         raw[~inside] = np.nan
-        result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid)
+        result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid,
+                                  planes=planes)
     disparity, confidence = result.disparity.copy(), result.confidence.copy()
     disparity[~inside] = np.nan
     confidence[~inside] = 0.0

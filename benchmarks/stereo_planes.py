@@ -1,0 +1,100 @@
+"""Bad-pixel table of the plane filling (issue 15): the default pipeline with and without ``planes=True``.
+
+Scenes, masks, search ranges and scoring as ``benchmarks/stereo_table.py`` (Middlebury v2 rule: bad when
+|error| > 1 px over nonocc, a missing estimate counts as bad); train and held-out scenes from
+``benchmarks/stereo_split.json``, with a mean for each set apart. The plane settings
+(:data:`~vergence.depth.planes.PLANE_SCALES`, :data:`~vergence.depth.planes.MIN_INLIER_SHARE`) were chosen
+with ``--tune``, which scores variants on the training scenes only.
+
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereo_planes.py [--scenes train|heldout|all] [--tune]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from stereo_table import DATA, SPLIT, bad, load  # noqa: E402
+
+from vergence.depth import compute_disparity, match_sgbm, refine_disparity, remove_speckles  # noqa: E402
+from vergence.depth.planes import fill_from_planes  # noqa: E402
+
+
+def table(which: str) -> None:
+    names = {"train": SPLIT["train"], "heldout": SPLIT["heldout"], "all": SPLIT["train"] + SPLIT["heldout"]}[which]
+    cols = ("default (sgbm)", "default + planes")
+    print(f"| scene | set | {' | '.join(cols)} | planes s |")
+    print("|---|---|" + "---:|" * (len(cols) + 1))
+    means = {"train": {c: [] for c in cols}, "held-out": {c: [] for c in cols}}
+    for name in names:
+        left, right, truth, nonocc, ndisp = load(name)
+        base = compute_disparity(left, right, max_disparity=ndisp - 1).disparity
+        t0 = time.perf_counter()
+        planes = compute_disparity(left, right, max_disparity=ndisp - 1, planes=True).disparity
+        seconds = time.perf_counter() - t0
+        figures = {cols[0]: bad(base, truth, nonocc), cols[1]: bad(planes, truth, nonocc)}
+        split = "train" if name in SPLIT["train"] else "held-out"
+        for c in cols:
+            means[split][c].append(figures[c])
+        print(f"| {name} | {split} | " + " | ".join(f"{figures[c]:.2f}" for c in cols) + f" | {seconds:.1f} |",
+              flush=True)
+    for split, m in means.items():
+        if m[cols[0]]:
+            print(f"| **{split} mean** ({len(m[cols[0]])} scenes) | | "
+                  + " | ".join(f"**{statistics.mean(m[c]):.2f}**" for c in cols) + " | |")
+
+
+def tune() -> None:
+    """Score plane settings on the training scenes only (SGBM matched once per scene)."""
+    scenes = []
+    for name in SPLIT["train"]:
+        left, right, truth, nonocc, ndisp = load(name)
+        scenes.append((name, left, match_sgbm(left, right, max_disparity=ndisp - 1), truth, nonocc))
+    cascades = ((200.0,), (1000.0,), (2000.0,), (2000.0, 1000.0, 500.0), (2000.0, 1000.0, 500.0, 200.0),
+                (200.0, 500.0, 1000.0, 2000.0), (4000.0, 2000.0, 1000.0))
+    rows = [("no planes", None, None)] + [(f"scales {c} share {s}", c, s)
+                                          for c, s in itertools.product(cascades, (0.5, 0.7, 0.85))]
+    for label, scales, share in rows:
+        figures = []
+        for _, left, raw, truth, nonocc in scenes:
+            if scales is None:
+                out = refine_disparity(raw, left).disparity
+            else:
+                h, w = raw.shape
+                kept = remove_speckles(raw, max_size=max(20, h * w // 2000))
+                planar = fill_from_planes(kept, left, scales=scales, min_inlier_share=share)
+                out = _refined(raw, planar, left)
+            figures.append(bad(out, truth, nonocc))
+        print(f"{label:55s} mean {statistics.mean(figures):6.2f} | "
+              + " ".join(f"{n} {b:.2f}" for (n, *_), b in zip(scenes, figures, strict=True)), flush=True)
+
+
+def _refined(raw: np.ndarray, planar: np.ndarray, left: np.ndarray) -> np.ndarray:
+    """refine_disparity(planes=True) with the planes given: their pixels join the known ones."""
+    return refine_disparity(np.where(np.isfinite(planar), planar, raw), left).disparity
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", choices=("train", "heldout", "all"), default="all")
+    ap.add_argument("--tune", action="store_true", help="score plane settings on the training scenes only")
+    args = ap.parse_args(argv)
+    if not DATA.is_dir():
+        print(f"shared data not found at {DATA}; see shared/data/SOURCES.md", file=sys.stderr)
+        return 1
+    if args.tune:
+        tune()
+    else:
+        table(args.scenes)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
