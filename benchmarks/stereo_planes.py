@@ -23,7 +23,15 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from stereo_table import DATA, SPLIT, bad, load  # noqa: E402
 
-from vergence.depth import compute_disparity, match_sgbm, refine_disparity, remove_speckles  # noqa: E402
+from vergence.depth import (  # noqa: E402
+    SMOOTHING_METHODS,
+    compute_disparity,
+    fill_occlusions,
+    match_sgbm,
+    refine_disparity,
+    remove_speckles,
+)
+from vergence.depth.refine import default_radius  # noqa: E402
 from vergence.depth.planes import fill_from_planes  # noqa: E402
 
 
@@ -70,15 +78,19 @@ def tune() -> None:
                 h, w = raw.shape
                 kept = remove_speckles(raw, max_size=max(20, h * w // 2000))
                 planar = fill_from_planes(kept, left, scales=scales, min_inlier_share=share)
-                out = _refined(raw, planar, left)
+                out = _refined(kept, planar, left)
             figures.append(bad(out, truth, nonocc))
         print(f"{label:55s} mean {statistics.mean(figures):6.2f} | "
               + " ".join(f"{n} {b:.2f}" for (n, *_), b in zip(scenes, figures, strict=True)), flush=True)
 
 
-def _refined(raw: np.ndarray, planar: np.ndarray, left: np.ndarray) -> np.ndarray:
-    """refine_disparity(planes=True) with the planes given: their pixels join the known ones."""
-    return refine_disparity(np.where(np.isfinite(planar), planar, raw), left).disparity
+def _refined(kept: np.ndarray, planar: np.ndarray, left: np.ndarray) -> np.ndarray:
+    """What ``refine_disparity(planes=True)`` does with the planes given (speckles already removed)."""
+    h, w = kept.shape
+    support = np.isfinite(planar)
+    filled = np.where(support, planar, fill_occlusions(kept)).astype(np.float32)
+    return SMOOTHING_METHODS["median"](filled, left, support, radius=default_radius(h, w), sigma_color=12.0,
+                                       keep_invalid=False)
 
 
 def main(argv: list[str] | None = None) -> int:

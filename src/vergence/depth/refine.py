@@ -429,9 +429,12 @@ def refine_disparity(
     matched = np.isfinite(raw)
     if not matched.any():
         raise ValueError("the matcher found no reliable disparity; check the disparity range and the image pair")
-    planar = fill_from_planes(raw, guide) if planes else raw
-    support = np.isfinite(planar)
-    filled = fill_occlusions(planar)
+    filled = fill_occlusions(raw)
+    support = matched
+    if planes:  # the row filling extrapolates from the matched pixels only (scored better on the training scenes)
+        planar = fill_from_planes(raw, guide)
+        support = np.isfinite(planar)
+        filled = np.where(support, planar, filled).astype(np.float32)
     out = SMOOTHING_METHODS[smoothing](filled, guide, support, radius=r, sigma_color=sigma_color,
                                        keep_invalid=keep_invalid)
     if keep_invalid:
