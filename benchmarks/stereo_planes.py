@@ -6,7 +6,8 @@ Scenes, masks, search ranges and scoring as ``benchmarks/stereo_table.py`` (Midd
 (:data:`~vergence.depth.planes.PLANE_SCALES`, :data:`~vergence.depth.planes.MIN_INLIER_SHARE`) were chosen
 with ``--tune``, which scores variants on the training scenes only.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereo_planes.py [--scenes train|heldout|all] [--tune]``
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereo_planes.py [--scenes train|heldout|all] [--patchmatch]
+[--tune]`` (about a minute; with ``--patchmatch`` about half an hour on 2 cores).
 """
 
 from __future__ import annotations
@@ -35,9 +36,9 @@ from vergence.depth.refine import default_radius  # noqa: E402
 from vergence.depth.planes import fill_from_planes  # noqa: E402
 
 
-def table(which: str) -> None:
+def table(which: str, with_patchmatch: bool) -> None:
     names = {"train": SPLIT["train"], "heldout": SPLIT["heldout"], "all": SPLIT["train"] + SPLIT["heldout"]}[which]
-    cols = ("default (sgbm)", "default + planes")
+    cols = ("default (sgbm)", "default + planes", *(("patchmatch", "patchmatch + planes") if with_patchmatch else ()))
     print(f"| scene | set | {' | '.join(cols)} | default s | + planes s |")
     print("|---|---|" + "---:|" * (len(cols) + 2))
     means = {"train": {c: [] for c in cols}, "held-out": {c: [] for c in cols}}
@@ -49,6 +50,10 @@ def table(which: str) -> None:
         planes = compute_disparity(left, right, max_disparity=ndisp - 1, planes=True).disparity
         seconds = (t1 - t0, time.perf_counter() - t1)
         figures = {cols[0]: bad(base, truth, nonocc), cols[1]: bad(planes, truth, nonocc)}
+        if with_patchmatch:
+            for c, p in zip(cols[2:], (False, True), strict=True):
+                pm = compute_disparity(left, right, max_disparity=ndisp - 1, method="patchmatch", planes=p)
+                figures[c] = bad(pm.disparity, truth, nonocc)
         split = "train" if name in SPLIT["train"] else "held-out"
         for c in cols:
             means[split][c].append(figures[c])
@@ -104,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", choices=("train", "heldout", "all"), default="all")
     ap.add_argument("--tune", action="store_true", help="score plane settings on the training scenes only")
+    ap.add_argument("--patchmatch", action="store_true",
+                    help="also patchmatch without and with planes (15-80 s per scene and column)")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"shared data not found at {DATA}; see shared/data/SOURCES.md", file=sys.stderr)
@@ -111,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.tune:
         tune()
     else:
-        table(args.scenes)
+        table(args.scenes, args.patchmatch)
     return 0
 
 

@@ -33,9 +33,9 @@ def test_match_planes_writes_what_the_library_computes(capsys, shared_data, tmp_
     assert code == 0 and json.loads(stdout)["planes"] is False
 
 
-def test_match_planes_with_patchmatch_is_refused_in_one_line(capsys, shared_data, tmp_path):
+def test_match_planes_refuses_a_non_flag_value_in_one_line(capsys, shared_data, tmp_path):
     tsukuba = shared_data / "stereo" / "tsukuba"
     code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
-                        "--method", "patchmatch", "--planes", "--out", str(tmp_path / "d.pfm"))
-    assert code == 2 and "--planes applies to the refinement of the other methods" in err
-    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "d.pfm").exists()
+                        "--planes=yes", "--out", str(tmp_path / "d.pfm"))
+    assert code == 2 and "--planes" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "d.pfm").exists()

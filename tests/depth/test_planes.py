@@ -8,6 +8,7 @@ import pytest
 
 from vergence.depth import (
     MIN_INLIER_SHARE,
+    PatchMatchParameters,
     SegmentPlanes,
     compute_disparity,
     fill_from_planes,
@@ -149,19 +150,23 @@ def test_fill_from_planes_leaves_a_segment_whose_plane_explains_too_few_pixels()
     assert np.isfinite(fill_from_planes(d2, guide, scales=(200.0,), min_inlier_share=0.4)[np.isnan(d)]).all()
 
 
-def test_compute_disparity_with_planes_on_a_textureless_slanted_square():
-    """End to end: SGBM leaves most of a flat square unmatched; the planes give its slanted disparity."""
+def _flat_slanted_square():
+    """A textured pair whose middle is a uniform square, all on the plane d = 0.05 x + 0.02 y + 8."""
     rng = np.random.default_rng(3)
     h, w = 120, 200
-    base = rng.random((h, w + 40)).astype(np.float32)
-    left = cv2.GaussianBlur(base, (3, 3), 0.7)[:, :w]
+    left = cv2.GaussianBlur(rng.random((h, w + 40)).astype(np.float32), (3, 3), 0.7)[:, :w]
     left[30:90, 50:150] = 0.5
-    a, b, c = 0.05, 0.02, 8.0  # d = a x + b y + c; the right pixel xr shows the left pixel (xr + b y + c) / (1 - a)
+    a, b, c = 0.05, 0.02, 8.0  # the right pixel xr shows the left pixel (xr + b y + c) / (1 - a)
     ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
     right = cv2.remap(left, (xs + b * ys + c) / (1 - a), ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-    truth = a * xs + b * ys + c
     inner = np.zeros((h, w), bool)
     inner[35:85, 55:145] = True
+    return left, right, a * xs + b * ys + c, inner
+
+
+def test_compute_disparity_with_planes_on_a_textureless_slanted_square():
+    """End to end: SGBM leaves most of a flat square unmatched; the planes give its slanted disparity."""
+    left, right, truth, inner = _flat_slanted_square()
     plain = compute_disparity(left, right, max_disparity=31, smoothing="none")
     planar = compute_disparity(left, right, max_disparity=31, smoothing="none", planes=True)
     assert plain.matched[inner].mean() < 0.5  # the flat square is mostly not matched
@@ -170,6 +175,22 @@ def test_compute_disparity_with_planes_on_a_textureless_slanted_square():
     assert bad_planar[inner].mean() < 0.1 < 0.5 < bad_plain[inner].mean()  # measured 4.2 % and 62 %
     assert bad_planar[inner & ~planar.matched].mean() < 0.01  # what is left: SGBM's wrong matches, kept
     np.testing.assert_array_equal(planar.matched, plain.matched)
+
+
+def test_patchmatch_with_planes_fills_its_failed_pixels_from_the_segment_planes():
+    left, right, truth, inner = _flat_slanted_square()
+    prm = PatchMatchParameters(window=11, iterations=2)
+    plain = compute_disparity(left, right, max_disparity=31, method="patchmatch", patchmatch=prm)
+    planar = compute_disparity(left, right, max_disparity=31, method="patchmatch", patchmatch=prm, planes=True)
+    np.testing.assert_array_equal(planar.matched, plain.matched)
+    np.testing.assert_array_equal(planar.disparity[plain.matched], plain.disparity[plain.matched])
+    changed = planar.disparity != plain.disparity
+    assert changed.any() and not (changed & plain.matched).any()
+    err = np.abs(planar.disparity - truth)[changed]
+    assert (err > 1.0).mean() < (np.abs(plain.disparity - truth)[changed] > 1.0).mean()
+    kept = compute_disparity(left, right, max_disparity=31, method="patchmatch", patchmatch=prm, planes=True,
+                             keep_invalid=True).disparity
+    np.testing.assert_array_equal(np.isfinite(kept), plain.matched | changed)  # planes kept, PMS's filling not
 
 
 def test_segment_image_labels():
@@ -231,8 +252,6 @@ def test_planes_option_bad_input():
     left = np.roll(right, 5, axis=1)
     with pytest.raises(TypeError, match="planes must be a bool; got str"):
         compute_disparity(left, right, max_disparity=15, planes="yes")
-    with pytest.raises(ValueError, match="method 'patchmatch' fills from its own planes"):
-        compute_disparity(left, right, max_disparity=15, method="patchmatch", planes=True)
     with pytest.raises(TypeError, match="planes must be a bool; got int"):
         refine_disparity(np.zeros((4, 4), np.float32), np.zeros((4, 4)), planes=1)
     with pytest.raises(ValueError, match="sigma must be a finite number >= 0"):

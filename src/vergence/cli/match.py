@@ -142,7 +142,7 @@ def match(
     ),
     planes: bool = typer.Option(
         False, "--planes", help="Fill unmatched pixels of planar colour segments from robust disparity planes "
-        "(large weakly textured surfaces; not with --method patchmatch)."
+        "(large weakly textured surfaces); with patchmatch, where its left-right check failed."
     ),
     block_size: int | None = typer.Option(
         None, "--block-size", help=f"Matching window (odd, px, at most {MAX_BLOCK_SIZE} and the image's smaller side)."
