@@ -105,6 +105,10 @@ def test_fit_by_hand_support_share_and_segments_without_a_plane():
     assert np.isnan(fit_segment_planes(d, labels, min_support=101).planes).all()  # too few pixels anywhere
     with pytest.raises(ValueError, match="read-only"):
         fit.planes[0, 0] = 1.0
+    with pytest.raises(ValueError, match=r"labels must lie in \[0, 2\] \(one plane per segment\); got \[0, 3\]"):
+        fit.disparity(labels + (labels == 2))
+    with pytest.raises(ValueError, match="labels must be an \\(H, W\\) integer array"):
+        fit.disparity(labels.astype(float))
 
 
 def _hole_in_slanted_plane():

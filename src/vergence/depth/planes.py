@@ -22,12 +22,14 @@ __all__ = ["MIN_INLIER_SHARE", "PLANE_SCALES", "SegmentPlanes", "fill_from_plane
 
 # Felzenszwalb scales of fill_from_planes, coarse to fine (each with min_size = scale / 2 px): a pixel
 # takes the plane of the coarsest segment that holds one. Chosen on the training scenes of
-# benchmarks/stereo_split.json only (benchmarks/stereo_planes.py --tune): one scale alone swung a
-# scene by 10 points from one scale to the next (midd1 27.7 % at 1000, 19.3 % at 2000, 31.1 % at
-# 4000); the cascade 2000-200 gave a 10.3 % training mean against 13.1 % without planes.
+# benchmarks/stereo_split.json only (benchmarks/stereo_planes.py --tune, mean % bad): one scale alone
+# swung a scene by 10 points from one scale to the next (midd1 30.1 % at 1000, 19.3 % at 2000); the
+# cascade 2000-1000-500-200 gave 10.26 against 13.14 without planes (fine to coarse: 11.11; 2000 alone:
+# 10.41; 200 alone: 12.73). Scales are in Felzenszwalb's units, so their segments are smaller, relative
+# to the image, on images larger than the ~0.35 Mpx training pairs.
 PLANE_SCALES = (2000.0, 1000.0, 500.0, 200.0)
 # Least share of a segment's reliable pixels within inlier_px of its plane for the plane to be used
-# (0.5 and 0.7 tied on the training mean; 0.7 changed tsukuba, venus and dolls less).
+# (0.5 and 0.7 tied at 10.26 on the training mean, 0.85 gave 11.77; 0.7 changed tsukuba and dolls less).
 MIN_INLIER_SHARE = 0.7
 
 # IRLS iterations of fit_segment_planes: Huber weights first (a convex cost, reached from the
@@ -65,7 +67,17 @@ class SegmentPlanes:
         readonly_fields(self, "planes", "support", "inlier_share")
 
     def disparity(self, labels: np.ndarray) -> np.ndarray:
-        """(H, W) float32 disparity of each pixel's segment plane, NaN where its segment has none."""
+        """(H, W) float32 disparity of each pixel's segment plane, NaN where its segment has none.
+
+        ``labels`` is the (H, W) integer array the planes were fitted with (``0 .. N-1``).
+        """
+        labels = np.asarray(labels)
+        if labels.ndim != 2 or not np.issubdtype(labels.dtype, np.integer):
+            raise ValueError(f"labels must be an (H, W) integer array; got shape {labels.shape}, dtype {labels.dtype}")
+        n = self.planes.shape[0]
+        if labels.size and (labels.min() < 0 or labels.max() >= n):
+            raise ValueError(f"labels must lie in [0, {n - 1}] (one plane per segment); got "
+                             f"[{labels.min()}, {labels.max()}]")
         h, w = labels.shape
         ys, xs = np.mgrid[0:h, 0:w]
         p = self.planes[labels]
@@ -250,7 +262,8 @@ def fill_from_planes(
     Segment-based stereo (Tao et al. 2001; Klaus et al. 2006 §2.2): a colour segment is assumed to be one
     planar surface, ``d = a x + b y + c``. Known pixels are never replaced: on the training scenes,
     replacing the matched pixels that disagree with their plane too scored worse (13.5 % against 12.8 %
-    at scale 200).
+    bad at scale 200 alone), and replacing only the untextured ones (:func:`~vergence.depth.textured_pixels`)
+    off by more than 1, 2 or 4 px gained nothing (10.25-10.42 % against 10.26 % with the default cascade).
 
     Examples
     --------
