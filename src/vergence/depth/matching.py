@@ -172,8 +172,8 @@ def compute_disparity(
         background filling (:func:`~vergence.depth.planes.fill_from_planes`; ``refine_disparity(planes=True)``):
         for large weakly textured surfaces; off by default (see the README's table for the figures).
         With ``patchmatch`` the pixels that failed its left-right check take the segment planes instead of
-        PMS's own filling and weighted median where a segment has one (13.97 -> 13.39 % bad on the training
-        scenes, scored on the left-right checked maps of ``benchmarks/stereo_table.py``).
+        PMS's own filling and weighted median where a segment has one (training mean 13.97 -> 13.39 % bad,
+        ``benchmarks/stereo_planes.py --patchmatch``).
 
     Returns
     -------
