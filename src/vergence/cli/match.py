@@ -140,6 +140,10 @@ def match(
         False, "--keep-invalid", help="Leave unmatched pixels unknown: NaN in .npy, inf in .pfm, 0 in .png/.pgm "
         "(there a true disparity 0 is stored as 1/scale px, with a warning)."
     ),
+    planes: bool = typer.Option(
+        False, "--planes", help="Fill unmatched pixels of planar colour segments from robust disparity planes "
+        "(large weakly textured surfaces); with patchmatch, where its left-right check failed."
+    ),
     block_size: int | None = typer.Option(
         None, "--block-size", help=f"Matching window (odd, px, at most {MAX_BLOCK_SIZE} and the image's smaller side)."
     ),
@@ -191,13 +195,13 @@ def match(
     start = time.perf_counter()
     names = {"block_size": "--block-size", "max_disparity": "--max-disparity", "min_disparity": "--min-disparity",
              "method": "--method", "smoothing": "--smoothing", "left and right": "LEFT and RIGHT", "left": "LEFT",
-             "right": "RIGHT", "valid": "--mask", "window": "--block-size", **pm_options}
+             "right": "RIGHT", "valid": "--mask", "planes": "--planes", "window": "--block-size", **pm_options}
     with err_console.status(f"matching ({method})", spinner="dots"), options_named(**names):
         a, b = read_image(left), read_image(right)
         valid = _mask(mask, a.shape[:2]) if mask is not None else None
         result = compute_disparity(a, b, max_disparity=max_disparity, min_disparity=min_disparity, method=method,
                                    smoothing=smoothing, keep_invalid=keep_invalid, block_size=block_size, valid=valid,
-                                   patchmatch=patchmatch)
+                                   patchmatch=patchmatch, planes=planes)
     seconds = time.perf_counter() - start
     disparity, stored_warning = _storable(result.disparity, scale) if integers else (result.disparity, None)
     warnings = [*result.warnings, *([stored_warning] if stored_warning else [])]
@@ -211,7 +215,7 @@ def match(
         pictures[confidence] = result.confidence
     _write_all(out, disparity, scale, pictures)
     summary = {"left": str(left), "right": str(right), "mask": None if mask is None else str(mask), "out": str(out),
-               "method": method, "smoothing": smoothing,
+               "method": method, "smoothing": smoothing, "planes": planes,
                **result.to_dict(), "warnings": warnings, "seconds": seconds}
     if as_json:
         print_json(summary)

@@ -3,6 +3,7 @@
 - :mod:`~vergence.depth.rectify`: Fusiello-Trucco-Verri rectification of a calibrated pair (Fusiello et al. 2000).
 - :mod:`~vergence.depth.matching`: OpenCV StereoSGBM/StereoBM and our window matcher, then refinement.
 - :mod:`~vergence.depth.patchmatch`: PatchMatch Stereo, slanted support windows (Bleyer et al. 2011).
+- :mod:`~vergence.depth.planes`: robust disparity planes of colour segments fill weakly textured areas.
 - :mod:`~vergence.depth.texture`: where an image has texture to match (uniform pairs are refused).
 - :mod:`~vergence.depth.refine`: left-right check, speckles, background filling, weighted median, confidence.
 - :mod:`~vergence.depth.evaluate`: the Middlebury bad-pixel and RMS figures over the standard regions.
@@ -28,6 +29,14 @@ from vergence.depth.matching import (
     sgbm_parameters,
 )
 from vergence.depth.patchmatch import PatchMatchParameters, PatchMatchResult, match_patchmatch, patchmatch_stereo
+from vergence.depth.planes import (
+    MIN_INLIER_SHARE,
+    PLANE_SCALES,
+    SegmentPlanes,
+    fill_from_planes,
+    fit_segment_planes,
+    segment_image,
+)
 from vergence.depth.preview import disparity_preview
 from vergence.depth.rectify import (
     Rectification,
@@ -53,8 +62,10 @@ from vergence.depth.texture import MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_p
 __all__ = [
     "MATCHERS",
     "MAX_BLOCK_SIZE",
+    "MIN_INLIER_SHARE",
     "MIN_TEXTURE",
     "MIN_TEXTURED_PERCENT",
+    "PLANE_SCALES",
     "PatchMatchParameters",
     "PatchMatchResult",
     "Rectification",
@@ -63,13 +74,16 @@ __all__ = [
     "RegionScore",
     "RowAlignment",
     "SMOOTHING_METHODS",
+    "SegmentPlanes",
     "compute_disparity",
     "confidence_map",
     "depth_from_disparity",
     "disparity_from_depth",
     "disparity_preview",
     "evaluate_disparity",
+    "fill_from_planes",
     "fill_occlusions",
+    "fit_segment_planes",
     "left_right_check",
     "mask_agreement",
     "match_blocks",
@@ -85,6 +99,7 @@ __all__ = [
     "rectify_pair",
     "refine_disparity",
     "remove_speckles",
+    "segment_image",
     "sgbm_parameters",
     "textured_pixels",
     "unreliable_pixels",

@@ -23,6 +23,7 @@ from vergence._validate import (
     check_same_hw,
 )
 from vergence.depth import _kernels
+from vergence.depth.planes import fill_from_planes
 
 __all__ = [
     "MAX_MEDIAN_BINS",
@@ -373,6 +374,7 @@ def refine_disparity(
     speckle_size: int | None = None,
     radius: int | None = None,
     sigma_color: float = 12.0,
+    planes: bool = False,
 ) -> RefinedDisparity:
     """Refine a raw disparity map: speckles, background filling, edge-aware smoothing, confidence.
 
@@ -394,6 +396,11 @@ def refine_disparity(
         ``max(1, radius // 8)`` pixels (between 17 x 17 and 31 x 31 votes, whatever the radius).
     sigma_color : float
         Colour scale of the weighted median, 8-bit levels.
+    planes : bool
+        Before the background filling, fill the unknown pixels of planar colour segments of ``guide``
+        from their robust planes (:func:`~vergence.depth.planes.fill_from_planes`); those pixels then vote
+        in the weighted median too, and ``keep_invalid`` keeps them. ``matched`` and the confidence still
+        count the matcher's own answers only.
 
     Returns
     -------
@@ -414,6 +421,7 @@ def refine_disparity(
     if not isinstance(smoothing, str) or smoothing not in SMOOTHING_METHODS:
         raise ValueError(f"smoothing must be one of {', '.join(SMOOTHING_METHODS)}; got {smoothing!r}")
     keep_invalid = check_bool("keep_invalid", keep_invalid)
+    planes = check_bool("planes", planes)
     h, w = d.shape
     size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
     r = default_radius(h, w) if radius is None else check_positive_int("radius", radius)
@@ -422,8 +430,13 @@ def refine_disparity(
     if not matched.any():
         raise ValueError("the matcher found no reliable disparity; check the disparity range and the image pair")
     filled = fill_occlusions(raw)
-    out = SMOOTHING_METHODS[smoothing](filled, guide, matched, radius=r, sigma_color=sigma_color,
+    support = matched
+    if planes:  # the row filling extrapolates from the matched pixels only (scored better on the training scenes)
+        planar = fill_from_planes(raw, guide)
+        support = np.isfinite(planar)
+        filled = np.where(support, planar, filled).astype(np.float32)
+    out = SMOOTHING_METHODS[smoothing](filled, guide, support, radius=r, sigma_color=sigma_color,
                                        keep_invalid=keep_invalid)
     if keep_invalid:
-        out = np.where(matched, out, np.nan).astype(np.float32)
+        out = np.where(support, out, np.nan).astype(np.float32)
     return RefinedDisparity(out, confidence_map(raw, out), matched)
