@@ -89,7 +89,7 @@ def test_keep_invalid_keeps_nan():
 
 def test_sgbm_parameters_by_hand():
     p = sgbm_parameters(288, 384, 16, 3)
-    assert p == {"numDisparities": 16, "blockSize": 3, "P1": 216, "P2": 432, "uniquenessRatio": 10,
+    assert p == {"numDisparities": 16, "blockSize": 5, "P1": 600, "P2": 1200, "uniquenessRatio": 2,
                  "disp12MaxDiff": 1, "preFilterCap": 15, "speckleWindowSize": 0, "speckleRange": 0,
                  "mode": cv2.StereoSGBM_MODE_SGBM_3WAY}
     assert sgbm_parameters(1080, 1920, 128, 1)["blockSize"] == 5
