@@ -22,7 +22,8 @@ __all__ = ["MIN_INLIER_SHARE", "PLANE_SCALES", "SegmentPlanes", "fill_from_plane
 
 # Felzenszwalb scales of fill_from_planes, coarse to fine (each with min_size = scale / 2 px): a pixel
 # takes the plane of the coarsest segment that holds one. Chosen on the training scenes of
-# benchmarks/stereo_split.json only (benchmarks/stereo_planes.py --tune, mean % bad): one scale alone
+# benchmarks/stereo_split.json only (benchmarks/stereo_planes.py --tune, mean % bad, with the SGBM settings before
+# block 5 px / uniqueness 2 %; with those, 12.27 -> 10.62): one scale alone
 # swung a scene by 10 points from one scale to the next (midd1 30.1 % at 1000, 19.3 % at 2000); the
 # cascade 2000-1000-500-200 gave 10.26 against 13.14 without planes (fine to coarse: 11.11; 2000 alone:
 # 10.41; 200 alone: 12.73). Scales are in Felzenszwalb's units, so their segments are smaller, relative
