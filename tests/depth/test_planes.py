@@ -262,3 +262,27 @@ def test_planes_option_bad_input():
         segment_image(np.zeros((4, 4)), sigma=-1.0)
     with pytest.raises(ValueError, match="scale"):
         segment_image(np.zeros((4, 4)), scale=0.0)
+
+
+def test_a_large_guide_is_segmented_on_a_smaller_copy_with_the_same_fill(monkeypatch):
+    from vergence.depth import planes
+
+    d, guide, truth = _hole_in_slanted_plane()
+    hole = np.isnan(d)
+    full = fill_from_planes(d, guide)
+    calls = []
+    original = planes.segment_image
+
+    def spy(image, **kwargs):
+        calls.append(np.shape(image)[:2])
+        return original(image, **kwargs)
+
+    monkeypatch.setattr(planes, "segment_image", spy)
+    monkeypatch.setattr(planes, "_SEGMENT_MAX_PIXELS", d.size // 4)  # the guide is "large": halved each way
+    small = fill_from_planes(d, guide)
+    assert calls and all(h * w <= d.size // 4 + d.shape[0] + d.shape[1] for h, w in calls)
+    np.testing.assert_allclose(small[hole], truth[hole], rtol=0, atol=FILL_PX)
+    np.testing.assert_array_equal(small[~hole], d[~hole])
+    np.testing.assert_allclose(small[hole], full[hole], rtol=0, atol=FILL_PX)
+    labels = planes._segments(guide, 200.0)
+    assert labels.shape == d.shape and set(np.unique(labels)) == set(range(labels.max() + 1))

@@ -10,8 +10,10 @@ Disparity is ``x_left - x_right`` in pixels, NaN = unknown (``docs/conventions.m
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from skimage.segmentation import felzenszwalb
 
@@ -29,6 +31,11 @@ __all__ = ["MIN_INLIER_SHARE", "PLANE_SCALES", "SegmentPlanes", "fill_from_plane
 # 10.41; 200 alone: 12.73). Scales are in Felzenszwalb's units, so their segments are smaller, relative
 # to the image, on images larger than the ~0.35 Mpx training pairs.
 PLANE_SCALES = (2000.0, 1000.0, 500.0, 200.0)
+# Larger guides are segmented on a copy area-averaged down to about this many pixels, the labels then
+# scaled back up (nearest): the scales above were chosen on scenes of 0.11-0.39 Mpx, so a segment keeps
+# its size relative to the image, and Felzenszwalb's time (about 4.5 s a scale at 1920x1080) falls with
+# the area. No training or held-out scene is larger, so their figures do not change.
+_SEGMENT_MAX_PIXELS = 400_000
 # Least share of a segment's reliable pixels within inlier_px of its plane for the plane to be used
 # (0.5 and 0.7 tied at 10.26 on the training mean, 0.85 gave 11.77; 0.7 changed tsukuba and dolls less).
 MIN_INLIER_SHARE = 0.7
@@ -219,6 +226,22 @@ def _fit(x: np.ndarray, y: np.ndarray, d: np.ndarray, lab: np.ndarray, n: int, k
     return SegmentPlanes(planes, support.astype(np.int64), share)
 
 
+def _segments(guide: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`segment_image` of ``guide`` at ``scale`` (``min_size = scale / 2``), on a copy of at most
+    :data:`_SEGMENT_MAX_PIXELS` pixels for a larger guide, the labels scaled back to its size."""
+    h, w = guide.shape[:2]
+    shrink = math.sqrt(h * w / _SEGMENT_MAX_PIXELS)
+    min_size = max(1, int(scale) // 2)
+    if shrink <= 1.0:
+        return segment_image(guide, scale=scale, min_size=min_size)
+    small = cv2.resize(np.ascontiguousarray(guide, dtype=np.float32), (max(1, round(w / shrink)),
+                       max(1, round(h / shrink))), interpolation=cv2.INTER_AREA)  # fmt: skip
+    labels = segment_image(np.clip(small, 0.0, 1.0), scale=scale, min_size=min_size)
+    up = cv2.resize(labels.astype(np.int32), (w, h), interpolation=cv2.INTER_NEAREST).astype(np.int64)
+    _, dense = np.unique(up, return_inverse=True)  # labels 0 .. N-1 again (a small segment may vanish)
+    return dense.reshape(h, w).astype(np.int64)
+
+
 def fill_from_planes(
     disparity: object,
     guide: object,
@@ -238,7 +261,9 @@ def fill_from_planes(
     guide : (H, W) or (H, W, C) image
         The left image, in [0, 1] (or 8/16-bit).
     scales : tuple of float
-        Felzenszwalb scales (:func:`segment_image`, ``min_size = scale / 2``), tried in this order.
+        Felzenszwalb scales (:func:`segment_image`, ``min_size = scale / 2``), tried in this order. A guide
+        of more than 400 000 pixels is segmented on a copy area-averaged down to that size (the scales
+        were chosen on images of 0.11-0.39 Mpx; the labels are scaled back up, the planes fitted at full size).
     min_inlier_share : float
         Least :attr:`SegmentPlanes.inlier_share` of a segment whose plane fills its unknown pixels, in (0, 1].
     inlier_px, min_support
@@ -296,7 +321,7 @@ def fill_from_planes(
     for sc in scales:
         if not todo.any():
             break
-        labels = segment_image(g, scale=float(sc), min_size=max(1, int(sc) // 2))
+        labels = _segments(g, float(sc))
         fit = fit_segment_planes(d, labels, reliable=known, inlier_px=inlier_px, min_support=min_support)
         plane = fit.disparity(labels)
         with np.errstate(invalid="ignore"):
