@@ -81,3 +81,21 @@ def test_textured_pixels_refuses_bad_thresholds():
     for bad in (0.0, -1.0, 0.6, float("nan"), "0.1"):
         with pytest.raises(ValueError, match="min_texture must be a number in"):
             textured_pixels(np.zeros((4, 4)), min_texture=bad)
+
+
+def test_textured_pixels_against_a_float64_loop_over_windows():
+    # The obviously-correct rule: RMS deviation of each 5 x 5 window (mirrored borders, as cv2.blur's
+    # BORDER_REFLECT_101), channels pooled, in float64; float32 may differ only on the threshold itself.
+    rng = np.random.default_rng(3)
+    img = np.clip(0.5 + rng.normal(0, 1, (12, 15, 3)) * rng.choice([0.0, 0.004, 0.02], (12, 15, 1)), 0, 1)
+    r = TEXTURE_WINDOW // 2
+    padded = np.pad(img, ((r, r), (r, r), (0, 0)), mode="reflect")
+    rms = np.empty(img.shape[:2])
+    for y in range(img.shape[0]):
+        for x in range(img.shape[1]):
+            window = padded[y:y + TEXTURE_WINDOW, x:x + TEXTURE_WINDOW].reshape(-1, 3)
+            rms[y, x] = np.sqrt(window.var(axis=0).mean())
+    got = textured_pixels(img)
+    clear = np.abs(rms - MIN_TEXTURE) > 1e-3 * MIN_TEXTURE
+    assert 0.2 < got.mean() < 0.9 and clear.mean() > 0.95
+    np.testing.assert_array_equal(got[clear], (rms >= MIN_TEXTURE)[clear])
