@@ -73,10 +73,8 @@ class StereoClip:
             from vergence.video._kernels import unit_float_kernel
 
             stop = self.reader._check_range(start, stop)
-            for frame in self.reader._video_frames(start, stop, as_float=False):
-                h, w = frame.shape[:2]
-                check_splits(w, h, self.layout)
-                yield unit_float_kernel(frame[:, : w // 2] if self.layout == "sbs" else frame[: h // 2])
+            for frame in self.reader._video_frames(start, stop, as_float=False):  # sizes checked by the reader
+                yield unit_float_kernel(split_frame(frame, self.layout)[0])
             return
         for left, _ in self.pairs(start, stop):
             yield left
@@ -130,8 +128,7 @@ class DepthClip:
             from vergence.video._kernels import rgbd_kernel
 
             stop = self.colour._check_range(start, stop)
-            for frame in self.colour._video_frames(start, stop, as_float=False):
-                check_splits(frame.shape[1], frame.shape[0], "rgbd")
+            for frame in self.colour._video_frames(start, stop, as_float=False):  # sizes checked by the reader
                 image, grey = rgbd_kernel(frame)  # the colour and the depth's grey level in one pass
                 yield image, self._depth_levels(grey)
             return

@@ -45,8 +45,8 @@ def _grey(frame: object, name: str) -> np.ndarray:
 
 
 def grey_levels(frame: np.ndarray) -> np.ndarray:
-    """Mean of R, G and B as float32 ``(H, W)``: ``(R + G + B) * (1/3)`` summed in float32 (a Numba kernel for float32
-    frames, one pass: 1080p in about 2 ms; other types through NumPy, the same order)."""
+    """Mean of R, G and B as float32 ``(H, W)``: ``(R + G + B) * (1/3)`` summed in float32 (a Numba kernel in one
+    pass for float32 frames; other types through NumPy, in the same order)."""
     if frame.dtype == np.float32 and frame.ndim == 3 and frame.shape[2] == 3:
         from vergence.video._kernels import grey_kernel
 
