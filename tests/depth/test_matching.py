@@ -60,10 +60,30 @@ def test_every_matcher_recovers_a_subpixel_shift(method, shift):
     assert res.matched.mean() > 0.5
 
 
-def test_opencv_matchers_mark_the_unmatched_left_border_as_nan():
+@pytest.mark.parametrize("min_disparity", [0, -8])
+def test_opencv_matchers_match_the_columns_left_of_the_search_range(min_disparity):
+    """OpenCV leaves the leftmost min + count columns blind; on mirrored margins they are matched."""
     left, right = _shifted_pair(6.0)
-    for d in (match_sgbm(left, right, max_disparity=20), match_bm(left, right, max_disparity=20)):
-        assert np.isnan(d[:, :3]).all() and np.isfinite(d[:, 40:80]).mean() > 0.8
+    for d in (match_sgbm(left, right, max_disparity=40, min_disparity=min_disparity),
+              match_bm(left, right, max_disparity=40, min_disparity=min_disparity)):
+        assert d.shape == left.shape[:2]
+        band = d[5:-5, 10:48]  # (BM leaves its half block of rows blank) inside OpenCV's blind band, whose matches lie inside the right view
+        assert np.isfinite(band).mean() > 0.9
+        assert abs(float(np.nanmedian(band)) - 6.0) < SUBPIXEL_TOL_PX
+        assert abs(float(np.nanmedian(d[:, 60:])) - 6.0) < SUBPIXEL_TOL_PX
+
+
+def test_opencv_matchers_leave_no_answer_where_the_match_is_outside_the_right_view():
+    """A left band whose match lies left of the right view (true disparity 14 > x): the mirrored margin
+    must not supply a match (any answer there with x - d < 0 is dropped)."""
+    h, w = 60, 120
+    right = _texture(h, w, 3)[:, :w]
+    left = np.concatenate([_texture(h, w, 4)[:, :14], right[:, : w - 14]], axis=1)  # new content at x < 14
+    for d in (match_sgbm(left, right, max_disparity=30), match_bm(left, right, max_disparity=30)):
+        assert abs(float(np.nanmedian(d[:, 30:])) - 14.0) < SUBPIXEL_TOL_PX
+        assert np.isfinite(d[:, :12]).mean() < 0.05
+        x_right = np.arange(w) - d
+        assert not (x_right < 0).any() and not (x_right > w - 1).any()
 
 
 def test_block_matcher_left_right_check_finds_the_occlusion():

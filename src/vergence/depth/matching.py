@@ -60,6 +60,37 @@ def _block_and_penalties(block: int, channels: int) -> dict:
     return {"blockSize": block, "P1": 8 * channels * block * block, "P2": 16 * channels * block * block}
 
 
+def _mirror_padded(a: np.ndarray, b: np.ndarray, lo: int, count: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Both views mirrored past their left and right sides, so that OpenCV matches every column.
+
+    OpenCV's StereoBM and StereoSGBM give no answer in the ``max(lo + count, 0)`` leftmost columns
+    (and the ``max(-lo, 0)`` rightmost ones), where part of the search range falls outside the other
+    view: at 128 disparities that is a fifth of a 640-px image, left to the filling. Matched on
+    mirrored margins (``BORDER_REFLECT_101``) those columns find the disparities that stay inside,
+    and the columns beyond are cut off again. Mirroring was chosen over repeated or black margins on
+    the training scenes of ``benchmarks/stereo_split.json`` (``benchmarks/stereo_border.py``).
+
+    Returns the padded views and the widths added on the left and on the right.
+    """
+    pad_left, pad_right = max(lo + count, 0), max(-lo, 0)
+    if pad_left or pad_right:
+        a = cv2.copyMakeBorder(a, 0, 0, pad_left, pad_right, cv2.BORDER_REFLECT_101)
+        b = cv2.copyMakeBorder(b, 0, 0, pad_left, pad_right, cv2.BORDER_REFLECT_101)
+    return a, b, pad_left, pad_right
+
+
+def _cropped(raw: np.ndarray, pad_left: int, pad_right: int, lo: int, hi: int) -> np.ndarray:
+    """The answer of the padded views on the original columns, NaN where the match lies in a margin.
+
+    A match in the mirrored margin is not a match (the true one is outside the other view): such
+    pixels are left unknown, as OpenCV leaves its blind band.
+    """
+    d = _from_fixed(raw[:, pad_left : raw.shape[1] - pad_right], lo, hi)
+    x_right = np.arange(d.shape[1], dtype=np.float32) - d
+    d[(x_right < 0) | (x_right > d.shape[1] - 1)] = np.nan
+    return d
+
+
 def _from_fixed(raw: np.ndarray, lo: int, hi: int) -> np.ndarray:
     d = raw.astype(np.float32) / np.float32(16.0)  # OpenCV: 4 fractional bits
     d[(raw < lo * 16) | (d > hi)] = np.nan  # invalid marker (min - 1) * 16, or beyond the asked range
@@ -92,7 +123,8 @@ def match_sgbm(
     prm = sgbm_parameters(a.shape[0], a.shape[1], count, channels)
     prm.update(_block_and_penalties(check_block_size(block_size, prm["blockSize"], shape=a.shape), channels))
     matcher = cv2.StereoSGBM_create(minDisparity=lo, **prm)
-    return _from_fixed(matcher.compute(a, b), lo, hi)
+    a, b, pad_left, pad_right = _mirror_padded(a, b, lo, count)
+    return _cropped(matcher.compute(a, b), pad_left, pad_right, lo, hi)
 
 
 def match_bm(
@@ -115,7 +147,8 @@ def match_bm(
     bm.setTextureThreshold(10)
     bm.setUniquenessRatio(15)
     bm.setDisp12MaxDiff(1)
-    return _from_fixed(bm.compute(a, b), lo, hi)
+    a, b, pad_left, pad_right = _mirror_padded(a, b, lo, count)
+    return _cropped(bm.compute(a, b), pad_left, pad_right, lo, hi)
 
 
 MATCHERS: MappingProxyType[str, Callable[..., np.ndarray]] = MappingProxyType(dict(sorted(
