@@ -32,7 +32,7 @@ from vergence.depth import (  # noqa: E402
     refine_disparity,
     remove_speckles,
 )
-from vergence.depth.refine import default_radius  # noqa: E402
+from vergence.depth.refine import MEDIAN_SIGMA_SPACE, default_radius  # noqa: E402
 from vergence.depth.planes import fill_from_planes  # noqa: E402
 
 
@@ -102,6 +102,7 @@ def _refined(kept: np.ndarray, planar: np.ndarray, left: np.ndarray) -> np.ndarr
     support = np.isfinite(planar)
     filled = np.where(support, planar, fill_occlusions(kept)).astype(np.float32)
     return SMOOTHING_METHODS["median"](filled, left, support, radius=default_radius(h, w), sigma_color=12.0,
+                                       sigma_space=MEDIAN_SIGMA_SPACE,
                                        keep_invalid=False)
 
 

@@ -38,7 +38,7 @@ def test_fill_background_rows_matches_the_loop(seed, nan_fraction):
     np.testing.assert_array_equal(_kernels.fill_background_rows(d), _slow_fill_rows(d))
 
 
-def _slow_weighted_median(d, guide, update, support, lut, radius, step, d_min, bin_w):
+def _slow_weighted_median(d, guide, update, support, lut, radius, step, d_min, bin_w, sigma_space=None):
     h, w = d.shape
     out = d.copy()
     n = radius // step
@@ -52,7 +52,8 @@ def _slow_weighted_median(d, guide, update, support, lut, radius, step, d_min, b
                     v, u = y + i * step, x + j * step
                     if 0 <= v < h and 0 <= u < w and support[v, u]:
                         d2 = int(((guide[y, x].astype(int) - guide[v, u].astype(int)) ** 2).sum())
-                        votes.append((int((d[v, u] - d_min) / bin_w), lut[d2], d[v, u]))
+                        near = 1.0 if sigma_space is None else math.exp(-((v - y) ** 2 + (u - x) ** 2) / (2 * sigma_space**2))
+                        votes.append((int((d[v, u] - d_min) / bin_w), lut[d2] * near, d[v, u]))
             if not votes:
                 continue
             total = sum(wt for _, wt, _ in votes)
@@ -66,8 +67,9 @@ def _slow_weighted_median(d, guide, update, support, lut, radius, step, d_min, b
     return out
 
 
+@pytest.mark.parametrize("sigma_space", [None, 1.5, 4.0])
 @pytest.mark.parametrize(("radius", "step", "channels"), [(2, 1, 3), (4, 2, 1), (5, 3, 3)])
-def test_weighted_median_matches_the_loop(radius, step, channels):
+def test_weighted_median_matches_the_loop(radius, step, channels, sigma_space):
     rng = np.random.default_rng(radius * 10 + step)
     h, w = 14, 19
     d = np.round(rng.uniform(2, 12, (h, w)) * 4).astype(np.float32) / 4 + rng.uniform(0, 0.2, (h, w)).astype(np.float32)
@@ -78,7 +80,11 @@ def test_weighted_median_matches_the_loop(radius, step, channels):
     lut = np.exp(-np.arange(channels * 255 * 255 + 1) / (2 * sigma * sigma)).astype(np.float32)
     d_min, bin_w = float(d[support].min()), 0.5
     nbins = int((float(d[support].max()) - d_min) / bin_w) + 1
-    fast = _kernels.weighted_median(d, guide, update, support, lut, radius, step, d_min, bin_w, nbins)
-    slow = _slow_weighted_median(d, guide, update, support, lut, radius, step, d_min, bin_w)
+    offsets = np.arange(-(radius // step), radius // step + 1) * step
+    dist2 = offsets[:, None] ** 2 + offsets[None, :] ** 2
+    space = np.ones(dist2.shape) if sigma_space is None else np.exp(-dist2 / (2 * sigma_space**2))
+    fast = _kernels.weighted_median(d, guide, update, support, lut, radius, step, d_min, bin_w, nbins,
+                                    space.astype(np.float32))
+    slow = _slow_weighted_median(d, guide, update, support, lut, radius, step, d_min, bin_w, sigma_space)
     np.testing.assert_allclose(fast, slow, rtol=0, atol=WM_ATOL)
     np.testing.assert_array_equal(fast[~update], d[~update])

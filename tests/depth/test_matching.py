@@ -73,6 +73,15 @@ def test_opencv_matchers_match_the_columns_left_of_the_search_range(min_disparit
         assert abs(float(np.nanmedian(d[:, 60:])) - 6.0) < SUBPIXEL_TOL_PX
 
 
+def test_sgbm_gives_no_wrong_answer_in_its_last_columns():
+    """StereoSGBM answers 0 in its last block // 2 columns whatever the scene: they are left unknown."""
+    left, right = _shifted_pair(6.0)
+    d = match_sgbm(left, right, max_disparity=20)
+    last = d[:, -3:]
+    assert (np.isnan(last) | (np.abs(last - 6.0) <= 1.0)).all()
+    assert np.isnan(d[:, -2:]).all()
+
+
 def test_opencv_matchers_leave_no_answer_where_the_match_is_outside_the_right_view():
     """A left band whose match lies left of the right view (true disparity 14 > x): the mirrored margin
     must not supply a match (any answer there with x - d < 0 is dropped)."""

@@ -19,7 +19,7 @@ from vergence.depth import (
     unreliable_pixels,
     weighted_median_filter,
 )
-from vergence.depth.refine import default_radius
+from vergence.depth.refine import MEDIAN_SIGMA_SPACE, default_radius
 from vergence.io import read_disparity, read_image
 
 # The median bin's mean of equal float32 values, accumulated with float32 weights: a few ulps.
@@ -109,7 +109,29 @@ def test_default_speckle_size_is_the_area_over_2000():
 
 
 def test_default_radius_by_hand():
-    assert (default_radius(480, 640), default_radius(100, 90), default_radius(1080, 1920)) == (27, 8, 80)
+    """16 px whatever the size, but never past the image's larger side."""
+    assert (default_radius(480, 640), default_radius(100, 90), default_radius(1080, 1920)) == (16, 16, 16)
+    assert (default_radius(12, 9), default_radius(3, 1)) == (12, 3)
+    with pytest.raises(ValueError, match="width"):
+        default_radius(10, 0)
+
+
+def test_spatial_weights_keep_votes_near_the_pixel():
+    """A far majority of colour-alike votes at another disparity outvotes a near minority only without
+    spatial weights: the bilateral weight lets the near ones decide."""
+    d = np.full((41, 41), 5.0, np.float32)
+    d[:, :17] = 20.0  # far columns (more than 3 px left of the centre): 17 x 41 votes at 20
+    d[:, 24:] = 20.0  # and 17 x 41 on the right; 7 columns near the centre at 5
+    img = np.full((41, 41), 0.5, np.float32)  # one colour: only the distance can tell the votes apart
+    update = np.zeros(d.shape, bool)
+    update[20, 20] = True
+    plain = weighted_median_filter(d, img, radius=20, update=update)
+    near = weighted_median_filter(d, img, radius=20, update=update, sigma_space=2.0)
+    assert plain[20, 20] == pytest.approx(20.0) and near[20, 20] == pytest.approx(5.0)
+    with pytest.raises(ValueError, match="sigma_space"):
+        weighted_median_filter(d, img, radius=2, sigma_space=0.0)
+    with pytest.raises(ValueError, match="sigma_space"):
+        refine_disparity(d, img, sigma_space=float("nan"))
 
 
 def test_median_smoothing_samples_the_window_every_radius_over_8_pixels():
@@ -123,7 +145,7 @@ def test_median_smoothing_samples_the_window_every_radius_over_8_pixels():
     raw = remove_speckles(d, max_size=1)
     filled = fill_occlusions(raw)
     expected = weighted_median_filter(filled, img, radius=16, step=2, update=unreliable_pixels(filled),
-                                      support=np.isfinite(raw))
+                                      support=np.isfinite(raw), sigma_space=MEDIAN_SIGMA_SPACE)
     np.testing.assert_array_equal(out, expected)
 
 

@@ -56,11 +56,13 @@ def weighted_median(
     d_min: float,
     bin_width: float,
     nbins: int,
+    space_weights: np.ndarray,
 ) -> np.ndarray:  # pragma: no cover - compiled
     """Colour-weighted median of ``disp`` over a sparse window, at the pixels where ``update`` is set.
 
     Samples ``(y + i*step, x + j*step)`` for ``|i*step|, |j*step| <= radius`` that lie in the image and
-    in ``support`` vote with weight ``weight_lut[|I_p - I_q|^2]`` (guide in integer levels). Votes are
+    in ``support`` vote with weight ``weight_lut[|I_p - I_q|^2] * space_weights[i + n, j + n]`` (guide in
+    integer levels; ``n = radius // step``, ``space_weights`` of shape ``(2n + 1, 2n + 1)``). Votes are
     binned by ``bin_width`` from ``d_min`` into ``nbins`` bins (which must cover every supporting
     value); the result is the mean of the votes in the bin where the cumulative
     weight first reaches half the total. Pixels with no supporting sample keep their value.
@@ -106,7 +108,7 @@ def weighted_median(
                     for k in range(c):
                         t = np.int32(guide[y, x, k]) - np.int32(guide[v, u, k])
                         d2 += t * t
-                    wt = weight_lut[d2]
+                    wt = weight_lut[d2] * space_weights[i + n, j + n]
                     b = int((disp[v, u] - d_min) / bin_width)
                     hist[b] += wt
                     hsum[b] += wt * disp[v, u]

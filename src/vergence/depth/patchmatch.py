@@ -253,9 +253,10 @@ def _post_process(planes_l: np.ndarray, planes_r: np.ndarray, guide_u8: np.ndarr
     guide = guide_u8 if guide_u8.ndim == 3 else guide_u8[:, :, None]
     lut = np.exp(-np.sqrt(np.arange(guide.shape[2] * 255 * 255 + 1, dtype=np.float64)) / prm["gamma"])
     nbins = int((d_max - d_min) / _MEDIAN_BIN_PX) + 1
+    n = 2 * (prm["radius"] // prm["step"]) + 1
     final = _kernels.weighted_median(np.ascontiguousarray(filled, np.float32), np.ascontiguousarray(guide),
                                      ~consistent, np.ones((h, w), bool), lut.astype(np.float32), prm["radius"],
-                                     prm["step"], d_min, _MEDIAN_BIN_PX, nbins)
+                                     prm["step"], d_min, _MEDIAN_BIN_PX, nbins, np.ones((n, n), np.float32))
     return PatchMatchResult(disparity=final.astype(np.float32), filled=filled.astype(np.float32),
                             raw=raw.astype(np.float32),
                             planes=planes_l.astype(np.float32))
