@@ -13,7 +13,10 @@ scene (``--pm-repeats`` runs, default 1: it takes minutes) and, with the raw SGB
 again, on a Middlebury pair at half size (dolls view1 / view5, 695 x 555, 128 disparities;
 Scharstein & Pal 2007), all in this process.
 
-Run: ``.venv/bin/python benchmarks/matching.py [--repeats N] [--pm-repeats N] [--no-patchmatch]``
+``--sgbm-mode hh4`` (or ``hh``, ``sgbm``) runs our pipeline with another OpenCV SGBM mode instead of
+3-way, to weigh the modes' time (``benchmarks/stereo_sgbm_grid.py`` scores them on the training scenes).
+
+Run: ``.venv/bin/python benchmarks/matching.py [--repeats N] [--pm-repeats N] [--no-patchmatch] [--sgbm-mode M]``
 """
 
 from __future__ import annotations
@@ -27,12 +30,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+import vergence.depth.matching as matching
 from vergence.depth import compute_disparity, fill_occlusions, match_sgbm, unreliable_pixels
 from vergence.io import read_image
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "stereo"
 DOLLS = DATA.parent / "multiview" / "dolls"
 H, W, NUM_DISPARITIES = 1080, 1920, 128
+SGBM_MODES = {"3way": cv2.StereoSGBM_MODE_SGBM_3WAY, "hh4": cv2.StereoSGBM_MODE_HH4, "hh": cv2.StereoSGBM_MODE_HH,
+              "sgbm": cv2.StereoSGBM_MODE_SGBM}
 BORDER = 10  # pixels ignored at the image edges when scoring, as in the Middlebury evaluation
 
 
@@ -87,7 +93,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--pm-repeats", type=int, default=1, help="PatchMatch runs per scene (minutes each at 1080p)")
     ap.add_argument("--no-patchmatch", action="store_true", help="time the SGBM pipelines only")
+    ap.add_argument("--sgbm-mode", choices=tuple(SGBM_MODES), default="3way",
+                    help="OpenCV SGBM mode of our pipeline (the raw baseline stays 3-way)")
     args = ap.parse_args(argv)
+    if args.sgbm_mode != "3way":
+        original = matching.sgbm_parameters
+        matching.sgbm_parameters = lambda *a: {**original(*a), "mode": SGBM_MODES[args.sgbm_mode]}
     if not DATA.is_dir():
         print(f"shared data not found at {DATA}; see shared/data/SOURCES.md", file=sys.stderr)
         return 1
@@ -118,7 +129,8 @@ def main(argv: list[str] | None = None) -> int:
     med = statistics.median
     refine = med(t_ours) - med(t_match)
     frac = float(np.mean(unreliable_pixels(fill_occlusions(matched))))
-    print(f"scene {W}x{H}, {NUM_DISPARITIES} disparities, {args.repeats} interleaved runs (median [min-max] s)")
+    print(f"scene {W}x{H}, {NUM_DISPARITIES} disparities, {args.repeats} interleaved runs (median [min-max] s)"
+          + (f"; our pipeline in SGBM mode {args.sgbm_mode}" if args.sgbm_mode != "3way" else ""))
     print(f"  raw OpenCV SGBM 3-way   {med(t_raw):.3f} [{min(t_raw):.3f}-{max(t_raw):.3f}]")
     print(f"  our default pipeline    {med(t_ours):.3f} [{min(t_ours):.3f}-{max(t_ours):.3f}]")
     print(f"    of which our SGBM call {med(t_match):.3f}, refinement {refine:.3f} "
