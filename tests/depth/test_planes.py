@@ -271,18 +271,19 @@ def test_a_large_guide_is_segmented_on_a_smaller_copy_with_the_same_fill(monkeyp
     hole = np.isnan(d)
     full = fill_from_planes(d, guide)
     calls = []
-    original = planes.segment_image
+    original = planes._pixel_graph
 
-    def spy(image, **kwargs):
+    def spy(image, sigma):
         calls.append(np.shape(image)[:2])
-        return original(image, **kwargs)
+        return original(image, sigma)
 
-    monkeypatch.setattr(planes, "segment_image", spy)
+    monkeypatch.setattr(planes, "_pixel_graph", spy)
     monkeypatch.setattr(planes, "_SEGMENT_MAX_PIXELS", d.size // 4)  # the guide is "large": halved each way
     small = fill_from_planes(d, guide)
     assert calls and all(h * w <= d.size // 4 + d.shape[0] + d.shape[1] for h, w in calls)
     np.testing.assert_allclose(small[hole], truth[hole], rtol=0, atol=FILL_PX)
     np.testing.assert_array_equal(small[~hole], d[~hole])
     np.testing.assert_allclose(small[hole], full[hole], rtol=0, atol=FILL_PX)
-    labels = planes._segments(guide, 200.0)
+    assert len(calls) == 1  # one graph for every scale
+    labels = next(planes._segments(guide, (200.0,)))
     assert labels.shape == d.shape and set(np.unique(labels)) == set(range(labels.max() + 1))

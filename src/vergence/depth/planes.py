@@ -11,13 +11,15 @@ Disparity is ``x_left - x_right`` in pixels, NaN = unknown (``docs/conventions.m
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from skimage.segmentation import felzenszwalb
+from scipy import ndimage
 
 from vergence._validate import as_float_array, as_image, check_positive, check_positive_int, readonly_fields
+from vergence.depth import _plane_kernels
 
 __all__ = ["MIN_INLIER_SHARE", "PLANE_SCALES", "SegmentPlanes", "fill_from_planes", "fit_segment_planes",
            "segment_image"]
@@ -39,6 +41,8 @@ _SEGMENT_MAX_PIXELS = 400_000
 # Least share of a segment's reliable pixels within inlier_px of its plane for the plane to be used
 # (0.5 and 0.7 tied at 10.26 on the training mean, 0.85 gave 11.77; 0.7 changed tsukuba and dolls less).
 MIN_INLIER_SHARE = 0.7
+# Gaussian pre-smoothing of the segmented guide, pixels (segment_image's default, FH 2004 §5).
+_SIGMA = 0.8
 
 # IRLS iterations of fit_segment_planes: Huber weights first (a convex cost, reached from the
 # median-constant start), then Tukey's bisquare, which gives gross outliers a zero weight.
@@ -93,7 +97,10 @@ class SegmentPlanes:
 
 
 def segment_image(image: object, *, scale: float = 200.0, sigma: float = 0.8, min_size: int = 100) -> np.ndarray:
-    """Colour segments of an image: Felzenszwalb & Huttenlocher's graph segmentation (scikit-image).
+    """Colour segments of an image: Felzenszwalb & Huttenlocher's graph segmentation.
+
+    The labels are those of scikit-image's ``felzenszwalb(image * 255, scale=scale, sigma=sigma,
+    min_size=min_size)`` (0.26), computed by a Numba kernel.
 
     Parameters
     ----------
@@ -117,9 +124,48 @@ def segment_image(image: object, *, scale: float = 200.0, sigma: float = 0.8, mi
     if not (isinstance(sigma, int | float | np.floating) and np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma must be a finite number >= 0; got {sigma!r}")
     m = check_positive_int("min_size", min_size)
-    labels = felzenszwalb(img.astype(np.float64) * 255.0, scale=s, sigma=float(sigma), min_size=m,
-                          channel_axis=None if img.ndim == 2 else -1)
-    return labels.astype(np.int64)
+    return _graph_segments(_pixel_graph(img, float(sigma)), s, m)
+
+
+@dataclass(frozen=True, slots=True)
+class _PixelGraph:
+    """The 8-connected pixel grid of an image, its edges sorted by colour distance (ends ``p``, ``q``)."""
+
+    shape: tuple[int, int]
+    p: np.ndarray
+    q: np.ndarray
+    cost: np.ndarray
+
+
+def _pixel_graph(image: np.ndarray, sigma: float) -> _PixelGraph:
+    """Edges of :func:`segment_image`, which do not depend on its scale: built and sorted once for all.
+
+    The image, on [0, 255] levels, is smoothed by a Gaussian of ``sigma`` px (reflected at the border);
+    an edge costs the Euclidean colour distance of its two pixels (FH 2004 §5, the colour case as one
+    image); ties keep NumPy's ``argsort`` order. Each step is scikit-image's ``felzenszwalb`` (0.26)
+    operation for operation, so the segments are its own to the bit (``tests/depth/test_plane_kernels.py``).
+    """
+    img = image.astype(np.float64) * 255.0
+    img = img[:, :, None] if img.ndim == 2 else img
+    img = ndimage.gaussian_filter(img, sigma=[sigma, sigma, 0.0], mode="reflect", truncate=4.0)
+    h, w = img.shape[:2]
+
+    def dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.sqrt(np.sum((a - b) * (a - b), axis=-1)).ravel()
+
+    cost = np.concatenate([dist(img[:, 1:], img[:, :-1]), dist(img[1:], img[:-1]),
+                           dist(img[1:, 1:], img[:-1, :-1]), dist(img[1:, :-1], img[:-1, 1:])])
+    order = np.argsort(cost)
+    p, q = _plane_kernels.grid_edges(order, h, w)
+    return _PixelGraph((h, w), p, q, cost[order])
+
+
+def _graph_segments(graph: _PixelGraph, scale: float, min_size: int) -> np.ndarray:
+    """(H, W) int64 labels of :func:`segment_image` at ``scale`` from the image's sorted edges."""
+    h, w = graph.shape
+    # the threshold k / |C| with k = scale / 255 on [0, 255] levels: scikit-image's rescaling of FH 2004 Eq. 5
+    return _plane_kernels.segment_graph(graph.p, graph.q, graph.cost, h * w, float(scale) / 255.0,
+                                        int(min_size)).reshape(h, w)
 
 
 def fit_segment_planes(
@@ -185,61 +231,58 @@ def fit_segment_planes(
 def _fit(x: np.ndarray, y: np.ndarray, d: np.ndarray, lab: np.ndarray, n: int, k: float,
          need: int) -> SegmentPlanes:
     """The IRLS of :func:`fit_segment_planes` on the reliable pixels' coordinates, values and labels."""
-    support = np.bincount(lab, minlength=n)
-
-    def sums(v: np.ndarray) -> np.ndarray:
-        return np.bincount(lab, weights=v, minlength=n)
-
+    perm, start = _plane_kernels.group_by_segment(lab, n)  # each segment's pixels together, in their order
+    support = np.diff(start)
     safe = np.maximum(support, 1)
-    cx, cy = sums(x) / safe, sums(y) / safe  # centred coordinates: a well-conditioned 3 x 3 system
-    u, v = x - cx[lab], y - cy[lab]
-    suu, suv, svv = sums(u * u) / safe, sums(u * v) / safe, sums(v * v) / safe
+    # centred coordinates: a well-conditioned 3 x 3 system
+    cx, cy, u, v, suu, suv, svv = _plane_kernels.centred_moments(x, y, perm, start)
+    d = d[perm]
     narrow = 0.5 * (suu + svv) - np.sqrt(0.25 * (suu - svv) ** 2 + suv * suv)  # smaller eigenvalue
     ok = (support >= need) & (narrow >= _MIN_SPREAD_PX ** 2)
-    # start: the median of each segment (sorted by label, then value)
-    order = np.lexsort((d, lab))
-    start = np.concatenate([[0], np.cumsum(support)[:-1]])
-    med = d[order][np.minimum(start + support // 2, max(d.size - 1, 0))] if d.size else np.zeros(n)
+    # start: the median of each segment (its support // 2-th smallest value)
     abc = np.zeros((n, 3))
-    abc[:, 2] = np.where(support > 0, med, 0.0)
+    abc[:, 2] = _plane_kernels.segment_medians(d, start)
     for it in range(_HUBER_ITERATIONS + _TUKEY_ITERATIONS):
-        r = np.abs(d - (abc[lab, 0] * u + abc[lab, 1] * v + abc[lab, 2]))
-        if it < _HUBER_ITERATIONS:
-            w = np.minimum(1.0, k / np.maximum(r, k))  # Huber: 1 inside k, k / |r| outside
-        else:
-            w = np.clip(1.0 - (r / (3.0 * k)) ** 2, 0.0, None) ** 2  # Tukey's bisquare, c = 3 k
-        m = np.empty((n, 3, 3))
-        m[:, 0, 0], m[:, 0, 1], m[:, 0, 2] = sums(w * u * u), sums(w * u * v), sums(w * u)
-        m[:, 1, 1], m[:, 1, 2], m[:, 2, 2] = sums(w * v * v), sums(w * v), sums(w)
-        m[:, 1, 0], m[:, 2, 0], m[:, 2, 1] = m[:, 0, 1], m[:, 0, 2], m[:, 1, 2]
-        rhs = np.stack([sums(w * u * d), sums(w * v * d), sums(w * d)], axis=1)
+        # Huber weights (1 inside k, k / |r| outside), then Tukey's bisquare with c = 3 k
+        s = _plane_kernels.irls_sums(u, v, d, start, abc, k, it >= _HUBER_ITERATIONS)
+        m = s[:, [0, 1, 2, 1, 3, 4, 2, 4, 5]].reshape(n, 3, 3)
+        rhs = s[:, 6:9].copy()
         det = np.linalg.det(m)
         solvable = ok & (np.abs(det) > _SINGULAR * np.maximum(m[:, 0, 0] * m[:, 1, 1] * m[:, 2, 2], 1e-300))
         m[~solvable] = np.eye(3)
         rhs[~solvable] = abc[~solvable]
         abc = np.where(solvable[:, None], np.linalg.solve(m, rhs[:, :, None])[:, :, 0], abc)
-    r = np.abs(d - (abc[lab, 0] * u + abc[lab, 1] * v + abc[lab, 2]))
-    inliers = np.bincount(lab, weights=(r <= k).astype(np.float64), minlength=n)
+    inliers = _plane_kernels.inlier_counts(u, v, d, start, abc, k)
     planes = np.column_stack([abc[:, 0], abc[:, 1], abc[:, 2] - abc[:, 0] * cx - abc[:, 1] * cy])
     planes[~ok] = np.nan
     share = np.where(ok, inliers / safe, 0.0)
     return SegmentPlanes(planes, support.astype(np.int64), share)
 
 
-def _segments(guide: np.ndarray, scale: float) -> np.ndarray:
-    """:func:`segment_image` of ``guide`` at ``scale`` (``min_size = scale / 2``), on a copy of at most
-    :data:`_SEGMENT_MAX_PIXELS` pixels for a larger guide, the labels scaled back to its size."""
+def _segments(guide: np.ndarray, scales: tuple[float, ...]) -> Iterator[np.ndarray]:
+    """:func:`segment_image` of ``guide`` at each of ``scales`` in turn (``min_size = scale / 2``), on a copy
+    of at most :data:`_SEGMENT_MAX_PIXELS` pixels for a larger guide, the labels scaled back to its size.
+
+    The sorted edges are built on the first request and shared by every scale.
+    """
     h, w = guide.shape[:2]
     shrink = math.sqrt(h * w / _SEGMENT_MAX_PIXELS)
-    min_size = max(1, int(scale) // 2)
-    if shrink <= 1.0:
-        return segment_image(guide, scale=scale, min_size=min_size)
-    small = cv2.resize(np.ascontiguousarray(guide, dtype=np.float32), (max(1, round(w / shrink)),
-                       max(1, round(h / shrink))), interpolation=cv2.INTER_AREA)  # fmt: skip
-    labels = segment_image(np.clip(small, 0.0, 1.0), scale=scale, min_size=min_size)
-    up = cv2.resize(labels.astype(np.int32), (w, h), interpolation=cv2.INTER_NEAREST).astype(np.int64)
-    _, dense = np.unique(up, return_inverse=True)  # labels 0 .. N-1 again (a small segment may vanish)
-    return dense.reshape(h, w).astype(np.int64)
+    small = guide if guide.ndim == 2 else guide[:, :, :3]
+    if shrink > 1.0:
+        small = cv2.resize(np.ascontiguousarray(small, dtype=np.float32), (max(1, round(w / shrink)),
+                           max(1, round(h / shrink))), interpolation=cv2.INTER_AREA)  # fmt: skip
+        small = np.clip(small, 0.0, 1.0)
+    graph = None
+    for scale in scales:
+        graph = _pixel_graph(small, _SIGMA) if graph is None else graph
+        labels = _graph_segments(graph, scale, max(1, int(scale) // 2))
+        if shrink <= 1.0:
+            yield labels
+            continue
+        up = cv2.resize(labels.astype(np.int32), (w, h), interpolation=cv2.INTER_NEAREST)
+        # labels 0 .. N-1 again, in the same order (a small segment may vanish)
+        dense = np.cumsum(np.bincount(up.ravel(), minlength=int(labels.max()) + 1) > 0) - 1
+        yield dense[up]
 
 
 def fill_from_planes(
@@ -318,14 +361,18 @@ def fill_from_planes(
     out = d.copy()
     lo, hi = float(d[known].min()), float(d[known].max())
     todo = ~known
-    for sc in scales:
+    segments = _segments(g, tuple(float(sc) for sc in scales))
+    for _ in scales:
         if not todo.any():
             break
-        labels = _segments(g, float(sc))
+        labels = next(segments)
         fit = fit_segment_planes(d, labels, reliable=known, inlier_px=inlier_px, min_support=min_support)
-        plane = fit.disparity(labels)
+        ys, xs = np.nonzero(todo)
+        seg = labels[ys, xs]
+        p = fit.planes[seg]
+        plane = (p[:, 0] * xs + p[:, 1] * ys + p[:, 2]).astype(np.float32)  # SegmentPlanes.disparity at todo
         with np.errstate(invalid="ignore"):
-            use = todo & (fit.inlier_share >= float(min_inlier_share))[labels] & (plane >= lo) & (plane <= hi)
-        out[use] = plane[use]
-        todo &= ~use
+            use = (fit.inlier_share[seg] >= float(min_inlier_share)) & (plane >= lo) & (plane <= hi)
+        out[ys[use], xs[use]] = plane[use]
+        todo[ys[use], xs[use]] = False
     return out
