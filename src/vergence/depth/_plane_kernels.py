@@ -85,6 +85,8 @@ def segment_graph(p: np.ndarray, q: np.ndarray, cost: np.ndarray, n: int, k: flo
             parent[b] = a
             size[a] += size[b]
             internal[a] = cost[i]
+    for i in range(n):
+        parent[i] = parent[parent[i]]  # parent[i] <= i, whose root is known: every pixel now points at its root
     for i in range(p.size):
         a = _root(parent, p[i])
         b = _root(parent, q[i])
