@@ -78,17 +78,17 @@ def _assert_same_fit(a: SegmentPlanes, b: SegmentPlanes) -> None:
 
 
 def _random_image(rng: np.random.Generator, h: int, w: int, channels: int, levels: int) -> np.ndarray:
-    """Blocky noise (segments worth finding) quantised to ``levels`` grey levels: few levels, many equal
-    edge costs, so the order of ties matters."""
+    """Blocky noise (segments worth finding) quantised to ``levels`` grey levels (0: not quantised): few
+    levels, many equal edge costs, so the order of ties matters."""
     coarse = rng.random((h // 4 + 1, w // 4 + 1) + ((channels,) if channels > 1 else ()))
     img = np.kron(coarse, np.ones((4, 4) + ((1,) if channels > 1 else ())))[:h, :w]
     img = np.clip(img + 0.15 * rng.standard_normal(img.shape), 0.0, 1.0)
-    return (np.round(img * (levels - 1)) / (levels - 1)).astype(np.float32)
+    return (img if levels == 0 else np.round(img * (levels - 1)) / (levels - 1)).astype(np.float32)
 
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), h=st.integers(1, 40), w=st.integers(1, 50), channels=st.sampled_from([1, 3]),
-       levels=st.sampled_from([2, 5, 256]), scale=st.floats(1.0, 3000.0), sigma=st.sampled_from([0.0, 0.5, 0.8, 2.0]),
+       levels=st.sampled_from([0, 2, 5, 256]), scale=st.floats(1.0, 3000.0), sigma=st.sampled_from([0.0, 0.5, 0.8, 2.0]),
        min_size=st.integers(1, 400))
 def test_segment_image_gives_the_labels_of_skimage(seed, h, w, channels, levels, scale, sigma, min_size):
     img = _random_image(np.random.default_rng(seed), h, w, channels, levels)
@@ -96,6 +96,23 @@ def test_segment_image_gives_the_labels_of_skimage(seed, h, w, channels, levels,
         img = img[:, :, None]  # (H, W, 1) as (H, W)
     ref = _skimage_labels(img[:, :, 0] if img.ndim == 3 and img.shape[2] == 1 else img, scale, sigma, min_size)
     np.testing.assert_array_equal(segment_image(img, scale=scale, sigma=sigma, min_size=min_size), ref)
+
+
+@pytest.mark.parametrize(("seed", "h", "w", "levels"), [(0, 35, 35, 3), (1, 24, 30, 5)])
+@pytest.mark.parametrize(("scale", "min_size"), [(50.0, 10), (1000.0, 100)])
+def test_segment_image_orders_equal_costs_as_skimage(seed, h, w, levels, scale, min_size):
+    """Unsmoothed images of a few levels: many equal edge costs, whose order changes the segments (a
+    stable sort gives others); scikit-image's order is NumPy's ``argsort``, and so is ours."""
+    img = _random_image(np.random.default_rng(seed), h, w, 3, levels)
+    labels = segment_image(img, scale=scale, sigma=0.0, min_size=min_size)
+    np.testing.assert_array_equal(labels, _skimage_labels(img, scale, 0.0, min_size))
+    c = img.astype(np.float64) * 255.0
+    cost = np.concatenate([np.sqrt(((a - b) ** 2).sum(-1)).ravel() for a, b in
+                           [(c[:, 1:], c[:, :-1]), (c[1:], c[:-1]), (c[1:, 1:], c[:-1, :-1]), (c[1:, :-1], c[:-1, 1:])]])
+    stable = np.argsort(cost, kind="stable")  # equal costs in edge order
+    p, q = _plane_kernels.grid_edges(stable, h, w)
+    other = _plane_kernels.segment_graph(p, q, cost[stable], h * w, scale / 255.0, min_size).reshape(h, w)
+    assert not np.array_equal(other, labels)
 
 
 @pytest.mark.parametrize(("scene", "name"), [("tsukuba", "im3.png"), ("venus", "im2.ppm")])
@@ -125,6 +142,20 @@ def _slow_grid_edges(h: int, w: int) -> np.ndarray:
     blocks = [(ids[:, :-1], ids[:, 1:]), (ids[:-1, :], ids[1:, :]), (ids[:-1, :-1], ids[1:, 1:]),
               (ids[:-1, 1:], ids[1:, :-1])]
     return np.concatenate([np.column_stack([a.ravel(), b.ravel()]) for a, b in blocks])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), size=st.integers(0, 3000), spread=st.sampled_from([1e-3, 1.0, 450.0, 1e300]))
+def test_sort_distinct_is_argsort_on_distinct_keys_and_reports_ties(seed, size, spread):
+    rng = np.random.default_rng(seed)
+    keys = rng.random(size) * spread
+    keys[: size // 10] = 0.0 if seed % 2 else keys[: size // 10]  # zeros among the keys, some draws
+    order, distinct = _plane_kernels.sort_distinct(keys)
+    assert distinct == (np.unique(keys).size == size)
+    np.testing.assert_array_equal(keys[order], np.sort(keys))
+    np.testing.assert_array_equal(order, np.argsort(keys, kind="stable"))  # a radix sort is stable
+    if distinct:
+        np.testing.assert_array_equal(order, np.argsort(keys))
 
 
 @pytest.mark.parametrize(("h", "w"), [(1, 1), (1, 7), (6, 1), (5, 8), (9, 4)])

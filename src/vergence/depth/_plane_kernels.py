@@ -12,7 +12,7 @@ import numba
 import numpy as np
 
 __all__ = ["centred_moments", "grid_edges", "group_by_segment", "inlier_counts", "irls_sums", "segment_graph",
-           "segment_medians"]
+           "segment_medians", "sort_distinct"]
 
 
 @numba.njit(cache=True)
@@ -47,6 +47,49 @@ def grid_edges(order: np.ndarray, h: int, w: int) -> tuple[np.ndarray, np.ndarra
             p[i] = y * w + x + 1
             q[i] = p[i] + w - 1
     return p, q
+
+
+_DIGIT_BITS = 16  # radix of sort_distinct: 4 passes over 64-bit keys (11 bits, 6 passes, measured slower)
+
+
+@numba.njit(cache=True)
+def sort_distinct(keys: np.ndarray) -> tuple[np.ndarray, bool]:  # pragma: no cover - compiled
+    """Order sorting the non-negative float64 ``keys`` (LSD radix sort of their bits), and whether they are
+    all distinct: then it is the only sorting order, ``numpy.argsort``'s included; with ties it is the
+    stable order, which ``argsort`` need not give.
+    """
+    n = keys.size
+    digits = 1 << _DIGIT_BITS
+    mask = np.uint64(digits - 1)
+    kb = keys.view(np.uint64).copy()  # +0.0 <= x: the bits of non-negative doubles order as the numbers
+    idx = np.arange(n)
+    kb2 = np.empty(n, np.uint64)
+    idx2 = np.empty(n, np.int64)
+    counts = np.zeros(digits, np.int64)
+    for shift in range(0, 64, _DIGIT_BITS):
+        sh = np.uint64(shift)
+        counts[:] = 0
+        for i in range(n):
+            counts[(kb[i] >> sh) & mask] += 1
+        if counts.max() == n:
+            continue  # one digit value for all: the order stands
+        total = 0
+        for b in range(digits):
+            c = counts[b]
+            counts[b] = total
+            total += c
+        for i in range(n):
+            b = (kb[i] >> sh) & mask
+            j = counts[b]
+            counts[b] = j + 1
+            kb2[j] = kb[i]
+            idx2[j] = idx[i]
+        kb, kb2 = kb2, kb
+        idx, idx2 = idx2, idx
+    for i in range(1, n):
+        if kb[i] == kb[i - 1]:
+            return idx, False
+    return idx, True
 
 
 @numba.njit(cache=True, inline="always")

@@ -142,7 +142,7 @@ def _pixel_graph(image: np.ndarray, sigma: float) -> _PixelGraph:
 
     The image, on [0, 255] levels, is smoothed by a Gaussian of ``sigma`` px (reflected at the border);
     an edge costs the Euclidean colour distance of its two pixels (FH 2004 §5, the colour case as one
-    image); ties keep NumPy's ``argsort`` order. Each step is scikit-image's ``felzenszwalb`` (0.26)
+    image); equal costs keep NumPy's ``argsort`` order. Each step is scikit-image's ``felzenszwalb`` (0.26)
     operation for operation, so the segments are its own to the bit (``tests/depth/test_plane_kernels.py``).
     """
     img = image.astype(np.float64) * 255.0
@@ -155,7 +155,9 @@ def _pixel_graph(image: np.ndarray, sigma: float) -> _PixelGraph:
 
     cost = np.concatenate([dist(img[:, 1:], img[:, :-1]), dist(img[1:], img[:-1]),
                            dist(img[1:, 1:], img[:-1, :-1]), dist(img[1:, :-1], img[:-1, 1:])])
-    order = np.argsort(cost)
+    order, distinct = _plane_kernels.sort_distinct(cost)  # the one sorting order of distinct costs
+    if not distinct:
+        order = np.argsort(cost)  # ties: scikit-image's (unstable) order of them
     p, q = _plane_kernels.grid_edges(order, h, w)
     return _PixelGraph((h, w), p, q, cost[order])
 
