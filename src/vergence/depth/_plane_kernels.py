@@ -4,6 +4,9 @@ Graph segmentation (Felzenszwalb & Huttenlocher 2004, IJCV 59(2), "Efficient Gra
 Segmentation", §4, Algorithm 1) on edges sorted once for every scale, and the per-segment sums and
 medians of the planes' IRLS. Slow, obviously correct references in ``tests/depth/test_plane_kernels.py``
 (scikit-image's ``felzenszwalb`` for the segmentation, the vectorised NumPy IRLS for the sums).
+
+All run on one thread: the union-find is sequential, and the per-segment loops, parallel over segments,
+gained 17 % at 1920x1080 (85 segments of unequal size) and lost 10x on two busy shared cores.
 """
 
 from __future__ import annotations

@@ -35,8 +35,8 @@ __all__ = ["MIN_INLIER_SHARE", "PLANE_SCALES", "SegmentPlanes", "fill_from_plane
 PLANE_SCALES = (2000.0, 1000.0, 500.0, 200.0)
 # Larger guides are segmented on a copy area-averaged down to about this many pixels, the labels then
 # scaled back up (nearest): the scales above were chosen on scenes of 0.11-0.39 Mpx, so a segment keeps
-# its size relative to the image, and Felzenszwalb's time (about 4.5 s a scale at 1920x1080) falls with
-# the area. No training or held-out scene is larger, so their figures do not change.
+# its size relative to the image, and the segmentation's time falls with the area (scikit-image's took
+# about 4.5 s a scale at 1920x1080). No training or held-out scene is larger, so their figures do not change.
 _SEGMENT_MAX_PIXELS = 400_000
 # Least share of a segment's reliable pixels within inlier_px of its plane for the plane to be used
 # (0.5 and 0.7 tied at 10.26 on the training mean, 0.85 gave 11.77; 0.7 changed tsukuba and dolls less).
