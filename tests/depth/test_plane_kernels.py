@@ -19,6 +19,7 @@ from vergence.depth.planes import (
     SegmentPlanes,
     _fit,
     _pixel_graph,
+    _sort_costs,
 )
 from vergence.io import read_image
 
@@ -156,6 +157,18 @@ def test_sort_distinct_is_argsort_on_distinct_keys_and_reports_ties(seed, size, 
     np.testing.assert_array_equal(order, np.argsort(keys, kind="stable"))  # a radix sort is stable
     if distinct:
         np.testing.assert_array_equal(order, np.argsort(keys))
+
+
+@pytest.mark.parametrize("case", ["distinct", "ties apart", "ties in a row", "empty", "one"])
+def test_sort_costs_is_numpy_argsort(case):
+    rng = np.random.default_rng(4)
+    values = rng.random(5000) * 400.0
+    cost = {"distinct": values, "ties apart": np.concatenate([values, values]),
+            "ties in a row": np.repeat(values, 2), "empty": values[:0], "one": values[:1]}[case]
+    order = _sort_costs(cost)
+    np.testing.assert_array_equal(order, np.argsort(cost))
+    if case == "ties apart":  # the radix sort's stable order is not argsort's: the fallback is needed
+        assert not np.array_equal(_plane_kernels.sort_distinct(cost)[0], order)
 
 
 @pytest.mark.parametrize(("h", "w"), [(1, 1), (1, 7), (6, 1), (5, 8), (9, 4)])

@@ -242,6 +242,8 @@ def test_fit_refuses_reliable_unknown_pixels():
         ({"scales": (100.0, -1.0)}, ValueError, "scales"),
         ({"min_inlier_share": 0.0}, ValueError, r"min_inlier_share must be a number in \(0, 1\]; got 0.0"),
         ({"min_inlier_share": 1.5}, ValueError, r"min_inlier_share must be a number in \(0, 1\]; got 1.5"),
+        ({"inlier_px": 0.0}, ValueError, "inlier_px"),  # refused even with nothing to fill
+        ({"min_support": 2}, ValueError, r"min_support must be at least 3 \(a plane has three parameters\); got 2"),
     ],
 )
 def test_fill_from_planes_bad_input(kwargs, error, message):
