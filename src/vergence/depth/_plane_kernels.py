@@ -245,7 +245,7 @@ def irls_sums(u: np.ndarray, v: np.ndarray, d: np.ndarray, start: np.ndarray, ab
         a = abc[s, 0]
         b = abc[s, 1]
         c = abc[s, 2]
-        acc = np.zeros(9)
+        s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = 0.0  # scalars: registers, not memory
         for i in range(start[s], start[s + 1]):
             ui = u[i]
             vi = v[i]
@@ -256,17 +256,17 @@ def irls_sums(u: np.ndarray, v: np.ndarray, d: np.ndarray, start: np.ndarray, ab
                 wt = t * t
             else:
                 wt = min(1.0, k / max(r, k))
-            acc[0] += wt * ui * ui
-            acc[1] += wt * ui * vi
-            acc[2] += wt * ui
-            acc[3] += wt * vi * vi
-            acc[4] += wt * vi
-            acc[5] += wt
-            acc[6] += wt * ui * di
-            acc[7] += wt * vi * di
-            acc[8] += wt * di
-        for j in range(9):
-            out[s, j] = acc[j]
+            s0 += wt * ui * ui
+            s1 += wt * ui * vi
+            s2 += wt * ui
+            s3 += wt * vi * vi
+            s4 += wt * vi
+            s5 += wt
+            s6 += wt * ui * di
+            s7 += wt * vi * di
+            s8 += wt * di
+        out[s, 0], out[s, 1], out[s, 2], out[s, 3], out[s, 4] = s0, s1, s2, s3, s4
+        out[s, 5], out[s, 6], out[s, 7], out[s, 8] = s5, s6, s7, s8
     return out
 
 
