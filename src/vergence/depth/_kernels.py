@@ -146,6 +146,15 @@ PMS_MIN_WEIGHT = 1e-3
 
 
 @numba.njit(cache=True, inline="always")
+def admissible(x, y, a, b, c, sgn, d_min, d_max):  # pragma: no cover - compiled
+    """Whether the plane ``(a, b, c)`` may stand at ``(x, y)``: its disparity there in ``[d_min, d_max]``, and
+    the plane seen from the front in the other view, where the pixel x lands at ``x + sgn d`` with
+    ``d(x + sgn d) / dx = 1 + sgn a >= _MIN_TRANSFER`` (a plane with ``1 + sgn a <= 0`` is seen edge-on or
+    from behind there: it maps the whole window onto one column, or mirrors it)."""
+    return d_min <= a * x + b * y + c <= d_max and 1.0 + sgn * a >= _MIN_TRANSFER
+
+
+@numba.njit(cache=True, inline="always")
 def _uniform(seed: np.uint64, index: np.int64) -> float:  # pragma: no cover - compiled
     """A uniform number in [0, 1) from ``(seed, index)``: splitmix64, so every pixel draws independently."""
     z = seed ^ (np.uint64(index) * _SM_GAMMA)
@@ -185,7 +194,8 @@ def gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads):
             wts[m] = wt
             for k in range(ch):
                 cols[m, k] = img[v, u, k]
-            grads[m] = grad[v, u]
+            for k in range(grad.shape[2]):
+                grads[m, k] = grad[v, u, k]
             m += 1
     return m
 
@@ -217,7 +227,9 @@ def window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn
         col = 0.0
         for k in range(ch):
             col += abs(cols[s, k] - ((1.0 - f) * other[v, x0, k] + f * other[v, x0 + 1, k]))
-        gd = abs(grads[s] - ((1.0 - f) * other_grad[v, x0] + f * other_grad[v, x0 + 1]))
+        gd = 0.0
+        for k in range(other_grad.shape[2]):
+            gd += abs(grads[s, k] - ((1.0 - f) * other_grad[v, x0, k] + f * other_grad[v, x0 + 1, k]))
         total += wts[s] * ((1.0 - alpha) * min(col, tau_color) + alpha * min(gd, tau_grad))
         if total >= bound:
             return total
@@ -225,9 +237,9 @@ def window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn
 
 
 @numba.njit(cache=True)
-def _buffers(radius, step, ch):  # pragma: no cover - compiled
+def _buffers(radius, step, ch, gch):  # pragma: no cover - compiled
     k = (2 * (radius // step) + 1) ** 2
-    return (np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k), np.empty((k, ch)), np.empty(k))
+    return (np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k), np.empty((k, ch)), np.empty((k, gch)))
 
 
 @numba.njit(cache=True)
@@ -235,9 +247,9 @@ def plane_cost(y, x, a, b, c, img, grad, other, other_grad, lut, radius, step, s
                d_min, d_max):  # pragma: no cover - compiled
     """Aggregated cost of the plane ``(a, b, c)`` at pixel ``(x, y)`` (PMS Eq. 2-5; see :func:`window_cost`);
     inf when the plane's disparity at the pixel leaves ``[d_min, d_max]``."""
-    if not (d_min <= a * x + b * y + c <= d_max):
+    if not admissible(x, y, a, b, c, sgn, d_min, d_max):
         return np.inf
-    us, vs, wts, cols, grads = _buffers(radius, step, img.shape[2])
+    us, vs, wts, cols, grads = _buffers(radius, step, img.shape[2], grad.shape[2])
     m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
     up = (other.shape[1] - 1) // (img.shape[1] - 1)
     return window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn, alpha, tau_color,
@@ -271,10 +283,10 @@ def all_costs(planes, img, grad, other, other_grad, lut, radius, step, sgn, alph
     up = (other.shape[1] - 1) // (w - 1)
     out = np.empty((h, w))
     for y in numba.prange(h):
-        us, vs, wts, cols, grads = _buffers(radius, step, img.shape[2])
+        us, vs, wts, cols, grads = _buffers(radius, step, img.shape[2], grad.shape[2])
         for x in range(w):
             a, b, c = planes[y, x, 0], planes[y, x, 1], planes[y, x, 2]
-            if not (d_min <= a * x + b * y + c <= d_max):
+            if not admissible(x, y, a, b, c, sgn, d_min, d_max):
                 out[y, x] = np.inf
                 continue
             m = gather_window(y, x, img, grad, lut, radius, step, us, vs, wts, cols, grads)
@@ -287,7 +299,7 @@ def all_costs(planes, img, grad, other, other_grad, lut, radius, step, sgn, alph
 def _try_plane(planes, costs, y, x, a, b, c, win, m, other, other_grad, up, sgn, alpha, tau_color, tau_grad, d_min,
                d_max):  # pragma: no cover - compiled
     """Adopt the plane ``(a, b, c)`` at ``(x, y)`` if its cost over the gathered window ``win`` is lower."""
-    if not (d_min <= a * x + b * y + c <= d_max):
+    if not admissible(x, y, a, b, c, sgn, d_min, d_max):
         return
     us, vs, wts, cols, grads = win
     cost = window_cost(m, us, vs, wts, cols, grads, a, b, c, other, other_grad, up, sgn, alpha, tau_color,
@@ -340,7 +352,7 @@ def sweep_rows(planes, costs, img, grad, other, other_grad, lut, radius, step, s
     h, w = costs.shape
     up = (other.shape[1] - 1) // (w - 1)
     for y in numba.prange(h):
-        win = _buffers(radius, step, img.shape[2])
+        win = _buffers(radius, step, img.shape[2], grad.shape[2])
         us, vs, wts, cols, grads = win
         for k in range(w):
             x = k if forward else w - 1 - k
@@ -360,7 +372,7 @@ def sweep_columns(planes, costs, img, grad, other, other_grad, lut, radius, step
     h, w = costs.shape
     up = (other.shape[1] - 1) // (w - 1)
     for x in numba.prange(w):
-        win = _buffers(radius, step, img.shape[2])
+        win = _buffers(radius, step, img.shape[2], grad.shape[2])
         us, vs, wts, cols, grads = win
         for k in range(h):
             y = k if forward else h - 1 - k
@@ -380,7 +392,7 @@ def view_propagation(planes, costs, other_planes, img, grad, other, other_grad, 
     h, w = costs.shape
     up = (other.shape[1] - 1) // (w - 1)
     for y in numba.prange(h):
-        win = _buffers(radius, step, img.shape[2])
+        win = _buffers(radius, step, img.shape[2], grad.shape[2])
         us, vs, wts, cols, grads = win
         for x in range(w):
             d = planes[y, x, 0] * x + planes[y, x, 1] * y + planes[y, x, 2]
