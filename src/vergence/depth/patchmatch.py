@@ -53,6 +53,8 @@ class PatchMatchParameters:
         Side of the square support window, pixels (odd, 3 to ``MAX_BLOCK_SIZE``; PMS: 35).
     step : int
         The window is sampled every ``step`` pixels (1: every pixel, as in PMS); at most half the window.
+        Training mean 13.70 % bad at 2, 13.36 % at 1 (tsukuba 4.19 -> 3.88, venus 1.10 -> 0.79) in 4.2 times
+        the time (252 -> 1060 s for the seven scenes on 2 shared cores).
     gamma : float
         Colour scale of the support weights ``w = exp(-|I_p - I_q|_1 / gamma)``, 8-bit levels (PMS Eq. 4).
     alpha : float
