@@ -38,6 +38,8 @@ def _slow_cost(y, x, a, b, c, img, grad, other, ograd, radius, step, sgn, d_min=
     h, w, ch = img.shape
     if not d_min <= a * x + b * y + c <= d_max:
         return math.inf
+    if 1.0 + sgn * a < 0.1:  # the plane seen edge-on or from behind in the other view
+        return math.inf
     total = 0.0
     n = radius // step
     for i in range(-n, n + 1):
@@ -51,10 +53,10 @@ def _slow_cost(y, x, a, b, c, img, grad, other, ograd, radius, step, sgn, d_min=
             xm = min(max(u + sgn * (a * u + b * v + c), 0.0), w - 1.0)
             x0 = min(int(math.floor(xm)), w - 2)
             f = xm - x0
-            colour = (1 - f) * other[v, x0].astype(np.float64) + f * other[v, x0 + 1]
-            g = (1 - f) * float(ograd[v, x0]) + f * float(ograd[v, x0 + 1])
+            colour = (1 - f) * other[v, x0].astype(np.float64) + f * other[v, x0 + 1].astype(np.float64)
+            g = (1 - f) * ograd[v, x0].astype(np.float64) + f * ograd[v, x0 + 1].astype(np.float64)
             rho = ((1 - ALPHA) * min(float(np.abs(img[v, u] - colour).sum()), TAU_C)
-                   + ALPHA * min(abs(float(grad[v, u]) - g), TAU_G))
+                   + ALPHA * min(float(np.abs(grad[v, u] - g).sum()), TAU_G))
             total += weight * rho
     return total
 
@@ -75,6 +77,25 @@ def test_plane_cost_matches_the_reference(seed):
     # a plane whose disparity at the pixel leaves the range is never adopted
     assert _kernels.plane_cost(3, 3, 0.0, 0.0, 9.0, img, grad, other, ograd, _lut(), 2, 1, -1.0, ALPHA, TAU_C, TAU_G,
                                0.0, 8.0) == math.inf
+    # nor one the other view sees edge-on or from behind: slope a >= 0.9 from the left, <= -0.9 from the right
+    for a, sgn in ((0.95, -1.0), (-0.95, 1.0)):
+        args = (img, grad, other, ograd, _lut(), 2, 1, sgn, ALPHA, TAU_C, TAU_G, 0.0, 8.0)
+        assert _kernels.plane_cost(3, 3, a, 0.0, 4.0 - 3 * a, *args) == math.inf
+        assert _kernels.plane_cost(3, 3, -a, 0.0, 4.0 + 3 * a, *args) < math.inf
+
+
+def test_gradient_is_the_sobel_x_derivative_over_8():
+    rng = np.random.default_rng(4)
+    img = np.rint(rng.uniform(0, 255, (7, 9, 3))).astype(np.float32)
+    grey = np.pad(img.mean(axis=2).astype(np.float64), 1, mode="edge")
+    want = np.zeros((7, 9))
+    for y in range(7):
+        for x in range(9):
+            for dy, wy in ((-1, 1), (0, 2), (1, 1)):
+                want[y, x] += wy * (grey[y + 1 + dy, x + 2] - grey[y + 1 + dy, x]) / 8
+    got = _gradient_x(img)
+    assert got.shape == (7, 9, 1)
+    np.testing.assert_allclose(got[:, :, 0], want, atol=1e-4)
 
 
 def _slow_sweep_rows(planes, costs, img, grad, other, ograd, radius, step, sgn, forward, d_min, d_max):
