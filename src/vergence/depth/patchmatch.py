@@ -128,6 +128,8 @@ def _gradient_x(img: np.ndarray) -> np.ndarray:
 
 def _upsampled(img: np.ndarray) -> np.ndarray:
     """``img`` (H, W[, C]) resampled along the rows at ``x = i / _UPSAMPLE``, ``i = 0 .. _UPSAMPLE (W - 1)`` (cubic)."""
+    if _UPSAMPLE == 1:  # the samples are the pixels
+        return img
     h, w = img.shape[:2]
     xs = np.arange(_UPSAMPLE * (w - 1) + 1, dtype=np.float32) / _UPSAMPLE
     map_x = np.broadcast_to(xs, (h, xs.size)).copy()
