@@ -458,6 +458,7 @@ def refine_disparity(
     h, w = d.shape
     size = max(20, (h * w) // 2000) if speckle_size is None else check_positive_int("speckle_size", speckle_size)
     r = default_radius(h, w) if radius is None else check_positive_int("radius", radius)
+    sig_s = None if sigma_space is None else check_positive("sigma_space", sigma_space)
     raw = remove_speckles(d, max_size=size) if np.isfinite(d).any() else d
     matched = np.isfinite(raw)
     if not matched.any():
@@ -468,7 +469,6 @@ def refine_disparity(
         planar = fill_from_planes(raw, guide)
         support = np.isfinite(planar)
         filled = np.where(support, planar, filled).astype(np.float32)
-    sig_s = None if sigma_space is None else check_positive("sigma_space", sigma_space)
     out = SMOOTHING_METHODS[smoothing](filled, guide, support, radius=r, sigma_color=sigma_color, sigma_space=sig_s,
                                        keep_invalid=keep_invalid)
     if keep_invalid:
