@@ -142,6 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--step", type=int, nargs="*", default=None, help="--tune: the window steps to try")
     ap.add_argument("--window", type=int, nargs="*", default=None, help="--tune: the windows to try")
     ap.add_argument("--gamma", type=float, nargs="*", default=None, help="--tune: the gammas to try")
+    ap.add_argument("--iterations", type=int, nargs="*", default=None, help="--tune: the iteration counts to try")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         print(f"shared data not found at {DATA}; see shared/data/SOURCES.md", file=sys.stderr)
@@ -152,7 +153,9 @@ def main(argv: list[str] | None = None) -> int:
         steps = args.step or [PatchMatchParameters().step]
         windows = args.window or [PatchMatchParameters().window]
         gammas = args.gamma or [PatchMatchParameters().gamma]
-        tune([PatchMatchParameters(window=w, step=s, gamma=g) for w in windows for s in steps for g in gammas])
+        counts = args.iterations or [PatchMatchParameters().iterations]
+        tune([PatchMatchParameters(window=w, step=s, gamma=g, iterations=n)
+              for w in windows for s in steps for g in gammas for n in counts])
     else:
         table(args.scenes, PatchMatchParameters())
     return 0

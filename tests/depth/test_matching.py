@@ -69,7 +69,9 @@ def test_opencv_matchers_match_the_columns_left_of_the_search_range(min_disparit
     for d in (match_sgbm(left, right, max_disparity=40, min_disparity=min_disparity),
               match_bm(left, right, max_disparity=40, min_disparity=min_disparity)):
         assert d.shape == left.shape[:2]
-        band = d[5:-5, 10:48]  # (BM leaves its half block of rows blank) inside OpenCV's blind band, whose matches lie inside the right view
+        # inside OpenCV's blind band, where the matches lie inside the right view (BM leaves its half
+        # block of rows blank)
+        band = d[5:-5, 10:48]
         assert np.isfinite(band).mean() > 0.9
         assert abs(float(np.nanmedian(band)) - 6.0) < SUBPIXEL_TOL_PX
         assert abs(float(np.nanmedian(d[:, 60:])) - 6.0) < SUBPIXEL_TOL_PX
