@@ -8,18 +8,18 @@ and exit code 2, never a traceback (``vergence.cli._run``).
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
 
 from vergence.cli._group import LazyGroup
+from vergence.commands._spec import Command, ParameterError, to_json
 
 if TYPE_CHECKING:
     from vergence.camera import Camera
@@ -49,8 +49,9 @@ err_console = Console(stderr=True)
 
 
 def print_json(data: object) -> None:
-    """Print ``data`` as JSON on stdout (no Rich markup, machine-readable)."""
-    sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
+    """Print ``data`` as JSON on stdout (no Rich markup, machine-readable): :func:`vergence.commands.to_json`,
+    the text the workbench answers."""
+    sys.stdout.write(to_json(data))
     sys.stdout.flush()
 
 
@@ -96,7 +97,34 @@ def layout_file_name(layout: str) -> str:
     return {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(layout, f"stereo_{layout}.png")
 
 
-_DISPLAY_LENGTHS = ("--eye-separation", "--viewing-distance", "--screen-width")
+def _cli_spelling(name: str) -> str:
+    """A parameter the work names as ``{name}``, as a command line spells it: ``--name-with-dashes``."""
+    return "--" + name.replace("_", "-")
+
+
+def spoken(exc: ParameterError, command: Command | None = None) -> ValueError:
+    """A :class:`~vergence.commands.ParameterError` in the command line's words (``--viewing-distance``)."""
+    names = {} if command is None else command.cli_names
+    return ValueError(exc.spelled(lambda name: names.get(name) or _cli_spelling(name)))
+
+
+def option(command: Command, name: str, **extra: Any) -> Any:
+    """The Typer option (or argument) of a parameter of ``command``: its spelling, default and help
+    come from the library's table (:mod:`vergence.commands`); ``extra`` goes to Typer as is."""
+    p = command.parameter(name)
+    default = ... if p.required else p.default
+    help_text = ParameterError(p.help).spelled(lambda n: command.cli_names.get(n) or _cli_spelling(n))
+    if p.is_argument:
+        return typer.Argument(default, help=help_text, metavar=p.cli, **extra)
+    return typer.Option(default, p.cli, help=help_text, **extra)
+
+
+def run_command(command: Command, **values: Any) -> Any:
+    """``command.run(**values)``, its refusals naming the options as typed."""
+    try:
+        return command.run(**values)
+    except ParameterError as exc:
+        raise spoken(exc, command) from exc
 
 
 def preset_display(name: str) -> Display:
@@ -116,29 +144,14 @@ def display_from_options(
     width: float | None,
     pixels: int | None = None,
 ) -> Display:
-    """The display from ``--display PRESET`` or from the three lengths (exactly one of the two).
+    """The display from ``--display PRESET`` or from the three lengths (exactly one of the two):
+    :func:`vergence.commands.display_from`, its refusals naming the options."""
+    from vergence.commands._display import display_from  # SciPy loads with vergence.viewing: not for --help
 
-    ``pixels`` (``--screen-pixels``) sets or overrides the horizontal resolution. A length the
-    library refuses is reported under the option that gave it (``--viewing-distance must be > 0``).
-    """
-    from vergence.viewing.geometry import Display  # SciPy loads with vergence.viewing: not for --help
-
-    if pixels is not None and pixels < 1:  # the library would name it "resolution"
-        raise ValueError(f"--screen-pixels must be >= 1 (the screen width in pixels); got {pixels}")
-    given = [n for n, v in zip(_DISPLAY_LENGTHS, (eye_separation, distance, width)) if v is not None]
-    if preset is not None:
-        if given:
-            raise ValueError(
-                f"give either --display or the display lengths, not both (got --display and {', '.join(given)})"
-            )
-        display = preset_display(preset)
-        return display if pixels is None else dataclasses.replace(display, resolution=pixels)
-    if len(given) < 3:
-        missing = ", ".join(n for n in _DISPLAY_LENGTHS if n not in given)
-        raise ValueError(f"the display is incomplete: give --display PRESET or all three lengths (missing {missing})")
-    with options_named(eye_separation="--eye-separation", distance="--viewing-distance", width="--screen-width",
-                       resolution="--screen-pixels"):
-        return Display(eye_separation=eye_separation, distance=distance, width=width, resolution=pixels)
+    try:
+        return display_from(preset, eye_separation, distance, width, pixels)
+    except ParameterError as exc:
+        raise spoken(exc) from exc
 
 
 def _drop(record: logging.LogRecord) -> bool:

@@ -10,12 +10,10 @@ errno). Python warnings and ``vergence`` log records raised while a command runs
 
 from __future__ import annotations
 
-import errno
 import logging
 import os
 import re
 import warnings
-from pathlib import Path
 
 import typer
 from rich.markup import escape
@@ -23,6 +21,7 @@ from typer._click.exceptions import BadOptionUsage, BadParameter, MissingParamet
 
 from vergence.cli import EXIT_INTERRUPTED, sigint_seen
 from vergence.cli._app import app, console, err_console
+from vergence.io.atomic import describe_os_error  # noqa: F401 (this module's public name since issue 13)
 
 __all__ = ["EXIT_INTERNAL", "EXIT_USAGE", "describe_os_error", "one_line_error", "run", "usage_message"]
 
@@ -167,46 +166,3 @@ def usage_message(exc: UsageError) -> str:
         plural = "s" if len(extra[1].split()) > 1 else ""
         return f"unexpected argument{plural} {extra[1]} (usage: {usage})"
     return exc.format_message()
-
-
-_TEMPORARY = re.compile(r"^\.(?P<stem>.*)\.tmp-[0-9a-f]{12}(?P<suffix>\.[^.]*)?$")  # vergence.io.atomic's names
-_TEMPORARY_IN_TEXT = re.compile(r"(?P<dir>[^\s'\"]*/)?\.(?P<stem>[^\s/'\"]*)\.tmp-[0-9a-f]{12}(?P<suffix>\.\w+)?")
-# The operation a system error most likely interrupted, when no temporary file says "write".
-_VERBS = {errno.EEXIST: "create", errno.EROFS: "write", errno.ENOSPC: "write", errno.EDQUOT: "write",
-          errno.EFBIG: "write"}
-
-
-def _target(name: str) -> str | None:
-    """The file a temporary file of ``vergence.io.atomic_write`` stands for, or None."""
-    path = Path(name)
-    m = _TEMPORARY.match(path.name)
-    return None if m is None else str(path.with_name(m["stem"] + (m["suffix"] or "")))
-
-
-def _untemporary(m: re.Match[str]) -> str:
-    return f"{m['dir'] or ''}{m['stem']}{m['suffix'] or ''}"
-
-
-def describe_os_error(exc: OSError) -> str:
-    """An ``OSError`` as ``cannot <verb> PATH: reason`` or ``PATH is a folder``: no errno, no temporary name.
-
-    Our own messages (an ``OSError`` raised with one string) keep their words; a temporary name in
-    them becomes its target. A system error gives its ``strerror`` in lower case and the path the
-    user named: a temporary file of ``atomic_write`` (``os.replace(tmp, out)`` names both) is
-    reported as its target, being written.
-    """
-    if exc.errno is None or not exc.strerror:
-        return _TEMPORARY_IN_TEXT.sub(_untemporary, str(exc)) or type(exc).__name__
-    reason = exc.strerror[:1].lower() + exc.strerror[1:]
-    names = [os.fsdecode(n) for n in (exc.filename, exc.filename2) if isinstance(n, str | bytes | os.PathLike)]
-    if not names:
-        return reason
-    targets = [t for t in map(_target, names) if t is not None]
-    if targets:
-        return f"cannot write {targets[0]}: {reason}"
-    path = names[0]
-    if exc.errno == errno.EISDIR:
-        return f"{path} is a folder"
-    if exc.errno == errno.EEXIST and Path(path).is_file():
-        return f"cannot create folder {path}: a file of that name exists"
-    return f"cannot {_VERBS.get(exc.errno, 'open')} {path}: {reason}"

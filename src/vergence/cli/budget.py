@@ -8,55 +8,18 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, console, display_from_options, err_console, options_named, print_json
-from vergence.viewing.budget import DepthBudget, depth_budget
-from vergence.viewing.geometry import DISPLAY_PRESETS, Display, Shooting
+from vergence.cli._app import app, console, err_console, option, options_named, print_json, run_command
+from vergence.commands.budget import BUDGET
+from vergence.viewing.budget import DepthBudget
+from vergence.viewing.geometry import Display, Shooting
 
-__all__ = ["OPTION_NAMES", "budget"]
-
-# The library's argument names and the options that set them: errors name what the user typed.
-OPTION_NAMES = {
-    "baseline": "--baseline",
-    "convergence": "--convergence",
-    "window": "--window",
-    "focal_mm": "--focal-mm",
-    "sensor_mm": "--sensor-mm",
-    "eye_separation": "--eye-separation",
-    "distance": "--viewing-distance",
-    "width": "--screen-width",
-    "resolution": "--screen-pixels",
-    "depths": "--depth",
-    "path": "--plot",
-}
+__all__ = ["budget", "print_warnings"]
 
 
 def print_warnings(warnings: tuple[str, ...] | list[str]) -> None:
     """Each warning as one line on stderr (they are in the JSON too)."""
     for line in warnings:
         err_console.print(f"[bold yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
-
-
-def _shooting(baseline: float, convergence: float, window: float | None, focal_mm: float | None,
-              sensor_mm: float | None) -> Shooting:
-    """The rig from either --window or --focal-mm with --sensor-mm (exactly one of the two)."""
-    if window is not None and (focal_mm is not None or sensor_mm is not None):
-        raise ValueError("give either --window or --focal-mm with --sensor-mm, not both")
-    if window is not None:
-        return Shooting(baseline=baseline, convergence=convergence, window=window)
-    if focal_mm is None and sensor_mm is None:
-        raise ValueError("the convergence window is missing: give --window, or --focal-mm with --sensor-mm")
-    if sensor_mm is None:
-        raise ValueError("--sensor-mm (sensor width in mm) is required with --focal-mm")
-    if focal_mm is None:
-        raise ValueError("--focal-mm (focal length in mm) is required with --sensor-mm")
-    try:
-        return Shooting.from_focal(baseline=baseline, convergence=convergence, focal_mm=focal_mm, sensor_mm=sensor_mm)
-    except ValueError as exc:
-        if not str(exc).startswith("window "):
-            raise
-        # The window was not typed: it is H S / F (S0 §2); say which options made it.
-        raise ValueError(f"the convergence window H S/F from --convergence, --sensor-mm and --focal-mm "
-                         f"{str(exc).removeprefix('window ')}") from None
 
 
 def _fmt(value: float | None, spec: str) -> str:
@@ -100,46 +63,39 @@ def _table(result: DepthBudget, shooting: Shooting, display: Display) -> None:
 
 @app.command("budget")
 def budget(
-    baseline: float = typer.Option(..., "--baseline", help="Camera baseline b (m)."),
-    convergence: float = typer.Option(..., "--convergence", help="Convergence distance H (m)."),
-    window: float | None = typer.Option(None, "--window", help="Convergence-window width W (m)."),
-    focal_mm: float | None = typer.Option(
-        None, "--focal-mm", help="Focal length F (mm), with --sensor-mm instead of --window."
-    ),
-    sensor_mm: float | None = typer.Option(None, "--sensor-mm", help="Sensor width S (mm), with --focal-mm."),
-    eye_separation: float | None = typer.Option(None, "--eye-separation", help="Viewer eye separation b' (m)."),
-    viewing_distance: float | None = typer.Option(None, "--viewing-distance", help="Viewing distance H' (m)."),
-    screen_width: float | None = typer.Option(None, "--screen-width", help="Screen width W' (m)."),
-    screen_pixels: int | None = typer.Option(
-        None, "--screen-pixels", help="Screen width in pixels (adds parallax_px)."
-    ),
-    display_preset: str | None = typer.Option(
-        None, "--display", help=f"Display preset instead of the three lengths: {', '.join(sorted(DISPLAY_PRESETS))}."
-    ),
-    depth: list[float] | None = typer.Option(
-        None, "--depth", help="Scene depth z (m), inf allowed; repeat. Default: 0.5, 0.75, 1, 1.5, 2, 3, 5 and 10 times H."
-    ),
+    baseline: float = option(BUDGET, "baseline"),
+    convergence: float = option(BUDGET, "convergence"),
+    window: float | None = option(BUDGET, "window"),
+    focal_mm: float | None = option(BUDGET, "focal_mm"),
+    sensor_mm: float | None = option(BUDGET, "sensor_mm"),
+    eye_separation: float | None = option(BUDGET, "eye_separation"),
+    viewing_distance: float | None = option(BUDGET, "viewing_distance"),
+    screen_width: float | None = option(BUDGET, "screen_width"),
+    screen_pixels: int | None = option(BUDGET, "screen_pixels"),
+    display_preset: str | None = option(BUDGET, "display"),
+    depth: list[float] | None = option(BUDGET, "depth"),
     as_json: bool = typer.Option(False, "--json", help="Print only the JSON on stdout."),
     plot: Path | None = typer.Option(
         None, "--plot", help="Write a PNG of perceived depth and roundness against depth."
     ),
 ) -> None:
     """Depth budget of a rig on a display: divergence and roundness baselines, z' and roundness per depth (S0 §2)."""
-    with options_named(**OPTION_NAMES):
-        shooting = _shooting(baseline, convergence, window, focal_mm, sensor_mm)
-        display = display_from_options(display_preset, eye_separation, viewing_distance, screen_width, screen_pixels)
-        result = depth_budget(shooting, display, depth if depth else None)
-        if plot is not None:
-            from vergence.report.budget_plot import plot_budget  # matplotlib only when a plot is asked for
+    report = run_command(BUDGET, baseline=baseline, convergence=convergence, window=window, focal_mm=focal_mm,
+                         sensor_mm=sensor_mm, eye_separation=eye_separation, viewing_distance=viewing_distance,
+                         screen_width=screen_width, screen_pixels=screen_pixels, display=display_preset, depth=depth)
+    shooting, display, result = report.shooting, report.display, report.budget
+    if plot is not None:
+        from vergence.report.budget_plot import plot_budget  # matplotlib only when a plot is asked for
 
-            depths = [s.depth for s in result.samples if math.isfinite(s.depth)] or [shooting.convergence]
-            near, far = min(depths), max(depths)
-            if near == far:  # a single depth: show a range around it
-                near, far = near / 2.0, far * 2.0
+        depths = [s.depth for s in result.samples if math.isfinite(s.depth)] or [shooting.convergence]
+        near, far = min(depths), max(depths)
+        if near == far:  # a single depth: show a range around it
+            near, far = near / 2.0, far * 2.0
+        with options_named(path="--plot"):
             plot_budget(shooting, display, near=near, far=far, path=plot)
     print_warnings(result.warnings)
     if as_json:
-        print_json(result.to_dict())
+        print_json(report.to_dict())
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
         return

@@ -8,28 +8,13 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, console, display_from_options, err_console, options_named, print_json
+from vergence.cli._app import app, console, err_console, option, options_named, print_json, run_command
 from vergence.cli.budget import print_warnings
-from vergence.viewing.geometry import CARDBOARD_ROUNDNESS, DISPLAY_PRESETS, Shooting
-from vergence.viewing.mapping_constraints import ConstrainedMapping, DirectorConstraint, psi_from_constraints
+from vergence.commands.mapping import MAPPING
+from vergence.viewing.geometry import CARDBOARD_ROUNDNESS
+from vergence.viewing.mapping_constraints import ConstrainedMapping
 
-__all__ = ["OPTION_NAMES", "mapping"]
-
-# The library's argument names and the options that set them: errors name what the user typed.
-OPTION_NAMES = {
-    "baseline": "--reference-baseline",
-    "convergence": "--convergence",
-    "window": "--window",
-    "eye_separation": "--eye-separation",
-    "distance": "--viewing-distance",
-    "width": "--screen-width",
-    "near": "--near",
-    "far": "--far",
-    "constraint": "--constraint",
-    "constraints": "--constraint",
-    "depths": "--depth",
-    "path": "--plot",
-}
+__all__ = ["mapping"]
 
 def _fmt(v: float, spec: str) -> str:
     return "∞" if v == math.inf else ("—" if not math.isfinite(v) else format(v, spec))
@@ -75,47 +60,36 @@ def _summary(result: ConstrainedMapping, depths: list[float] | None) -> None:
 
 @app.command("mapping")
 def mapping(
-    reference_baseline: float = typer.Option(..., "--reference-baseline", help="Reference rig baseline b_r (m)."),
-    convergence: float = typer.Option(..., "--convergence", help="Convergence distance H (m)."),
-    window: float = typer.Option(..., "--window", help="Convergence-window width W (m)."),
-    eye_separation: float | None = typer.Option(None, "--eye-separation", help="Viewer eye separation b' (m)."),
-    viewing_distance: float | None = typer.Option(None, "--viewing-distance", help="Viewing distance H' (m)."),
-    screen_width: float | None = typer.Option(None, "--screen-width", help="Screen width W' (m)."),
-    display_preset: str | None = typer.Option(
-        None, "--display", help=f"Display preset instead of the three lengths: {', '.join(sorted(DISPLAY_PRESETS))}."
-    ),
-    constraint: list[str] = typer.Option(
-        ..., "--constraint", help="Director constraint 'z=Z,perceived=Z[,roundness=R]' (inf allowed); repeat."
-    ),
-    near: float = typer.Option(..., "--near", help="Nearest scene depth (m)."),
-    depth: list[float] | None = typer.Option(
-        None, "--depth", help="Report these scene depths (m, inf allowed; repeat) instead of samples over the scene."
-    ),
-    far: float = typer.Option(..., "--far", help="Farthest scene depth (m); inf allowed."),
+    reference_baseline: float = option(MAPPING, "reference_baseline"),
+    convergence: float = option(MAPPING, "convergence"),
+    window: float = option(MAPPING, "window"),
+    eye_separation: float | None = option(MAPPING, "eye_separation"),
+    viewing_distance: float | None = option(MAPPING, "viewing_distance"),
+    screen_width: float | None = option(MAPPING, "screen_width"),
+    display_preset: str | None = option(MAPPING, "display"),
+    constraint: list[str] = option(MAPPING, "constraint"),
+    near: float = option(MAPPING, "near"),
+    depth: list[float] | None = option(MAPPING, "depth"),
+    far: float = option(MAPPING, "far"),
     as_json: bool = typer.Option(False, "--json", help="Print only the JSON on stdout."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG of psi, perceived depth and roundness."),
 ) -> None:
     """Build the disparity mapping psi from director constraints and report it (S0 §6, Eq. 7–9)."""
-    depths = list(depth) if depth else None
-    if near >= far:  # the library would say "far must be > near": name both options
-        raise ValueError(f"--far must be > --near {near:g}; got {far:g}")
-    with options_named(**OPTION_NAMES):
-        reference = Shooting(baseline=reference_baseline, convergence=convergence, window=window)
-        display = display_from_options(display_preset, eye_separation, viewing_distance, screen_width)
-        constraints = [DirectorConstraint.from_string(text) for text in constraint]
-        result = psi_from_constraints(reference, display, constraints, near=near, far=far)
-        # 201 samples evenly spaced in d over [d(near), d(far)], or the --depth values
-        report = result.to_dict(depths=depths)
-        if plot is not None:
-            from vergence.report.mapping_plot import plot_mapping  # matplotlib only when a plot is asked for
+    report = run_command(MAPPING, reference_baseline=reference_baseline, convergence=convergence, window=window,
+                         eye_separation=eye_separation, viewing_distance=viewing_distance, screen_width=screen_width,
+                         display=display_preset, constraint=constraint, near=near, depth=depth, far=far)
+    result = report.mapping
+    if plot is not None:
+        from vergence.report.mapping_plot import plot_mapping  # matplotlib only when a plot is asked for
 
+        with options_named(path="--plot"):
             plot_mapping(result, path=plot)
     print_warnings(result.warnings)
     if as_json:
-        print_json(report)
+        print_json(report.to_dict())
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
         return
-    _summary(result, depths)
+    _summary(result, None if report.depths is None else list(report.depths))
     if plot is not None:
         console.print(f"plot written to {plot}", highlight=False)

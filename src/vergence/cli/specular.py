@@ -56,7 +56,7 @@ def _weights(text: str | None) -> tuple[float, float, float, float] | None:
 
 def _read_map(path: Path, spec: str) -> np.ndarray:
     """The grey weight image of ``--weight-map SPEC`` as float64 ``(H, W)``, or a ValueError naming ``spec``."""
-    from vergence.cli._run import describe_os_error
+    from vergence.io.atomic import describe_os_error
     from vergence.io import read_disparity, read_image
 
     try:

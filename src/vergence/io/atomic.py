@@ -7,8 +7,10 @@ which a temporary file in the same folder guarantees).
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import re
 import shutil
 import uuid
 from collections.abc import Iterator
@@ -18,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_folder", "atomic_write", "write_json"]
+__all__ = ["atomic_folder", "atomic_write", "describe_os_error", "write_json"]
 
 
 def _output_path(path: object) -> Path:
@@ -238,3 +240,46 @@ def write_json(path: str | os.PathLike[str], obj: object) -> None:
         raise TypeError(f"cannot write {out} as JSON: {exc}") from exc
     with atomic_write(out) as tmp:
         tmp.write_text(text + "\n", encoding="utf-8")
+
+
+_TEMPORARY = re.compile(r"^\.(?P<stem>.*)\.tmp-[0-9a-f]{12}(?P<suffix>\.[^.]*)?$")  # vergence.io.atomic's names
+_TEMPORARY_IN_TEXT = re.compile(r"(?P<dir>[^\s'\"]*/)?\.(?P<stem>[^\s/'\"]*)\.tmp-[0-9a-f]{12}(?P<suffix>\.\w+)?")
+# The operation a system error most likely interrupted, when no temporary file says "write".
+_VERBS = {errno.EEXIST: "create", errno.EROFS: "write", errno.ENOSPC: "write", errno.EDQUOT: "write",
+          errno.EFBIG: "write"}
+
+
+def _target(name: str) -> str | None:
+    """The file a temporary file of ``vergence.io.atomic_write`` stands for, or None."""
+    path = Path(name)
+    m = _TEMPORARY.match(path.name)
+    return None if m is None else str(path.with_name(m["stem"] + (m["suffix"] or "")))
+
+
+def _untemporary(m: re.Match[str]) -> str:
+    return f"{m['dir'] or ''}{m['stem']}{m['suffix'] or ''}"
+
+
+def describe_os_error(exc: OSError) -> str:
+    """An ``OSError`` as ``cannot <verb> PATH: reason`` or ``PATH is a folder``: no errno, no temporary name.
+
+    Our own messages (an ``OSError`` raised with one string) keep their words; a temporary name in
+    them becomes its target. A system error gives its ``strerror`` in lower case and the path the
+    user named: a temporary file of ``atomic_write`` (``os.replace(tmp, out)`` names both) is
+    reported as its target, being written.
+    """
+    if exc.errno is None or not exc.strerror:
+        return _TEMPORARY_IN_TEXT.sub(_untemporary, str(exc)) or type(exc).__name__
+    reason = exc.strerror[:1].lower() + exc.strerror[1:]
+    names = [os.fsdecode(n) for n in (exc.filename, exc.filename2) if isinstance(n, str | bytes | os.PathLike)]
+    if not names:
+        return reason
+    targets = [t for t in map(_target, names) if t is not None]
+    if targets:
+        return f"cannot write {targets[0]}: {reason}"
+    path = names[0]
+    if exc.errno == errno.EISDIR:
+        return f"{path} is a folder"
+    if exc.errno == errno.EEXIST and Path(path).is_file():
+        return f"cannot create folder {path}: a file of that name exists"
+    return f"cannot {_VERBS.get(exc.errno, 'open')} {path}: {reason}"

@@ -3,8 +3,9 @@
 Every refusal is a JSON object ``{"error": "<one line>"}``: 422 for a bad parameter (FastAPI's own
 validation included, named by its field), 404 for an unknown id or endpoint, 413 for a body over
 :data:`MAX_JSON_BODY`, refused before it is parsed. No CORS headers: the page is served from the
-same origin, and no other site's script may call the API. No algorithm lives here: the twins run
-the ``vergence`` commands (:mod:`vergence.web.twins`), the rest reads the library's tables.
+same origin, and no other site's script may call the API. No algorithm lives here: the twins call
+the commands' library functions (:mod:`vergence.commands`, through :mod:`vergence.web.twins`) on
+worker threads, the rest reads the library's tables.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from vergence.web._errors import MAX_SHOWN as _MAX_SHOWN
+from vergence.web._errors import scrub_paths as _scrub_paths
+from vergence.web._guard import add_guards
 from vergence.web._errors import refusal as _refusal
 from vergence.web._errors import validation_message as _validation_message
 from vergence.web.data import DataIndex
@@ -36,7 +39,7 @@ from vergence.web.job_kinds import JobEnv
 from vergence.web.jobs import JobManager
 from vergence.web.routes import add_job_routes, add_upload_routes
 from vergence.web.uploads import UploadStore
-from vergence.web.twins import Resolver, Twin, TwinError, build_twins
+from vergence.web.twins import MAX_TWIN_CALLS, Resolver, Twin, TwinError, build_twins
 
 __all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
 
@@ -142,7 +145,7 @@ def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path) -> Any:
         except KeyError as exc:
             return _refusal(404, str(exc.args[0]))
         except TwinError as exc:
-            return _refusal(422 if exc.code == 2 else 500, exc.message)
+            return _refusal(exc.status, exc.message)
         return Response(text, media_type="application/json")
 
     endpoint.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
@@ -151,7 +154,8 @@ def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path) -> Any:
     files = (" Files are ids: an upload's (POST /api/uploads) or a data entry's (GET /api/data); the answer "
              "names them so." if twin.reads_files else "")
     endpoint.__doc__ = (f"{twin.summary}\n\nThe twin of `vergence {twin.name} --json`: the options as JSON "
-                        f"fields, the answer exactly the JSON the command prints.{files}")
+                        f"fields, the answer exactly the JSON the command prints (429 when "
+                        f"{MAX_TWIN_CALLS} calls are running).{files}")
     return endpoint
 
 
@@ -181,7 +185,8 @@ def _resolver(index: DataIndex, uploads: UploadStore) -> Resolver:
     return resolve
 
 
-def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
+def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[str] = (),
+               token: str | None = None) -> FastAPI:
     """The workbench application: the page at ``/``, the JSON API under ``/api``.
 
     Parameters
@@ -189,6 +194,13 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     data_dirs : sequence of str or Path
         The folders whose collections and scenes the API lists by id (``vergence serve --data``);
         nothing else on disk is reachable from a request.
+    allowed_hosts : sequence of str
+        Host names or addresses served besides the loopback ones (``vergence serve`` passes the host
+        it binds; ``0.0.0.0`` or ``::`` admit any IP address): any other ``Host`` is refused, 400
+        (:mod:`vergence.web._guard`).
+    token : str, optional
+        A token every request must carry (``?token=``, its cookie, or ``Authorization: Bearer``),
+        401 otherwise; ``vergence serve`` makes one when it binds a non-loopback host.
 
     Raises
     ------
@@ -205,7 +217,7 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     kinds = {name: kind for module in modules for name, kind in module.KINDS.items()}
     # a kind may reuse the live objects of another done job (the specular job's planner): late-bound
     env = JobEnv(index, uploads, lambda job_id, kind: jobs.live(job_id, kind))
-    jobs = JobManager(workdir / "jobs", env, kinds)
+    jobs = JobManager(workdir / "jobs", env, kinds, redact=lambda text: _scrub_paths(index.redact(text), workdir))
     # removed at shutdown (the lifespan below); also at exit, for an app run without its lifespan
     cleanup = weakref.finalize(jobs, shutil.rmtree, workdir, ignore_errors=True)
 
@@ -218,6 +230,7 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     app = FastAPI(title="Vergence workbench", version=__version__, lifespan=lifespan,
                   description="The JSON API of `vergence serve`: every command that prints `--json` has its twin.")
     app.add_middleware(_BodyLimit, limit=MAX_JSON_BODY, own_limit=frozenset({"/api/uploads"}))
+    add_guards(app, allowed_hosts=allowed_hosts, token=token)  # outermost: Host, token, Origin and Content-Type
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -238,7 +251,7 @@ def create_app(data_dirs: Sequence[str | Path] = ()) -> FastAPI:
     @app.exception_handler(Exception)
     async def _bug(request: Request, exc: Exception) -> JSONResponse:
         # a bug of ours, as the CLI reports one (vergence.cli._run): one line, status 500
-        return _refusal(500, f"internal error, please report it: {type(exc).__name__}: {exc}")
+        return _refusal(500, jobs.redact(f"internal error, please report it: {type(exc).__name__}: {exc}"))
 
     @app.get("/", include_in_schema=False)
     def page() -> Response:
