@@ -154,12 +154,17 @@ class Command:
         In the order the command line lists them.
     work : callable
         ``work(**values)``: every parameter by name; returns a result with ``to_dict()``.
+    hooks : tuple of str
+        Keywords the work also takes that are no parameter: callables of the face, such as
+        ``progress(fraction, message)`` or ``before_commit()`` (the CLI raises there after Ctrl-C,
+        so that no output is committed). A face that gives none gets the work's defaults.
     """
 
     name: str
     summary: str
     parameters: tuple[Parameter, ...]
     work: Callable[..., Any] = field(repr=False)
+    hooks: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         names = [p.name for p in self.parameters]
@@ -187,6 +192,7 @@ class Command:
             :data:`MAX_LIST_ITEMS` values), naming the parameter as ``{name}``.
         """
         known = {p.name: p for p in self.parameters}
+        hooks = {k: values.pop(k) for k in list(values) if k in self.hooks and k not in known}
         unknown = sorted(set(values) - set(known))
         if unknown:
             raise ParameterError(f"unknown parameter {_escaped(unknown[0])!r}; valid: "
@@ -205,7 +211,7 @@ class Command:
                     raise ParameterError("{" + p.name + "}" + f" takes at most {MAX_LIST_ITEMS} values "
                                          f"(MAX_LIST_ITEMS); got {len(value)}")
             given[p.name] = value
-        return self.work(**given)
+        return self.work(**given, **hooks)
 
 
 def to_json(data: Any) -> str:
