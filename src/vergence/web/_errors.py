@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from typing import Any
 
 from fastapi.responses import JSONResponse
 
-__all__ = ["MAX_SHOWN", "refusal", "validation_message"]
+__all__ = ["MAX_SHOWN", "refusal", "scrub_paths", "validation_message"]
 
 # Longest rendering of a refused value in a message: the line stays one line a person reads.
 MAX_SHOWN = 40
@@ -52,5 +53,19 @@ def validation_message(errors: Sequence[dict[str, Any]], fields: Sequence[str]) 
         return f"missing field {field}"
     if kind in _EXPECTED:
         return f"{field}: {_EXPECTED[kind]} (got {_shown(given)})"
+    if kind == "too_long" and isinstance(given, list):  # a list field over MAX_LIST_ITEMS
+        return f"{field}: at most {e.get('ctx', {}).get('max_length')} values (MAX_LIST_ITEMS); got {len(given)}"
     msg = str(e.get("msg", kind)).removeprefix("Input should be ").removeprefix("Value error, ")
     return f"{field}: {msg} (got {_shown(given)})"
+
+
+def scrub_paths(text: str, *folders: str | os.PathLike[str]) -> str:
+    """``text`` with each folder's server path (as given and resolved) replaced by ``<workdir>``.
+
+    For messages that may quote a path under the app's temporary folder (a job's file, an upload):
+    the answer names no server path. Longer paths are replaced first.
+    """
+    forms = {form for f in folders for form in (os.fspath(f), os.path.realpath(f))}
+    for form in sorted(forms, key=len, reverse=True):
+        text = text.replace(form, "<workdir>")
+    return text
