@@ -75,13 +75,10 @@ def options_named(**names: str) -> Iterator[None]:
 
 
 def check_output_path(out: Path, *inputs: Path) -> None:
-    """Refuse to write ``out`` over one of the ``inputs`` (an existing file reached by either path)."""
-    if not Path(out).exists():
-        return
-    target = Path(out).resolve()
-    for p in inputs:
-        if Path(p).resolve() == target:
-            raise ValueError(f"output {out} would overwrite input {p}")
+    """Refuse to write ``out`` over one of the ``inputs``: :func:`vergence.io.atomic.check_output_path`."""
+    from vergence.io.atomic import check_output_path as check  # Pillow loads with vergence.io: not for --help
+
+    check(out, *inputs)
 
 
 # ``vergence synthesize`` (and the workbench's synthesize job) without any depth control: this vergence

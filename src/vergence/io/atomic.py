@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_folder", "atomic_write", "describe_os_error", "write_json"]
+__all__ = ["atomic_folder", "atomic_write", "check_output_path", "describe_os_error", "write_json"]
 
 
 def _output_path(path: object) -> Path:
@@ -36,6 +36,22 @@ def _output_path(path: object) -> Path:
     if not parent.is_dir():
         raise FileNotFoundError(f"cannot write {out}: folder {parent} does not exist")
     return out
+
+
+def check_output_path(out: str | os.PathLike[str], *inputs: str | os.PathLike[str]) -> None:
+    """Refuse to write ``out`` over one of the ``inputs`` (an existing file reached by either path).
+
+    Raises
+    ------
+    ValueError
+        ``output OUT would overwrite input IN``.
+    """
+    if not Path(out).exists():
+        return
+    target = Path(out).resolve()
+    for p in inputs:
+        if Path(p).resolve() == target:
+            raise ValueError(f"output {out} would overwrite input {p}")
 
 
 def atomic_write(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
