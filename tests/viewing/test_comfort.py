@@ -276,8 +276,9 @@ def test_report_validates_its_fields():
 
 
 def test_the_limits_themselves_are_inside():
-    # Eyes exactly parallel at the divergence limit do not diverge; a range that touches the zone
-    # edge (margin exactly 0) is inside: both comparisons are inclusive of the limit.
+    # Eyes exactly parallel at the divergence limit do not diverge, one float past they do; a range
+    # that touches the zone edge (margin exactly 0) is inside, and so is one a float past it (issue 30:
+    # the test below).
     r = check_disparity_range([0.0, 1.0], CINEMA)
     at_limit = check_disparity_range([0.0, r.divergence_px], CINEMA)
     assert not at_limit.diverges
@@ -285,4 +286,23 @@ def test_the_limits_themselves_are_inside():
     zone_lo, zone_hi = ComfortZone().pixels(SAMSUNG)
     edge = check_disparity_range([zone_lo, zone_hi], SAMSUNG)
     assert edge.near_margin_px == 0.0 and edge.far_margin_px == 0.0 and edge.inside
-    assert not check_disparity_range([np.nextafter(zone_lo, -math.inf), 0.0], SAMSUNG).inside
+    assert check_disparity_range([np.nextafter(zone_lo, -math.inf), 0.0], SAMSUNG).inside
+    assert not check_disparity_range([zone_lo - 1e-3, 0.0], SAMSUNG).inside
+
+
+def test_a_range_that_ends_on_a_limit_to_round_off_is_inside():
+    """Issue 30: a maximum of 59.99999999999999' (60' through pixel <-> arcmin round-off) was reported
+    outside, 'leaving the comfort zone by 0 arcmin'. Within COMFORT_TOLERANCE_PX of a limit is on it."""
+    from vergence.viewing.comfort import COMFORT_TOLERANCE_PX
+
+    display = Display.preset("samsung-2233rz")
+    zone_lo, zone_hi = ComfortZone().pixels(display)
+    on_edge = np.nextafter(zone_hi, np.inf)  # one float past the edge: round-off, not content
+    report = check_disparity_range([0.0, on_edge], display)
+    assert report.inside and report.excess_px == 0.0 and report.excess_arcmin == 0.0
+    report = check_disparity_range([np.nextafter(zone_lo, -np.inf), 0.0], display)
+    assert report.inside and report.excess_px == 0.0
+    # past the tolerance, outside, by what it is
+    past = zone_hi + 10 * COMFORT_TOLERANCE_PX
+    report = check_disparity_range([0.0, past], display)
+    assert not report.inside and report.excess_px == pytest.approx(10 * COMFORT_TOLERANCE_PX, rel=1e-3)

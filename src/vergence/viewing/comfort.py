@@ -27,6 +27,7 @@ from vergence.viewing.geometry import MAX_ABS_DISPARITY, Display, _out, _real_ar
 
 __all__ = [
     "ARCMIN_PER_RADIAN",
+    "COMFORT_TOLERANCE_PX",
     "MAX_VERGENCE_ARCMIN",
     "ComfortReport",
     "ComfortZone",
@@ -41,6 +42,13 @@ ARCMIN_PER_RADIAN = 180.0 * 60.0 / math.pi
 # undefined past about that (its own domain, checked there, depends on the display), and the small-angle
 # form has no viewing meaning past it either (it would overflow at 1e308).
 MAX_VERGENCE_ARCMIN = 180.0 * 60.0
+
+# Screen disparity, in display pixels, by which a range may pass an edge of the comfort zone and still
+# count as inside it. A range planned to end on a limit reaches it through
+# pixel <-> arcmin conversions whose float64 round-off is ~1e-13 px (a maximum of 59.99999999999999'
+# against 60' was reported outside); a millionth of a pixel is far above that and far below anything
+# a viewer or a quantised image can show.
+COMFORT_TOLERANCE_PX = 1e-6
 
 # A zone limit is a vergence change; beyond 90 degrees the exact inverse leaves its domain for
 # ordinary displays and the figure has no viewing meaning.
@@ -292,9 +300,10 @@ class ComfortReport:
     divergence_px : float
         The divergence limit ``b'/W'`` of S0 Eq. (8) in pixels (``b' / pitch``).
     diverges : bool
-        Whether ``max_px`` exceeds the divergence limit (the eyes would diverge).
+        Whether ``max_px`` exceeds the divergence limit (the eyes would diverge; exact, no tolerance).
     inside : bool
-        Both margins >= 0 and no divergence.
+        Both margins >= ``-COMFORT_TOLERANCE_PX`` and no divergence: a range that ends on a zone edge,
+        to float round-off, is inside (``excess_px`` and ``excess_arcmin`` are then 0).
     """
 
     min_px: float
@@ -378,7 +387,14 @@ def check_disparity_range(
     zone_lo, zone_hi = zone.pixels(display, exact=exact)
     near_margin, far_margin = lo - zone_lo, zone_hi - hi
     divergence_px = display.divergence_disparity * display.resolution  # Eq. (8) in pixels
+    # within COMFORT_TOLERANCE_PX of a zone edge is on it: inside, no excess. The divergence limit
+    # stays exact: past it by one float the eyes diverge (S0 Eq. 8 is a physical bound, not a budget).
+    tol = COMFORT_TOLERANCE_PX
     diverges = hi > divergence_px
+    excess_px = max(0.0, -near_margin, -far_margin)
+    excess_arcmin = max(0.0, zone.min_arcmin - lo_arcmin, hi_arcmin - zone.max_arcmin)
+    if excess_px <= tol:
+        excess_px = excess_arcmin = 0.0
     return ComfortReport(
         min_px=lo,
         max_px=hi,
@@ -388,9 +404,9 @@ def check_disparity_range(
         zone_max_px=zone_hi,
         near_margin_px=near_margin,
         far_margin_px=far_margin,
-        excess_px=max(0.0, -near_margin, -far_margin),
-        excess_arcmin=max(0.0, zone.min_arcmin - lo_arcmin, hi_arcmin - zone.max_arcmin),
+        excess_px=excess_px,
+        excess_arcmin=excess_arcmin,
         divergence_px=divergence_px,
         diverges=bool(diverges),
-        inside=bool(near_margin >= 0 and far_margin >= 0 and not diverges),
+        inside=bool(near_margin >= -tol and far_margin >= -tol and not diverges),
     )
