@@ -53,7 +53,7 @@ def client(tmp_path_factory):
     # a Middlebury camera file of two cameras looking down z, 0.1 apart (name K R t per line)
     (data / "two_par.txt").write_text("2\nl.png 100 0 100 0 100 80 0 0 1 1 0 0 0 1 0 0 0 1 0 0 0\n"
                                       "r.png 100 0 100 0 100 80 0 0 1 1 0 0 0 1 0 0 0 1 -0.1 0 0\n")
-    with TestClient(create_app([data])) as c:
+    with TestClient(create_app([data]), base_url="http://127.0.0.1") as c:
         yield c
 
 

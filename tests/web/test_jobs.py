@@ -79,7 +79,7 @@ def app():
 
 @pytest.fixture
 def client(app):
-    with TestClient(app) as c:
+    with TestClient(app, base_url="http://127.0.0.1") as c:
         yield c
 
 
@@ -218,7 +218,7 @@ def test_a_scene_file_is_keyed_by_its_content(tmp_path):
     data = tmp_path / "data"
     data.mkdir()
     shutil.copy(source, data / "room.json")
-    with TestClient(create_app([data])) as c:
+    with TestClient(create_app([data]), base_url="http://127.0.0.1") as c:
         scene_id = next(e["id"] for e in c.get("/api/data").json()["scenes"] if e["name"] == "room.json")
         body = {**RENDER, "scene": scene_id}
         first = c.post("/api/jobs/render", json=body).json()
@@ -283,7 +283,7 @@ def test_the_kinds_are_listed_with_their_parameters(client):
 def test_shutdown_cancels_running_jobs_and_removes_the_folder():
     app = create_app()
     app.state.jobs.register(SLOW)
-    with TestClient(app) as c:
+    with TestClient(app, base_url="http://127.0.0.1") as c:
         job = c.post("/api/jobs/slow", json={"steps": 100_000}).json()
         _wait(c, job["id"], ("running",))
         workdir = app.state.workdir

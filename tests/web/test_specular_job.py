@@ -27,7 +27,7 @@ def _wait(client, job_id: str) -> dict:
 
 @pytest.fixture(scope="module")
 def client():
-    with TestClient(create_app()) as c:
+    with TestClient(create_app(), base_url="http://127.0.0.1") as c:
         yield c
 
 
@@ -89,7 +89,7 @@ def test_a_scene_file_without_a_stereo_block_is_422(tmp_path):
     scene = json.loads(source.read_text())
     del scene["stereo"]
     (data / "mono.json").write_text(json.dumps(scene))
-    with TestClient(create_app([data])) as c:
+    with TestClient(create_app([data]), base_url="http://127.0.0.1") as c:
         scene_id = next(e["id"] for e in c.get("/api/data").json()["scenes"] if e["name"] == "mono.json")
         error = _refused(c.post("/api/jobs/specular", json={**TINY, "scene": scene_id}), 422)
         assert error == (f"scene {scene_id!r} has no \"stereo\" block (baseline, convergence): a specular job uses "
@@ -196,7 +196,7 @@ def test_reoptimise_needs_a_done_specular_job(client):
 
 def test_only_the_most_recent_jobs_keep_their_table(tmp_path):
     """Past MAX_LIVE_JOBS, the least recently used job drops its live objects: a re-optimise on it is 409."""
-    with TestClient(create_app()) as c:
+    with TestClient(create_app(), base_url="http://127.0.0.1") as c:
         c.app.state.jobs.max_live = 1
         small = {**TINY, "width": 24, "height": 18}
         a = _wait(c, c.post("/api/jobs/specular", json=small).json()["id"])

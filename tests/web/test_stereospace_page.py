@@ -39,13 +39,13 @@ SHARED_COLLECTIONS = Path(__file__).resolve().parents[2].parent / "shared" / "da
 def client():
     """The app with the shared collections when they are there (kermit, dino), else the built-in ones only."""
     folders = [SHARED_COLLECTIONS] if SHARED_COLLECTIONS.is_dir() else []
-    with TestClient(create_app(folders)) as c:
+    with TestClient(create_app(folders), base_url="http://127.0.0.1") as c:
         yield c
 
 
 @pytest.fixture(scope="module")
 def bare():
-    with TestClient(create_app()) as c:
+    with TestClient(create_app(), base_url="http://127.0.0.1") as c:
         yield c
 
 

@@ -31,7 +31,7 @@ def app():
 
 @pytest.fixture
 def client(app):
-    with TestClient(app) as c:
+    with TestClient(app, base_url="http://127.0.0.1") as c:
         yield c
 
 
@@ -148,12 +148,13 @@ def test_corrupt_data_is_422_without_a_server_path(client, app, tmp_path):
     assert list((app.state.workdir / "uploads").iterdir()) == []
 
 
-def test_a_content_type_outside_the_list_is_422(client, tmp_path):
+def test_a_content_type_outside_the_list_is_415(client, tmp_path):
     png = _file(tmp_path, "a.png", np.zeros((2, 2)))
-    assert _refused(_post(client, png, "text/plain"), 422).startswith(
+    assert _refused(_post(client, png, "text/plain"), 415).startswith(
         "Content-Type must be one of image/png, image/jpeg, image/x-portable-floatmap, application/octet-stream")
-    assert _refused(client.post("/api/uploads", files={"file": ("a.png", png, "image/png")}), 422).startswith(
+    assert _refused(client.post("/api/uploads", files={"file": ("a.png", png, "image/png")}), 415).startswith(
         "Content-Type must be one of")  # multipart is not read: the body is the file
+    assert _refused(client.post("/api/uploads", content=png), 415).endswith("got 'none' (send the file itself as the body)")
 
 
 def test_unknown_upload_is_404(client):
@@ -172,7 +173,7 @@ def test_the_oldest_upload_is_deleted_past_the_bound(client, app, tmp_path):
 
 def test_shutdown_removes_the_temporary_folder(tmp_path):
     app = create_app()
-    with TestClient(app) as c:
+    with TestClient(app, base_url="http://127.0.0.1") as c:
         meta = _post(c, _file(tmp_path, "a.png", np.zeros((2, 2)))).json()
         stored = app.state.uploads.get(meta["id"]).path
         assert stored.is_file() and stored.is_relative_to(app.state.workdir)

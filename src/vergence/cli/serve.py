@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ipaddress
 import os
+import secrets
 import socket
 from pathlib import Path
 
@@ -44,7 +45,11 @@ def serve(
     data: list[Path] = typer.Option([], "--data", help="Folder of collections and scenes the page may open; repeat."),
     allow_remote: bool = typer.Option(False, "--allow-remote", help="Allow a --host other machines can reach."),
 ) -> None:
-    """Run the workbench: a local page and its JSON API; Ctrl-C stops it."""
+    """Run the workbench: a local page and its JSON API; Ctrl-C stops it.
+
+    Only requests whose Host is a loopback name or the host given are served (DNS rebinding); with
+    --allow-remote and a non-loopback host, the printed URL carries a token every request needs.
+    """
     if not is_loopback(host) and not allow_remote:
         raise ValueError(f"--host {host} is not a loopback address: anyone who reaches it could use the workbench; "
                          f"add --allow-remote to serve it anyway")  # fmt: skip
@@ -60,13 +65,18 @@ def serve(
         from vergence.web import create_app
     except ImportError as exc:
         raise ValueError(f"vergence serve needs the web extra: pip install 'vergence[web]' ({exc})") from None
-    application = create_app(data)
     sock = _listen(host, port)
-    bound = sock.getsockname()[1]
-    shown = f"[{host.strip('[]')}]" if ":" in host else host
-    console.print(f"Vergence workbench at http://{shown}:{bound}/ (Ctrl-C stops it)", highlight=False)
-    server = uvicorn.Server(uvicorn.Config(application, log_level="warning", ws="none"))
     try:
+        address, bound = sock.getsockname()[:2]
+        # served: the loopback names, the host given and the address bound; reachable from other
+        # machines, every request must also carry a token (printed once, as Jupyter does)
+        token = None if is_loopback(host) else secrets.token_urlsafe(32)
+        application = create_app(data, allowed_hosts=[host, address], token=token)
+        shown = f"[{host.strip('[]')}]" if ":" in host else host
+        query = f"?token={token}" if token else ""
+        console.print(f"Vergence workbench at http://{shown}:{bound}/{query} (Ctrl-C stops it)", highlight=False,
+                      soft_wrap=True)
+        server = uvicorn.Server(uvicorn.Config(application, log_level="warning", ws="none"))
         server.run(sockets=[sock])
     finally:
         sock.close()

@@ -183,12 +183,16 @@ class JobManager:
         The kinds it runs; :meth:`register` adds one.
     workers, max_kept, max_active, max_live : int
         :data:`JOB_WORKERS`, :data:`MAX_KEPT_JOBS`, :data:`MAX_ACTIVE_JOBS`, :data:`MAX_LIVE_JOBS` by default.
+    redact : callable(str) -> str, optional
+        Applied to every refusal and error message of a job: the app replaces its server paths
+        (temporary folder, data folders) by labels. None: messages as raised.
     """
 
     def __init__(self, folder: Path, env: object, kinds: Mapping[str, JobKind] | None = None, *,
-                 workers: int = JOB_WORKERS, max_kept: int = MAX_KEPT_JOBS,
-                 max_active: int = MAX_ACTIVE_JOBS, max_live: int = MAX_LIVE_JOBS) -> None:  # fmt: skip
+                 workers: int = JOB_WORKERS, max_kept: int = MAX_KEPT_JOBS, max_active: int = MAX_ACTIVE_JOBS,
+                 max_live: int = MAX_LIVE_JOBS, redact: Callable[[str], str] | None = None) -> None:  # fmt: skip
         self.folder, self.env = Path(folder), env
+        self.redact: Callable[[str], str] = redact if redact is not None else (lambda text: text)
         self.kinds: dict[str, JobKind] = dict(kinds or {})
         self.max_kept, self.max_active, self.max_live = max_kept, max_active, max_live
         self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers, thread_name_prefix="vergence-job")
@@ -215,9 +219,9 @@ class JobManager:
         try:
             prepared = kind.prepare(params, self.env)
         except KeyError as exc:
-            raise JobRefused(404, str(exc.args[0]) if exc.args else "unknown id") from None
+            raise JobRefused(404, self.redact(str(exc.args[0])) if exc.args else "unknown id") from None
         except (ValueError, TypeError) as exc:
-            raise JobRefused(422, str(exc)) from None
+            raise JobRefused(422, self.redact(str(exc))) from None
         canonical = json.dumps(params.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
         key = hashlib.sha256(json.dumps([kind.name, canonical, list(prepared.inputs)]).encode()).hexdigest()
         with self._lock:
@@ -378,10 +382,10 @@ class JobManager:
         except JobCancelled:
             outcome: dict[str, Any] = {"state": "cancelled"}
         except (ValueError, TypeError) as exc:
-            outcome = {"state": "failed", "error": _one_line(str(exc))}
+            outcome = {"state": "failed", "error": _one_line(self.redact(str(exc)))}
         except Exception as exc:  # noqa: BLE001 - a bug of ours: reported as the CLI reports one
             error = f"internal error, please report it: {type(exc).__name__}: {exc}"
-            outcome = {"state": "failed", "error": _one_line(error)}
+            outcome = {"state": "failed", "error": _one_line(self.redact(error))}
         else:
             outcome = {"state": "done", "result": result}
         with self._lock:

@@ -130,14 +130,16 @@ def add_upload_routes(app: FastAPI, uploads: UploadStore) -> None:
     """``POST /api/uploads`` and ``GET /api/uploads/{id}``."""
 
     @app.post("/api/uploads", summary="Upload an image or a depth/disparity map", status_code=201,
-              responses={413: _ERROR, 422: _ERROR},
+              responses={413: _ERROR, 415: _ERROR, 422: _ERROR},
               openapi_extra={"requestBody": {"required": True, "content": {
                   t: {"schema": {"type": "string", "format": "binary"}} for t in UPLOAD_CONTENT_TYPES}}})
     async def upload(request: Request, name: str = "") -> Response:
         """The file itself as the body (PNG, JPEG, PFM, or NPY as application/octet-stream); its
         format is told by content. ``name``: shown back only. Answers the metadata
-        (``GET /api/uploads/{id}``), status 201; 413 over the bytes or pixels limit, 422 otherwise."""
+        (``GET /api/uploads/{id}``), status 201; 413 over the bytes or pixels limit, 415 a Content-Type
+        not in the list, 422 otherwise (a ``name`` with a control character included)."""
         try:
+            uploads.check_name(name)
             uploads.check_declared(request.headers.get("content-type"), request.headers.get("content-length"))
             part = await uploads.receive(request.stream())
             stored = await run_in_threadpool(uploads.store, part, name)

@@ -9,7 +9,8 @@ a JPEG sent as ``photo.png`` is stored as JPEG.
 Limits: a body over :data:`MAX_UPLOAD_BYTES` is refused (413) from its Content-Length before it
 is read, or as soon as the bytes read pass the limit; a header that declares more than
 :data:`MAX_UPLOAD_PIXELS` pixels is refused (413) before anything is decoded. Under the limits the
-file is decoded once, to refuse corrupt data (422). The last :data:`MAX_UPLOADS` uploads are kept in
+file is decoded once, to refuse corrupt data (422). A ``name`` with a control character (NUL, a line
+break) is refused (422) before the body is read. The last :data:`MAX_UPLOADS` uploads are kept in
 the app's temporary folder; older ones are deleted.
 """
 
@@ -18,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import secrets
 import threading
+import unicodedata
 from collections import OrderedDict
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
@@ -46,7 +48,7 @@ _MAX_NAME = 200
 
 
 class UploadError(Exception):
-    """An upload refused: the HTTP status (413, 422) and one line saying why."""
+    """An upload refused: the HTTP status (413, 415, 422) and one line saying why."""
 
     def __init__(self, status: int, message: str) -> None:
         super().__init__(message)
@@ -138,11 +140,20 @@ class UploadStore:
                                f"the last {self.max_uploads} are kept)")  # fmt: skip
             return self._uploads[upload_id]
 
+    @staticmethod
+    def check_name(name: str) -> None:
+        """Refuse (422) a name with a control character (NUL, a line break, ...): it is shown back and
+        may become a file name, where a NUL would only fail later."""
+        bad = next((c for c in name if unicodedata.category(c) == "Cc"), None)
+        if bad is not None:
+            raise UploadError(422, f"name must be printable text (a file name); got a control character "
+                                   f"U+{ord(bad):04X} at position {name.index(bad)}")  # fmt: skip
+
     def check_declared(self, content_type: str | None, content_length: str | None) -> None:
-        """Refuse from the headers alone: a Content-Type not in the list (422), a length over the limit (413)."""
+        """Refuse from the headers alone: a Content-Type not in the list (415), a length over the limit (413)."""
         media = (content_type or "").split(";")[0].strip().lower()
         if media not in UPLOAD_CONTENT_TYPES:
-            raise UploadError(422, f"Content-Type must be one of {', '.join(UPLOAD_CONTENT_TYPES)}; got "
+            raise UploadError(415, f"Content-Type must be one of {', '.join(UPLOAD_CONTENT_TYPES)}; got "
                                    f"{media or 'none'!r} (send the file itself as the body)")  # fmt: skip
         if content_length is not None and content_length.isdigit() and int(content_length) > self.max_bytes:
             raise UploadError(413, f"upload too large: {int(content_length)} bytes; the limit is {self.max_bytes} "
