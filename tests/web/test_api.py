@@ -45,7 +45,7 @@ MAPPING_ARGS = ["mapping", "--reference-baseline", "0.65", "--convergence", "30"
 
 @pytest.fixture(scope="module")
 def client():
-    with TestClient(create_app()) as c:
+    with TestClient(create_app(), base_url="http://127.0.0.1") as c:
         yield c
 
 
@@ -118,12 +118,16 @@ def test_mapping_refusals_name_the_field_or_option(client):
         "--far must be > --near 90; got 80"
 
 
-def test_a_body_that_is_not_json_is_422(client):
+def test_a_body_that_is_not_json_is_422_and_one_not_sent_as_json_415(client):
     bad = client.post("/api/budget", content=b"{baseline", headers={"content-type": "application/json"})
     assert _refused(bad, 422).startswith("the body is not valid JSON")
-    assert _refused(client.post("/api/budget"), 422) == "the body is missing: send the options as a JSON object"
+    empty = client.post("/api/budget", headers={"content-type": "application/json"})
+    assert _refused(empty, 422) == "the body is missing: send the options as a JSON object"
+    # another site's page can send these without asking first (tests/web/test_security.py)
+    assert _refused(client.post("/api/budget"), 415) == \
+        "Content-Type must be application/json on POST /api/budget; got none"
     plain = client.post("/api/budget", content=json.dumps(BUDGET), headers={"content-type": "text/plain"})
-    assert _refused(plain, 422) == "the body must be JSON, sent with Content-Type: application/json"
+    assert _refused(plain, 415) == "Content-Type must be application/json on POST /api/budget; got 'text/plain'"
 
 
 def test_a_body_over_the_limit_is_413_declared_or_streamed(client):
@@ -179,8 +183,9 @@ def test_a_bug_is_a_one_line_500(monkeypatch):
 
     monkeypatch.delenv("VERGENCE_DEBUG", raising=False)
     monkeypatch.setattr(budget_cli, "depth_budget", boom)  # inside the command: the CLI's own report
-    monkeypatch.setattr(Index, "entries", boom)  # in the server itself
-    with TestClient(create_app(), raise_server_exceptions=False) as c:
+    app = create_app()
+    monkeypatch.setattr(Index, "refresh", boom)  # in the server itself (GET /api/data walks the folders again)
+    with TestClient(app, raise_server_exceptions=False, base_url="http://127.0.0.1") as c:
         assert _refused(c.post("/api/budget", json=BUDGET), 500) == \
             "internal error, please report it (VERGENCE_DEBUG=1 shows the traceback): RuntimeError: kaboom"
         assert _refused(c.get("/api/data"), 500) == "internal error, please report it: RuntimeError: kaboom"
@@ -222,7 +227,7 @@ def test_the_page_folder_is_served_and_nothing_beside_it(monkeypatch, tmp_path):
     (tmp_path / "secret.txt").write_text("not for the client")
     os.symlink(tmp_path / "secret.txt", static / "link.txt")
     monkeypatch.setattr(web_app, "STATIC_DIR", static)
-    with TestClient(create_app()) as c:
+    with TestClient(create_app(), base_url="http://127.0.0.1") as c:
         assert c.get("/").text == "<!doctype html><title>workbench</title>"
         assert c.get("/static/app.js").text == "// the page"
         for path in ("/static/../secret.txt", "/static/%2e%2e/secret.txt", "/static/link.txt", "/static/nope.js"):
@@ -272,7 +277,7 @@ def data_tree(tmp_path):
 
 def test_data_lists_collections_and_scenes_by_id(data_tree):
     root, _ = data_tree
-    with TestClient(create_app([root])) as c:
+    with TestClient(create_app([root]), base_url="http://127.0.0.1") as c:
         listed = c.get("/api/data").json()
         collections = {e["name"]: e for e in listed["collections"]}
         assert {n: e["format"] for n, e in collections.items()} == {
@@ -296,7 +301,7 @@ def test_links_out_of_the_data_folder_are_neither_listed_nor_accepted(data_tree)
     paths = {e.path for e in index.entries() if e.path is not None}
     assert all(p.is_relative_to(root) for p in paths)
     assert not any("linked" in e.name for e in index.entries())
-    with TestClient(create_app([root])) as c:
+    with TestClient(create_app([root]), base_url="http://127.0.0.1") as c:
         for outside in (secret / "scene.json", secret / "bundle.out"):
             kind = "scene" if outside.suffix == ".json" else "collection"
             forged = _id(kind, outside.resolve())  # the id it would have had, were it inside
@@ -308,7 +313,7 @@ def test_links_out_of_the_data_folder_are_neither_listed_nor_accepted(data_tree)
                                       "scene:..%2F..%2Fetc%2Fpasswd", "scene:nope"])
 def test_paths_as_ids_are_404(data_tree, entry_id):
     root, _ = data_tree
-    with TestClient(create_app([root])) as c:
+    with TestClient(create_app([root]), base_url="http://127.0.0.1") as c:
         _refused(c.get(f"/api/data/{entry_id}"), 404)
 
 

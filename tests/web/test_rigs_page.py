@@ -39,7 +39,7 @@ def _wait(client, job_id: str) -> dict:
 @pytest.fixture(scope="module")
 def client():
     """The app with the repository's examples as its data folder (the quarry scene and the shot files)."""
-    with TestClient(create_app([EXAMPLES])) as c:
+    with TestClient(create_app([EXAMPLES]), base_url="http://127.0.0.1") as c:
         yield c
 
 
@@ -58,7 +58,7 @@ def _presets(client) -> dict[str, dict]:
 
 
 def test_presets_are_the_built_in_examples_without_a_data_folder():
-    with TestClient(create_app()) as c:
+    with TestClient(create_app(), base_url="http://127.0.0.1") as c:
         shots = c.get("/api/rigs/shots").json()["shots"]
     assert [(p["id"], p["name"], p["source"]) for p in shots] == [
         ("example:stadium-quadri", "stadium-quadri", "built-in"), ("example:stadium-tri", "stadium-tri", "built-in")]
@@ -265,7 +265,7 @@ def test_a_running_rig_job_can_be_cancelled(client):
 
 def test_shot_files_are_indexed_but_not_listed_as_data(client):
     listed = client.get("/api/data").json()
-    assert set(listed) == {"collections", "scenes"}
+    assert set(listed) == {"collections", "scenes", "skipped"}
     assert all(not e["id"].startswith("shot-") for e in listed["scenes"] + listed["collections"])
     shot_id = _presets(client)["quarry-quadri"]["id"]
     entry = client.get(f"/api/data/{shot_id}").json()
@@ -279,7 +279,7 @@ def test_a_data_shot_is_a_preset_only_when_its_scene_is_reachable(tmp_path):
     (data / "shots" / "builtin.json").write_text(json.dumps(_with(TRI, scene="tabletop")))
     (data / "shots" / "escapes.json").write_text(json.dumps(_with(TRI, scene="../../outside.json")))
     (data / "shots" / "broken.json").write_text(json.dumps(_with(TRI, constraints=["z=30,perceived=3"])))
-    with TestClient(create_app([data])) as c:
+    with TestClient(create_app([data]), base_url="http://127.0.0.1") as c:
         presets = _presets(c)
     assert sorted(presets) == ["builtin", "stadium-quadri", "stadium-tri"]  # no escape, no shot that cannot plan
     assert presets["builtin"]["source"] == "data" and presets["builtin"]["shot"]["scene"] == "tabletop"

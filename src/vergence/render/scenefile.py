@@ -28,7 +28,7 @@ from vergence.render.scene import (
     Texture,
 )
 
-__all__ = ["load_scene", "scene_from_dict"]
+__all__ = ["load_scene", "scene_files", "scene_from_dict"]
 
 
 def _fields(where: str, data: object, required: tuple[str, ...], optional: tuple[str, ...] = ()) -> dict:
@@ -207,6 +207,47 @@ def scene_from_dict(data: object, *, base_dir: str | Path | None = None, name: s
         raise TypeError(f"name must be a string; got {type(scene_name).__name__}")
     return Scene(camera=camera, environment=_environment(d["environment"], base), materials=materials,
                  objects=objects, stereo=stereo, name=scene_name)  # fmt: skip
+
+
+def scene_files(data: object, *, base_dir: str | Path | None = None) -> tuple[Path, ...]:
+    """The files a scene reads, as :func:`scene_from_dict` resolves them: textures, meshes, ``.hdr`` maps.
+
+    Lets a caller check them before the scene is built (``vergence serve`` refuses a scene whose files
+    lead outside its data folder). Only the places that hold a path are looked at (``environment.hdr``,
+    a texture material's ``path``, a mesh object's ``path``), and only well-formed ones (a non-empty
+    string): anything else is :func:`scene_from_dict`'s to refuse. Nothing is read or checked on disk.
+
+    Parameters
+    ----------
+    data : object
+        Parsed JSON of a scene file (``docs/scenes.md``).
+    base_dir : str or Path, optional
+        The folder relative paths resolve against (the scene file's); None leaves them relative.
+
+    Returns
+    -------
+    tuple of Path
+        In the order environment, materials, objects; absolute paths as written.
+
+    Examples
+    --------
+    >>> scene_files({"environment": {"hdr": "sky.hdr"}, "materials": {"wood": {"type": "texture",
+    ...              "path": "/textures/wood.png"}}, "objects": [{"type": "mesh", "path": "cup.obj"}]},
+    ...             base_dir="/scenes")
+    (PosixPath('/scenes/sky.hdr'), PosixPath('/textures/wood.png'), PosixPath('/scenes/cup.obj'))
+    """
+    base = None if base_dir is None else Path(base_dir)
+    if not isinstance(data, dict):
+        return ()
+    found = []
+    environment, materials, objects = data.get("environment"), data.get("materials"), data.get("objects")
+    if isinstance(environment, dict):
+        found.append(environment.get("hdr"))
+    if isinstance(materials, dict):
+        found += [m.get("path") for m in materials.values() if isinstance(m, dict) and m.get("type") == "texture"]
+    if isinstance(objects, list):
+        found += [o.get("path") for o in objects if isinstance(o, dict) and o.get("type") == "mesh"]
+    return tuple(_resolve(base, "", value) for value in found if isinstance(value, str) and value)
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -153,20 +153,33 @@ def _header_size(path: Path) -> tuple[int, int]:
     return width, height
 
 
-def _read_set(cameras_path: Path, images: Path) -> tuple[CameraSet, list[int], list[tuple[int, int]]]:
+def _inside(path: Path, within: Path | None) -> bool:
+    """Whether ``path`` is a file whose resolved path (links followed) lies in ``within`` (None: anywhere)."""
+    if within is None:
+        return path.is_file()
+    try:
+        return Path(os.path.realpath(path, strict=True)).is_relative_to(within) and path.is_file()
+    except (OSError, RuntimeError, ValueError):  # a link to nothing, a link loop, a NUL in a name
+        return False
+
+
+def _read_set(cameras_path: Path, images: Path,
+              within: Path | None = None) -> tuple[CameraSet, list[int], list[tuple[int, int]]]:  # fmt: skip
     """The camera set read at the images' size, the indices kept and their images' sizes.
 
     Middlebury and Bundler files store no image size (Bundler's ``K`` depends on it): they are
     read at the size of the first image of the folder that they name, and every other image must
-    have that size; COLMAP and JSON cameras carry their own size.
+    have that size; COLMAP and JSON cameras carry their own size. Only images inside ``within``
+    are looked at (:func:`load_collection`).
     """
-    probe = next((q for q in sorted(images.iterdir()) if q.is_file() and q.suffix.lower() in
-                  (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".tif", ".tiff", ".bmp")), None)  # fmt: skip
+    probe = next((q for q in sorted(images.iterdir()) if q.suffix.lower() in
+                  (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".tif", ".tiff", ".bmp") and _inside(q, within)),
+                 None)  # fmt: skip
     if probe is None:
         raise ValueError(f"images folder {images} holds no image")
     size = _header_size(probe)
     cset = read_cameras(cameras_path, image_size=size)
-    kept = [i for i, n in enumerate(cset.names) if cset.cameras[i] is not None and (images / n).is_file()]
+    kept = [i for i, n in enumerate(cset.names) if cset.cameras[i] is not None and _inside(images / n, within)]
     if not kept:
         raise ValueError(f"no camera of {cameras_path.name} has its image in {images} "
                          f"(it names {', '.join(cset.names[:3])}, ...)")  # fmt: skip
@@ -197,6 +210,7 @@ def load_collection(
     images: str | os.PathLike[str],
     neighbours: int = MATCH_NEIGHBOURS,
     progress: Progress | None = None,
+    within: str | os.PathLike[str] | None = None,
 ) -> Collection:
     """Read a camera file and its images into a :class:`Collection` (S2 §3.1).
 
@@ -218,6 +232,11 @@ def load_collection(
         Cameras each image is matched with when the points are triangulated.
     progress : callable, optional
         ``progress(fraction, message)`` during the triangulation.
+    within : str or os.PathLike, optional
+        A folder every image must lie in once its path is resolved (``vergence serve`` passes the
+        data folder): an image that leads outside it (a symbolic link out, a name with ``..`` or an
+        absolute name in the camera file) is left out, unread, like a missing one, and counted in
+        ``left_out`` and ``warnings`` (which name only the camera file). None: images anywhere.
 
     Raises
     ------
@@ -230,14 +249,24 @@ def load_collection(
         raise ValueError(f"images must be a folder of images; {img_dir} is not a folder")
     if not isinstance(neighbours, int) or isinstance(neighbours, bool) or neighbours < 1:
         raise ValueError(f"neighbours must be a positive integer; got {neighbours!r}")
-    cset, kept, _ = _read_set(cam_path, img_dir)
-    left_out = sum(1 for i, n in enumerate(cset.names) if cset.cameras[i] is not None and not (img_dir / n).is_file())
+    if within is not None and not Path(os.fspath(within)).is_dir():
+        raise ValueError(f"within must be a folder; {os.fspath(within)} is not a folder")
+    root = None if within is None else Path(os.path.realpath(os.fspath(within)))
+    cset, kept, _ = _read_set(cam_path, img_dir, root)
+    named = [n for i, n in enumerate(cset.names) if cset.cameras[i] is not None]
+    outside = sum(1 for n in named if (img_dir / n).is_file() and not _inside(img_dir / n, root))
+    left_out = len(named) - len(kept)
     if len(kept) < 2:
         raise ValueError(f"a collection needs at least two cameras with an image; {cam_path.name} has "
-                         f"{len(kept)} with its image in {img_dir}")  # fmt: skip
+                         f"{len(kept)} with its image in {img_dir}" +
+                         (f" ({outside} more lead outside the allowed folder, within)" if outside else ""))  # fmt: skip
     notes = list(cset.notes)
-    if left_out:
-        notes.append(f"{left_out} of the {len(cset)} cameras of {cam_path.name} have no image in {img_dir}: left out")
+    if left_out - outside:
+        notes.append(f"{left_out - outside} of the {len(cset)} cameras of {cam_path.name} have no image in "
+                     f"{img_dir}: left out")  # fmt: skip
+    if outside:
+        notes.append(f"{outside} of the {len(cset)} cameras of {cam_path.name} name an image that leads outside "
+                     "the allowed folder (within): left out, unread")  # fmt: skip
     if cset.unregistered:
         notes.append(f"{len(cset.unregistered)} cameras of {cam_path.name} are not registered (f = 0): left out")
     names = tuple(cset.names[i] for i in kept)

@@ -279,12 +279,13 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
                              for name, d in sorted(DISPLAY_PRESETS.items())]}
 
     @app.get("/api/data", summary="The collections and scenes the server can open, by id")
-    def data() -> dict[str, list[dict[str, str]]]:
+    def data() -> dict[str, Any]:
         """The built-in scenes, then the collections (camera files) and scene files of the data
-        folders. Choose one by its ``id``: no request names a path."""
-        entries = index.entries()
+        folders, walked again for this answer. Choose one by its ``id``: no request names a path.
+        ``skipped``: how many files and folders could not be read or lead outside (never named)."""
+        entries = index.refresh()
         return {"collections": [e.to_dict() for e in entries if e.kind == "collection"],
-                "scenes": [e.to_dict() for e in entries if e.kind == "scene"]}
+                "scenes": [e.to_dict() for e in entries if e.kind == "scene"], "skipped": index.skipped}
 
     @app.get("/api/data/{entry_id}", summary="One entry of /api/data", responses={404: _ERRORS[422] | {
         "description": "No entry has this id."}})

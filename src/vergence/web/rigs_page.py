@@ -259,5 +259,5 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
         except KeyError as exc:
             return refusal(404, str(exc.args[0]))
         except (TypeError, ValueError) as exc:
-            return refusal(422, str(exc))
+            return refusal(422, index.redact(str(exc)))  # a scene file's message names no server path
         return JSONResponse(doc)

@@ -8,7 +8,11 @@
   of a capture path, smallest disparity range on ``display``). Its files: ``map.json``, the navigation
   map's data (S2 §4.3.1, Fig. 11: the top view of :func:`vergence.stereospace.map_frame` with the
   cameras, graph segments, capture paths and sparse points); its result: the start state as the page
-  draws it. The prepared collection stays in memory (``live``) for the follow-ups.
+  draws it. The prepared collection stays in memory (``live``) for the follow-ups. Nothing outside
+  the collection's data folder is read: an image the camera file names that leads outside it (a
+  symbolic link out, ``..``, an absolute name) is left out unread, as a missing image is, with a
+  line in the result's ``warnings`` (``load_collection(within=)``); with fewer than two images left
+  the job fails in one line. Warnings and errors name the entry, never a server path.
 - ``POST /api/stereospace/{job_id}/move`` ``{state, pan, zoom}``: S2 §4.1's navigation,
   :func:`vergence.stereospace.pan` then :func:`vergence.stereospace.zoom` (collection units), jumping
   at a region's border to the closest point of another region in the cone, or stopping there.
@@ -189,11 +193,18 @@ def _map(live: _Live, paths: list[list[int]]) -> dict[str, Any]:
             "bounds": [float(low[0]), float(low[1]), float(high[0]), float(high[1])]}  # fmt: skip
 
 
-def _images_folder(path: Path) -> Path:
-    """The images of a collection: the camera file's folder (COLMAP's ``sparse/0/`` looks two up for ``images/``)."""
-    if path.name.lower() == "cameras.txt" and len(path.parents) > 2 and (path.parents[2] / "images").is_dir():
+def _images_folder(path: Path, root: Path) -> Path:
+    """The images of a collection: the camera file's folder (COLMAP's ``sparse/0/`` looks two up for
+    ``images/``, when that is still inside the data folder ``root``)."""
+    if path.name.lower() == "cameras.txt" and len(path.parents) > 2 and path.parents[2].is_relative_to(root) \
+            and (path.parents[2] / "images").is_dir():
         return path.parents[2] / "images"
     return path.parent
+
+
+def _without_paths(text: str, images: Path, entry: Any, data: Any) -> str:
+    """A warning of the collection's reader with its images folder named by the entry, no server path."""
+    return data.redact(text.replace(str(images), f"the images folder of {entry.name}"))
 
 
 def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
@@ -231,10 +242,13 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
                                              progress=lambda f, m: ctx.progress(0.3 * float(f), m))  # fmt: skip
             images, start = rendered, 0.3
         else:
-            cameras_path, images, start = entry.path, _images_folder(entry.path), 0.0
+            cameras_path, images, start = entry.path, _images_folder(entry.path, entry.root), 0.0
         ctx.progress(start, f"reading {entry.name}")
-        collection = load_collection(cameras_path, images=images,
-                                     progress=lambda f, m: ctx.progress(start + (0.6 - start) * float(f), m))  # fmt: skip
+        try:  # an image that leads outside the data folder is left out, with a warning (load_collection)
+            collection = load_collection(cameras_path, images=images, within=entry.root,
+                                         progress=lambda f, m: ctx.progress(start + (0.6 - start) * float(f), m))
+        except ValueError as exc:
+            raise ValueError(_without_paths(str(exc), images, entry, env.data)) from None
         ctx.progress(0.6, f"decoding {len(collection)} images, projecting {collection.point_count} points")
         prepared = PreparedCollection(collection, grid_step=params.grid_step)
         ctx.progress(0.9, "choosing the start state")
@@ -260,7 +274,8 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
                    "zoom_step": _ZOOM_STEP * view["interocular"] or 0.01 * extent,
                    "max_move": MAX_MOVE_EXTENTS * extent, "formats": _formats(),
                    "default_width": min(DEFAULT_PAIR_WIDTH, first.width), "min_width": MIN_PAIR_WIDTH,
-                   "warnings": list(collection.warnings) + ([note] if note else []),
+                   "warnings": [_without_paths(w, images, entry, env.data) for w in collection.warnings]
+                               + ([note] if note else []),
                    "seconds": time.perf_counter() - t0}  # fmt: skip
         return JobResult(summary, ("map.json",), live=live)
 
