@@ -128,7 +128,7 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
     ],
 )
 def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, monkeypatch, options, message):
-    import vergence.cli.match as match_cli
+    import vergence.commands.match as match_cli
 
     def no_matching(*args, **kwargs):
         raise AssertionError("matching ran before the outputs were checked")
@@ -428,7 +428,7 @@ def test_match_mask_leaves_the_rectification_borders_unknown(capsys, tsukuba, tm
 
 def test_match_writes_all_or_nothing(capsys, tsukuba, tmp_path, monkeypatch):
     """The disparity, preview and confidence files appear together or not at all."""
-    import vergence.cli.match as match_cli
+    import vergence.commands.match as match_cli
 
     real = match_cli.write_image
 
