@@ -462,7 +462,7 @@ def test_synthesize_interrupted_leaves_nothing(tmp_path, capsys, monkeypatch, ex
 
 
 def test_interpolate_failing_json_leaves_no_view(tmp_path, capsys, monkeypatch):
-    import vergence.cli.interpolate as command
+    import vergence.commands.interpolate as command
 
     img, _ = _scene(tmp_path)
     np.save(tmp_path / "disp.npy", np.full(img.shape[:2], 2.0, np.float32))
