@@ -22,7 +22,6 @@ from vergence.cli._group import LazyGroup
 from vergence.commands._spec import Command, ParameterError, to_json
 
 if TYPE_CHECKING:
-    from vergence.camera import Camera
     from vergence.render import Scene
     from vergence.viewing.geometry import Display
 
@@ -168,37 +167,3 @@ def open_scene_quietly(spec: str, width: int | None, height: int | None) -> Scen
         return open_scene(spec, width=width, height=height)
     finally:
         quiet.removeFilter(_drop)
-
-
-def scene_rig(scene: Scene, baseline: float | None, convergence: float | None, *,
-              needed_by: str) -> tuple[Camera, Camera, float, float]:  # fmt: skip
-    """The shifted-sensor pair of ``--baseline`` / ``--convergence``, or of the scene's "stereo" block.
-
-    Returns ``(left, right, b, H)`` (:func:`vergence.rigs.stereo_pair`). Refused, each in one line
-    beginning with ``needed_by`` or the option at fault: a scene camera that is not a pinhole, a
-    missing length, a length outside ``LENGTH_RANGE``, eyes past ``MAX_SCENE_EXTENT``.
-    """
-    import numpy as np
-
-    from vergence.render import MAX_SCENE_EXTENT
-    from vergence.rigs import stereo_pair
-    from vergence.viewing import LENGTH_RANGE
-
-    if scene.camera.lens != "pinhole":
-        raise ValueError(f"{needed_by} needs a pinhole scene camera (the rig shifts the sensor); "
-                         f"got lens {scene.camera.lens!r}")  # fmt: skip
-    rig = scene.stereo
-    b = baseline if baseline is not None else (rig.baseline if rig else None)
-    h = convergence if convergence is not None else (rig.convergence if rig else None)
-    if b is None or h is None:
-        raise ValueError(f"{needed_by} needs --baseline and --convergence (the scene has no \"stereo\" block)")
-    for option, value in (("--baseline", b), ("--convergence", h)):
-        # the rig's lengths as the viewing geometry takes them: the sensor shift fx b / (2H) stays finite
-        if not LENGTH_RANGE[0] <= value <= LENGTH_RANGE[1]:
-            raise ValueError(f"{option} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); got {value:g}")
-    left, right = stereo_pair(scene.camera.build(), baseline=b, convergence=h)
-    reach = max(float(np.abs(c.center).max()) for c in (left, right))
-    if reach > MAX_SCENE_EXTENT:  # the eyes at -+ b/2: the scene's limit holds for them too
-        raise ValueError(f"--baseline must keep both eyes within {MAX_SCENE_EXTENT:g} m of the origin "
-                         f"(MAX_SCENE_EXTENT); they reach {reach:g} m")  # fmt: skip
-    return left, right, b, h

@@ -20,7 +20,9 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import app, check_output_path, console, err_console, open_scene_quietly, options_named, scene_rig
+from vergence.cli._app import app, check_output_path, console, err_console, open_scene_quietly, options_named, spoken
+from vergence.commands import ParameterError
+from vergence.commands._scene import scene_rig
 
 __all__ = ["render"]
 
@@ -35,7 +37,10 @@ def _rig(scene, eye, baseline, convergence):  # noqa: ANN001, ANN202
         return None
     if eye not in _EYES:
         raise ValueError(f"--eye must be one of {', '.join(_EYES)}; got {eye!r}")
-    return scene_rig(scene, baseline, convergence, needed_by="--eye")
+    try:
+        return scene_rig(scene, baseline, convergence, needed_by="--eye")
+    except ParameterError as exc:
+        raise spoken(exc) from exc
 
 
 @app.command("render")

@@ -17,27 +17,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import (app, check_output_path, console, err_console, open_scene_quietly, options_named,
-                               preset_display, scene_rig)
+                               preset_display, spoken)
+from vergence.commands import ParameterError
+from vergence.commands._scene import scene_rig
+from vergence.commands._specular import MAX_WEIGHT as _MAX_WEIGHT  # largest --weights value (and painted weight)
+from vergence.commands._specular import weight_maps
 
-__all__ = ["DEFAULT_DISPLAY", "specular", "weight_maps"]
+__all__ = ["DEFAULT_DISPLAY", "specular"]
 
 #: ``--display``'s default: S3's study display (Samsung 2233RZ, 22" 16:10, 1680 px wide, viewed from 60 cm).
 DEFAULT_DISPLAY = "samsung-2233rz"
-# Largest --weights value and painted weight: the offsets depend only on the ratios of the weights
-# (optimise_offsets normalises its steps), S3 uses 0.1..10, and costs of up to ~1e10 arcmin^2 times
-# 1e6 x 1e6 stay finite in the float32 table the planner solves on (1e6 ^ 2 x 1e10 << 3.4e38).
-_MAX_WEIGHT = 1e6
 # OffsetPlanner's range of the reduction factor (checked here too: the planner runs after the table).
 _FACTOR_RANGE = (1, 64)
-# Float files whose values are taken as stored (read with vergence.io.read_disparity: NaN kept, so
-# that it can be refused by name); every other image is read by vergence.io.read_image.
-_FLOAT_MAP_SUFFIXES = (".pfm", ".npy")
 
 
 def _weights(text: str | None) -> tuple[float, float, float, float] | None:
@@ -52,67 +48,6 @@ def _weights(text: str | None) -> tuple[float, float, float, float] | None:
         raise ValueError(f"--weights must be four numbers in [0, {_MAX_WEIGHT:g}], absolute,relative,rivalry,data "
                          f"(e.g. 1,1,10,0.1); got {text!r}")  # fmt: skip
     return values  # type: ignore[return-value]
-
-
-def _read_map(path: Path, spec: str) -> np.ndarray:
-    """The grey weight image of ``--weight-map SPEC`` as float64 ``(H, W)``, or a ValueError naming ``spec``."""
-    from vergence.io.atomic import describe_os_error
-    from vergence.io import read_disparity, read_image
-
-    try:
-        if path.suffix.lower() in _FLOAT_MAP_SUFFIXES:
-            arr = read_disparity(path)  # float as stored, single channel; inf becomes NaN, refused below
-        else:
-            arr = read_image(path)
-            if arr.ndim == 3 and (arr == arr[..., :1]).all():
-                arr = arr[..., 0]  # grey stored as RGB
-    except OSError as exc:
-        raise ValueError(f"--weight-map {spec}: {describe_os_error(exc)}") from exc
-    except ValueError as exc:
-        raise ValueError(f"--weight-map {spec}: {exc}") from exc
-    if arr.ndim != 2:
-        raise ValueError(f"--weight-map {spec}: the map must be a grey image; got {arr.shape[2]} distinct channels")
-    rule = f"weights must be finite and in [0, {_MAX_WEIGHT:g}]"
-    if not np.isfinite(arr).all():
-        raise ValueError(f"--weight-map {spec}: the map holds NaN or inf; {rule}")
-    if (arr < 0).any():
-        raise ValueError(f"--weight-map {spec}: the map holds negative values (down to {arr.min():g}); {rule}")
-    if (arr > _MAX_WEIGHT).any():
-        raise ValueError(f"--weight-map {spec}: the map holds values up to {arr.max():g}; {rule}")
-    return arr.astype(np.float64)
-
-
-def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> dict[str, np.ndarray]:
-    """The cost's painted maps (term -> ``(N, H, W)``) from ``--weight-map`` specs (see the module's text).
-
-    A term no spec names is left out (weight 1 everywhere). Raises ValueError, naming the spec, on a
-    bad spec, term or layer, an unreadable file, a map of another size or values outside [0, 1e6].
-    """
-    from vergence.specular import COST_TERMS
-
-    maps: dict[str, np.ndarray] = {}
-    for spec in specs:
-        key, sep, name = spec.partition("=")
-        term, colon, layer_text = key.rpartition(":")
-        if not sep or not name or not layer_text:
-            raise ValueError(f"--weight-map must be LAYER=FILE or TERM:LAYER=FILE; got {spec!r}")
-        if colon and term not in COST_TERMS:
-            raise ValueError(f"--weight-map {spec}: unknown cost term {term!r}; the terms are {', '.join(COST_TERMS)}")
-        try:
-            layer = int(layer_text)
-        except ValueError:
-            layer = 0
-        if not 1 <= layer <= n_layers:
-            raise ValueError(f"--weight-map {spec}: LAYER must be a whole number in 1..{n_layers} (the layers of "
-                             f"--depth {(n_layers + 1).bit_length() - 2}, as report.json numbers them); "
-                             f"got {layer_text!r}")  # fmt: skip
-        arr = _read_map(Path(name), spec)
-        if arr.shape != (height, width):
-            raise ValueError(f"--weight-map {spec}: the map must be {width} x {height} pixels (the render's "
-                             f"W x H); got {arr.shape[1]} x {arr.shape[0]}")  # fmt: skip
-        for t in (term,) if colon else COST_TERMS:
-            maps.setdefault(t, np.ones((n_layers, height, width)))[layer - 1] *= arr
-    return maps
 
 
 def _check_render_cost(width: int, height: int, depth: int, samples: int, k: int) -> None:
@@ -214,10 +149,16 @@ def specular(
     screen = preset_display(display)
     with options_named(width="--width", height="--height"):
         sc = open_scene_quietly(scene, width, height)  # its environment note is printed below, once
-    left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
+    try:
+        left, right, _, _ = scene_rig(sc, baseline, convergence, needed_by="vergence specular")
+    except ParameterError as exc:
+        raise spoken(exc) from exc
     w_px, h_px = sc.camera.width, sc.camera.height
     _check_render_cost(w_px, h_px, depth, samples, k)
-    maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
+    try:
+        maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
+    except ParameterError as exc:
+        raise spoken(exc) from exc
     src = Path(scene)
     for name in SPECULAR_OUTPUT_FILES:
         check_output_path(out / name, src)

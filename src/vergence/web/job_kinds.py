@@ -131,7 +131,7 @@ _MAX_WEIGHT = 1e6
 
 
 def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
-    from vergence.cli._app import scene_rig
+    from vergence.commands._scene import scene_rig
     from vergence.render import render_cost
     from vergence.specular import ABSOLUTE_VARIANTS, MAX_TABLE_BYTES, offset_table_bytes
     from vergence.viewing.geometry import Display
@@ -233,7 +233,8 @@ class SpecularReoptimiseJob(pydantic.BaseModel):
 
 
 def _prepare_reoptimise(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
-    from vergence.cli.specular import weight_maps
+    from vergence.commands import ParameterError
+    from vergence.commands._specular import weight_maps
     from vergence.specular import ABSOLUTE_VARIANTS, COST_TERMS
 
     if not isinstance(params, SpecularReoptimiseJob):
@@ -255,11 +256,12 @@ def _prepare_reoptimise(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     try:
         maps = weight_maps([f"{spec}={upload.path}" for spec, upload in specs], n_layers=n, width=w, height=h)
     except ValueError as exc:  # name the upload, never its path on the server
-        message = str(exc)
+        message = exc.spelled(lambda name: "weight_maps:" if name == "weight_map" else name) if isinstance(
+            exc, ParameterError) else str(exc)
         for spec, upload in specs:
             message = message.replace(f"{spec}={upload.path}", f"{spec} (upload {upload.id})")
             message = message.replace(str(upload.path), f"upload {upload.id}")
-        raise ValueError(message.replace("--weight-map ", "weight_maps: ")) from None
+        raise ValueError(message) from None
 
     def run(ctx: JobContext) -> JobResult:
         result = base.reoptimise(alpha=params.weights, variant=params.variant, maps=maps or None,
