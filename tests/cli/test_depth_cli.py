@@ -128,12 +128,12 @@ def test_rectify_sizes_each_camera_by_its_image(capsys, shared_data, tmp_path):
     ],
 )
 def test_match_refuses_bad_outputs_before_matching(capsys, tsukuba, tmp_path, monkeypatch, options, message):
-    import vergence.commands.match as match_cli
+    import vergence.commands.match as match_work
 
     def no_matching(*args, **kwargs):
         raise AssertionError("matching ran before the outputs were checked")
 
-    monkeypatch.setattr(match_cli, "compute_disparity", no_matching)
+    monkeypatch.setattr(match_work, "compute_disparity", no_matching)
     monkeypatch.chdir(tmp_path)
     code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
                         *options)
@@ -380,12 +380,12 @@ def test_rectify_refuses_an_image_of_another_size_than_its_cameras(capsys, dino,
 
 
 def test_rectify_writes_all_or_nothing(capsys, dino, tmp_path, monkeypatch):
-    import vergence.cli.rectify as rectify_cli
+    import vergence.commands.rectify as rectify_work
 
     def fail(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(rectify_cli, "write_json", fail)  # the last file of five
+    monkeypatch.setattr(rectify_work, "write_json", fail)  # the last file of five
     code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
                         str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
     assert code == 2 and "disk full" in err
@@ -428,16 +428,16 @@ def test_match_mask_leaves_the_rectification_borders_unknown(capsys, tsukuba, tm
 
 def test_match_writes_all_or_nothing(capsys, tsukuba, tmp_path, monkeypatch):
     """The disparity, preview and confidence files appear together or not at all."""
-    import vergence.commands.match as match_cli
+    import vergence.commands.match as match_work
 
-    real = match_cli.write_image
+    real = match_work.write_image
 
     def fail_on_confidence(path, image, **kwargs):
         if image.ndim == 2:  # the confidence map, written last
             raise OSError("disk full")
         real(path, image, **kwargs)
 
-    monkeypatch.setattr(match_cli, "write_image", fail_on_confidence)
+    monkeypatch.setattr(match_work, "write_image", fail_on_confidence)
     assert ".tmp-" not in str(tmp_path)
     code, _, err = _run(capsys, "match", str(tsukuba / "im3.png"), str(tsukuba / "im4.png"), "--max-disparity", "15",
                         "--out", str(tmp_path / "d.pfm"), "--preview", str(tmp_path / "p.png"), "--confidence",
@@ -458,14 +458,14 @@ def test_match_bm_default_block_on_a_tiny_image_is_refused_by_name(capsys, tmp_p
 
 
 def test_rectify_writes_all_files_or_none(capsys, shared_data, tmp_path, monkeypatch):
-    import vergence.cli.rectify as cli_rectify
+    import vergence.commands.rectify as rectify_work
 
     dino = shared_data / "collections" / "dino"
 
     def full_disk(path, obj):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(cli_rectify, "write_json", full_disk)
+    monkeypatch.setattr(rectify_work, "write_json", full_disk)
     code, _, err = _run(capsys, "rectify", str(dino / "dino0002.png"), str(dino / "dino0001.png"), "--cameras",
                         str(dino / "dino_par.txt"), "--out", str(tmp_path / "o"))
     assert code == 2 and "no space left on device" in err.lower()

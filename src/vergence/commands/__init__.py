@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "interpolate": ("interpolate", "INTERPOLATE"),
     "mapping": ("mapping", "MAPPING"),
     "match": ("match", "MATCH"),
+    "rectify": ("rectify", "RECTIFY"),
 }
 
 
