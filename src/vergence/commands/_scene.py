@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from vergence.commands._naming import literal
 from vergence.commands._spec import ParameterError
 
 if TYPE_CHECKING:
@@ -12,11 +13,6 @@ if TYPE_CHECKING:
     from vergence.render import Scene
 
 __all__ = ["scene_rig"]
-
-
-def _literal(text: str) -> str:
-    """``text`` inside a :class:`ParameterError` template: its braces doubled."""
-    return text.replace("{", "{{").replace("}", "}}")
 
 
 def scene_rig(scene: Scene, baseline: float | None, convergence: float | None, *,
@@ -52,13 +48,13 @@ def scene_rig(scene: Scene, baseline: float | None, convergence: float | None, *
     from vergence.viewing import LENGTH_RANGE
 
     if scene.camera.lens != "pinhole":
-        raise ParameterError(_literal(f"{needed_by} needs a pinhole scene camera (the rig shifts the sensor); "
+        raise ParameterError(literal(f"{needed_by} needs a pinhole scene camera (the rig shifts the sensor); "
                                       f"got lens {scene.camera.lens!r}"))  # fmt: skip
     rig = scene.stereo
     b = baseline if baseline is not None else (rig.baseline if rig else None)
     h = convergence if convergence is not None else (rig.convergence if rig else None)
     if b is None or h is None:
-        raise ParameterError(_literal(needed_by) + ' needs {baseline} and {convergence} (the scene has no "stereo" '
+        raise ParameterError(literal(needed_by) + ' needs {baseline} and {convergence} (the scene has no "stereo" '
                              "block)")  # fmt: skip
     for name, value in (("baseline", b), ("convergence", h)):
         # the rig's lengths as the viewing geometry takes them: the sensor shift fx b / (2H) stays finite

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vergence.commands._naming import literal
 from vergence.commands._spec import ParameterError
 
 __all__ = ["MAX_WEIGHT", "weight_maps"]
@@ -27,17 +28,12 @@ MAX_WEIGHT = 1e6
 _FLOAT_MAP_SUFFIXES = (".pfm", ".npy")
 
 
-def _literal(text: str) -> str:
-    """``text`` inside a :class:`ParameterError` template: its braces doubled."""
-    return text.replace("{", "{{").replace("}", "}}")
-
-
 def _read_map(path: Path, spec: str) -> np.ndarray:
     """The grey weight image of the spec ``spec`` as float64 ``(H, W)``, or a ParameterError naming ``spec``."""
     from vergence.io import read_disparity, read_image
     from vergence.io.atomic import describe_os_error
 
-    named = "{weight_map} " + _literal(spec) + ": "
+    named = "{weight_map} " + literal(spec) + ": "
     try:
         if path.suffix.lower() in _FLOAT_MAP_SUFFIXES:
             arr = read_disparity(path)  # float as stored, single channel; inf becomes NaN, refused below
@@ -46,9 +42,9 @@ def _read_map(path: Path, spec: str) -> np.ndarray:
             if arr.ndim == 3 and (arr == arr[..., :1]).all():
                 arr = arr[..., 0]  # grey stored as RGB
     except OSError as exc:
-        raise ParameterError(named + _literal(describe_os_error(exc))) from exc
+        raise ParameterError(named + literal(describe_os_error(exc))) from exc
     except ValueError as exc:
-        raise ParameterError(named + _literal(str(exc))) from exc
+        raise ParameterError(named + literal(str(exc))) from exc
     if arr.ndim != 2:
         raise ParameterError(named + f"the map must be a grey image; got {arr.shape[2]} distinct channels")
     rule = f"weights must be finite and in [0, {MAX_WEIGHT:g}]"
@@ -79,10 +75,10 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
         key, sep, name = spec.partition("=")
         term, colon, layer_text = key.rpartition(":")
         if not sep or not name or not layer_text:
-            raise ParameterError("{weight_map} must be LAYER=FILE or TERM:LAYER=FILE; got " + _literal(repr(spec)))
-        named = "{weight_map} " + _literal(spec) + ": "
+            raise ParameterError("{weight_map} must be LAYER=FILE or TERM:LAYER=FILE; got " + literal(repr(spec)))
+        named = "{weight_map} " + literal(spec) + ": "
         if colon and term not in COST_TERMS:
-            raise ParameterError(named + _literal(f"unknown cost term {term!r}; the terms are {', '.join(COST_TERMS)}"))
+            raise ParameterError(named + literal(f"unknown cost term {term!r}; the terms are {', '.join(COST_TERMS)}"))
         try:
             layer = int(layer_text)
         except ValueError:
@@ -90,7 +86,7 @@ def weight_maps(specs: list[str], *, n_layers: int, width: int, height: int) -> 
         if not 1 <= layer <= n_layers:
             raise ParameterError(named + f"LAYER must be a whole number in 1..{n_layers} (the layers of "
                                  "{depth}" + f" {(n_layers + 1).bit_length() - 2}, as report.json numbers them); "
-                                 f"got {_literal(repr(layer_text))}")  # fmt: skip
+                                 f"got {literal(repr(layer_text))}")  # fmt: skip
         arr = _read_map(Path(name), spec)
         if arr.shape != (height, width):
             raise ParameterError(named + f"the map must be {width} x {height} pixels (the render's W x H); got "
