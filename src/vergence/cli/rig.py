@@ -17,7 +17,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
+from vergence.cli._app import app, check_output_path, console, err_console, option, options_named, print_json, \
+    run_command  # fmt: skip
+from vergence.commands.rig_plan import RIG_PLAN
 
 __all__ = ["rig_app"]
 
@@ -64,20 +66,18 @@ def _print_plan(shot, rig) -> None:  # noqa: ANN001
 
 @rig_app.command("plan")
 def plan(
-    shot: Path = typer.Argument(..., help="Shot file (JSON, docs/shots.md)."),
+    shot: Path = option(RIG_PLAN, "shot"),
     as_json: bool = typer.Option(False, "--json", help="Print only the JSON on stdout."),
     plot: Path | None = typer.Option(None, "--plot", help="Draw the rig from above into this PNG or SVG."),
 ) -> None:
     """Plan the real cameras of SHOT: positions, focal lengths (fx and the ratio), baselines."""
-    s = _load(shot)
-    rig = s.plan()
+    report = run_command(RIG_PLAN, shot=shot)
+    s, rig = report.shot, report.rig
     if plot is not None:
         check_output_path(plot, shot)
         _plot(s, rig, plot)
     if as_json:
-        from vergence.rigs import plan_document
-
-        print_json(plan_document(s, rig))
+        print_json(report.to_dict())
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
         return

@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "mapping": ("mapping", "MAPPING"),
     "match": ("match", "MATCH"),
     "rectify": ("rectify", "RECTIFY"),
+    "rig plan": ("rig_plan", "RIG_PLAN"),
 }
 
 
