@@ -245,3 +245,23 @@ def test_glasses_sky_fallback_is_announced(tmp_path, monkeypatch, caplog):
     assert "venice_sunset_1k.hdr not found: constant sky colour [0.9, 0.8, 0.7] used instead" in env.note
     assert env.note in env.describe()
     assert any("not found" in r.getMessage() for r in caplog.records)
+
+
+def test_scene_files_are_the_files_loading_reads(monkeypatch):
+    """scene_files lists exactly what load_scene opens (textured_vase: an .hdr sky, a texture, a mesh)."""
+    import vergence.io
+    import vergence.render.scenefile as scenefile
+
+    opened = []
+    read_image, read_mesh_ = vergence.io.read_image, scenefile.read_mesh
+    monkeypatch.setattr(vergence.io, "read_image", lambda p, *a, **k: opened.append(Path(p)) or read_image(p, *a, **k))
+    monkeypatch.setattr(scenefile, "read_mesh", lambda p, *a, **k: opened.append(Path(p)) or read_mesh_(p, *a, **k))
+    path = REPO / "examples" / "scenes" / "textured_vase.json"
+    scene_data = json.loads(path.read_text())
+    listed = scenefile.scene_files(scene_data, base_dir=path.parent)
+    load_scene(path)
+    assert sorted(listed) == sorted(opened) and len(listed) == 3
+    assert scenefile.scene_files({**scene_data, "environment": {"color": [1, 1, 1]}}, base_dir=path.parent) == \
+        tuple(p for p in listed if p.suffix != ".hdr")
+    assert scenefile.scene_files({"materials": {"m": {"type": "texture", "path": "/abs/t.png"}}}) == (Path("/abs/t.png"),)
+    assert scenefile.scene_files([1, 2]) == () and scenefile.scene_files({"objects": [{"type": "mesh", "path": 3}]}) == ()

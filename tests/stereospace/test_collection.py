@@ -248,3 +248,49 @@ def test_a_par_collection_is_triangulated_end_to_end_and_swapped_cameras_put_poi
     path = _write_par_collection(other, cams[::-1], grays)
     with pytest.raises(ValueError, match=r"^the points triangulated for plane_par\.txt are behind every camera$"):
         load_collection(path, images=other)
+
+
+def _line_of_views(folder: Path, names: tuple[str, ...]) -> None:
+    """A Bundler collection of small textured views on a line, its points seen by every camera."""
+    cams = tuple(look_at([0.2 * i, 0, 0], [0.3, 0, 4], [0, -1, 0], fov_deg=60, width=64, height=48)
+                 for i in range(len(names)))  # fmt: skip
+    rng = np.random.default_rng(0)
+    points = rng.uniform([-0.5, -0.3, 3.5], [1.1, 0.3, 4.5], (20, 3))
+    obs = [(p, c, p) for p in range(len(points)) for c in range(len(cams))]
+    pixels = [cams[c].project(points[p:p + 1])[0][0] for p, c, _ in obs]
+    folder.mkdir(parents=True)
+    write_bundler(folder / "bundle.out", CameraSet(names=names, cameras=cams, points=points,
+                                                   colors=np.zeros((len(points), 3), np.uint8),
+                                                   observations=np.array(obs), observation_pixels=np.array(pixels)))
+    (folder / "list.txt").write_text("".join(f"{n}\n" for n in names))
+    for n in names:
+        write_image(folder / n, rng.uniform(0, 1, (48, 64, 3)).astype(np.float32))
+
+
+def test_images_that_lead_outside_within_are_left_out_unread(tmp_path, monkeypatch):
+    import vergence.stereospace.collection as collection
+
+    inside, outside = tmp_path / "inside", tmp_path / "outside"
+    _line_of_views(inside, ("a.png", "b.png", "c.png", "d.png"))
+    _line_of_views(outside, ("a.png", "b.png", "c.png", "d.png"))
+    for name in ("a.png", "c.png"):  # the first image too: it would be the probe of the size
+        (inside / name).unlink()
+        (inside / name).symlink_to(outside / name)
+    everywhere = load_collection(inside / "bundle.out", images=inside)
+    assert everywhere.names == ("a.png", "b.png", "c.png", "d.png") and everywhere.left_out == 0
+    opened = []
+    real = collection._header_size
+    monkeypatch.setattr(collection, "_header_size", lambda p: opened.append(Path(p).name) or real(p))
+    kept = load_collection(inside / "bundle.out", images=inside, within=inside)
+    assert kept.names == ("b.png", "d.png") and kept.left_out == 2
+    assert kept.warnings == ("2 of the 4 cameras of bundle.out name an image that leads outside the allowed folder "
+                             "(within): left out, unread",)
+    assert set(opened) == {"b.png", "d.png"}  # nothing outside was opened, not even for its size
+    (inside / "d.png").unlink()
+    (inside / "d.png").symlink_to("d.png")  # a loop: unreadable, as missing
+    with pytest.raises(ValueError, match=r"^a collection needs at least two cameras with an image; bundle\.out has 1 "
+                                         r"with its image in .*inside \(2 more lead outside the allowed folder "
+                                         r"\(within\)\)$"):
+        load_collection(inside / "bundle.out", images=inside, within=inside)
+    with pytest.raises(ValueError, match=r"^within must be a folder; .*nope is not a folder$"):
+        load_collection(inside / "bundle.out", images=inside, within=tmp_path / "nope")

@@ -259,7 +259,7 @@ def load_collection(
     if len(kept) < 2:
         raise ValueError(f"a collection needs at least two cameras with an image; {cam_path.name} has "
                          f"{len(kept)} with its image in {img_dir}" +
-                         (f" ({outside} more lead outside the allowed folder, within)" if outside else ""))  # fmt: skip
+                         (f" ({outside} more lead outside the allowed folder (within))" if outside else ""))  # fmt: skip
     notes = list(cset.notes)
     if left_out - outside:
         notes.append(f"{left_out - outside} of the {len(cset)} cameras of {cam_path.name} have no image in "

@@ -7,8 +7,12 @@ the OpenAPI schema at ``/openapi.json`` (and ``/docs``):
 - ``GET /api/health``: ``{"status": "ok", "version": ...}``.
 - ``GET /api/displays``: ``{"displays": [{"name", "eye_separation", "distance", "width",
   "resolution"}, ...]}``, the presets of :data:`vergence.viewing.DISPLAY_PRESETS` sorted by name.
-- ``GET /api/data``: ``{"collections": [...], "scenes": [...]}``, each ``{"id", "kind", "name",
-  "format"}``; ``GET /api/data/{id}`` one of them. A client names data by these ids only.
+- ``GET /api/data``: ``{"collections": [...], "scenes": [...], "skipped": n}``, each ``{"id", "kind",
+  "name", "format"}``; ``GET /api/data/{id}`` one of them. A client names data by these ids only.
+  The folders are indexed at start and walked again for each ``GET /api/data`` (and when an id is
+  unknown or its file changed); ``skipped`` counts what could not be read (a link loop) or leads
+  outside the data folders (a link out, a scene's texture out), never named
+  (:mod:`vergence.web.data`).
 - ``POST /api/<command>`` (``budget``, ``mapping``): the command's options as JSON fields, the
   answer exactly what ``vergence <command> ... --json`` prints (:mod:`vergence.web.twins`).
 - ``POST /api/uploads[?name=...]``: the body is the file itself (no multipart), Content-Type
@@ -16,7 +20,8 @@ the OpenAPI schema at ``/openapi.json`` (and ``/docs``):
   the format is told by content (PNG, JPEG, PFM, NPY magic bytes), never by name. Answers 201
   ``{"id", "kind", "width", "height", "channels", "dtype", "bytes", "name"}``; 413 over
   :data:`MAX_UPLOAD_BYTES` (from Content-Length, unread, or as the bytes arrive) or over
-  :data:`MAX_UPLOAD_PIXELS` declared by the header (nothing decoded), 422 unknown or corrupt content.
+  :data:`MAX_UPLOAD_PIXELS` declared by the header (nothing decoded), 415 another Content-Type, 422
+  unknown or corrupt content or a ``name`` with a control character (NUL, a line break).
   ``GET /api/uploads/{id}``: that metadata. Jobs take these ids, never paths
   (:mod:`vergence.web.uploads`).
 - ``GET /api/jobs``: ``{"kinds": [{"name", "summary", "parameters"}], "jobs": [...]}``.
@@ -32,10 +37,21 @@ the OpenAPI schema at ``/openapi.json`` (and ``/docs``):
   ``POST /api/stereospace/{id}/pair`` ``{state, format, width}`` (the pair's PNG URLs) and
   ``GET /api/stereospace/{id}/views/{name}``: page 3, :mod:`vergence.web.stereospace_page`.
 
-Every refusal is ``{"error": "<one line>"}``: 422 bad parameter, 404 unknown id or endpoint, 405
-wrong method, 409 a job in the wrong state, 413 a JSON body over :data:`MAX_JSON_BODY` bytes or an
-upload over its limits, 429 too many jobs at once. Results and uploads live in a temporary folder
-of the app, removed at shutdown.
+Only this machine's pages may use it (:mod:`vergence.web._guard`, before any route): a request whose
+``Host`` is not a loopback name (``localhost``, 127.0.0.0/8, ``[::1]``) or the address served is
+refused on every path, 400 (DNS rebinding); a POST, PUT, PATCH or DELETE with an ``Origin`` other
+than the request's own ``http(s)://Host`` or with ``Sec-Fetch-Site: cross-site``/``same-site`` is
+refused, 403; a POST, PUT or PATCH whose Content-Type is not ``application/json`` (uploads: their own
+list), none included, is refused, 415. ``vergence serve --allow-remote`` on a non-loopback host
+prints a URL with a token, which every request must carry (``?token=``, then a cookie, or
+``Authorization: Bearer``), 401 otherwise.
+
+Every refusal is ``{"error": "<one line>"}``: 400 a foreign Host (or a Content-Length that is no
+number), 401 no token, 403 another origin, 415 a body not sent as JSON, 422 bad parameter, 404
+unknown id or endpoint, 405 wrong method, 409 a job in the wrong state, 413 a JSON body over
+:data:`MAX_JSON_BODY` bytes or an upload over its limits, 429 too many jobs at once. No answer names
+a server path: the data folders are ``<data>``, the app's temporary folder ``<workdir>``. Results and
+uploads live in that temporary folder, removed at shutdown.
 """
 
 from __future__ import annotations

@@ -203,8 +203,10 @@ def _images_folder(path: Path, root: Path) -> Path:
 
 
 def _without_paths(text: str, images: Path, entry: Any, data: Any) -> str:
-    """A warning of the collection's reader with its images folder named by the entry, no server path."""
-    return data.redact(text.replace(str(images), f"the images folder of {entry.name}"))
+    """A warning or error of the collection's reader in the page's words: its images folder named by the
+    entry, ``within`` as the data folder, no server path."""
+    text = text.replace(str(images), f"the images folder of {entry.name}")
+    return data.redact(text.replace("the allowed folder (within)", "the data folder"))
 
 
 def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
