@@ -201,10 +201,26 @@ def _prefer_passive_omp_wait(environ: MutableMapping[str, str]) -> None:
     environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
+def _use_user_kernel_cache() -> None:
+    """Numba's cache in a folder the user owns (:func:`vergence._cache.use_numba_cache_dir`), and one
+    line on stderr before the first compilation (:mod:`vergence.cli._compile_notice`).
+
+    Numba reads ``NUMBA_CACHE_DIR`` once, when it is imported: the console script sets it before any
+    command loads. Its default (``__pycache__`` beside the kernels' sources) fails or helps no one
+    for an installed, read-only or shared package.
+    """
+    from vergence._cache import use_numba_cache_dir
+    from vergence.cli import _compile_notice
+
+    use_numba_cache_dir(os.environ)
+    _compile_notice.install()
+
+
 def _entry() -> None:
     """The console script: SIGINT handler first (before any heavy import), then :func:`main`."""
     _signal.signal(_signal.SIGINT, _on_sigint)
     _prefer_passive_omp_wait(os.environ)
+    _use_user_kernel_cache()
     code = main()
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)  # a second Ctrl-C cannot turn the exit into a traceback
     _retry_in(0.0)  # nor a deferred one's timer (SIGALRM's default action kills)
