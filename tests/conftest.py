@@ -10,6 +10,13 @@ from pathlib import Path
 # itself leaves the environment alone). A policy set by the user wins.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
+# Numba's cache where the `vergence` command keeps it (the user's cache folder, which `make setup`'s
+# `vergence warm` fills), not beside the sources; a folder the user chose (NUMBA_CACHE_DIR) wins.
+# Before anything imports Numba, which reads the variable once.
+from vergence._cache import use_numba_cache_dir  # noqa: E402
+
+use_numba_cache_dir(os.environ)
+
 import pytest  # noqa: E402
 from hypothesis import settings  # noqa: E402
 

@@ -62,6 +62,7 @@ PUBLIC_API = {   'vergence': ['__version__'],
                             'perceived_depth_from_depth', 'pixels_from_arcmin', 'psi_from_constraints',
                             'roundness', 'roundness_baseline', 'scene_depth_from_disparity',
                             'shift_sensor_parallax', 'shift_sensor_positions', 'temporal_mapping'],
+    'vergence.warm': ['WARM_GROUPS', 'WarmGroup', 'kernel_signatures', 'warm'],
     'vergence.web': ['JobCancelled', 'MAX_JSON_BODY', 'MAX_UPLOAD_BYTES', 'MAX_UPLOAD_PIXELS', 'create_app']}
 
 

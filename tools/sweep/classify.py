@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+from vergence.cli._compile_notice import NOTICE as COMPILE_NOTICE
+
 CLASSES = ("internal_error", "traceback", "timeout", "killed", "noisy_stderr", "python_name", "suspicious_ok",
            "input_modified", "leftovers", "sigint", "ok")
 
@@ -72,7 +74,8 @@ def classify(result: Result, *, names: frozenset[str] = frozenset()) -> list[str
     """The classes of ``result`` (``["ok"]`` when nothing is wrong); ``names`` are the Python parameter names."""
     found: list[str] = []
     stderr = result.stderr
-    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    # the console script's line before a first compilation (a cold kernel cache) is no message of the case
+    lines = [ln for ln in stderr.splitlines() if ln.strip() and ln.strip() != COMPILE_NOTICE]
     if result.timed_out:
         found.append("timeout")
     if result.kind == "api":

@@ -45,6 +45,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
                     "leave-one-out PSNR), build (space, quality, map), pair (the stereo pair at a state)."),
     "synthesize": ("synthesize", "Make the views a display needs from one image and its depth (writes views, "
                    "layout, JSON)."),
+    "warm": ("warm", "Compile the kernels of the commands and the workbench ahead of their first use (into "
+             "Numba's cache in the user's folder)."),
 }
 
 # Exit status after Ctrl-C: 128 + SIGINT (2), as POSIX shells report a process killed by SIGINT.
