@@ -101,10 +101,20 @@ def test_the_bound_host_is_served_and_all_interfaces_admit_ip_addresses_only():
     assert host_allowed("myhost.lan", ["myhost.lan"]) and not host_allowed("myhost.lan", ["192.168.1.5"])
     assert host_allowed("192.168.1.6", ["0.0.0.0"]) and host_allowed("fe80::1", ["::"])
     assert not host_allowed("rebind.attacker.example", ["0.0.0.0", "::"])
-    with TestClient(create_app(allowed_hosts=["192.168.1.5"]), base_url="http://192.168.1.5:8765") as c:
+    with TestClient(create_app(allowed_hosts=["192.168.1.5", "127.0.0.1"]), base_url="http://192.168.1.5:8765") as c:
         assert c.get("/api/health").status_code == 200
         assert c.get("/api/health", headers={"host": "127.0.0.1"}).status_code == 200
-        refused(c.get("/api/health", headers={"host": "192.168.1.6"}), 400)
+        assert refused(c.get("/api/health", headers={"host": "192.168.1.6"}), 400) == (
+            "Host '192.168.1.6' is not served here; this workbench answers to localhost, 127.0.0.1, [::1], "
+            "192.168.1.5 (a foreign name is how DNS rebinding reaches a local server)")
+
+
+def test_the_data_label_replaces_a_data_folder_but_not_the_disk(tmp_path, monkeypatch):
+    import vergence.web.data as data
+
+    monkeypatch.setattr(data, "MAX_DATA_FILES", 10)  # --data / walks the disk: a few files suffice here
+    assert data.DataIndex([tmp_path]).redact(f"cannot read {tmp_path}/a.png") == "cannot read <data>/a.png"
+    assert data.DataIndex(["/"]).redact("cannot read /etc/a.png") == "cannot read /etc/a.png"
 
 
 # ----------------------------------------------------------------------------------- Origin

@@ -112,8 +112,8 @@ class HostGuard:
                 return
             name, _ = _split_host(host)
             if not host_allowed(name, self.allowed):
-                served = ", ".join(["localhost", "127.0.0.1", "[::1]", *(
-                    "any IP address" if _unspecified(a) else a for a in self.allowed)])
+                served = ", ".join(dict.fromkeys(["localhost", "127.0.0.1", "[::1]", *(
+                    "any IP address" if _unspecified(a) else a for a in self.allowed)]))
                 await refusal(400, f"Host {_shown(host)} is not served here; this workbench answers to {served} "
                                    "(a foreign name is how DNS rebinding reaches a local server)")(
                     scope, receive, send)  # fmt: skip

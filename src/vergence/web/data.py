@@ -257,9 +257,14 @@ class DataIndex:
         return entry
 
     def redact(self, text: str) -> str:
-        """``text`` with each data folder's server path replaced by :data:`DATA_LABEL` (for a message)."""
+        """``text`` with each data folder's server path replaced by :data:`DATA_LABEL` (for a message).
+
+        A data folder that is the file system's root (``--data /``) is left as it is: every path is
+        then a data entry's name.
+        """
         for root in sorted(self.roots, key=lambda r: len(str(r)), reverse=True):
-            text = text.replace(str(root), DATA_LABEL)
+            if root != Path(root.anchor):
+                text = text.replace(str(root), DATA_LABEL)
         return text
 
     def _search(self, root: Path) -> tuple[list[DataEntry], int]:
