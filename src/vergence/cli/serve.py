@@ -71,7 +71,7 @@ def serve(
         # served: the loopback names, the host given and the address bound; reachable from other
         # machines, every request must also carry a token (printed once, as Jupyter does)
         token = None if is_loopback(host) else secrets.token_urlsafe(32)
-        application = create_app(data, allowed_hosts=[host, address], token=token)
+        application = create_app(data, allowed_hosts=[host, address], token=token, warm_kernels=True)
         shown = f"[{host.strip('[]')}]" if ":" in host else host
         query = f"?token={token}" if token else ""
         console.print(f"Vergence workbench at http://{shown}:{bound}/{query} (Ctrl-C stops it)", highlight=False,

@@ -4,7 +4,9 @@ Needs the ``web`` extra (FastAPI, uvicorn): ``pip install 'vergence[web]'``. The
 the OpenAPI schema at ``/openapi.json`` (and ``/docs``):
 
 - ``GET /``: the page (``static/index.html``); ``/static/...``: its scripts and styles.
-- ``GET /api/health``: ``{"status": "ok", "version": ...}``.
+- ``GET /api/health``: ``{"status": "ok", "version": ..., "kernels": {"state", "done", "total"}}``: the
+  pages' kernels compiled in the background at start (``cold``, ``warming``, ``ready`` or ``failed``;
+  :mod:`vergence.web.warmup`), which the page shows as a banner until ready.
 - ``GET /api/displays``: ``{"displays": [{"name", "eye_separation", "distance", "width",
   "resolution"}, ...]}``, the presets of :data:`vergence.viewing.DISPLAY_PRESETS` sorted by name.
 - ``GET /api/data``: ``{"collections": [...], "scenes": [...], "skipped": n}``, each ``{"id", "kind",

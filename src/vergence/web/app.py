@@ -40,6 +40,7 @@ from vergence.web.jobs import JobManager
 from vergence.web.routes import add_job_routes, add_upload_routes
 from vergence.web.uploads import UploadStore
 from vergence.web.twins import MAX_TWIN_CALLS, Resolver, Twin, TwinError, build_twins
+from vergence.web.warmup import KernelWarmup
 
 __all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
 
@@ -186,7 +187,7 @@ def _resolver(index: DataIndex, uploads: UploadStore) -> Resolver:
 
 
 def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[str] = (),
-               token: str | None = None) -> FastAPI:
+               token: str | None = None, warm_kernels: bool = False) -> FastAPI:
     """The workbench application: the page at ``/``, the JSON API under ``/api``.
 
     Parameters
@@ -201,6 +202,9 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
     token : str, optional
         A token every request must carry (``?token=``, its cookie, or ``Authorization: Bearer``),
         401 otherwise; ``vergence serve`` makes one when it binds a non-loopback host.
+    warm_kernels : bool
+        Compile the pages' kernels in a background thread when the app starts (its lifespan), as
+        ``vergence serve`` does (:mod:`vergence.web.warmup`); ``GET /api/health`` reports the state.
 
     Raises
     ------
@@ -220,9 +224,12 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
     jobs = JobManager(workdir / "jobs", env, kinds, redact=lambda text: _scrub_paths(index.redact(text), workdir))
     # removed at shutdown (the lifespan below); also at exit, for an app run without its lifespan
     cleanup = weakref.finalize(jobs, shutil.rmtree, workdir, ignore_errors=True)
+    kernels = KernelWarmup()
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        if warm_kernels:
+            kernels.start()
         yield
         await run_in_threadpool(jobs.shutdown)
         cleanup()
@@ -264,9 +271,10 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
         app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
     @app.get("/api/health", summary="The server is up")
-    def health() -> dict[str, str]:
-        """``{"status": "ok", "version": ...}``."""
-        return {"status": "ok", "version": __version__}
+    def health() -> dict[str, Any]:
+        """``{"status": "ok", "version": ..., "kernels": {"state", "done", "total"}}``: the background
+        warm-up of the pages' kernels (:class:`vergence.web.warmup.KernelWarmup`)."""
+        return {"status": "ok", "version": __version__, "kernels": kernels.status()}
 
     @app.get("/api/displays", summary="The display presets of vergence.viewing")
     def displays() -> dict[str, list[dict[str, Any]]]:
@@ -328,6 +336,7 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
     app.state.jobs = jobs
     app.state.uploads = uploads
     app.state.workdir = workdir
+    app.state.kernels = kernels
     return app
 
 

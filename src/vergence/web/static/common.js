@@ -64,6 +64,24 @@ async function showPage() {
 window.addEventListener("hashchange", showPage);
 document.addEventListener("DOMContentLoaded", showPage);
 
+// ---------------------------------------------------------------- kernels
+// vergence serve compiles the pages' kernels in the background when it starts (the first time only; then
+// they load from Numba's cache). While it does ("kernels": {state: "warming", done, total} in
+// GET /api/health), a banner says how far it is, asked again every KERNEL_POLL_MS; then it goes away.
+const KERNEL_POLL_MS = 1000;
+
+async function watchKernels() {
+  const banner = document.getElementById("kernels");
+  let kernels = null;
+  try { kernels = (await api("/api/health")).kernels; } catch (exc) { /* no server: nothing to show */ }
+  if (!kernels || kernels.state !== "warming") { banner.hidden = true; return; }
+  banner.textContent = `preparing kernels (first run only): ${kernels.done}/${kernels.total}`;
+  banner.hidden = false;
+  setTimeout(watchKernels, KERNEL_POLL_MS);
+}
+
+document.addEventListener("DOMContentLoaded", watchKernels);
+
 // ---------------------------------------------------------------- API and messages
 class ApiError extends Error {}
 
