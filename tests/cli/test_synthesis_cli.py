@@ -434,7 +434,7 @@ def _interrupt_on_call(n, real):
 def test_synthesize_interrupted_leaves_nothing(tmp_path, capsys, monkeypatch, existing):
     # Issue 9: `synthesize --views 100` interrupted left 81 view files and no JSON. Now the outputs
     # appear together or not at all; a folder the command created is removed again.
-    import vergence.cli.synthesize as command
+    import vergence.commands.synthesize as command
 
     _scene(tmp_path)
     out = tmp_path / "out"

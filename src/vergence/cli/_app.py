@@ -80,17 +80,17 @@ def check_output_path(out: Path, *inputs: Path) -> None:
     check(out, *inputs)
 
 
-# ``vergence synthesize`` (and the workbench's synthesize job) without any depth control: this vergence
-# budget on this display. +-30 arcmin is half the usual +-1 degree comfort zone
-# (vergence.viewing.comfort.ComfortZone), a safe start.
-SYNTHESIS_DISPLAY = "desktop-24"
-SYNTHESIS_BUDGET_ARCMIN = 30.0
+# Moved to the library (vergence.commands.synthesize); read from there when asked for here (``convert``
+# still does), so that ``vergence --help`` does not load the synthesis.
+_MOVED_TO_SYNTHESIZE = ("SYNTHESIS_BUDGET_ARCMIN", "SYNTHESIS_DISPLAY", "layout_file_name")
 
 
-def layout_file_name(layout: str) -> str:
-    """The file ``vergence synthesize --format LAYOUT`` writes the packed pair (or tiled views) to:
-    ``anaglyph.png``, ``views_tiled.png``, else ``stereo_<layout>.png``."""
-    return {"anaglyph": "anaglyph.png", "views": "views_tiled.png"}.get(layout, f"stereo_{layout}.png")
+def __getattr__(name: str) -> Any:
+    if name in _MOVED_TO_SYNTHESIZE:
+        from vergence.commands import synthesize
+
+        return getattr(synthesize, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _cli_spelling(name: str) -> str:

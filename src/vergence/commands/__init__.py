@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "match": ("match", "MATCH"),
     "rectify": ("rectify", "RECTIFY"),
     "rig plan": ("rig_plan", "RIG_PLAN"),
+    "synthesize": ("synthesize", "SYNTHESIZE"),
 }
 
 

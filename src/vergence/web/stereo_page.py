@@ -122,7 +122,7 @@ class SynthesizeJob(pydantic.BaseModel):
 
 def _layout_files() -> dict[str, str]:
     """Every layout of vergence.display.LAYOUTS and the file it is written to (as vergence synthesize names it)."""
-    from vergence.cli._app import layout_file_name
+    from vergence.commands.synthesize import layout_file_name
     from vergence.display import LAYOUTS
 
     return {layout: layout_file_name(layout) for layout in LAYOUTS}
@@ -188,7 +188,7 @@ def _display(name: str) -> Any:
 
 def _controls(params: SynthesizeJob) -> dict[str, float | None]:
     """The depth control as vergence synthesize takes it: without any, its default budget."""
-    from vergence.cli._app import SYNTHESIS_BUDGET_ARCMIN
+    from vergence.commands.synthesize import SYNTHESIS_BUDGET_ARCMIN
 
     controls = {name: getattr(params, name) for name in _CONTROLS}
     if all(controls[name] is None for name in ("budget_arcmin", "budget_px", "focal_px", "interaxial")):
@@ -198,10 +198,10 @@ def _controls(params: SynthesizeJob) -> dict[str, float | None]:
 
 def _check_plan(depth: object, kind: str, display: Any, controls: dict[str, float | None]) -> None:
     """The library's own check of the depth control (one-line refusal, named by the job's field)."""
-    from vergence.cli._app import options_named
+    from vergence.commands import naming
     from vergence.synthesis import plan_parallax
 
-    with options_named(kind="depth_kind"):
+    with naming(kind="depth_kind"):
         plan_parallax(depth, kind=kind, display=display, **controls)
 
 
@@ -285,9 +285,9 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
                              f"{_shown(depth_up, 'depth')!r} has {depth_up.channels} channels "
                              f"({'grey and alpha' if depth_up.channels == 2 else 'a colour image'})")
         _check_same_size("image", uploads["image"], "depth", depth_up)
-        from vergence.cli._app import options_named
+        from vergence.commands import naming
 
-        with options_named(scale="depth_scale", kind="depth_kind"):
+        with naming(scale="depth_scale", kind="depth_kind"):
             depth_map = _read("depth", depth_up, read_depth, kind=params.depth_kind, scale=params.depth_scale)
         _check_plan(depth_map, params.depth_kind, display, controls)
         inputs = tuple(u.sha256 for u in uploads.values())
