@@ -2,65 +2,38 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-import numpy as np
 import typer
 from rich.table import Table
 
-from vergence.cli._app import app, check_output_path, console, err_console, options_named, print_json
-from vergence.io import read_image, write_image
-from vergence.metrics import MAX_REGISTRATION_RADIUS, MIN_CONTRAST
-from vergence.synthesis import assess_view, error_image
+from vergence.cli._app import app, console, option, print_json, run_command
+from vergence.cli._spinner import Spinner
+from vergence.commands.compare import COMPARE
 
 __all__ = ["compare"]
 
 
-def _mask(path: Path) -> np.ndarray:
-    """A mask image: grey, True where the value is above one half (255 in an 8-bit mask)."""
-    m = read_image(path)
-    if m.ndim != 2:
-        raise ValueError(f"--mask {path} must be a single-channel (grey) image; got shape {m.shape}")
-    return m > 0.5
-
-
 @app.command("compare")
 def compare(
-    image: Path = typer.Argument(..., help="The image to assess (e.g. a synthesized view)."),
-    reference: Path = typer.Argument(..., help="The reference (the real view)."),
-    mask: Path | None = typer.Option(None, "--mask", help="Grey mask: compare where it is above one half."),
-    radius: float = typer.Option(10.0, "--radius", help="Registration-error search radius (px)."),
-    min_contrast: float = typer.Option(
-        MIN_CONTRAST, "--min-contrast",
-        help="Registration error only where the image's 5x5 patch contrast (RMS, [0, 1] units) is at least "
-        "this; 0: every pixel.",
-    ),
-    error_path: Path | None = typer.Option(
-        None, "--error-image", help="Write |image - reference| (channel mean) times --error-gain here."
-    ),
-    error_gain: float = typer.Option(4.0, "--error-gain", help="Gain of the error image."),
+    image: Path = option(COMPARE, "image"),
+    reference: Path = option(COMPARE, "reference"),
+    mask: Path | None = option(COMPARE, "mask"),
+    radius: float = option(COMPARE, "radius"),
+    min_contrast: float = option(COMPARE, "min_contrast"),
+    error_path: Path | None = option(COMPARE, "error_image"),
+    error_gain: float = option(COMPARE, "error_gain"),
     as_json: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Compare a view with its reference: PSNR, SSIM, DSSIM, registration error (S1 §V.B)."""
-    if not (math.isfinite(error_gain) and error_gain > 0):
-        raise ValueError(f"--error-gain must be a finite number > 0; got {error_gain}")
-    if not (math.isfinite(radius) and 0 < radius <= MAX_REGISTRATION_RADIUS):
-        raise ValueError(f"--radius must be a number in (0, {MAX_REGISTRATION_RADIUS}] px; got {radius:g}")
-    if error_path is not None:
-        check_output_path(error_path, image, reference, *([mask] if mask is not None else []))
-    with err_console.status("comparing", spinner="dots"):
-        a, b = read_image(image), read_image(reference)
-        m = _mask(mask) if mask is not None else None
-        with options_named(min_contrast="--min-contrast", radius="--radius", mask="--mask", image="IMAGE",
-                           reference="REFERENCE"):
-            quality = assess_view(a, b, mask=m, radius=radius, min_contrast=min_contrast)
-    if error_path is not None:
-        write_image(error_path, error_image(a, b, gain=error_gain))
-    data = {"image": str(image), "reference": str(reference), "mask": None if mask is None else str(mask), **quality.to_dict()}
+    with Spinner() as progress:
+        report = run_command(COMPARE, image=image, reference=reference, mask=mask, radius=radius,
+                             min_contrast=min_contrast, error_image=error_path, error_gain=error_gain,
+                             progress=progress)
     if as_json:
-        print_json(data)
+        print_json(report.to_dict())
         return
+    quality = report.quality
     table = Table(title=f"{image.name} vs {reference.name}")
     table.add_column("metric")
     table.add_column("value", justify="right")

@@ -22,6 +22,7 @@ __all__ = ["COMMANDS", "KINDS", "MAX_LIST_ITEMS", "REQUIRED", "Command", "Parame
 #: Command name -> (module of vergence.commands, the Command in it). Sorted by name.
 COMMANDS: dict[str, tuple[str, str]] = {
     "budget": ("budget", "BUDGET"),
+    "compare": ("compare", "COMPARE"),
     "interpolate": ("interpolate", "INTERPOLATE"),
     "mapping": ("mapping", "MAPPING"),
     "match": ("match", "MATCH"),
