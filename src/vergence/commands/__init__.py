@@ -23,6 +23,7 @@ __all__ = ["COMMANDS", "KINDS", "MAX_LIST_ITEMS", "REQUIRED", "Command", "Parame
 COMMANDS: dict[str, tuple[str, str]] = {
     "budget": ("budget", "BUDGET"),
     "compare": ("compare", "COMPARE"),
+    "evaluate-disparity": ("evaluate_disparity", "EVALUATE_DISPARITY"),
     "interpolate": ("interpolate", "INTERPOLATE"),
     "mapping": ("mapping", "MAPPING"),
     "match": ("match", "MATCH"),
