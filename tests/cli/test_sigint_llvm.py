@@ -49,10 +49,11 @@ _DRIVER = textwrap.dedent(
 
         def run(argv):
             from fresh_kernel import twice
-            from vergence.cli._staged import staged_outputs
+            from vergence.cli import raise_if_interrupted
+            from vergence.commands._outputs import staged_outputs
 
             value = twice(21.0)
-            with staged_outputs([Path(os.environ["OUT"])]) as (temp,):
+            with staged_outputs([Path(os.environ["OUT"])], before_commit=raise_if_interrupted) as (temp,):
                 temp.write_text(str(value))
             return 0
 
@@ -148,11 +149,12 @@ def test_staged_outputs_do_not_appear_after_a_ctrl_c_not_yet_raised(tmp_path, mo
     # A Ctrl-C deferred inside LLVM may still be waiting when the command finishes its last kernel:
     # the outputs must not appear (all or nothing), the interrupt is raised instead.
     import vergence.cli as cli
-    from vergence.cli._staged import staged_outputs
+    from vergence.commands._outputs import staged_outputs
 
     monkeypatch.setattr(cli, "_sigint_seen", True)
     folder = tmp_path / "out"
-    with pytest.raises(KeyboardInterrupt), staged_outputs([folder / "a.png"], folder=folder) as temps:
+    with pytest.raises(KeyboardInterrupt), staged_outputs([folder / "a.png"], folder=folder,
+                                                          before_commit=cli.raise_if_interrupted) as temps:
         temps[0].write_bytes(b"view")
     assert list(tmp_path.iterdir()) == []
 
