@@ -111,7 +111,7 @@ def convert(
     run_workers, run_scheduler = workers, scheduler
 
     def one(input_path: Path, kind: str | None) -> None:
-        stereo_only = {"--method": method, "--min-disparity": min_disparity, "--max-disparity": max_disparity}
+        stereo_only = {"method": method, "min_disparity": min_disparity, "max_disparity": max_disparity}
         clip, _ = open_input(input_path, kind, depth=depth, layout=layout, depth_kind=depth_kind,
                              depth_scale=depth_scale, fps=fps, stereo_only=stereo_only)
         with options_named(**_OPTIONS):

@@ -21,6 +21,7 @@ __all__ = ["COMMANDS", "KINDS", "MAX_LIST_ITEMS", "REQUIRED", "Command", "Parame
 
 #: Command name -> (module of vergence.commands, the Command in it). Sorted by name.
 COMMANDS: dict[str, tuple[str, str]] = {
+    "analyze": ("analyze", "ANALYZE"),
     "budget": ("budget", "BUDGET"),
     "compare": ("compare", "COMPARE"),
     "evaluate-disparity": ("evaluate_disparity", "EVALUATE_DISPARITY"),
