@@ -36,7 +36,7 @@ def test_library_error_is_one_line(capsys):
 
 
 def test_unexpected_exception_is_one_line_with_exit_code_1(capsys, monkeypatch):
-    import vergence.cli.budget as budget_cli
+    import vergence.commands.budget as budget_cli  # the command's work
 
     def boom(*args, **kwargs):
         raise RuntimeError("kaboom")
@@ -196,7 +196,7 @@ def sigint_flag(monkeypatch):
 
 
 def _budget_raising(monkeypatch, action):
-    import vergence.cli.budget as budget_cli
+    import vergence.commands.budget as budget_cli  # the command's work
 
     monkeypatch.setattr(budget_cli, "depth_budget", lambda *a, **k: action())
     return main(["budget", "--baseline", "0.1", "--convergence", "3", "--window", "1", "--display", "tv-55"])
@@ -281,7 +281,7 @@ def test_display_lengths_are_named_as_options(capsys):
     (OSError("cannot read left.png: truncated file"), "cannot read left.png: truncated file"),
 ])
 def test_filesystem_errors_name_the_users_file_in_words(error, message):
-    from vergence.cli._run import describe_os_error
+    from vergence.io.atomic import describe_os_error
 
     assert describe_os_error(error) == message
 
@@ -372,7 +372,7 @@ def test_a_folder_given_as_an_image_or_disparity_file_says_so():
 
 @pytest.mark.skipif(not __import__("os").path.isdir("/sys/kernel"), reason="needs Linux sysfs, where no file can be made")
 def test_a_real_failed_atomic_write_names_the_target_not_the_temporary_file():
-    from vergence.cli._run import describe_os_error
+    from vergence.io.atomic import describe_os_error
     from vergence.io import write_json
 
     with pytest.raises(OSError) as info:

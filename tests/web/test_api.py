@@ -13,7 +13,6 @@ import warnings
 from pathlib import Path
 
 import pytest
-import typer
 
 pytest.importorskip("fastapi", reason="the web extra is not installed: pip install 'vergence[web]'")
 pytest.importorskip("httpx", reason="FastAPI's test client needs httpx: pip install 'vergence[web]'")
@@ -69,17 +68,23 @@ def test_a_twin_with_defaults_and_a_preset_matches_too(client, capsys):
     assert response.text == printed
 
 
-def test_the_command_line_of_a_request_spells_every_option():
+def test_a_request_reaches_the_work_as_the_command_line_does(monkeypatch):
+    # the twin calls the library's work with the same values the command line passes it
+    import vergence.commands.budget as work
     from vergence.web.twins import build_twins
 
+    seen = []
+    real = work.depth_budget
+    monkeypatch.setattr(work, "depth_budget", lambda *a: seen.append(a) or real(*a))
     twin = build_twins(["budget"])["budget"]
-    request = twin.model(baseline=0.1, convergence=3.0, window=1.0, display="tv-55", depth=[1.0, float("inf")])
-    assert twin.argv(request) == ["budget", "--baseline=0.1", "--convergence=3.0", "--window=1.0",
-                                  "--display=tv-55", "--depth=1.0", "--depth=inf", "--json"]
+    twin.run(twin.model(baseline=0.1, convergence=3.0, window=1.0, display="tv-55", depth=[1.0, "inf"]))
+    assert main(["budget", "--baseline=0.1", "--convergence=3.0", "--window=1.0", "--display=tv-55", "--depth=1.0",
+                 "--depth=inf", "--json"]) == 0
+    assert len(seen) == 2 and seen[0] == seen[1]
+    assert seen[0][2] == [1.0, float("inf")]
 
 
 def test_a_twin_has_a_field_per_option_and_never_an_output_file():
-    from vergence.cli.budget import budget  # noqa: F401 (registers the command)
     from vergence.web.twins import build_twins
 
     twins = build_twins(["budget", "mapping"])
@@ -101,11 +106,11 @@ def test_a_twin_has_a_field_per_option_and_never_an_output_file():
     ({**BUDGET, "plot": "/tmp/x.png"}, "unknown field 'plot'; valid fields: baseline, convergence, window, "
      "focal_mm, sensor_mm, eye_separation, viewing_distance, screen_width, screen_pixels, display, depth"),
     ([1, 2], "the body must be a JSON object of options; got list"),
-    # the command's own checks, in the command's words
-    ({**BUDGET, "baseline": -1}, "--baseline must be > 0; got -1"),
-    ({**BUDGET, "display": "tv-55"}, "give either --display or the display lengths, not both (got --display and "
-     "--eye-separation, --viewing-distance, --screen-width)"),
-    ({**BUDGET, "display": ""}, "--display: must not be empty"),
+    # the work's own checks, naming the JSON fields (the command line names its options)
+    ({**BUDGET, "baseline": -1}, "baseline must be > 0; got -1"),
+    ({**BUDGET, "display": "tv-55"}, "give either display or the display lengths, not both (got display and "
+     "eye_separation, viewing_distance, screen_width)"),
+    ({**BUDGET, "display": ""}, "display: must not be empty"),
 ])
 def test_bad_parameters_are_422_with_one_line(client, body, message):
     assert _refused(client.post("/api/budget", json=body), 422) == message
@@ -115,7 +120,7 @@ def test_mapping_refusals_name_the_field_or_option(client):
     missing = {k: v for k, v in MAPPING.items() if k != "constraint"}
     assert _refused(client.post("/api/mapping", json=missing), 422) == "missing field constraint"
     assert _refused(client.post("/api/mapping", json={**MAPPING, "near": 90, "far": 80}), 422) == \
-        "--far must be > --near 90; got 80"
+        "far must be > near 90; got 80"
 
 
 def test_a_body_that_is_not_json_is_422_and_one_not_sent_as_json_415(client):
@@ -158,7 +163,7 @@ def test_unknown_commands_and_endpoints_are_404(client):
 
 
 def test_twins_called_at_once_each_get_their_own_answer(capsys):
-    # the CLI writes to sys.stdout: the twins run one at a time (vergence.web.twins._RUN_LOCK)
+    # the twins call the library side by side (no lock): each answer is its own request's
     from concurrent.futures import ThreadPoolExecutor
 
     from vergence.web.twins import build_twins
@@ -175,19 +180,19 @@ def test_twins_called_at_once_each_get_their_own_answer(capsys):
 
 
 def test_a_bug_is_a_one_line_500(monkeypatch):
-    import vergence.cli.budget as budget_cli
+    import vergence.commands.budget as budget_work
     from vergence.web.data import DataIndex as Index
 
     def boom(*args, **kwargs):
         raise RuntimeError("kaboom")
 
     monkeypatch.delenv("VERGENCE_DEBUG", raising=False)
-    monkeypatch.setattr(budget_cli, "depth_budget", boom)  # inside the command: the CLI's own report
+    monkeypatch.setattr(budget_work, "depth_budget", boom)  # inside the command's work
     app = create_app()
     monkeypatch.setattr(Index, "refresh", boom)  # in the server itself (GET /api/data walks the folders again)
     with TestClient(app, raise_server_exceptions=False, base_url="http://127.0.0.1") as c:
         assert _refused(c.post("/api/budget", json=BUDGET), 500) == \
-            "internal error, please report it (VERGENCE_DEBUG=1 shows the traceback): RuntimeError: kaboom"
+            "internal error, please report it: RuntimeError: kaboom"
         assert _refused(c.get("/api/data"), 500) == "internal error, please report it: RuntimeError: kaboom"
 
 
@@ -195,7 +200,9 @@ def test_health_and_displays(client):
     from vergence import __version__
     from vergence.viewing import DISPLAY_PRESETS
 
-    assert client.get("/api/health").json() == {"status": "ok", "version": __version__}
+    health = client.get("/api/health").json()
+    assert {k: health[k] for k in ("status", "version")} == {"status": "ok", "version": __version__}
+    assert health["kernels"]["state"] == "cold"  # the test app warms nothing (create_app(warm_kernels=False))
     shown = client.get("/api/displays").json()["displays"]
     assert [d["name"] for d in shown] == sorted(DISPLAY_PRESETS)
     for d in shown:
@@ -350,48 +357,43 @@ def test_uvicorn_serves_the_api_on_a_free_port():
     assert not thread.is_alive()
 
 
-def test_twins_are_built_from_any_command_definition():
-    # a command of our own: flags, a --x/--no-x pair, a repeatable option, an output file left out
-    from vergence.web.twins import _twin_of
+def test_twins_are_built_from_any_command_definition(tmp_path):
+    # a command of our own: a flag, a repeatable parameter, an input file, outputs (never fields),
+    # a parameter the web does not expose
+    from vergence.commands import Command, Parameter
+    from vergence.web.twins import twin_of
 
-    app = typer.Typer()
+    calls = []
 
-    @app.command()
-    def fake(level: int = typer.Option(..., "--level", help="A level."),
-             tags: list[str] = typer.Option([], "--tag", help="A tag; repeat."),
-             fast: bool = typer.Option(False, "--fast", help="Go fast."),
-             draw_map: bool = typer.Option(True, "--map/--no-map", help="Draw the map."),
-             plot: Path | None = typer.Option(None, "--plot", help="A figure."),
-             as_json: bool = typer.Option(False, "--json", help="JSON.")) -> None:
-        """Do nothing."""
+    class Result:
+        def __init__(self, values):
+            self.values = values
 
-    twin = _twin_of("fake", typer.main.get_command(app))
-    assert list(twin.model.model_fields) == ["level", "tag", "fast", "map"]
-    request = twin.model(level=3, tag=["a b", "--json"], fast=True, map=False)
-    assert twin.argv(request) == ["fake", "--level=3", "--tag=a b", "--tag=--json", "--fast", "--no-map", "--json"]
-    assert twin.argv(twin.model(level=3)) == ["fake", "--level=3", "--map", "--json"]
+        def to_dict(self):
+            return {k: str(v) for k, v in self.values.items()}
 
-    def without_twin(**params):
-        other = typer.Typer()
-        other.command()(params["function"])
-        return _twin_of("other", typer.main.get_command(other))
+    def work(**values):
+        calls.append(values)
+        return Result(values)
 
-    def reads_a_file(image: Path = typer.Option(..., "--image"), as_json: bool = typer.Option(False, "--json")):
-        """Reads a file."""
-
-    def writes_files(out: Path = typer.Option(..., "--out"), as_json: bool = typer.Option(False, "--json")):
-        """Writes files."""
-
-    def prints_no_json(level: int = typer.Option(1, "--level")):
-        """No JSON."""
-
-    assert without_twin(function=prints_no_json) is None
-
-    # a file read is a field holding an id; a required output goes to the request's temporary folder
-    reader = without_twin(function=reads_a_file)
-    assert list(reader.model.model_fields) == ["image"] and reader.reads_files
-    assert reader.argv(reader.model(image="abc"), lambda ident: f"/stored/{ident}.png") == [
-        "other", "--image=/stored/abc.png", "--json"]
-    writer = without_twin(function=writes_files)
-    assert list(writer.model.model_fields) == [] and not writer.reads_files
-    assert writer.argv(writer.model(), outdir=Path("/tmp/req")) == ["other", "--out=/tmp/req/out", "--json"]
+    command = Command("fake", "Do nothing.", (
+        Parameter("level", "integer", "A level."),
+        Parameter("tag", "texts", "A tag; repeat.", None),
+        Parameter("fast", "flag", "Go fast.", False),
+        Parameter("image", "file", "An image, like {level}.", None),
+        Parameter("folder", "file", "A folder.", None, web=False),
+        Parameter("out", "output", "Written."),
+        Parameter("plot", "output", "A figure.", None),
+    ), work)
+    twin = twin_of(command)
+    assert list(twin.model.model_fields) == ["level", "tag", "fast", "image"]
+    assert twin.reads_files
+    assert twin.model.model_fields["image"].description.startswith("An image, like level. An id standing")
+    assert twin.model.model_fields["level"].description == "A level. Command line: --level."
+    stored = tmp_path / "stored.png"
+    stored.write_bytes(b"x")
+    answer = json.loads(twin.run(twin.model(level=3, tag=["a b", "--json"], fast=True, image="abc"),
+                                 lambda ident: (stored, ident, "")))
+    assert calls[-1]["level"] == 3 and calls[-1]["tag"] == ["a b", "--json"] and calls[-1]["fast"] is True
+    assert calls[-1]["folder"] is None and calls[-1]["plot"] is None
+    assert answer["image"] == "abc" and answer["out"] == "out"  # named as the client knows them

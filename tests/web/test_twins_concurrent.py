@@ -121,3 +121,21 @@ def test_the_server_loads_no_cli_module():
             "print(sorted(m for m in sys.modules if m.startswith('vergence.cli')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_a_refusal_names_no_server_path(monkeypatch, tmp_path):
+    """What the work says about a file of a data folder, or of the app's own folder, reaches the client
+    with the folder as a label (vergence.web.data.DATA_LABEL, <workdir>)."""
+    import vergence.commands.budget as work
+    from vergence.web.data import DATA_LABEL
+
+    data = tmp_path / "data"
+    data.mkdir()
+    said = []
+    monkeypatch.setattr(work, "depth_budget", lambda *a: (_ for _ in ()).throw(ValueError(said[0])))
+    with TestClient(create_app([data]), base_url="http://127.0.0.1") as client:
+        workdir = client.app.state.workdir
+        said.append(f"cannot read {data}/secret.png (nor {workdir}/twins/x)")
+        message = refused(client.post("/api/budget", json=BUDGET), 422)
+    assert str(data) not in message and str(workdir) not in message and str(tmp_path) not in message
+    assert message.startswith(f"cannot read {DATA_LABEL}/secret.png")

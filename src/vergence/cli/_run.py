@@ -21,9 +21,8 @@ from typer._click.exceptions import BadOptionUsage, BadParameter, MissingParamet
 
 from vergence.cli import EXIT_INTERRUPTED, sigint_seen
 from vergence.cli._app import app, console, err_console
-from vergence.io.atomic import describe_os_error  # noqa: F401 (this module's public name since issue 13)
 
-__all__ = ["EXIT_INTERNAL", "EXIT_USAGE", "describe_os_error", "one_line_error", "run", "usage_message"]
+__all__ = ["EXIT_INTERNAL", "EXIT_USAGE", "one_line_error", "run", "usage_message"]
 
 # Exit status of a user mistake (bad option, bad input file), as click and argparse use.
 EXIT_USAGE = 2
@@ -84,6 +83,8 @@ def _report(exc: Exception) -> int:
         one_line_error(exc.format_message() if hasattr(exc, "format_message") else str(exc))
         return int(getattr(exc, "exit_code", EXIT_USAGE) or EXIT_USAGE)
     if isinstance(exc, OSError):
+        from vergence.io.atomic import describe_os_error  # loads vergence.io: only when a file failed
+
         one_line_error(describe_os_error(exc))
         return EXIT_USAGE
     if isinstance(exc, ValueError | TypeError):

@@ -54,6 +54,9 @@ class Parameter:
         The command line's spelling: ``--name-with-dashes`` unless given; ``""`` for an argument.
     metavar : str
         An argument's name on the command line (``LEFT``); by default the name in capitals.
+    web : bool
+        Whether the workbench's JSON API has a field for it. False for what no upload or data id can
+        stand for (a folder, a text side file): the work then takes the default.
     """
 
     name: str
@@ -62,6 +65,7 @@ class Parameter:
     default: Any = REQUIRED
     option: str | None = None
     metavar: str = ""
+    web: bool = True
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:

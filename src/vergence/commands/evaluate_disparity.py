@@ -69,7 +69,8 @@ EVALUATE_DISPARITY = Command(
         Parameter("truth", "file", "Ground-truth disparity (.png/.pgm with {truth_scale}, .pfm, .npy).", option=""),
         Parameter("estimate_scale", "number", "PNG/PGM estimate: value / scale.", None),
         Parameter("truth_scale", "number", "PNG/PGM truth: value / scale.", None),
-        Parameter("masks", "file", "Folder with Middlebury nonocc.png, all.png, disc.png.", None),
+        Parameter("masks", "file", "Folder with Middlebury nonocc.png, all.png, disc.png.", None,
+                  web=False),  # a folder: no upload or data id stands for one
         Parameter("truth_right", "file", "Right ground truth for the computed nonocc (Middlebury 2005/2006: disp5.png "
                   "beside disp1.png, with {truth_scale} 2 {border} 0).", None),
         Parameter("border", "integer", "Pixels ignored at each edge by the computed regions (default 10, as "

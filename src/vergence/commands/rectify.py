@@ -151,7 +151,7 @@ RECTIFY = Command(
         Parameter("out", "output", "Output folder (created if missing): left.png, right.png, left_valid.png, "
                   "right_valid.png (255 = image, 0 = border), rectification.json."),
         Parameter("image_list", "file", "Bundler list.txt naming the images of bundle.out (default: list.txt beside "
-                  "it).", None),
+                  "it).", None, web=False),  # a text side file: no upload or data id stands for one
         Parameter("common_principal_point", "flag", "Give both rectified cameras one K (doffs = 0; wider outputs).",
                   False),
         Parameter("check", "flag", "Measure the row alignment of SIFT matches (median |dy|).", False),

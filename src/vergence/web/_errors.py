@@ -23,7 +23,7 @@ def _shown(value: object) -> str:
     return text if len(text) <= MAX_SHOWN else text[:MAX_SHOWN - 3] + "..."
 
 
-# pydantic's error types, in the words of the CLI's messages (vergence.cli._run).
+# pydantic's error types, in the words the command line uses for the same mistakes.
 _EXPECTED = {
     "float_parsing": "expected a number", "float_type": "expected a number",
     "int_parsing": "expected a whole number", "int_type": "expected a whole number",

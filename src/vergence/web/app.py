@@ -16,7 +16,7 @@ import shutil
 import tempfile
 import weakref
 
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -137,16 +137,17 @@ class _BodyLimit:
             scope, receive, send)
 
 
-def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path) -> Any:
-    """The route function of a twin: its body is the twin's model (documented in OpenAPI)."""
+def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path, redact: Callable[[str], str]) -> Any:
+    """The route function of a twin: its body is the twin's model (documented in OpenAPI). A refusal
+    passes through ``redact``: no server path (a data folder, the app's own) leaves the server."""
 
     def endpoint(options: BaseModel) -> Response:
         try:
             text = twin.run(options, resolve, tmp_root=tmp_root)
         except KeyError as exc:
-            return _refusal(404, str(exc.args[0]))
+            return _refusal(404, redact(str(exc.args[0])))
         except TwinError as exc:
-            return _refusal(exc.status, exc.message)
+            return _refusal(exc.status, redact(exc.message))
         return Response(text, media_type="application/json")
 
     endpoint.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
@@ -257,7 +258,7 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
 
     @app.exception_handler(Exception)
     async def _bug(request: Request, exc: Exception) -> JSONResponse:
-        # a bug of ours, as the CLI reports one (vergence.cli._run): one line, status 500
+        # a bug of ours, as the command line reports one: one line, status 500
         return _refusal(500, jobs.redact(f"internal error, please report it: {type(exc).__name__}: {exc}"))
 
     @app.get("/", include_in_schema=False)
@@ -309,9 +310,10 @@ def create_app(data_dirs: Sequence[str | Path] = (), *, allowed_hosts: Sequence[
     twin_root.mkdir()
     for path, twin in twins.items():
         extra = {404: _ERRORS[422] | {"description": "An id stands for no file."}} if twin.reads_files else {}
+        endpoint = _twin_endpoint(twin, resolve, twin_root, jobs.redact)
         app.post(f"/api/{path}", summary=twin.summary, response_class=Response, responses={
             200: {"description": f"Exactly what `vergence {twin.name} --json` prints.",
-                  "content": {"application/json": {}}}, **_ERRORS, **extra})(_twin_endpoint(twin, resolve, twin_root))
+                  "content": {"application/json": {}}}, **_ERRORS, **extra})(endpoint)
 
     add_job_routes(app, jobs)
     add_upload_routes(app, uploads)

@@ -147,7 +147,7 @@ class Twin:
                 if p.required:
                     values[p.name] = tmp / OUTPUT_NAMES.get((self.name, p.name), "out")
                 continue
-            if p.kind != "file" or values[p.name] is None:
+            if p.kind != "file" or values.get(p.name) is None:
                 continue
             if resolve is None:
                 raise TwinError(f"{p.name}: vergence {self.name} reads files, and ids need the server to resolve", 500)
@@ -192,8 +192,8 @@ def twin_of(command: Command) -> Twin:
     """The twin of a library :class:`~vergence.commands.Command`."""
     definitions: dict[str, Any] = {}
     for p in command.parameters:
-        if p.kind == "output":
-            continue  # written to the request's temporary folder (when required), never a field
+        if p.kind == "output" or not p.web:
+            continue  # an output goes to the request's temporary folder (when required), never a field
         annotation: Any = _checked(KINDS[p.kind])
         constraints: dict[str, Any] = {}
         help_text = _described(command, p.help)
