@@ -1,5 +1,5 @@
 """The twins call the library, not the CLI (issue 29): side by side on worker threads, a slow call never
-blocks a fast one, a burst past MAX_TWIN_CALLS is 429, a list past MAX_LIST_ITEMS is 422, and the
+blocks a fast one, a burst past MAX_CALLS (shared with the page's other computations) is 429, a list past MAX_LIST_ITEMS is 422, and the
 refusals name the JSON field."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ with warnings.catch_warnings():
 
 from vergence.commands import MAX_LIST_ITEMS
 from vergence.web import create_app
-from vergence.web.twins import MAX_TWIN_CALLS
+from vergence.web._slots import MAX_CALLS
 from web_checks import refused
 
 BUDGET = {"baseline": 0.12, "convergence": 8, "window": 2.4, "display": "tv-55", "depth": [4, 8]}
@@ -78,19 +78,24 @@ def test_calls_past_the_bound_are_429_at_once(blocked_mapping):
     release, entered = blocked_mapping
     with TestClient(create_app(), base_url="http://127.0.0.1") as client:
         answers: list = []
-        threads = [_post_in_thread(client, "/api/mapping", MAPPING, answers) for _ in range(MAX_TWIN_CALLS)]
+        threads = [_post_in_thread(client, "/api/mapping", MAPPING, answers) for _ in range(MAX_CALLS)]
         for _ in threads:
             assert entered.acquire(timeout=30), "a slow call never started"
         start = time.monotonic()
         message = refused(client.post("/api/budget", json=BUDGET), 429)
         assert time.monotonic() - start < FAST_CALL_S
-        assert message == (f"the server is busy: {MAX_TWIN_CALLS} calls are running (MAX_TWIN_CALLS); "
+        assert message == (f"the server is busy: {MAX_CALLS} calls are running (MAX_CALLS); "
                            "try again in a moment")
+        # the page's other computations share the slots: a rig plan is refused too
+        from vergence.rigs import EXAMPLE_SHOTS
+
+        assert refused(client.post("/api/rigs/plan", json=EXAMPLE_SHOTS["stadium-tri"]), 429) == message
         release.set()
         for t in threads:
             t.join(30)
-        assert [a.status_code for a in answers] == [200] * MAX_TWIN_CALLS
+        assert [a.status_code for a in answers] == [200] * MAX_CALLS
         assert client.post("/api/budget", json=BUDGET).status_code == 200  # the slots are free again
+        assert client.post("/api/rigs/plan", json=EXAMPLE_SHOTS["stadium-tri"]).status_code == 200
 
 
 def test_a_list_past_the_bound_is_422_before_any_work(monkeypatch):

@@ -39,7 +39,8 @@ from vergence.web.job_kinds import JobEnv
 from vergence.web.jobs import JobManager
 from vergence.web.routes import add_job_routes, add_upload_routes
 from vergence.web.uploads import UploadStore
-from vergence.web.twins import MAX_TWIN_CALLS, Resolver, Twin, TwinError, build_twins
+from vergence.web._slots import MAX_CALLS, Busy, work_slot
+from vergence.web.twins import Resolver, Twin, TwinError, build_twins
 from vergence.web.warmup import KernelWarmup
 
 __all__ = ["MAX_JSON_BODY", "STATIC_DIR", "create_app"]
@@ -143,7 +144,10 @@ def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path, redact: Callab
 
     def endpoint(options: BaseModel) -> Response:
         try:
-            text = twin.run(options, resolve, tmp_root=tmp_root)
+            with work_slot():
+                text = twin.run(options, resolve, tmp_root=tmp_root)
+        except Busy as exc:
+            return _refusal(exc.status, exc.message)
         except KeyError as exc:
             return _refusal(404, redact(str(exc.args[0])))
         except TwinError as exc:
@@ -157,7 +161,7 @@ def _twin_endpoint(twin: Twin, resolve: Resolver, tmp_root: Path, redact: Callab
              "names them so." if twin.reads_files else "")
     endpoint.__doc__ = (f"{twin.summary}\n\nThe twin of `vergence {twin.name} --json`: the options as JSON "
                         f"fields, the answer exactly the JSON the command prints (429 when "
-                        f"{MAX_TWIN_CALLS} calls are running).{files}")
+                        f"{MAX_CALLS} calls are running).{files}")
     return endpoint
 
 

@@ -26,9 +26,9 @@ from typing import TYPE_CHECKING, Any
 import pydantic
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, Response
-from starlette.concurrency import run_in_threadpool
 
 from vergence.web._errors import refusal
+from vergence.web._slots import Busy, run_in_slot
 from vergence.web.job_kinds import MAX_RENDER_JOB_RAYS
 from vergence.web.jobs import JobContext, JobKind, JobResult, Prepared
 
@@ -255,7 +255,9 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
             return plan_document(request_shot(data, index)[0])
 
         try:
-            doc = await run_in_threadpool(plan)
+            doc = await run_in_slot(plan)
+        except Busy as exc:
+            return refusal(exc.status, exc.message)
         except KeyError as exc:
             return refusal(404, str(exc.args[0]))
         except (TypeError, ValueError) as exc:

@@ -48,9 +48,9 @@ import numpy as np
 import pydantic
 from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, JSONResponse, Response
-from starlette.concurrency import run_in_threadpool
 
 from vergence.web._errors import refusal, validation_message
+from vergence.web._slots import Busy, run_in_slot
 from vergence.web.jobs import JobContext, JobKind, JobManager, JobRefused, JobResult, Prepared
 
 __all__ = ["DEFAULT_PAIR_WIDTH", "KIND", "KINDS", "MAX_MAP_POINTS", "MAX_MOVE_EXTENTS", "MAX_PAIR_FILES",
@@ -445,8 +445,8 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
             return refusal(422, validation_message(exc.errors(), list(model.model_fields)))
         try:
             live = live_of(job_id)
-            return JSONResponse(await run_in_threadpool(work, live, body))
-        except _Refused as exc:
+            return JSONResponse(await run_in_slot(work, live, body))
+        except (_Refused, Busy) as exc:
             return refusal(exc.status, exc.message)
 
     @app.post(f"/api/{KIND}/{{job_id}}/move", summary="Pan and zoom through the StereoSpace (S2 §4.1)",

@@ -7,7 +7,7 @@ a flag, with the parameter's help as the field's description in the OpenAPI sche
 the same library function the command calls (:meth:`vergence.commands.Command.run`) and answers
 :func:`vergence.commands.to_json` of its result, the text ``--json`` prints. No algorithm lives
 here, and nothing of the command line: calls run side by side on worker threads, at most
-:data:`MAX_TWIN_CALLS` at once.
+:data:`vergence.web._slots.MAX_CALLS` at once with the server's other computations (429 beyond).
 
 Files: a client never names a path. An input file is a field holding an id: an upload's
 (``POST /api/uploads``) or a data entry's (``GET /api/data``), which the server resolves to the file
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import json
 import tempfile
-import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,12 +33,7 @@ import pydantic
 
 from vergence.commands import KINDS, MAX_LIST_ITEMS, Command, ParameterError, to_json
 
-__all__ = ["MAX_TWIN_CALLS", "OUTPUT_NAMES", "Resolver", "Twin", "TwinBusy", "TwinError", "build_twins", "twin_of"]
-
-#: Twin calls running at once; one more is answered 429 at once. A call holds a worker thread and
-#: one or two cores (Numba's and OpenCV's threads) for up to seconds: four keep a 2-core machine busy
-#: without letting a burst of requests queue unboundedly.
-MAX_TWIN_CALLS = 4
+__all__ = ["OUTPUT_NAMES", "Resolver", "Twin", "TwinError", "build_twins", "twin_of"]
 
 #: The name a required output gets in the request's temporary folder, by command and parameter (its
 #: extension picks the format); any other required output is a folder named "out".
@@ -58,13 +52,6 @@ class TwinError(Exception):
         super().__init__(message)
         self.message = message
         self.status = status
-
-
-class TwinBusy(TwinError):
-    """:data:`MAX_TWIN_CALLS` calls are running: 429."""
-
-
-_CALLS = threading.BoundedSemaphore(MAX_TWIN_CALLS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,39 +90,31 @@ class Twin:
         ------
         KeyError
             From ``resolve``: an id that stands for no file.
-        TwinBusy
-            When :data:`MAX_TWIN_CALLS` calls are running.
         TwinError
             The work's one-line refusal (status 422), or a bug of ours (500).
         """
-        if not _CALLS.acquire(blocking=False):
-            raise TwinBusy(f"the server is busy: {MAX_TWIN_CALLS} calls are running (MAX_TWIN_CALLS); "
-                           "try again in a moment", 429)
-        try:
-            with tempfile.TemporaryDirectory(prefix="vergence-twin-", dir=tmp_root) as tmp:
-                named: dict[str, str] = {}
-                values = self._values(request, resolve, Path(tmp), named)
-                # the files as the client knows them: inputs by their id, outputs by their name in the folder
-                renames = [*sorted(named.items(), key=lambda kv: -len(kv[0])), (f"{tmp}/", ""), (tmp, ".")]
-                try:
-                    result = self.command.run(**values)
-                    text = to_json(result.to_dict())
-                except ParameterError as exc:
-                    raise TwinError(_renamed(exc.spelled(str), renames), 422) from None
-                except (ValueError, TypeError) as exc:
-                    raise TwinError(_renamed(str(exc) or type(exc).__name__, renames), 422) from None
-                except OSError as exc:
-                    from vergence.io.atomic import describe_os_error
+        with tempfile.TemporaryDirectory(prefix="vergence-twin-", dir=tmp_root) as tmp:
+            named: dict[str, str] = {}
+            values = self._values(request, resolve, Path(tmp), named)
+            # the files as the client knows them: inputs by their id, outputs by their name in the folder
+            renames = [*sorted(named.items(), key=lambda kv: -len(kv[0])), (f"{tmp}/", ""), (tmp, ".")]
+            try:
+                result = self.command.run(**values)
+                text = to_json(result.to_dict())
+            except ParameterError as exc:
+                raise TwinError(_renamed(exc.spelled(str), renames), 422) from None
+            except (ValueError, TypeError) as exc:
+                raise TwinError(_renamed(str(exc) or type(exc).__name__, renames), 422) from None
+            except OSError as exc:
+                from vergence.io.atomic import describe_os_error
 
-                    raise TwinError(_renamed(describe_os_error(exc), renames), 422) from None
-                except Exception as exc:  # a bug of ours: one line, as the CLI reports one
-                    raise TwinError(_renamed(f"internal error, please report it: {type(exc).__name__}: {exc}",
-                                             renames), 500) from None
-            for old, new in renames:
-                text = text.replace(json.dumps(old)[1:-1], json.dumps(new)[1:-1])
-            return text
-        finally:
-            _CALLS.release()
+                raise TwinError(_renamed(describe_os_error(exc), renames), 422) from None
+            except Exception as exc:  # a bug of ours: one line, as the CLI reports one
+                raise TwinError(_renamed(f"internal error, please report it: {type(exc).__name__}: {exc}",
+                                         renames), 500) from None
+        for old, new in renames:
+            text = text.replace(json.dumps(old)[1:-1], json.dumps(new)[1:-1])
+        return text
 
     def _values(self, request: pydantic.BaseModel, resolve: Resolver | None, tmp: Path,
                 named: dict[str, str]) -> dict[str, Any]:  # fmt: skip
