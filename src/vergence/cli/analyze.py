@@ -9,6 +9,7 @@ import typer
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, console, option, print_json, run_command
 from vergence.cli._spinner import Spinner
+from vergence.cli.budget import print_warnings
 from vergence.commands.analyze import ANALYZE
 
 __all__ = ["analyze"]
@@ -42,14 +43,20 @@ def analyze(
                            comfort_arcmin=comfort_arcmin, every=every, min_disparity=min_disparity,
                            max_disparity=max_disparity, method=method, no_vertical=no_vertical, fps=fps, report=report,
                            progress=progress, before_commit=raise_if_interrupted)  # fmt: skip
+    print_warnings(done.analysis.warnings)  # stderr, before the figures (also in the JSON)
     if as_json:
         print_json(done.to_dict())
         return
     for k, shot in enumerate(done.analysis.shots):
         d, a, s = shot.disparity_px, shot.disparity_arcmin, shot.suggestion
+        search = ""
+        if shot.search is not None:
+            (lo, hi), bound = shot.search["search_px"], " ".join(shot.on_bound)
+            search = f"searched {lo} .. {hi} px ({shot.search['search_source']}{', on bound: ' + bound if bound else ''}), "
         console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, disparity {d['p1']:+.2f} .. {d['p99']:+.2f} px "
-                      f"(1-99 %) = {a['p1']:+.1f} .. {a['p99']:+.1f} arcmin, {100 * shot.outside_comfort:.1f} % outside "
-                      f"comfort, {100 * shot.diverging:.1f} % diverging, {shot.window_violations} window violations; "
-                      f"suggestion: {s['action']} (scale {s['scale']:.3f}, shift {s['shift_px']:+.2f} px)")
+                      f"(1-99 %), median {d['p50']:+.2f} px, {search}= {a['p1']:+.1f} .. {a['p99']:+.1f} arcmin, "
+                      f"{100 * shot.outside_comfort:.1f} % outside comfort, {100 * shot.diverging:.1f} % diverging, "
+                      f"{shot.window_violations} window violations; suggestion: {s['action']} (scale {s['scale']:.3f}, "
+                      f"shift {s['shift_px']:+.2f} px)")
     if report is not None:
         console.print(f"report: {report / 'index.html'}")

@@ -9,7 +9,7 @@ integers; disparity ``x_left - x_right``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -93,12 +93,18 @@ class RectifiedPair:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class RowAlignment:
-    """Vertical offsets ``|y_right - y_left|`` (pixels) of the matched features of a rectified pair."""
+    """Vertical offsets ``|y_right - y_left|`` (pixels) of the matched features of a rectified pair, and their
+    horizontal disparities ``x_left - x_right`` (pixels, same order; empty when not measured)."""
 
     abs_dy_px: np.ndarray
+    disparity_px: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "abs_dy_px", readonly_copy(np.ravel(self.abs_dy_px)))
+        object.__setattr__(self, "disparity_px", readonly_copy(np.ravel(self.disparity_px)))
+        if self.disparity_px.size not in (0, self.abs_dy_px.size):
+            raise ValueError(f"disparity_px must be empty or hold one value per match ({self.abs_dy_px.size}); "
+                             f"got {self.disparity_px.size}")
 
     @property
     def matches(self) -> int:
@@ -375,4 +381,4 @@ def measure_row_alignment(
     if inl is None or int(inl.sum()) < 8:
         raise ValueError("RANSAC found fewer than 8 consistent matches; the images may not overlap")
     keep = inl.ravel().astype(bool)
-    return RowAlignment(np.abs(pr[keep, 1] - pl[keep, 1]))
+    return RowAlignment(np.abs(pr[keep, 1] - pl[keep, 1]), pl[keep, 0] - pr[keep, 0])

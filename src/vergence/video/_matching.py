@@ -11,7 +11,8 @@ def match_padded(left: np.ndarray, right: np.ndarray, lo: int, hi: int, method: 
     OpenCV's matchers leave the first ``max_disparity`` and the last ``-min_disparity`` columns
     unmatched (their candidates fall outside the other image): padding both views with their edge
     columns moves that blind band into the padding, so pixels near the edges whose match lies
-    inside the other view are measured.
+    inside the other view are measured. A pixel matched into the padding (``x - D`` outside the other
+    view: it matched a replicated edge column) is left unmatched (NaN).
     """
     import cv2
 
@@ -20,7 +21,12 @@ def match_padded(left: np.ndarray, right: np.ndarray, lo: int, hi: int, method: 
     pad = hi - lo
     a, b = (cv2.copyMakeBorder(v, 0, 0, pad, pad, cv2.BORDER_REPLICATE) for v in (left, right))
     d = compute_disparity(a, b, min_disparity=lo, max_disparity=hi, method=method, keep_invalid=True).disparity
-    return d[:, pad:pad + left.shape[1]].astype(np.float64)
+    d = d[:, pad:pad + left.shape[1]].astype(np.float64)
+    # A match inside the padding (x - D outside the other view) is a match with a replicated edge column.
+    x = np.arange(left.shape[1], dtype=np.float64)[None, :]
+    with np.errstate(invalid="ignore"):
+        d[(x - d < 0) | (x - d > left.shape[1] - 1)] = np.nan
+    return d
 
 
 # Default matching range of a stereo clip: +- this share of the view width, rounded up to 16 px.

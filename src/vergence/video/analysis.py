@@ -24,6 +24,12 @@ parallax is ``s = -D N / W`` display pixels and its vergence change comes from
 - for a stereo clip, the vertical disparity of SIFT matches (:func:`vergence.depth.measure_row_alignment`),
   median of ``|y_right - y_left|``, on views reduced to at most ``VERTICAL_MAX_WIDTH`` px wide.
 
+A stereo clip is matched in each shot's search range, found from its features unless given, and
+checked for saturation (:mod:`vergence.video.search`): each frame and shot carries the range it was
+searched in (``search_px``), the frames matched again in a widened range, those still saturated, and
+``on_bound``, the percentiles that sit within 1 px of the range (a figure there is a bound, not a
+measure).
+
 Per shot (cuts from :func:`vergence.video.detect_cuts`): the percentiles of all its pixels (from a
 histogram of :data:`HISTOGRAM_STEP_PX` bins), the vergence angle of each (``disparity_arcmin``: the
 angle of the p-th percentile of ``D``; angles fall as ``D`` grows), the shares and the frames where
@@ -42,9 +48,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from vergence.video._matching import default_search_px
 from vergence.video._matching import match_padded as _match
 from vergence.video.cuts import CUT_THRESHOLD, MIN_SHOT_FRAMES, detect_cuts
+from vergence.video.search import FEATURE_MAX_WIDTH, SATURATION_SHARE, feature_alignment, match_searched, on_bound, shot_search_ranges
 from vergence.video.sources import DepthClip, StereoClip
 
 if TYPE_CHECKING:
@@ -73,7 +79,7 @@ WINDOW_MIN_PX = 0.5
 WINDOW_SHARE = 0.1
 # Vertical disparity is measured on views reduced to at most this width (SIFT on a 1080p pair costs
 # about 2 s on 2 cores, as much as the matching); the offsets are scaled back to full-resolution px.
-VERTICAL_MAX_WIDTH = 960
+VERTICAL_MAX_WIDTH = FEATURE_MAX_WIDTH
 # Largest thumbnail side kept per shot (for the report).
 _THUMBNAIL_PX = 320
 
@@ -92,9 +98,15 @@ class FrameStats:
     diverging: float
     window_violation: bool
     vertical_px: float | None
+    search_px: tuple[int, int] | None = None
+    on_bound: tuple[str, ...] = ()
+    saturated: bool = False
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        d = dataclasses.asdict(self)
+        d["search_px"] = None if self.search_px is None else list(self.search_px)
+        d["on_bound"] = list(self.on_bound)
+        return d
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,9 +125,19 @@ class ShotStats:
     window_frames: tuple[int, ...]
     vertical_px: float | None
     suggestion: dict
+    search: dict | None = None
+    on_bound: tuple[str, ...] = ()
+
+    @property
+    def saturated(self) -> bool:
+        """Stereo: some frame still had its matches piled at a bound of the search after the widened pass."""
+        search = self.search
+        return bool(search and (search["saturated_frames"] or search["features_outside"] > SATURATION_SHARE))
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)
+        d["on_bound"] = list(self.on_bound)
+        d["saturated"] = self.saturated
         for name in ("outside_frames", "diverging_frames", "window_frames"):
             d[name] = list(d[name])
         return d
@@ -141,6 +163,28 @@ class ClipAnalysis:
     thumbnails: tuple[np.ndarray, ...] = field(default=(), repr=False)
     options: dict = field(default_factory=dict)
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line per stereo shot whose matches still pile up at a bound of the search, or whose percentiles
+        sit on one (those figures are the bound, not the content)."""
+        lines = []
+        for k, shot in enumerate(self.shots):
+            if shot.search is None:
+                continue
+            lo, hi = shot.search["search_px"]
+            where = f"shot {k} (frames {shot.start}-{shot.end - 1})"
+            if shot.saturated:
+                lines.append(f"{where}: its content reaches past the disparity search range ({lo} .. {hi} px): "
+                             f"{shot.search['saturated_frames']} frames with matches piled up at a bound"
+                             f"{'' if shot.search['search_source'] == 'given' else ' after widening'}, "
+                             f"{100 * shot.search['features_outside']:.0f} % of its features outside; its figures "
+                             "are cut there: give a wider search range")  # fmt: skip
+            if shot.on_bound:
+                values = ", ".join(f"{key} {shot.disparity_px[key]:+.1f}" for key in shot.on_bound)
+                lines.append(f"{where}: {values} px sit on the disparity search bound ({lo} .. {hi} px): a bound, "
+                             "not a measure")  # fmt: skip
+        return tuple(lines)
+
     def to_dict(self) -> dict:
         """Plain JSON-ready dict (no thumbnails)."""
         return {
@@ -159,6 +203,7 @@ class ClipAnalysis:
             "shots": [s.to_dict() for s in self.shots],
             "per_frame": [f.to_dict() for f in self.per_frame],
             "histogram_change": [float(c) for c in self.change],
+            "warnings": list(self.warnings),
         }
 
 
@@ -230,7 +275,8 @@ def analyze_clip(
     every : int
         Analyse frames ``0, every, 2 every, ...`` (matching is the slow part); cuts are found on all frames.
     min_disparity, max_disparity : int, optional
-        Stereo clips: the matcher's search range, px; default +- width / 8 rounded up to 16 px.
+        Stereo clips: the matcher's search range, px; a bound not given is found per shot from the
+        content and widened where the matches pile up at it (:mod:`vergence.video.search`).
     method : str
         Stereo clips: a matcher of :data:`vergence.depth.MATCHERS`.
     budget_arcmin : float
@@ -267,12 +313,13 @@ def analyze_clip(
     stereo = isinstance(clip, StereoClip)
     width, height = clip.width, clip.height
     if stereo:
-        search = default_search_px(width)
-        lo_d = -search if min_disparity is None else int(min_disparity)
-        hi_d = search if max_disparity is None else int(max_disparity)
-        if lo_d >= hi_d:
-            raise ValueError(f"min_disparity must be < max_disparity; got {lo_d} and {hi_d}")
-        options = {"matcher": method, "min_disparity": lo_d, "max_disparity": hi_d}
+        for name, v in (("min_disparity", min_disparity), ("max_disparity", max_disparity)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, int | np.integer)):
+                raise TypeError(f"{name} must be an integer number of pixels; got {type(v).__name__}")
+        if min_disparity is not None and max_disparity is not None and min_disparity >= max_disparity:
+            raise ValueError(f"min_disparity must be < max_disparity; got {min_disparity} and {max_disparity}")
+        options = {"matcher": method, "min_disparity": None if min_disparity is None else int(min_disparity),
+                   "max_disparity": None if max_disparity is None else int(max_disparity)}  # fmt: skip
     else:
         options = {"depth_kind": clip.kind, "budget_arcmin": float(budget_arcmin)}
 
@@ -296,6 +343,9 @@ def analyze_clip(
                 yield image
 
         cuts = detect_cuts(colour_frames())
+    # The search range of each shot: from its features unless both bounds are given (vergence.video.search).
+    searches = shot_search_ranges(clip, cuts.shots, min_disparity=min_disparity,
+                                  max_disparity=max_disparity) if stereo else []  # fmt: skip
     shot_of = np.zeros(clip.frames, np.int64)
     for s, (a, b) in enumerate(cuts.shots):
         shot_of[a:b] = s
@@ -317,6 +367,9 @@ def analyze_clip(
     counts = np.zeros((len(cuts.shots), 3), np.int64)  # known, outside, diverging
     extremes = np.tile([np.inf, -np.inf], (len(cuts.shots), 1))
     thumbs: dict[int, np.ndarray] = {}
+    bounds = [(r.lo, r.hi) for r in searches]
+    saturated = [0] * len(cuts.shots)  # frames still saturated after the widened pass
+    widened = [0] * len(cuts.shots)  # frames matched a second time in a widened range
     band = max(2, int(round(WINDOW_BAND * width)))
     wanted = set(analysed)
     for k, (a, b) in enumerate(clip.pairs()):
@@ -324,7 +377,11 @@ def analyze_clip(
             continue
         s = int(shot_of[k])
         if stereo:
-            d = _match(a, b, lo_d, hi_d, method)
+            searched = match_searched(a, b, searches[s], method, lo=bounds[s][0], hi=bounds[s][1])
+            d, lo_d, hi_d = searched.disparity, searched.lo, searched.hi
+            bounds[s] = (lo_d, hi_d)  # a widened range holds for the rest of the shot
+            saturated[s] += searched.saturated
+            widened[s] += searched.widened
             # The left edge band seen from the right view (a crossed point at the left edge of the left
             # view has no match: it lies left of the right view's frame).
             strip = min(width, band + 2 * (hi_d - lo_d))
@@ -348,20 +405,15 @@ def analyze_clip(
         violation = bool(_crossed_share(left_band) >= WINDOW_SHARE or _crossed_share(d[:, -band:]) >= WINDOW_SHARE)
         dy = None
         if stereo and vertical:
-            from vergence.depth import measure_row_alignment
-
-            import cv2
-
-            f = max(1.0, width / VERTICAL_MAX_WIDTH)
-            small = [v if f == 1.0 else cv2.resize(v, (round(width / f), round(height / f)),
-                                                   interpolation=cv2.INTER_AREA) for v in (a, b)]  # fmt: skip
-            try:
-                dy = f * measure_row_alignment(*small).median_abs_dy_px
-            except (ValueError, cv2.error):  # too few features, or RANSAC found no model: no measure here
-                dy = None
-        per_frame.append(FrameStats(frame=k, disparity_px=_keys(np.percentile(values, PERCENTILES)),
+            alignment = feature_alignment(a, b)  # None: too few features, or RANSAC found no model
+            dy = None if alignment is None else alignment.median_abs_dy_px
+        frame_pct = _keys(np.percentile(values, PERCENTILES))
+        per_frame.append(FrameStats(frame=k, disparity_px=frame_pct,
                                     outside_comfort=float(outside.mean()), diverging=float(diverging.mean()),
-                                    window_violation=violation, vertical_px=dy))  # fmt: skip
+                                    window_violation=violation, vertical_px=dy,
+                                    search_px=(lo_d, hi_d) if stereo else None,
+                                    on_bound=tuple(on_bound(frame_pct, lo_d, hi_d)) if stereo else (),
+                                    saturated=bool(stereo and searched.saturated)))  # fmt: skip
         hist[s].add(values)
         extremes[s] = min(extremes[s, 0], values.min()), max(extremes[s, 1], values.max())
         counts[s] += (values.size, int(outside.sum()), int(diverging.sum()))
@@ -390,6 +442,9 @@ def analyze_clip(
             window_violations=sum(f.window_violation for f in frames),
             window_frames=tuple(f.frame for f in frames if f.window_violation),
             vertical_px=float(np.median(dys)) if dys else None, suggestion=suggestion,
+            search=None if not stereo else {**searches[s].to_dict(), "search_px": list(bounds[s]),
+                                            "widened_frames": widened[s], "saturated_frames": saturated[s]},
+            on_bound=tuple(on_bound(_keys(pct), *bounds[s])) if stereo else (),
         ))  # fmt: skip
     return ClipAnalysis(
         kind="stereo" if stereo else "2d+depth", frames=clip.frames, fps=float(clip.fps), width=width, height=height,
