@@ -243,3 +243,27 @@ def test_a_consumer_that_stops_early_after_a_seek(clips, full):
             np.testing.assert_array_equal(next(frames), full["mkv"][start])
             frames.close()
     assert list(reader.frames(20, 20)) == []
+
+
+@pytest.mark.parametrize("suffix", [".mkv", ".mp4"])
+def test_a_cut_file_is_never_read_as_a_whole_clip(tmp_path, suffix):
+    """Cut at several points, an MKV (no frame count in its header: the packets are counted, checked against its
+    duration) or an MP4 is refused when opened or stops with "truncated"; never read as a shorter complete clip."""
+    whole = _write(tmp_path / f"whole{suffix}", crf=0)
+    assert open_frames(whole).info.frames == FRAMES and len(list(open_frames(whole).frames(0))) == FRAMES
+    data = whole.read_bytes()
+    refused_at_open = 0
+    for share in (0.2, 0.5, 0.8, 0.95):
+        cut = tmp_path / f"cut{suffix}"
+        cut.write_bytes(data[: int(len(data) * share)])
+        try:
+            reader = open_frames(cut)
+        except ValueError as exc:
+            assert "truncated" in str(exc) or "cannot read video" in str(exc), exc
+            refused_at_open += 1
+            continue
+        assert reader.info.frames == FRAMES, share
+        with pytest.raises(ValueError, match=r"truncated$"):
+            list(reader.frames(0))
+    if suffix == ".mkv":  # the header comes first: every cut opens, and says where it stops
+        assert refused_at_open == 0

@@ -367,6 +367,11 @@ def _video_info(path: Path, fps: float | None) -> VideoInfo:
                         frames += 1 if packet.size else 0
                 except av.EOFError:  # an empty or cut stream ends the count
                     pass
+                # A cut file holds fewer packets than its header's duration announces: announce those, so that
+                # reading stops with the message of a truncated MP4 (where it stopped, out of how many).
+                declared = _declared_frames(container, stream, rate)
+                if declared is not None and frames < declared:
+                    frames = declared
     except av.EOFError:
         raise ValueError(f"video {path} ends before its first frame: a zero-length (or truncated) clip") from None
     except av.FFmpegError as exc:
@@ -379,3 +384,23 @@ def _video_info(path: Path, fps: float | None) -> VideoInfo:
     if not rate_value > 0:
         raise ValueError(f"video {path} declares no frame rate: give one (fps)")
     return VideoInfo(frames=frames, fps=rate_value, width=int(width), height=int(height))
+
+
+def _declared_frames(container: object, stream: object, rate: object) -> int | None:
+    """Frames the header's duration announces, ``round(duration x rate)``: the stream's ``DURATION`` tag
+    (Matroska), else the stream's duration, else the container's when the video is its only stream; None
+    when none is known."""
+    if not rate:
+        return None
+    seconds = None
+    tag = (stream.metadata or {}).get("DURATION") or (stream.metadata or {}).get("duration")
+    match = re.fullmatch(r"(\d+):(\d{2}):(\d{2}(?:\.\d+)?)", tag.strip()) if isinstance(tag, str) else None
+    if match:
+        seconds = int(match[1]) * 3600 + int(match[2]) * 60 + float(match[3])
+    elif stream.duration and stream.time_base:
+        seconds = float(stream.duration * stream.time_base)
+    elif container.duration and len(container.streams) == 1:
+        seconds = container.duration / 1_000_000  # AV_TIME_BASE
+    if seconds is None or not seconds > 0:
+        return None
+    return int(round(seconds * float(rate)))
