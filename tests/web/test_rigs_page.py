@@ -142,6 +142,10 @@ def test_plan_refuses_bodies_that_are_no_shot(client):
     assert _refused(client.post("/api/rigs/plan", json=[1, 2]), 422) == "shot must be a JSON object; got list"
     assert _refused(client.post("/api/rigs/plan", json={"scene": "stadium"}), 422).startswith(
         "shot is missing field(s) rig")
+    # nested past Python's recursion limit (the sweep's body=nested): a refusal, not an internal error
+    assert _refused(client.post("/api/rigs/plan", content=b"[" * 100_000 + b"]" * 100_000,
+                                headers={"Content-Type": "application/json"}), 422).startswith(
+        "the body is not valid JSON (maximum recursion depth exceeded")
 
 
 @pytest.mark.parametrize("scene", ["wembley", "../scenes/quarry/scene.json", "/etc/passwd", "stadium/.."])

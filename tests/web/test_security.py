@@ -328,6 +328,20 @@ def test_a_link_loop_at_the_top_of_a_listing_does_not_break_the_index(tmp_path, 
     assert len(data.DataIndex(["/"]).entries()) >= 5
 
 
+def test_a_file_name_that_is_no_utf8_is_listed_with_a_replacement_character(tmp_path):
+    # found by the sweep (tools/sweep web): one such name made GET /api/data answer 500 (JSON has no surrogates)
+    root = tmp_path / "data"
+    root.mkdir()
+    (root / os.fsdecode(b"name-\xff_par.txt")).write_text("2\nl.png 100 0 100 0 100 80 0 0 1 1 0 0 0 1 0 0 0 1 0 0 0\n"
+                                                       "r.png 100 0 100 0 100 80 0 0 1 1 0 0 0 1 0 0 0 1 -0.1 0 0\n")
+    with TestClient(create_app([root]), base_url=LOCAL) as c:
+        response = c.get("/api/data")
+        assert response.status_code == 200, response.text
+        entry = next(e for e in response.json()["collections"] if e["format"] == "middlebury")
+        assert entry["name"] == "name-\ufffd_par.txt"
+        assert c.get(f"/api/data/{entry['id']}").json() == entry
+
+
 def test_the_index_is_walked_once_and_again_on_demand(tmp_path, monkeypatch):
     import vergence.web.data as data
 

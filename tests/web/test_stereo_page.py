@@ -211,6 +211,11 @@ def test_pair_and_example_refusals(client, ids):
         client.post("/api/jobs/synthesize", json={"example": "scene:tabletop", "depth_scale": 2.0}), 422)
     assert "budget_px" in _refused(
         client.post("/api/jobs/synthesize", json={"example": "scene:tabletop", "budget_px": -1.0}), 422)
+    # the sweep (tools/sweep web) found a NaN sigma accepted (202) and the job failing later
+    for sigma in ('"nan"', "NaN", '"inf"'):
+        assert _refused(client.post("/api/jobs/synthesize", content=f'{{"example": "scene:tabletop", "smooth_sigma": '
+                                    f'{sigma}}}', headers={"content-type": "application/json"}), 422).startswith(
+            "smooth_sigma: ")
 
 
 def test_unknown_ids_are_404(client, ids):

@@ -307,7 +307,8 @@ class DataIndex:
             return None  # a link out of the data folder
         if not resolved.is_file():
             return False  # a fifo, a socket, a device: no data
-        name = path.relative_to(root).as_posix()
+        # for people, in JSON: a name that is no UTF-8 (undecodable bytes) shows U+FFFD where they are
+        name = os.fsencode(path.relative_to(root).as_posix()).decode("utf-8", "replace")
         fmt = _camera_format(resolved)
         if fmt is not None:
             kind, scene = "collection", None

@@ -246,7 +246,7 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
         body = await request.body()
         try:
             data = json.loads(body)
-        except ValueError as exc:
+        except (ValueError, RecursionError) as exc:  # RecursionError: arrays or objects nested too deep
             return refusal(422, f"the body is not valid JSON ({exc})")
 
         def plan() -> dict[str, Any]:

@@ -117,7 +117,7 @@ class SynthesizeJob(pydantic.BaseModel):
     fill: str = pydantic.Field("background", description="Hole filling (vergence synthesize --fill).",
                                json_schema_extra=_choices("FILL_METHODS"))
     smooth_sigma: float | None = pydantic.Field(
-        None, description="ATTEST Gaussian pre-smoothing of the parallax map (px); off when null.")
+        None, allow_inf_nan=False, description="ATTEST Gaussian pre-smoothing of the parallax map (px); off when null.")
 
 
 def _layout_files() -> dict[str, str]:
