@@ -24,6 +24,12 @@ def _cli(**fields) -> Result:
     return Result(**{**base, **fields})
 
 
+def _web(**fields) -> Result:
+    base = dict(id="web/POST /api/budget/baseline=text", kind="web", target="POST /api/budget", returncode=422,
+                stdout='{"error":"baseline: expected a number (got \'abc\')"}', hostile=True, strict=True)
+    return Result(**{**base, **fields})
+
+
 def _api(**fields) -> Result:
     base = dict(id="api/f/p=nan", kind="api", target="vergence.viewing.f", status="raised", exc_type="ValueError",
                 expected=True, hostile=True)
@@ -44,6 +50,12 @@ FIRING = {
     "leftovers": _cli(leftovers=[".out.tmp-1234.png"]),
     # exit 0 after Ctrl-C with an output missing: the interrupt was swallowed
     "sigint": _cli(kind="sigint", hostile=False, sigint_sent=True, returncode=0, stderr="", missing_outputs=["a.png"]),
+    # web requests (issue 29)
+    "server_error": _web(returncode=500, stdout='{"error":"internal error, please report it: KeyError: 1"}'),
+    "accepted_hostile": _web(returncode=200, stdout='{"status":"ok"}', expect=(400,)),  # a foreign Host served
+    "path_leak": _web(leaked="the data folder (/tmp/x/data)"),
+    "hang": _web(returncode=None, timed_out=True, stdout=""),
+    "not_one_line": _web(returncode=404, stdout='{"detail":"Not Found"}'),
 }
 
 
@@ -69,7 +81,11 @@ def test_every_class_but_ok_has_a_firing_example():
     _api(status="returned", exc_type=None, hostile=False),
     _api(status="returned", exc_type=None, strict=False, degenerate=None),
     _api(status="setup_error"),
-], ids=lambda r: f"{r.kind}-{r.returncode}-{r.status}-{r.stderr[:25]}")
+    _web(),  # a clearly invalid value refused in one line
+    _web(returncode=200, stdout="{}", strict=False),  # an extreme but valid value answered
+    _web(returncode=403, stdout='{"error":"POST from Origin \'null\' refused"}', expect=(403,)),
+    _web(returncode=200, stdout='{"state":"failed","error":"depth must be at most 4; got 9"}', strict=False),
+], ids=lambda r: f"{r.kind}-{r.returncode}-{r.status}-{(r.stderr or r.stdout)[:25]}")
 def test_well_handled_outcomes_stay_ok(result):
     assert classify(result, names=NAMES) == ["ok"]
 
@@ -214,3 +230,92 @@ def test_name_only_paths_and_broadcasting_arrays_are_not_strict():
     specs = api_case_specs(quick=False, rng=random.Random(0))
     strict = {s["id"] for s in specs if s["name"] == "schlick" and str(s["token"]).endswith("!")}
     assert strict and not any("other_shape" in i for i in strict)
+
+
+def test_web_outcomes():
+    # a guard's case that reached the route (a 404 where the guard answers 415), data from outside, a job
+    # whose status reports an internal error, a refusal over two lines, a traceback, no answer at all
+    assert classify(_web(returncode=404, stdout='{"error":"x"}', expect=(415,))) == ["accepted_hostile"]
+    assert classify(_web(returncode=200, stdout="{}", strict=False, outside="listed 'out_par.txt'")) == [
+        "accepted_hostile"]
+    assert classify(_web(returncode=200, stdout='{"state":"failed","error":"internal error, please report it: X"}',
+                         strict=False)) == ["server_error"]
+    assert classify(_web(stdout='{"error":"a\\nb"}')) == ["not_one_line"]
+    assert classify(_web(stdout='{"error":"x","detail":"y"}')) == ["not_one_line"]
+    assert classify(_web(returncode=500, stdout="Traceback (most recent call last):\n  File")) == [
+        "server_error", "path_leak", "not_one_line"]
+    assert classify(_web(returncode=None, stdout="", stderr="no answer: ConnectionResetError")) == ["server_error"]
+
+
+def test_every_route_twin_and_job_kind_has_its_cases():
+    """A route, a twin or a job kind added to the app without a valid base or cases is noticed here."""
+    import random
+
+    from tools.sweep.web_cases import JOB_BASES, TWIN_BASES, WebContext, route_table, web_cases
+    from vergence.web import create_app
+
+    app = create_app()
+    assert set(TWIN_BASES) == set(app.state.twins) and set(JOB_BASES) == set(app.state.jobs.kinds)
+    cases = web_cases(app, WebContext(ids={}, port=8765), quick=True, rng=random.Random(0))
+    targets = {c.target for c in cases}
+    for method, template in route_table(app):
+        assert f"{method} {template}" in targets, (method, template)
+        assert f"web/{method} {template}/Host=foreign" in {c.id for c in cases}
+    posts = [c for c in cases if c.method == "POST" and c.id.endswith("/Content-Type=text_plain")]
+    assert posts and all(c.expect == (415,) and c.strict for c in posts)
+    assert len({c.id for c in cases}) == len(cases)
+    field_cases = {c.id for c in cases if c.target == "POST /api/budget"}
+    assert {"web/POST /api/budget/base", "web/POST /api/budget/body=over_limit_chunked"} <= field_cases
+    assert sum(c.id.startswith("web/POST /api/budget/baseline=") for c in cases) == 2  # quick: two per field
+
+
+def test_a_body_field_is_replaced_by_raw_json_at_any_depth():
+    from tools.sweep.web_cases import _with
+
+    base = {"state": {"region": [0, 0], "li": 0.0}, "pan": 0.1}
+    assert json.loads(_with(base, ("state", "li"), '"nan"')) == {"state": {"region": [0, 0], "li": "nan"}, "pan": 0.1}
+    assert _with(base, ("pan",), "NaN") == b'{"state": {"region": [0, 0], "li": 0.0}, "pan": NaN}'
+    assert json.loads(_with(base, ("state",), None)) == {"pan": 0.1}
+    assert base == {"state": {"region": [0, 0], "li": 0.0}, "pan": 0.1}  # the base is not modified
+
+
+def test_the_web_sweep_catches_a_broken_host_guard_and_a_leaked_path(tmp_path, monkeypatch):
+    """The web kind end to end on two routes, the app served by uvicorn on 127.0.0.1: with its Host check
+    taken out (every Host served) and the data listing showing paths, the sweep reports both."""
+    import vergence.web._guard as guard
+    from vergence.web.data import DataEntry
+
+    monkeypatch.setattr(guard, "host_allowed", lambda name, allowed=(): True)
+    real = DataEntry.to_dict
+    monkeypatch.setattr(DataEntry, "to_dict", lambda self: {**real(self), "folder": str(self.root)})
+    totals = sweep(tmp_path, quick=True, only=("web", "health", "data"), web_time_limit_s=20)
+    report = json.loads((tmp_path / "report.json").read_text())
+    classes = {r["id"]: r["classes"] for r in report["results"]}
+    assert classes["web/GET /api/health/Host=foreign"] == ["accepted_hostile"]
+    assert classes["web/GET /api/data/Host=foreign"] == ["accepted_hostile", "path_leak"]
+    assert classes["web/GET /api/data/base"] == classes["web/GET /api/data/{entry_id}/base"] == ["path_leak"]
+    assert classes["web/GET /api/health/base"] == ["ok"]
+    assert totals["counts"]["accepted_hostile"] >= 3 and totals["counts"]["path_leak"] >= 3
+    assert {r["target"] for r in report["results"] if not r["id"].startswith("web/setup/")} == {
+        "GET /api/health", "GET /api/data", "GET /api/data/{entry_id}"}
+    summary = (tmp_path / "summary.md").read_text()
+    assert "### web" in summary and "`web/GET /api/health/Host=foreign` **accepted_hostile**: 200" in summary
+    assert not (tmp_path / "scratch" / "web").exists()  # the data folder is removed after the run
+
+
+def test_a_request_past_its_time_limit_is_a_hang_and_the_sweep_goes_on(tmp_path):
+    import time
+
+    from tools.sweep.web_runner import run_web
+    from vergence.web import create_app
+
+    def slow_app(data_dirs):
+        app = create_app(data_dirs)
+        app.get("/api/slow")(lambda: time.sleep(3) or {"late": True})  # sync: a worker thread, the loop stays free
+        app.router.routes.insert(0, app.router.routes.pop())  # before the app's catch-all /api/{command}
+        return app
+
+    prepare(tmp_path)
+    results = {r.id: r for r in run_web(tmp_path, names=("slow",), time_limit_s=1.0, app_factory=slow_app)}
+    assert classify(results["web/GET /api/slow/base"]) == ["hang"]
+    assert classify(results["web/GET /api/slow/Host=foreign"]) == ["ok"]  # refused before the route, in time

@@ -1,8 +1,10 @@
-"""The sweep harness: hostile inputs for every ``vergence`` command and every public API name.
+"""The sweep harness: hostile inputs for every ``vergence`` command, every public API name and every
+route of the workbench.
 
 ``python -m tools.sweep --out DIR`` generates the cases (:mod:`tools.sweep.cli_cases`,
-:mod:`tools.sweep.api_cases`), runs each in a subprocess under a time and memory limit
-(:mod:`tools.sweep.runner`), sorts the outcomes into the classes of issue 9
+:mod:`tools.sweep.api_cases`, :mod:`tools.sweep.web_cases`), runs each in a subprocess under a time
+and memory limit (:mod:`tools.sweep.runner`) or, for the workbench, as a request to the app served on
+127.0.0.1 (:mod:`tools.sweep.web_runner`), sorts the outcomes into the classes of issues 9 and 29
 (:mod:`tools.sweep.classify`) and writes ``DIR/report.json`` and ``DIR/summary.md``
 (:mod:`tools.sweep.report`). See ``tools/sweep/BASELINE.md`` for the counts on main.
 """
@@ -16,7 +18,7 @@ from pathlib import Path
 
 __all__ = ["sweep"]
 
-KINDS = ("cli", "api", "sigint", "random")
+KINDS = ("cli", "api", "sigint", "random", "web")
 # Cases per kind in a quick sweep: hostile values drawn per option / per API parameter, Ctrl-C moments
 # and random parameter sets; sized so that --quick --jobs 2 ends in under 5 minutes on 2 cores.
 # (measured on the shared 2-core machine under load: 3 to 7 s per command line, imports included).
@@ -31,12 +33,14 @@ def _selected(case_kind: str, target: str, only: tuple[str, ...]) -> bool:
 
 
 def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...] = (), seed: int = 9,
-          time_limit_s: float = 60.0, api_time_limit_s: float = 30.0, memory_gb: float = 8.0, limit: int | None = None,
-          per_option: int | None = None, sample: int | None = None, command: str = "") -> dict:
+          time_limit_s: float = 60.0, api_time_limit_s: float = 30.0, web_time_limit_s: float = 20.0,
+          memory_gb: float = 8.0, limit: int | None = None, per_option: int | None = None, sample: int | None = None,
+          command: str = "") -> dict:
     """Run the sweep into ``out`` and return the totals (cases, runs, failing, counts per class).
 
-    ``per_option`` (hostile values per option and per API parameter) and ``sample`` (command-line
-    cases drawn besides the bases and the issue's cases) override the quick sweep's sizes.
+    ``per_option`` (hostile values per option, per API parameter and per web body field) and
+    ``sample`` (command-line cases drawn besides the bases and the issue's cases) override the quick
+    sweep's sizes. ``web_time_limit_s``: seconds per web request.
     """
     import time
 
@@ -90,8 +94,18 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
         index, batch = item
         return run_api_batch(batch, out, index, api_limits)
 
+    web_limit = None if limit is None else max(0, limit - len(cases) - len(specs))
+
+    def run_web_kind():
+        from tools.sweep.web_runner import run_web
+
+        names = tuple(o for o in only if o not in KINDS)  # route names: budget, health, jobs, ...
+        return run_web(out, quick=quick or per_option is not None, rng=random.Random(seed),
+                       time_limit_s=web_time_limit_s, names=names, limit=web_limit, per_field=per_option), 1
+
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(run_batch, item) for item in enumerate(batches.values())]
+        futures = [pool.submit(run_web_kind)] if _kind_wanted("web", only) and web_limit != 0 else []
+        futures += [pool.submit(run_batch, item) for item in enumerate(batches.values())]
         futures += [pool.submit(run_one, item) for item in enumerate(cases)]
         outcomes = [f.result() for f in futures]
     results = [r for rs, _ in outcomes for r in rs]
@@ -101,7 +115,8 @@ def sweep(out: Path, *, quick: bool = False, jobs: int = 1, only: tuple[str, ...
         r.classes = classify(r, names=names)
     shutil.rmtree(out / "cases", ignore_errors=True)
     meta = {"command": command, "quick": quick, "seed": seed, "jobs": jobs, "runs": runs,
-            "time_limit_s": time_limit_s, "api_time_limit_s": api_time_limit_s, "memory_gb": memory_gb,
+            "time_limit_s": time_limit_s, "api_time_limit_s": api_time_limit_s,
+            "web_time_limit_s": web_time_limit_s, "memory_gb": memory_gb,
             "seconds": time.monotonic() - start}
     totals = report.write(out, results, meta=meta)
     return {**totals, "runs": runs}

@@ -1,14 +1,23 @@
-"""Sort each run's outcome into the classes of issue 9 (a case may fall into several; none means ``ok``)."""
+"""Sort each run's outcome into the classes of issue 9 (a case may fall into several; none means ``ok``).
+
+Web requests (kind ``web``, :mod:`tools.sweep.web_cases`, issue 29) have classes of their own:
+``server_error`` (a 5xx, no answer, or an internal error in a job's status), ``accepted_hostile`` (a
+guard's case that did not get the guard's refusal, a 2xx on a clearly invalid value, data from outside
+the data folder), ``path_leak`` (a server folder or a traceback in the answer), ``hang`` (no answer in
+time) and ``not_one_line`` (a refusal that is not exactly ``{"error": "<one line>"}``).
+"""
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass, field
 
 from vergence.cli._compile_notice import NOTICE as COMPILE_NOTICE
 
+WEB_CLASSES = ("server_error", "accepted_hostile", "path_leak", "hang", "not_one_line")
 CLASSES = ("internal_error", "traceback", "timeout", "killed", "noisy_stderr", "python_name", "suspicious_ok",
-           "input_modified", "leftovers", "sigint", "ok")
+           "input_modified", "leftovers", "sigint", *WEB_CLASSES, "ok")
 
 # Text that only a warning machinery or a C library prints (never one of our one-line messages).
 NOISE = re.compile(r"RuntimeWarning|UserWarning|DeprecationWarning|encountered in|libpng|Corrupt JPEG|"
@@ -27,12 +36,12 @@ class Result:
     """What one case did; the runner fills it, :func:`classify` reads it."""
 
     id: str
-    kind: str  # "cli", "sigint" or "api"
+    kind: str  # "cli", "sigint", "api" or "web"
     target: str
     command_line: str = ""
     hostile: bool = True
     strict: bool = False
-    returncode: int | None = None
+    returncode: int | None = None  # web: the HTTP status (None: no answer)
     timed_out: bool = False
     seconds: float = 0.0
     stdout: str = ""
@@ -48,6 +57,11 @@ class Result:
     expected: bool = True
     warnings: list[str] = field(default_factory=list)
     arguments: tuple[str, ...] = ()  # the command's positional argument names (allowed in messages)
+    # Web requests: the statuses of the guard's refusal a case must get (empty: any), the server folder
+    # the answer named, and the data from outside the data folder it served.
+    expect: tuple[int, ...] = ()
+    leaked: str | None = None
+    outside: str | None = None
     classes: list[str] = field(default_factory=list)
 
 
@@ -70,8 +84,48 @@ def python_name_in(message: str, names: frozenset[str], allowed: tuple[str, ...]
     return None
 
 
+def answer_error(body: str) -> str | None:
+    """The ``error`` of a JSON object answer (a refusal, or a job's status), else None."""
+    try:
+        data = json.loads(body)
+    except ValueError:
+        return None
+    return data.get("error") if isinstance(data, dict) and isinstance(data.get("error"), str) else None
+
+
+def is_one_line_refusal(body: str) -> bool:
+    """Whether ``body`` is exactly ``{"error": "<one line>"}`` (a non-empty line, no line break)."""
+    try:
+        data = json.loads(body)
+    except ValueError:
+        return False
+    return (isinstance(data, dict) and list(data) == ["error"] and isinstance(data["error"], str)
+            and bool(data["error"].strip()) and not any(c in data["error"] for c in "\r\n"))
+
+
+def classify_web(result: Result) -> list[str]:
+    """The classes of a web request's answer (module notes)."""
+    found: list[str] = []
+    status, body = result.returncode, result.stdout
+    error = answer_error(body)
+    if result.timed_out:
+        found.append("hang")
+    elif status is None or status >= 500 or (error is not None and "please report" in error):
+        found.append("server_error")
+    reached = bool(result.expect) and status is not None and status < 500 and status not in result.expect
+    if reached or (status is not None and 200 <= status < 300 and result.strict) or result.outside:
+        found.append("accepted_hostile")
+    if result.leaked or "Traceback (most recent call last)" in body:
+        found.append("path_leak")
+    if (status is not None and status >= 400 and not is_one_line_refusal(body)) or (error and "\n" in error):
+        found.append("not_one_line")
+    return found or ["ok"]
+
+
 def classify(result: Result, *, names: frozenset[str] = frozenset()) -> list[str]:
     """The classes of ``result`` (``["ok"]`` when nothing is wrong); ``names`` are the Python parameter names."""
+    if result.kind == "web":
+        return classify_web(result)
     found: list[str] = []
     stderr = result.stderr
     # the console script's line before a first compilation (a cold kernel cache) is no message of the case

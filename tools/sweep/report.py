@@ -7,7 +7,7 @@ from collections import Counter, defaultdict
 from dataclasses import asdict
 from pathlib import Path
 
-from tools.sweep.classify import CLASSES, Result, error_line
+from tools.sweep.classify import CLASSES, Result, answer_error, error_line
 
 COMMAND_CHARS = 400  # a reproducing command line longer than this (a 5,000-character value) is cut
 
@@ -25,7 +25,9 @@ AREAS = {
 
 
 def area_of(result: Result) -> str:
-    """The area owning ``result``'s target (command name or ``module.name``)."""
+    """The area owning ``result``'s target (command name, ``module.name``, or a web route: "web")."""
+    if result.kind == "web":
+        return "web"
     target = result.target
     for key in sorted(AREAS, key=len, reverse=True):
         if target == key or target.startswith(key + "."):
@@ -39,6 +41,12 @@ def counts(results: list[Result]) -> dict[str, int]:
 
 
 def _first_line(result: Result) -> str:
+    if result.kind == "web":
+        if result.returncode is None:
+            return (result.stderr.splitlines() or ["no answer"])[-1][:200]
+        said = answer_error(result.stdout) or " ".join(result.stdout.split())
+        extra = "".join(f" [{x}]" for x in (result.leaked, result.outside) if x)
+        return f"{result.returncode}: {said}"[:200] + extra
     if result.kind == "api":
         if result.status == "raised":
             return f"{result.exc_type}: {result.stdout}"[:200]
@@ -63,12 +71,20 @@ def write(folder: Path, results: list[Result], *, meta: dict) -> dict:
     (folder / "report.json").write_text(json.dumps(data, indent=1, default=str))
 
     api_bases = [r for r in results if r.kind == "api" and r.id.endswith("/base")]
+    web_bases = [r for r in results if r.kind == "web" and r.id.endswith("/base")]
+    web_targets = {r.target for r in results if r.kind == "web" and not r.id.startswith("web/setup/")}
     lines = [f"# Sweep summary: {len(results)} cases in {meta.get('runs', '?')} runs, {len(failing)} failing",
              "", f"Command: `{meta.get('command', '')}`  ", f"Duration: {meta.get('seconds', 0):.0f} s; "
              f"kinds: {dict(Counter(r.kind for r in results))}  ",
              # A hostile API argument tests that argument only where the guessed valid call succeeds.
-             f"API names whose guessed valid call returned: {sum(r.status == 'returned' for r in api_bases)} "
-             f"of {len(api_bases)} (the others raised ValueError/TypeError on our guess)", "",
+             *([f"API names whose guessed valid call returned: {sum(r.status == 'returned' for r in api_bases)} "
+                f"of {len(api_bases)} (the others raised ValueError/TypeError on our guess)  "] if api_bases else []),
+             # A hostile body field tests that field only where the valid base request reaches the work.
+             *([f"Web: {len(web_targets)} routes (POST /api/jobs/{{kind}} once per kind); valid base requests "
+                f"answered 2xx: "
+                f"{sum(r.returncode is not None and 200 <= r.returncode < 300 for r in web_bases)} of "
+                f"{len(web_bases)} (the others name an id that stands for nothing: the route's own refusal)"]
+               if web_bases else []), "",
              "| class | cases |", "|---|---|", *[f"| {k} | {v} |" for k, v in total.items()], "",
              "## Per target (classes other than ok)", "", "| target | area | classes |", "|---|---|---|"]
     for target, sub in per_target.items():
