@@ -130,13 +130,16 @@ def _warm_match(folder: Path) -> None:
 
 
 def _warm_render(folder: Path) -> None:
-    """``vergence render`` and the pages' example renders: one eye and a stereo pair of the built-in
-    scenes at 8x6 pixels, a seeded and a supersampled render, an environment map, the previews."""
+    """``vergence render``, the pages' example renders and the demo's: one eye and a stereo pair of the
+    built-in scenes at 8x6 pixels, a seeded and a supersampled render, an environment map, the previews,
+    and the demo's right eye synthesised from the left render."""
     import dataclasses
 
     from vergence.display import pack
-    from vergence.render import Environment, auto_exposure, builtin_scene, render, render_stereo, tonemap
+    from vergence.render import (Environment, auto_exposure, builtin_scene, render, render_stereo, stereo_preview,
+                                 tonemap)
     from vergence.report.preview import save_render
+    from vergence.synthesis import synthesize_view
 
     tabletop = builtin_scene("tabletop", width=8, height=6)
     result = render(tabletop, camera=tabletop.camera.build(), max_depth=2, samples=2)
@@ -148,6 +151,9 @@ def _warm_render(folder: Path) -> None:
     baseline, convergence = glasses.stereo.baseline, glasses.stereo.convergence
     pair = render_stereo(glasses, baseline=baseline, convergence=convergence, max_depth=2, samples=2)
     pack(*(tonemap(r.beauty) for r in pair), layout="anaglyph")
+    # the demo's DIBR section: the right eye made from the left render's (read-only) image and depth
+    preview = stereo_preview(tabletop, samples=1)
+    synthesize_view(preview.left, preview.left_result.depth, preview.left_result.camera, preview.right_result.camera)
 
 
 def _warm_specular(folder: Path) -> None:
@@ -176,8 +182,9 @@ _SPACE_SIZE = (96, 72)
 
 
 def _warm_stereospace(folder: Path) -> None:
-    """``vergence stereospace view / build / pair`` and page 3: a rendered collection of the tabletop
-    (small views), its novel views by every method, its space, a pair, a pan and a zoom, the map."""
+    """``vergence stereospace view / build / pair``, page 3 and the demo's section: a rendered collection
+    of the tabletop (small views), its novel views by every method, its space, a pair, a pan and a
+    zoom, the map, and the novel views from the prepared collection's images."""
     from vergence.metrics import psnr
     from vergence.render import builtin_scene
     from vergence.report.stereospace_map import navigation_map
@@ -206,6 +213,12 @@ def _warm_stereospace(folder: Path) -> None:
     for method in PAIR_METHODS:
         stereo_pair(prepared, state, layout="anaglyph", method=method)
     zoom(built.space, pan(built.space, state, 0.01).state, 0.01)
+    pan(built.space, state, 10.0)  # far past the region's border: the search for a jump (S2 §4.1)
+    # the demo's leave-one-out views from the prepared collection's (read-only) images
+    images = dict(enumerate(prepared.images))
+    plane_view(prepared.collection, target, exclude=exclude, images=images)
+    for method in NOVEL_VIEW_METHODS:
+        novel_view(prepared.collection, target, method=method, exclude=exclude, images=images)
 
 
 def _tiny_shots() -> tuple[dict[str, object], dict[str, object]]:
