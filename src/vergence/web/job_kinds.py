@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import pydantic
 
+from vergence.web._models import RequestModel
 from vergence.web.jobs import JobContext, JobKind, JobResult, Prepared
 
 if TYPE_CHECKING:
@@ -53,7 +54,7 @@ class JobEnv:
     live: Callable[[str, str], Any]
 
 
-class RenderJob(pydantic.BaseModel):
+class RenderJob(RequestModel):
     """Parameters of a ``render`` job."""
 
     model_config = pydantic.ConfigDict(extra="forbid")
@@ -109,7 +110,7 @@ def _prepare_render(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     return Prepared(inputs, run)
 
 
-class SpecularJob(pydantic.BaseModel):
+class SpecularJob(RequestModel):
     """Parameters of a ``specular`` job (as ``vergence specular``'s options)."""
 
     model_config = pydantic.ConfigDict(extra="forbid")
@@ -207,7 +208,7 @@ _NO_SURFACE_GREY = 0.35
 MAX_WEIGHT_MAPS = 160
 
 
-class WeightMap(pydantic.BaseModel):
+class WeightMap(RequestModel):
     """One painted map (as ``vergence specular --weight-map [TERM:]LAYER=FILE``)."""
 
     model_config = pydantic.ConfigDict(extra="forbid")
@@ -219,7 +220,7 @@ class WeightMap(pydantic.BaseModel):
                                              "size: PNG values / max code, or .npy/.pfm float as stored, in [0, 1e6].")
 
 
-class SpecularReoptimiseJob(pydantic.BaseModel):
+class SpecularReoptimiseJob(RequestModel):
     """Parameters of a ``specular-reoptimise`` job: a done specular job, new weights and painted maps."""
 
     model_config = pydantic.ConfigDict(extra="forbid")

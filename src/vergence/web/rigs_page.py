@@ -28,6 +28,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, Response
 
 from vergence.web._errors import refusal
+from vergence.web._models import RequestModel
 from vergence.web._slots import Busy, run_in_slot
 from vergence.web.job_kinds import MAX_RENDER_JOB_RAYS
 from vergence.web.jobs import JobContext, JobKind, JobResult, Prepared
@@ -134,7 +135,7 @@ def example_shots(index: DataIndex) -> list[dict[str, Any]]:
     return out
 
 
-class RigJob(pydantic.BaseModel):
+class RigJob(RequestModel):
     """Parameters of a ``rig`` job (as ``vergence rig render``'s options, at a preview size)."""
 
     model_config = pydantic.ConfigDict(extra="forbid")

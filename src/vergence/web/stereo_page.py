@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import pydantic
 
+from vergence.web._models import RequestModel
 from vergence.web.jobs import JobContext, JobKind, JobResult, Prepared
 
 if TYPE_CHECKING:
@@ -83,7 +84,7 @@ def _choices(table: str) -> Any:
     return extra
 
 
-class SynthesizeJob(pydantic.BaseModel):
+class SynthesizeJob(RequestModel):
     """Parameters of a ``synthesize`` job (as ``vergence synthesize``'s options, with ``vergence match``'s
     for a stereo pair). Give ``image`` and ``depth``, or ``left`` and ``right``, or ``example``."""
 

@@ -50,6 +50,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, JSONResponse, Response
 
 from vergence.web._errors import refusal, validation_message
+from vergence.web._models import RequestModel
 from vergence.web._slots import Busy, run_in_slot
 from vergence.web.jobs import JobContext, JobKind, JobManager, JobRefused, JobResult, Prepared
 
@@ -79,7 +80,7 @@ _PAN_STEP, _ZOOM_STEP = 0.25, 0.25
 _POINT_PERCENTILES = (2.0, 98.0)
 
 
-class StereoSpaceJob(pydantic.BaseModel):
+class StereoSpaceJob(RequestModel):
     """Parameters of a ``stereospace`` job."""
 
     model_config = pydantic.ConfigDict(extra="forbid")
@@ -91,7 +92,7 @@ class StereoSpaceJob(pydantic.BaseModel):
                                   "resolution): the start state and the pairs' disparity range are judged on it.")
 
 
-class StateModel(pydantic.BaseModel):
+class StateModel(RequestModel):
     """A state of the StereoSpace: segments ``region = [i, j]`` and the eyes' parameters on them."""
 
     model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -101,7 +102,7 @@ class StateModel(pydantic.BaseModel):
     lj: float = pydantic.Field(ge=0.0, le=1.0, description="Second eye's parameter on segment j (li <= lj if i == j).")
 
 
-class MoveRequest(pydantic.BaseModel):
+class MoveRequest(RequestModel):
     """A move of S2 §4.1 from a state: the pan, then the zoom."""
 
     model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False)
@@ -112,7 +113,7 @@ class MoveRequest(pydantic.BaseModel):
     zoom: float = pydantic.Field(0.0, description="Change the interocular distance by this (collection units).")
 
 
-class PairRequest(pydantic.BaseModel):
+class PairRequest(RequestModel):
     """The stereo pair of a state in a display format."""
 
     model_config = pydantic.ConfigDict(extra="forbid", allow_inf_nan=False)
