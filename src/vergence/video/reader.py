@@ -361,16 +361,19 @@ def _video_info(path: Path, fps: float | None) -> VideoInfo:
             rate = stream.average_rate or stream.guessed_rate or stream.base_rate
             frames = int(stream.frames)
             if frames <= 0:  # containers without a frame count (e.g. .mkv): count the packets
-                frames = 0
+                frames, end = 0, 0.0
                 try:
                     for packet in container.demux(stream):
                         frames += 1 if packet.size else 0
+                        if packet.size and packet.pts is not None and packet.time_base:
+                            end = max(end, float((packet.pts + (packet.duration or 0)) * packet.time_base))
                 except av.EOFError:  # an empty or cut stream ends the count
                     pass
-                # A cut file holds fewer packets than its header's duration announces: announce those, so that
-                # reading stops with the message of a truncated MP4 (where it stopped, out of how many).
+                # A cut file's packets end before the duration its header announces (a gap in the timestamps does
+                # not: its last packet still ends there): announce the header's frame count, so that reading stops
+                # with the message of a truncated MP4 (where it stopped, out of how many).
                 declared = _declared_frames(container, stream, rate)
-                if declared is not None and frames < declared:
+                if declared is not None and frames < declared and rate and end < (declared - 0.5) / float(rate):
                     frames = declared
     except av.EOFError:
         raise ValueError(f"video {path} ends before its first frame: a zero-length (or truncated) clip") from None
