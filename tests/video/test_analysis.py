@@ -15,7 +15,8 @@ from vergence.video import (
     open_depth_clip,
     open_stereo,
 )
-from vergence.video.analysis import _ShotHistogram, _suggest
+from vergence.video._histogram import ShotHistogram
+from vergence.video.analysis import _suggest
 from vergence.viewing import ComfortZone, Display, arcmin_from_pixels, pixels_from_arcmin
 
 TV = Display.preset("tv-55")
@@ -159,11 +160,19 @@ def test_a_single_stereo_image_is_a_clip_of_one_frame(clips, tmp_path, truth):
 def test_shot_histogram_percentiles_against_numpy():
     rng = np.random.default_rng(3)
     values = np.concatenate([rng.normal(-3.0, 2.0, 5000), rng.normal(4.0, 0.5, 3000)])
-    hist = _ShotHistogram(64)
+    hist = ShotHistogram(64)
     hist.add(values[:4000])
     hist.add(values[4000:])
     got = hist.percentiles(values.min(), values.max())
     np.testing.assert_allclose(got, np.percentile(values, PERCENTILES), atol=HISTOGRAM_STEP_PX)
+    # pieces merged (convert pools a shot's pieces): the same percentiles, within the exact extremes
+    first, second = ShotHistogram(64), ShotHistogram(64)
+    first.add(values[:3000])
+    second.add(values[3000:])
+    first.merge(second)
+    np.testing.assert_allclose(first.pooled(), np.percentile(values, PERCENTILES), atol=HISTOGRAM_STEP_PX)
+    assert (first.lo, first.hi) == (values.min(), values.max())
+    assert np.isnan(ShotHistogram(64).pooled()).all()
 
 
 def test_analysis_refusals(clips):

@@ -8,8 +8,9 @@ from pathlib import Path
 import typer
 
 from vergence.cli import raise_if_interrupted
+from vergence.cli.budget import print_warnings
 from vergence.cli._app import SYNTHESIS_BUDGET_ARCMIN, app, check_output_path, console, err_console, options_named, \
-    preset_display  # fmt: skip
+    preset_display, print_json  # fmt: skip
 from vergence.cli._video import (
     DEPTH_KIND_OPTION,
     DEPTH_SCALE_OPTION,
@@ -73,6 +74,8 @@ def convert(
                                 "folder .OUT.parts beside the output)."),
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
                                 "processes (N > 1; needs the dask extra of vergence)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the conversion as JSON (per shot: the range matched, "
+                                 "its search, the parallax planned and measured on the output, the depth order)."),
     batch: bool = typer.Option(False, "--batch", help="INPUT is a folder: convert each .mp4/.mkv/.mov in it into the "
                                "--out folder (kind and layout guessed per file; one Dask cluster for all)."),
     skip_errors: bool = typer.Option(False, "--skip-errors", help="--batch: a file that fails is reported in one "
@@ -145,12 +148,27 @@ def convert(
                     max_disparity=max_disparity, resume=resume, progress=progress, workers=run_workers,
                     scheduler=run_scheduler, split_frames=split_frames,
                 )  # fmt: skip
+        print_warnings(result.warnings)
+        if as_json:
+            print_json(result.to_dict())
+            if result.stopped is not None:
+                raise ValueError(f"INPUT {input_path.name} stopped after frame {result.frames - 1}: {result.stopped}; "
+                                 f"the {result.frames} frames before are in {result.out}")
+            return
         for k, shot in enumerate(result.shots):
             lo, hi = shot.range_px
             note = " (reused)" if shot.reused else ""
             slope = "" if shot.mapping is None else f" (psi slope {shot.mapping.gain:.4g})"  # None: a reused stereo shot
-            console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px"
-                          f"{slope}{note}", highlight=False)  # fmt: skip
+            source = ""
+            if shot.search is not None and not shot.reused:
+                (s_lo, s_hi), bound = shot.search["search_px"], " ".join(shot.search["on_bound"])
+                source = (f", from disparity {shot.range_in[0]:+.2f} .. {shot.range_in[1]:+.2f} px (1-99 %, searched "
+                          f"{s_lo} .. {s_hi} px{', on bound: ' + bound if bound else ''})")
+            measured = "" if shot.output is None else (f", measured on the output {shot.output.range_px[0]:+.2f} .. "
+                                                       f"{shot.output.range_px[1]:+.2f} px (1-99 %, rank correlation "
+                                                       f"with the source {shot.output.rank_correlation:.2f})")
+            console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px planned"
+                          f"{measured}{source}{slope}{note}", highlight=False)  # fmt: skip
         before, after = result.flicker_before.mean_px, result.flicker_after.mean_px
         if result.flicker_after.pairs:
             console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "

@@ -35,10 +35,10 @@ DEPTH_SCALE = Parameter("depth_scale", "number", "2D + depth: stored 8-bit value
                         "for metric or disparity depth in a video).", None)
 FPS = Parameter("fps", "number", "Frame rate of an image folder (default 24).", None)
 METHOD = Parameter("method", "text", "Stereo: matcher (as vergence match); default sgbm.", None)
-MIN_DISPARITY = Parameter("min_disparity", "integer", "Stereo: smallest disparity searched (px); default -width/8, "
-                          "rounded up to 16.", None)
-MAX_DISPARITY = Parameter("max_disparity", "integer", "Stereo: largest disparity searched (px); default width/8, "
-                          "rounded up to 16.", None)
+MIN_DISPARITY = Parameter("min_disparity", "integer", "Stereo: smallest disparity searched (px); default found per "
+                          "shot from its features, widened where matches pile up at it.", None)
+MAX_DISPARITY = Parameter("max_disparity", "integer", "Stereo: largest disparity searched (px); default found per "
+                          "shot from its features, widened where matches pile up at it.", None)
 
 
 def check_input_kind(input_kind: str | None) -> None:

@@ -55,22 +55,35 @@ def prepare_work(work: Path, manifest: dict, resume: bool) -> None:
     found.write_text(json.dumps(manifest, indent=1))
 
 
-def write_range(work: Path, piece: int, range_in: tuple[float, float]) -> None:
-    """Record a matched piece's disparity range (a later ``--resume`` needs it for its shot's psi)."""
+def write_range(work: Path, piece: int, matched) -> None:
+    """Record what matching a piece found (:class:`vergence.video._shots.MatchedPiece`; a later ``--resume``
+    needs its histogram for its shot's psi)."""
     from vergence.io import atomic_write
 
-    with atomic_write(work / f"range_{piece:04d}.json") as tmp:
-        tmp.write_text(json.dumps(list(range_in)))
+    h = matched.histogram
+    with atomic_write(work / f"range_{piece:04d}.npz") as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, counts=h.counts, extremes=np.array([h.lo, h.hi]), search_px=np.array(matched.search_px),
+                 frames=np.array([matched.widened_frames, matched.saturated_frames]))  # fmt: skip
 
 
-def read_range(work: Path, piece: int) -> tuple[float, float]:
-    """A finished piece's disparity range, as :func:`write_range` recorded it."""
-    path = work / f"range_{piece:04d}.json"
+def read_range(work: Path, piece: int, width: int):
+    """A finished piece's :class:`vergence.video._shots.MatchedPiece`, as :func:`write_range` recorded it."""
+    from vergence.video._histogram import ShotHistogram
+    from vergence.video._shots import MatchedPiece
+
+    path = work / f"range_{piece:04d}.npz"
     try:
-        lo, hi = json.loads(path.read_text())
-        return float(lo), float(hi)
-    except (OSError, ValueError, TypeError) as exc:
+        with np.load(path) as data:
+            h = ShotHistogram(width)
+            if data["counts"].shape != h.counts.shape:
+                raise ValueError("another width")
+            h.counts[:] = data["counts"]
+            h.lo, h.hi = (float(v) for v in data["extremes"])
+            lo, hi = (int(v) for v in data["search_px"])
+            widened, saturated = (int(v) for v in data["frames"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"--resume: {path} is missing or damaged ({type(exc).__name__}): run without --resume") from None
+    return MatchedPiece(h, (lo, hi), widened, saturated)
 
 
 def join_videos(segments: list[Path], out: Path, audio_from: Path | None, duration_s: float) -> None:

@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vergence.video._histogram import ShotHistogram
+from vergence.video.search import SearchRange
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import FlickerMeter
 
@@ -101,8 +103,8 @@ class ShotJob:
     threads: int | None = None  # Numba/OpenCV threads for this task (its share of the host's cores)
     piece: int = 0  # index among the conversion's pieces (the key of its results)
     warmup: int = 0  # frames before start run through the disparity filter only (module docstring)
-    # A stereo piece's matching: (min_disparity, max_disparity, method); run by match_shot before any render.
-    match: tuple[int, int, str] | None = None
+    # A stereo piece's matching: (its shot's search range, method); run by match_shot before any render.
+    match: tuple[SearchRange, str] | None = None
 
 
 class _Filtered:
@@ -136,41 +138,56 @@ class _Filtered:
         return self.meters
 
 
-def match_shot(job: ShotJob, source: Iterator | None = None,
-               report: Callable[[], None] | None = None) -> tuple[tuple[FlickerMeter, FlickerMeter], tuple[float, float]]:  # fmt: skip
-    """Pass 2 of one stereo piece: match frames ``[start - warmup, end)``, stabilise, write ``[start, end)``
-    to ``job.disparity`` (``.npy``).
+@dataclass(frozen=True, slots=True, eq=False)
+class MatchedPiece:
+    """What matching one stereo piece found: the pooled histogram of its disparities (the shot's range is
+    read from its pieces' merged histograms), the search range of its last frame, and how many frames were
+    matched again in a widened range or stayed saturated (:mod:`vergence.video.search`)."""
 
-    Returns the flicker meters (before, after stabilisation) and the piece's disparity range: the
-    lowest 1st and the highest 99th percentile of its frames. ``source``: the clip's pairs already at
-    ``start - warmup`` (the serial pass shares one decoder); else the piece's own range is decoded.
+    histogram: ShotHistogram
+    search_px: tuple[int, int]
+    widened_frames: int
+    saturated_frames: int
+
+
+def match_shot(job: ShotJob, source: Iterator | None = None,
+               report: Callable[[], None] | None = None) -> tuple[tuple[FlickerMeter, FlickerMeter], MatchedPiece]:  # fmt: skip
+    """Pass 2 of one stereo piece: match frames ``[start - warmup, end)`` in the shot's search range (widened
+    where the matches pile up at an estimated bound: :func:`vergence.video.search.match_searched`), stabilise,
+    write ``[start, end)`` to ``job.disparity`` (``.npy``).
+
+    Returns the flicker meters (before, after stabilisation) and the :class:`MatchedPiece`. ``source``: the
+    clip's pairs already at ``start - warmup`` (the serial pass shares one decoder); else the piece's own range
+    is decoded.
     """
-    from vergence.video._matching import match_padded
+    from vergence.video.search import match_searched
 
     _limit_threads(job.threads)
     clip, start, end, first = job.clip, job.start, job.end, job.start - job.warmup
-    lo_d, hi_d, method = job.match
+    search, method = job.match
     if source is None:
         source = clip.pairs(first, end)
     filtered = _Filtered(job)
-    lo, hi = math.inf, -math.inf
+    histogram = ShotHistogram(clip.width)
+    lo, hi = search.lo, search.hi
+    widened = saturated = 0
     disparity = np.lib.format.open_memmap(job.disparity, mode="w+", dtype=np.float32,
                                           shape=(end - start, clip.height, clip.width))  # fmt: skip
     for k in range(first, end):
         left, right = next(source)
-        d = filtered.step(left, match_padded(left, right, lo_d, hi_d, method).astype(np.float32), k < start)
+        frame = match_searched(left, right, search, method, lo=lo, hi=hi)
+        lo, hi = frame.lo, frame.hi  # a widened range holds for the rest of the piece
+        d = filtered.step(left, frame.disparity.astype(np.float32), k < start)
         if k < start:
             continue
+        widened, saturated = widened + frame.widened, saturated + frame.saturated
         disparity[k - start] = d
-        known = d[np.isfinite(d)]
-        if known.size:
-            p1, p99 = np.percentile(known, [1, 99])
-            lo, hi = min(lo, float(p1)), max(hi, float(p99))
+        histogram.add(d[np.isfinite(d)].astype(np.float64))
         if report is not None:
             report()
     disparity.flush()
     del disparity  # closed before the render opens it again
-    return filtered.finish(), (lo, hi)
+    return filtered.finish(), MatchedPiece(histogram, (lo, hi), widened, saturated)
 
 
 def psi_at(job: ShotJob, k: int):
@@ -271,10 +288,10 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
     return filtered.finish()
 
 
-def _match_task(job: ShotJob) -> tuple[int, tuple, tuple[float, float]]:
-    """One Dask task of pass 2: (piece, meters, matched range)."""
-    meters, range_in = match_shot(job)
-    return job.piece, meters, range_in
+def _match_task(job: ShotJob) -> tuple[int, tuple, MatchedPiece]:
+    """One Dask task of pass 2: (piece, meters, what its matching found)."""
+    meters, matched = match_shot(job)
+    return job.piece, meters, matched
 
 
 def _render_task(job: ShotJob) -> tuple[int, tuple | None]:
@@ -329,7 +346,7 @@ def close_client(client, cluster) -> None:
 
 def run_on_dask(jobs: list[ShotJob], client, on_done: Callable[..., None], *, match: bool = False) -> None:
     """Submit one task per job to ``client`` (its match with ``match``, else its render); ``on_done(job, *result)``
-    as each piece finishes (``meters, range_in`` of a match, ``meters`` of a render)."""
+    as each piece finishes (``meters, matched`` of a match, ``meters`` of a render)."""
     from dataclasses import replace
 
     from distributed import as_completed

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vergence.video._histogram import HISTOGRAM_STEP_PX, PERCENTILES, ShotHistogram
 from vergence.video._matching import match_padded as _match
 from vergence.video.cuts import CUT_THRESHOLD, MIN_SHOT_FRAMES, detect_cuts
 from vergence.video.search import FEATURE_MAX_WIDTH, SATURATION_SHARE, feature_alignment, match_searched, on_bound, shot_search_ranges
@@ -69,9 +70,6 @@ __all__ = [
     "analyze_clip",
 ]
 
-PERCENTILES = (1, 5, 50, 95, 99)
-# Bin width of the per-shot histograms of D: shot percentiles are exact to this (px).
-HISTOGRAM_STEP_PX = 1.0 / 16.0
 # Edge band of the stereo window, share of the width (at least 2 columns), the crossed disparity that
 # counts (half a pixel: below it matching noise), and the share of the band that makes a violation.
 WINDOW_BAND = 0.02
@@ -207,32 +205,6 @@ class ClipAnalysis:
         }
 
 
-class _ShotHistogram:
-    """Counts of D in bins of HISTOGRAM_STEP_PX over [-W, W] (a parallax of a whole width cannot be shown)."""
-
-    def __init__(self, width: int) -> None:
-        self.limit = float(width)
-        self.bins = int(round(2 * self.limit / HISTOGRAM_STEP_PX))
-        self.counts = np.zeros(self.bins, np.int64)
-
-    def add(self, d: np.ndarray) -> None:
-        idx = np.floor((np.clip(d, -self.limit, self.limit) + self.limit) / HISTOGRAM_STEP_PX).astype(np.int64)
-        self.counts += np.bincount(np.minimum(idx, self.bins - 1), minlength=self.bins)
-
-    def percentiles(self, lo: float, hi: float) -> np.ndarray:
-        """The PERCENTILES, interpolated within their bins, kept within the exact extremes ``[lo, hi]``."""
-        cum = np.cumsum(self.counts)
-        total = cum[-1]
-        out = []
-        for p in PERCENTILES:
-            rank = p / 100.0 * total
-            k = int(np.searchsorted(cum, rank, side="left"))
-            before = cum[k - 1] if k > 0 else 0
-            inside = (rank - before) / self.counts[k] if self.counts[k] else 0.5
-            out.append(-self.limit + (k + inside) * HISTOGRAM_STEP_PX)
-        return np.clip(np.array(out), lo, hi)
-
-
 def _to_screen_px(d: np.ndarray | float, scale: float) -> np.ndarray | float:
     return -np.asarray(d, dtype=np.float64) * scale
 
@@ -363,7 +335,7 @@ def analyze_clip(
     # Pass 2: the analysed frames.
     analysed = list(range(0, clip.frames, every))
     per_frame: list[FrameStats] = []
-    hist = [_ShotHistogram(width) for _ in cuts.shots]
+    hist = [ShotHistogram(width) for _ in cuts.shots]
     counts = np.zeros((len(cuts.shots), 3), np.int64)  # known, outside, diverging
     extremes = np.tile([np.inf, -np.inf], (len(cuts.shots), 1))
     thumbs: dict[int, np.ndarray] = {}

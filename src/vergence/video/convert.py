@@ -6,8 +6,10 @@
    nearness range. A clip that cannot be decoded past frame ``k`` (truncated, damaged) is converted up
    to ``k``; the result says where it stopped (:attr:`Conversion.stopped`).
 2. **Disparity** (stereo only): each frame matched (the library's matcher, as ``vergence analyze``),
-   stabilised (below), kept in the work folder for pass 3; the shot's range is the lowest 1st and the
-   highest 99th percentile of its frames.
+   stabilised (below), kept in the work folder for pass 3. Each shot is matched in its own search range,
+   found from its features unless given, and widened where the matches pile up at an estimated bound
+   (:mod:`vergence.video.search`); the shot's range is the 1st and 99th percentiles of all its pixels,
+   pooled (as ``vergence analyze`` reports them), so stray matches do not widen it.
 3. **Render**: each frame's disparity mapped into the budget and the pair synthesised
    (:func:`vergence.synthesis.synthesize_stereo`, as ``vergence synthesize``), packed into the
    layout (:func:`vergence.display.pack`) and encoded; each shot is a segment of the work folder
@@ -70,6 +72,9 @@ from vergence.video._shots import (
     split_shots,
     warmup_frames,
 )
+from vergence.video._histogram import PERCENTILES, ShotHistogram
+from vergence.video.measured import DEPTH_ORDER_MIN, OutputCheck
+from vergence.video.search import SATURATION_SHARE, on_bound, shot_search_ranges
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
@@ -82,6 +87,9 @@ __all__ = ["CONVERT_ORIGINS", "SPLIT_FRAMES", "VIDEO_SUFFIXES", "Conversion", "S
 
 # Where the original view sits among the output views: the left view, or the centre of the pair.
 CONVERT_ORIGINS = ("left", "center")
+# The output's re-matched parallax range may pass the planned one by this much (px of the views) before a warning:
+# matching noise of the re-match through H.264 (on the plane clips of tests/video/test_convert_budget.py, 0.1-0.2 px).
+OUTPUT_TOL_PX = 1.0
 # Output containers (anything else is an image folder of PNG frames).
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
 
@@ -92,7 +100,8 @@ class ShotConversion:
 
     ``range_in`` is the shot's nearness (2D + depth) or disparity (stereo, px) range; ``range_px``
     the output parallax ``P = x_r - x_l`` it maps to (positive behind the screen); ``reused`` is True
-    when ``--resume`` found its segment finished.
+    when ``--resume`` found its segment finished; ``search`` (stereo) the matching's search range and its
+    checks (:mod:`vergence.video.search`), its ``on_bound`` naming an end of ``range_in`` on a search bound.
     """
 
     start: int
@@ -101,6 +110,14 @@ class ShotConversion:
     range_in: tuple[float, float]
     range_px: tuple[float, float]
     reused: bool
+    search: dict | None = None
+    output: OutputCheck | None = None
+
+    @property
+    def saturated(self) -> bool:
+        """Stereo: the matching's content reached past its search range (:mod:`vergence.video.search`)."""
+        s = self.search
+        return bool(s and (s["saturated_frames"] or s["features_outside"] > SATURATION_SHARE))
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -147,8 +164,44 @@ class Conversion:
             "pixel_format": self.pixel_format, "stopped": self.stopped, "seconds": self.seconds,
             "flicker_before_px": self.flicker_before.mean_px, "flicker_after_px": self.flicker_after.mean_px,
             "shots": [{"start": s.start, "end": s.end, "range_in": list(s.range_in), "range_px": list(s.range_px),
-                       "gain": None if s.mapping is None else s.mapping.gain, "reused": s.reused} for s in self.shots],
+                       "gain": None if s.mapping is None else s.mapping.gain, "reused": s.reused,
+                        **({} if s.search is None else {"search": s.search, "saturated": s.saturated}),
+                        "output": None if s.output is None else s.output.to_dict()}
+                       for s in self.shots],
+            "warnings": list(self.warnings),
         }  # fmt: skip
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line per stereo shot whose matching reached past its search range or whose range sits on it."""
+        lines = []
+        for k, shot in enumerate(self.shots):
+            where = f"shot {k} (frames {shot.start}-{shot.end - 1})"
+            out = shot.output
+            if out is not None and not out.order_kept:
+                lines.append(f"{where}: the output does not keep the source's depth order (rank correlation "
+                             f"{out.rank_correlation:.2f} < {DEPTH_ORDER_MIN}, re-matched on frames "
+                             f"{', '.join(map(str, out.frames))})")  # fmt: skip
+            if out is not None and (out.range_px[0] < shot.range_px[0] - OUTPUT_TOL_PX
+                                    or out.range_px[1] > shot.range_px[1] + OUTPUT_TOL_PX):
+                lines.append(f"{where}: the output's parallax, re-matched, runs {out.range_px[0]:+.2f} .. "
+                             f"{out.range_px[1]:+.2f} px (1-99 %), past the planned {shot.range_px[0]:+.2f} .. "
+                             f"{shot.range_px[1]:+.2f} px")  # fmt: skip
+            if out is not None and out.on_bound:
+                lines.append(f"{where}: the output's measured {', '.join(out.on_bound)} sit on the re-match's search "
+                             f"bound ({out.search_px[0]} .. {out.search_px[1]} px): a bound, not a measure")
+            if shot.search is None:
+                continue
+            lo, hi = shot.search["search_px"]
+            if shot.saturated:
+                lines.append(f"{where}: its content reaches past the disparity search range ({lo} .. {hi} px): "
+                             f"{shot.search['saturated_frames']} frames with matches piled up at a bound, "
+                             f"{100 * shot.search['features_outside']:.0f} % of its features outside; its depth "
+                             "beyond is lost: give a wider search range")  # fmt: skip
+            if shot.search["on_bound"]:
+                lines.append(f"{where}: its disparity range {shot.range_in[0]:+.1f} .. {shot.range_in[1]:+.1f} px "
+                             f"({', '.join(shot.search['on_bound'])}) sits on the search bound ({lo} .. {hi} px)")
+        return tuple(lines)
 
 
 def converted_path(out: str | os.PathLike[str], source: str | os.PathLike[str], layout: str, *,
@@ -377,7 +430,6 @@ def _convert_clip(
     from vergence.display import LAYOUTS, pack
     from vergence.synthesis import nearness_from_depth
     from vergence.video import _segments
-    from vergence.video._matching import default_search_px
     from vergence.video.cuts import detect_cuts
     from vergence.viewing import check_display
 
@@ -420,11 +472,11 @@ def _convert_clip(
 
         if not isinstance(method, str) or method not in MATCHERS:
             raise ValueError(f"method must be one of {', '.join(MATCHERS)}; got {method!r}")
-        search = default_search_px(width)
-        lo_d = -search if min_disparity is None else int(min_disparity)
-        hi_d = search if max_disparity is None else int(max_disparity)
-        if lo_d >= hi_d:
-            raise ValueError(f"min_disparity must be < max_disparity; got {lo_d} and {hi_d}")
+        for name, v in (("min_disparity", min_disparity), ("max_disparity", max_disparity)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, int | np.integer)):
+                raise TypeError(f"{name} must be an integer number of pixels; got {type(v).__name__}")
+        if min_disparity is not None and max_disparity is not None and min_disparity >= max_disparity:
+            raise ValueError(f"min_disparity must be < max_disparity; got {min_disparity} and {max_disparity}")
     packed_shape = pack(np.zeros((height, width, 3), np.float32), np.zeros((height, width, 3), np.float32),
                         layout=layout).shape  # fmt: skip
     if not images and pixel_format == "yuv420p" and (packed_shape[0] % 2 or packed_shape[1] % 2):
@@ -456,6 +508,8 @@ def _convert_clip(
     n = guard.count
     shots = cuts.shots
     cut_frames = [a for a, _ in shots[1:]]
+    # Each shot's search range, from its features unless both bounds are given (vergence.video.search).
+    searches = shot_search_ranges(clip, shots, min_disparity=min_disparity, max_disparity=max_disparity) if stereo else []
 
     suffix = out.suffix.lower() if not images else ""
     manifest = {"inputs": [str(Path(p).resolve()) for p in _inputs(clip)], "kind": "stereo" if stereo else "2d+depth",
@@ -464,7 +518,7 @@ def _convert_clip(
                 "stabilize": bool(stabilize), "split_frames": split_frames,
                 "threshold": float(threshold), "alpha": float(alpha), "transition": transition,
                 "display": [display.eye_separation, display.distance, display.width, display.resolution],
-                **({"method": method, "min_disparity": lo_d, "max_disparity": hi_d} if stereo else
+                **({"method": method, "search_px": [[r.lo, r.hi] for r in searches]} if stereo else
                    {"depth_kind": clip.kind, "depth_scale": clip.scale})}  # fmt: skip
     work = _segments.work_folder(out)
     _segments.prepare_work(work, manifest, resume)
@@ -479,24 +533,25 @@ def _convert_clip(
                         packed_shape=tuple(packed_shape), layout=layout, pixel_format=pixel_format, crf=int(crf),
                         preset=preset, origin=origin, display=display, mappings=(), cut_frames=tuple(cut_frames),
                         transition=transition, stabilize=bool(stabilize), threshold=threshold, alpha=alpha, piece=i,
-                        warmup=w, match=(lo_d, hi_d, method) if stereo else None)
+                        warmup=w, match=(searches[s], method) if stereo else None)
                 for i, (s, a, b, w) in enumerate(pieces) if not done[i]]  # fmt: skip
 
         # Pass 2 (stereo): each unfinished piece matched and stabilised, its disparity kept in the work folder; the
         # range of every piece of a shot that is not wholly reused (a finished piece's from its record).
         range_in: list[tuple[float, float]] = []
+        searched: list[dict | None] = [None] * len(shots)
         if stereo:
-            piece_range: dict[int, tuple[float, float]] = {}
+            piece_matched: dict = {}
             for i, (s, *_) in enumerate(pieces):
                 if done[i] and not reused[s]:
-                    piece_range[i] = _segments.read_range(work, i)
+                    piece_matched[i] = _segments.read_range(work, i, width)
             todo = sum(job.end - job.start for job in jobs)
             count = 0
 
-            def matched(job: ShotJob, piece_meters, piece_range_in) -> None:
+            def matched(job: ShotJob, piece_meters, found) -> None:
                 nonlocal count
-                meters[job.piece], piece_range[job.piece] = piece_meters, piece_range_in
-                _segments.write_range(work, job.piece, piece_range_in)
+                meters[job.piece], piece_matched[job.piece] = piece_meters, found
+                _segments.write_range(work, job.piece, found)
                 if parallel:
                     count += job.end - job.start
                     report("matching", count, todo)
@@ -514,9 +569,20 @@ def _convert_clip(
                     matched(job, *match_shot(job, source.at(job.start - job.warmup), tick))
                     source.moved(job.end)
             for s in range(len(shots)):
-                ranges_s = [piece_range[i] for i, (s2, *_) in enumerate(pieces) if s2 == s and i in piece_range]
-                range_in.append((min((r[0] for r in ranges_s), default=math.inf),
-                                 max((r[1] for r in ranges_s), default=-math.inf)))  # fmt: skip
+                # The shot's range: the 1st and 99th percentiles of all its pixels (pooled, as vergence analyze).
+                found = [piece_matched[i] for i, (s2, *_) in enumerate(pieces) if s2 == s and i in piece_matched]
+                pooled = ShotHistogram(width)
+                for f in found:
+                    pooled.merge(f.histogram)
+                pct = dict(zip(PERCENTILES, pooled.pooled()))
+                range_in.append((float(pct[1]), float(pct[99])) if found else (math.inf, -math.inf))
+                if found:
+                    lo = min(f.search_px[0] for f in found)
+                    hi = max(f.search_px[1] for f in found)
+                    searched[s] = {**searches[s].to_dict(), "search_px": [lo, hi],
+                                   "widened_frames": sum(f.widened_frames for f in found),
+                                   "saturated_frames": sum(f.saturated_frames for f in found),
+                                   "on_bound": on_bound({"p1": pct[1], "p99": pct[99]}, lo, hi)}  # fmt: skip
         else:
             for a, b in shots:
                 with np.errstate(all="ignore"):
@@ -584,10 +650,38 @@ def _convert_clip(
     conversions = tuple(
         ShotConversion(start=a, end=b, mapping=mappings[s], range_in=range_in[s],
                        range_px=(math.nan, math.nan) if mappings[s] is None else  # P = psi(-q), psi increasing
-                       (float(mappings[s](-range_in[s][1])), float(mappings[s](-range_in[s][0]))), reused=reused[s])
+                       (float(mappings[s](-range_in[s][1])), float(mappings[s](-range_in[s][0]))), reused=reused[s],
+                       search=searched[s])
         for s, (a, b) in enumerate(shots)
     )  # fmt: skip
+    conversions = _measure_output(conversions, clip, out, layout, method, searches)
     return Conversion(out=out, kind="stereo" if stereo else "2d+depth", frames=n, fps=float(clip.fps), layout=layout,
                       pixel_format=None if images else pixel_format, shots=conversions,
                       flicker_before=combined(0), flicker_after=combined(1), stopped=guard.reason,
                       seconds=time.perf_counter() - started)  # fmt: skip
+
+
+def _measure_output(conversions: tuple[ShotConversion, ...], clip: StereoClip | DepthClip, out: Path, layout: str,
+                    method: str, searches: list) -> tuple[ShotConversion, ...]:  # fmt: skip
+    """Each shot converted in this run, measured on the output (:mod:`vergence.video.measured`); an output that
+    does not split into two views of the source's size is left unmeasured."""
+    from vergence.video.layout import STEREO_LAYOUTS
+    from vergence.video.measured import measure_shot_output
+    from vergence.video.sources import open_stereo
+
+    if layout not in STEREO_LAYOUTS or STEREO_LAYOUTS[layout][1]:  # half-width views, anaglyphs: not measured
+        return conversions
+    output = open_stereo(out, layout=layout, fps=clip.fps)
+    if (output.width, output.height) != (clip.width, clip.height):
+        return conversions
+    stereo = isinstance(clip, StereoClip)
+    measured = []
+    for s, shot in enumerate(conversions):
+        if shot.reused or shot.mapping is None:
+            measured.append(shot)
+            continue
+        check = measure_shot_output(output, clip, shot.start, shot.end, shot.range_px, method=method,
+                                    source_search=searches[s] if stereo else None,
+                                    depth_kind=None if stereo else clip.kind)  # fmt: skip
+        measured.append(replace(shot, output=check))
+    return tuple(measured)

@@ -17,7 +17,7 @@ to something inside, and piles up at the bound. So:
    columns where the whole range can be searched: near the edges the matcher sees padding). A bound that
    was estimated (not given by the user) is then moved out by the range's width (at least 16 px) and
    the frame matched again, once; a frame still saturated is reported as such. A shot is saturated too
-   when more than :data:`SATURATION_SHARE` of its features lie outside its range (content far beyond a
+   when more than :data:`SATURATION_SHARE` of its features lie beyond a bound the caller gave (content far beyond a
    bound is mostly left unmatched rather than piled up at it, so the pixels alone can miss it).
 3. **Report** (:func:`on_bound`): a percentile within :data:`SATURATION_PX` of the range it was
    searched in is named, so that no figure sitting on a bound goes out without saying so.
@@ -74,7 +74,7 @@ class SearchRange:
     """A shot's search range ``[lo, hi]`` (px of the views) and where it came from: ``"content"`` (its
     features, ``features`` of them), ``"given"`` (both bounds by the caller) or ``"default"`` (too few
     features: ``+-width/8``). ``fixed`` says which bounds the caller gave (those are never widened);
-    ``features_outside`` is the share of the features whose disparity lies outside ``[lo, hi]``."""
+    ``features_outside`` is the share of the features whose disparity lies beyond a bound the caller gave."""
 
     lo: int
     hi: int
@@ -85,7 +85,7 @@ class SearchRange:
 
     @property
     def saturated(self) -> bool:
-        """More than :data:`SATURATION_SHARE` of the shot's features lie outside the range (a range given too narrow)."""
+        """More than :data:`SATURATION_SHARE` of the shot's features lie beyond a given bound (a range given too narrow)."""
         return self.features_outside > SATURATION_SHARE
 
     def to_dict(self) -> dict:
@@ -170,8 +170,7 @@ def shot_search_ranges(clip, shots: Sequence[tuple[int, int]], *, min_disparity:
         values = np.concatenate(found) if found else np.zeros(0)
         if all(fixed):
             lo, hi = int(min_disparity), int(max_disparity)
-            outside = float(np.mean((values < lo) | (values > hi))) if values.size else 0.0
-            ranges.append(SearchRange(lo, hi, "given", int(values.size), fixed, outside))
+            ranges.append(SearchRange(lo, hi, "given", int(values.size), fixed, _outside(values, lo, hi, fixed)))
             continue
         if values.size:
             lo, hi, source = *search_from_disparities(values, width), "content"
@@ -182,9 +181,15 @@ def shot_search_ranges(clip, shots: Sequence[tuple[int, int]], *, min_disparity:
         hi = int(max_disparity) if fixed[1] else hi
         if hi <= lo:  # one bound given on the far side of the content
             lo, hi = (lo, lo + 2 * SEARCH_MARGIN_MIN_PX) if fixed[0] else (hi - 2 * SEARCH_MARGIN_MIN_PX, hi)
-        outside = float(np.mean((values < lo) | (values > hi))) if values.size else 0.0
-        ranges.append(SearchRange(lo, hi, source, int(values.size), fixed, outside))
+        ranges.append(SearchRange(lo, hi, source, int(values.size), fixed, _outside(values, lo, hi, fixed)))
     return ranges
+
+
+def _outside(values: np.ndarray, lo: int, hi: int, fixed: tuple[bool, bool]) -> float:
+    """Share of the features beyond a bound the caller gave (an estimated bound leaves out the tails on purpose)."""
+    if values.size == 0:
+        return 0.0
+    return float(np.mean((fixed[0] & (values < lo)) | (fixed[1] & (values > hi))))
 
 
 def _at_bounds(d: np.ndarray, lo: int, hi: int) -> tuple[float, float]:
