@@ -35,8 +35,11 @@ from vergence.synthesis.ibr import (  # noqa: E402
     IBR_OCCLUSION_TOLERANCE,
     ULR_ALPHA,
     ULR_BETA,
+    ULR_FOV_BAND,
+    ULR_GAMMA,
     ULR_K,
     ULR_PENALTY_FLOOR,
+    ULR_RELATIVE_THRESHOLD,
     ULR_THRESHOLD_SCALE,
 )
 
@@ -114,16 +117,19 @@ def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray)
         with np.errstate(invalid="ignore", divide="ignore"):
             ang = np.arccos(np.clip(np.einsum("hwc,hwc->hw", vi, r) / (di * dn), -1.0, 1.0))
             res = (di - dn) / di
-        pen = ULR_ALPHA * np.maximum(ULR_PENALTY_FLOOR, ang) + ULR_BETA * np.maximum(ULR_PENALTY_FLOOR, res)
+            edge = np.minimum(np.minimum(u + 0.5, ws - 0.5 - u), np.minimum(v + 0.5, hs - 0.5 - v))
+            band = ULR_FOV_BAND * min(ws, hs)
+            fov = np.where(edge < band, ULR_GAMMA * (band / edge - 1.0) ** 2, 0.0)
+        pen = ULR_ALPHA * np.maximum(ULR_PENALTY_FLOOR, ang) + ULR_BETA * np.maximum(ULR_PENALTY_FLOOR, res) + fov
         pens[i] = np.where(vis, pen, np.inf)
     order = np.argsort(pens, axis=0, kind="stable")  # ties to the lower index
     rank = np.argsort(order, axis=0, kind="stable")
     count = np.isfinite(pens).sum(axis=0)
-    kk = np.minimum(ULR_K, count)
-    kth = np.take_along_axis(np.sort(pens, axis=0), np.maximum(kk - 1, 0)[None], axis=0)[0]
+    ranked = np.sort(pens, axis=0)
+    kth = ranked[ULR_K - 1] if n >= ULR_K else np.full((h, w), np.inf)  # inf with fewer than k visible
+    thresh = ULR_THRESHOLD_SCALE * np.minimum(kth, ULR_RELATIVE_THRESHOLD * ranked[0])
     with np.errstate(invalid="ignore", divide="ignore"):
-        wt = np.where((rank < kk) & np.isfinite(pens), np.maximum(0.0, 1.0 - pens / (ULR_THRESHOLD_SCALE * kth)), 0.0)
-    wt = np.where((count < ULR_K) & np.isfinite(pens), 1.0, wt)  # fewer than k visible: equal weights
+        wt = np.where((rank < ULR_K) & np.isfinite(pens) & (count > 0), np.maximum(0.0, 1.0 - pens / thresh), 0.0)
     wt = wt.astype(np.float32)
     total = wt.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -16,7 +16,13 @@ from vergence.camera import Camera, look_at
 from vergence.synthesis import IBRResult, IBRSource, render_ibr
 from vergence.synthesis import _ibr_kernels
 from vergence.synthesis._ibr_stages import FOV_MARGIN_PX
-from vergence.synthesis.ibr import ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE
+from vergence.synthesis.ibr import (
+    ULR_FOV_BAND,
+    ULR_GAMMA,
+    ULR_PENALTY_FLOOR,
+    ULR_RELATIVE_THRESHOLD,
+    ULR_THRESHOLD_SCALE,
+)
 
 PLANE_Z = 10.0  # the textured wall of the analytic scenes, metres
 # Linear interpolation error of the texture below between source pixels h = 0.19 m apart on the
@@ -121,9 +127,17 @@ def _ref_sample(points, cam, image, depth, tol, cubic=False):
     return pixels, visible, colours
 
 
-def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
-    """Python loop: ULR penalties, the k best (ties to the lower index), threshold, weights; fewer
-    than k visible: all of them, weight 1."""
+def _ref_fov(u, v, width, height, band, gamma):
+    """Field-of-view penalty by its definition: gamma (band / e - 1)^2 within band px of the image edge."""
+    e = min(u + 0.5, width - 0.5 - u, v + 0.5, height - 0.5 - v)
+    return 0.0 if (e >= band or gamma == 0) else (math.inf if e <= 0 else gamma * (band / e - 1) ** 2)
+
+
+def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta, pixels=None, sizes=None, gamma=ULR_GAMMA,
+             relative=ULR_RELATIVE_THRESHOLD):
+    """Python loop: ULR penalties (angle, resolution, field of view), the k best (ties to the lower
+    index), threshold min(k-th, relative x best) (the k-th is inf with fewer than k), weights.
+    ``pixels`` None: every pixel deep inside its image (no field-of-view penalty)."""
     s, h, w = visible.shape
     out = np.zeros((s, h, w))
     for y in range(h):
@@ -138,17 +152,35 @@ def _ref_ulr(points, rays, centre, centres, visible, k, alpha, beta):
                     v = p - centres[i]
                     ang = math.acos(np.clip(v @ r / (np.linalg.norm(v) * np.linalg.norm(r)), -1, 1))
                     res = (np.linalg.norm(v) - np.linalg.norm(r)) / np.linalg.norm(v)
-                    pens.append((alpha * max(ULR_PENALTY_FLOOR, ang) + beta * max(ULR_PENALTY_FLOOR, res), i))
+                    fov = 0.0
+                    if pixels is not None:
+                        wi, hi = sizes[i]
+                        fov = _ref_fov(*pixels[i, y, x], wi, hi, ULR_FOV_BAND * min(wi, hi), gamma)
+                    pen = alpha * max(ULR_PENALTY_FLOOR, ang) + beta * max(ULR_PENALTY_FLOOR, res) + fov
+                    if pen < math.inf:
+                        pens.append((pen, i))
             best = sorted(pens)[:k]
             if not best:
                 continue
-            if len(best) < k:  # fewer visible sources than k: equal weights
-                for _, i in best:
-                    out[i, y, x] = 1.0
-                continue
-            thresh = ULR_THRESHOLD_SCALE * best[-1][0]
+            kth = best[-1][0] if len(best) == k else math.inf
+            thresh = ULR_THRESHOLD_SCALE * min(kth, relative * best[0][0])
             for pen, i in best:
                 out[i, y, x] = max(0.0, 1 - pen / thresh)
+    return out
+
+
+def _ulr(points, rays, centre, centres, visible, k, out, pixels=None, sizes=None, gamma=ULR_GAMMA,
+         relative=ULR_RELATIVE_THRESHOLD):
+    """The kernel with SIBR's alpha = 1, beta = 0.1; ``pixels`` None: every pixel deep inside a
+    1000 x 1000 image."""
+    s, h, w = visible.shape
+    if pixels is None:
+        pixels = np.full((s, h, w, 2), 500.0)
+        sizes = np.full((s, 2), 1000.0)
+    band = ULR_FOV_BAND * np.asarray(sizes, dtype=np.float64).min(axis=1)
+    _ibr_kernels.ulr_weights(points, np.zeros((0, 0, 3)) if rays is None else rays, centre, centres, visible, pixels,
+                             np.asarray(sizes, dtype=np.float64), k, 1.0, 0.1, gamma, band, relative, ULR_PENALTY_FLOOR,
+                             ULR_THRESHOLD_SCALE, out)
     return out
 
 
@@ -207,12 +239,17 @@ def test_ulr_weights_match_reference(with_rays):
     centre = np.array([0.2, -0.1, -1.0])
     visible = rng.random((s, h, w)) < 0.6
     rays = (points - centre) * rng.uniform(0.5, 2.0, (h, w, 1)) + rng.normal(0, 0.2, (h, w, 3)) if with_rays else None
+    # Source pixels anywhere in the hull of 40 x 30 images, a third of them in the field-of-view band.
+    sizes = np.array([[40.0, 30.0]] * s)
+    pixels = np.stack([rng.uniform(0, 39, (s, h, w)), rng.uniform(0, 29, (s, h, w))], axis=-1)
+    pixels[..., 0] = np.where(rng.random((s, h, w)) < 0.3, rng.uniform(0, 1.5, (s, h, w)), pixels[..., 0])
     for k in (1, 2, 4, 6):
-        out = np.empty((s, h, w), dtype=np.float32)
-        _ibr_kernels.ulr_weights(points, np.zeros((0, 0, 3)) if rays is None else rays, centre, centres, visible, k, 1.0, 0.1,
-                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
-        assert_allclose(out, _ref_ulr(points, rays, centre, centres, visible, k, 1.0, 0.1), atol=KERNEL_ATOL)
-        assert ((out > 0).sum(axis=0) <= k).all()
+        for relative in (1.0, 2.0, math.inf):
+            out = _ulr(points, rays, centre, centres, visible, k, np.empty((s, h, w), dtype=np.float32), pixels, sizes,
+                       relative=relative)
+            ref = _ref_ulr(points, rays, centre, centres, visible, k, 1.0, 0.1, pixels, sizes, relative=relative)
+            assert_allclose(out, ref, atol=KERNEL_ATOL)
+            assert ((out > 0).sum(axis=0) <= k).all()
 
 
 def test_normalise_blend_matches_reference():
@@ -236,7 +273,10 @@ def test_render_ibr_matches_the_references_composed():
     samples = [_ref_sample(res.proxy_points, s.camera, s.image, s.depth, 0.01, cubic=True) for s in srcs]
     visible = np.stack([v for _, v, _ in samples])
     colours = np.stack([c for _, _, c in samples])
-    raw = _ref_ulr(res.proxy_points, None, target.center, np.array([s.camera.center for s in srcs]), visible, 4, 1.0, 0.1)
+    pixels = np.stack([p for p, _, _ in samples])
+    sizes = [(s.camera.width, s.camera.height) for s in srcs]
+    raw = _ref_ulr(res.proxy_points, None, target.center, np.array([s.camera.center for s in srcs]), visible, 4, 1.0, 0.1,
+                   pixels, sizes)
     ref_w, ref_image, ref_cov = _ref_blend(raw, visible, colours)
     assert_array_equal(res.coverage, ref_cov)
     assert_allclose(res.weights, ref_w, atol=KERNEL_ATOL)
@@ -274,25 +314,38 @@ def test_textured_wall_matches_the_analytic_view(xs):
     assert (res.weights[:, ~res.coverage] == 0).all() and (res.image[~res.coverage] == 0).all()
 
 
-def test_weight_follows_the_nearest_source_and_a_source_enters_with_weight_zero():
-    """Target sliding along 4 sources (k = 3): the weights of the centre pixel vary
-    continuously, including where the third source enters the set, and the nearest source dominates."""
-    xs = np.array([-1.5, -0.5, 0.5, 1.5])
-    srcs = _sources(xs)
-    path = np.linspace(-1.4, 1.4, 141)  # 2 cm steps
+def _sliding_weights(srcs: list[IBRSource], path: np.ndarray, k: int) -> np.ndarray:
     ws = []
     for x in path:
         target = _cam(float(x), width=9, height=7)
         _, depth = _render_wall(target)
-        ws.append(render_ibr(target, srcs, proxy_depth=depth, k=3).weights[:, 3, 4])
-    ws = np.array(ws)
-    assert np.abs(np.diff(ws, axis=0)).max() < 0.05  # a camera entering with weight > 0 would jump by > 0.1
+        ws.append(render_ibr(target, srcs, proxy_depth=depth, k=k).weights[:, 3, 4])
+    return np.array(ws)
+
+
+@pytest.mark.parametrize(("xs", "k"), [((-1.5, -0.5, 0.5, 1.5), 3), ((-1.0, 0.0, 1.0), 4)])
+def test_weight_follows_the_nearest_source_and_a_source_enters_with_weight_zero(xs, k):
+    """Target sliding along the sources (4 with k = 3; 3 with k = 4, fewer than k): the weights of the
+    centre pixel vary continuously, including where a source enters the set: 4x finer steps give
+    steps at least 3x smaller (a jump would not shrink), and the nearest source dominates."""
+    xs = np.array(xs)
+    srcs = _sources(xs)
+    lo, hi = xs[0] + 0.1, xs[-1] - 0.1
+    ws = _sliding_weights(srcs, np.linspace(lo, hi, int(round((hi - lo) / 0.02)) + 1), k)  # 2 cm steps
+    fine = _sliding_weights(srcs, np.linspace(lo, hi, int(round((hi - lo) / 0.005)) + 1), k)  # 5 mm steps
+    coarse_step = np.abs(np.diff(ws, axis=0)).max()
+    assert coarse_step < 0.25
+    assert np.abs(np.diff(fine, axis=0)).max() < coarse_step / 3
+    path = np.linspace(lo, hi, len(ws))
     nearest = np.argmin(np.abs(path[:, None] - xs), axis=1)
     assert (np.argmax(ws, axis=1) == nearest).mean() > 0.95
-    entering = (ws[:-1] == 0) & (ws[1:] > 0)
-    leaving = (ws[:-1] > 0) & (ws[1:] == 0)
-    assert entering.any() and (ws[1:][entering] < 0.01).all()
-    assert leaving.any() and (ws[:-1][leaving] < 0.01).all()
+    entering = (fine[:-1] == 0) & (fine[1:] > 0)
+    leaving = (fine[:-1] > 0) & (fine[1:] == 0)
+    assert entering.any() and (fine[1:][entering] < 0.05).all()
+    assert leaving.any() and (fine[:-1][leaving] < 0.05).all()
+    # Between two sources both contribute (no hard switch), with unequal weights off the midpoint.
+    both = (fine > 0.05).sum(axis=1) >= 2
+    assert both.mean() > 0.2
 
 
 def test_visibility_test_stops_ghosting():
@@ -506,19 +559,68 @@ def test_forward_proxy_keeps_the_nearest_surface_of_sources_of_several_sizes(gra
     assert close.mean() > 0.95
 
 
-def test_fewer_visible_sources_than_k_blend_equally():
-    """Two of three sources see the point: with k = 4 both get weight 1 (SIBR's padding in the limit);
-    with k = 2 the threshold is the second penalty, which gets 1 - 1 / 1.0000001."""
+def _pen(x: float) -> float:
+    """By hand: the ULR penalty of a source at (x, 0, 0) for the point (0, 0, 10) seen from the origin."""
+    return math.atan2(abs(x), 10.0) + 0.1 * max(ULR_PENALTY_FLOOR, 1 - 10.0 / math.hypot(x, 10.0))
+
+
+def test_fewer_visible_sources_than_k_weigh_by_penalty():
+    """Two of three sources see the point, k = 4: no k-th penalty, so the threshold is twice the best
+    (0.1002 and 0.1993 rad: weights 1/2 and 0.005, not equal); with k = 2 the threshold is the second
+    penalty, which gets 1 - 1 / 1.0000001; with the relative threshold off, SIBR's equal weights."""
     points = np.array([[[0.0, 0.0, 10.0]]])
     centres = np.array([[-1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
     visible = np.array([True, True, False]).reshape(3, 1, 1)
     out = np.empty((3, 1, 1), dtype=np.float32)
-    args = (np.zeros((0, 0, 3)), np.zeros(3), centres, visible)
-    _ibr_kernels.ulr_weights(points, *args, 4, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
-    assert out.ravel().tolist() == [1.0, 1.0, 0.0]
-    _ibr_kernels.ulr_weights(points, *args, 2, 1.0, 0.1, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out)
-    pen = [math.atan2(abs(c[0]), 10.0) + 0.1 * max(ULR_PENALTY_FLOOR, 1 - 10.0 / math.hypot(c[0], 10.0)) for c in centres[:2]]
+    args = (points, None, np.zeros(3), centres, visible)
+    pen = [_pen(-1.0), _pen(2.0)]
+    assert_allclose(pen, [0.100165, 0.199338], atol=1e-6)
+    thresh = ULR_THRESHOLD_SCALE * 2 * pen[0]
+    assert_allclose(_ulr(*args, 4, out).ravel(), [1 - pen[0] / thresh, 1 - pen[1] / thresh, 0.0], rtol=1e-6)
+    assert_allclose(out.ravel(), [0.5, 0.00496, 0.0], atol=1e-5)
+    _ulr(*args, 2, out)
     assert_allclose(out.ravel(), [1 - pen[0] / (ULR_THRESHOLD_SCALE * pen[1]), 1 - 1 / ULR_THRESHOLD_SCALE, 0.0], rtol=1e-6)
+    _ulr(*args, 4, out, relative=math.inf)
+    assert out.ravel().tolist() == [1.0, 1.0, 0.0]
+
+
+def _normalised(w: np.ndarray) -> np.ndarray:
+    return w / w.sum()
+
+
+def _entering_path(gamma: float, step: float) -> np.ndarray:
+    """Normalised weights of the case above while the best source (x = 0.5) sweeps into its 100 x 100
+    image from the left edge of its pixel rectangle (u = -0.5, where it becomes visible) to u = 8, in
+    steps of ``step`` pixels; the first row: before it sees the point."""
+    points = np.array([[[0.0, 0.0, 10.0]]])
+    centres = np.array([[-1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    sizes = np.full((3, 2), 100.0)
+    out = np.empty((3, 1, 1), dtype=np.float32)
+    pixels = np.full((3, 1, 1, 2), 50.0)
+    path = [_normalised(_ulr(points, None, np.zeros(3), centres, np.array([True, True, False]).reshape(3, 1, 1), 4, out,
+                             pixels, sizes, gamma=gamma).ravel())]
+    for u in np.arange(-0.5, 8.0 + step / 2, step):
+        pixels[2, 0, 0, 0] = u
+        path.append(_normalised(_ulr(points, None, np.zeros(3), centres, np.ones((3, 1, 1), dtype=bool), 4, out, pixels,
+                                     sizes, gamma=gamma).ravel()))
+    return np.array(path)
+
+
+@pytest.mark.parametrize("gamma", [ULR_GAMMA, 0.1, 0.0])
+def test_a_source_entering_through_its_image_edge_enters_with_weight_zero(gamma):
+    """The best source of the case above (0.0502 rad) enters its field of view: with the field of view
+    a penalty (gamma (5 / e - 1)^2, +inf on the edge) its normalised weight starts at 0 and rises
+    continuously (4x finer steps, at least 3x smaller steps) until it takes over; as a hard cut
+    (gamma = 0) it jumps in at 0.99 however fine the steps."""
+    coarse, fine = _entering_path(gamma, 0.01), _entering_path(gamma, 0.0025)
+    step_coarse = np.abs(np.diff(coarse, axis=0)).max()
+    step_fine = np.abs(np.diff(fine, axis=0)).max()
+    assert fine[-1, 2] > 0.99  # the best source takes over
+    if gamma == 0.0:
+        assert fine[1, 2] > 0.99 and step_fine > 0.9  # the hard cut this replaces
+        return
+    assert fine[1, 2] == 0.0  # on the edge: no weight
+    assert step_fine < step_coarse / 3
 
 
 @settings(max_examples=30, deadline=None)
@@ -535,8 +637,7 @@ def test_ulr_weights_ignore_the_scale_and_origin_of_the_world(seed, scale, shift
     visible = (rng.random((5, 6, 7)) < 0.6) & np.isfinite(points[..., 0])
     out = np.empty((2, 5, 6, 7), dtype=np.float32)
     for j, (a, b) in enumerate(((1.0, np.zeros(3)), (scale, np.array(shift)))):
-        _ibr_kernels.ulr_weights(a * points + b, np.zeros((0, 0, 3)), a * centre + b, a * centres + b, visible, k, 1.0, 0.1,
-                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, out[j])
+        _ulr(a * points + b, None, a * centre + b, a * centres + b, visible, k, out[j])
     assert_allclose(out[1], out[0], atol=1e-5)
     assert ((out[0] > 0).sum(axis=0) <= k).all()
     seen = visible.any(axis=0) & (np.linalg.norm(points - centre, axis=-1) > 0)

@@ -258,7 +258,7 @@ def s2_view(
     that depth): the penalties only weigh the blend, they never move a pixel, and S2 notes that
     such inaccuracies are well tolerated. P_FOV uses where the warp samples the source (the MLS
     map), not the proxy's projection, so a pixel is blended from exactly the sources it has
-    samples of. Blending as ULR (Buehler et al. 2001; SIBR's threshold, as ``render_ibr``):
+    samples of. Blending as ULR (Buehler et al. 2001; SIBR's threshold, without ``render_ibr``'s cap):
     ``w_i = max(0, 1 - P_i / (1.0000001 P_(k)))``, ``P_ANG`` floored at 1e-4 rad, normalised.
 
     Computation (one Numba pass over the pixels, no full-size intermediate): the MLS maps of all

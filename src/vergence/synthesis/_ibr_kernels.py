@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 
 
-__all__ = ["backproject", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
+__all__ = ["backproject", "fov_penalty", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -88,8 +88,8 @@ def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, vis
 
     Camera frame ``q = R p + t``; in front when ``q_z > 0``; pixel ``(u, v) = (K q)_{xy} / q_z``
     (written to ``pixels`` unless it is empty, NaN when behind). Field of view: the hull of the
-    pixel centres, ``0 <= u <= W - 1``, ``0 <= v <= H - 1``, widened by ``margin`` pixels (round-off
-    of the projection; the sample is clamped to the hull). A source pixel agrees with the point
+    pixel centres, ``0 <= u <= W - 1``, ``0 <= v <= H - 1``, widened by ``margin`` pixels (``render_ibr``:
+    half a pixel, the pixel rectangle; the sample is clamped to the hull). A source pixel agrees with the point
     when ``|z_j - q_z| <= tol * q_z`` (NaN never agrees). The point is visible when the source pixel
     nearest to the projection agrees; its colour is the bilinear blend of the agreeing pixels among
     the four neighbours, renormalised (an occluder's pixels never bleed in). With ``cubic``, where
@@ -185,16 +185,33 @@ def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, vis
                 colours[y, x, c] = min(max(acc, lo), hi)
 
 
+@nb.njit(cache=True, error_model="numpy")
+def fov_penalty(u, v, width, height, band, gamma):  # pragma: no cover - compiled
+    """Field-of-view penalty of a source pixel ``(u, v)``: ``gamma (band / e - 1)^2`` within ``band``
+    pixels of the image's edge, 0 deeper inside (and everywhere when ``gamma`` is 0); ``e = min(u + 1/2, W - 1/2 - u, v + 1/2, H - 1/2 - v)``
+    is the distance to the edge of the pixel rectangle (>= 0 for a sampled point), so the penalty
+    grows without bound towards that edge (+inf on it: no weight)."""
+    e = min(u + 0.5, width - 0.5 - u, v + 0.5, height - 0.5 - v)
+    if not (gamma > 0.0 and e < band):
+        return 0.0
+    if not e > 0.0:
+        return np.inf
+    g = band / e - 1.0
+    return gamma * g * g
+
+
 @nb.njit(cache=True, parallel=True, error_model="numpy")
-def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, scale, out):  # pragma: no cover - compiled
+def ulr_weights(points, rays, centre, centres, visible, pixels, sizes, k, alpha, beta, gamma, band, relative, floor,
+                scale, out):  # pragma: no cover - compiled
     """Unnormalised ULR weights (Buehler et al. 2001 Sec. 4; SIBR ``ulr_v3.frag``) of every source.
 
     Desired ray ``r = rays[y, x]`` (``rays`` of shape ``(0, 0, 3)``: ``r = p - centre``); for each
     visible source ``i``: ``v = p - C_i``, ``ang = acos(v.r / |v||r|)``, ``res = (|v| - |r|) / |v|``,
-    ``penalty = alpha max(floor, ang) + beta max(floor, res)``. The ``k`` best of the ``m``
-    visible sources (ties to the lower index) form the set; ``thresh = scale * (their worst
-    penalty)``; ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere. With ``m < k``
-    visible sources, each gets weight 1.
+    ``fov`` = :func:`fov_penalty` of its pixel ``pixels[i, y, x]`` in an image of ``sizes[i]`` =
+    ``(W, H)`` with ``band[i]`` pixels, ``penalty = alpha max(floor, ang) + beta max(floor, res) + fov``.
+    The ``k`` best of the ``m`` visible sources (ties to the lower index) form the set;
+    ``thresh = scale * min(k-th penalty, relative * best penalty)`` (the k-th is +inf when
+    ``m < k``); ``w_i = max(0, 1 - penalty_i / thresh)`` in the set, 0 elsewhere.
     """
     s_count = centres.shape[0]
     h, w = points.shape[0], points.shape[1]
@@ -214,6 +231,7 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
             if not (dn > 0.0 and math.isfinite(dn) and math.isfinite(px + py + pz)):
                 continue
             m = 0
+            best = np.inf
             for i in range(s_count):
                 pen[i] = np.inf
                 if not visible[i, y, x]:
@@ -225,17 +243,15 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
                 cosang = min(1.0, max(-1.0, (vx * rx + vy * ry + vz * rz) / (di * dn)))
                 ang = math.acos(cosang)
                 res = (di - dn) / di
-                pen[i] = alpha * max(floor, ang) + beta * max(floor, res)
+                fov = fov_penalty(pixels[i, y, x, 0], pixels[i, y, x, 1], sizes[i, 0], sizes[i, 1], band[i], gamma)
+                pen[i] = alpha * max(floor, ang) + beta * max(floor, res) + fov
+                if not pen[i] < np.inf:
+                    continue
+                best = min(best, pen[i])
                 m += 1
             if m == 0:
                 continue
-            if m < k:  # SIBR's padding with penalties of 1e5, in the limit: equal weights
-                for i in range(s_count):
-                    if pen[i] < np.inf:
-                        out[i, y, x] = 1.0
-                continue
-            kk = k
-            thresh = 0.0
+            kth = np.inf
             for i in range(s_count):
                 rank[i] = s_count
                 if pen[i] == np.inf:
@@ -245,10 +261,11 @@ def ulr_weights(points, rays, centre, centres, visible, k, alpha, beta, floor, s
                     if pen[j] < pen[i] or (pen[j] == pen[i] and j < i):
                         r += 1
                 rank[i] = r
-                if r == kk - 1:
-                    thresh = scale * pen[i]
+                if r == k - 1:
+                    kth = pen[i]
+            thresh = scale * min(kth, relative * best)
             for i in range(s_count):
-                if rank[i] < kk:
+                if rank[i] < k:
                     out[i, y, x] = max(0.0, 1.0 - pen[i] / thresh)
 
 

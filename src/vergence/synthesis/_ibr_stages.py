@@ -20,10 +20,12 @@ from vergence.synthesis import _ibr_kernels, _kernels, _stages3d
 if TYPE_CHECKING:
     from vergence.synthesis.ibr import IBRSource
 
-# Field of view: a proxy point must project within the hull of the source's pixel centres (where a
-# bilinear sample needs no extrapolation), widened by this many pixels: the round-off of a
-# projection (~1e-12 px) must not drop the border pixels of a source seen from its own centre.
-FOV_MARGIN_PX = 1e-6
+# Field of view: a proxy point must project within the source's pixel rectangle, the hull of its pixel
+# centres widened by this many pixels (half a pixel: the edge of the border pixels; the sample there is
+# clamped to the hull, the border pixel's colour, as a GPU's clamp-to-edge). ULR's field-of-view penalty
+# (``_ibr_kernels.fov_penalty``) grows without bound towards that edge, so a source leaving its image
+# fades out continuously instead of being cut at its border pixels' centres.
+FOV_MARGIN_PX = 0.5
 
 
 def forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, limit: float | None) -> np.ndarray:

@@ -19,6 +19,7 @@ measured in the undistorted world only (S0 Fig. 10).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -57,6 +58,23 @@ IBR_INTERPOLATIONS = ("cubic", "linear")
 ULR_K = 4
 ULR_ALPHA = 1.0
 ULR_BETA = 0.1
+# Field of view as a penalty (Buehler et al. 2001, Sec. 4: penalty_fov), not a hard cut: a source's
+# penalty grows as gamma (band / e - 1)^2 when its pixel lies e < band pixels from its image's edge,
+# band = ULR_FOV_BAND times the image's smaller side (5 %: 13.5 px of a 480x270 camera), without bound
+# as e -> 0, so a source leaving its field of view fades out. gamma = 0.001: the penalty reaches 0.1 rad
+# (5.7 degrees) 1.2 px from the edge of a 480x270 camera. Chosen on the stadium shots (the scenes we
+# tuned on, `python -m tools.rig_ulr`): gamma 0 / 0.001 / 0.01 / 0.1 / 1 give 34.17 / 34.15 / 34.10 /
+# 34.05 / 34.00 dB on the Quadri-Rig's left eye (a wider fade averages fewer cameras near their borders).
+ULR_FOV_BAND = 0.05
+ULR_GAMMA = 0.001
+# The threshold never exceeds this multiple of the best visible penalty (see render_ibr's Notes): with
+# fewer than k visible sources Buehler's k-th penalty does not exist and SIBR's padding makes every
+# weight equal; a source more than 2x as far off (in penalty) as the best gets no weight. On the
+# stadium shots (the scenes we tuned on, `python -m tools.rig_ulr`) 1.5 / 2 / 3 / 4 / 10 give 47.64 /
+# 47.60 / 47.59 / 47.59 / 47.40 dB on the Tri-Rig's right eye and 34.16 / 34.15 / 34.14 / 34.14 / 34.14
+# dB on the Quadri-Rig's left; 2 for a gentler fade-in than 1.5. SIBR's equal weights score 48.11 on
+# that Tri-Rig: its three sources' independent render noise averages out (docs/shots.md).
+ULR_RELATIVE_THRESHOLD = 2.0
 # SIBR floors both penalties at 1e-4: a source at the target's own centre still has a positive
 # penalty, so the threshold (a multiple of a penalty) is never 0.
 ULR_PENALTY_FLOOR = 1e-4
@@ -158,6 +176,8 @@ def render_ibr(
     k: int = ULR_K,
     alpha: float = ULR_ALPHA,
     beta: float = ULR_BETA,
+    gamma: float = ULR_GAMMA,
+    relative_threshold: float = ULR_RELATIVE_THRESHOLD,
     occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
     gradient_limit: float | None = IBR_LINK_LIMIT_PX,
     interpolation: str = "cubic",
@@ -193,6 +213,11 @@ def render_ibr(
     alpha, beta : float
         ULR: weights of the angle penalty (radians) and of the relative resolution penalty,
         >= 0, not both 0 (SIBR ulr_v3: 1 and 0.1).
+    gamma : float
+        ULR: weight of the field-of-view penalty, >= 0 (0.001; 0: the field of view is a hard cut).
+    relative_threshold : float
+        ULR: the threshold is at most this multiple of the best visible penalty, >= 1 (2; inf:
+        Buehler's k-th penalty alone, equal weights when fewer than k sources see the point).
     occlusion_tolerance : float
         Relative depth agreement of the visibility test, > 0 (0.01 = 1 %).
     gradient_limit : float or None
@@ -230,24 +255,36 @@ def render_ibr(
     Notes
     -----
     ULR (Buehler et al. 2001, Sec. 4; SIBR ``ulr_v3.frag``), for the proxy point ``p``, the desired
-    ray ``r`` and a visible source centred at ``C_i``::
+    ray ``r``, a visible source centred at ``C_i`` whose pixel ``(u, v)`` lies ``e`` pixels inside the
+    edge of its ``W x H`` image (``e = min(u + 1/2, W - 1/2 - u, v + 1/2, H - 1/2 - v)``)::
 
-        penalty_i = alpha max(1e-4, angle(p - C_i, r)) + beta max(1e-4, (|p - C_i| - |r|) / |p - C_i|)
-        thresh    = 1.0000001 * (k-th smallest penalty)
+        fov_i     = gamma (band_i / e - 1)^2 if e < band_i else 0,   band_i = 0.05 min(W, H)
+        penalty_i = alpha max(1e-4, angle(p - C_i, r)) + beta max(1e-4, (|p - C_i| - |r|) / |p - C_i|) + fov_i
+        thresh    = 1.0000001 * min(k-th smallest penalty, relative_threshold * smallest penalty)
         w_i       = max(0, 1 - penalty_i / thresh) for the k best, 0 otherwise;  normalised.
 
-    The k-th source has weight ~0, so a source enters or leaves the set continuously. With
-    ``m < k`` visible sources, they blend with equal weights (a lone one gets weight 1): SIBR pads
-    the set with penalties of 1e5, so its weights ``1 - penalty / 1e5`` are equal to 1e-4; this is
-    the limit. Pass ``k = m`` to weigh m sources by their penalties. Without distortion
+    Why the ``min``: Buehler's threshold, the k-th penalty, gives the k-th source weight 0, so a
+    source enters or leaves the set continuously. With ``m < k`` visible sources there is no k-th
+    penalty; SIBR pads the set with penalties of 1e5, which in the limit gives every visible
+    source the same weight whatever its penalty, and the weights jump from equal to penalty-based
+    when a k-th source comes into view. Counting a source that does not see the point as a penalty
+    of +inf (the limit of ``fov_i`` at its image's edge), the k-th smallest penalty is +inf while
+    ``m < k`` and falls continuously as the k-th source comes into view; ``min(k-th,
+    relative_threshold * best)`` is then a continuous function of all penalties (an order
+    statistic and a minimum of continuous functions), finite whenever one source sees the point,
+    and equal to Buehler's threshold when the k best are within ``relative_threshold`` of each
+    other. So the weights are continuous in the penalties everywhere: the worst visible source
+    fades in from 0 as its penalty falls below ``relative_threshold`` times the best, also with
+    fewer than k sources, and a source entering through the edge of its image enters with weight 0.
+    Only the occlusion test remains a hard cut. A lone source gets weight 1. Without distortion
     ``r = p - D`` (``D`` the target centre). Under a distortion (S0 §6, Fig. 10), with ``p'`` the
     distorted proxy point and ``c`` the target centre, the desired ray is undistorted by the
     Jacobian, ``r = D phi(p)^-1 (p' - c)``, and ``|r|`` is the desired distance of the resolution
     term: both are exact for an affine ``phi`` (then ``r = p - phi^-1(c)``), and first-order
     otherwise.
 
-    Visibility: the proxy point must project inside the hull of the source's pixel centres, in
-    front of it, and its depth agree within ``occlusion_tolerance`` with that of the source pixel
+    Visibility: the proxy point must project inside the source's pixel rectangle (the hull of its
+    pixel centres widened by half a pixel, sampled clamped to the hull), in front of it, and its depth agree within ``occlusion_tolerance`` with that of the source pixel
     nearest to the projection; the colour is the bilinear sample over the agreeing pixels among the
     4 around it (renormalised, so an occluder's colour never bleeds onto the surface behind it);
     with ``interpolation="cubic"``, the clamped Catmull-Rom sample where all 16 around it agree.
@@ -258,8 +295,10 @@ def render_ibr(
     Examples
     --------
     A wall 2 m away seen by two cameras 20 cm apart (grey 0.45 and 0.55), rendered halfway between
-    them; each edge pixel is seen by one camera only. Two visible sources, fewer than k = 4: equal
-    weights. With k = 2 the worse of the two gets weight 0, except where they tie (the centre).
+    them; each edge pixel lies within half a pixel of the far camera's image (its pixel rectangle),
+    so both cameras see every pixel. Fewer than k = 4 sources: the threshold is twice the best
+    penalty, so the weights follow the penalties (which differ by 1 % at pixel 1: 0.0408 and 0.0412
+    rad), not equal. With k = 2 the worse of the two gets weight 0, except where they tie (the centre).
 
     >>> from vergence.camera import look_at
     >>> def cam(x):
@@ -267,8 +306,8 @@ def render_ibr(
     >>> grey = np.full((1, 5, 3), 0.5, dtype=np.float32)
     >>> sources = [IBRSource(cam(x), grey + x / 2, np.full((1, 5), 2.0)) for x in (-0.1, 0.1)]
     >>> res = render_ibr(cam(0.0), sources)
-    >>> res.coverage.all(), res.weights[0].round(3).tolist()
-    (np.True_, [[1.0, 0.5, 0.5, 0.5, 0.0]])
+    >>> res.coverage.all(), res.weights[0].astype(float).round(3).tolist()
+    (np.True_, [[0.508, 0.502, 0.5, 0.498, 0.492]])
     >>> res = render_ibr(cam(0.0), sources, k=2)
     >>> res.weights[0].round(3).tolist(), res.image[..., 0].astype(float).round(3).tolist()
     ([[1.0, 1.0, 0.5, 0.0, 0.0]], [[0.45, 0.45, 0.5, 0.55, 0.55]])
@@ -287,6 +326,8 @@ def render_ibr(
     beta = check_nonnegative("beta", beta)
     if alpha + beta == 0.0:
         raise ValueError("alpha and beta must not both be 0 (every ULR penalty would be 0)")
+    gamma = check_nonnegative("gamma", gamma)
+    relative = _check_relative_threshold(relative_threshold)
     tol = check_positive("occlusion_tolerance", occlusion_tolerance)
     limit = None if gradient_limit is None else check_nonnegative("gradient_limit", gradient_limit)
     if isinstance(iterations, bool) or not isinstance(iterations, int | np.integer):
@@ -311,15 +352,17 @@ def render_ibr(
     points_t = _ibr_stages.backproject(target, depth_t)  # in the distorted world under a distortion
     points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
     say(0.3, f"sampling {len(srcs)} sources")
-    store_pixels = method == "bayesian"
+    store_pixels = True  # ULR: the field-of-view penalty; Bayesian: the image velocities
     pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, store_pixels, interp == "cubic")
     if method == "ulr":
         say(0.7, "ULR weights")
         rays = np.zeros((0, 0, 3)) if distortion is None else _ibr_stages.desired_rays(distortion, points, points_t, target.center)
         w = np.empty(visible.shape, dtype=np.float32)
         centres = np.ascontiguousarray([s.camera.center for s in srcs], dtype=np.float64)
-        _ibr_kernels.ulr_weights(points, rays, np.ascontiguousarray(target.center), centres, visible, k, alpha, beta,
-                                 ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, w)
+        sizes = np.array([[s.camera.width, s.camera.height] for s in srcs], dtype=np.float64)
+        band = ULR_FOV_BAND * sizes.min(axis=1)
+        _ibr_kernels.ulr_weights(points, rays, np.ascontiguousarray(target.center), centres, visible, pixels, sizes, k,
+                                 alpha, beta, gamma, band, relative, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, w)
         image, coverage = _ibr_stages.blend(w, visible, colours)
     else:
         cameras = [s.camera for s in srcs]
@@ -345,6 +388,15 @@ def _check_depth_values(name: str, z: np.ndarray) -> None:
         bad = z <= 0
     if bad.any():
         raise ValueError(f"{name} must be > 0 metres where known; got min {z[bad].min():g}")
+
+
+def _check_relative_threshold(value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"relative_threshold must be a number; got {type(value).__name__}")
+    v = float(value)
+    if math.isnan(v) or v < 1.0:
+        raise ValueError(f"relative_threshold must be >= 1 (inf: the k-th penalty alone); got {v:g}")
+    return v
 
 
 def _check_sources(sources: object) -> list[IBRSource]:
