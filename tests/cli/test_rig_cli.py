@@ -171,3 +171,59 @@ def test_rig_help_reads_as_the_other_commands(run):
     code, out, _ = run("rig", "--help")
     assert code == 0 and "plan" in out and "render" in out
     assert "<bool>" not in out  # a flag shows no value type
+
+
+def test_plan_refuses_an_element_just_in_front_of_the_virtual_cameras(run, tmp_path):
+    """2 mm in front of the virtual plane (z = -20) with a 20 m setback: k = 1 + 20 / 0.002 = 10001x the
+    virtual focal length, past QUADRI_MAX_FOCAL_RATIO (1000): refused, naming the element and the fix."""
+    elements = [{"name": "ball", "point": [0.0, 1.8, -20.002]}, {"name": "background", "point": [0.0, 2.5, -64.0]}]
+    code, out, err = run("rig", "plan", str(_tiny("quadri", tmp_path, elements=elements)))
+    assert code == 2, err
+    line = err.strip()
+    assert "\n" not in line and "Traceback" not in line
+    assert "'ball'" in line and "1e+04x" in line and "0.02 m in front" in line
+
+
+def test_plan_warns_on_an_element_near_the_virtual_cameras(run, tmp_path):
+    """0.5 m in front: k = 41, buildable but past QUADRI_WARN_FOCAL_RATIO (20): planned, one warning line."""
+    elements = [{"name": "ball", "point": [0.0, 1.8, -20.5]}]
+    code, out, err = run("rig", "plan", str(_tiny("quadri", tmp_path, elements=elements)), "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert len(doc["warnings"]) == 1 and "'ball'" in doc["warnings"][0] and "41x" in doc["warnings"][0]
+    assert [ln for ln in err.splitlines() if ln.startswith("warning:")] == [f"warning: {doc['warnings'][0]}"]
+
+
+def test_plan_warns_on_a_baseline_of_a_thousand_kilometres(run, tmp_path):
+    """b_v = 1e6 m against elements 10 and 44 m away: the eyes would converge by ~180 degrees: warned per element."""
+    code, out, err = run("rig", "plan", str(_tiny("quadri", tmp_path, baseline=1e6)))
+    assert code == 0, err
+    warnings = [ln for ln in err.splitlines() if ln.startswith("warning:")]
+    assert len(warnings) == 2 and all("baseline 1e+06 m" in w for w in warnings)
+    code, out, err = run("rig", "plan", str(_tiny("quadri", tmp_path)))  # 0.3 m: no warning
+    assert code == 0 and "warning" not in err
+
+
+def test_render_refuses_real_cameras_that_see_no_scene(run, tmp_path):
+    """The rig 50 m under the stadium's ground, looking down: every real camera sees sky (or nothing),
+    0 % coverage: refused in one line before the virtual eyes are traced, nothing written."""
+    camera = {"position": [0.0, -50.0, -20.0], "look_at": [0.0, -60.0, -30.0], "up": [0, 1, 0], "fov_deg": 8.0,
+              "width": 32, "height": 18}  # fmt: skip
+    elements = [{"name": "subject", "point": [0.0, -60.0, -30.0]}]
+    out = tmp_path / "out"
+    code, stdout, err = run("rig", "render", str(_tiny("quadri", tmp_path, camera=camera, elements=elements)), "--out",
+                            str(out), "--samples", "1", "--supersample", "1")  # fmt: skip
+    assert code == 2, err
+    line = err.strip().splitlines()[-1]
+    assert "Traceback" not in err and "0 % coverage" in line
+    assert not out.exists()
+
+
+def test_plan_passes_on_the_mappings_comfort_warning(run, tmp_path):
+    """The tiny Tri-Rig's background perceived 20 m away leaves the +-60' zone: `vergence mapping` warns,
+    and so does `rig plan` (one line on stderr, and in the JSON)."""
+    code, out, err = run("rig", "plan", str(_tiny("tri", tmp_path)), "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert len(doc["warnings"]) == 1 and "comfort zone" in doc["warnings"][0]
+    assert [ln for ln in err.splitlines() if ln.startswith("warning:")] == [f"warning: {doc['warnings'][0]}"]

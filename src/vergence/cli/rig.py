@@ -17,6 +17,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from vergence.cli import raise_if_interrupted
+from vergence.cli.budget import print_warnings
 from vergence.cli._app import app, check_output_path, console, err_console, option, options_named, print_json, \
     run_command  # fmt: skip
 from vergence.commands.rig_plan import RIG_PLAN
@@ -80,8 +81,10 @@ def plan(
         print_json(report.to_dict())
         if plot is not None:
             err_console.print(f"plot written to {plot}", highlight=False)
+        print_warnings(rig.warnings)
         return
     _print_plan(s, rig)
+    print_warnings(rig.warnings)
     if plot is not None:
         console.print(f"plot written to {plot}", highlight=False)
 
@@ -121,7 +124,7 @@ def render(
         if value < 1:
             raise ValueError(f"{option} must be >= 1; got {value}")
     s = _load(shot)
-    s.plan()  # refuse a rig the planner refuses before any rendering
+    print_warnings(s.plan().warnings)  # refuse a rig the planner refuses before any rendering; warn once
     if out.exists() and out.resolve() == shot.resolve():
         raise ValueError(f"--out {out} would overwrite the shot file")
     start = time.perf_counter()

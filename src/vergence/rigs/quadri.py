@@ -18,6 +18,7 @@ The two real cameras of an element are ``k b_v`` apart. N elements give 2N camer
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -28,7 +29,16 @@ from vergence.camera import Camera
 from vergence.rigs.cameras import RIG_EYES, RigCamera, check_element_name
 from vergence.rigs.stereo import _rig_length, stereo_pair
 
-__all__ = ["QuadriRig", "plan_quadri_rig"]
+__all__ = ["QUADRI_MAX_FOCAL_RATIO", "QUADRI_WARN_FOCAL_RATIO", "QuadriRig", "plan_quadri_rig"]
+
+# The focal ratio k = (z_e + s) / z_e of an element's real cameras grows without bound as the element
+# nears the virtual cameras' plane (z_e -> 0): an element 2 mm in front with a 20 m setback asks for
+# 10,001x the virtual focal length and cameras kilometres apart. Past 1000x no lens exists (the longest
+# broadcast zooms reach about 100x their own widest focal length): refused. Past 20x, warned: the real
+# cameras stand more than 19 element depths behind the virtual ones and see the element at grazing
+# resolution of everything nearer.
+QUADRI_MAX_FOCAL_RATIO = 1000.0
+QUADRI_WARN_FOCAL_RATIO = 20.0
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -47,6 +57,9 @@ class QuadriRig:
         The elements' names and world points ``(3,)``, in the order given.
     cameras : tuple of RigCamera
         Two per element, element by element, left eye then right eye; named ``f"{element}_{eye}"``.
+    warnings : tuple of str
+        One line each for what can be built but is absurd (a focal ratio past
+        :data:`QUADRI_WARN_FOCAL_RATIO`, a virtual baseline longer than an element's depth).
     """
 
     center: Camera
@@ -55,6 +68,7 @@ class QuadriRig:
     setback: float
     elements: tuple[tuple[str, np.ndarray], ...]
     cameras: tuple[RigCamera, ...]
+    warnings: tuple[str, ...] = ()
 
     def sources(self, eye: str) -> tuple[RigCamera, ...]:
         """The real cameras serving ``eye`` (``"left"`` or ``"right"``), in element order."""
@@ -142,7 +156,12 @@ def plan_quadri_rig(
     ValueError
         ``setback`` not > 0 (or outside ``LENGTH_RANGE``); no elements; a duplicate or malformed name; a
         non-finite point; an element behind or on the virtual cameras' plane, or behind the real
-        camera plane (the message names the element). Since ``s > 0`` and ``z_e > 0``, ``k > 1``: every
+        camera plane, or so close in front of the virtual cameras' plane that its focal ratio
+        ``k = (z_e + s)/z_e`` exceeds :data:`QUADRI_MAX_FOCAL_RATIO` (the message names the element).
+
+    A rig that can be built but is absurd is planned with one-line :attr:`QuadriRig.warnings`: a
+    focal ratio past :data:`QUADRI_WARN_FOCAL_RATIO`; a virtual baseline longer than an element's
+    depth (its eyes would converge by more than 53 degrees on it; no display fuses that). Since ``s > 0`` and ``z_e > 0``, ``k > 1``: every
         real camera stands behind the virtual one, never past its element.
 
     Notes
@@ -168,7 +187,9 @@ def plan_quadri_rig(
     s = _rig_length("setback", setback)
     items = _elements(elements)
     forward = camera.R[2]
+    b_v = float(np.linalg.norm(right.center - left.center))
     cameras = []
+    warnings: list[str] = []
     for name, point in items:
         z_e = float(forward @ (point - camera.center))  # depth in front of the virtual cameras
         if z_e <= -s:
@@ -178,6 +199,18 @@ def plan_quadri_rig(
             raise ValueError(f"element {name!r} at {point.tolist()} is behind or on the virtual cameras "
                              f"(depth {z_e:g} m); it must be in front of them")  # fmt: skip
         k = (z_e + s) / z_e  # S0 Eq. (10): f_e / f_v = distance real -> element / distance virtual -> element
+        if k > QUADRI_MAX_FOCAL_RATIO:
+            raise ValueError(f"element {name!r} at {point.tolist()} is {z_e:.3g} m in front of the virtual cameras' plane: "
+                             f"its real cameras would need {k:.4g}x the virtual focal length and stand "
+                             f"{k * b_v:.4g} m apart (at most {QUADRI_MAX_FOCAL_RATIO:g}x: place it at least "
+                             f"{s / (QUADRI_MAX_FOCAL_RATIO - 1):.3g} m in front)")  # fmt: skip
+        if k > QUADRI_WARN_FOCAL_RATIO:
+            warnings.append(f"element {name!r} is only {z_e:.3g} m in front of the virtual cameras: its real cameras "
+                            f"need {k:.4g}x the virtual focal length (above {QUADRI_WARN_FOCAL_RATIO:g}x)")  # fmt: skip
+        if b_v > z_e:
+            warnings.append(f"the virtual baseline {b_v:.4g} m is longer than element {name!r}'s depth {z_e:.4g} m: "
+                            f"the eyes converge by {math.degrees(2 * math.atan(b_v / (2 * z_e))):.0f} degrees on it; "
+                            "no display fuses that")  # fmt: skip
         for eye, virtual in (("left", left), ("right", right)):
             center = point + k * (virtual.center - point)  # on the line (p_e, v), on the real plane (S0 Fig. 6)
             dx, dy = camera.R[:2] @ (virtual.center - center)
@@ -190,4 +223,5 @@ def plan_quadri_rig(
             cameras.append(RigCamera(name=f"{name}_{eye}", element=name, eye=eye, camera=cam))
     for _, point in items:
         point.setflags(write=False)
-    return QuadriRig(center=camera, left=left, right=right, setback=s, elements=tuple(items), cameras=tuple(cameras))
+    return QuadriRig(center=camera, left=left, right=right, setback=s, elements=tuple(items), cameras=tuple(cameras),
+                     warnings=tuple(warnings))

@@ -137,7 +137,9 @@ def render_shot(
     ------
     ValueError
         An unknown weighting, ``samples`` or ``supersample`` < 1, a rig the planner refuses, a render
-        past the renderer's documented limits.
+        past the renderer's documented limits, real cameras that see nothing of the scene (checked
+        before the virtual eyes or the curved-ray truth are traced) or none of an eye's view (0 %
+        coverage: nothing to measure).
     """
     from vergence.rigs.shot import Shot
     from vergence.synthesis import IBR_WEIGHTS
@@ -193,6 +195,20 @@ def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray) -> dict
             "coverage": round(covered, 6)}  # fmt: skip
 
 
+def _check_seen(renders: dict, names: Sequence[str]) -> None:
+    """Refuse a rig whose real cameras see nothing of the scene (every depth is sky): nothing to synthesise."""
+    if not any(np.isfinite(np.asarray(renders[n].depth)).any() for n in names):
+        raise ValueError(f"the rig's real cameras ({', '.join(names)}) see nothing of the scene (every depth is sky): "
+                         "0 % coverage; check that they stand above the ground and face the scene")  # fmt: skip
+
+
+def _check_covered(coverage: np.ndarray, eye: str, method: str) -> None:
+    """Refuse an eye no real camera sees any of (0 % coverage): no figure can be measured."""
+    if not coverage.any():
+        raise ValueError(f"the real cameras see none of the {eye} eye's view ({method}: 0 % coverage): "
+                         "nothing to measure; check that they stand above the ground and face the scene")  # fmt: skip
+
+
 def _sources(names: Sequence[str], rig_cams: dict, images: dict, renders: dict) -> list:
     from vergence.synthesis import IBRSource
 
@@ -206,8 +222,11 @@ def _render_quadri(shot, rig, methods, samples, supersample, say) -> ShotRender:
 
     t0 = time.perf_counter()
     tracer = _tracer(shot)
-    named = [(rc.name, rc.camera) for rc in rig.cameras] + [("virtual_left", rig.left), ("virtual_right", rig.right)]
-    renders = _trace_all(tracer, named, samples, supersample, say, 0.0, 0.6)
+    real = [(rc.name, rc.camera) for rc in rig.cameras]
+    renders = _trace_all(tracer, real, samples, supersample, say, 0.0, 0.4)
+    _check_seen(renders, [n for n, _ in real])  # before the virtual eyes are traced
+    named = real + [("virtual_left", rig.left), ("virtual_right", rig.right)]
+    renders.update(_trace_all(tracer, named[len(real):], samples, supersample, say, 0.4, 0.2))
     t_render = time.perf_counter() - t0
     exposure = auto_exposure(renders["virtual_left"].beauty)  # one exposure for every image of the shot
     images = _tonemapped(renders, exposure)
@@ -222,6 +241,7 @@ def _render_quadri(shot, rig, methods, samples, supersample, say) -> ShotRender:
             names = [rc.name for rc in rig.cameras]  # all 2N: ULR and Bayesian weigh them per pixel
             res = render_ibr(rig.left if eye == "left" else rig.right, _sources(names, cams, images, renders),
                              weights=method)  # fmt: skip
+            _check_covered(res.coverage, eye, method)
             results[method][eye] = res
             report[method][eye] = _measure(res.image, truth[eye], res.coverage)
     pairs = {m: {eye: results[m][eye].image for eye in ("left", "right")} for m in methods}
@@ -241,10 +261,9 @@ def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  #
     named = [(rc.name, rc.camera) for rc in rig.cameras]
     renders = _trace_all(tracer, named, samples, supersample, say, 0.0, 0.4)
     director = renders["director"]
+    _check_seen(renders, [n for n, _ in named])
     depths = np.concatenate([np.asarray(r.depth, dtype=np.float64).ravel() for r in renders.values()])
     depths = depths[np.isfinite(depths)]
-    if depths.size == 0:
-        raise ValueError("the rig's cameras see nothing of the scene (every depth is sky)")
     dist = rig.distortion
     near_real = _NEAR_FRACTION * float(depths.min())
     near = float(dist.depth(near_real))
@@ -264,6 +283,7 @@ def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  #
         say(0.7 + 0.3 * mi / len(methods), f"{method}: synthesising the right eye")
         res = render_ibr(rig.reference_right, _sources([n for n, _ in named], cams, images, renders), weights=method,
                          distortion=dist)  # fmt: skip
+        _check_covered(res.coverage, "right", method)
         results[method] = {"right": res}
         everywhere = np.ones(res.coverage.shape, dtype=bool)
         report[method] = {"left": {**_measure(images["director"], truth["left"], everywhere), "note": "the director's image"},

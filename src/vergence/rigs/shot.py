@@ -390,7 +390,8 @@ def plan_document(shot: Shot, rig: QuadriRig | TriRig | None = None) -> dict[str
         Quadri-Rig; to the director, Tri-Rig). A Quadri-Rig adds ``virtual`` (centre, left, right
         cameras), ``elements`` and ``setback``; a Tri-Rig ``reference`` (psi's reference rig:
         baseline, convergence, window), ``reference_right``, psi's ``control_points``, ``monotone``
-        and ``diverges``.
+        and ``diverges``. Both add ``warnings``: the rig's one-line warnings (a Quadri-Rig's absurd
+        geometry, a Tri-Rig's psi comfort warnings).
 
     Raises
     ------
@@ -432,4 +433,5 @@ def plan_document(shot: Shot, rig: QuadriRig | TriRig | None = None) -> dict[str
                                  for cp in rig.mapping.control_points]  # fmt: skip
         out["monotone"] = bool(rig.mapping.monotone)
         out["diverges"] = bool(rig.mapping.diverges)
+    out["warnings"] = list(rig.warnings)
     return out

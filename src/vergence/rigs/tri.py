@@ -78,6 +78,11 @@ class TriRig:
     cameras: tuple[RigCamera, ...]
 
     @property
+    def warnings(self) -> tuple[str, ...]:
+        """psi's comfort warnings (``vergence mapping``'s, :attr:`ConstrainedMapping.warnings`), one line each."""
+        return tuple(self.mapping.warnings)
+
+    @property
     def baselines(self) -> dict[str, float]:
         """Distance of the subject and background cameras from the director, metres."""
         return {name: float(math.dist(getattr(self, name).center, self.director.center)) for name in ("subject", "background")}
