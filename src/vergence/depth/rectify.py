@@ -168,6 +168,7 @@ def rectify_cameras(
     left_distortion: object = None,
     right_distortion: object = None,
     common_principal_point: bool = False,
+    up: object = None,
 ) -> Rectification:
     """Rectify a calibrated pair (Fusiello et al. 2000) and size the outputs to keep both images in view.
 
@@ -182,6 +183,11 @@ def rectify_cameras(
         and the output spans the union of both extents; by default each image is centred in its own
         frame (narrower outputs, disparities near zero at the convergence distance) and the
         horizontal offset is reported as :attr:`Rectification.doffs_px`.
+    up : (3,) array, optional
+        A world up direction (e.g. :func:`vergence.stereospace.collection_up` of rolled photos).
+        When given, the order of the pair is checked against it instead of the left camera's x
+        axis: the rectified image's down axis must not point up (``r2 . up <= 0``), whatever the
+        cameras' roll.
 
     Returns
     -------
@@ -190,8 +196,9 @@ def rectify_cameras(
     Raises
     ------
     ValueError
-        On a zero baseline, a baseline along the left optical axis, a right camera on the left, or
-        an output that would grow past 16 times the input area (epipole in or near the image).
+        On a zero baseline, a baseline along the left optical axis, a right camera on the left (or,
+        with ``up``, a pair whose rectified images would be upside down), a non-finite or zero
+        ``up``, or an output that would grow past 16 times the input area (epipole in or near the image).
 
     Notes
     -----
@@ -221,13 +228,20 @@ def rectify_cameras(
     if baseline <= _MIN_BASELINE_REL * scale + 1e-12:
         raise ValueError(f"the cameras must have distinct centres (baseline > 0); got baseline {baseline:g}")
     r1 = v1 / baseline
-    if float(r1 @ left.R[0]) <= 0.0:
+    if up is None and float(r1 @ left.R[0]) <= 0.0:
         raise ValueError("the right camera lies to the left of the left camera (negative x in the left camera "
                          "frame); swap the two images")
     v2 = np.cross(left.R[2], r1)  # k = old left optical axis
     if np.linalg.norm(v2) < _MIN_AXIS_SINE:
         raise ValueError("the baseline is along the left optical axis; the pair cannot be rectified")
     r2 = v2 / np.linalg.norm(v2)
+    if up is not None:
+        up_w = as_float_array("up", up, shape=(3,))
+        if not np.linalg.norm(up_w) > 0.0:
+            raise ValueError("up must be a non-zero direction; got (0, 0, 0)")
+        if float(r2 @ up_w) > 0.0:
+            raise ValueError("the rectified images would be upside down (their down axis points along up); "
+                             "swap the two images")
     r3 = np.cross(r1, r2)
     R = np.stack([r1, r2, r3])
     A = (left.K + right.K) / 2.0

@@ -128,10 +128,11 @@ def navigation_map(built, path: str | os.PathLike[str], *, state=None, title: st
         ax.plot([c[0], t[0]], [c[1], t[1]], color="0.15", lw=0.8, zorder=4)
     ax.scatter(centers[:, 0], centers[:, 1], s=10, c="white", edgecolors="0.15", lw=0.8, zorder=5, label="cameras")
     if eyes is not None:
+        from vergence.stereospace.orientation import collection_up, eye_order
         from vergence.stereospace.pair import pair_cameras
 
         first, second = pair_cameras(built.space, col, state, segment_cameras=built.segment_cameras)
-        swapped = bool((second.center - first.center) @ first.R[0] < 0.0)
+        swapped = eye_order(first, second, collection_up(col.cameras))  # as stereo_pair orders them
         left, right = built.to_map(eyes[::-1] if swapped else eyes)
         mid = (left + right) / 2.0
         ax.plot([left[0], right[0]], [left[1], right[1]], color=_STEREO, lw=1.5, zorder=6)

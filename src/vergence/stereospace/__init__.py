@@ -16,6 +16,8 @@
   display) and a quality value of a pair (:func:`pair_quality`: comfort and rectification distortion).
 - A collection ray-traced from a scene (:func:`render_collection`: cameras on an arc, images and a
   camera file; a fresh clone's collection).
+- Which way is up in a collection and which eye of a pair is the left one (:func:`collection_up`,
+  :func:`eye_order`: pairs of rolled photos stay upright, S2 §4.2).
 - Where browsing starts (:func:`start_state`: the most comfortable state between three consecutive
   cameras of a capture path; :func:`state_near`).
 - A built space (:func:`build_space`: graph, regions, leave-one-out PSNR, a quality per region
@@ -24,6 +26,7 @@
 """
 
 from vergence.stereospace.collection import Collection, load_collection
+from vergence.stereospace.orientation import UP_AGREEMENT, UP_DISTINCT, UP_MIN_COSINE, collection_up, eye_order
 from vergence.stereospace.graph import (
     MAX_AXIS_ANGLE_DEG,
     MIN_SHARED_POINTS,
@@ -86,7 +89,6 @@ from vergence.stereospace.build import (
     DISTORTION_LIMIT,
     PSNR_CEIL_DB,
     PSNR_FLOOR_DB,
-    UP_AGREEMENT,
     BuiltSpace,
     VertexQuality,
     build_space,
@@ -152,11 +154,15 @@ __all__ = [
     "TEXTURE_MIN_STD",
     "TEXTURE_WINDOW",
     "UP_AGREEMENT",
+    "UP_DISTINCT",
+    "UP_MIN_COSINE",
     "VertexQuality",
     "build_space",
     "camera_graph",
     "capture_paths",
     "check_depth",
+    "collection_up",
+    "eye_order",
     "leave_one_out",
     "load_collection",
     "load_space",

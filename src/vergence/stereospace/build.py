@@ -54,6 +54,7 @@ import numpy as np
 
 from vergence.stereospace.collection import Collection, load_collection
 from vergence.stereospace.graph import CameraGraph, camera_graph, capture_paths
+from vergence.stereospace.orientation import UP_AGREEMENT, collection_up
 from vergence.stereospace.pair import PreparedCollection, space_from_graph
 from vergence.stereospace.quality import pair_quality
 from vergence.stereospace.space import StereoSpace, StereoState
@@ -85,8 +86,6 @@ DISPARITY_TRIM = 0.01
 """Fraction of a pair's point disparities dropped at each end before its range is taken
 (:func:`~vergence.stereospace.pair_quality`'s ``trim``): on dino the 1 % tails of a neighbouring
 pair reach -175 and +142 px against -9.6 and +15.7 px at the 1st and 99th percentiles."""
-UP_AGREEMENT = 0.5
-"""Length of the mean of the cameras' unit up axes above which they agree on "up" (:func:`map_frame`)."""
 PSNR_FLOOR_DB = 10.0
 """Leave-one-out PSNR at which the interpolation term is 0: about the score of an unrelated photo."""
 PSNR_CEIL_DB = 30.0
@@ -234,12 +233,12 @@ def vertex_quality(
 def map_frame(collection: Collection) -> np.ndarray:
     """The frame of the navigation map's top view (S2 §4.3.1): rows ``across``, ``along``, ``up``.
 
-    S2 renders the space "with an orthogonal camera from above". Above is the mean of the cameras'
-    image-up axes ``-R[1]`` when they agree (its length is at least :data:`UP_AGREEMENT`: kermit
-    0.94); when they cancel (a ring shot with the camera rolled, as dino: 0.02) it is the normal of
-    the plane that best fits the camera centres (their smallest principal axis), turned towards the
-    mean up axis; centres on a line leave that normal free, and any axis perpendicular to the line
-    is taken. ``across`` is the centres' largest principal axis made perpendicular to ``up``,
+    S2 renders the space "with an orthogonal camera from above". Above is the collection's up
+    (:func:`~vergence.stereospace.collection_up`: the direction perpendicular to the cameras'
+    optical axes and centre directions, signed by a vote of their image-up axes), the up the pairs
+    are rectified to: photos rolled about their optical axes no longer tilt the map into a side view
+    (the mean image-up of a ring rolled in part has length 0.75 while pointing 90 degrees away from
+    the ring's normal). ``across`` is the centres' largest principal axis made perpendicular to ``up``,
     ``along = up x across``. Map coordinates of a point ``p`` are ``frame[:2] @ (p - mean centre)``
     (:meth:`BuiltSpace.to_map`).
 
@@ -250,14 +249,8 @@ def map_frame(collection: Collection) -> np.ndarray:
     if not isinstance(collection, Collection):
         raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
     centers = collection.centers
-    ups = np.array([-c.R[1] for c in collection.cameras]).reshape(-1, 3).mean(axis=0)
-    _, s, vt = np.linalg.svd(centers - centers.mean(axis=0))
-    if np.linalg.norm(ups) >= UP_AGREEMENT:
-        up = ups / np.linalg.norm(ups)
-    elif s[1] > 1e-6 * s[0]:  # the centres span a plane: its normal
-        up = vt[2] if vt[2] @ ups >= 0.0 else -vt[2]
-    else:  # a line or a point: any axis perpendicular to it
-        up = vt[2]
+    _, _, vt = np.linalg.svd(centers - centers.mean(axis=0))
+    up = collection_up(collection.cameras)
     across = vt[0] - (vt[0] @ up) * up
     if np.linalg.norm(across) < 1e-9:  # the centres lie along "up": the mean right axis
         right = np.array([c.R[0] for c in collection.cameras]).mean(axis=0)

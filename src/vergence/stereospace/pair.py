@@ -10,9 +10,12 @@ view resampled through the Fusiello homography, done in one resampling instead o
 
 Decisions (S2 leaves them open)
 -------------------------------
-- The left eye is the one whose centre has the smaller x in the first eye's camera frame: S2 §3.2
-  rectifies "with the x axis from left to right centre"; ``swapped`` says when the left eye is the
-  second eye of the state.
+- The left eye is the one that keeps the rectified image's down axis pointing down the world
+  (:func:`~vergence.stereospace.eye_order` against the collection's up,
+  :func:`~vergence.stereospace.collection_up`): S2 §3.2 rectifies "with the x axis from left to right
+  centre" and §4.2 keeps the view upright while browsing; deciding by the first eye's image x axis
+  turned pairs of rolled photos upside down from one state to the next. ``swapped`` says when the
+  left eye is the second eye of the state.
 - The rectified views keep the collection's image size (both rectified images' extents are centred
   in it with one vertical shift, so rows stay aligned); parts of a wide rectified extent are cropped.
 - Coincident eyes (interocular distance 0, the diagonal of a triangle) cannot be rectified: both
@@ -49,6 +52,7 @@ from vergence.display import LAYOUTS, pack
 from vergence.io import read_image
 from vergence.stereospace.collection import Collection
 from vergence.stereospace.graph import CameraGraph, camera_graph
+from vergence.stereospace.orientation import collection_up, eye_order
 from vergence.stereospace.mls_view import S2_GRID_STEP, S2_MAX_SOURCES, _render, _source_set, _SourceSet
 from vergence.stereospace.space import StereoSpace, StereoState
 
@@ -166,7 +170,7 @@ class PreparedCollection:
         (``benchmarks/stereospace_pair.py``).
     """
 
-    __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "images", "segment_cameras", "space")
+    __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "images", "segment_cameras", "space", "up")
 
     def __init__(self, collection: Collection, *, graph: CameraGraph | None = None,
                  grid_step: int = S2_GRID_STEP) -> None:  # fmt: skip
@@ -177,6 +181,7 @@ class PreparedCollection:
         self.graph = camera_graph(collection) if graph is None else graph
         self.space, self.segment_cameras = space_from_graph(collection, self.graph)
         self.centers = collection.centers
+        self.up = collection_up(collection.cameras)
         images = _colour_images([_decoded(collection, k) for k in range(len(collection))])
         self._sources = _source_set(collection.cameras, images, collection.points)
         images.clear()
@@ -205,6 +210,7 @@ class _Unprepared:
         self.graph = camera_graph(collection)
         self.space, self.segment_cameras = space_from_graph(collection, self.graph)
         self.centers = collection.centers
+        self.up = collection_up(collection.cameras)
 
     def image(self, k: int) -> np.ndarray:
         return _decoded(self.collection, k)
@@ -285,14 +291,14 @@ def _resized(cam: Camera, width: int) -> Camera:
     return Camera(K=scale @ cam.K, R=cam.R, t=cam.t, width=width, height=height)
 
 
-def _rectified_cameras(first: Camera, second: Camera, tolerance: float):
+def _rectified_cameras(first: Camera, second: Camera, tolerance: float, up: np.ndarray):
     """(left, right) rectified cameras of the image size, the Rectification and whether swapped."""
     baseline = second.center - first.center
     if np.linalg.norm(baseline) <= tolerance:
         return (first, first), None, False
-    swapped = bool(baseline @ first.R[0] < 0.0)
+    swapped = eye_order(first, second, up)
     left, right = (second, first) if swapped else (first, second)
-    rect = rectify_cameras(left, right)
+    rect = rectify_cameras(left, right, up=up)
     w, h = first.width, first.height
     return (_fit(rect.left_camera, w, h), _fit(rect.right_camera, w, h)), rect, swapped
 
@@ -349,7 +355,7 @@ def stereo_pair(
         raise TypeError(f"prepared must be a PreparedCollection or a Collection; got {type(prepared).__name__}")
     space = prepared.space
     first, second = pair_cameras(space, prepared.collection, state, segment_cameras=prepared.segment_cameras)
-    (cam_l, cam_r), rect, swapped = _rectified_cameras(first, second, space.tolerance)
+    (cam_l, cam_r), rect, swapped = _rectified_cameras(first, second, space.tolerance, prepared.up)
     if width is not None:
         full = cam_l.width
         if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or not 1 <= width <= full:

@@ -13,6 +13,7 @@ import numpy as np
 from vergence.camera import Camera
 from vergence.depth import rectify_cameras
 from vergence.stereospace.collection import Collection
+from vergence.stereospace.orientation import collection_up, eye_order
 from vergence.viewing import ComfortZone, Display, check_disparity_range, check_display
 
 __all__ = ["pair_quality"]
@@ -49,8 +50,9 @@ def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display
                  zone: ComfortZone | None = None, trim: float = 0.0) -> dict:
     """The comfort and rectification distortion of a pair of cameras on a display.
 
-    The two cameras are rectified together (Fusiello et al. 2000), the left being the one with the
-    smaller x in the first camera's frame. The points of ``collection`` seen by both (in front of
+    The two cameras are rectified together (Fusiello et al. 2000), the left being the one that keeps
+    the rectified image upright in the collection's world up (:func:`~vergence.stereospace.eye_order`,
+    as :func:`~vergence.stereospace.stereo_pair` orders them). The points of ``collection`` seen by both (in front of
     both and projecting inside both images) give the rectified disparities ``x_r - x_l`` (pixels);
     shown with each rectified image filling the display's width, a disparity of ``d`` image
     pixels is ``d * resolution / W`` screen pixels, converted to arcminutes and checked against
@@ -89,9 +91,10 @@ def pair_quality(collection: Collection, cameras: tuple[Camera, Camera], display
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
     scale = display.resolution / cameras[0].width
     first, second = cameras
-    swapped = bool((second.center - first.center) @ first.R[0] < 0.0)
+    up = collection_up(collection.cameras)
+    swapped = eye_order(first, second, up)
     left, right = (second, first) if swapped else (first, second)
-    rect = rectify_cameras(left, right)
+    rect = rectify_cameras(left, right, up=up)
     pts = collection.points
     xy_l, seen_l = _seen(left, pts)
     xy_r, seen_r = _seen(right, pts)

@@ -152,15 +152,14 @@ def _state(state: Any) -> dict[str, Any]:
 
 def _view(live: _Live, state: Any) -> dict[str, Any]:
     """A state as the page shows it: parameters, stereo point, and on the map the eyes and the region."""
-    from vergence.stereospace import pair_cameras
+    from vergence.stereospace import eye_order, pair_cameras
 
     prepared = live.prepared
     space, cams, names = prepared.space, prepared.segment_cameras, prepared.collection.names
     i, j = state.region
     eyes = space.eyes(state)
     first, second = pair_cameras(space, prepared.collection, state, segment_cameras=cams)
-    # the left eye: the smaller x in the first eye's camera frame (vergence.stereospace.pair's decision)
-    swapped = bool((second.center - first.center) @ first.R[0] < 0.0)
+    swapped = eye_order(first, second, prepared.up)  # the left eye as vergence.stereospace.stereo_pair orders it
     left, right = live.to_map(eyes[::-1] if swapped else eyes)
     point = space.point(i, state.li, j, state.lj)
     corners = [(0, 0), (1, 0), (1, 1), (0, 1)] if i != j else [(0, 0), (0, 1), (1, 1)]
