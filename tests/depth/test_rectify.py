@@ -175,3 +175,20 @@ def test_bad_images(verged_pair):
         measure_row_alignment(img, img)
     with pytest.raises(TypeError, match="right_camera must be a Camera; got str"):
         rectify_pair(img, img, left, "right")
+
+
+def test_rectify_with_a_world_up_accepts_rolled_cameras_and_refuses_upside_down_pairs():
+    """``up``: the order is checked against the world, not the left camera's x axis. A left camera
+    rolled by 180 degrees sees its partner at negative x (refused without ``up``); with ``up`` the
+    rectified rows run down the world. The reversed order would turn them upside down: refused."""
+    up = np.array([0.0, -1.0, 0.0])  # look_at's image up of a level camera here
+    left = look_at([0, 0, 0], [0, 0, 5], [0, 1, 0], fov_deg=60, width=64, height=48)  # rolled 180 degrees
+    right = look_at([0.1, 0, 0], [0.1, 0, 5], [0, -1, 0], fov_deg=60, width=64, height=48)
+    with pytest.raises(ValueError, match="lies to the left"):
+        rectify_cameras(left, right)
+    rect = rectify_cameras(left, right, up=up)
+    assert rect.left_camera.R[1] @ up < -0.99 and rect.right_camera.R[1] @ up < -0.99
+    with pytest.raises(ValueError, match="upside down"):
+        rectify_cameras(right, left, up=up)
+    with pytest.raises(ValueError, match="up"):
+        rectify_cameras(left, right, up=[0.0, 0.0, 0.0])
