@@ -529,3 +529,22 @@ def test_registration_rms_of_a_subnormal_radius_does_not_underflow():
     image = rng.random((24, 48)).astype(np.float32)
     res = registration_error(image, np.roll(image, 1, axis=1), radius=5e-324)
     assert res.median == 5e-324 and res.rms == 5e-324  # every distance is d = r: RMS = r
+
+
+def test_ssim_with_whole_windows_ignores_the_holes_next_to_the_mask():
+    """A perfect synthesis with a black hole: over the covered pixels, windows that reach into the
+    hole compare black with the truth and lower the SSIM; with whole windows only, the covered area
+    is exact (SSIM 1). The pixels averaged are those whose 7x7 window misses the 10x10 hole."""
+    rng = np.random.default_rng(0)
+    truth = rng.random((40, 40))
+    image = truth.copy()
+    covered = np.ones((40, 40), dtype=bool)
+    covered[15:25, 15:25] = False
+    image[~covered] = 0.0
+    assert ssim(image, truth, mask=covered) < 0.96  # measured 0.957: the ring of windows around the hole
+    assert ssim(image, truth, mask=covered, whole_windows=True) == pytest.approx(1.0, abs=1e-12)
+    assert dssim(image, truth, mask=covered, whole_windows=True) == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError, match="whole 7x7 window"):
+        ssim(image, truth, mask=np.eye(40, dtype=bool), whole_windows=True)
+    with pytest.raises(TypeError, match="whole_windows"):
+        ssim(image, truth, mask=covered, whole_windows="yes")

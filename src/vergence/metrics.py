@@ -16,7 +16,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from vergence._metrics_kernels import SIMILARITY_SSD, SIMILARITY_ZNCC, patch_sums, registration_search
-from vergence._validate import as_image_pair, check_finite, check_in_range, check_positive, check_positive_int
+from vergence._validate import as_image_pair, check_bool, check_finite, check_in_range, check_positive, check_positive_int
 
 __all__ = [
     "MAX_REGISTRATION_RADIUS",
@@ -130,7 +130,8 @@ def _check_window(name: str, value: object, hw: tuple[int, ...]) -> int:
     return w
 
 
-def ssim(image: object, reference: object, *, mask: object = None, win_size: int = SSIM_WINDOW) -> float:
+def ssim(image: object, reference: object, *, mask: object = None, win_size: int = SSIM_WINDOW,
+         whole_windows: bool = False) -> float:
     """Mean structural similarity (Wang et al. 2004) through scikit-image, data range 1.
 
     Parameters
@@ -144,6 +145,10 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
         unmasked value.
     win_size : int, optional
         Side of the uniform window (odd, >= 3); default ``SSIM_WINDOW`` (7, scikit-image's default).
+    whole_windows : bool, optional
+        With a mask: average only the pixels whose whole window lies in the mask (the mask eroded by
+        the window), so pixels outside it (holes of a synthesised view) never enter a window's
+        statistics. Default False: every selected pixel, its window wherever it reaches.
 
     Returns
     -------
@@ -154,7 +159,7 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
     ------
     ValueError
         On mismatched shapes, bad values, a bad ``win_size``, or a mask that selects no pixel
-        inside the border.
+        inside the border (with ``whole_windows``: no whole window inside the mask).
     TypeError
         If a mask is not boolean.
 
@@ -172,6 +177,7 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
     a, b = _pair(image, reference)
     m = _mask(mask, a.shape[:2])
     w = _check_window("win_size", win_size, a.shape[:2])
+    whole_windows = check_bool("whole_windows", whole_windows)
     channel_axis = 2 if a.ndim == 3 else None
     mean, smap = structural_similarity(a, b, data_range=1.0, channel_axis=channel_axis, win_size=w, full=True)
     if m is None:
@@ -182,12 +188,19 @@ def ssim(image: object, reference: object, *, mask: object = None, win_size: int
     inner = np.zeros_like(m)
     inner[pad : m.shape[0] - pad, pad : m.shape[1] - pad] = True
     sel = m & inner
+    if whole_windows:
+        from scipy.ndimage import minimum_filter
+
+        sel &= minimum_filter(m.astype(np.uint8), size=w, mode="constant", cval=0).astype(bool)
+        if not sel.any():
+            raise ValueError(f"mask must hold at least one whole {w}x{w} window inside the image; got none")
     if not sel.any():
         raise ValueError(f"mask must select at least one pixel at least {pad} pixels from the border; got none")
     return float(smap[sel].mean())
 
 
-def dssim(image: object, reference: object, *, mask: object = None, win_size: int = SSIM_WINDOW) -> float:
+def dssim(image: object, reference: object, *, mask: object = None, win_size: int = SSIM_WINDOW,
+          whole_windows: bool = False) -> float:
     """Structural dissimilarity ``(1 - SSIM) / 2``, in [0, 1]; 0 for identical images.
 
     Parameters
@@ -198,6 +211,8 @@ def dssim(image: object, reference: object, *, mask: object = None, win_size: in
         ``(H, W)`` pixels to average over, as in :func:`ssim`.
     win_size : int, optional
         Side of the SSIM window (odd, >= 3).
+    whole_windows : bool, optional
+        As :func:`ssim`: only windows wholly inside the mask.
 
     Returns
     -------
@@ -214,7 +229,7 @@ def dssim(image: object, reference: object, *, mask: object = None, win_size: in
     >>> dssim(np.zeros((8, 8)), np.zeros((8, 8)))
     0.0
     """
-    return (1.0 - ssim(image, reference, mask=mask, win_size=win_size)) / 2.0
+    return (1.0 - ssim(image, reference, mask=mask, win_size=win_size, whole_windows=whole_windows)) / 2.0
 
 
 @dataclass(frozen=True, slots=True)

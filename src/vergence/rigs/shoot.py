@@ -185,14 +185,22 @@ def _tonemapped(results: dict, exposure: float) -> dict:
 
 
 def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray) -> dict:
-    from vergence.metrics import dssim, psnr
+    """PSNR and DSSIM over the covered pixels (a window reaching a hole compares its black), DSSIM
+    from the windows wholly inside the covered area (``dssim_inside``, None where none is) with the
+    share of the image those windows centre on (``inside``), and the coverage."""
+    from scipy.ndimage import minimum_filter
+
+    from vergence.metrics import SSIM_WINDOW, dssim, psnr
 
     covered = float(coverage.mean())
     if not coverage.any():
-        return {"psnr": None, "dssim": None, "coverage": 0.0}
+        return {"psnr": None, "dssim": None, "dssim_inside": None, "inside": 0.0, "coverage": 0.0}
     p = psnr(image, truth, mask=coverage)
+    whole = minimum_filter(coverage.astype(np.uint8), size=SSIM_WINDOW, mode="constant", cval=0).astype(bool)
+    inside = round(float(whole.mean()), 6)
+    d_in = round(dssim(image, truth, mask=coverage, whole_windows=True), 6) if whole.any() else None
     return {"psnr": None if math.isinf(p) else round(p, 3), "dssim": round(dssim(image, truth, mask=coverage), 6),
-            "coverage": round(covered, 6)}  # fmt: skip
+            "dssim_inside": d_in, "inside": inside, "coverage": round(covered, 6)}  # fmt: skip
 
 
 def _check_seen(renders: dict, names: Sequence[str]) -> None:
