@@ -229,3 +229,21 @@ def test_plan_passes_on_the_mappings_comfort_warning(run, tmp_path):
     doc = json.loads(out)
     assert len(doc["warnings"]) == 1 and "comfort zone" in doc["warnings"][0]
     assert [ln for ln in err.splitlines() if ln.startswith("warning:")] == [f"warning: {doc['warnings'][0]}"]
+
+
+def test_render_with_each_eyes_own_cameras_as_s0(run, tmp_path):
+    """--sources eye: each virtual eye from its own 2 real cameras (S0 §5), said in report.json; the
+    default blends all 4. A Tri-Rig has no per-eye cameras: refused, naming the option."""
+    from vergence.rigs import load_shot
+    from vergence.rigs.shoot import render_shot
+
+    shot = load_shot(_tiny("quadri", tmp_path))
+    own = render_shot(shot, weights=("ulr",), samples=1, supersample=1, sources="eye")
+    every = render_shot(shot, weights=("ulr",), samples=1, supersample=1)
+    assert own.report["sources"] == "eye" and every.report["sources"] == "all"
+    for eye in ("left", "right"):
+        assert own.results["ulr"][eye].weights.shape[0] == 2 and every.results["ulr"][eye].weights.shape[0] == 4
+    code, out, err = run("rig", "render", str(_tiny("tri", tmp_path)), "--out", str(tmp_path / "o"), "--sources", "eye")
+    assert code == 2 and "--sources" in err and "Tri-Rig" in err
+    code, out, err = run("rig", "render", str(_tiny("quadri", tmp_path)), "--out", str(tmp_path / "o"), "--sources", "one")
+    assert code == 2 and "--sources must be one of all, eye" in err

@@ -113,13 +113,16 @@ def render(
     weights: str = typer.Option("both", "--weights", help="IBR blending weights: ulr, bayesian or both."),
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
     supersample: int = typer.Option(3, "--supersample", help="k: k x k sub-pixel rays per pixel in every ray-traced image."),  # SHOT_SUPERSAMPLE
+    sources: str = typer.Option("all", "--sources", help="Quadri-Rig: each eye from all 2N real cameras (all) or its own N, as S0 (eye)."),
 ) -> None:
     """Render the real cameras of SHOT, synthesise the director's pair (ULR / Bayesian) and measure it."""
     from vergence.io import atomic_folder, write_image, write_pfm
-    from vergence.rigs.shoot import RIG_WEIGHTS, render_shot
+    from vergence.rigs.shoot import RIG_SOURCES, RIG_WEIGHTS, render_shot
 
     if weights not in RIG_WEIGHTS:
         raise ValueError(f"--weights must be one of {', '.join(RIG_WEIGHTS)}; got {weights!r}")
+    if sources not in RIG_SOURCES:
+        raise ValueError(f"--sources must be one of {', '.join(RIG_SOURCES)}; got {sources!r}")
     for option, value in (("--samples", samples), ("--supersample", supersample)):
         if value < 1:
             raise ValueError(f"{option} must be >= 1; got {value}")
@@ -137,9 +140,9 @@ def render(
             if not err_console.is_terminal:
                 err_console.print(f"{message}", highlight=False)
 
-        with options_named(samples="--samples", supersample="--supersample"):
+        with options_named(samples="--samples", supersample="--supersample", sources="--sources"):
             result = render_shot(s, weights=RIG_WEIGHTS[weights], samples=samples, supersample=supersample,
-                                 progress=report)  # fmt: skip
+                                 sources=sources, progress=report)  # fmt: skip
     elapsed = time.perf_counter() - start
     with atomic_folder(out) as tmp:
         (tmp / "cameras").mkdir()

@@ -27,7 +27,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["RIG_WEIGHTS", "SHOT_SUPERSAMPLE", "ShotRender", "render_shot"]
+__all__ = ["RIG_SOURCES", "RIG_WEIGHTS", "SHOT_SUPERSAMPLE", "ShotRender", "render_shot"]
+
+# --sources choices of `vergence rig render` (a Quadri-Rig's eyes): "all" blends all 2N real cameras
+# into each virtual eye (the weights choose per pixel; our default), "eye" only the eye's own N cameras,
+# as S0 §5 synthesises each eye (the setup of S0 Table 1).
+RIG_SOURCES = ("all", "eye")
 
 # --weights choices of `vergence rig render`: name -> the IBR weightings it runs.
 RIG_WEIGHTS = {"ulr": ("ulr",), "bayesian": ("bayesian",), "both": ("ulr", "bayesian")}
@@ -112,6 +117,7 @@ def render_shot(
     weights: Sequence[str] = ("ulr", "bayesian"),
     samples: int = 16,
     supersample: int = SHOT_SUPERSAMPLE,
+    sources: str = "all",
     progress: Progress | None = None,
 ) -> ShotRender:
     """Render the real cameras of ``shot``, synthesise the director's stereo pair and measure it.
@@ -127,6 +133,10 @@ def render_shot(
     supersample : int
         k x k sub-pixel rays per pixel in every ray-traced image (sources and truth alike):
         anti-aliased sources resample without aliasing, and the truth is compared at the same footing.
+    sources : str
+        A Quadri-Rig's sources per eye, in :data:`RIG_SOURCES`: ``"all"`` 2N real cameras,
+        ``"eye"`` the eye's own N (S0's setup). A Tri-Rig's right eye is always made from its three
+        cameras (``"all"``).
     progress : callable(fraction, message), optional
 
     Returns
@@ -136,7 +146,7 @@ def render_shot(
     Raises
     ------
     ValueError
-        An unknown weighting, ``samples`` or ``supersample`` < 1, a rig the planner refuses, a render
+        An unknown weighting or ``sources`` (``"eye"`` for a Tri-Rig), ``samples`` or ``supersample`` < 1, a rig the planner refuses, a render
         past the renderer's documented limits, real cameras that see nothing of the scene (checked
         before the virtual eyes or the curved-ray truth are traced) or none of an eye's view (0 %
         coverage: nothing to measure).
@@ -151,10 +161,14 @@ def render_shot(
     for name, value in (("samples", samples), ("supersample", supersample)):
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
             raise ValueError(f"{name} must be an integer >= 1; got {value!r}")
+    if sources not in RIG_SOURCES:
+        raise ValueError(f"sources must be one of {', '.join(RIG_SOURCES)}; got {sources!r}")
+    if sources == "eye" and shot.rig != "quadri":
+        raise ValueError("sources 'eye' applies to a Quadri-Rig; a Tri-Rig's right eye is made from its three cameras")
     say = progress or (lambda _f, _m: None)
     rig = shot.plan()
     if shot.rig == "quadri":
-        return _render_quadri(shot, rig, tuple(weights), samples, supersample, say)
+        return _render_quadri(shot, rig, tuple(weights), samples, supersample, sources, say)
     return _render_tri(shot, rig, tuple(weights), samples, supersample, say)
 
 
@@ -224,7 +238,7 @@ def _sources(names: Sequence[str], rig_cams: dict, images: dict, renders: dict) 
             for n in names]  # fmt: skip
 
 
-def _render_quadri(shot, rig, methods, samples, supersample, say) -> ShotRender:  # noqa: ANN001
+def _render_quadri(shot, rig, methods, samples, supersample, sources, say) -> ShotRender:  # noqa: ANN001
     from vergence.render import auto_exposure
     from vergence.synthesis import render_ibr
 
@@ -246,7 +260,8 @@ def _render_quadri(shot, rig, methods, samples, supersample, say) -> ShotRender:
         results[method], report[method] = {}, {}
         for ei, eye in enumerate(("left", "right")):
             say(0.6 + 0.4 * (2 * mi + ei) / (2 * len(methods)), f"{method}: synthesising the {eye} eye")
-            names = [rc.name for rc in rig.cameras]  # all 2N: ULR and Bayesian weigh them per pixel
+            # all 2N: ULR and Bayesian weigh them per pixel; "eye": the eye's own N (S0 §5)
+            names = [rc.name for rc in (rig.cameras if sources == "all" else rig.sources(eye))]
             res = render_ibr(rig.left if eye == "left" else rig.right, _sources(names, cams, images, renders),
                              weights=method)  # fmt: skip
             _check_covered(res.coverage, eye, method)
@@ -257,7 +272,8 @@ def _render_quadri(shot, rig, methods, samples, supersample, say) -> ShotRender:
     cameras = {rc.name: (images[rc.name], np.asarray(renders[rc.name].depth)) for rc in rig.cameras}
     timing = {"ray_tracing_s": round(t_render, 2), "total_s": round(time.perf_counter() - t0, 2)}
     return ShotRender(shot=shot, rig=rig, exposure=float(exposure), cameras=cameras, truth=truth, results=results,
-                      images=pairs, mapped_disparity=None, report={"methods": report, "timings": timing})  # fmt: skip
+                      images=pairs, mapped_disparity=None,
+                      report={"sources": sources, "methods": report, "timings": timing})  # fmt: skip
 
 
 def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  # noqa: ANN001
