@@ -7,7 +7,6 @@ and exit code 2, never a traceback (``vergence.cli._run``).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import sys
 from collections.abc import Iterator

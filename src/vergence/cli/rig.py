@@ -123,9 +123,9 @@ def render(
         raise ValueError(f"--weights must be one of {', '.join(RIG_WEIGHTS)}; got {weights!r}")
     if sources not in RIG_SOURCES:
         raise ValueError(f"--sources must be one of {', '.join(RIG_SOURCES)}; got {sources!r}")
-    for option, value in (("--samples", samples), ("--supersample", supersample)):
+    for name, value in (("--samples", samples), ("--supersample", supersample)):
         if value < 1:
-            raise ValueError(f"{option} must be >= 1; got {value}")
+            raise ValueError(f"{name} must be >= 1; got {value}")
     s = _load(shot)
     print_warnings(s.plan().warnings)  # refuse a rig the planner refuses before any rendering; warn once
     if out.exists() and out.resolve() == shot.resolve():
