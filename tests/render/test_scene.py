@@ -230,6 +230,23 @@ def test_open_scene(tmp_path):
         open_scene("moon")
 
 
+def test_a_bare_built_in_name_is_never_shadowed(tmp_path, monkeypatch):
+    """Issue 31: `vergence render glasses --out glasses/` made a folder that the README's next line,
+    `vergence specular glasses`, then took for the scene ("scene glasses is a folder; give ... one of
+    glasses, ..."). A bare name is the built-in; a file of that name is reached as a path."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "glasses").mkdir()
+    wide = _with("camera.height", 32)  # 2:1, where the built-in tabletop is 4:3
+    (tmp_path / "tabletop").write_text(json.dumps(wide))  # a file named as a built-in, no suffix
+    assert open_scene("glasses", width=8).camera.width == 8  # the built-in, not the folder
+    assert open_scene("tabletop", width=20).camera.height == 15  # the built-in, not the file
+    assert open_scene("./tabletop", width=20).camera.height == 10  # the file, by its path
+    assert open_scene(Path("tabletop"), width=20).camera.height == 10  # a Path is a path
+    with pytest.raises(IsADirectoryError, match=r"^scene \./glasses is a folder; give a scene file \(\.json\), or a "
+                                                 r"built-in scene by its bare name: glasses, stadium, tabletop$"):
+        open_scene("./glasses")
+
+
 def test_glasses_sky_from_shared_data(shared_data, monkeypatch):
     monkeypatch.setenv("VERGENCE_SHARED_DATA", str(shared_data))
     env = builtin_scene("glasses", width=8, height=6).environment

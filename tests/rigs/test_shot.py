@@ -156,11 +156,21 @@ def test_scene_path_is_relative_to_the_shot_file(tmp_path):
     shot_file.write_text(json.dumps({**TRI, "scene": "../scenes/arena.json"}))
     shot = load_shot(shot_file)
     assert shot.scene == scene.resolve() and shot.path == shot_file
-    # A file wins over a built-in name; the round trip keeps the absolute path.
+    # The round trip keeps the absolute path.
     assert shot_from_dict(shot.to_dict()) == replace(shot, path=None)
     (tmp_path / "shots" / "b.json").write_text(json.dumps({**TRI, "scene": "scenes/arena.json"}))
     with pytest.raises(FileNotFoundError, match=r"scene file not found: .*shots/scenes/arena.json"):
         load_shot(tmp_path / "shots" / "b.json")
+
+
+def test_a_bare_built_in_scene_name_is_never_shadowed_by_a_folder_beside_the_shot(tmp_path):
+    (tmp_path / "stadium").mkdir()  # e.g. what `vergence render stadium --out stadium/` wrote
+    shot_file = tmp_path / "a.json"
+    shot_file.write_text(json.dumps({**TRI, "scene": "stadium"}))
+    assert load_shot(shot_file).scene == "stadium"
+    shot_file.write_text(json.dumps({**TRI, "scene": "./stadium"}))
+    with pytest.raises(IsADirectoryError, match="is a folder; give a scene file .*bare name: "):
+        load_shot(shot_file)
 
 
 def test_load_shot_prefixes_the_file(tmp_path):

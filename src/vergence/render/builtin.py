@@ -185,20 +185,20 @@ def builtin_scene(name: str, *, width: int = 320, height: int = 240) -> Scene:
 def open_scene(spec: str | Path, *, width: int | None = None, height: int | None = None) -> Scene:
     """A scene file (``.json``) or a built-in scene name, optionally at another image size.
 
-    An existing file wins over a built-in of the same name. A missing size follows the other at the
-    scene camera's aspect ratio (:meth:`SceneCamera.resized`).
+    A bare built-in name (the text ``"glasses"``) is always the built-in scene, whatever the current
+    folder holds: a folder that ``vergence render glasses --out glasses/`` wrote cannot shadow it. A
+    file of that name is reached as a path (``"./glasses"`` or a :class:`~pathlib.Path`). A missing
+    size follows the other at the scene camera's aspect ratio (:meth:`SceneCamera.resized`).
     """
     path = Path(spec)
-    if path.is_dir():
-        raise IsADirectoryError(f"scene {path} is a folder; give a scene file (.json) or one of "
-                                f"{', '.join(BUILTIN_SCENES)}")  # fmt: skip
-    if path.is_file():
+    if isinstance(spec, str) and spec in BUILTIN_SCENES:
+        scene = builtin_scene(spec)
+    elif path.is_file():
         scene = load_scene(path)
-    elif str(spec) in BUILTIN_SCENES:
-        scene = builtin_scene(str(spec))
     elif path.is_dir():
-        raise IsADirectoryError(f"{path} is a folder; a scene is a .json file or one of {', '.join(BUILTIN_SCENES)}")
-    elif path.suffix or len(path.parts) > 1:
+        raise IsADirectoryError(f"scene {spec} is a folder; give a scene file (.json), or a built-in scene by its "
+                                f"bare name: {', '.join(BUILTIN_SCENES)}")  # fmt: skip
+    elif path.suffix or len(path.parts) > 1 or not isinstance(spec, str):
         raise FileNotFoundError(f"scene file not found: {path}")
     else:
         raise ValueError(f"scene must be a scene file or one of {', '.join(BUILTIN_SCENES)}; got {str(spec)!r}")

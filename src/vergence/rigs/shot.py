@@ -229,14 +229,17 @@ def _scene(value: object, base_dir: Path | None) -> str | Path:
     if not isinstance(value, str) or not value:
         raise TypeError(f"scene must be a non-empty string (a built-in scene name or a scene file); "
                         f"got {value!r}")  # fmt: skip
+    names = _builtin_scenes()
+    if value in names:  # a bare built-in name is the built-in scene, whatever sits beside the shot file
+        return value
     path = Path(value) if base_dir is None else Path(base_dir) / value
     if path.is_file():
         return path.resolve()
     if path.is_dir():
-        raise IsADirectoryError(f"scene {path} is a folder; give a scene file (.json) or a built-in scene name")
+        raise IsADirectoryError(f"scene {path} is a folder; give a scene file (.json), or a built-in scene by its "
+                                f"bare name: {', '.join(names)}")
     if path.suffix or len(Path(value).parts) > 1:
         raise FileNotFoundError(f"scene file not found: {path}")
-    names = _builtin_scenes()
     if value not in names:
         raise ValueError(f"scene must be a scene file or a built-in scene ({', '.join(names)}); got {value!r}")
     return value
