@@ -400,8 +400,12 @@ def test_synthesize_warns_on_stderr_and_in_json(tmp_path, capsys):
     assert code == 0
     warnings = json.loads(stdout)["warnings"]
     assert len(warnings) == 2 and "the eyes would diverge" in warnings[0] and "leaves the comfort zone" in warnings[1]
-    assert err.splitlines() == [f"warning: {w}" for w in warnings]
+    # on the terminal each names the display it judged (issue 31); the JSON has it under "display"
+    shown = " (on the display desktop-24, the default: --display names yours)"
+    assert err.splitlines() == [f"warning: {w}{shown}" for w in warnings]
     assert json.loads((tmp_path / "wild" / "synthesis.json").read_text())["warnings"] == warnings
+    code, _, err = _run(capsys, [*args, "--out", str(tmp_path / "tv"), "--budget-px", "8", "--display", "tv-55"])
+    assert code == 0 and err and all(line.endswith(" (on the display tv-55)") for line in err.splitlines())
 
 
 def test_interpolate_refuses_disparities_wider_than_the_image(tmp_path, capsys):

@@ -52,8 +52,13 @@ def synthesize(
                              budget_px=budget_px, convergence=convergence, focal_px=focal_px, interaxial=interaxial,
                              format=fmt, views=views, origin=origin, fill=fill, smooth_sigma=smooth_sigma,
                              bit_depth=bit_depth, progress=progress, before_commit=raise_if_interrupted)
-    for line in report.warnings:  # also in the JSON ("warnings")
-        sys.stderr.write(f"warning: {line}\n")
+    # also in the JSON ("warnings", with the display under "display"); on the terminal a warning about
+    # the display's zone or divergence says which display it judged (issue 31: the default one, unsaid)
+    shown = f"display {report.display_preset}" + (", the default: --display names yours" if display_preset is None
+                                                  else "")
+    for line in report.warnings:
+        judged = "comfort zone" in line or "diverge" in line
+        sys.stderr.write(f"warning: {line}{f' (on the {shown})' if judged else ''}\n")
     if as_json:
         print_json(report.to_dict())
         return
