@@ -13,7 +13,7 @@ from rich.status import Status
 
 from vergence.cli._app import err_console
 
-__all__ = ["Spinner"]
+__all__ = ["ProgressLines", "Spinner"]
 
 
 class Spinner:
@@ -40,6 +40,51 @@ class Spinner:
             self._status = None
 
     def __enter__(self) -> Spinner:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+        self.stop()
+
+
+class ProgressLines:
+    """A ``progress(fraction, message)`` hook for long work with many steps, on stderr.
+
+    On a terminal: one line that updates in place (``" 42 % leave-one-out view 20/48"``), gone when
+    the work ends. Otherwise (a log file, a pipe): a line each time the work passes the next tenth
+    (:data:`STEP`), and its last one: at most a dozen lines, however many steps (``stereospace
+    build`` printed 146). Use it as a context manager, like :class:`Spinner`.
+    """
+
+    #: Fraction of the work between two lines when stderr is not a terminal.
+    STEP = 0.1
+
+    def __init__(self) -> None:
+        self._status: Status | None = None
+        self._next = 0.0
+        self._last = -1.0
+
+    def __call__(self, fraction: float, message: str) -> None:
+        text = f"{100 * fraction:3.0f} % {message}"
+        if fraction < self._last:  # a new stage starts from 0 again
+            self._next = 0.0
+        self._last = fraction
+        if err_console.is_terminal:
+            if self._status is None:
+                self._status = err_console.status(text, spinner="dots")
+                self._status.start()
+            else:
+                self._status.update(text)
+            return
+        if fraction >= self._next:
+            err_console.print(text, highlight=False, markup=False, soft_wrap=True)
+            self._next = float("inf") if fraction >= 1.0 else (int(fraction / self.STEP + 1e-9) + 1) * self.STEP
+
+    def stop(self) -> None:
+        if self._status is not None:
+            self._status.stop()
+            self._status = None
+
+    def __enter__(self) -> ProgressLines:
         return self
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:

@@ -16,6 +16,7 @@ import typer
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import console, err_console, options_named
+from vergence.cli._spinner import ProgressLines
 from vergence.cli.stereospace import stereospace_app
 
 __all__ = ["parse_state"]
@@ -39,10 +40,6 @@ def parse_state(text: str, option: str):
         if not 0.0 <= v <= 1.0:  # also refuses NaN
             raise ValueError(f"{option}: {name} must lie in [0, 1]; got {v:g}")
     return StereoState((i, j), li, lj)
-
-
-def _progress(fraction: float, message: str) -> None:
-    err_console.print(f"{100 * fraction:3.0f} % {message}", highlight=False, markup=False)
 
 
 @stereospace_app.command("build")
@@ -73,8 +70,8 @@ def build(
     from vergence.report.stereospace_map import navigation_map
     from vergence.stereospace import build_space, write_space
 
-    with options_named(cameras_path="CAMERAS", images="--images"):
-        built = build_space(cameras, images=images, display=display, progress=_progress)
+    with options_named(cameras_path="CAMERAS", images="--images"), ProgressLines() as progress:
+        built = build_space(cameras, images=images, display=display, progress=progress)
     col = built.collection
     for note in col.warnings:
         err_console.print(f"note: {note}", highlight=False, soft_wrap=True, markup=False)

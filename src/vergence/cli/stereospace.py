@@ -15,6 +15,7 @@ import typer
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, options_named
+from vergence.cli._spinner import ProgressLines
 
 __all__ = ["stereospace_app"]
 
@@ -89,8 +90,8 @@ def view(
     from vergence.stereospace import load_collection, novel_view, plane_view
 
     check_output_path(out, cameras)
-    with options_named(cameras_path="CAMERAS", images="--images"):
-        collection = load_collection(cameras, images=images, progress=_report)
+    with options_named(cameras_path="CAMERAS", images="--images"), ProgressLines() as progress:
+        collection = load_collection(cameras, images=images, progress=progress)
     for note in collection.warnings:
         err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
     check_output_path(out, *collection.image_paths)
@@ -133,11 +134,6 @@ def view(
         if method != "plane":
             line += f" (plane baseline: {psnr(base.image, photo, mask=mask):.2f} dB over the same pixels)"
         console.print(line + ("" if keep_target else " [leave-one-out]"), highlight=False, markup=False)
-
-
-def _report(fraction: float, message: str) -> None:
-    """Progress of the point triangulation (camera files without points), one line on stderr."""
-    err_console.print(f"{100 * fraction:3.0f} % {message}", highlight=False)
 
 
 # build and pair live in their own module; importing it registers them on stereospace_app.
