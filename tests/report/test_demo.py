@@ -81,6 +81,22 @@ def test_demo_cli_and_bad_output(demo, tmp_path, capsys):
     assert "out must be a folder" in err and "Traceback" not in err
 
 
+def test_a_folder_it_cannot_write_is_one_line_without_the_hidden_name(monkeypatch, tmp_path, capsys):
+    # Issue 31: "cannot open .../.demo.tmp-fu47qtbs: permission denied" named our hidden working
+    # folder. (The tests run as root, who may write anywhere: the refusal is made by hand.)
+    import errno
+    import tempfile
+
+    def refuse(prefix, dir):  # noqa: A002 - tempfile's own keyword
+        raise PermissionError(errno.EACCES, "Permission denied", f"{dir}/{prefix}fu47qtbs")
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse)
+    assert main(["demo", "--out", str(tmp_path / "demo")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"error: cannot write the demo into {tmp_path / 'demo'}: permission denied in {tmp_path}\n"
+    assert not (tmp_path / "demo").exists()
+
+
 def test_report_escapes_text_and_checks_figures(tmp_path):
     html = render_report(title="a < b", intro="x & y", sections=[Section("t", "<script>", table=(("h",), ("1",)))])
     assert "a &lt; b" in html and "&lt;script&gt;" in html and "<script>" not in html

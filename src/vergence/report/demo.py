@@ -312,7 +312,11 @@ def run_demo(out_dir: str | Path, *, progress: Progress | None = None) -> DemoRe
         raise ValueError(f"out must be a folder; {out} is a file")
     out.parent.mkdir(parents=True, exist_ok=True)
     say = progress or (lambda _msg: None)
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        work = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    except OSError as exc:  # the hidden working folder's name is ours, not the user's: say where
+        reason = (exc.strerror or str(exc)).lower()
+        raise OSError(f"cannot write the demo into {out}: {reason} in {out.parent}") from None
     try:
         say("depth budget of the two plain rigs")
         budget_section, div_rig, round_rig = _section_budget(work, say)
