@@ -1,9 +1,11 @@
 """The workbench's server: the page, the JSON API and its refusals (``vergence serve`` runs it).
 
-Every refusal is a JSON object ``{"error": "<one line>"}``: 422 for a bad parameter (FastAPI's own
-validation included, named by its field), 404 for an unknown id or endpoint, 413 for a body over
-:data:`MAX_JSON_BODY`, refused before it is parsed. No CORS headers: the page is served from the
-same origin, and no other site's script may call the API. No algorithm lives here: the twins call
+Every refusal is a JSON object ``{"error": "<one line>"}``: 400 for a foreign ``Host``, 401 without
+the token (remote serving only), 403 for a foreign ``Origin`` and 415 for a body not sent as JSON
+(:mod:`vergence.web._guard`), 422 for a bad parameter (FastAPI's own validation included, named by
+its field), 404 for an unknown id or endpoint, 413 for a body over :data:`MAX_JSON_BODY`, refused
+before it is parsed, 429 when :data:`vergence.web._slots.MAX_CALLS` computations are running. No CORS
+headers: the page is served from the same origin, and no other site's script may call the API. No algorithm lives here: the twins call
 the commands' library functions (:mod:`vergence.commands`, through :mod:`vergence.web.twins`) on
 worker threads, the rest reads the library's tables.
 """
