@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from vergence.commands._spec import Parameter, ParameterError, naming
+from vergence.commands._spec import Parameter, ParameterError, literal, naming
 from vergence.viewing.geometry import DISPLAY_PRESETS, Display
 
 __all__ = ["DISPLAY_PARAMETERS", "SCREEN_PIXELS", "display_from"]
@@ -50,7 +50,7 @@ def display_from(display: str | None, eye_separation: float | None, viewing_dist
         try:
             chosen = Display.preset(display)
         except ValueError as exc:  # the library's message names no argument
-            raise ParameterError("{display}: " + str(exc).replace("{", "{{").replace("}", "}}")) from exc
+            raise ParameterError("{display}: " + literal(exc)) from exc
         return chosen if screen_pixels is None else dataclasses.replace(chosen, resolution=screen_pixels)
     if len(given) < 3:
         missing = ", ".join("{" + n + "}" for n in _LENGTHS if n not in given)

@@ -1,20 +1,15 @@
-"""What :func:`vergence.commands.naming` leaves to the commands that read files: a file's name (or any
-text) inside a :class:`~vergence.commands.ParameterError` template, and a library error about two
-arguments at once (``"left and right must both be grey or both colour"``)."""
+"""What :func:`vergence.commands.naming` leaves to the commands that read files: a library error about
+two arguments at once (``"left and right must both be grey or both colour"``); and, re-exported,
+:func:`~vergence.commands._spec.literal` for a file's name inside a template."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from vergence.commands._spec import ParameterError
+from vergence.commands._spec import ParameterError, literal
 
 __all__ = ["literal", "naming_both"]
-
-
-def literal(text: object) -> str:
-    """``str(text)`` inside a :class:`ParameterError` template: its braces doubled."""
-    return str(text).replace("{", "{{").replace("}", "}}")
 
 
 @contextmanager

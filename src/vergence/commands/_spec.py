@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["KINDS", "MAX_LIST_ITEMS", "REQUIRED", "Command", "Parameter", "ParameterError", "naming",
+__all__ = ["KINDS", "MAX_LIST_ITEMS", "REQUIRED", "Command", "Parameter", "ParameterError", "literal", "naming",
            "to_json"]
 
 #: The default of a parameter that has none: the caller must give it.
@@ -119,8 +119,9 @@ class _Spelling(dict):  # type: ignore[type-arg]
         return self.spell(key)
 
 
-def _escaped(text: str) -> str:
-    return text.replace("{", "{{").replace("}", "}}")
+def literal(text: object) -> str:
+    """``str(text)`` inside a :class:`ParameterError` template: its braces doubled."""
+    return str(text).replace("{", "{{").replace("}", "}}")
 
 
 @contextmanager
@@ -140,7 +141,7 @@ def naming(**names: str) -> Iterator[None]:
         message = str(exc)
         for argument, parameter in names.items():
             if message.startswith(argument) and message[len(argument):len(argument) + 1] in (" ", ":", "="):
-                raise ParameterError("{" + parameter + "}" + _escaped(message[len(argument):])) from exc
+                raise ParameterError("{" + parameter + "}" + literal(message[len(argument):])) from exc
         raise
 
 
@@ -199,8 +200,8 @@ class Command:
         hooks = {k: values.pop(k) for k in list(values) if k in self.hooks and k not in known}
         unknown = sorted(set(values) - set(known))
         if unknown:
-            raise ParameterError(f"unknown parameter {_escaped(unknown[0])!r}; valid: "
-                                 f"{_escaped(', '.join(known))}")
+            raise ParameterError(f"unknown parameter {literal(unknown[0])!r}; valid: "
+                                 f"{literal(', '.join(known))}")
         given = {}
         for p in self.parameters:
             value = values.get(p.name, None if p.required else p.default)

@@ -8,7 +8,14 @@ from typing import Any
 
 import pydantic
 
-__all__ = ["RequestModel"]
+__all__ = ["RequestModel", "no_boolean"]
+
+
+def no_boolean(value: object) -> object:
+    """``value`` unless it is JSON ``true``/``false`` where a number is due (pydantic reads them as 1 and 0)."""
+    if isinstance(value, bool):
+        raise ValueError("expected a number")
+    return value
 
 
 def _numeric(annotation: Any) -> bool:
@@ -37,6 +44,4 @@ class RequestModel(pydantic.BaseModel):
     @classmethod
     def _no_boolean_numbers(cls, value: Any, info: pydantic.ValidationInfo) -> Any:
         field = cls.model_fields.get(info.field_name or "")
-        if isinstance(value, bool) and field is not None and _numeric(field.annotation):
-            raise ValueError("expected a number")
-        return value
+        return no_boolean(value) if field is not None and _numeric(field.annotation) else value

@@ -32,6 +32,7 @@ from typing import Annotated, Any
 import pydantic
 
 from vergence.commands import KINDS, MAX_LIST_ITEMS, Command, ParameterError, to_json
+from vergence.web._models import no_boolean
 
 __all__ = ["OUTPUT_NAMES", "Resolver", "Twin", "TwinError", "build_twins", "twin_of"]
 
@@ -148,17 +149,10 @@ def _renamed(message: str, renames: Sequence[tuple[str, str]]) -> str:
     return " ".join(message.split())
 
 
-def _not_a_bool(value: object) -> object:
-    """Refuse ``true``/``false`` for a number (pydantic would read them as 1 and 0)."""
-    if isinstance(value, bool):
-        raise ValueError("expected a number")
-    return value
-
-
 def _checked(annotation: Any) -> Any:
     """A number type that refuses booleans; other types as they are."""
     if annotation in (int, float):
-        return Annotated[annotation, pydantic.BeforeValidator(_not_a_bool)]
+        return Annotated[annotation, pydantic.BeforeValidator(no_boolean)]
     return annotation
 
 
