@@ -53,7 +53,8 @@ if TYPE_CHECKING:
         synthesize_view,
         synthesize_views,
     )
-    from vergence.synthesis.ibr import IBR_INTERPOLATIONS, IBR_LINK_LIMIT_PX, IBR_WEIGHTS, IBRResult, IBRSource, render_ibr
+    from vergence.synthesis.ibr import IBR_INTERPOLATIONS, IBR_LINK_LIMIT_PX, IBR_WEIGHTS, IBRResult, render_ibr
+    from vergence.synthesis.ibr_source import IBRSource
     from vergence.synthesis.ibr_bayes import (
         BAYES_DEFORMATION_CAP,
         BAYES_DEPTH_CONTINUITY,
@@ -77,7 +78,7 @@ _LAZY = {
     "BAYES_SIGMA_SENSOR": "vergence.synthesis.ibr_bayes",
     "bayesian_weights": "vergence.synthesis.ibr_bayes",
     "IBRResult": "vergence.synthesis.ibr",
-    "IBRSource": "vergence.synthesis.ibr",
+    "IBRSource": "vergence.synthesis.ibr_source",
     "IBR_INTERPOLATIONS": "vergence.synthesis.ibr",
     "IBR_LINK_LIMIT_PX": "vergence.synthesis.ibr",
     "IBR_WEIGHTS": "vergence.synthesis.ibr",

@@ -178,3 +178,13 @@ def check_depth(depth: object, source: Camera) -> np.ndarray:
     if (z[known] <= 0).any():
         raise ValueError(f"depth must be > 0 metres where known; got min {z[known].min():g}")
     return z
+
+
+def check_depth_values(name: str, z: np.ndarray) -> None:
+    """Raise unless ``z`` holds no inf and is > 0 where known (NaN = unknown)."""
+    if np.isinf(z).any():
+        raise ValueError(f"{name} must not contain inf (use NaN for no surface)")
+    with np.errstate(invalid="ignore"):
+        bad = z <= 0
+    if bad.any():
+        raise ValueError(f"{name} must be > 0 metres where known; got min {z[bad].min():g}")

@@ -9,16 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 
 from vergence.camera import Camera
 from vergence.synthesis import _ibr_kernels, _kernels, _stages3d
-
-if TYPE_CHECKING:
-    from vergence.synthesis.ibr import IBRSource
+from vergence.synthesis.ibr_source import IBRSource
 
 # Field of view: a proxy point must project within the source's pixel rectangle, the hull of its pixel
 # centres widened by this many pixels (half a pixel: the edge of the border pixels; the sample there is

@@ -28,7 +28,8 @@ import numpy as np
 from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.synthesis import _ibr_kernels, _ibr_stages
-from vergence.synthesis._checks import check_camera, check_image, check_method, check_nonnegative
+from vergence.synthesis._checks import check_camera, check_depth_values, check_image, check_method, check_nonnegative
+from vergence.synthesis.ibr_source import IBRSource
 from vergence.synthesis.ibr_bayes import (
     BAYES_DEFORMATION_CAP,
     BAYES_GEOMETRIC_CAP,
@@ -38,7 +39,7 @@ from vergence.synthesis.ibr_bayes import (
     bayesian_weights,
 )
 
-__all__ = ["IBRResult", "IBRSource", "IBR_INTERPOLATIONS", "IBR_LINK_LIMIT_PX", "IBR_WEIGHTS", "render_ibr"]
+__all__ = ["IBRResult", "IBR_INTERPOLATIONS", "IBR_LINK_LIMIT_PX", "IBR_WEIGHTS", "render_ibr"]
 
 IBR_WEIGHTS = ("ulr", "bayesian")
 # Forward-warped proxy: neighbouring source pixels are one surface when moving one to the other's depth
@@ -90,52 +91,6 @@ IBR_OCCLUSION_TOLERANCE = 0.01
 # Bayesian weights: re-weightings on the current estimate after the first pass (which has no image
 # gradient); the weights of Pujades et al. 2014 change little after a few passes.
 BAYES_ITERATIONS = 3
-
-
-@dataclass(frozen=True, slots=True)
-class IBRSource:
-    """One source view of :func:`render_ibr`: a camera, its image and its depth map.
-
-    Parameters
-    ----------
-    camera : Camera
-    image : (H, W, 3) array
-        Colours, float in [0, 1] (uint8 / uint16 are scaled), the camera's size; kept as float32.
-    depth : (H, W) array
-        Camera-frame z in metres, > 0 where a surface is seen, NaN where none (sky); kept as float64.
-
-    Raises
-    ------
-    TypeError
-        A camera that is not a :class:`~vergence.camera.Camera`, a non-numeric image or depth.
-    ValueError
-        Sizes differing from the camera's, an image without 3 channels or outside [0, 1], a depth
-        that is inf or <= 0.
-    """
-
-    camera: Camera
-    image: np.ndarray
-    depth: np.ndarray
-
-    def __post_init__(self) -> None:
-        cam = check_camera("camera", self.camera)
-        size = (cam.height, cam.width)
-        img = check_image("image", self.image)
-        if img.ndim != 3 or img.shape[2] != 3:
-            raise ValueError(f"image must have shape (H, W, 3) (colour); got {img.shape}")
-        if img.shape[:2] != size:
-            raise ValueError(f"image must have shape {size + (3,)} matching the camera; got {img.shape}")
-        if np.iscomplexobj(self.depth):
-            raise TypeError("depth must be real; got a complex array")
-        try:
-            z = np.ascontiguousarray(self.depth, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise TypeError(f"depth must be numeric; got {type(self.depth).__name__}") from exc
-        if z.shape != size:
-            raise ValueError(f"depth must have shape {size} matching the image and camera; got {z.shape}")
-        _check_depth_values("depth", z)
-        object.__setattr__(self, "image", np.ascontiguousarray(img))
-        object.__setattr__(self, "depth", z)
 
 
 @dataclass(frozen=True, slots=True)
@@ -380,16 +335,6 @@ def render_ibr(
 # ---------------------------------------------------------------------------------------------- checks
 
 
-def _check_depth_values(name: str, z: np.ndarray) -> None:
-    """Raise unless ``z`` holds no inf and is > 0 where known (NaN = unknown)."""
-    if np.isinf(z).any():
-        raise ValueError(f"{name} must not contain inf (use NaN for no surface)")
-    with np.errstate(invalid="ignore"):
-        bad = z <= 0
-    if bad.any():
-        raise ValueError(f"{name} must be > 0 metres where known; got min {z[bad].min():g}")
-
-
 def _check_relative_threshold(value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise TypeError(f"relative_threshold must be a number; got {type(value).__name__}")
@@ -420,7 +365,7 @@ def _check_proxy_depth(proxy_depth: object, target: Camera) -> np.ndarray:
     size = (target.height, target.width)
     if z.shape != size:
         raise ValueError(f"proxy_depth must have shape {size} matching the target camera; got {z.shape}")
-    _check_depth_values("proxy_depth", z)
+    check_depth_values("proxy_depth", z)
     return z
 
 
