@@ -248,3 +248,28 @@ def test_compiled_coarse_search_matches_the_per_region_loop_on_larger_spaces(see
         assert fast[region].agrees == c.agrees
         assert fast[region].distance == pytest.approx(c.distance, abs=1e-12)
         assert_allclose(fast[region].lam, c.lam)
+
+
+# Three unit segments end to end along x: the eyes can walk the whole row.
+ROW = StereoSpace([[[0, 0, 0], [1, 0, 0]], [[1, 0, 0], [2, 0, 0]], [[2, 0, 0], [3, 0, 0]]])
+
+
+@pytest.mark.parametrize("v", [1.2, 0.9, 1.45])
+def test_a_pan_past_a_jump_spends_its_whole_step(v):
+    # Eyes at x = 0.5 and 1.5 (view position x = 1, interocular 1). A pan by v moves the view position
+    # to x = 1 + v in the world: 0.5 inside region (0, 1), the rest after the jump (the tree before
+    # issue 27 stopped at x = 1.5, the landing point, dropping the remainder).
+    start = StereoState((0, 1), 0.5, 0.5)
+    moved = ROW.pan(start, v)
+    assert moved.event == "jumped"
+    eyes = ROW.eyes(moved.state)
+    assert_allclose(eyes.mean(axis=0), [1.0 + v, 0.0, 0.0], atol=JUMP_TOL)
+    assert_allclose(eyes[1] - eyes[0], [1.0, 0.0, 0.0], atol=JUMP_TOL)  # same interocular, same order
+    back = ROW.pan(moved.state, -v)
+    assert_allclose(ROW.eyes(back.state).mean(axis=0), [1.0, 0.0, 0.0], atol=2 * JUMP_TOL)
+
+
+def test_a_pan_past_the_last_region_stops_there_after_jumping():
+    moved = ROW.pan(StereoState((0, 1), 0.5, 0.5), 5.0)
+    assert moved.event == "jumped"  # jumped once, then stopped at the row's end
+    assert_allclose(ROW.eyes(moved.state), [[2.0, 0.0, 0.0], [3.0, 0.0, 0.0]], atol=JUMP_TOL)

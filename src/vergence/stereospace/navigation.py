@@ -31,11 +31,15 @@ import numpy as np
 from vergence._validate import check_finite, check_in_range
 from vergence.stereospace.space import JUMP_CONE_DEG, StereoSpace, StereoState
 
-__all__ = ["JUMP_CONE_DEG", "JUMP_SAMPLES", "MOVE_EVENTS", "Move", "pan", "tangent", "zoom"]
+__all__ = ["JUMP_CONE_DEG", "JUMP_SAMPLES", "MAX_PAN_JUMPS", "MOVE_EVENTS", "Move", "pan", "tangent", "zoom"]
 
 JUMP_SAMPLES = 17
 """Samples per side of the tessellation of a region searched for a jump: 289 per region; with the two
 refinements the landing point is within about 5e-4 in parameter of the closest point of the region."""
+
+MAX_PAN_JUMPS = 8
+"""Jumps one :func:`pan` may make while it spends its step (each jump lands at a region's closest
+point in the cone, so a step longer than a few regions' widths ends after this many)."""
 
 MOVE_EVENTS = ("moved", "jumped", "stopped")
 """What a move did: stayed in its region, jumped to another region, or stopped at the border (no
@@ -145,7 +149,10 @@ def pan(space: StereoSpace, state: StereoState, v: float, *, cone_deg: float = J
 
     ``[li, lj] += v T / |M T|`` with ``T`` from :func:`tangent` and ``M = [u_i, u_j] / 2`` the rate of
     the view position; s_w is constant to first order. If the step leaves the region, the view jumps
-    from the border, or stops there.
+    from the border, or stops there; after a jump the rest of the step (``v`` less the part taken in
+    the region left) goes on in the region landed in, in the same world direction, through up to
+    :data:`MAX_PAN_JUMPS` jumps. The event is ``"jumped"`` when any jump happened (even if the view
+    then stopped at a border), ``"stopped"`` when it stopped without one.
     """
     state, lam, ui, uj, _, _ = _frame(space, state)
     v = check_finite("v", v)
@@ -156,13 +163,28 @@ def pan(space: StereoSpace, state: StereoState, v: float, *, cone_deg: float = J
         return Move(state, "moved")
     if rate <= 1e-12 * max(float(np.linalg.norm(ui) + np.linalg.norm(uj)), 1e-300):
         return Move(state, "stopped")  # a region of zero-length segments: nothing to pan along
-    delta = v * T / rate
-    t = _exit_fraction(state, lam, delta)
-    if t >= 1.0:
-        return Move(_project(state, lam + delta), "moved")
-    direction = space._points(state.region, (lam + delta)[None])[0] - space._points(state.region, lam[None])[0]
-    border = _project(state, lam + t * delta)
-    return _jump_or_stop(space, border, np.array([border.li, border.lj]), direction, cone_deg)
+    event, remaining = "moved", v
+    for _ in range(MAX_PAN_JUMPS + 1):
+        delta = remaining * T / rate
+        t = _exit_fraction(state, lam, delta)
+        if t >= 1.0:
+            return Move(_project(state, lam + delta), event)
+        direction = space._points(state.region, (lam + delta)[None])[0] - space._points(state.region, lam[None])[0]
+        border = _project(state, lam + t * delta)
+        moved = _jump_or_stop(space, border, np.array([border.li, border.lj]), direction, cone_deg)
+        if moved.event == "stopped":
+            return moved if event == "moved" else Move(moved.state, event)
+        # the rest of the pan goes on from where the view landed, the same way in the world
+        event, remaining = "jumped", abs(remaining) * (1.0 - t)
+        state, lam, ui, uj, _, _ = _frame(space, moved.state)
+        T = tangent(space, state)
+        rate = float(np.linalg.norm(ui * T[0] + uj * T[1])) / 2.0
+        if rate <= 1e-12 * max(float(np.linalg.norm(ui) + np.linalg.norm(uj)), 1e-300) or remaining <= 0.0:
+            return Move(state, event)
+        onward = space._points(state.region, (lam + T)[None])[0, :3] - space._points(state.region, lam[None])[0, :3]
+        if float(onward @ direction[:3]) < 0.0:
+            remaining = -remaining
+    return Move(state, event)
 
 
 # -- the region's border ---------------------------------------------------------------------------
