@@ -17,30 +17,12 @@ from typing import TYPE_CHECKING, Any
 import typer
 from rich.console import Console
 
-from vergence.cli._group import LazyGroup
+from vergence.cli._group import app
 from vergence.commands._spec import Command, ParameterError, to_json
 
 if TYPE_CHECKING:
     from vergence.render import Scene
     from vergence.viewing.geometry import Display
-
-# Commands register here with ``@app.command(name)``; LazyGroup imports a command's module (listed
-# in vergence.cli.COMMANDS) only when that command runs or shows its help.
-app = typer.Typer(
-    name="vergence",
-    cls=LazyGroup,
-    help="Stereoscopic 3D images that look right on a given display.",
-    no_args_is_help=True,
-    context_settings={"help_option_names": ["-h", "--help"]},  # no command uses -h for anything else
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
-
-
-@app.callback()
-def _root() -> None:
-    """The group itself: no options of its own (a callback makes Typer build a group, always)."""
-
 
 console = Console(soft_wrap=True)
 err_console = Console(stderr=True)

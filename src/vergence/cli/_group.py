@@ -26,7 +26,7 @@ from typer._click.exceptions import UsageError  # Typer vendors click; this is i
 from typer.core import TyperArgument, TyperCommand, TyperGroup, TyperOption
 from typer.main import get_command_from_info, get_command_name, get_group_from_info
 
-__all__ = ["DEFAULT_DIGITS", "LazyGroup", "tidy_parameters"]
+__all__ = ["DEFAULT_DIGITS", "LazyGroup", "app", "tidy_parameters"]
 
 # Significant digits of a float default in --help: 3/255 shows as 0.0117647, enough to tell apart
 # any two defaults a person would type, short enough to read (repr gives 17 digits).
@@ -141,8 +141,6 @@ def _load(name: str, module: str) -> TyperCommand:
 
     pause_for_test("IMPORT")
     importlib.import_module(f"vergence.cli.{module}")
-    from vergence.cli._app import app
-
     infos = [i for i in app.registered_commands
              if (i.name or get_command_name(i.callback.__name__)) == name]  # type: ignore[union-attr]
     groups = [g for g in app.registered_groups if g.name == name]
@@ -209,3 +207,21 @@ class LazyGroup(TyperGroup):
         params = super().get_params(ctx)
         tidy_parameters(params)
         return params
+
+
+# Commands register here with ``@app.command(name)``; LazyGroup imports a command's module (listed
+# in vergence.cli.COMMANDS) only when that command runs or shows its help.
+app = typer.Typer(
+    name="vergence",
+    cls=LazyGroup,
+    help="Stereoscopic 3D images that look right on a given display.",
+    no_args_is_help=True,
+    context_settings={"help_option_names": ["-h", "--help"]},  # no command uses -h for anything else
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+@app.callback()
+def _root() -> None:
+    """The group itself: no options of its own (a callback makes Typer build a group, always)."""
