@@ -9,6 +9,7 @@ from numpy.testing import assert_allclose
 
 import vergence.report.demo as demo_module
 from vergence.report import demo_stereospace as ds
+from vergence.report.demo import DEMO_DISPLAY
 from vergence.report.html import Figure, Section
 
 # The section's PSNR for plane and mls is the library's leave_one_out figure: the same views over the
@@ -33,7 +34,7 @@ def small_run(tmp_path_factory, shared_data):
         write_image(folder / "map.png", np.full((8, 8, 3), 0.5, np.float32))
         return Figure("map.png", "the map")
 
-    section, result = ds.section_stereospace(out, lambda _m: None, 7, folder=shared_data / "collections" / "dino",
+    section, result = ds.section_stereospace(out, lambda _m: None, 7, display=DEMO_DISPLAY, folder=shared_data / "collections" / "dino",
                                              frames=2, loo_views=1, map_figure=map_figure)  # fmt: skip
     return out, section, result, calls
 
@@ -43,7 +44,7 @@ def test_without_the_data_the_section_is_one_line(monkeypatch, tmp_path):
     assert ds.dino_folder() == tmp_path / "nowhere" / "collections" / "dino"
     out = tmp_path / "out"
     out.mkdir()
-    section, result = ds.section_stereospace(out, lambda _m: None, 7)
+    section, result = ds.section_stereospace(out, lambda _m: None, 7, display=DEMO_DISPLAY)
     assert result is None and section.figures == () and section.table == ()
     assert section.text.startswith("Skipped: the dino collection was not found at ")
     assert "\n" not in section.text and str(ds.dino_folder()) in section.text
@@ -69,7 +70,7 @@ def test_the_demo_succeeds_without_the_data(monkeypatch, tmp_path):
 @pytest.mark.parametrize(("frames", "loo_views"), [(1, 4), (4, 0), (True, 4), (4, 2.0)])
 def test_bad_counts_are_refused_before_any_work(tmp_path, frames, loo_views):
     with pytest.raises(ValueError, match="frames must be|loo_views must be"):
-        ds.section_stereospace(tmp_path, lambda _m: None, 7, folder=tmp_path, frames=frames, loo_views=loo_views)
+        ds.section_stereospace(tmp_path, lambda _m: None, 7, display=DEMO_DISPLAY, folder=tmp_path, frames=frames, loo_views=loo_views)
 
 
 def test_spread_views_are_evenly_spaced():

@@ -200,8 +200,8 @@ def section_stereospace(
     progress: Progress,
     number: int,
     *,
+    display: object,
     folder: Path | None = None,
-    display: object = None,
     frames: int = FRAMES,
     loo_views: int = LOO_VIEWS,
     map_figure: MapFigure | None = None,
@@ -213,8 +213,8 @@ def section_stereospace(
     ----------
     folder : Path, optional
         The dino folder (``dino_par.txt`` and the images); default :func:`dino_folder`.
-    display : vergence.viewing.Display, optional
-        The display of the start rule; default the demo's television.
+    display : vergence.viewing.Display
+        The display of the start rule (the demo's television, ``vergence.report.demo.DEMO_DISPLAY``).
     frames, loo_views : int
         Frames of each sequence (>= 2) and views of the leave-one-out table (>= 1).
     map_figure : callable, optional
@@ -232,8 +232,6 @@ def section_stereospace(
     folder = dino_folder() if folder is None else Path(folder)
     if not (folder / DINO_CAMERAS).is_file():
         return _missing(folder, number), None
-    if display is None:
-        from vergence.report.demo import DEMO_DISPLAY as display
     started = time.perf_counter()
     progress("StereoSpace: loading dino (matching and triangulating its points)")
     collection = load_collection(folder / DINO_CAMERAS, images=folder)
