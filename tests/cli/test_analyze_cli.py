@@ -122,8 +122,8 @@ def test_single_images_stereo_and_2d_plus_depth(clips, tmp_path, capsys):
     assert code == 0, err
     shot = json.loads(out)["shots"][0]
     # one image is one shot: its nearness range fills the +-20 arcmin budget, as vergence synthesize does
-    assert shot["disparity_arcmin"]["p1"] <= 20.0 + 1e-6 and shot["disparity_arcmin"]["p99"] >= -20.0 - 1e-6
-    assert max(shot["disparity_arcmin"]["p1"], -shot["disparity_arcmin"]["p99"]) > 19.0
+    assert -20.0 - 1e-6 <= shot["disparity_arcmin"]["p1"] < shot["disparity_arcmin"]["p99"] <= 20.0 + 1e-6
+    assert max(-shot["disparity_arcmin"]["p1"], shot["disparity_arcmin"]["p99"]) > 19.0
 
 
 def test_options_of_the_other_kind_of_input_are_refused(clips, capsys):

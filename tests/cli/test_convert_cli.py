@@ -72,7 +72,8 @@ def test_truncated_input_keeps_the_frames_before_and_exits_2(clips, tmp_path, ca
      "error: --layout must be one of sbs, half-sbs, tb, half-tb; got 'lr'"),
     (["{stereo}", "--out", "{tmp}/o.mp4", "--display", "tv-55", "--budget-arcmin", "0"],
      "error: --budget-arcmin must be in (0, 600]"),
-    (["{stereo}", "--out", "{tmp}/nowhere/o.mp4", "--display", "tv-55"], "error: --out folder"),
+    (["{stereo}", "--out", "{tmp}/o.avi", "--display", "tv-55"], "error: --out must be a .mp4, .mkv, .mov file or a "
+     "folder"),
 ])  # fmt: skip
 def test_bad_input_is_one_line_and_exit_code_2(clips, tmp_path, capsys, args, message):
     plain = tmp_path / "plain.mp4"
@@ -84,6 +85,44 @@ def test_bad_input_is_one_line_and_exit_code_2(clips, tmp_path, capsys, args, me
     assert code == 2
     assert out == "" and err.count("\n") == 1 and err.startswith(message), err
     assert not list(tmp_path.glob("o*"))
+
+
+def test_nothing_is_lost_without_force(clips, tmp_path, capsys):
+    """Issue 28: converting x_RGBD.mp4 into a folder holding x_LRF_Full_SBS.mp4 (another clip: both map to one
+    name) leaves that file as it was; --force replaces it; a missing --out folder is created."""
+    import shutil
+
+    folder = tmp_path / "clips"
+    folder.mkdir()
+    shutil.copy(clips.rgbd, folder / "x_RGBD.mp4")
+    shutil.copy(clips.stereo, folder / "x_LRF_Full_SBS.mp4")
+    before = (folder / "x_LRF_Full_SBS.mp4").read_bytes()
+    args = ["convert", folder / "x_RGBD.mp4", "--display", "tv-55", "--preset", "ultrafast"]
+    code, out, err = _run(capsys, [*args, "--out", folder])
+    assert code == 2 and out == "" and err.count("\n") == 1, err
+    assert err.startswith(f"error: --out {folder / 'x_LRF_Full_SBS.mp4'} exists: give --force to replace it"), err
+    assert (folder / "x_LRF_Full_SBS.mp4").read_bytes() == before
+    assert sorted(p.name for p in folder.iterdir()) == ["x_LRF_Full_SBS.mp4", "x_RGBD.mp4"]  # no work folder left
+    # the batch refuses two inputs of one output name, --force or not, before any work
+    code, out, err = _run(capsys, ["convert", folder, "--batch", "--out", folder, "--display", "tv-55", "--force"])
+    assert code == 2 and "another input of the batch" in err and (folder / "x_LRF_Full_SBS.mp4").read_bytes() == before
+    # a missing folder is created (parents too), a second run is refused, --force replaces
+    code, out, err = _run(capsys, [*args, "--out", tmp_path / "new" / "deeper"])
+    assert code == 0, err
+    made = tmp_path / "new" / "deeper" / "x_LRF_Full_SBS.mp4"
+    assert made.is_file()
+    made.write_bytes(b"kept")
+    assert _run(capsys, [*args, "--out", tmp_path / "new" / "deeper"])[0] == 2 and made.read_bytes() == b"kept"
+    assert _run(capsys, [*args, "--out", tmp_path / "new" / "deeper", "--force"])[0] == 0
+    assert made.read_bytes() != b"kept"
+    # an image folder holding files is an existing output too; --force replaces it whole (no stale frames)
+    frames = tmp_path / "frames_LRF_Full_SBS"
+    frames.mkdir()
+    (frames / "frame_999999.png").write_bytes(b"old")
+    code, out, err = _run(capsys, [*args, "--images", "--out", tmp_path / "frames"])
+    assert code == 2 and "exists and holds files: give --force" in err, err
+    assert _run(capsys, [*args, "--images", "--out", tmp_path / "frames", "--force"])[0] == 0
+    assert len(list(frames.iterdir())) == 16 and not (frames / "frame_999999.png").exists()
 
 
 def test_resume_after_an_interrupted_run(clips, tmp_path, capsys, monkeypatch):
@@ -147,7 +186,7 @@ def test_batch_converts_each_video_and_skip_errors_reports_the_broken_one(clips,
     assert code == 2, err
     lines = err.strip().splitlines()
     assert lines[0].startswith("skipped c_LRF_Full_SBS.mp4:") and "1 of 3 files skipped" in lines[-1], err
-    assert "converted 2 of 3 files" in out
+    assert "converted 2 of 3 files (2 kept from an earlier run)" in out
     assert sorted(p.name for p in dst.iterdir()) == ["a_LRF_Full_SBS", "b_LRF_Full_SBS"]
     assert all(len(list((dst / n).glob("*.png"))) == 16 for n in ("a_LRF_Full_SBS", "b_LRF_Full_SBS"))
 

@@ -68,8 +68,12 @@ def test_arcmin_are_the_angles_of_the_pixel_percentiles(stereo_analysis):
     scale = TV.resolution / stereo_analysis.width  # the 160-px view fills the 1920-px screen
     for shot in stereo_analysis.shots:
         for key, px in shot.disparity_px.items():
-            # D in front of the screen (> 0) is a crossed parallax: a negative vergence change
-            assert shot.disparity_arcmin[key] == pytest.approx(arcmin_from_pixels(-px * scale, TV), abs=1e-9)
+            # D in front of the screen (> 0) is a crossed parallax, a negative vergence change; reported with D's sign
+            assert shot.disparity_arcmin[key] == pytest.approx(-arcmin_from_pixels(-px * scale, TV), abs=1e-9)
+        # one sign for both units: each pN key holds the N-th percentile, rising with N
+        for values in (shot.disparity_px, shot.disparity_arcmin):
+            assert list(values.values()) == sorted(values.values())
+        assert np.sign(shot.disparity_arcmin["p99"]) == np.sign(shot.disparity_px["p99"])
     # by hand: 1 view px = 12 screen px of 1.2176 m / 1920 at 3 m, about 8.7 arcmin
     one = arcmin_from_pixels(-12.0, TV)
     assert one == pytest.approx(-2 * np.degrees(np.arctan(12 * 1.2176 / 1920 / 2 / 3.0)) * 60, rel=0.01)
@@ -96,12 +100,20 @@ def test_comfort_divergence_and_window_against_the_truth(stereo_analysis, truth)
 
 def test_the_suggestion_brings_each_shot_inside_the_zone(stereo_analysis):
     lo, hi = stereo_analysis.zone_px
+    scale = TV.resolution / stereo_analysis.width
     for shot in stereo_analysis.shots:
         s = shot.suggestion
         a, b = (s["scale"] * shot.disparity_px[k] + s["shift_px"] for k in ("p1", "p99"))
         assert s["range_px"] == pytest.approx([a, b])
         assert lo - 1e-9 <= a and b <= hi + 1e-9
-        assert s["range_arcmin"][0] <= 60 + 1e-9 and s["range_arcmin"][1] >= -60 - 1e-9
+        assert -60 - 1e-9 <= s["range_arcmin"][0] <= s["range_arcmin"][1] <= 60 + 1e-9
+        # what vergence convert would do: the range onto its +-30 arcmin budget, filled
+        c = s["convert"]
+        assert c["budget_arcmin"] == 30.0
+        a, b = (c["scale"] * shot.disparity_px[k] + c["shift_px"] for k in ("p1", "p99"))
+        assert [a, b] == pytest.approx(c["range_px"])
+        assert a == pytest.approx(-pixels_from_arcmin(30.0, TV) / scale, rel=1e-6)  # behind: uncrossed +30
+        assert b == pytest.approx(-pixels_from_arcmin(-30.0, TV) / scale, rel=1e-6)  # in front: crossed -30
     table, stadium = stereo_analysis.shots
     assert table.suggestion["action"] == "none" and table.suggestion["scale"] == 1.0
     # the stadium fits the zone once pushed forward: a convergence shift, its far end on the zone's

@@ -33,6 +33,7 @@ def analyze(
     no_vertical: bool = option(ANALYZE, "no_vertical"),
     fps: float | None = option(ANALYZE, "fps"),
     report: Path | None = option(ANALYZE, "report"),
+    force: bool = option(ANALYZE, "force"),
     as_json: bool = typer.Option(False, "--json", help="Print the analysis as JSON."),
 ) -> None:
     """Comfort of a stereo or 2D + depth clip on a display: disparity percentiles, comfort, divergence,
@@ -42,7 +43,7 @@ def analyze(
                            layout=layout, depth_kind=depth_kind, depth_scale=depth_scale, budget_arcmin=budget_arcmin,
                            comfort_arcmin=comfort_arcmin, every=every, min_disparity=min_disparity,
                            max_disparity=max_disparity, method=method, no_vertical=no_vertical, fps=fps, report=report,
-                           progress=progress, before_commit=raise_if_interrupted)  # fmt: skip
+                           force=force, progress=progress, before_commit=raise_if_interrupted)  # fmt: skip
     print_warnings(done.analysis.warnings)  # stderr, before the figures (also in the JSON)
     if as_json:
         print_json(done.to_dict())
@@ -56,7 +57,15 @@ def analyze(
         console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, disparity {d['p1']:+.2f} .. {d['p99']:+.2f} px "
                       f"(1-99 %), median {d['p50']:+.2f} px, {search}= {a['p1']:+.1f} .. {a['p99']:+.1f} arcmin, "
                       f"{100 * shot.outside_comfort:.1f} % outside comfort, {100 * shot.diverging:.1f} % diverging, "
-                      f"{shot.window_violations} window violations; suggestion: {s['action']} (scale {s['scale']:.3f}, "
-                      f"shift {s['shift_px']:+.2f} px)")
+                      f"{shot.window_violations} window violations; suggestion into the comfort zone: {s['action']} "
+                      f"(scale {s['scale']:.3f}, shift {s['shift_px']:+.2f} px){_convert_note(s['convert'])}")
     if report is not None:
         console.print(f"report: {report / 'index.html'}")
+
+
+def _convert_note(convert: dict) -> str:
+    """What vergence convert would do to the shot (its budget is a target, the comfort zone a limit)."""
+    if convert["scale"] is None:
+        return ""
+    return (f"; vergence convert fills +-{convert['budget_arcmin']:g} arcmin: scale {convert['scale']:.3f}, shift "
+            f"{convert['shift_px']:+.2f} px")

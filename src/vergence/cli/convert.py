@@ -40,7 +40,8 @@ def convert(
     input_path: Path = typer.Argument(..., metavar="INPUT", help="A stereo video or image folder (SBS or TB, full or "
                                       "half), or a 2D + depth one (iw3's _RGBD, or colour with --depth)."),
     out: Path = typer.Option(..., "--out", help="Output .mp4/.mkv/.mov (its name gets the layout tag, e.g. "
-                             "_LRF_Full_SBS), or an existing folder to write it into; with --images, a folder."),
+                             "_LRF_Full_SBS), or a folder to write it into (created when missing); with --images, "
+                             "a folder. An existing output is never replaced without --force."),
     display_preset: str = typer.Option(..., "--display", help="Display preset (vergence budget --help lists them)."),
     budget_arcmin: float = typer.Option(SYNTHESIS_BUDGET_ARCMIN, "--budget-arcmin", help="Parallax budget +-A "
                                         "arcmin of vergence on the display, fitted per shot."),
@@ -72,6 +73,8 @@ def convert(
     fps: float | None = FPS_OPTION,
     resume: bool = typer.Option(False, "--resume", help="Reuse the finished shots of an interrupted run (its work "
                                 "folder .OUT.parts beside the output)."),
+    force: bool = typer.Option(False, "--force", help="Replace an output file (or an image folder holding files) "
+                               "that exists; never an input."),
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
                                 "processes (N > 1; needs the dask extra of vergence)."),
     as_json: bool = typer.Option(False, "--json", help="Print the conversion as JSON (per shot: the range matched, "
@@ -113,16 +116,35 @@ def convert(
             raise ValueError("--workers and --scheduler need dask.distributed: pip install 'vergence[dask]'") from None
     run_workers, run_scheduler = workers, scheduler
 
-    def one(input_path: Path, kind: str | None) -> None:
+    def target_of(input_path: Path) -> Path:
+        """The output path of ``input_path``: ``--out`` a folder (existing, or a name without a video suffix,
+        created) or a file name (its folder created)."""
+        folder = out.is_dir() or (not images and not out.suffix)
+        with options_named(**_OPTIONS):
+            if folder and not out.is_dir():
+                try:
+                    out.mkdir(parents=True, exist_ok=True)
+                except OSError as exc:
+                    raise OSError(f"cannot create the --out folder {out}: {exc.strerror or exc}") from None
+            target = converted_path(out, input_path, fmt, images=images)
+        if not target.parent.is_dir():
+            try:
+                target.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise OSError(f"cannot create the --out folder {target.parent}: {exc.strerror or exc}") from None
+        return target
+
+    def one(input_path: Path, kind: str | None, target: Path | None = None) -> None:
         stereo_only = {"method": method, "min_disparity": min_disparity, "max_disparity": max_disparity}
         clip, _ = open_input(input_path, kind, depth=depth, layout=layout, depth_kind=depth_kind,
                              depth_scale=depth_scale, fps=fps, stereo_only=stereo_only)
-        with options_named(**_OPTIONS):
-            target = converted_path(out, input_path, fmt, images=images)
+        if target is None:
+            target = target_of(input_path)
         inputs = [input_path, *([depth] if depth is not None else [])]
         check_output_path(target, *inputs)
-        if not target.parent.is_dir():
-            raise FileNotFoundError(f"--out folder {target.parent} does not exist")
+        from vergence.video import check_new_output
+
+        check_new_output(target, force=force, name="--out", hint="--force")
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
         with options_named(**_OPTIONS):
@@ -145,7 +167,7 @@ def convert(
                     preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
                     alpha=stabilize_alpha,
                     transition=transition, method=method or "sgbm", min_disparity=min_disparity,
-                    max_disparity=max_disparity, resume=resume, progress=progress, workers=run_workers,
+                    max_disparity=max_disparity, resume=resume, force=force, progress=progress, workers=run_workers,
                     scheduler=run_scheduler, split_frames=split_frames,
                 )  # fmt: skip
         print_warnings(result.warnings)
@@ -188,13 +210,31 @@ def convert(
         raise ValueError("--depth applies to one INPUT, not to --batch")
     if not input_path.is_dir():
         raise ValueError(f"--batch needs INPUT to be a folder of videos; got {input_path}")
-    if not out.is_dir():
-        raise ValueError(f"--batch needs --out to be an existing folder; got {out}")
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--batch needs --out to be a folder; got the file {out}")
     from vergence.video import VIDEO_SUFFIXES
 
     files = sorted(p for p in input_path.iterdir() if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES)
     if not files:
         raise ValueError(f"--batch: no {', '.join(VIDEO_SUFFIXES)} file in {input_path}")
+    if not out.is_dir():
+        try:
+            out.mkdir(parents=True)
+        except OSError as exc:
+            raise OSError(f"cannot create the --out folder {out}: {exc.strerror or exc}") from None
+    # Every output named before any work: two inputs of one name (x_RGBD.mp4, x_LRF_Full_SBS.mp4) or an output that
+    # is another input of the batch would lose a file, --force or not.
+    targets = {path: target_of(path) for path in files}
+    sources = {path.resolve(): path for path in files}
+    named: dict[Path, Path] = {}
+    for path, target in targets.items():
+        if target.resolve() in sources:
+            raise ValueError(f"--batch: {path.name} would be written to {target.name}, another input of the batch: give "
+                             "another --out folder")
+        if target.resolve() in named:
+            raise ValueError(f"--batch: {named[target.resolve()].name} and {path.name} would both be written to "
+                             f"{target.name}: convert them into different --out folders")
+        named[target.resolve()] = path
     cluster = None
     if workers > 1 and scheduler in (None, "local"):  # one cluster for every file
         from vergence.video._shots import local_cluster
@@ -202,11 +242,19 @@ def convert(
         cluster = local_cluster(workers)
         run_workers, run_scheduler = 1, cluster.scheduler_address
     skipped: list[str] = []
+    kept = 0
     try:
         for path in files:
             console.print(f"{path.name}:", highlight=False)
+            target = targets[path]
+            if resume and not force and (target.is_file() or (target.is_dir() and any(target.iterdir()))):
+                # an earlier run of the batch finished it (outputs appear only when complete)
+                console.print(f"kept {target.name} (written by an earlier run; --force converts it again)",
+                              highlight=False)  # fmt: skip
+                kept += 1
+                continue
             try:
-                one(path, kind)
+                one(path, kind, target)
             except (ValueError, TypeError, OSError) as exc:
                 if not skip_errors:
                     raise type(exc)(f"{path.name}: {exc}") from exc
@@ -215,6 +263,7 @@ def convert(
     finally:
         if cluster is not None:
             cluster.close()
-    console.print(f"converted {len(files) - len(skipped)} of {len(files)} files", highlight=False)
+    console.print(f"converted {len(files) - len(skipped)} of {len(files)} files"
+                  f"{f' ({kept} kept from an earlier run)' if kept else ''}", highlight=False)  # fmt: skip
     if skipped:
         raise ValueError(f"--skip-errors: {len(skipped)} of {len(files)} files skipped ({', '.join(skipped)})")

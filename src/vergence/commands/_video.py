@@ -98,6 +98,18 @@ def open_input(
     if given[other]:
         raise ParameterError(", ".join("{" + n + "}" for n in given[other]) + f" apply to a {other} {{input_path}}; "
                              f"{literal(input_path.name)} is read as {kind} ({{input_kind}})")
+    if kind == "stereo" and layout is None:  # the refusal names the parameter that answers it
+        from vergence.video.layout import STEREO_LAYOUTS
+
+        guessed = guess_layout(input_path)
+        label = literal(input_path.name or str(input_path.resolve()))  # "." has no name
+        if guessed is None:
+            raise ParameterError(f"cannot guess the stereo layout of {label}: its name carries no tag such as "
+                                 "_LRF_Full_SBS, _Half_SBS, _LR, _TB, -lr, -tb; give {layout} "
+                                 f"({', '.join(STEREO_LAYOUTS)})")
+        if guessed not in STEREO_LAYOUTS:
+            raise ParameterError(f"{label} is tagged {guessed!r} (colour + depth), not a stereo layout: give "
+                                 "{input_kind} 2d+depth, or {layout}")
     with naming(layout="layout", kind="depth_kind", scale="depth_scale", fps="fps"):
         if kind == "stereo":
             return open_stereo(input_path, layout=layout, fps=fps), kind

@@ -51,7 +51,7 @@ def analyze(*, input_path: Path, display: str, depth: Path | None = None, input_
             layout: str | None = None, depth_kind: str | None = None, depth_scale: float | None = None,
             budget_arcmin: float | None = None, comfort_arcmin: float = 60.0, every: int = 1,
             min_disparity: int | None = None, max_disparity: int | None = None, method: str | None = None,
-            no_vertical: bool = False, fps: float | None = None, report: Path | None = None,
+            no_vertical: bool = False, fps: float | None = None, report: Path | None = None, force: bool = False,
             progress: Callable[[float, str], None] | None = None,
             before_commit: Callable[[], None] | None = None) -> AnalysisReport:  # fmt: skip
     """The comfort of the clip ``input_path`` holds on the display preset ``display``
@@ -59,7 +59,9 @@ def analyze(*, input_path: Path, display: str, depth: Path | None = None, input_
     (:func:`vergence.report.video_analysis.write_analysis_report`).
 
     ``progress(fraction, message)`` is told as the frames are analysed; ``before_commit()`` is called
-    once the report's files are written, before they appear (raise there to leave none).
+    once the report's files are written, before they appear (raise there to leave none). A ``report``
+    folder that already holds a file of the report's names is refused unless ``force`` (nothing is
+    replaced then: the check comes before any file appears); its other files are kept either way.
 
     Raises
     ------
@@ -78,8 +80,7 @@ def analyze(*, input_path: Path, display: str, depth: Path | None = None, input_
     if not input_path.exists():
         raise ParameterError("{input_path} " + literal(input_path) + " does not exist")
     clip, kind = open_input(input_path, input_kind, depth=depth, layout=layout, depth_kind=depth_kind,
-                            depth_scale=depth_scale, fps=fps, depth_only={"budget_arcmin": budget_arcmin},
-                            stereo_only={"method": method, "min_disparity": min_disparity,
+                            depth_scale=depth_scale, fps=fps, stereo_only={"method": method, "min_disparity": min_disparity,
                                          "max_disparity": max_disparity, "no_vertical": no_vertical or None})
     if report is not None:
         check_output_path(report, input_path, *([depth] if depth is not None else []))
@@ -109,6 +110,12 @@ def analyze(*, input_path: Path, display: str, depth: Path | None = None, input_
 
         with atomic_folder(report) as tmp:
             write_analysis_report(result, tmp, data=done.to_dict(), title=f"Comfort of {input_path.name} on {display}")
+            clash = sorted(str(f.relative_to(tmp)) for f in tmp.rglob("*")
+                           if f.is_file() and (report / f.relative_to(tmp)).exists())  # fmt: skip
+            if clash and not force:
+                raise ParameterError("{report} " + literal(f"{report} already holds {', '.join(clash[:3])}"
+                                                           f"{' ...' if len(clash) > 3 else ''}: give ")
+                                     + "{force} to replace them")
             if before_commit is not None:
                 before_commit()
     return done
@@ -128,8 +135,9 @@ ANALYZE = Command(
         LAYOUT,
         DEPTH_KIND,
         DEPTH_SCALE,
-        Parameter("budget_arcmin", "number", "2D + depth: the parallax budget of vergence synthesize, fitted per shot "
-                  f"(+-A arcmin); default {DEFAULT_BUDGET_ARCMIN:g}.", None),
+        Parameter("budget_arcmin", "number", "The parallax budget of vergence synthesize and convert (+-A arcmin; "
+                  f"default {DEFAULT_BUDGET_ARCMIN:g}): a 2D + depth clip is planned into it per shot, and each shot's "
+                  "suggestion says how convert would map it there.", None),
         Parameter("comfort_arcmin", "number", "The comfort zone, +-C arcmin of vergence.", 60.0),
         Parameter("every", "integer", "Analyse every Nth frame (matching is slow); cuts use all frames.", 1),
         MIN_DISPARITY,
@@ -139,7 +147,9 @@ ANALYZE = Command(
                   "most 960 px wide).", False),
         FPS,
         Parameter("report", "output", "Write analysis.json, disparity.png, a thumbnail per shot and index.html into "
-                  "this folder.", None),
+                  "this folder (created when missing).", None),
+        Parameter("force", "flag", "Replace the files of an earlier report in {report} (never without it).", False,
+                  web=False),  # the web's reports go to a fresh folder of its own
     ),
     work=analyze,
     hooks=("progress", "before_commit"),

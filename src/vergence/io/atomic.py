@@ -54,7 +54,7 @@ def check_output_path(out: str | os.PathLike[str], *inputs: str | os.PathLike[st
             raise ValueError(f"output {out} would overwrite input {p}")
 
 
-def atomic_write(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
+def atomic_write(path: str | os.PathLike[str], *, replace: bool = True) -> AbstractContextManager[Path]:
     """Yield a temporary path beside ``path``; rename it to ``path`` when the block succeeds.
 
     The temporary file has the same extension as ``path`` (writers that choose the format by
@@ -66,6 +66,10 @@ def atomic_write(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
     ----------
     path : str or os.PathLike
         Final output file. Its folder must exist. An existing file is replaced.
+    replace : bool
+        False: never replace a file: ``path`` existing when the block starts or appearing while it
+        runs is refused (:class:`FileExistsError`), the commit being a hard link that fails on an
+        existing name (a check and a rename where the file system has no hard links).
 
     Returns
     -------
@@ -82,6 +86,8 @@ def atomic_write(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
         If ``path`` is a directory.
     FileNotFoundError
         If the block finished without creating the temporary file.
+    FileExistsError
+        With ``replace=False``, if ``path`` exists (``cannot write PATH: it exists``).
 
     Examples
     --------
@@ -92,17 +98,37 @@ def atomic_write(path: str | os.PathLike[str]) -> AbstractContextManager[Path]:
     >>> (folder / "note.txt").read_text()
     'done'
     """
-    return _atomic_write(_output_path(path))
+    out = _output_path(path)
+    if not replace and (out.exists() or out.is_symlink()):
+        raise FileExistsError(f"cannot write {out}: it exists")
+    return _atomic_write(out, replace=bool(replace))
+
+
+def _commit_new(tmp: Path, out: Path) -> None:
+    """Rename ``tmp`` to ``out`` unless ``out`` exists (atomically where hard links exist)."""
+    try:
+        os.link(tmp, out)  # fails with EEXIST on an existing name, whoever created it meanwhile
+    except FileExistsError:
+        raise FileExistsError(f"cannot write {out}: it exists") from None
+    except OSError:  # no hard links on this file system
+        if out.exists() or out.is_symlink():
+            raise FileExistsError(f"cannot write {out}: it exists") from None
+        os.replace(tmp, out)
+        return
+    tmp.unlink()
 
 
 @contextmanager
-def _atomic_write(out: Path) -> Iterator[Path]:
+def _atomic_write(out: Path, *, replace: bool = True) -> Iterator[Path]:
     tmp = out.with_name(f".{out.stem}.tmp-{uuid.uuid4().hex[:12]}{out.suffix}")
     try:
         yield tmp
         if not tmp.is_file():
             raise FileNotFoundError(f"cannot write {out}: the writer created no file")
-        os.replace(tmp, out)
+        if replace:
+            os.replace(tmp, out)
+        else:
+            _commit_new(tmp, out)
     except OSError as exc:
         raise _os_error(exc, out, tmp) from None
     finally:

@@ -32,28 +32,29 @@ def plot_disparity_over_time(analysis: object, path: str | os.PathLike[str]) -> 
     """Plot each analysed frame's disparity range (1-99 %, 5-95 %, median) in arcmin of vergence
     against the comfort zone and the divergence limit, with the cuts; write a PNG.
 
-    Angles follow :mod:`vergence.viewing.comfort`: positive (uncrossed) behind the screen, so a
-    disparity in front of the screen plots below zero.
+    Angles carry the sign of the disparity ``D = x_left - x_right`` (``docs/conventions.md``), as
+    ``vergence analyze`` reports them: positive in front of the screen, so content behind the screen
+    (and the divergence limit) plots below zero.
     """
     out = png_path(path)
     frames = np.array([f.frame for f in analysis.per_frame], dtype=np.float64)
     pct = np.array([[f.disparity_px[k] for k in ("p1", "p5", "p50", "p95", "p99")] for f in analysis.per_frame])
-    angles = _arcmin(pct, analysis)
+    angles = -_arcmin(pct, analysis)  # signed as D: in front positive
     fig = new_figure(figsize=(8.0, 3.6), dpi=110)
     ax = fig.add_subplot()
     lo, hi = analysis.zone_arcmin
     ax.axhspan(lo, hi, color="#2a9d8f", alpha=0.12, label=f"comfort zone {lo:+.0f} .. {hi:+.0f} arcmin")
-    divergence = float(_arcmin(np.array([analysis.divergence_px]), analysis)[0])
+    divergence = -float(_arcmin(np.array([analysis.divergence_px]), analysis)[0])
     ax.axhline(divergence, color="#e76f51", lw=1.2, ls="--", label=f"divergence {divergence:+.0f} arcmin")
-    ax.fill_between(frames, angles[:, 4], angles[:, 0], color="#264653", alpha=0.25, step="mid", label="1-99 %")
-    ax.fill_between(frames, angles[:, 3], angles[:, 1], color="#264653", alpha=0.45, step="mid", label="5-95 %")
+    ax.fill_between(frames, angles[:, 0], angles[:, 4], color="#264653", alpha=0.25, step="mid", label="1-99 %")
+    ax.fill_between(frames, angles[:, 1], angles[:, 3], color="#264653", alpha=0.45, step="mid", label="5-95 %")
     ax.plot(frames, angles[:, 2], color="#264653", lw=1.5, drawstyle="steps-mid", label="median")
     for shot in analysis.shots[1:]:
         ax.axvline(shot.start - 0.5, color="#555", lw=0.8, ls=":")
     ax.axhline(0.0, color="#999", lw=0.6)
     ax.set_xlim(-0.5, analysis.frames - 0.5)
     ax.set_xlabel("frame (dotted: cuts)")
-    ax.set_ylabel("vergence change, arcmin\n(+ behind the screen)")
+    ax.set_ylabel("disparity, arcmin of vergence\n(+ in front of the screen)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     return save_png(fig, out)
 
@@ -99,7 +100,8 @@ def write_analysis_report(analysis: object, folder: str | os.PathLike[str], *, d
                 f"The disparity of {every} ({analysis.kind}, {analysis.width}x{analysis.height} per view, "
                 f"{analysis.frames} frames at {analysis.fps:g} frames/s) as vergence on the display, against the "
                 f"comfort zone {lo:+.0f} .. {hi:+.0f} arcmin and the divergence limit. Disparity in px is "
-                "`x_left - x_right` of the full-resolution views, positive in front of the screen; the "
+                "`x_left - x_right` of the full-resolution views, positive in front of the screen, and so is "
+                "its angle in arcmin; the "
                 "suggestion is `D' = scale D + shift_px`.",
                 figures=(Figure("disparity.png", "1-99 % and 5-95 % ranges and median per frame; dotted: cuts"),),
                 table=tuple(rows)),

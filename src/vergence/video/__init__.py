@@ -17,7 +17,9 @@ from vergence.video.analysis import (
     ShotStats,
     analyze_clip,
 )
-from vergence.video.convert import CONVERT_ORIGINS, SPLIT_FRAMES, VIDEO_SUFFIXES, Conversion, ShotConversion, convert_clip, converted_path
+from vergence.video.conversion import Conversion, ShotConversion
+from vergence.video.convert import CONVERT_ORIGINS, SPLIT_FRAMES, convert_clip
+from vergence.video.outputs import VIDEO_SUFFIXES, check_new_output, converted_path
 from vergence.video.clips import (
     CLIP_SHOTS,
     VISIBLE_RTOL,
@@ -80,6 +82,7 @@ __all__ = [
     "WINDOW_SHARE",
     "X264_PRESETS",
     "analyze_clip",
+    "check_new_output",
     "convert_clip",
     "converted_path",
     "detect_cuts",

@@ -86,17 +86,19 @@ def read_range(work: Path, piece: int, width: int):
     return MatchedPiece(h, (lo, hi), widened, saturated)
 
 
-def join_videos(segments: list[Path], out: Path, audio_from: Path | None, duration_s: float) -> None:
+def join_videos(segments: list[Path], out: Path, audio_from: Path | None, duration_s: float, *,
+                replace: bool = False) -> None:  # fmt: skip
     """Copy the packets of ``segments`` one after the other into ``out`` (atomically), then the audio.
 
     Audio packets past ``duration_s`` (the video's length) are left out: a truncated input's audio
-    is cut where its converted video ends.
+    is cut where its converted video ends. An existing ``out`` is replaced only with ``replace``
+    (else :class:`FileExistsError`, also when it appeared while joining).
     """
     from vergence.io import atomic_write
 
     av = require_av()
     options = {"movflags": "+faststart"} if out.suffix.lower() in (".mp4", ".mov") else {}
-    with atomic_write(out) as tmp, av.open(str(tmp), mode="w", options=options) as container:
+    with atomic_write(out, replace=replace) as tmp, av.open(str(tmp), mode="w", options=options) as container:
         with av.open(str(segments[0])) as first:
             template = first.streams.video[0]
             stream = container.add_stream_from_template(template)
@@ -138,17 +140,39 @@ def join_videos(segments: list[Path], out: Path, audio_from: Path | None, durati
                 source.close()
 
 
-def join_folders(segments: list[Path], out: Path) -> None:
-    """Link (or copy) the frames of the segment folders into the folder ``out`` (all or nothing)."""
-    from vergence.io import atomic_folder
+def join_folders(segments: list[Path], out: Path, *, replace: bool = False) -> None:
+    """Link (or copy) the frames of the segment folders into the folder ``out`` (all or nothing).
 
-    with atomic_folder(out) as tmp:
+    An ``out`` holding files is refused (:class:`FileExistsError`) unless ``replace``; then it is replaced
+    whole (no frame of an older, longer conversion is left among the new ones), the old folder moved
+    aside until the new one is in place.
+    """
+    import uuid
+
+    from vergence.video.outputs import check_new_output
+
+    check_new_output(out, force=replace)
+    tmp = out.with_name(f".{out.name}.tmp-{uuid.uuid4().hex[:12]}")
+    old = out.with_name(f".{out.name}.old-{uuid.uuid4().hex[:12]}")
+    tmp.mkdir()
+    try:
         for folder in segments:
             for f in sorted(folder.iterdir()):
                 try:  # a link keeps the segment whole until the join is committed (Ctrl-C, then --resume)
                     os.link(f, tmp / f.name)
                 except OSError:
                     shutil.copy2(f, tmp / f.name)
+        if out.exists():
+            os.rename(out, old)
+        os.rename(tmp, out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+        if old.exists():
+            if out.exists():
+                shutil.rmtree(old, ignore_errors=True)
+            else:  # the new folder did not arrive: the old one back
+                os.rename(old, out)
 
 
 class Stopped:

@@ -22,6 +22,7 @@ pair across its start (the warm-up's last frame), so the pairs measured are thos
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Callable, Iterator
@@ -364,3 +365,26 @@ def run_on_dask(jobs: list[ShotJob], client, on_done: Callable[..., None], *, ma
         for f in futures:
             f.cancel()
         raise
+
+
+class SharedSource:
+    """The serial run's decoder, shared by consecutive pieces; a piece that starts before it (a warm-up, or a
+    piece after a reused one far behind) opens its own range (the reader seeks)."""
+
+    def __init__(self, open_range: Callable, frames: int) -> None:
+        self._open, self._frames = open_range, frames
+        self._it = None
+        self._at = 0
+
+    def at(self, start: int):
+        """The iterator, at frame ``start``."""
+        if self._it is None or start < self._at:
+            self._it, self._at = self._open(start, self._frames), start
+        for _ in itertools.islice(self._it, start - self._at):  # frames of reused pieces
+            pass
+        self._at = start
+        return self._it
+
+    def moved(self, end: int) -> None:
+        """The last user took the frames up to ``end``."""
+        self._at = end

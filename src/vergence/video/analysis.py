@@ -13,7 +13,10 @@ views, positive in front of the screen; ``docs/conventions.md``) comes from
 
 The image fills the display's width: ``N / W`` display pixels per view pixel, so the screen
 parallax is ``s = -D N / W`` display pixels and its vergence change comes from
-:func:`vergence.viewing.arcmin_from_pixels` (positive behind the screen). Then, per frame:
+:func:`vergence.viewing.arcmin_from_pixels` (positive behind the screen). The analysis reports it with
+the sign of ``D`` (``disparity_arcmin``, ``comfort_zone_arcmin``: positive in front of the screen,
+``docs/conventions.md``), so each ``pN`` key of either unit holds the N-th percentile and ``p99`` is the
+nearest content. Then, per frame:
 
 - percentiles 1, 5, 50, 95, 99 of ``D`` (:data:`PERCENTILES`);
 - the share of pixels outside the :class:`~vergence.viewing.ComfortZone` and the share past the
@@ -31,12 +34,14 @@ searched in (``search_px``), the frames matched again in a widened range, those 
 measure).
 
 Per shot (cuts from :func:`vergence.video.detect_cuts`): the percentiles of all its pixels (from a
-histogram of :data:`HISTOGRAM_STEP_PX` bins), the vergence angle of each (``disparity_arcmin``: the
-angle of the p-th percentile of ``D``; angles fall as ``D`` grows), the shares and the frames where
-they happen, the count of window violations, and a suggested retargeting ``D' = scale D + shift_px``
-that brings the shot's 1st-99th percentile range inside the comfort zone (and before the divergence
-limit): a shift of convergence (horizontal image translation) when the range fits the zone, else
-the linear map of the range onto the zone.
+histogram of :data:`HISTOGRAM_STEP_PX` bins), each as an angle (``disparity_arcmin``: the vergence
+change of the p-th percentile of ``D``, signed as ``D``), the shares and the frames where they happen,
+the count of window violations, and a suggested retargeting ``D' = scale D + shift_px`` that brings the
+shot's 1st-99th percentile range inside the comfort zone (and before the divergence limit): a shift of
+convergence (horizontal image translation) when the range fits the zone, else the linear map of the
+range onto the zone. The comfort zone is a limit, not a target: ``vergence convert`` maps each shot's
+range onto its budget (``+-budget_arcmin``, 30 by default, half the default zone), and the suggestion's
+``convert`` entry gives the ``scale`` and ``shift_px`` that conversion applies, for comparison.
 """
 
 from __future__ import annotations
@@ -221,6 +226,15 @@ def _suggest(d1: float, d99: float, lo: float, hi: float) -> dict:
     return {"action": action, "scale": scale, "shift_px": shift, "range_px": [scale * d1 + shift, scale * d99 + shift]}
 
 
+def _fill(d1: float, d99: float, lo: float, hi: float, *, budget_arcmin: float) -> dict:
+    """What ``vergence convert`` does to a shot whose range is ``[d1, d99]``: ``D' = scale D + shift`` onto the
+    budget ``[lo, hi]`` (D, px), filling it (:mod:`vergence.video.convert`, one linear psi per shot)."""
+    if not d99 > d1:
+        return {"budget_arcmin": budget_arcmin, "scale": None, "shift_px": None, "range_px": [lo, hi]}
+    scale = (hi - lo) / (d99 - d1)
+    return {"budget_arcmin": budget_arcmin, "scale": scale, "shift_px": lo - scale * d1, "range_px": [lo, hi]}
+
+
 def analyze_clip(
     clip: StereoClip | DepthClip,
     display: Display,
@@ -252,7 +266,8 @@ def analyze_clip(
     method : str
         Stereo clips: a matcher of :data:`vergence.depth.MATCHERS`.
     budget_arcmin : float
-        2D + depth clips: the budget of ``vergence synthesize`` (+-A arcmin), fitted per shot.
+        The budget of ``vergence synthesize`` and ``vergence convert`` (+-A arcmin): a 2D + depth clip's
+        parallax is planned into it per shot; each shot's suggestion gives convert's mapping onto it.
     vertical : bool
         Stereo clips: measure the vertical disparity of feature matches.
     progress : callable(done, total), optional
@@ -276,6 +291,9 @@ def analyze_clip(
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
+    if (isinstance(budget_arcmin, bool) or not isinstance(budget_arcmin, int | float | np.number)
+            or not 0 < budget_arcmin <= 600):  # fmt: skip
+        raise ValueError(f"budget_arcmin must be a number in (0, 600]; got {budget_arcmin!r}")
     if isinstance(every, bool) or not isinstance(every, int | np.integer) or every < 1:
         raise ValueError(f"every must be an integer >= 1; got {every!r}")
     from vergence.depth import MATCHERS
@@ -297,6 +315,9 @@ def analyze_clip(
 
     scale = display.resolution / width  # display px per view px
     zone_screen = zone.pixels(display)  # (crossed < 0, uncrossed > 0) display px
+    # convert's budget in D (what vergence convert maps each shot onto; its default for a stereo clip too)
+    budget_screen = ComfortZone(crossed_arcmin=budget_arcmin, uncrossed_arcmin=budget_arcmin).pixels(display)
+    budget_d = (-budget_screen[1] / scale, -budget_screen[0] / scale)
     divergence_screen = display.divergence_disparity * display.resolution  # S0 Eq. (8) in display px
     # The zone in D (view px): crossed limit in front (D > 0), uncrossed behind, never past divergence.
     zone_d = (-min(zone_screen[1], divergence_screen) / scale, -zone_screen[0] / scale)
@@ -400,12 +421,14 @@ def analyze_clip(
         if not frames:  # a shot shorter than `every` between two analysed frames
             continue
         pct = hist[s].percentiles(*extremes[s])
-        # the angle of the p-th percentile of D (angles fall as D grows)
-        angles = np.asarray(arcmin_from_pixels(_to_screen_px(pct, scale), display))
+        # the vergence change of the p-th percentile of D, signed as D (positive in front: rises with D)
+        angles = -np.asarray(arcmin_from_pixels(_to_screen_px(pct, scale), display))
         dys = [f.vertical_px for f in frames if f.vertical_px is not None]
         suggestion = _suggest(float(pct[0]), float(pct[-1]), *zone_d)
-        suggestion["range_arcmin"] = [float(v) for v in arcmin_from_pixels(
+        suggestion["target"] = "comfort zone"
+        suggestion["range_arcmin"] = [-float(v) for v in arcmin_from_pixels(
             _to_screen_px(np.array(suggestion["range_px"]), scale), display)]  # fmt: skip
+        suggestion["convert"] = _fill(float(pct[0]), float(pct[-1]), *budget_d, budget_arcmin=float(budget_arcmin))
         known, outside, diverging = (int(v) for v in counts[s])
         shots.append(ShotStats(
             start=start, end=end, disparity_px=_keys(pct), disparity_arcmin=_keys(angles),
@@ -420,7 +443,7 @@ def analyze_clip(
         ))  # fmt: skip
     return ClipAnalysis(
         kind="stereo" if stereo else "2d+depth", frames=clip.frames, fps=float(clip.fps), width=width, height=height,
-        every=int(every), display=dataclasses.asdict(display), zone_arcmin=(zone.min_arcmin, zone.max_arcmin),
+        every=int(every), display=dataclasses.asdict(display), zone_arcmin=(-zone.max_arcmin, -zone.min_arcmin),
         zone_px=(float(zone_d[0]), float(zone_d[1])), divergence_px=float(-divergence_screen / scale),
         shots=tuple(shots), per_frame=tuple(per_frame), change=cuts.change,
         thumbnails=tuple(thumbs[s] for s in sorted(thumbs)), options=options,

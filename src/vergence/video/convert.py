@@ -48,14 +48,12 @@ each view); a 2D + depth clip is the centre (default) or the left view, as ``ver
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
-import re
 import shutil
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -63,6 +61,7 @@ import numpy as np
 
 from vergence.video._shots import (
     SPLIT_FRAMES,
+    SharedSource,
     ShotJob,
     close_client,
     match_shot,
@@ -73,8 +72,10 @@ from vergence.video._shots import (
     warmup_frames,
 )
 from vergence.video._histogram import PERCENTILES, ShotHistogram
-from vergence.video.measured import DEPTH_ORDER_MIN, OutputCheck
-from vergence.video.search import SATURATION_SHARE, on_bound, shot_search_ranges
+from vergence.video.conversion import Conversion, ShotConversion
+from vergence.video.measured import measure_output
+from vergence.video.outputs import VIDEO_SUFFIXES, check_new_output, converted_path
+from vergence.video.search import on_bound, shot_search_ranges
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
@@ -83,162 +84,10 @@ if TYPE_CHECKING:
     from vergence.viewing import Display
     from vergence.viewing.mapping_operators import LinearMapping
 
-__all__ = ["CONVERT_ORIGINS", "SPLIT_FRAMES", "VIDEO_SUFFIXES", "Conversion", "ShotConversion", "convert_clip", "converted_path"]
+__all__ = ["CONVERT_ORIGINS", "SPLIT_FRAMES", "convert_clip"]
 
 # Where the original view sits among the output views: the left view, or the centre of the pair.
 CONVERT_ORIGINS = ("left", "center")
-# The output's re-matched parallax range may pass the planned one by this much (px of the views) before a warning:
-# matching noise of the re-match through H.264 (on the plane clips of tests/video/test_convert_budget.py, 0.1-0.2 px).
-OUTPUT_TOL_PX = 1.0
-# Output containers (anything else is an image folder of PNG frames).
-VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov")
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class ShotConversion:
-    """One shot, ``[start, end)``, and the linear psi that maps its range into the budget.
-
-    ``range_in`` is the shot's nearness (2D + depth) or disparity (stereo, px) range; ``range_px``
-    the output parallax ``P = x_r - x_l`` it maps to (positive behind the screen); ``reused`` is True
-    when ``--resume`` found its segment finished; ``search`` (stereo) the matching's search range and its
-    checks (:mod:`vergence.video.search`), its ``on_bound`` naming an end of ``range_in`` on a search bound.
-    """
-
-    start: int
-    end: int
-    mapping: LinearMapping
-    range_in: tuple[float, float]
-    range_px: tuple[float, float]
-    reused: bool
-    search: dict | None = None
-    output: OutputCheck | None = None
-
-    @property
-    def saturated(self) -> bool:
-        """Stereo: the matching's content reached past its search range (:mod:`vergence.video.search`)."""
-        s = self.search
-        return bool(s and (s["saturated_frames"] or s["features_outside"] > SATURATION_SHARE))
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class Conversion:
-    """What :func:`convert_clip` wrote.
-
-    Attributes
-    ----------
-    out : pathlib.Path
-        The video file or the image folder.
-    kind : str
-        ``"stereo"`` or ``"2d+depth"``.
-    frames : int
-        Frames converted (fewer than the clip's when it stopped early).
-    fps : float
-    layout, pixel_format : str
-        Output layout (:data:`vergence.display.LAYOUTS`) and chroma format (None for images).
-    shots : tuple of ShotConversion
-    flicker_before, flicker_after : Flicker
-        Frame-to-frame change of the output parallax on static content (px of the views), without and
-        with the stabilisation, over the shots converted in this run.
-    stopped : str or None
-        Why the input ended before its announced length (the frames before were converted), else None.
-    seconds : float
-        Wall time of the whole conversion.
-    """
-
-    out: Path
-    kind: str
-    frames: int
-    fps: float
-    layout: str
-    pixel_format: str | None
-    shots: tuple[ShotConversion, ...]
-    flicker_before: Flicker
-    flicker_after: Flicker
-    stopped: str | None
-    seconds: float
-
-    def to_dict(self) -> dict:
-        """Plain JSON-ready summary."""
-        return {
-            "out": str(self.out), "kind": self.kind, "frames": self.frames, "fps": self.fps, "layout": self.layout,
-            "pixel_format": self.pixel_format, "stopped": self.stopped, "seconds": self.seconds,
-            "flicker_before_px": self.flicker_before.mean_px, "flicker_after_px": self.flicker_after.mean_px,
-            "shots": [{"start": s.start, "end": s.end, "range_in": list(s.range_in), "range_px": list(s.range_px),
-                       "gain": None if s.mapping is None else s.mapping.gain, "reused": s.reused,
-                        **({} if s.search is None else {"search": s.search, "saturated": s.saturated}),
-                        "output": None if s.output is None else s.output.to_dict()}
-                       for s in self.shots],
-            "warnings": list(self.warnings),
-        }  # fmt: skip
-
-    @property
-    def warnings(self) -> tuple[str, ...]:
-        """One line per stereo shot whose matching reached past its search range or whose range sits on it."""
-        lines = []
-        for k, shot in enumerate(self.shots):
-            where = f"shot {k} (frames {shot.start}-{shot.end - 1})"
-            out = shot.output
-            if out is not None and not out.order_kept:
-                lines.append(f"{where}: the output does not keep the source's depth order (rank correlation "
-                             f"{out.rank_correlation:.2f} < {DEPTH_ORDER_MIN}, re-matched on frames "
-                             f"{', '.join(map(str, out.frames))})")  # fmt: skip
-            if out is not None and (out.range_px[0] < shot.range_px[0] - OUTPUT_TOL_PX
-                                    or out.range_px[1] > shot.range_px[1] + OUTPUT_TOL_PX):
-                lines.append(f"{where}: the output's parallax, re-matched, runs {out.range_px[0]:+.2f} .. "
-                             f"{out.range_px[1]:+.2f} px (1-99 %), past the planned {shot.range_px[0]:+.2f} .. "
-                             f"{shot.range_px[1]:+.2f} px")  # fmt: skip
-            if out is not None and out.on_bound:
-                lines.append(f"{where}: the output's measured {', '.join(out.on_bound)} sit on the re-match's search "
-                             f"bound ({out.search_px[0]} .. {out.search_px[1]} px): a bound, not a measure")
-            if shot.search is None:
-                continue
-            lo, hi = shot.search["search_px"]
-            if shot.saturated:
-                lines.append(f"{where}: its content reaches past the disparity search range ({lo} .. {hi} px): "
-                             f"{shot.search['saturated_frames']} frames with matches piled up at a bound, "
-                             f"{100 * shot.search['features_outside']:.0f} % of its features outside; its depth "
-                             "beyond is lost: give a wider search range")  # fmt: skip
-            if shot.search["on_bound"]:
-                lines.append(f"{where}: its disparity range {shot.range_in[0]:+.1f} .. {shot.range_in[1]:+.1f} px "
-                             f"({', '.join(shot.search['on_bound'])}) sits on the search bound ({lo} .. {hi} px)")
-        return tuple(lines)
-
-
-def converted_path(out: str | os.PathLike[str], source: str | os.PathLike[str], layout: str, *,
-                   images: bool = False) -> Path:  # fmt: skip
-    """The output path of a conversion, its name carrying the layout tag (:func:`~vergence.video.layout_video_name`).
-
-    ``out`` an existing folder: the output goes inside it, named after ``source`` (its own layout tag
-    taken off) with ``layout``'s tag, a ``.mp4`` (or, with ``images``, a folder). ``out`` a file name:
-    its tag is added when it carries none; a tag of another layout is refused.
-
-    Examples
-    --------
-    >>> converted_path("movie.mp4", "in_RGBD.mp4", "sbs").name
-    'movie_LRF_Full_SBS.mp4'
-    >>> converted_path("movie_Half_SBS.mkv", "in.mp4", "half-sbs").name
-    'movie_Half_SBS.mkv'
-    """
-    from vergence.video.layout import LAYOUT_TAGS, guess_layout, layout_video_name
-
-    o = Path(out)
-    if o.is_dir():
-        stem = Path(source).stem if Path(source).suffix else Path(source).name
-        for pattern, _ in LAYOUT_TAGS:
-            stem = re.sub(pattern, "", stem)
-        stem = re.sub(r"[-_.\s]+$", "", re.sub(r"([-_])[-_]+", r"\1", stem)) or "converted"  # "a_LRF_Full_SBS" -> "a"
-        return o / layout_video_name(stem, layout, suffix="" if images else ".mp4")
-    suffix = o.suffix.lower()
-    if images == (suffix in VIDEO_SUFFIXES):
-        what = "a folder (no extension)" if images else f"a {', '.join(VIDEO_SUFFIXES)} file or an existing folder"
-        raise ValueError(f"out must be {what}; got {o.name!r}")
-    stem = o.name[: len(o.name) - len(o.suffix)] if suffix else o.name
-    guessed = guess_layout(o)
-    if guessed == layout or stem.endswith(layout_video_name("", layout, suffix="")):
-        return o
-    if guessed is not None:
-        raise ValueError(f"out {o.name} is tagged {guessed!r}; the output layout is {layout!r}")
-    return o.with_name(layout_video_name(stem, layout, suffix=o.suffix))
 
 
 def _check_number(name: str, value: object, lo: float, hi: float, *, lo_open: bool = False) -> float:
@@ -270,29 +119,6 @@ def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, displa
     return plan_parallax(row, kind="disparity", budget_arcmin=budget_arcmin, display=display).mapping
 
 
-class _SharedSource:
-    """The serial run's decoder, shared by consecutive pieces; a piece that starts before it (a warm-up, or a
-    piece after a reused one far behind) opens its own range (the reader seeks)."""
-
-    def __init__(self, open_range: Callable, frames: int) -> None:
-        self._open, self._frames = open_range, frames
-        self._it = None
-        self._at = 0
-
-    def at(self, start: int):
-        """The iterator, at frame ``start``."""
-        if self._it is None or start < self._at:
-            self._it, self._at = self._open(start, self._frames), start
-        for _ in itertools.islice(self._it, start - self._at):  # frames of reused pieces
-            pass
-        self._at = start
-        return self._it
-
-    def moved(self, end: int) -> None:
-        """The last user took the frames up to ``end``."""
-        self._at = end
-
-
 def convert_clip(
     clip: StereoClip | DepthClip,
     out: str | os.PathLike[str],
@@ -312,6 +138,7 @@ def convert_clip(
     min_disparity: int | None = None,
     max_disparity: int | None = None,
     resume: bool = False,
+    force: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
     workers: int = 1,
     scheduler: str | None = None,
@@ -353,6 +180,10 @@ def convert_clip(
     resume : bool
         Reuse the finished shots of an interrupted run with the same input and options (its work
         folder ``.NAME.parts`` beside ``out``).
+    force : bool
+        Replace an existing ``out`` (a file, or an image folder holding files); without it such an ``out`` is
+        refused before any work (:func:`~vergence.video.check_new_output`) and, should one appear meanwhile,
+        at the end (the finished shots then stay in the work folder for ``resume``). Never one of the clip's files.
     progress : callable(phase, done, total), optional
         Called after each frame of each pass (``"shots"``, ``"matching"``, ``"converting"``); with Dask,
         ``"converting"`` as each shot finishes.
@@ -382,6 +213,8 @@ def convert_clip(
         without depth range, and the errors of matching and synthesis. A clip that breaks mid-way is
         not an error here: the frames before are written and :attr:`Conversion.stopped` says why.
         An unreachable ``scheduler`` (before any pass over the clip).
+    FileExistsError
+        ``out`` exists and ``force`` is False.
     ImportError
         ``workers > 1`` or ``scheduler`` without ``dask.distributed`` (``pip install 'vergence[dask]'``).
     """
@@ -421,6 +254,7 @@ def _convert_clip(
     min_disparity: int | None,
     max_disparity: int | None,
     resume: bool,
+    force: bool,
     progress: Callable[[str, int, int], None] | None,
     split_frames: int,
     client: object,
@@ -466,6 +300,7 @@ def _convert_clip(
     for p in _inputs(clip):
         if out.resolve() == Path(p).resolve():
             raise ValueError(f"out {out} would overwrite input {p}")
+    check_new_output(out, force=bool(force))
     width, height = clip.width, clip.height
     if stereo:
         from vergence.depth import MATCHERS
@@ -542,8 +377,8 @@ def _convert_clip(
         searched: list[dict | None] = [None] * len(shots)
         if stereo:
             piece_matched: dict = {}
-            for i, (s, *_) in enumerate(pieces):
-                if done[i] and not reused[s]:
+            for i in range(len(pieces)):
+                if done[i]:  # a finished piece's range from its record: every shot's psi is known, reused or not
                     piece_matched[i] = _segments.read_range(work, i, width)
             todo = sum(job.end - job.start for job in jobs)
             count = 0
@@ -564,7 +399,7 @@ def _convert_clip(
                     count += 1
                     report("matching", count, todo)
 
-                source = _SharedSource(clip.pairs, n)
+                source = SharedSource(clip.pairs, n)
                 for job in jobs:
                     matched(job, *match_shot(job, source.at(job.start - job.warmup), tick))
                     source.moved(job.end)
@@ -588,10 +423,7 @@ def _convert_clip(
                 with np.errstate(all="ignore"):
                     range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
                                      float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
-        mappings = [None if (stereo and reused[s]) else _shot_mapping(*range_in[s], width, budget, display, s, shots[s])
-                    for s in range(len(shots))]  # fmt: skip
-        if transition > 0 and any(m is None for m in mappings):  # a ramp needs every shot's psi
-            raise ValueError("--resume with a transition needs every shot's mapping: run without --resume")
+        mappings = [_shot_mapping(*range_in[s], width, budget, display, s, shots[s]) for s in range(len(shots))]
 
         # Pass 3: render, pack and encode the unfinished pieces, one segment each (a job per piece: _shots).
         jobs = [replace(job, mappings=tuple(mappings)) for job in jobs]
@@ -615,7 +447,7 @@ def _convert_clip(
                 count += 1
                 report("converting", count, todo)
 
-            source = _SharedSource(clip.lefts if stereo else clip.pairs, n)
+            source = SharedSource(clip.lefts if stereo else clip.pairs, n)
             for job in jobs:
                 rendered(job, render_shot(job, source.at(job.start if stereo else job.start - job.warmup), tick))
                 source.moved(job.end)
@@ -623,11 +455,11 @@ def _convert_clip(
             raise ValueError(f"conversion of {_inputs(clip)[0]} left shots unfinished")
 
         if images:
-            _segments.join_folders(segments, out)
+            _segments.join_folders(segments, out, replace=bool(force))
         else:
             reader = clip.reader if stereo else clip.colour
             audio = reader.path if reader.files is None else None
-            _segments.join_videos(segments, out, audio, n / clip.fps)
+            _segments.join_videos(segments, out, audio, n / clip.fps, replace=bool(force))
         shutil.rmtree(work, ignore_errors=True)
     except BaseException:
         # Nothing finished (a bad option found by planning, Ctrl-C in the first shot): no work folder left behind;
@@ -654,34 +486,8 @@ def _convert_clip(
                        search=searched[s])
         for s, (a, b) in enumerate(shots)
     )  # fmt: skip
-    conversions = _measure_output(conversions, clip, out, layout, method, searches)
+    conversions = measure_output(conversions, clip, out, layout, method, searches)
     return Conversion(out=out, kind="stereo" if stereo else "2d+depth", frames=n, fps=float(clip.fps), layout=layout,
                       pixel_format=None if images else pixel_format, shots=conversions,
                       flicker_before=combined(0), flicker_after=combined(1), stopped=guard.reason,
                       seconds=time.perf_counter() - started)  # fmt: skip
-
-
-def _measure_output(conversions: tuple[ShotConversion, ...], clip: StereoClip | DepthClip, out: Path, layout: str,
-                    method: str, searches: list) -> tuple[ShotConversion, ...]:  # fmt: skip
-    """Each shot converted in this run, measured on the output (:mod:`vergence.video.measured`); an output that
-    does not split into two views of the source's size is left unmeasured."""
-    from vergence.video.layout import STEREO_LAYOUTS
-    from vergence.video.measured import measure_shot_output
-    from vergence.video.sources import open_stereo
-
-    if layout not in STEREO_LAYOUTS or STEREO_LAYOUTS[layout][1]:  # half-width views, anaglyphs: not measured
-        return conversions
-    output = open_stereo(out, layout=layout, fps=clip.fps)
-    if (output.width, output.height) != (clip.width, clip.height):
-        return conversions
-    stereo = isinstance(clip, StereoClip)
-    measured = []
-    for s, shot in enumerate(conversions):
-        if shot.reused or shot.mapping is None:
-            measured.append(shot)
-            continue
-        check = measure_shot_output(output, clip, shot.start, shot.end, shot.range_px, method=method,
-                                    source_search=searches[s] if stereo else None,
-                                    depth_kind=None if stereo else clip.kind)  # fmt: skip
-        measured.append(replace(shot, output=check))
-    return tuple(measured)

@@ -20,14 +20,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from vergence.video._histogram import PERCENTILES, ShotHistogram
 from vergence.video.search import SEARCH_MARGIN_MIN_PX, SearchRange, match_searched, on_bound
 
-__all__ = ["DEPTH_ORDER_MIN", "OUTPUT_SAMPLES", "RANK_PIXELS", "OutputCheck", "measure_shot_output"]
+__all__ = ["DEPTH_ORDER_MIN", "OUTPUT_SAMPLES", "RANK_PIXELS", "OutputCheck", "measure_output", "measure_shot_output"]
 
 # Frames of each shot matched again on the output (first, middle, last).
 OUTPUT_SAMPLES = 3
@@ -111,3 +111,27 @@ def measure_shot_output(output, source, start: int, end: int, planned_px: tuple[
     return OutputCheck(frames=tuple(frames), disparity_px=pct, range_px=(-pct["p99"], -pct["p1"]),
                        rank_correlation=rho, search_px=(search_lo, search_hi),
                        on_bound=tuple(on_bound(pct, search_lo, search_hi)))  # fmt: skip
+
+
+def measure_output(conversions: tuple, clip, out, layout: str, method: str, searches: list) -> tuple:
+    """Each shot converted in this run, measured on the output (:mod:`vergence.video.measured`); an output that
+    does not split into two views of the source's size is left unmeasured."""
+    from vergence.video.layout import STEREO_LAYOUTS
+    from vergence.video.sources import StereoClip, open_stereo
+
+    if layout not in STEREO_LAYOUTS or STEREO_LAYOUTS[layout][1]:  # half-width views, anaglyphs: not measured
+        return conversions
+    output = open_stereo(out, layout=layout, fps=clip.fps)
+    if (output.width, output.height) != (clip.width, clip.height):
+        return conversions
+    stereo = isinstance(clip, StereoClip)
+    measured = []
+    for s, shot in enumerate(conversions):
+        if shot.reused or shot.mapping is None:
+            measured.append(shot)
+            continue
+        check = measure_shot_output(output, clip, shot.start, shot.end, shot.range_px, method=method,
+                                    source_search=searches[s] if stereo else None,
+                                    depth_kind=None if stereo else clip.kind)  # fmt: skip
+        measured.append(replace(shot, output=check))
+    return tuple(measured)

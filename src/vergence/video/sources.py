@@ -204,11 +204,12 @@ def open_stereo(path: str | os.PathLike[str], *, layout: str | None = None, fps:
         raise ValueError(f"layout must be one of {', '.join(STEREO_LAYOUTS)}; got {layout!r}")
     if layout is None:
         guessed = guess_layout(path)
+        name = Path(path).name or str(Path(path).resolve())  # "." has no name
         if guessed is None:
-            raise ValueError(f"cannot guess the stereo layout of {Path(path).name}: its name carries no tag such as "
+            raise ValueError(f"cannot guess the stereo layout of {name}: its name carries no tag such as "
                              f"_LRF_Full_SBS, _Half_SBS, _LR, _TB, -lr, -tb; give the layout ({', '.join(STEREO_LAYOUTS)})")
         if guessed not in STEREO_LAYOUTS:
-            raise ValueError(f"{Path(path).name} is tagged {guessed!r} (colour + depth), not a stereo layout: open it as "
+            raise ValueError(f"{name} is tagged {guessed!r} (colour + depth), not a stereo layout: open it as "
                              "a 2D + depth clip, or give the layout")
         layout = guessed
     reader = _reader(path, fps)
