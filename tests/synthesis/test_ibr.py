@@ -15,6 +15,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import Camera, look_at
 from vergence.synthesis import IBRResult, IBRSource, render_ibr
 from vergence.synthesis import _ibr_kernels
+from vergence.synthesis import _ibr_stages
 from vergence.synthesis._ibr_stages import FOV_MARGIN_PX
 from vergence.synthesis.ibr import (
     ULR_FOV_BAND,
@@ -79,12 +80,36 @@ def _keys(t):
     return [k(t + 1), k(t), k(1 - t), k(2 - t)]
 
 
-def _ref_sample(points, cam, image, depth, tol, cubic=False):
-    """Python loop: project, field of view, nearest pixel's depth agreement, renormalised bilinear colour;
-    with ``cubic``, inside one surface (16 agreeing pixels, borders clamped), Catmull-Rom clamped to the
-    four nearest pixels' range."""
+def _ref_slopes(depth, cap):
+    """Python loop: per pixel the |difference| to its neighbour towards -x, +x, -y, +y; the opposite
+    side's where that one is unknown; 0 if neither; capped at cap * z."""
+    hs, ws = depth.shape
+    out = np.zeros((4, hs, ws))
+
+    def diff(y, x, dy, dx):
+        yy, xx = y + dy, x + dx
+        if 0 <= yy < hs and 0 <= xx < ws and np.isfinite(depth[yy, xx]):
+            return abs(depth[yy, xx] - depth[y, x])
+        return None
+
+    for y in range(hs):
+        for x in range(ws):
+            for k, (dy, dx) in enumerate(((0, -1), (0, 1), (-1, 0), (1, 0))):
+                d = diff(y, x, dy, dx)
+                if d is None:
+                    d = diff(y, x, -dy, -dx)
+                out[k, y, x] = 0.0 if d is None or not np.isfinite(d) else min(d, cap * depth[y, x])
+    return out
+
+
+def _ref_sample(points, cam, image, depth, tol, cubic=False, slopes=None):
+    """Python loop: project, field of view, nearest pixel's depth agreement (relative tolerance plus the
+    pixel's slope times its distance to the projection), renormalised bilinear colour; with ``cubic``,
+    inside one surface (16 agreeing pixels, borders clamped), Catmull-Rom clamped to the four nearest
+    pixels' range."""
     h, w = points.shape[:2]
     hs, ws = depth.shape
+    slopes = np.zeros((4, hs, ws)) if slopes is None else slopes
     pixels = np.full((h, w, 2), np.nan)
     visible = np.zeros((h, w), dtype=bool)
     colours = np.zeros((h, w, 3))
@@ -103,12 +128,18 @@ def _ref_sample(points, cam, image, depth, tol, cubic=False):
                 continue
             uc, vc = min(max(u, 0.0), ws - 1.0), min(max(v, 0.0), hs - 1.0)
             x0, y0 = int(math.floor(uc)), int(math.floor(vc))
-            if not abs(depth[int(math.floor(vc + 0.5)), int(math.floor(uc + 0.5))] - q[2]) <= tol * q[2]:
+
+            def agrees(xj, yj, q=q, uc=uc, vc=vc):
+                sx = slopes[1 if uc > xj else 0, yj, xj]  # the slope on the projection's side
+                sy = slopes[3 if vc > yj else 2, yj, xj]
+                return abs(depth[yj, xj] - q[2]) <= tol * q[2] + sx * abs(uc - xj) + sy * abs(vc - yj)
+
+            if not agrees(int(math.floor(uc + 0.5)), int(math.floor(vc + 0.5))):
                 continue  # the nearest source pixel sees another surface (or none)
             total, acc = 0.0, np.zeros(3)
             for xj, yj, b in ((x0, y0, (1 - (uc - x0)) * (1 - (vc - y0))), (x0 + 1, y0, (uc - x0) * (1 - (vc - y0))),
                               (x0, y0 + 1, (1 - (uc - x0)) * (vc - y0)), (x0 + 1, y0 + 1, (uc - x0) * (vc - y0))):
-                if b > 0 and xj < ws and yj < hs and abs(depth[yj, xj] - q[2]) <= tol * q[2]:
+                if b > 0 and xj < ws and yj < hs and agrees(xj, yj):
                     total += b
                     acc += b * image[yj, xj]
             if total > 0:
@@ -118,7 +149,7 @@ def _ref_sample(points, cam, image, depth, tol, cubic=False):
                 continue
             xs = [min(max(x0 - 1 + j, 0), ws - 1) for j in range(4)]
             ys = [min(max(y0 - 1 + j, 0), hs - 1) for j in range(4)]
-            if all(abs(depth[yj, xj] - q[2]) <= tol * q[2] for yj in ys for xj in xs):
+            if all(agrees(xj, yj) for yj in ys for xj in xs):
                 wx, wy = _keys(uc - x0), _keys(vc - y0)
                 patch = image[np.ix_(ys, xs)].astype(np.float64)  # (4, 4, 3)
                 val = np.einsum("i,j,ijc->c", wy, wx, patch)
@@ -204,8 +235,20 @@ def _random_points(rng, h, w):
     return points
 
 
+def test_surface_slopes_match_reference():
+    rng = np.random.default_rng(4)
+    depth = rng.uniform(1, 3, (7, 9))
+    depth[rng.random(depth.shape) < 0.2] = np.nan
+    depth[3, :] = np.nan  # a row with no vertical neighbours known
+    for cap in (0.0, 0.05, 10.0):
+        got = _ibr_stages.surface_slopes(depth, cap)
+        got[:, np.isnan(depth)] = 0.0  # a pixel without depth never agrees, whatever its slopes
+        assert_allclose(got, _ref_slopes(depth, cap), rtol=1e-12)
+
+
 @pytest.mark.parametrize("cubic", [False, True])
-def test_sample_source_matches_reference(cubic):
+@pytest.mark.parametrize("cap", [0.0, 0.1])
+def test_sample_source_matches_reference(cubic, cap):
     rng = np.random.default_rng(1)
     src = _sources([0.4], occluder=(0.0, 4.0, 0.8))[0]
     depth = src.depth.copy()
@@ -221,9 +264,10 @@ def test_sample_source_matches_reference(cubic):
     visible = np.empty((20, 30), dtype=bool)
     colours = np.empty((20, 30, 3), dtype=np.float32)
     cam = src.camera
-    _ibr_kernels.sample_source(points, cam.K, cam.R, cam.t, src.image, depth, 0.01, FOV_MARGIN_PX, cubic, pixels,
-                               visible, colours)  # fmt: skip
-    ref_pixels, ref_visible, ref_colours = _ref_sample(points, cam, src.image, depth, 0.01, cubic)
+    slopes = _ref_slopes(depth, cap)
+    _ibr_kernels.sample_source(points, cam.K, cam.R, cam.t, src.image, depth, slopes, 0.01, FOV_MARGIN_PX, cubic,
+                               pixels, visible, colours)  # fmt: skip
+    ref_pixels, ref_visible, ref_colours = _ref_sample(points, cam, src.image, depth, 0.01, cubic, slopes)
     assert 20 < visible.sum() < visible.size  # both outcomes occur
     assert_array_equal(visible, ref_visible)
     assert_allclose(pixels, ref_pixels, rtol=1e-12, atol=1e-9)
@@ -346,6 +390,41 @@ def test_weight_follows_the_nearest_source_and_a_source_enters_with_weight_zero(
     # Between two sources both contribute (no hard switch), with unequal weights off the midpoint.
     both = (fine > 0.05).sum(axis=1) >= 2
     assert both.mean() > 0.2
+
+
+def _ground_view(x: float, height: float) -> tuple[Camera, np.ndarray, np.ndarray]:
+    """A camera ``height`` m above the textured ground y = 0 (y down: the ground is below at +height in
+    camera-y terms), looking along z nearly level: its image and depth, NaN above the horizon."""
+    cam = look_at([x, -height, 0.0], [x, -height + 0.35, 10.0], [0.0, -1.0, 0.0], fov_deg=40.0, width=64, height=48)
+    rays = cam.ray_directions()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (0.0 - cam.center[1]) / rays[..., 1]
+    s = np.where(s > 0, s, np.nan)
+    points = cam.center + s[..., None] * rays
+    image = np.nan_to_num(_texture(points[..., [0, 2, 1]])).astype(np.float32)
+    depth = (points - cam.center) @ cam.R[2]
+    return cam, image, depth
+
+
+def test_grazing_ground_is_seen_where_every_source_sees_it():
+    """Ground seen at a shallow angle changes depth by several per cent per pixel: the relative 1 %
+    test alone (slope cap 0) rejects much of it although both sources see it all; the slope-aware test
+    accepts it (issue 27's stripes), and the proxy is exact, so nothing else could reject it. Within
+    4.5 m the ground's depth changes by 4-16 % per target pixel; beyond, up to the horizon, by more
+    than the cap (10 %) allows for, and that far ground is left out."""
+    srcs = [IBRSource(*_ground_view(x, h)) for x, h in ((-0.2, 0.27), (0.2, 0.34))]
+    target, truth, depth = _ground_view(0.05, 0.3)
+    seen = depth < 4.5  # ground the target sees inside both sources' images (nothing occludes)
+    points = np.nan_to_num(target.backproject_depth(depth))  # sky: the origin, excluded above
+    for src in srcs:
+        uv, _ = src.camera.project(points)
+        seen &= (uv[..., 0] >= 0) & (uv[..., 0] <= 63) & (uv[..., 1] >= 0) & (uv[..., 1] <= 47)
+    assert seen.sum() > 700
+    strict = render_ibr(target, srcs, proxy_depth=depth, occlusion_slope_cap=0.0)
+    aware = render_ibr(target, srcs, proxy_depth=depth)
+    assert strict.coverage[seen].mean() < 0.9
+    assert aware.coverage[seen].mean() > 0.97
+    assert np.abs(aware.image - truth)[aware.coverage].mean() < 0.02
 
 
 def test_visibility_test_stops_ghosting():

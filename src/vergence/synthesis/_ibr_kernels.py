@@ -82,15 +82,26 @@ def _catmull_rom(t, j):  # pragma: no cover - compiled
     return 0.5 * (t3 - t2)
 
 
+@nb.njit(cache=True, inline="always")
+def _agrees(depth, slopes, xj, yj, u, v, qz, tol):  # pragma: no cover - compiled
+    """Source pixel ``(xj, yj)`` sees the point at depth ``qz`` projected to ``(u, v)`` (see sample_source)."""
+    sx = slopes[1, yj, xj] if u > xj else slopes[0, yj, xj]
+    sy = slopes[3, yj, xj] if v > yj else slopes[2, yj, xj]
+    return abs(depth[yj, xj] - qz) <= tol * qz + sx * abs(u - xj) + sy * abs(v - yj)
+
+
 @nb.njit(cache=True, parallel=True, error_model="numpy")
-def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, visible, colours):  # pragma: no cover - compiled
+def sample_source(points, K, R, t, image, depth, slopes, tol, margin, cubic, pixels, visible, colours):  # pragma: no cover - compiled
     """Project every proxy point into one source, test field of view and visibility, sample its colour.
 
     Camera frame ``q = R p + t``; in front when ``q_z > 0``; pixel ``(u, v) = (K q)_{xy} / q_z``
     (written to ``pixels`` unless it is empty, NaN when behind). Field of view: the hull of the
     pixel centres, ``0 <= u <= W - 1``, ``0 <= v <= H - 1``, widened by ``margin`` pixels (``render_ibr``:
-    half a pixel, the pixel rectangle; the sample is clamped to the hull). A source pixel agrees with the point
-    when ``|z_j - q_z| <= tol * q_z`` (NaN never agrees). The point is visible when the source pixel
+    half a pixel, the pixel rectangle; the sample is clamped to the hull). A source pixel ``j`` agrees with
+    the point when ``|z_j - q_z| <= tol q_z + s_x,j |u - u_j| + s_y,j |v - v_j|`` (NaN never agrees): the
+    relative tolerance plus the change of the pixel's surface between its centre and the projection,
+    ``s_x``, ``s_y`` its one-sided depth slopes (metres per pixel) on the projection's side, ``slopes``
+    ``(4, H, W)`` towards -x, +x, -y, +y (``_ibr_stages.surface_slopes``; zeros: the relative test alone). The point is visible when the source pixel
     nearest to the projection agrees; its colour is the bilinear blend of the agreeing pixels among
     the four neighbours, renormalised (an occluder's pixels never bleed in). With ``cubic``, where
     all 16 pixels around the projection agree (inside one surface), the colour is the Catmull-Rom
@@ -131,7 +142,7 @@ def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, vis
             fy = vc - y0
             xn = min(int(math.floor(uc + 0.5)), ws - 1)
             yn = min(int(math.floor(vc + 0.5)), hs - 1)
-            if not abs(depth[yn, xn] - qz) <= tol * qz:
+            if not _agrees(depth, slopes, xn, yn, uc, vc, qz, tol):
                 continue
             total = 0.0
             acc0 = 0.0
@@ -145,7 +156,7 @@ def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, vis
                 b = bx * by
                 if not b > 0.0 or xj >= ws or yj >= hs:
                     continue
-                if not abs(depth[yj, xj] - qz) <= tol * qz:
+                if not _agrees(depth, slopes, xj, yj, uc, vc, qz, tol):
                     continue
                 total += b
                 acc0 += b * image[yj, xj, 0]
@@ -162,7 +173,7 @@ def sample_source(points, K, R, t, image, depth, tol, margin, cubic, pixels, vis
             for j in range(16):
                 xj = min(max(x0 - 1 + (j & 3), 0), ws - 1)
                 yj = min(max(y0 - 1 + (j >> 2), 0), hs - 1)
-                if not abs(depth[yj, xj] - qz) <= tol * qz:
+                if not _agrees(depth, slopes, xj, yj, uc, vc, qz, tol):
                     inside = False
                     break
             if not inside:

@@ -121,11 +121,39 @@ def links_distorted(
     return links[0], links[1]
 
 
+def surface_slopes(depth: np.ndarray, cap: float) -> np.ndarray:
+    """One-sided depth slopes of a depth map, metres per pixel, for the visibility test: ``(4, H, W)``,
+    towards -x, +x, -y and +y.
+
+    Each is ``|z(neighbour) - z|`` on that side; where that neighbour is unknown (NaN, the image's
+    border), the opposite side's (the surface goes on); neither: 0. Each is at most ``cap`` times the
+    pixel's depth: a surface seen more edge-on than that widens the test no further.
+
+    >>> z = np.array([[1.0, 1.25, 2.0, 9.0]])
+    >>> surface_slopes(z, 0.5)[:2].tolist()
+    [[[0.25, 0.25, 0.75, 4.5]], [[0.25, 0.625, 1.0, 4.5]]]
+    """
+    out = np.zeros((4,) + depth.shape)
+    for k, axis in ((0, 1), (2, 0)):
+        d = np.abs(np.diff(depth, axis=axis))
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (1, 0)
+        back = np.pad(d, pad, constant_values=np.nan)
+        pad[axis] = (0, 1)
+        fwd = np.pad(d, pad, constant_values=np.nan)
+        out[k] = np.where(np.isnan(back), fwd, back)
+        out[k + 1] = np.where(np.isnan(fwd), back, fwd)
+    out = np.nan_to_num(out, nan=0.0)
+    with np.errstate(invalid="ignore"):
+        return np.where(out > cap * depth, cap * depth, out)  # NaN depth: the pixel never agrees anyway
+
+
 def sample_sources(
-    points: np.ndarray, sources: list[IBRSource], tol: float, store_pixels: bool, cubic: bool = True
+    points: np.ndarray, sources: list[IBRSource], tol: float, slope_cap: float, store_pixels: bool, cubic: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per source: proxy pixel ``(S, h, w, 2)`` (empty unless ``store_pixels``), visibility
-    ``(S, h, w)`` and colour ``(S, h, w, 3)``."""
+    ``(S, h, w)`` and colour ``(S, h, w, 3)``. The visibility test follows each source's surface slopes
+    (:func:`surface_slopes`, capped at ``slope_cap``; 0: the relative tolerance alone)."""
     h, w = points.shape[:2]
     n = len(sources)
     pixels = np.empty((n, h, w, 2) if store_pixels else (n, 0, 0, 2))
@@ -134,8 +162,9 @@ def sample_sources(
     pts = np.ascontiguousarray(points)
     for i, src in enumerate(sources):
         cam = src.camera
+        slopes = surface_slopes(src.depth, slope_cap)
         _ibr_kernels.sample_source(pts, np.ascontiguousarray(cam.K), np.ascontiguousarray(cam.R), np.ascontiguousarray(cam.t),
-                                   src.image, src.depth, tol, FOV_MARGIN_PX, cubic, pixels[i], visible[i], colours[i])
+                                   src.image, src.depth, slopes, tol, FOV_MARGIN_PX, cubic, pixels[i], visible[i], colours[i])
     return pixels, visible, colours
 
 

@@ -88,6 +88,14 @@ ULR_THRESHOLD_SCALE = 1.0000001
 # projection (within half a pixel), so a surface whose depth changes by up to 2 % per source pixel
 # still passes.
 IBR_OCCLUSION_TOLERANCE = 0.01
+# ... plus the change of the source pixel's surface between its centre and the projection: its depth
+# slope (metres per source pixel, the smaller of its two one-sided differences per axis) times the
+# distance, the slope capped at this fraction of the depth per pixel. Ground seen at a grazing angle
+# changes depth by several per cent per pixel and failed the 1 % test, turning into stripes ("zebra")
+# where every camera sees it; a surface more edge-on than the cap widens the test no further, so an
+# occluder's thin edge cannot pass for a slope. 0: the relative test alone. Chosen on the stadium
+# Quadri-Rig (`python -m tools.rig_choices`, docs/shots.md).
+IBR_OCCLUSION_SLOPE_CAP = 0.1
 # Bayesian weights: re-weightings on the current estimate after the first pass (which has no image
 # gradient); the weights of Pujades et al. 2014 change little after a few passes.
 BAYES_ITERATIONS = 3
@@ -134,6 +142,7 @@ def render_ibr(
     gamma: float = ULR_GAMMA,
     relative_threshold: float = ULR_RELATIVE_THRESHOLD,
     occlusion_tolerance: float = IBR_OCCLUSION_TOLERANCE,
+    occlusion_slope_cap: float = IBR_OCCLUSION_SLOPE_CAP,
     gradient_limit: float | None = IBR_LINK_LIMIT_PX,
     interpolation: str = "cubic",
     iterations: int = BAYES_ITERATIONS,
@@ -175,6 +184,10 @@ def render_ibr(
         Buehler's k-th penalty alone, equal weights when fewer than k sources see the point).
     occlusion_tolerance : float
         Relative depth agreement of the visibility test, > 0 (0.01 = 1 %).
+    occlusion_slope_cap : float
+        The visibility test also allows the source surface's depth change between its pixel centre and
+        the projection (its one-sided depth slope), the slope capped at this fraction of the depth per
+        pixel, >= 0 (0.1; 0: the relative test alone).
     gradient_limit : float or None
         Forward-warped proxy: two neighbouring source pixels are one surface when moving one of them
         to the other's depth shifts its target position by at most this many pixels (as in
@@ -284,6 +297,7 @@ def render_ibr(
     gamma = check_nonnegative("gamma", gamma)
     relative = _check_relative_threshold(relative_threshold)
     tol = check_positive("occlusion_tolerance", occlusion_tolerance)
+    slope_cap = check_nonnegative("occlusion_slope_cap", occlusion_slope_cap)
     limit = None if gradient_limit is None else check_nonnegative("gradient_limit", gradient_limit)
     if isinstance(iterations, bool) or not isinstance(iterations, int | np.integer):
         raise TypeError(f"iterations must be an integer; got {type(iterations).__name__}")
@@ -308,7 +322,7 @@ def render_ibr(
     points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
     say(0.3, f"sampling {len(srcs)} sources")
     store_pixels = True  # ULR: the field-of-view penalty; Bayesian: the image velocities
-    pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, store_pixels, interp == "cubic")
+    pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, slope_cap, store_pixels, interp == "cubic")
     if method == "ulr":
         say(0.7, "ULR weights")
         rays = np.zeros((0, 0, 3)) if distortion is None else _ibr_stages.desired_rays(distortion, points, points_t, target.center)
