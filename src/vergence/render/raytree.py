@@ -69,6 +69,7 @@ class _Flat:
     first_t: np.ndarray  # (n_slots,) float64, NaN without a first hit
     tree_rays: np.ndarray  # (views,) rays of the tree per view
     ao_rays: np.ndarray  # (views,) AO rays per view
+    object_id: np.ndarray  # (N, n_slots) int32: index into scene.objects of each node's hit, -1 without one
 
 
 # What the tracer calls on its shading stage (see WhittedShader).
@@ -222,7 +223,8 @@ class Tracer:
         rad = flat.radiance.reshape(nodes, *out_shape, 3)
         return RayTree(radiance=rad, position=flat.position.reshape(rad.shape), normal=flat.normal.reshape(rad.shape),
                        distance=flat.first_t.reshape(out_shape), hit=np.isfinite(flat.first_t).reshape(out_shape),
-                       beauty=rad.sum(axis=0), settings=settings)  # fmt: skip
+                       beauty=rad.sum(axis=0), settings=settings,
+                       object_id=flat.object_id.reshape(nodes, *out_shape))  # fmt: skip
 
     # ------------------------------------------------------------------ internals
     def _settings(self, max_depth, samples, rng, ao_distance, tree_rays, ao_rays, supersample=1) -> RenderSettings:  # noqa: ANN001
@@ -288,7 +290,8 @@ class Tracer:
             settings = self._settings(max_depth, samples, rng, ao_distance, tree_rays, ao_rays, supersample)
             out.append(RenderResult(radiance=rad, position=flat.position[:, sl].reshape(rad.shape),
                                     normal=flat.normal[:, sl].reshape(rad.shape), depth=depth,
-                                    beauty=rad.sum(axis=0), camera=cam, settings=settings))  # fmt: skip
+                                    beauty=rad.sum(axis=0), camera=cam, settings=settings,
+                                    object_id=flat.object_id[:, sl].reshape(n, h, w)))  # fmt: skip
         return out
 
     def _trace(self, batches, starts, *, tmax, max_depth, samples, rng, ao_distance, progress) -> _Flat:  # noqa: ANN001
@@ -300,6 +303,7 @@ class Tracer:
         nrm = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
         first_p = np.full((n_slots, 3), np.nan)
         first_t = np.full(n_slots, np.nan)
+        oid = np.full((n_nodes, n_slots), -1, dtype=np.int32)
         pix = np.concatenate([b.pixels for b in batches])
         o = np.concatenate([b.origins for b in batches])  # exact origins (float64 geometry)
         d = np.concatenate([b.directions for b in batches])
@@ -329,6 +333,7 @@ class Tracer:
             ng, ns = ng * side, ns * side  # both face the arriving ray now
             _kernels.scatter_nodes(pos, node, pix, p)
             _kernels.scatter_nodes(nrm, node, pix, ns)
+            oid[node - 1, pix] = obj  # each (node, pixel) is reached by one ray of a level
             if level == 0:
                 first_p[pix] = p
                 first_t[pix] = hits.t
@@ -356,7 +361,7 @@ class Tracer:
             ao_rays = np.bincount(view_of(qpix), minlength=n_views) * samples
         if progress is not None:
             progress(1.0, "done")
-        return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays)
+        return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays, oid)
 
 
 def _check_cost(cameras, *, max_depth, samples, supersample) -> None:  # noqa: ANN001

@@ -70,6 +70,20 @@ def _check_types(result: object, arrays: tuple[str, ...]) -> None:
             raise TypeError(f"{name} must be a numpy array; got {type(getattr(result, name)).__name__}")
 
 
+def _check_object_id(result: object, shape: tuple[int, ...]) -> None:
+    """``result.object_id`` None or an integer array of ``shape`` (then stored as a read-only int32 view)."""
+    oid = result.object_id
+    if oid is None:
+        return
+    if not isinstance(oid, np.ndarray) or not np.issubdtype(oid.dtype, np.integer):
+        raise TypeError(f"object_id must be an integer numpy array or None; got {type(oid).__name__}")
+    if oid.shape != tuple(shape):
+        raise ValueError(f"object_id must have shape {tuple(shape)}; got {oid.shape}")
+    view = oid.astype(np.int32, copy=False).view()
+    view.flags.writeable = False
+    object.__setattr__(result, "object_id", view)
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class RenderResult:
     """The ray tree of one view (S3 §3.1). Arrays are read-only.
@@ -88,6 +102,10 @@ class RenderResult:
         The image: ``radiance.sum(axis=0)``.
     camera : Camera or FisheyeCamera
     settings : RenderSettings
+    object_id : (N, H, W) int32 or None
+        Per node, the index into ``scene.objects`` of the surface the node's ray hit (for node 2, the
+        object seen in the mirror), -1 where the node has no hit; None when not known (a result
+        built by hand or by compositing).
     """
 
     radiance: np.ndarray
@@ -97,6 +115,7 @@ class RenderResult:
     beauty: np.ndarray
     camera: Camera | FisheyeCamera
     settings: RenderSettings
+    object_id: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         _check_types(self, ("radiance", "position", "normal", "depth", "beauty"))
@@ -110,6 +129,7 @@ class RenderResult:
         if self.depth.shape != shape[1:3] or self.beauty.shape != shape[1:]:
             raise ValueError(f"depth and beauty must have shapes {shape[1:3]} and {shape[1:]}; "
                              f"got {self.depth.shape} and {self.beauty.shape}")
+        _check_object_id(self, shape[:3])
         for name in ("radiance", "position", "normal", "depth", "beauty"):
             view = getattr(self, name).view()  # read-only view: the caller's array keeps its flags
             view.flags.writeable = False
@@ -143,6 +163,8 @@ class RayTree:
     beauty : (*shape, 3) float32
         ``radiance.sum(axis=0)``.
     settings : RenderSettings
+    object_id : (N, *shape) int32 or None
+        As in :class:`RenderResult`.
     """
 
     radiance: np.ndarray
@@ -152,6 +174,7 @@ class RayTree:
     hit: np.ndarray
     beauty: np.ndarray
     settings: RenderSettings
+    object_id: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         _check_types(self, ("radiance", "position", "normal", "distance", "hit", "beauty"))
@@ -163,6 +186,7 @@ class RayTree:
                            ("beauty", shape[1:])):  # fmt: skip
             if getattr(self, name).shape != want:
                 raise ValueError(f"{name} must have shape {want}; got {getattr(self, name).shape}")
+        _check_object_id(self, shape[:-1])
         for name in ("radiance", "position", "normal", "distance", "hit", "beauty"):
             view = getattr(self, name).view()
             view.flags.writeable = False
