@@ -43,23 +43,25 @@ def test_at_with_mls_beats_the_plane_baseline(run, tmp_path):
     assert read_image(target).shape == read_image(KERMIT / "kermit005.jpg").shape == (480, 640, 3)
     assert "kermit005.jpg" not in out.splitlines()[0]  # left out of the sources: leave-one-out
     assert "leave-one-out" in out
-    mls, plane = _psnrs(out)
+    whole, whole_plane, mls, plane = _psnrs(out)  # the whole frame, then the pixels both cover
     assert 12.0 < plane < mls < 30.0  # measured: 15.39 dB against the baseline's 12.50 dB
+    assert "over the whole frame" in out and whole_plane < whole
     assert "not registered" in err  # the collection's warnings go to stderr
 
 
 def test_plane_method_prints_the_same_baseline(run, tmp_path):
     code, out, err = run("--at", "kermit005.jpg", "--method", "plane", "--out", str(tmp_path / "plane.png"))
     assert code == 0, err
-    (plane,) = _psnrs(out)
+    whole, plane = _psnrs(out)
     assert 12.0 < plane < 13.5
+    assert whole < plane  # the whole frame counts the uncovered pixels, black
 
 
 def test_keep_target_reproduces_the_photo(run, tmp_path):
     code, out, err = run("--at", "kermit005", "--method", "plane", "--keep-target", "--out", str(tmp_path / "k.png"))
     assert code == 0, err
     assert "kermit005.jpg" in out.splitlines()[0]
-    (score,) = _psnrs(out)
+    _, score = _psnrs(out)
     assert score > 30.0  # the target is its own best source
 
 
@@ -79,7 +81,7 @@ def test_between_writes_an_image(run, tmp_path):
     ("args", "words"),
     [
         (["--at", "nobody"], "kermit000.jpg"),
-        (["--at", "kermit006"], "no camera"),  # unregistered (f = 0): not in the collection
+        (["--at", "kermit006"], "camera 'kermit006.jpg' is not registered"),  # f = 0: not in the collection
         (["--at", "kermit005", "--between", "kermit003", "kermit006", "--position", "0.5"], "exactly one"),
         ([], "exactly one"),
         (["--between", "kermit003", "kermit006"], "--position"),
@@ -120,5 +122,33 @@ def test_at_with_the_default_depth_method_beats_the_plane_baseline(run, tmp_path
     code, out, err = run("--at", "kermit005", "--out", str(tmp_path / "depth.png"))
     assert code == 0, err
     assert out.startswith("depth view")
-    depth, plane = _psnrs(out)
+    whole, whole_plane, depth, plane = _psnrs(out)
     assert plane + 2.0 < depth  # ours beats the one-plane baseline by 2 dB or more
+    # issue 27: the whole-frame figure is printed too (the depth view fills its holes, the plane's are black)
+    assert "over the whole frame" in out and whole_plane < whole
+
+
+def test_an_unknown_name_is_refused_before_the_collection_is_loaded(run, tmp_path, monkeypatch):
+    import vergence.stereospace
+
+    def slow(*args, **kwargs):  # the triangulation of a collection without points takes seconds
+        raise AssertionError("load_collection called before the name was checked")
+
+    monkeypatch.setattr(vergence.stereospace, "load_collection", slow)
+    for args, words in ((["--at", "nobody"], "--at: no camera 'nobody'"),
+                        (["--between", "kermit003", "nobody", "--position", "0.5"], "--between: no camera"),
+                        (["--at", "kermit005", "--exclude", "nobody"], "--exclude: no camera")):
+        code, _, err = run(*args, "--out", str(tmp_path / "v.png"))
+        assert code == 2 and words in err, err
+
+
+def test_a_camera_without_its_image_is_named_as_such(capsys, tmp_path):
+    folder = tmp_path / "images"
+    folder.mkdir()
+    for photo in sorted(KERMIT.glob("kermit*.jpg")):
+        if photo.name != "kermit003.jpg":
+            (folder / photo.name).symlink_to(photo)
+    code = main(["stereospace", "view", str(BUNDLE), "--images", str(folder), "--at", "kermit003", "--out",
+                 str(tmp_path / "v.png")])
+    err = capsys.readouterr().err
+    assert code == 2 and "--at: camera 'kermit003.jpg' has no image in --images" in err, err

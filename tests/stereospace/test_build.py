@@ -155,6 +155,25 @@ def test_frame_looks_along_the_plane_normal_when_the_up_axes_cancel():
     assert_allclose(frame[:2] @ [0, 1, 0], 0.0, atol=1e-12)
 
 
+def test_frame_looks_down_the_arc_normal_when_the_photos_are_rolled():
+    # Issue 27: an arc of 8 cameras over 90 degrees around the world's +y axis, every photo rolled 90
+    # degrees (its image up along the arc's tangent): the mean image up is long (they agree) but lies
+    # in the arc's plane; the top view must look along the arc's normal, the world's y.
+    cams = []
+    for k in range(8):
+        a = math.radians(90.0 * k / 7)
+        centre = np.array([2 * math.cos(a), 0.5, 2 * math.sin(a)])
+        tangent = [-math.sin(a), 0.0, math.cos(a)]
+        cams.append(look_at(centre, [0, 0.5, 0], tangent, fov_deg=50, width=32, height=24))
+    col = Collection(names=tuple(f"c{k}" for k in range(8)), cameras=tuple(cams),
+                     image_paths=tuple(f"c{k}" for k in range(8)))  # fmt: skip
+    ups = np.array([-c.R[1] for c in col.cameras]).mean(axis=0)
+    assert np.linalg.norm(ups) > 0.5 and abs(ups[1]) < 1e-12  # they agree, on a horizontal direction
+    frame = map_frame(col)
+    _check_frame(frame)
+    assert abs(frame[2] @ [0, 1, 0]) == pytest.approx(1.0)
+
+
 def test_frame_of_cameras_on_a_line(col):
     frame = map_frame(col)  # the synthetic row: centres on the x axis
     _check_frame(frame)
@@ -303,6 +322,25 @@ def test_navigation_map_writes_a_png(synthetic_space, tmp_path):
     with pytest.raises(ValueError, match="li must lie in"):
         navigation_map(built, tmp_path / "bad.png", state=StereoState((0, 1), 1.5, 0.2))
     assert not (tmp_path / "bad.png").exists()
+
+
+def test_the_map_colours_quality_on_a_fixed_0_to_1_scale(synthetic_space, tmp_path, monkeypatch):
+    # Kermit's best vertex, 0.07, was drawn in the top colour (the scale ran 0..max): a space's colours
+    # must mean the same quality whatever its best.
+    from matplotlib.axes import Axes
+
+    _, _, built = synthetic_space
+    seen = []
+    original = Axes.tripcolor
+
+    def spy(self, *args, **kwargs):
+        seen.append((kwargs.get("vmin"), kwargs.get("vmax"), float(np.max(args[1]))))
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Axes, "tripcolor", spy)
+    navigation_map(built, tmp_path / "map.png")
+    (vmin, vmax, best), = seen
+    assert (vmin, vmax) == (0.0, 1.0) and best < 1.0
 
 
 # -- the shared collections ----------------------------------------------------------------------------

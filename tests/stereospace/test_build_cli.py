@@ -13,7 +13,9 @@ from numpy.testing import assert_allclose
 
 from vergence.cli import main
 from vergence.io import read_image
+from vergence.camera import Camera
 from vergence.stereospace import StereoState, load_space, pair_quality, pan, zoom
+from vergence.viewing import arcmin_from_pixels
 
 
 @pytest.fixture
@@ -136,7 +138,12 @@ def test_pair_from_a_state_with_pan_and_zoom(space_dir, run, tmp_path):
         (("--at", "0,0.5,1,0.5", "--pan", "0.1"), "--pan and --zoom go with --from"),
         (("--from", "0,0.5,1,0.5"), "--from needs --pan V and/or --zoom V"),
         (("--from", "0,0.5,1,0.5", "--zoom", "inf"), "--zoom must be a finite number"),
-        ((), "give either --at"),
+        ((), "give exactly one of --at"),
+        (("--at", "0,0.5,1,0.5", "--best"), "give exactly one of --at"),
+        (("--near", "v9"), "--near: no camera 'v9' in the collection"),
+        (("--best", "--size", "64"), "--size must be WxH"),
+        (("--best", "--size", "0x10"), "--size must be (width, height), whole numbers of pixels in [1, 8192]"),
+        (("--best", "--framing", "zoom"), "--framing must be one of fit, crop"),
         (("--at", "0,0.5,1,0.5", "--format", "hologram"), "--format must be one of"),
         (("--at", "0,0.5,1,0.5", "--method", "nerf"), "--method must be one of mls"),
     ],
@@ -157,6 +164,132 @@ def test_pair_refuses_a_missing_or_corrupt_space(space_dir, run, tmp_path):
     (broken / "space.json").write_text('{"format": "vergence-stereospace", "version": 1')
     code, _, err = run("stereospace", "pair", broken, "--at", "0,0.5,1,0.5", "--out", out)
     assert code == 2 and "not valid JSON" in err and len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_pair_refuses_a_damaged_points_file_in_one_line(space_dir, run, tmp_path):
+    broken = shutil.copytree(space_dir, tmp_path / "broken")
+    for damage in (b"", b"PK\x03\x04 cut here", (space_dir / "points.npz").read_bytes()[:200]):
+        (broken / "points.npz").write_bytes(damage)
+        for args in (("pair", broken, "--best", "--out", tmp_path / "pair"), ("info", broken)):
+            code, _, err = run("stereospace", *args)
+            assert code == 2 and "points.npz is damaged" in err and len(err.strip().splitlines()) == 1, err
+            assert "internal error" not in err and not (tmp_path / "pair").exists()
+
+
+def test_pair_refuses_a_used_folder_unless_forced(space_dir, run, tmp_path):
+    out = tmp_path / "pair"
+    assert run("stereospace", "pair", space_dir, "--at", "0,0.25,1,0.75", "--out", out)[0] == 0
+    first = (out / "pair.json").read_bytes()
+    code, _, err = run("stereospace", "pair", space_dir, "--at", "0,0.5,1,0.5", "--out", out)
+    assert code == 2 and "exists and is not empty; give --force" in err and len(err.strip().splitlines()) == 1
+    assert (out / "pair.json").read_bytes() == first  # untouched: no mix of two states' files
+    code, _, err = run("stereospace", "pair", space_dir, "--at", "0,0.5,1,0.5", "--out", out, "--force")
+    assert code == 0, err
+    assert json.loads((out / "pair.json").read_text())["li"] == 0.5
+
+
+def test_pair_best_puts_the_eyes_at_the_best_vertex_cameras(space_dir, run, tmp_path):
+    built = load_space(space_dir)
+    stereo = [q for q in built.vertex_qualities.values() if q.cameras[0] != q.cameras[1]]
+    best = max(stereo, key=lambda q: q.quality)
+    code, _, err = run("stereospace", "pair", space_dir, "--best", "--out", tmp_path / "pair", "--no-map")
+    assert code == 0, err
+    record = json.loads((tmp_path / "pair" / "pair.json").read_text())
+    centres = {tuple(np.round(Camera.from_dict(record["cameras"][e]).center, 9)) for e in ("first", "second")}
+    assert centres == {tuple(np.round(built.collection.centers[c], 9)) for c in best.cameras}  # world positions
+    assert record["chosen"] == {"by": "best", "cameras": [built.collection.names[c] for c in best.cameras],
+                                "quality": best.quality}  # fmt: skip
+
+
+def test_pair_near_a_camera_stands_at_its_centre(space_dir, run, tmp_path):
+    built = load_space(space_dir)
+    k = built.collection.names.index("v2.png")  # the middle of the row: neighbours on both sides
+    code, _, err = run("stereospace", "pair", space_dir, "--near", "v2", "--out", tmp_path / "pair", "--no-map")
+    assert code == 0, err
+    record = json.loads((tmp_path / "pair" / "pair.json").read_text())
+    assert_allclose(record["stereo_point"][:3], built.collection.centers[k], atol=1e-9)
+    assert record["interocular"] > 0 and record["chosen"] == {"by": "near", "camera": "v2.png"}
+
+
+def _disparity_range_arcmin(record, built):
+    """The 1st-99th percentile range of the points' disparities in the written views, arcmin: from the
+    rectified cameras of pair.json and the world points, not from the code's shift."""
+    left, right = (Camera.from_dict(record["rectified"][e]) for e in ("left", "right"))
+    xl, zl = left.project(built.collection.points)
+    xr, zr = right.project(built.collection.points)
+    seen = (zl > 0) & (zr > 0)
+    for xy, cam in ((xl, left), (xr, right)):
+        seen &= (np.abs(xy[:, 0] - (cam.width - 1) / 2) <= cam.width / 2) & (np.abs(xy[:, 1] - (cam.height - 1) / 2) <= cam.height / 2)
+    d = xr[seen, 0] - xl[seen, 0]
+    low, high = np.quantile(d, [0.01, 0.99])
+    d = d[(d >= low) & (d <= high)]
+    scale = built.display.resolution / left.width
+    return arcmin_from_pixels(d.min() * scale, built.display), arcmin_from_pixels(d.max() * scale, built.display)
+
+
+def test_the_convergence_shift_centres_the_disparities_in_the_zone(space_dir, run, tmp_path):
+    built = load_space(space_dir)
+    for flag in ("--shift", "--no-shift"):
+        out = tmp_path / flag
+        code, stdout, err = run("stereospace", "pair", space_dir, "--at", "0,0.5,1,0.5", "--out", out, flag)
+        assert code == 0, err
+        record = json.loads((out / "pair.json").read_text())
+        low, high = _disparity_range_arcmin(record, built)
+        shift = record["shift"]
+        assert_allclose((low, high), shift["after_arcmin"], atol=0.05)
+        zone = (built.zone.min_arcmin, built.zone.max_arcmin)
+        if flag == "--shift":
+            assert shift["applied"] and shift["fits"] and zone[0] < low < high < zone[1]
+            assert (low + high) / 2 == pytest.approx(sum(zone) / 2, abs=0.5)  # centred
+            assert "convergence shift" in stdout
+        else:
+            assert not shift["applied"] and shift["shift_px"] == 0 and shift["before_arcmin"] == shift["after_arcmin"]
+    # the shift moved the right view against the left by shift_px: the cameras' principal points
+    a = json.loads((tmp_path / "--shift" / "pair.json").read_text())
+    b = json.loads((tmp_path / "--no-shift" / "pair.json").read_text())
+    gap = lambda r: r["rectified"]["right"]["K"][0][2] - r["rectified"]["left"]["K"][0][2]  # noqa: E731
+    assert gap(a) - gap(b) == pytest.approx(a["shift"]["shift_px"])
+
+
+def test_a_range_wider_than_the_zone_is_warned(space_dir, run, tmp_path):
+    # A wide pair of the synthetic row (measured 338 arcmin, the zone 120) and a narrow one (55).
+    for state, wide in (("0,0,3,1", True), ("0,0.5,1,0.5", False)):
+        code, _, err = run("stereospace", "pair", space_dir, "--at", state, "--out", tmp_path / state, "--no-map")
+        assert code == 0, err
+        record = json.loads((tmp_path / state / "pair.json").read_text())
+        low, high = _disparity_range_arcmin(record, load_space(space_dir))
+        assert (high - low > 120.0) == wide
+        assert ("wider than the comfort zone" in err) == wide and record["shift"]["fits"] == (not wide)
+
+
+def test_pair_size_and_framing(space_dir, run, tmp_path):
+    code, _, err = run("stereospace", "pair", space_dir, "--best", "--size", "80x40", "--out", tmp_path / "p",
+                       "--format", "sbs", "--no-map")  # fmt: skip
+    assert code == 0, err
+    assert read_image(tmp_path / "p" / "left.png").shape == (40, 80, 3)
+    assert read_image(tmp_path / "p" / "sbs.png").shape == (40, 160, 3)
+    record = json.loads((tmp_path / "p" / "pair.json").read_text())
+    assert record["size"] == [80, 40] and record["framing"] == "fit"
+
+
+def test_info_lists_the_best_states_and_the_cameras(space_dir, run):
+    code, stdout, err = run("stereospace", "info", space_dir)
+    assert code == 0, err
+    assert max(len(line) for line in stdout.splitlines()) <= 80
+    assert "v0 v1 v2 v3 v4" in stdout
+    code, stdout, err = run("stereospace", "info", space_dir, "--json", "--top", "3")
+    assert code == 0, err
+    record = json.loads(stdout)
+    built = load_space(space_dir)
+    qualities = sorted((q.quality for q in built.vertex_qualities.values() if q.cameras[0] != q.cameras[1]), reverse=True)
+    assert [b["quality"] for b in record["best"]] == qualities[:3]
+    assert [c["name"] for c in record["cameras"]] == list(built.collection.names)
+    first = record["best"][0]
+    state = StereoState(tuple(first["region"]), first["li"], first["lj"])
+    eyes = built.space.eyes(state)  # the state's eyes are the listed cameras, in the world
+    names = [built.collection.names.index(n) for n in first["cameras"]]
+    assert_allclose(sorted(map(tuple, eyes)), sorted(map(tuple, built.collection.centers[names])), atol=1e-12)
+    assert run("stereospace", "info", space_dir, "--top", "0")[0] == 2
 
 
 # -- the shared collections (timings in docs/stereospace.md) -------------------------------------------

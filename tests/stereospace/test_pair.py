@@ -136,11 +136,13 @@ def test_prepared_views_are_s2_views_of_the_nearest_cameras(plane):
 
 
 def test_a_coarser_grid_changes_the_pair_little(plane):
-    # The plane's views differ by homographies, smooth maps: measured mean 9e-4, max 0.026 at step 16.
+    # The plane's views differ by homographies, smooth maps: measured mean 9e-4, max 0.026 at step 16
+    # (cropped: the fitted views have the edge of the sources' coverage inside the frame, where a
+    # pixel is covered at one step and not at the other).
     col, prep = plane
     coarse = PreparedCollection(col, grid_step=16)
     state = StereoState((0, 1), 0.3, 0.6)
-    a, b = stereo_pair(prep, state), stereo_pair(coarse, state)
+    a, b = stereo_pair(prep, state, framing="crop"), stereo_pair(coarse, state, framing="crop")
     diff = np.abs(a.left - b.left)
     assert 0 < diff.mean() < 2e-3 and diff.max() < 0.05
     with pytest.raises(ValueError, match="grid_step must be >= 1"):
@@ -263,3 +265,65 @@ def test_bad_width_is_refused(plane, width):
     _, prep = plane
     with pytest.raises(ValueError, match=r"width must be a whole number of pixels in \[1, 64\]"):
         stereo_pair(prep, StereoState((0, 0), 0.2, 0.9), width=width)
+
+
+def _corners_in(novel, output):
+    """The four corners of ``novel``'s image, through the world (rays at 5 m), in ``output``'s pixels."""
+    corners = np.array([[-0.5, -0.5], [W - 0.5, -0.5], [-0.5, H - 0.5], [W - 0.5, H - 0.5]])
+    xy, z = output.project(novel.backproject(corners, np.full(4, PLANE_Z)))
+    assert (z > 0).all()
+    return xy
+
+
+# Pixels of slack for "inside the frame" (round-off) and for "reaches its edge" (rectify_cameras
+# rounds each extent up to whole pixels: at most half a pixel each side).
+EDGE_TOL = 1e-6
+FIT_SLACK_PX = 0.5
+
+
+@pytest.mark.parametrize("size", [(W, H), (50, 60), (120, 40)])
+def test_fit_to_frame_keeps_both_whole_views_and_crop_cuts_them(plane, size):
+    # A wide pair of the row, rolled 30 degrees from each other: the rectified extents outgrow the frame.
+    col, _ = plane
+    cams = (look_at([-0.6, 0, 0], [0, 0, PLANE_Z], [0, -1, 0], fov_deg=60, width=W, height=H),
+            look_at([0.6, 0, 0], [0, 0, PLANE_Z], [0.5, -np.sqrt(0.75), 0], fov_deg=60, width=W, height=H))
+    names = ("a.png", "b.png")
+    rolled = Collection(names=names, cameras=cams, image_paths=tuple(col.image_paths[:2]), points=col.points)
+    state = StereoState((0, 0), 0.0, 1.0)
+    blank = lambda p, cam: np.zeros((cam.height, cam.width), np.float32)  # noqa: E731
+    for framing in ("fit", "crop"):
+        res = stereo_pair(PreparedCollection(rolled), state, method=blank, size=size, framing=framing)
+        novel_l, novel_r = res.cameras[::-1] if res.swapped else res.cameras
+        xy = np.concatenate([_corners_in(novel_l, res.rectified[0]), _corners_in(novel_r, res.rectified[1])])
+        lo, hi = np.array([-0.5, -0.5]), np.array([size[0] - 0.5, size[1] - 0.5])
+        inside = ((xy >= lo - EDGE_TOL) & (xy <= hi + EDGE_TOL)).all()
+        if framing == "fit":
+            assert inside and res.left.shape == (size[1], size[0])
+            # as large as it can be: an extent reaches the frame's edge (within the rectified size's
+            # rounding up to whole pixels, half a pixel each side before the scale)
+            assert (np.isclose(xy, lo, atol=FIT_SLACK_PX) | np.isclose(xy, hi, atol=FIT_SLACK_PX)).any()
+        else:
+            assert not inside  # the tree before issue 27: centred at the collection's scale, cut off
+        assert_allclose(*(c.project(col.points)[0][:, 1] for c in res.rectified), atol=1e-9)  # rows agree
+
+
+def test_a_display_shifts_the_pair_into_the_zone(plane):
+    # Against world positions: the points' disparities in the output cameras, converted independently.
+    col, prep = plane
+    display = Display.preset("desktop-24")
+    res = stereo_pair(prep, StereoState((0, 1), 0.5, 0.5), display=display)
+    xl, _ = res.rectified[0].project(col.points)
+    xr, _ = res.rectified[1].project(col.points)
+    seen = (np.abs(xl - [(W - 1) / 2, (H - 1) / 2]) <= [W / 2, H / 2]).all(1)
+    seen &= (np.abs(xr - [(W - 1) / 2, (H - 1) / 2]) <= [W / 2, H / 2]).all(1)
+    d = np.sort(xr[seen, 0] - xl[seen, 0])
+    low, high = np.quantile(d, [0.01, 0.99])
+    d = d[(d >= low) & (d <= high)]
+    arcmin = arcmin_from_pixels(np.array([d.min(), d.max()]) * display.resolution / W, display)
+    assert_allclose(arcmin, res.shift.after_arcmin, atol=1e-6)
+    assert res.shift.fits and -60 < arcmin[0] < arcmin[1] < 60
+    assert arcmin.mean() == pytest.approx(0.0, abs=0.05)  # centred in the ±60 arcmin zone
+    plain = stereo_pair(prep, StereoState((0, 1), 0.5, 0.5))
+    assert plain.shift is None
+    gap = lambda r: r.rectified[1].K[0, 2] - r.rectified[0].K[0, 2]  # noqa: E731
+    assert gap(res) - gap(plain) == pytest.approx(res.shift.shift_px)

@@ -111,32 +111,66 @@ def _summary(built, out: Path) -> None:
     say(f"built in {built.build_seconds:.1f} s; wrote {out}/space.json, points.npz, map.png")
 
 
+def _size(text: str | None) -> tuple[int, int] | None:
+    """``"WxH"`` as ``(W, H)``; a ValueError naming ``--size``."""
+    if text is None:
+        return None
+    parts = str(text).lower().split("x")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        w, h = int(parts[0]), int(parts[1])
+    except ValueError:
+        raise ValueError(f"--size must be WxH (two whole numbers of pixels, e.g. 800x600); got {text!r}") from None
+    return w, h
+
+
 @stereospace_app.command("pair")
 def pair(
     space_dir: Path = typer.Argument(..., help="Space folder written by `vergence stereospace build`."),
     at: str | None = typer.Option(None, "--at", help="The state " + _STATE_HELP),
     start: str | None = typer.Option(None, "--from", help="Start state for --pan/--zoom: " + _STATE_HELP),
-    pan_by: float | None = typer.Option(None, "--pan", help="With --from: move the view position by V (collection "
-                                        "units) at constant interocular distance (S2 §4.1)."),
-    zoom_by: float | None = typer.Option(None, "--zoom", help="With --from: change the interocular distance by V "
-                                         "(collection units; applied after --pan)."),
+    best: bool = typer.Option(False, "--best", help="The best state of the space: the camera pair of the region "
+                              "vertex of highest quality (`stereospace info` lists them)."),
+    near: str | None = typer.Option(None, "--near", help="The state whose stereo camera stands at this camera "
+                                    "(its image name, with or without extension), the eyes half-way to two "
+                                    "of its neighbours."),
+    pan_by: float | None = typer.Option(None, "--pan", help="With --from (or --best, --near): move the view "
+                                        "position by V (collection units) at constant interocular distance "
+                                        "(S2 §4.1)."),
+    zoom_by: float | None = typer.Option(None, "--zoom", help="With --from (or --best, --near): change the "
+                                         "interocular distance by V (collection units; applied after --pan)."),
     out: Path = typer.Option(..., "--out", help="Folder for left.png, right.png, FORMAT.png, pair.json, map.png."),
+    force: bool = typer.Option(False, "--force", help="Write into an --out folder that is not empty (its files of "
+                               "the same names are replaced)."),
     layout: str = typer.Option("anaglyph", "--format", help="Display format of vergence.display (anaglyph, sbs, ...)."),
     method: str = typer.Option("mls", "--method", help="Novel-view method (mls: S2's warps)."),
+    size: str | None = typer.Option(None, "--size", help="WxH of the views in pixels (default the collection's "
+                                    "image size)."),
+    framing: str = typer.Option("fit", "--framing", help="fit: both whole rectified views fit the frame (default); "
+                                "crop: the collection's scale, cut at the frame's edges."),
+    shift: bool = typer.Option(True, "--shift/--no-shift", help="Shift the views horizontally so that the pair's "
+                               "disparity range is centred in the display's comfort zone (default on)."),
     draw_map: bool = typer.Option(True, "--map/--no-map", help="Also write map.png with the eyes drawn."),
 ) -> None:
     """Write the stereo pair at a state of a built space: two novel views rectified together (S2 §3.2).
 
-    Give the state with --at, or reach it from --from by --pan and/or --zoom (S2's navigation: at a
-    region border it jumps to the closest point of another region in the 40-degree cone, or stops).
+    Give the state with --at, --best or --near CAMERA, or reach it from --from by --pan and/or
+    --zoom (S2's navigation: at a region border it jumps to the closest point of another region in
+    the 40-degree cone, or stops). The views are fitted to the frame and, unless --no-shift,
+    shifted so that the disparities are centred in the display's comfort zone (pair.json says by
+    how much, and a range wider than the zone is warned about).
     """
     from vergence.display import LAYOUTS
-    from vergence.stereospace import PAIR_METHODS
+    from vergence.stereospace import FRAMINGS, PAIR_METHODS
 
-    if (at is None) == (start is None):
-        raise ValueError("give either --at i,li,j,lj or --from i,li,j,lj with --pan/--zoom (exactly one)")
+    given = [name for name, v in (("--at", at), ("--from", start), ("--best", best or None), ("--near", near))
+             if v is not None]  # fmt: skip
+    if len(given) != 1:
+        raise ValueError("give exactly one of --at i,li,j,lj, --from i,li,j,lj (with --pan/--zoom), --best or "
+                         f"--near CAMERA; got {', '.join(given) if given else 'none'}")  # fmt: skip
     if at is not None and (pan_by is not None or zoom_by is not None):
-        raise ValueError("--pan and --zoom go with --from, not --at")
+        raise ValueError("--pan and --zoom go with --from, --best or --near, not --at")
     if start is not None and pan_by is None and zoom_by is None:
         raise ValueError("--from needs --pan V and/or --zoom V")
     for name, v in (("--pan", pan_by), ("--zoom", zoom_by)):
@@ -146,26 +180,51 @@ def pair(
         raise ValueError(f"--format must be one of {', '.join(LAYOUTS)}; got {layout!r}")
     if method not in PAIR_METHODS:
         raise ValueError(f"--method must be one of {', '.join(PAIR_METHODS)}; got {method!r}")
-    state = parse_state(at if at is not None else start, "--at" if at is not None else "--from")
+    if framing not in FRAMINGS:
+        raise ValueError(f"--framing must be one of {', '.join(FRAMINGS)}; got {framing!r}")
+    views_size = _size(size)
+    option = given[0]
+    state = parse_state(at if at is not None else start, option) if option in ("--at", "--from") else None
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give a folder")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise ValueError(f"--out {out} exists and is not empty; give --force to write into it")
     if space_dir.is_dir() and out.resolve() == space_dir.resolve():
         raise ValueError(f"--out {out} is the space folder; give another folder")
 
-    from vergence.stereospace import load_space
+    from vergence.cli.stereospace import _camera_index
+    from vergence.stereospace import best_states, load_space, state_at_camera
 
     t0 = time.perf_counter()
     built = load_space(space_dir)
-    option = "--at" if at is not None else "--from"
+    names = built.collection.names
+    chosen: dict = {"by": option.lstrip("-")}
+    if near is not None:
+        camera = _camera_index(names, near, "--near")  # refused before the images are decoded
+    prepared = None
+    if best:
+        ranked = best_states(built, count=1)
+        if not ranked:
+            raise ValueError(f"--best: the space {space_dir} has no stereo pair at a region vertex")
+        state, vertex = ranked[0].state, ranked[0].vertex
+        chosen.update(cameras=[names[c] for c in vertex.cameras], quality=vertex.quality)
+    elif near is not None:
+        prepared = built.prepared()
+        state = state_at_camera(prepared, camera, built.display)
+        chosen.update(camera=names[camera])
     with options_named(region=f"{option} region", li=f"{option} li", lj=f"{option} lj"):
         built.space.check_state(state)
     move = _navigate(built, state, pan_by, zoom_by)
     final = move[-1]["state"] if move else state
-    prepared = built.prepared()
+    prepared = built.prepared() if prepared is None else prepared
     t1 = time.perf_counter()
-    result = _stereo_pair(prepared, final, layout, method)
+    with options_named(size="--size"):
+        result = _stereo_pair(prepared, final, layout, method, size=views_size, framing=framing,
+                              display=built.display, zone=built.zone, shift=shift)  # fmt: skip
     t2 = time.perf_counter()
     record = _pair_record(built, final, result, method, layout, move, space_dir)
+    record.update(chosen=chosen, framing=framing, size=[result.rectified[0].width, result.rectified[0].height],
+                  shift=None if result.shift is None else result.shift.to_dict())  # fmt: skip
     record["seconds"] = {"load_and_prepare": t1 - t0, "pair": t2 - t1}
     raise_if_interrupted()
     _write_pair(out, result, layout, record, built if draw_map else None, final)
@@ -175,6 +234,19 @@ def pair(
                   + (f" [{', '.join(m['event'] for m in move)}]" if move else "")
                   + f"; {t2 - t1:.2f} s for the pair ({t1 - t0:.2f} s to load and prepare); wrote {out}",
                   highlight=False, markup=False)  # fmt: skip
+    if result.shift is not None:
+        s = result.shift
+        if s.before_arcmin is not None and not s.applied:
+            console.print(f"disparities {s.before_arcmin[0]:+.0f} to {s.before_arcmin[1]:+.0f} arcmin on "
+                          f"{built.display_name}, not shifted (zone {s.zone_arcmin[0]:+.0f} to "
+                          f"{s.zone_arcmin[1]:+.0f})", highlight=False, markup=False)  # fmt: skip
+        elif s.before_arcmin is not None:
+            console.print(f"convergence shift {s.shift_px:+.1f} px ({s.shift_arcmin:+.1f} arcmin): disparities "
+                          f"{s.before_arcmin[0]:+.0f} to {s.before_arcmin[1]:+.0f} arcmin -> {s.after_arcmin[0]:+.0f} "
+                          f"to {s.after_arcmin[1]:+.0f} (zone {s.zone_arcmin[0]:+.0f} to {s.zone_arcmin[1]:+.0f}, "
+                          f"{built.display_name})", highlight=False, markup=False)  # fmt: skip
+        if s.note:
+            err_console.print(f"warning: {s.note}", highlight=False, soft_wrap=True, markup=False)
 
 
 def _navigate(built, state, pan_by, zoom_by) -> list[dict]:
@@ -190,10 +262,10 @@ def _navigate(built, state, pan_by, zoom_by) -> list[dict]:
     return steps
 
 
-def _stereo_pair(prepared, state, layout, method):
+def _stereo_pair(prepared, state, layout, method, **options):
     from vergence.stereospace import stereo_pair
 
-    return stereo_pair(prepared, state, layout=layout, method=method)
+    return stereo_pair(prepared, state, layout=layout, method=method, **options)
 
 
 def _state_dict(state) -> dict:
@@ -245,3 +317,91 @@ def _write_pair(out: Path, result, layout: str, record: dict, built, state) -> N
         if built is not None:
             navigation_map(built, tmp / "map.png", state=state)
         raise_if_interrupted()
+
+
+# Columns of `stereospace info`'s table of best states (it fits 80 columns with names up to this).
+_INFO_NAME = 24
+
+
+def _short(name: str, width: int) -> str:
+    stem = Path(name).stem
+    return stem if len(stem) <= width else stem[: width - 1] + "~"
+
+
+def _state_text(state) -> str:
+    (i, j), li, lj = state.region, state.li, state.lj
+    return f"{i},{li:g},{j},{lj:g}"
+
+
+@stereospace_app.command("info")
+def info(
+    space_dir: Path = typer.Argument(..., help="Space folder written by `vergence stereospace build`."),
+    top: int = typer.Option(10, "--top", help="Best states listed (by the quality of their region vertex)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the description as JSON."),
+) -> None:
+    """Describe a built space: regions, the best states by quality and the camera names.
+
+    Each best state is a region vertex: its eyes are two real cameras. Give its state to
+    `pair --at`, or take the first with `pair --best`; `pair --near NAME` takes a camera name.
+    """
+    import numpy as np
+
+    from vergence.cli._app import print_json
+    from vergence.stereospace import best_states, load_space
+
+    if isinstance(top, bool) or not 1 <= top <= 1000:
+        raise ValueError(f"--top must be a whole number in [1, 1000]; got {top}")
+    built = load_space(space_dir)
+    col, names = built.collection, built.collection.names
+    ranked = best_states(built, count=top)
+    qs = [q for q in built.vertex_qualities.values() if q.cameras[0] != q.cameras[1]]
+    record = {
+        "space": str(space_dir.resolve()),
+        "cameras_path": str(built.cameras_path),
+        "cameras": [{"name": n, "loo_psnr_db": None if not np.isfinite(p) else float(p)}
+                    for n, p in zip(names, built.psnr_db)],  # fmt: skip
+        "points": col.point_count,
+        "edges": len(built.graph.edges),
+        "capture_paths": [[names[k] for k in path] for path in built.paths],
+        "segments": len(built.space.segments),
+        "regions": len(built.space.regions),
+        "display": built.display_name,
+        "zone_arcmin": [built.zone.min_arcmin, built.zone.max_arcmin],
+        "camera_pairs": len(qs),
+        "fit_with_shift": sum(q.fits_with_shift for q in qs),
+        "best": [{"rank": k + 1, "at": _state_text(r.state), "region": list(r.state.region), "li": r.state.li,
+                  "lj": r.state.lj, "cameras": [names[c] for c in r.vertex.cameras], **{
+                      f: getattr(r.vertex, f) for f in ("quality", "comfort", "depth", "rectification",
+                                                        "interpolation", "range_arcmin", "fits_with_shift")}}
+                 for k, r in enumerate(ranked)],  # fmt: skip
+    }
+    if as_json:
+        print_json(record)
+        return
+    say = lambda text="": console.print(text, highlight=False, markup=False)  # noqa: E731
+    rings = "; ".join(f"a ring of {len(p) - 1}" if len(p) > 2 and p[0] == p[-1] else f"a path of {len(p)}"
+                      for p in built.paths)  # fmt: skip
+    say(f"{space_dir}: {len(col)} cameras, {col.point_count} points, {len(built.graph.edges)} graph edges")
+    say(f"capture paths: {rings or 'none'}; {len(built.space.segments)} segments, {len(built.space.regions)} regions")
+    say(f"quality on {built.display_name} (zone {built.zone.min_arcmin:+.0f} to {built.zone.max_arcmin:+.0f} arcmin): "
+        f"{len(qs)} camera pairs,")
+    say(f"  {record['fit_with_shift']} of them fit the zone with a shift")
+    say()
+    say("best states (pair --best: the first; pair --at STATE); range of the disparities")
+    say(f"{'#':>3}  {'state':<14} {'cameras':<{2 * _INFO_NAME // 2 + 3}} {'quality':>7} {'range':>7} {'fits':>4}")
+    for row in record["best"]:
+        pair_names = " + ".join(_short(n, _INFO_NAME // 2) for n in row["cameras"])
+        span = "-" if row["range_arcmin"] is None else f"{row['range_arcmin']:.0f}'"
+        say(f"{row['rank']:>3}  {row['at']:<14} {pair_names:<{2 * _INFO_NAME // 2 + 3}} {row['quality']:>7.3f} "
+            f"{span:>7} {'yes' if row['fits_with_shift'] else 'no':>4}")
+    say()
+    say("cameras (pair --near NAME):")
+    line = " "
+    for n in names:
+        word = Path(n).stem
+        if len(line) + len(word) + 1 > 79:
+            say(line.rstrip())
+            line = " "
+        line += " " + word
+    if line.strip():
+        say(line.rstrip())

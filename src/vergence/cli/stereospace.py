@@ -30,13 +30,25 @@ VIEW_METHODS = ("depth", "mls", "plane")
 _LISTED_NAMES = 5
 
 
-def _camera_index(names: tuple[str, ...], name: str, option: str) -> int:
-    """Index of the camera ``name`` (its image's file name, or that name without its extension)."""
+def _camera_index(names: tuple[str, ...], name: str, option: str, roster: dict[str, str] | None = None) -> int:
+    """Index of the camera ``name`` (its image's file name, or that name without its extension).
+
+    With ``roster`` (:func:`vergence.stereospace.camera_roster` of the camera file, ``names`` then
+    its kept cameras), a camera of the file that the collection left out is named as such (no image,
+    unregistered) rather than as unknown.
+    """
     if name in names:
         return names.index(name)
     stems = [i for i, n in enumerate(names) if Path(n).stem == name]
     if len(stems) == 1:
         return stems[0]
+    if roster is not None:
+        found = name if name in roster else next((n for n in roster if Path(n).stem == name), None)
+        if found is not None and roster[found] == "no image":
+            raise ValueError(f"{option}: camera {found!r} has no image in --images (left out of the collection)")
+        if found is not None and roster[found] == "unregistered":
+            raise ValueError(f"{option}: camera {found!r} is not registered in CAMERAS (f = 0: left out of the "
+                             "collection)")  # fmt: skip
     shown = ", ".join(names[:_LISTED_NAMES]) + (f", ... ({len(names)} cameras)" if len(names) > _LISTED_NAMES else "")
     raise ValueError(f"{option}: no camera {name!r} in the collection; it has {shown}")
 
@@ -62,8 +74,9 @@ def view(
     """Render the view of CAMERAS at a camera (--at NAME) or between two (--between A B --position T).
 
     With --at NAME the camera is left out of the sources by default, so the view is the leave-one-out
-    test of S2 §5: its PSNR against the real photo is printed, over the pixels both this view and
-    the plane baseline cover, with the baseline's PSNR over the same pixels.
+    test of S2 §5: its PSNR against the real photo is printed over the whole frame (uncovered pixels
+    count with their value: black, or the depth method's fill) and over the pixels both this view
+    and the plane baseline cover, each beside the baseline's PSNR over the same pixels.
     """
     if method not in VIEW_METHODS:
         raise ValueError(f"--method must be one of {', '.join(VIEW_METHODS)}; got {method!r}")
@@ -87,23 +100,30 @@ def view(
     from vergence.camera import interpolate
     from vergence.io import read_image, write_image
     from vergence.metrics import psnr
-    from vergence.stereospace import load_collection, novel_view, plane_view
+    from vergence.stereospace import camera_roster, load_collection, novel_view, plane_view
 
     check_output_path(out, cameras)
+    with options_named(cameras_path="CAMERAS", images="--images"):
+        roster = camera_roster(cameras, images=images)
+    kept = tuple(n for n, status in roster.items() if status == "kept")
+    for option, given in (("--at", [at] if at is not None else []), ("--between", list(between or ())),
+                          ("--exclude", exclude)):  # refused before the slow triangulation
+        for n in given:
+            _camera_index(kept, n, option, roster)
     with options_named(cameras_path="CAMERAS", images="--images"), ProgressLines() as progress:
         collection = load_collection(cameras, images=images, progress=progress)
     for note in collection.warnings:
         err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
     check_output_path(out, *collection.image_paths)
     names = collection.names
-    left_out = {names[_camera_index(names, n, "--exclude")] for n in exclude}
+    left_out = {names[_camera_index(names, n, "--exclude", roster)] for n in exclude}
     if at is not None:
-        i = _camera_index(names, at, "--at")
+        i = _camera_index(names, at, "--at", roster)
         target = collection.cameras[i]
         if not keep_target:
             left_out.add(names[i])
     else:
-        a, b = (_camera_index(names, n, "--between") for n in between)
+        a, b = (_camera_index(names, n, "--between", roster) for n in between)
         with options_named(s="--position"):
             target = interpolate(collection.cameras[a], collection.cameras[b], position)
     if len(left_out) >= len(names):
@@ -125,14 +145,18 @@ def view(
         photo = np.asarray(read_image(collection.image_paths[i]), dtype=np.float32)
         photo = np.clip(np.repeat(photo[..., None], 3, axis=2) if photo.ndim == 2 else photo, 0.0, 1.0)
         base = result if method == "plane" else plane_view(collection, target, exclude=sorted(left_out), images=cache)
+        whole = np.ones(photo.shape[:2], dtype=bool)  # uncovered pixels count with their value (0, or the fill)
+        line = f"PSNR against the photo of {names[i]}: {psnr(result.image, photo, mask=whole):.2f} dB over the whole frame"
+        if method != "plane":
+            line += f" (plane baseline: {psnr(base.image, photo, mask=whole):.2f} dB)"
         mask = result.coverage & base.coverage
         if not mask.any():
-            console.print(f"no pixel covered by both this view and the plane baseline: no PSNR against {names[i]}")
-            return
-        score = psnr(result.image, photo, mask=mask)
-        line = f"PSNR against the photo of {names[i]}: {score:.2f} dB over {100 * mask.mean():.1f} % of its pixels"
-        if method != "plane":
-            line += f" (plane baseline: {psnr(base.image, photo, mask=mask):.2f} dB over the same pixels)"
+            line += "; no pixel covered by both this view and the plane baseline"
+        else:
+            covered = "its pixels" if method == "plane" else "pixels both this view and the plane baseline cover"
+            line += f"; {psnr(result.image, photo, mask=mask):.2f} dB over the {100 * mask.mean():.1f} % of {covered}"
+            if method != "plane":
+                line += f" (plane: {psnr(base.image, photo, mask=mask):.2f} dB)"
         console.print(line + ("" if keep_target else " [leave-one-out]"), highlight=False, markup=False)
 
 

@@ -8,7 +8,8 @@ A top view (the frame of :func:`vergence.stereospace.map_frame`, orthographic) o
   vertices (:meth:`vergence.stereospace.BuiltSpace.region_quality`). Regions overlap on the map;
   they are drawn in order of increasing quality, so where they overlap the best shows: S2's "color
   per vertex corresponding to the maximum quality for that point". The colour scale runs from 0
-  to the best vertex of the space (the colour bar gives the values);
+  to 1 whatever the space (:data:`QUALITY_SCALE`; kermit's best vertex, 0.07, is dark, not the top
+  colour), so that maps of different spaces compare (the colour bar gives the values);
 - the capture paths as polylines, the cameras as dots with a short tick along their viewing
   direction;
 - optionally a state: the two eyes (red left, blue right, as an anaglyph shows them) joined by the
@@ -25,9 +26,11 @@ from matplotlib.tri import Triangulation
 
 from vergence.report._figures import new_figure, png_path, save_png
 
-__all__ = ["MAP_FIGURE_SIZE", "navigation_map", "region_triangles"]
+__all__ = ["MAP_FIGURE_SIZE", "QUALITY_SCALE", "navigation_map", "region_triangles"]
 
 MAP_FIGURE_SIZE = (7.0, 6.0)  # inches, at 100 dpi
+QUALITY_SCALE = (0.0, 1.0)
+"""The colour scale of the region qualities: the range of :func:`vergence.stereospace.vertex_quality`."""
 # Points drawn as the impostor at most: a random subset (fixed seed) beyond this keeps the PNG light.
 _MAX_POINTS = 20000
 # Camera ticks along the viewing direction, as a share of the cameras' extent on the map.
@@ -113,9 +116,8 @@ def navigation_map(built, path: str | os.PathLike[str], *, state=None, title: st
         low = np.minimum(low, np.percentile(p2, _POINT_PERCENTILES[0], axis=0))
         high = np.maximum(high, np.percentile(p2, _POINT_PERCENTILES[1], axis=0))
     xy, quality, triangles = region_triangles(built)
-    top = max(float(quality.max()), 1e-3)
     mesh = ax.tripcolor(Triangulation(xy[:, 0], xy[:, 1], triangles), quality, shading="gouraud",
-                        cmap="viridis", vmin=0.0, vmax=top, zorder=2, alpha=0.85)  # fmt: skip
+                        cmap="viridis", vmin=0.0, vmax=QUALITY_SCALE[1], zorder=2, alpha=0.85)  # fmt: skip
     fig.colorbar(mesh, ax=ax, shrink=0.8, label="stereo pair quality (max at each point)")
     for k, p in enumerate(built.paths):
         line = centers[list(p)]

@@ -19,13 +19,16 @@
 - Which way is up in a collection and which eye of a pair is the left one (:func:`collection_up`,
   :func:`eye_order`: pairs of rolled photos stay upright, S2 §4.2).
 - Where browsing starts (:func:`start_state`: the most comfortable state between three consecutive
-  cameras of a capture path; :func:`state_near`).
+  cameras of a capture path; :func:`state_near`), and finding a good state in a built space
+  (:func:`best_states` by the vertex qualities, :func:`vertex_state`, :func:`state_at_camera`).
+- Framing and comfort of a pair (:func:`frame_cameras`: fit to the frame or crop;
+  :func:`convergence_shift`: the horizontal image shift that centres the disparities in the zone).
 - A built space (:func:`build_space`: graph, regions, leave-one-out PSNR, a quality per region
   vertex, :func:`vertex_quality`), saved to and loaded from a folder (:func:`save_space`,
   :func:`load_space`), and the frame of its top-view navigation map (:func:`map_frame`, S2 §4.3.1).
 """
 
-from vergence.stereospace.collection import Collection, load_collection
+from vergence.stereospace.collection import CAMERA_STATUSES, Collection, camera_roster, load_collection
 from vergence.stereospace.orientation import UP_AGREEMENT, UP_DISTINCT, UP_MIN_COSINE, collection_up, eye_order
 from vergence.stereospace.graph import (
     MAX_AXIS_ANGLE_DEG,
@@ -43,7 +46,7 @@ from vergence.stereospace.triangulation import (
     project_distorted,
     triangulate_points,
 )
-from vergence.stereospace.navigation import JUMP_SAMPLES, MOVE_EVENTS, Move, pan, tangent, zoom
+from vergence.stereospace.navigation import JUMP_SAMPLES, MAX_PAN_JUMPS, MOVE_EVENTS, Move, pan, tangent, zoom
 from vergence.stereospace.space import (
     JUMP_CONE_DEG,
     PARALLEL_SINE,
@@ -53,7 +56,9 @@ from vergence.stereospace.space import (
     stereo_point,
 )
 from vergence.stereospace.mls import MLS_MIN_HANDLES, mls_similarity, mls_warp
+from vergence.stereospace.framing import FRAMINGS, ConvergenceShift, convergence_shift, frame_cameras
 from vergence.stereospace.pair import (
+    MAX_VIEW_SIDE,
     PAIR_METHODS,
     PreparedCollection,
     StereoPairResult,
@@ -62,7 +67,7 @@ from vergence.stereospace.pair import (
     stereo_pair,
 )
 from vergence.stereospace.quality import pair_quality
-from vergence.stereospace.start import start_state, state_near
+from vergence.stereospace.start import RankedState, best_states, start_state, state_at_camera, state_near, vertex_state
 from vergence.stereospace.sources import neighbours
 from vergence.stereospace.depths import (
     CONSISTENCY_TOLERANCE,
@@ -108,6 +113,7 @@ from vergence.stereospace.mls_view import (
 
 __all__ = [
     "BuiltSpace",
+    "CAMERA_STATUSES",
     "COLLECTION_ARC_DEG",
     "COLLECTION_VIEWS",
     "CONSISTENCY_TOLERANCE",
@@ -116,16 +122,20 @@ __all__ = [
     "CONSISTENCY_WINDOW",
     "CameraGraph",
     "Collection",
+    "ConvergenceShift",
     "DEFAULT_DISPLAY",
     "DISPARITY_MARGIN_PX",
     "DISPARITY_TRIM",
     "DISTORTION_LIMIT",
+    "FRAMINGS",
     "JUMP_CONE_DEG",
     "JUMP_SAMPLES",
     "MATCH_NEIGHBOURS",
     "MAX_AXIS_ANGLE_DEG",
     "MAX_COLLECTION_VIEWS",
+    "MAX_PAN_JUMPS",
     "MAX_REPROJECTION_ERROR_PX",
+    "MAX_VIEW_SIDE",
     "MIN_SHARED_POINTS",
     "MLS_MIN_HANDLES",
     "MOVE_EVENTS",
@@ -141,6 +151,7 @@ __all__ = [
     "RATIO_TEST",
     "RELATIVE_TOLERANCE",
     "RING_CLOSURE",
+    "RankedState",
     "S2View",
     "S2_HANDLE_CELL_PX",
     "S2_MAX_SOURCES",
@@ -157,12 +168,16 @@ __all__ = [
     "UP_DISTINCT",
     "UP_MIN_COSINE",
     "VertexQuality",
+    "best_states",
     "build_space",
     "camera_graph",
+    "camera_roster",
     "capture_paths",
     "check_depth",
     "collection_up",
+    "convergence_shift",
     "eye_order",
+    "frame_cameras",
     "leave_one_out",
     "load_collection",
     "load_space",
@@ -183,6 +198,7 @@ __all__ = [
     "source_depths",
     "space_from_graph",
     "start_state",
+    "state_at_camera",
     "state_near",
     "stereo_pair",
     "stereo_point",
@@ -190,6 +206,7 @@ __all__ = [
     "triangulate_points",
     "vertex_pairs",
     "vertex_quality",
+    "vertex_state",
     "write_space",
     "zoom",
 ]

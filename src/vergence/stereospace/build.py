@@ -56,7 +56,7 @@ from vergence.stereospace.collection import Collection, load_collection
 from vergence.stereospace.graph import CameraGraph, camera_graph, capture_paths
 from vergence.stereospace.orientation import UP_AGREEMENT, collection_up
 from vergence.stereospace.pair import PreparedCollection, space_from_graph
-from vergence.stereospace.quality import pair_quality
+from vergence.stereospace.quality import DISPARITY_TRIM, pair_quality
 from vergence.stereospace.space import StereoSpace, StereoState
 from vergence.stereospace.views import leave_one_out
 from vergence.viewing import ComfortZone, Display, check_display
@@ -82,10 +82,6 @@ DISTORTION_LIMIT = 0.1
 """Rectification distortion (fraction of the image diagonal) at which the rectification term reaches 0:
 homographies a tenth of the diagonal (80 px of a 640 x 480 image) away from a similarity keystone the
 views beyond comfortable viewing. Measured: neighbouring dino cameras 0.0015, kermit pairs 0.016-0.14."""
-DISPARITY_TRIM = 0.01
-"""Fraction of a pair's point disparities dropped at each end before its range is taken
-(:func:`~vergence.stereospace.pair_quality`'s ``trim``): on dino the 1 % tails of a neighbouring
-pair reach -175 and +142 px against -9.6 and +15.7 px at the 1st and 99th percentiles."""
 PSNR_FLOOR_DB = 10.0
 """Leave-one-out PSNR at which the interpolation term is 0: about the score of an unrelated photo."""
 PSNR_CEIL_DB = 30.0

@@ -25,7 +25,10 @@ from vergence.io import CameraSet, read_cameras, read_image
 from vergence.io.images import MAX_IMAGE_PIXELS
 from vergence.stereospace.triangulation import MATCH_NEIGHBOURS, project_distorted, triangulate_collection
 
-__all__ = ["Collection", "load_collection"]
+__all__ = ["CAMERA_STATUSES", "Collection", "camera_roster", "load_collection"]
+
+CAMERA_STATUSES = ("kept", "no image", "unregistered")
+"""What :func:`load_collection` does with a camera of the file (:func:`camera_roster`)."""
 
 Progress = Callable[[float, str], None]
 
@@ -163,6 +166,9 @@ def _inside(path: Path, within: Path | None) -> bool:
         return False
 
 
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".tif", ".tiff", ".bmp")
+
+
 def _read_set(cameras_path: Path, images: Path,
               within: Path | None = None) -> tuple[CameraSet, list[int], list[tuple[int, int]]]:  # fmt: skip
     """The camera set read at the images' size, the indices kept and their images' sizes.
@@ -172,8 +178,7 @@ def _read_set(cameras_path: Path, images: Path,
     have that size; COLMAP and JSON cameras carry their own size. Only images inside ``within``
     are looked at (:func:`load_collection`).
     """
-    probe = next((q for q in sorted(images.iterdir()) if q.suffix.lower() in
-                  (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".tif", ".tiff", ".bmp") and _inside(q, within)),
+    probe = next((q for q in sorted(images.iterdir()) if q.suffix.lower() in _IMAGE_SUFFIXES and _inside(q, within)),
                  None)  # fmt: skip
     if probe is None:
         raise ValueError(f"images folder {images} holds no image")
@@ -202,6 +207,34 @@ def _gray(path: Path) -> np.ndarray:
     if img.ndim == 3:
         img = img @ np.array([0.299, 0.587, 0.114], np.float32)  # ITU-R BT.601 luma
     return np.clip(img * 255.0 + 0.5, 0, 255).astype(np.uint8)
+
+
+def camera_roster(cameras_path: str | os.PathLike[str], *, images: str | os.PathLike[str]) -> dict[str, str]:
+    """Each camera name of a camera file and what :func:`load_collection` will do with it, in the file's order.
+
+    Reads the camera file only (no image is decoded, nothing is triangulated), so that a command can
+    refuse an unknown camera name at once instead of after the collection's triangulation.
+
+    Returns
+    -------
+    dict
+        name -> ``"kept"``, ``"no image"`` (not a file in ``images``: left out) or ``"unregistered"``
+        (the reconstruction could not register it, f = 0: left out); :data:`CAMERA_STATUSES`.
+
+    Raises
+    ------
+    ValueError
+        ``images`` is not a folder or holds no image; the camera file cannot be read.
+    """
+    cam_path, img_dir = Path(os.fspath(cameras_path)), Path(os.fspath(images))
+    if not img_dir.is_dir():
+        raise ValueError(f"images must be a folder of images; {img_dir} is not a folder")
+    probe = next((q for q in sorted(img_dir.iterdir()) if q.suffix.lower() in _IMAGE_SUFFIXES and q.is_file()), None)
+    if probe is None:
+        raise ValueError(f"images folder {img_dir} holds no image")
+    cset = read_cameras(cam_path, image_size=_header_size(probe))
+    return {n: "unregistered" if cam is None else ("kept" if (img_dir / n).is_file() else "no image")
+            for n, cam in zip(cset.names, cset.cameras)}  # fmt: skip
 
 
 def load_collection(

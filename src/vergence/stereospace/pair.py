@@ -16,8 +16,11 @@ Decisions (S2 leaves them open)
   centre" and §4.2 keeps the view upright while browsing; deciding by the first eye's image x axis
   turned pairs of rolled photos upside down from one state to the next. ``swapped`` says when the
   left eye is the second eye of the state.
-- The rectified views keep the collection's image size (both rectified images' extents are centred
-  in it with one vertical shift, so rows stay aligned); parts of a wide rectified extent are cropped.
+- The rectified views have the collection's image size unless told (``size``, ``width``); both
+  rectified extents are fitted into it whole, with one scale and one vertical offset so rows stay
+  aligned (``framing="fit"``; ``"crop"`` keeps the collection's scale and cuts them:
+  :func:`~vergence.stereospace.frame_cameras`). With a display, a horizontal image shift centres
+  the pair's disparity range in the comfort zone (:func:`~vergence.stereospace.convergence_shift`).
 - Coincident eyes (interocular distance 0, the diagonal of a triangle) cannot be rectified: both
   views are then the one novel view, unrectified (``rectification`` is None).
 - S2's novel view takes the :data:`~vergence.stereospace.S2_MAX_SOURCES` cameras nearest (centre
@@ -53,13 +56,19 @@ from vergence.io import read_image
 from vergence.stereospace.collection import Collection
 from vergence.stereospace.graph import CameraGraph, camera_graph
 from vergence.stereospace.orientation import collection_up, eye_order
+from vergence.stereospace.quality import DISPARITY_TRIM
 from vergence.stereospace.mls_view import S2_GRID_STEP, S2_MAX_SOURCES, _render, _source_set, _SourceSet
+from vergence.stereospace.framing import FRAMINGS, ConvergenceShift, convergence_shift, frame_cameras
 from vergence.stereospace.space import StereoSpace, StereoState
+from vergence.viewing import ComfortZone, Display, check_display
 
-__all__ = ["PAIR_METHODS", "PreparedCollection", "StereoPairResult", "pair_cameras", "space_from_graph",
+__all__ = ["MAX_VIEW_SIDE", "PAIR_METHODS", "PreparedCollection", "StereoPairResult", "pair_cameras", "space_from_graph",
            "stereo_pair"]
 
 ViewMethod = Callable[["PreparedCollection", Camera], np.ndarray]
+
+MAX_VIEW_SIDE = 8192
+"""Largest width or height of a pair's views, pixels (:func:`stereo_pair`'s ``size``)."""
 
 
 def space_from_graph(collection: Collection, graph: CameraGraph) -> tuple[StereoSpace, np.ndarray]:
@@ -250,14 +259,16 @@ class StereoPairResult:
     rectified : (Camera, Camera)
         The cameras of ``left`` and ``right``.
     rectification : Rectification or None
-        Fusiello's rectification of the (left, right) novel cameras before the resize to the image
-        size; None for coincident eyes.
+        Fusiello's rectification of the (left, right) novel cameras before the framing and the
+        shift (its cameras have their own extents); None for coincident eyes.
     swapped : bool
         True when the left view is the second eye's.
     point : (4,) float64
         The stereo point ``s(a, b)`` of the state (S2 Eq. 1).
     packed : ndarray or None
         The pair packed for ``layout`` (:func:`vergence.display.pack`), when one was asked.
+    shift : ConvergenceShift or None
+        The horizontal image shift applied for the display (None: no display given, or coincident eyes).
     """
 
     left: np.ndarray
@@ -268,39 +279,37 @@ class StereoPairResult:
     swapped: bool
     point: np.ndarray
     packed: np.ndarray | None
-
-
-def _fit(cam: Camera, width: int, height: int) -> Camera:
-    """``cam`` with its image extent centred in a ``width`` x ``height`` image (principal point shifted)."""
-    K = cam.K.copy()
-    K[0, 2] -= (cam.width - width) / 2.0
-    K[1, 2] -= (cam.height - height) / 2.0
-    return Camera(K=K, R=cam.R, t=cam.t, width=width, height=height)
-
-
-def _resized(cam: Camera, width: int) -> Camera:
-    """``cam`` imaging the same extent on ``width`` x ``round(height * width / W)`` pixels.
-
-    Pixel centres sit at integer coordinates, so a pixel ``u`` of the old image is ``s (u + 1/2) - 1/2``
-    in the new one (``s`` the scale of its axis): ``K' = [[sx, 0, (sx - 1)/2], [0, sy, (sy - 1)/2],
-    [0, 0, 1]] K`` -- what resizing the image does.
-    """
-    height = max(1, round(cam.height * width / cam.width))
-    sx, sy = width / cam.width, height / cam.height
-    scale = np.array([[sx, 0.0, (sx - 1.0) / 2.0], [0.0, sy, (sy - 1.0) / 2.0], [0.0, 0.0, 1.0]])
-    return Camera(K=scale @ cam.K, R=cam.R, t=cam.t, width=width, height=height)
+    shift: ConvergenceShift | None = None
 
 
 def _rectified_cameras(first: Camera, second: Camera, tolerance: float, up: np.ndarray):
-    """(left, right) rectified cameras of the image size, the Rectification and whether swapped."""
+    """(left, right) rectified cameras of their own extents, the Rectification and whether swapped;
+    ``(first, first), None, False`` for coincident eyes."""
     baseline = second.center - first.center
     if np.linalg.norm(baseline) <= tolerance:
         return (first, first), None, False
     swapped = eye_order(first, second, up)
     left, right = (second, first) if swapped else (first, second)
     rect = rectify_cameras(left, right, up=up)
-    w, h = first.width, first.height
-    return (_fit(rect.left_camera, w, h), _fit(rect.right_camera, w, h)), rect, swapped
+    return (rect.left_camera, rect.right_camera), rect, swapped
+
+
+def _output_size(first: Camera, width: object, size: object) -> tuple[int, int]:
+    """The views' (width, height): ``size``, or ``width`` at the collection's aspect ratio, or its size."""
+    full_w, full_h = first.width, first.height
+    whole = lambda v: not isinstance(v, bool) and isinstance(v, (int, np.integer))  # noqa: E731
+    if width is not None and size is not None:
+        raise ValueError("give width or size, not both")
+    if width is not None:
+        if not whole(width) or not 1 <= width <= full_w:
+            raise ValueError(f"width must be a whole number of pixels in [1, {full_w}] (the image width); got {width!r}")
+        return int(width), max(1, round(full_h * int(width) / full_w))
+    if size is None:
+        return full_w, full_h
+    if (not isinstance(size, (tuple, list)) or len(size) != 2 or not all(whole(v) for v in size)
+            or not all(1 <= v <= MAX_VIEW_SIDE for v in size)):  # fmt: skip
+        raise ValueError(f"size must be (width, height), whole numbers of pixels in [1, {MAX_VIEW_SIDE}]; got {size!r}")
+    return int(size[0]), int(size[1])
 
 
 def _resolve(method: object) -> ViewMethod:
@@ -318,8 +327,13 @@ def stereo_pair(
     layout: str | None = None,
     method: str | ViewMethod = "mls",
     width: int | None = None,
+    size: tuple[int, int] | None = None,
+    framing: str = "fit",
+    display: Display | None = None,
+    zone: ComfortZone | None = None,
+    shift: bool = True,
 ) -> StereoPairResult:
-    """The stereo pair of a state: two novel views rectified together, optionally packed.
+    """The stereo pair of a state: two novel views rectified together, framed, shifted, optionally packed.
 
     Parameters
     ----------
@@ -333,21 +347,45 @@ def stereo_pair(
     method : str or callable
         ``"mls"`` (S2 §3.1, :func:`~vergence.stereospace.s2_view`) or ``method(prepared, camera)``.
     width : int, optional
-        Width of the views in pixels, at most the collection's image width (default: that width);
-        the height follows the aspect ratio. The rectified cameras image the same extent on fewer
-        pixels (their intrinsics scaled as a resize scales them), so a smaller working width costs
+        Width of the views in pixels, at most the collection's image width; the height follows the
+        collection's aspect ratio. The rectified cameras image the same extent on fewer pixels
+        (their intrinsics scaled as a resize scales them), so a smaller working width costs
         proportionally less (the MLS grid keeps its spacing in pixels: fewer nodes too), e.g. for
         interactive browsing (the workbench's StereoSpace page).
+    size : (int, int), optional
+        ``(width, height)`` of the views, each in [1, :data:`MAX_VIEW_SIDE`] (instead of ``width``;
+        default the collection's image size).
+    framing : str
+        ``"fit"`` (default: both whole rectified extents fit the frame) or ``"crop"`` (the
+        collection's scale, centred, cut at the frame), :func:`~vergence.stereospace.frame_cameras`.
+    display : Display, optional
+        With a display, the views are shifted horizontally so that the range of the points'
+        disparities is centred in ``zone`` on it (:func:`~vergence.stereospace.convergence_shift`,
+        its 1st to 99th percentiles, :data:`~vergence.stereospace.DISPARITY_TRIM`); ``shift`` of the
+        result says what was done. None: no shift.
+    zone : ComfortZone, optional
+        The comfort zone of the shift (default ±60 arcmin).
+    shift : bool
+        With a display: False measures the disparity range on it without shifting (``shift`` of the
+        result then has ``applied`` False).
 
     Raises
     ------
     ValueError
-        A region that does not exist, parameters outside [0, 1], an unknown layout or method, a
-        width that is not a whole number in [1, image width], a pair that cannot be rectified
-        (baseline along the viewing direction).
+        A region that does not exist, parameters outside [0, 1], an unknown layout, method or
+        framing, a width that is not a whole number in [1, image width], a bad size, a pair that
+        cannot be rectified (baseline along the viewing direction).
     """
     if layout is not None and (not isinstance(layout, str) or layout not in LAYOUTS):
         raise ValueError(f"layout must be one of {', '.join(LAYOUTS)}; got {layout!r}")
+    if framing not in FRAMINGS:
+        raise ValueError(f"framing must be one of {', '.join(FRAMINGS)}; got {framing!r}")
+    if display is not None:
+        check_display(display, resolution=True)
+    if not isinstance(shift, bool):
+        raise TypeError(f"shift must be a bool; got {type(shift).__name__}")
+    if zone is not None and not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
     render = _resolve(method)
     if isinstance(prepared, Collection):
         prepared = _Unprepared(prepared)  # type: ignore[assignment]
@@ -355,13 +393,18 @@ def stereo_pair(
         raise TypeError(f"prepared must be a PreparedCollection or a Collection; got {type(prepared).__name__}")
     space = prepared.space
     first, second = pair_cameras(space, prepared.collection, state, segment_cameras=prepared.segment_cameras)
+    out_size = _output_size(first, width, size)
     (cam_l, cam_r), rect, swapped = _rectified_cameras(first, second, space.tolerance, prepared.up)
-    if width is not None:
-        full = cam_l.width
-        if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or not 1 <= width <= full:
-            raise ValueError(f"width must be a whole number of pixels in [1, {full}] (the image width); got {width!r}")
-        if width != full:
-            cam_l, cam_r = _resized(cam_l, int(width)), _resized(cam_r, int(width))
+    if rect is None:  # coincident eyes: the novel camera itself, framed as the collection's images
+        cam_l = cam_r = frame_cameras(first, first, out_size, framing="crop", reference_width=first.width)[0] \
+            if out_size != (first.width, first.height) else first  # fmt: skip
+        hit = None
+    else:
+        cam_l, cam_r = frame_cameras(cam_l, cam_r, out_size, framing=framing, reference_width=first.width)
+        hit = None
+        if display is not None:
+            cam_l, cam_r, hit = convergence_shift(cam_l, cam_r, prepared.collection.points, display, zone=zone,
+                                                  trim=DISPARITY_TRIM, apply=shift)  # fmt: skip
     left = np.asarray(render(prepared, cam_l), dtype=np.float32)  # type: ignore[arg-type]
     right = left if rect is None else np.asarray(render(prepared, cam_r), dtype=np.float32)  # type: ignore[arg-type]
     for name, view in (("left", left), ("right", right)):
@@ -371,5 +414,4 @@ def stereo_pair(
     packed = None if layout is None else pack(left, right, layout=layout)
     point = space.point(state.region[0], state.li, state.region[1], state.lj)
     return StereoPairResult(left=left, right=right, cameras=(first, second), rectified=(cam_l, cam_r),
-                            rectification=rect, swapped=swapped, point=point, packed=packed)
-
+                            rectification=rect, swapped=swapped, point=point, packed=packed, shift=hit)

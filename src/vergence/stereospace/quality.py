@@ -16,7 +16,12 @@ from vergence.stereospace.collection import Collection
 from vergence.stereospace.orientation import collection_up, eye_order
 from vergence.viewing import ComfortZone, Display, check_disparity_range, check_display
 
-__all__ = ["pair_quality"]
+__all__ = ["DISPARITY_TRIM", "pair_quality"]
+
+DISPARITY_TRIM = 0.01
+"""Fraction of a pair's point disparities dropped at each end before its range is taken
+(:func:`~vergence.stereospace.pair_quality`'s ``trim``): on dino the 1 % tails of a neighbouring
+pair reach -175 and +142 px against -9.6 and +15.7 px at the 1st and 99th percentiles."""
 
 
 def _seen(cam: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import datetime
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -129,10 +130,15 @@ def load_space(folder: str | os.PathLike[str]) -> BuiltSpace:
     if not points_path.is_file():
         raise ValueError(f"{root} is damaged: it has no {POINTS_FILE}")
     try:
-        with np.load(points_path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in ("points", "observations", "observation_pixels", "distortion")}
-    except (OSError, ValueError, KeyError) as exc:
-        raise ValueError(f"{points_path} is damaged: {exc}") from None
+        with open(points_path, "rb") as fh:  # ours to close: np.load leaks its handle on a broken zip
+            data = np.load(fh, allow_pickle=False)
+            if not isinstance(data, np.lib.npyio.NpzFile):
+                raise ValueError("not an .npz archive")
+            with data:
+                arrays = {k: data[k] for k in ("points", "observations", "observation_pixels", "distortion")}
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:  # a cut or overwritten file
+        raise ValueError(f"{points_path} is damaged ({type(exc).__name__}: {' '.join(str(exc).split())}): build the "
+                         "space again") from None
     size = _field(record, "image_size", list, path)
     cset = read_cameras(cam_path, image_size=(int(size[0]), int(size[1])))
     index = {n: k for k, n in enumerate(cset.names)}
