@@ -137,6 +137,8 @@ def test_render_writes_every_file_and_a_report(run, tmp_path, kind):
         assert 0.0 <= right["dssim"] < 0.2
         # windows wholly inside the covered area: fewer pixels, none comparing a hole's black
         assert 0.0 < right["inside"] <= right["coverage"] and 0.0 <= right["dssim_inside"] < 0.2
+        # the whole image, holes filled: never above the covered pixels' figure by more than noise
+        assert 10.0 < right["psnr_filled"] <= right["psnr"] + 1.0 and 0.0 <= right["dssim_filled"] < 0.5
     assert (out / "truth" / "left.png").is_file() and (out / "truth" / "right.png").is_file()
     cams = sorted(p.name for p in (out / "cameras").glob("*.png"))
     assert len(cams) == (4 if kind == "quadri" else 3)

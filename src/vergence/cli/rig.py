@@ -174,8 +174,8 @@ def _camera_of(rig, name: str):  # noqa: ANN001, ANN202
 
 
 def _print_report(shot, result, out: Path, elapsed: float) -> None:  # noqa: ANN001
-    table = Table(title=f"{'Quadri' if shot.rig == 'quadri' else 'Tri'}-Rig against the truth (covered pixels)")
-    for col in ("method", "eye", "PSNR (dB)", "DSSIM", "DSSIM inside", "coverage"):
+    table = Table(title=f"{'Quadri' if shot.rig == 'quadri' else 'Tri'}-Rig against the truth")
+    for col in ("method", "eye", "PSNR (dB)", "DSSIM", "DSSIM inside", "filled (dB)", "coverage"):
         table.add_column(col, justify="left" if col in ("method", "eye") else "right")
     for method, eyes in result.report["methods"].items():
         for eye, m in eyes.items():
@@ -183,10 +183,13 @@ def _print_report(shot, result, out: Path, elapsed: float) -> None:  # noqa: ANN
                 "—" if m["psnr"] is None else f"{m['psnr']:.2f}")
             d = "—" if m["dssim"] is None else f"{m['dssim']:.2e}"
             d_in = "—" if m.get("dssim_inside") is None else f"{m['dssim_inside']:.2e} ({100 * m['inside']:.1f} %)"
-            table.add_row(method, eye, p, d, d_in, f"{100 * m['coverage']:.1f} %")
+            f = "—" if m.get("psnr_filled") is None else f"{m['psnr_filled']:.2f}"
+            table.add_row(method, eye, p, d, d_in, f, f"{100 * m['coverage']:.1f} %")
     console.print(table)
-    console.print("DSSIM inside: from the 7x7 windows wholly inside the covered area (the share of the image they "
-                  "centre on); DSSIM: every covered pixel's window, holes black", highlight=False)  # fmt: skip
+    console.print("PSNR, DSSIM: over the covered pixels (a DSSIM window reaching a hole compares its black); DSSIM "
+                  "inside: from the 7x7 windows wholly inside the covered area (the share of the image they centre "
+                  "on); filled: PSNR of the whole image, each row's run of holes filled from its farther side "
+                  "(S1's background fill)", highlight=False)  # fmt: skip
     reference = ("S0 Table 1 (Quadri-Rig, lego): ULR 33.93 / 33.94 dB, Bayesian 34.00 / 34.02 dB, DSSIM ~2.9e-2; "
                  if shot.rig == "quadri" else "S0 has no reference for the Tri-Rig's right eye; ")  # fmt: skip
     console.print(f"{reference}{elapsed:.1f} s; wrote {out}", highlight=False)

@@ -94,9 +94,10 @@ def section_rig(out: Path, progress: Progress, shot: object, number: int) -> tup
             "go; for each element (the player, the bleachers) and each eye one real camera stands on the "
             f"camera line {rig.setback:g} m behind, on the line from the element through the virtual eye, its "
             "focal length scaled so the element is imaged as the virtual eye would (S0 Eq. 10). Each virtual "
-            "eye is synthesised from its two real cameras by image-based rendering (ULR, Buehler et al. 2001; "
-            "Bayesian weights, Pujades et al. 2014) and compared with the virtual eye ray-traced directly, "
-            "over the pixels some real camera sees. S0 Table 1 reports its figures on the blender lego scene."
+            "eye is synthesised from all the rig's real cameras, weighted per pixel, by image-based "
+            "rendering (ULR, Buehler et al. 2001; Bayesian weights, Pujades et al. 2014) and compared with "
+            "the virtual eye ray-traced directly, over the pixels some real camera sees; S0 synthesises each eye from its own two cameras "
+            "(`vergence rig render --sources eye`). S0 Table 1 reports its figures on the blender lego scene."
         )
         truth = {"left": "Virtual left eye, ray-traced (the truth).", "right": "Virtual right eye, ray-traced (the truth)."}
     else:

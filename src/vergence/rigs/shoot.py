@@ -198,13 +198,17 @@ def _tonemapped(results: dict, exposure: float) -> dict:
     return {k: _tone(r.beauty, exposure) for k, r in results.items()}
 
 
-def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray) -> dict:
+def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray, proxy_depth: np.ndarray | None = None) -> dict:
     """PSNR and DSSIM over the covered pixels (a window reaching a hole compares its black), DSSIM
     from the windows wholly inside the covered area (``dssim_inside``, None where none is) with the
-    share of the image those windows centre on (``inside``), and the coverage."""
+    share of the image those windows centre on (``inside``), the coverage, and, given the proxy's
+    depth, PSNR and DSSIM of the whole image with its holes filled (``psnr_filled``, ``dssim_filled``):
+    each run of holes along a row takes the colour of its farther neighbour, S1's background fill
+    (:func:`vergence.synthesis.fill_holes`), so a method cannot gain by leaving pixels out."""
     from scipy.ndimage import minimum_filter
 
     from vergence.metrics import SSIM_WINDOW, dssim, psnr
+    from vergence.synthesis import fill_holes
 
     covered = float(coverage.mean())
     if not coverage.any():
@@ -213,8 +217,17 @@ def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray) -> dict
     whole = minimum_filter(coverage.astype(np.uint8), size=SSIM_WINDOW, mode="constant", cval=0).astype(bool)
     inside = round(float(whole.mean()), 6)
     d_in = round(dssim(image, truth, mask=coverage, whole_windows=True), 6) if whole.any() else None
-    return {"psnr": None if math.isinf(p) else round(p, 3), "dssim": round(dssim(image, truth, mask=coverage), 6),
-            "dssim_inside": d_in, "inside": inside, "coverage": round(covered, 6)}  # fmt: skip
+    out = {"psnr": None if math.isinf(p) else round(p, 3), "dssim": round(dssim(image, truth, mask=coverage), 6),
+           "dssim_inside": d_in, "inside": inside, "coverage": round(covered, 6)}  # fmt: skip
+    if proxy_depth is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nearness = np.where(coverage & np.isfinite(proxy_depth), 1.0 / proxy_depth, 0.0)  # sky: the farthest
+        filled, _ = fill_holes(image, nearness, ~coverage)
+        filled = np.nan_to_num(filled)  # a row with no covered pixel stays black
+        pf = psnr(filled, truth)
+        out["psnr_filled"] = None if math.isinf(pf) else round(pf, 3)
+        out["dssim_filled"] = round(dssim(filled, truth), 6)
+    return out
 
 
 def _check_seen(renders: dict, names: Sequence[str]) -> None:
@@ -266,7 +279,7 @@ def _render_quadri(shot, rig, methods, samples, supersample, sources, say) -> Sh
                              weights=method)  # fmt: skip
             _check_covered(res.coverage, eye, method)
             results[method][eye] = res
-            report[method][eye] = _measure(res.image, truth[eye], res.coverage)
+            report[method][eye] = _measure(res.image, truth[eye], res.coverage, res.proxy_depth)
     pairs = {m: {eye: results[m][eye].image for eye in ("left", "right")} for m in methods}
     say(1.0, "done")
     cameras = {rc.name: (images[rc.name], np.asarray(renders[rc.name].depth)) for rc in rig.cameras}
@@ -311,7 +324,7 @@ def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  #
         results[method] = {"right": res}
         everywhere = np.ones(res.coverage.shape, dtype=bool)
         report[method] = {"left": {**_measure(images["director"], truth["left"], everywhere), "note": "the director's image"},
-                          "right": _measure(res.image, truth["right"], res.coverage)}  # fmt: skip
+                          "right": _measure(res.image, truth["right"], res.coverage, res.proxy_depth)}  # fmt: skip
     pairs = {m: {"left": images["director"], "right": results[m]["right"].image} for m in methods}
     say(1.0, "done")
     cameras = {n: (images[n], np.asarray(renders[n].depth)) for n, _ in named}
