@@ -1,7 +1,10 @@
 """Leave-one-out quality of the StereoSpace novel views (S2 §3.1) on dino and kermit.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_loo.py [--data DIR] [--collections dino kermit]
-[--methods plane mls depth] [--limit N] [--out DIR]``.
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_loo.py [--data DIR] [--collections dino kermit
+CAMERA_FILE ...] [--methods plane mls depth] [--limit N] [--out DIR]``.
+A collection is a built-in name (``dino``, ``kermit``: under ``--data``, by default the shared data
+beside the checkout, ``../shared/data/collections``, as the tests find it) or the path of any camera
+file of :func:`vergence.io.read_cameras`, its images in the same folder.
 Each camera's view is made from the others (it left out of the sources, of the depth maps' matching
 and of their checks), by the one-plane baseline, S2's MLS method and ours (per-view depth + ULR), and
 compared with its photo: PSNR (dB) over the pixels the plane baseline covers. Prints one row per view
@@ -24,6 +27,21 @@ from PIL import Image
 from vergence.stereospace import leave_one_out, load_collection
 
 CAMERAS = {"dino": "dino_par.txt", "kermit": "bundle.out"}
+# The shared data beside the checkout, as tests/conftest.py finds it (see shared/data/SOURCES.md).
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "collections"
+
+
+def _camera_file(spec: str, data: Path) -> tuple[str, Path]:
+    """(label, camera file) of a built-in collection name or a camera file's path."""
+    if spec in CAMERAS:
+        path = data / spec / CAMERAS[spec]
+        if not path.is_file():
+            raise SystemExit(f"collection {spec!r}: {path} not found (give --data, the folder holding {spec}/)")
+        return spec, path
+    path = Path(spec)
+    if not path.is_file():
+        raise SystemExit(f"collection {spec!r} is neither {' nor '.join(CAMERAS)} nor a camera file")
+    return path.parent.name or path.stem, path
 
 
 def _save(path: Path, image: np.ndarray) -> None:
@@ -32,8 +50,10 @@ def _save(path: Path, image: np.ndarray) -> None:
 
 def _split(collection: str, names: list[str]) -> list[tuple[str, list[str]]]:
     """The views the depth checks were tuned on and the held-out ones (odd-numbered dino views)."""
-    if collection != "dino":
+    if collection == "kermit":
         return [("tuned", names)]
+    if collection != "dino":
+        return [("all", names)]
     held = [n for n in names if int(Path(n).stem[-4:]) % 2 == 1]
     parts = [("tuned", [n for n in names if n not in held]), ("held-out", held)]
     return [(label, part) for label, part in parts if part]
@@ -52,16 +72,17 @@ def _hole_share(scores: dict, name: str, photo: np.ndarray) -> tuple[float, floa
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path("/work/shared/data/collections"))
-    parser.add_argument("--collections", nargs="+", default=["dino", "kermit"], choices=sorted(CAMERAS))
+    parser.add_argument("--data", type=Path, default=DATA, help="folder of the built-in collections")
+    parser.add_argument("--collections", nargs="+", default=["dino", "kermit"],
+                        help="built-in names (dino, kermit) or camera files (images beside them)")
     parser.add_argument("--methods", nargs="+", default=["plane", "mls", "depth"])
     parser.add_argument("--limit", type=int, default=None, help="only the first N views")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
-    for name in args.collections:
-        folder = args.data / name
+    for spec in args.collections:
+        name, camera_file = _camera_file(spec, args.data)
         start = time.perf_counter()
-        col = load_collection(folder / CAMERAS[name], images=folder)
+        col = load_collection(camera_file, images=camera_file.parent)
         print(f"{name}: {len(col)} views, {col.point_count} points, loaded in {time.perf_counter() - start:.1f} s")
         images: dict = {}
         names = list(col.names)[: args.limit]
