@@ -249,3 +249,30 @@ def test_render_with_each_eyes_own_cameras_as_s0(run, tmp_path):
     assert code == 2 and "--sources" in err and "Tri-Rig" in err
     code, out, err = run("rig", "render", str(_tiny("quadri", tmp_path)), "--out", str(tmp_path / "o"), "--sources", "one")
     assert code == 2 and "--sources must be one of all, eye" in err
+
+
+@pytest.mark.parametrize(("option", "value", "says"), [("--ulr-k", "0", "--ulr-k must be an integer >= 1"),
+                                                       ("--visibility-tolerance", "0", "--visibility-tolerance must be > 0"),
+                                                       ("--visibility-tolerance", "nan", "--visibility-tolerance must be > 0"),
+                                                       ("--deformation-cap", "0.5", "--deformation-cap must be >= 1")])
+def test_render_refuses_bad_ibr_settings_before_rendering(run, tmp_path, option, value, says):
+    code, _out, err = run("rig", "render", str(_tiny("quadri", tmp_path)), "--out", str(tmp_path / "o"), option, value)
+    assert code == 2 and says in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_render_uses_and_reports_the_ibr_settings(run, tmp_path):
+    out = tmp_path / "out"
+    code, _stdout, err = run("rig", "render", str(_tiny("quadri", tmp_path)), "--out", str(out), "--samples", "1",
+                             "--supersample", "1", "--weights", "ulr", "--ulr-k", "1", "--visibility-tolerance", "0.02")
+    assert code == 0, err
+    report = json.loads((out / "report.json").read_text())
+    assert report["ibr"] == {"k": 1, "occlusion_tolerance": 0.02, "deformation_cap": 20.0}
+    from vergence.io import read_image
+
+    # k = 1 reaches the synthesis: one source per pixel gives another image than the default k = 4's blend.
+    out4 = tmp_path / "out4"
+    code, _stdout, err = run("rig", "render", str(_tiny("quadri", tmp_path)), "--out", str(out4), "--samples", "1",
+                             "--supersample", "1", "--weights", "ulr")
+    assert code == 0, err
+    assert np.abs(read_image(out / "ulr" / "left.png") - read_image(out4 / "ulr" / "left.png")).max() > 0.01

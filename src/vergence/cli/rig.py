@@ -114,6 +114,9 @@ def render(
     samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
     supersample: int = typer.Option(3, "--supersample", help="k: k x k sub-pixel rays per pixel in every ray-traced image."),  # SHOT_SUPERSAMPLE
     sources: str = typer.Option("all", "--sources", help="Quadri-Rig: each eye from all 2N real cameras (all) or its own N, as S0 (eye)."),
+    ulr_k: int = typer.Option(4, "--ulr-k", help="ULR: the k best sources per pixel weigh in (Buehler et al. 2001)."),  # ULR_K
+    visibility_tolerance: float = typer.Option(0.01, "--visibility-tolerance", help="Relative depth agreement of the visibility test (0.01 = 1 %), plus the surface's slope."),  # IBR_OCCLUSION_TOLERANCE
+    deformation_cap: float = typer.Option(20.0, "--deformation-cap", help="Bayesian: the largest deformation weight (>= 1)."),  # BAYES_DEFORMATION_CAP
 ) -> None:
     """Render the real cameras of SHOT, synthesise the director's pair (ULR / Bayesian) and measure it."""
     from vergence.io import atomic_folder, write_image, write_pfm
@@ -126,6 +129,10 @@ def render(
     for name, value in (("--samples", samples), ("--supersample", supersample)):
         if value < 1:
             raise ValueError(f"{name} must be >= 1; got {value}")
+    from vergence.rigs.shoot import check_ibr_settings
+
+    with options_named(k="--ulr-k", occlusion_tolerance="--visibility-tolerance", deformation_cap="--deformation-cap"):
+        check_ibr_settings(ulr_k, visibility_tolerance, deformation_cap)  # refused before the shot is even read
     s = _load(shot)
     print_warnings(s.plan().warnings)  # refuse a rig the planner refuses before any rendering; warn once
     if out.exists() and out.resolve() == shot.resolve():
@@ -140,9 +147,11 @@ def render(
             if not err_console.is_terminal:
                 err_console.print(f"{message}", highlight=False)
 
-        with options_named(samples="--samples", supersample="--supersample", sources="--sources"):
+        with options_named(samples="--samples", supersample="--supersample", sources="--sources", k="--ulr-k",
+                           occlusion_tolerance="--visibility-tolerance", deformation_cap="--deformation-cap"):
             result = render_shot(s, weights=RIG_WEIGHTS[weights], samples=samples, supersample=supersample,
-                                 sources=sources, progress=report)  # fmt: skip
+                                 sources=sources, k=ulr_k, occlusion_tolerance=visibility_tolerance,
+                                 deformation_cap=deformation_cap, progress=report)  # fmt: skip
     elapsed = time.perf_counter() - start
     with atomic_folder(out) as tmp:
         (tmp / "cameras").mkdir()

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["RIG_SOURCES", "RIG_WEIGHTS", "SHOT_SUPERSAMPLE", "ShotRender", "render_shot"]
+__all__ = ["RIG_SOURCES", "RIG_WEIGHTS", "SHOT_SUPERSAMPLE", "ShotRender", "check_ibr_settings", "render_shot"]
 
 # --sources choices of `vergence rig render` (a Quadri-Rig's eyes): "all" blends all 2N real cameras
 # into each virtual eye (the weights choose per pixel; our default), "eye" only the eye's own N cameras,
@@ -118,6 +118,9 @@ def render_shot(
     samples: int = 16,
     supersample: int = SHOT_SUPERSAMPLE,
     sources: str = "all",
+    k: int | None = None,
+    occlusion_tolerance: float | None = None,
+    deformation_cap: float | None = None,
     progress: Progress | None = None,
 ) -> ShotRender:
     """Render the real cameras of ``shot``, synthesise the director's stereo pair and measure it.
@@ -137,6 +140,10 @@ def render_shot(
         A Quadri-Rig's sources per eye, in :data:`RIG_SOURCES`: ``"all"`` 2N real cameras,
         ``"eye"`` the eye's own N (S0's setup). A Tri-Rig's right eye is always made from its three
         cameras (``"all"``).
+    k, occlusion_tolerance, deformation_cap : optional
+        :func:`vergence.synthesis.render_ibr`'s ULR source count (an integer >= 1), visibility test's
+        relative depth tolerance (> 0) and Bayesian deformation cap (>= 1); None: its defaults. Checked
+        before anything is rendered; the report's ``ibr`` states the values used.
     progress : callable(fraction, message), optional
 
     Returns
@@ -165,11 +172,36 @@ def render_shot(
         raise ValueError(f"sources must be one of {', '.join(RIG_SOURCES)}; got {sources!r}")
     if sources == "eye" and shot.rig != "quadri":
         raise ValueError("sources 'eye' applies to a Quadri-Rig; a Tri-Rig's right eye is made from its three cameras")
+    ibr = check_ibr_settings(k, occlusion_tolerance, deformation_cap)
     say = progress or (lambda _f, _m: None)
     rig = shot.plan()
     if shot.rig == "quadri":
-        return _render_quadri(shot, rig, tuple(weights), samples, supersample, sources, say)
-    return _render_tri(shot, rig, tuple(weights), samples, supersample, say)
+        result = _render_quadri(shot, rig, tuple(weights), samples, supersample, sources, ibr, say)
+    else:
+        result = _render_tri(shot, rig, tuple(weights), samples, supersample, ibr, say)
+    result.report["ibr"] = ibr
+    return result
+
+
+def check_ibr_settings(k: object, tolerance: object, cap: object) -> dict:
+    """render_ibr's k, occlusion_tolerance and deformation_cap for render_shot, checked (None: its default)."""
+    from vergence.synthesis.ibr import IBR_OCCLUSION_TOLERANCE, ULR_K
+    from vergence.synthesis.ibr_bayes import BAYES_DEFORMATION_CAP
+
+    k = ULR_K if k is None else k
+    if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
+        raise ValueError(f"k must be an integer >= 1; got {k!r}")
+    out = {"k": int(k)}
+    for name, value, default, low, strict in (("occlusion_tolerance", tolerance, IBR_OCCLUSION_TOLERANCE, 0.0, True),
+                                              ("deformation_cap", cap, BAYES_DEFORMATION_CAP, 1.0, False)):
+        value = default if value is None else value
+        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+            raise TypeError(f"{name} must be a number; got {type(value).__name__}")
+        v = float(value)
+        if not math.isfinite(v) or (v <= low if strict else v < low):
+            raise ValueError(f"{name} must be {'>' if strict else '>='} {low:g} and finite; got {v:g}")
+        out[name] = v
+    return out
 
 
 def _tracer(shot: object) -> object:
@@ -251,7 +283,7 @@ def _sources(names: Sequence[str], rig_cams: dict, images: dict, renders: dict) 
             for n in names]  # fmt: skip
 
 
-def _render_quadri(shot, rig, methods, samples, supersample, sources, say) -> ShotRender:  # noqa: ANN001
+def _render_quadri(shot, rig, methods, samples, supersample, sources, ibr, say) -> ShotRender:  # noqa: ANN001
     from vergence.render import auto_exposure
     from vergence.synthesis import render_ibr
 
@@ -276,7 +308,7 @@ def _render_quadri(shot, rig, methods, samples, supersample, sources, say) -> Sh
             # all 2N: ULR and Bayesian weigh them per pixel; "eye": the eye's own N (S0 §5)
             names = [rc.name for rc in (rig.cameras if sources == "all" else rig.sources(eye))]
             res = render_ibr(rig.left if eye == "left" else rig.right, _sources(names, cams, images, renders),
-                             weights=method)  # fmt: skip
+                             weights=method, **ibr)  # fmt: skip
             _check_covered(res.coverage, eye, method)
             results[method][eye] = res
             report[method][eye] = _measure(res.image, truth[eye], res.coverage, res.proxy_depth)
@@ -289,7 +321,7 @@ def _render_quadri(shot, rig, methods, samples, supersample, sources, say) -> Sh
                       report={"sources": sources, "methods": report, "timings": timing})  # fmt: skip
 
 
-def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  # noqa: ANN001
+def _render_tri(shot, rig, methods, samples, supersample, ibr, say) -> ShotRender:  # noqa: ANN001
     from vergence.render import auto_exposure
     from vergence.synthesis import render_ibr
 
@@ -319,7 +351,7 @@ def _render_tri(shot, rig, methods, samples, supersample, say) -> ShotRender:  #
     for mi, method in enumerate(methods):
         say(0.7 + 0.3 * mi / len(methods), f"{method}: synthesising the right eye")
         res = render_ibr(rig.reference_right, _sources([n for n, _ in named], cams, images, renders), weights=method,
-                         distortion=dist)  # fmt: skip
+                         distortion=dist, **ibr)  # fmt: skip
         _check_covered(res.coverage, "right", method)
         results[method] = {"right": res}
         everywhere = np.ones(res.coverage.shape, dtype=bool)
