@@ -80,9 +80,10 @@ def _keys(t):
     return [k(t + 1), k(t), k(1 - t), k(2 - t)]
 
 
-def _ref_slopes(depth, cap):
-    """Python loop: per pixel the |difference| to its neighbour towards -x, +x, -y, +y; the opposite
-    side's where that one is unknown; 0 if neither; capped at cap * z."""
+def _ref_slopes(depth, cap, ratio=2.0):
+    """Python loop: per pixel the |difference| to its neighbour towards -x, +x, -y, +y, at most ``ratio``
+    times the opposite side's when that is known; the opposite side's where that one is unknown; 0 if
+    neither; capped at cap * z."""
     hs, ws = depth.shape
     out = np.zeros((4, hs, ws))
 
@@ -95,9 +96,11 @@ def _ref_slopes(depth, cap):
     for y in range(hs):
         for x in range(ws):
             for k, (dy, dx) in enumerate(((0, -1), (0, 1), (-1, 0), (1, 0))):
-                d = diff(y, x, dy, dx)
+                d, opposite = diff(y, x, dy, dx), diff(y, x, -dy, -dx)
                 if d is None:
-                    d = diff(y, x, -dy, -dx)
+                    d = opposite
+                elif opposite is not None:
+                    d = min(d, ratio * opposite)
                 out[k, y, x] = 0.0 if d is None or not np.isfinite(d) else min(d, cap * depth[y, x])
     return out
 
@@ -425,6 +428,24 @@ def test_grazing_ground_is_seen_where_every_source_sees_it():
     assert strict.coverage[seen].mean() < 0.9
     assert aware.coverage[seen].mean() > 0.97
     assert np.abs(aware.image - truth)[aware.coverage].mean() < 0.02
+
+
+def test_a_small_step_is_not_taken_for_a_slope():
+    """A source sees two fronto-parallel planes 8 % apart in depth, the step between columns 23 and 24.
+    A proxy that bridges the step (a forward-warped mesh links both sides) puts points between them:
+    the source sees neither surface there, so they must fail the visibility test however close to the
+    step they project. Capping at 10 % alone would let the step pass for a slope (4 % at half a pixel)."""
+    cam = _cam(0.0)
+    depth = np.full((cam.height, cam.width), 4.0)
+    depth[:, 24:] = 4.32
+    src = IBRSource(cam, np.full((cam.height, cam.width, 3), 0.5, dtype=np.float32), depth)
+    u = np.array([23.3, 23.5, 23.7])
+    z = 4.0 + (u - 23.0) * 0.32  # on the bridge: 4.096, 4.16, 4.224
+    points = cam.backproject(np.stack([u, np.full(3, 18.0)], axis=-1), z)[None]
+    _, visible, _ = _ibr_stages.sample_sources(points, [src], 0.01, 0.1, False)
+    assert not visible.any()
+    on = cam.backproject(np.array([[23.3, 18.0], [23.7, 18.0]]), np.array([4.0, 4.32]))[None]
+    assert _ibr_stages.sample_sources(on, [src], 0.01, 0.1, False)[1].all()  # each plane itself passes
 
 
 def test_visibility_test_stops_ghosting():

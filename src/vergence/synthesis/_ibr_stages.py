@@ -23,6 +23,10 @@ from vergence.synthesis.ibr_source import IBRSource
 # (``_ibr_kernels.fov_penalty``) grows without bound towards that edge, so a source leaving its image
 # fades out continuously instead of being cut at its border pixels' centres.
 FOV_MARGIN_PX = 0.5
+# The visibility test's slope on one side of a source pixel is at most this multiple of the other
+# side's (:func:`surface_slopes`): ground at a grazing angle changes its slope by 1.5-3x per pixel near
+# the horizon; a silhouette's jump is many times its surface's slope.
+SLOPE_RATIO = 2.0
 
 
 def forward_proxy(target: Camera, sources: list[IBRSource], distortion: object, limit: float | None) -> np.ndarray:
@@ -121,17 +125,20 @@ def links_distorted(
     return links[0], links[1]
 
 
-def surface_slopes(depth: np.ndarray, cap: float) -> np.ndarray:
+def surface_slopes(depth: np.ndarray, cap: float, ratio: float = SLOPE_RATIO) -> np.ndarray:
     """One-sided depth slopes of a depth map, metres per pixel, for the visibility test: ``(4, H, W)``,
     towards -x, +x, -y and +y.
 
-    Each is ``|z(neighbour) - z|`` on that side; where that neighbour is unknown (NaN, the image's
-    border), the opposite side's (the surface goes on); neither: 0. Each is at most ``cap`` times the
-    pixel's depth: a surface seen more edge-on than that widens the test no further.
+    Each is ``|z(neighbour) - z|`` on that side, at most ``ratio`` times the opposite side's: a surface
+    bends gently (ground seen at a grazing angle: 1.5-3x from one pixel to the next) while at a
+    silhouette one side jumps to another surface and the other side does not, so the jump never
+    widens the test. Where that neighbour is unknown (NaN, the image's border), the opposite side's
+    (the surface goes on); neither: 0. Each is at most ``cap`` times the pixel's depth: a surface seen
+    more edge-on than that widens the test no further.
 
     >>> z = np.array([[1.0, 1.25, 2.0, 9.0]])
     >>> surface_slopes(z, 0.5)[:2].tolist()
-    [[[0.25, 0.25, 0.75, 4.5]], [[0.25, 0.625, 1.0, 4.5]]]
+    [[[0.25, 0.25, 0.75, 4.5]], [[0.25, 0.5, 1.0, 4.5]]]
     """
     out = np.zeros((4,) + depth.shape)
     for k, axis in ((0, 1), (2, 0)):
@@ -141,8 +148,8 @@ def surface_slopes(depth: np.ndarray, cap: float) -> np.ndarray:
         back = np.pad(d, pad, constant_values=np.nan)
         pad[axis] = (0, 1)
         fwd = np.pad(d, pad, constant_values=np.nan)
-        out[k] = np.where(np.isnan(back), fwd, back)
-        out[k + 1] = np.where(np.isnan(fwd), back, fwd)
+        out[k] = np.where(np.isnan(back), fwd, np.fmin(back, ratio * fwd))  # fmin: back where fwd is unknown
+        out[k + 1] = np.where(np.isnan(fwd), back, np.fmin(fwd, ratio * back))
     out = np.nan_to_num(out, nan=0.0)
     with np.errstate(invalid="ignore"):
         return np.where(out > cap * depth, cap * depth, out)  # NaN depth: the pixel never agrees anyway
