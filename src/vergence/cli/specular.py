@@ -11,6 +11,14 @@ every cost term of layer ``LAYER`` (1-based, as ``report.json``'s ``"layer"``), 
 only ``TERM`` (:data:`vergence.specular.COST_TERMS`); maps of the same term and layer multiply.
 ``FILE`` is a grey image of the render's size: PNG/PGM/JPEG values / max code (so in [0, 1]),
 ``.pfm``/``.npy``/``.hdr`` as stored; finite, in [0, 1e6].
+
+``--fit screen|native`` says how the pair is shown on ``--display`` (stretched to its width, or one
+image pixel per display pixel): every arcmin figure is for that (``report.json``'s ``display``).
+``--table`` also writes the offset table (``specular_table.npz``); ``--reoptimise DIR`` re-solves the
+table of ``DIR`` with new ``--weights``/``--weight-map``/``--absolute``/``--factor`` without
+rendering it again (:func:`vergence.specular.specular_from_table`): the table fixes the scene, the
+size, the rig, the display and its fit, ``--k``, ``--depth`` and ``--samples``; giving one of them
+otherwise is refused.
 """
 
 from __future__ import annotations
@@ -34,6 +42,8 @@ __all__ = ["DEFAULT_DISPLAY", "specular"]
 DEFAULT_DISPLAY = "samsung-2233rz"
 # OffsetPlanner's range of the reduction factor (checked here too: the planner runs after the table).
 _FACTOR_RANGE = (1, 64)
+# The defaults of the options a table fixes (None on the command line: not given).
+_DEFAULT_K, _DEFAULT_DEPTH, _DEFAULT_SAMPLES = 32, 2, 16
 
 
 def _weights(text: str | None) -> tuple[float, float, float, float] | None:
@@ -72,22 +82,40 @@ def _share(v: float | None) -> str:
     return "-" if v is None else f"{100 * v:.0f} %"
 
 
+def _inside(row: dict) -> str:
+    """Plain (counts) and importance-weighted shares inside the zone, before -> after."""
+    return (f"inside the zone {_share(row['inside_share_before'])} -> {_share(row['inside_share_after'])} of matched "
+            f"px ({row['inside_before']}/{row['matched_before']} -> {row['inside_after']}/{row['matched_after']}), "
+            f"importance-weighted {_share(row['comfort_share_before'])} -> {_share(row['comfort_share_after'])}")
+
+
 def _summary(name: str, result, display_name: str, out: Path, names: list[str]) -> None:  # noqa: ANN001
     rep = result.report()
-    s, cam = rep["settings"], result.physical_left.camera
+    s, cam, d = rep["settings"], result.physical_left.camera, rep["display"]
     console.print(f"specular {name}: {cam.width}x{cam.height}, {len(rep['layers'])} layers (D = {s['max_depth']}), "
-                  f"k = {s['k']}, absolute term {s['variant']!r}, weights {s['alpha']}, display {display_name}, "
+                  f"k = {s['k']}, absolute term {s['variant']!r}, weights {s['alpha']}, "
                   f"comfort zone {rep['comfort_zone_arcmin'][0]:g}..{rep['comfort_zone_arcmin'][1]:g} arcmin",
+                  highlight=False)  # fmt: skip
+    console.print(f"display {display_name}, fit {d['fit']}: the {d['image_width_px']}-px image shown "
+                  f"{d['shown_width_m'] * 100:.1f} cm wide ({d['screen_px_per_image_px']:g} screen px per image px) "
+                  f"at {d['viewing_distance_m'] * 100:g} cm: {d['arcmin_per_px']:.3g} arcmin per image pixel",
                   highlight=False)  # fmt: skip
     if not result.specular:
         console.print("no specular surface in view: the outputs are the physical pair (report.json \"specular\": "
                       "false)", highlight=False)  # fmt: skip
     for layer in rep["layers"]:
         if layer["pixels"]:
-            console.print(f"  layer {layer['layer']} ({layer['name']}): {layer['pixels']} px, comfort share "
-                          f"{_share(layer['comfort_share_before'])} -> {_share(layer['comfort_share_after'])}, "
-                          f"matched {_share(layer['matched_before'])} -> {_share(layer['matched_after'])}, "
-                          f"mean offset {layer['offset_mean']:.3f}", highlight=False)  # fmt: skip
+            row = {k.replace("_pixels", ""): v for k, v in layer.items()}
+            console.print(f"  layer {layer['layer']} ({layer['name']}): {layer['pixels']} px, matched "
+                          f"{_share(layer['matched_before'])} -> {_share(layer['matched_after'])}, "
+                          f"{_inside(row)}, mean offset {layer['offset_mean']:.3f}", highlight=False)  # fmt: skip
+    if result.specular:
+        console.print(f"  specular layers together: {_inside(rep['specular_layers'])}", highlight=False)
+    for obj in rep["objects"]:
+        console.print(f"  {obj['type']} '{obj['name']}' (objects[{obj['object']}], {obj['shape']}, {obj['pixels']} px "
+                      f"seen): {_inside(obj)}", highlight=False)  # fmt: skip
+    for line in rep["warnings"]:
+        err_console.print(f"[yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
     b, a = rep["cost_before"], rep["cost_after"]
     console.print("cost (mean per pixel) before -> after: " + ", ".join(f"{t} {b[t]:.4g} -> {a[t]:.4g}" for t in b),
                   highlight=False)  # fmt: skip
@@ -99,10 +127,20 @@ def _summary(name: str, result, display_name: str, out: Path, names: list[str]) 
 
 @app.command("specular")
 def specular(
-    scene: str = typer.Argument(..., help="Scene file (.json, docs/scenes.md) or built-in: glasses, stadium, tabletop."),
+    scene: str | None = typer.Argument(None, help="Scene file (.json, docs/scenes.md) or built-in: glasses, stadium, "
+                                       "tabletop. With --reoptimise: the table's (may be left out)."),
     out: Path = typer.Option(..., "--out", help="Output folder (created if missing)."),
-    display: str = typer.Option(DEFAULT_DISPLAY, "--display", help="Display preset the pair is made for (S3's study "
-                                "display by default)."),
+    display: str | None = typer.Option(None, "--display", help=f"Display preset the pair is made for (default "
+                                       f"{DEFAULT_DISPLAY}, S3's study display)."),
+    fit: str | None = typer.Option(None, "--fit", metavar="screen|native", help="How the image is shown on the "
+                                   "display: 'screen' stretches it to the display's width (full screen), 'native' "
+                                   "shows one image pixel per display pixel. Every arcmin figure is for it. Default: "
+                                   "screen."),
+    table: bool = typer.Option(False, "--table", help="Also write the offset table (specular_table.npz) for "
+                               "--reoptimise."),
+    reoptimise: Path | None = typer.Option(None, "--reoptimise", metavar="DIR", help="Re-solve the offset table of "
+                                           "DIR (written with --table) with new --weights, --weight-map, --absolute "
+                                           "or --factor, without rendering the table again."),
     weights: str | None = typer.Option(None, "--weights", metavar="A,P,R,D", help="Cost weights: absolute, relative, "
                                        "rivalry, data (S3 §4: 1,1,10,0.1)."),
     weight_map: list[str] = typer.Option(
@@ -110,11 +148,14 @@ def specular(
         help="Painted weights of layer LAYER (1-based), every cost term or only TERM (absolute, relative, rivalry, "
              "data): a grey image of the render's size (PNG: value / max code). Repeatable; maps multiply.",
     ),
-    k: int = typer.Option(32, "--k", help="Offset steps of the table (S3: 32): k + 1 renders of the left eye."),
+    k: int | None = typer.Option(None, "--k", help=f"Offset steps of the table (default {_DEFAULT_K}, S3's): k + 1 "
+                                 "renders of the left eye."),
     width: int | None = typer.Option(None, "--width", help="Image width in pixels (default: the scene's)."),
     height: int | None = typer.Option(None, "--height", help="Image height in pixels (default: the scene's)."),
-    depth: int = typer.Option(2, "--depth", help="Maximum specular bounces D: 2^(D+1)-1 layers (S3: 2)."),
-    samples: int = typer.Option(16, "--samples", help="Ambient-occlusion rays per diffuse hit."),
+    depth: int | None = typer.Option(None, "--depth", help=f"Maximum specular bounces D: 2^(D+1)-1 layers (default "
+                                     f"{_DEFAULT_DEPTH}, S3's)."),
+    samples: int | None = typer.Option(None, "--samples", help=f"Ambient-occlusion rays per diffuse hit (default "
+                                       f"{_DEFAULT_SAMPLES})."),
     absolute: str | None = typer.Option(None, "--absolute", metavar="comfort|screen", help="The absolute term: "
                                         "'comfort' costs only what lies outside the comfort zone, 'screen' is "
                                         "S3's (pulls every layer to the screen). Default: comfort."),
@@ -130,19 +171,44 @@ def specular(
     from vergence.display import ANAGLYPH_METHODS
     from vergence.io import atomic_folder
     from vergence.report.specular_outputs import SPECULAR_OUTPUT_FILES, write_specular_outputs
-    from vergence.specular import (ABSOLUTE_VARIANTS, COST_WEIGHTS, DEFAULT_VARIANT, MAX_OFFSET_STEPS, PLAN_FACTOR,
-                                   specular_stereo)
+    from dataclasses import replace
 
-    variant = DEFAULT_VARIANT if absolute is None else absolute
-    if variant not in ABSOLUTE_VARIANTS:
-        raise ValueError(f"--absolute must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {variant!r}")
-    if not 2 <= k <= MAX_OFFSET_STEPS:
-        raise ValueError(f"--k must be a whole number in [2, {MAX_OFFSET_STEPS}] (offsets m/k, m = 0..k); got {k}")
-    factor = PLAN_FACTOR if factor is None else factor
-    if not _FACTOR_RANGE[0] <= factor <= _FACTOR_RANGE[1]:
+    from vergence.cli._specular_table import scene_source
+    from vergence.specular import (ABSOLUTE_VARIANTS, COST_WEIGHTS, DEFAULT_VARIANT, DISPLAY_FITS, MAX_OFFSET_STEPS,
+                                   PLAN_FACTOR, TABLE_FILE, specular_objects, specular_stereo, write_specular_table)
+
+
+    if fit is not None and fit not in DISPLAY_FITS:
+        raise ValueError(f"--fit must be one of {', '.join(DISPLAY_FITS)}; got {fit!r}")
+    if absolute is not None and absolute not in ABSOLUTE_VARIANTS:
+        raise ValueError(f"--absolute must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {absolute!r}")
+    if factor is not None and not _FACTOR_RANGE[0] <= factor <= _FACTOR_RANGE[1]:
         raise ValueError(f"--factor must be a whole number in [{_FACTOR_RANGE[0]}, {_FACTOR_RANGE[1]}]; got {factor}")
     if anaglyph_method not in ANAGLYPH_METHODS:
         raise ValueError(f"--anaglyph must be one of {', '.join(ANAGLYPH_METHODS)}; got {anaglyph_method!r}")
+    if reoptimise is not None:
+        given = {"SCENE": scene, "--display": display, "--fit": fit, "--k": k, "--depth": depth, "--samples": samples,
+                 "--width": width, "--height": height, "--baseline": baseline, "--convergence": convergence}
+        from vergence.cli._specular_table import reoptimise_folder
+
+        if table:
+            raise ValueError(f"--table and --reoptimise together: the table is already in {reoptimise}")
+        result, names, name, display_name = reoptimise_folder(
+            reoptimise, out, given=given, weights=_weights(weights), weight_map=weight_map, variant=absolute,
+            factor=factor, anaglyph_method=anaglyph_method)  # fmt: skip
+        _summary(name, result, display_name, out, names)
+        return
+    if scene is None:
+        raise ValueError("give a SCENE (a scene file or a built-in name), or --reoptimise DIR")
+    display = DEFAULT_DISPLAY if display is None else display
+    fit = DISPLAY_FITS[0] if fit is None else fit
+    k = _DEFAULT_K if k is None else k
+    depth = _DEFAULT_DEPTH if depth is None else depth
+    samples = _DEFAULT_SAMPLES if samples is None else samples
+    variant = DEFAULT_VARIANT if absolute is None else absolute
+    if not 2 <= k <= MAX_OFFSET_STEPS:
+        raise ValueError(f"--k must be a whole number in [2, {MAX_OFFSET_STEPS}] (offsets m/k, m = 0..k); got {k}")
+    factor = PLAN_FACTOR if factor is None else factor
     if not 0 <= depth <= vr.MAX_DEPTH:
         raise ValueError(f"--depth must be a whole number in [0, {vr.MAX_DEPTH}]; got {depth}")
     alpha = _weights(weights)
@@ -154,13 +220,16 @@ def specular(
     except ParameterError as exc:
         raise spoken(exc) from exc
     w_px, h_px = sc.camera.width, sc.camera.height
+    if depth == 0 and specular_objects(sc):
+        raise ValueError(f"--depth 0 traces no specular layer (the first hit only), but {sc.name} has mirror or glass "
+                         "objects: use --depth 1 or more (S3: 2)")  # fmt: skip
     _check_render_cost(w_px, h_px, depth, samples, k)
     try:
         maps = weight_maps(weight_map, n_layers=2 ** (depth + 1) - 1, width=w_px, height=h_px)
     except ParameterError as exc:
         raise spoken(exc) from exc
     src = Path(scene)
-    for name in SPECULAR_OUTPUT_FILES:
+    for name in (*SPECULAR_OUTPUT_FILES, *((TABLE_FILE,) if table else ())):
         check_output_path(out / name, src)
     commit = atomic_folder(out)  # checks --out now (a file of that name is refused before the renders)
     if sc.environment.note:
@@ -174,8 +243,16 @@ def specular(
                            variant="--absolute", factor="--factor"):  # fmt: skip
             result = specular_stereo(sc, left, right, screen, k=k, max_depth=depth, samples=samples,
                                      alpha=COST_WEIGHTS if alpha is None else alpha, variant=variant,
-                                     maps=maps or None, factor=factor, progress=report)  # fmt: skip
+                                     maps=maps or None, factor=factor, fit=fit, keep_table=table,
+                                     progress=report)  # fmt: skip
     with commit as tmp:  # all files or none, even on Ctrl-C
         names = [p.name for p in write_specular_outputs(result, tmp, anaglyph_method=anaglyph_method)]
+        if table and result.specular:
+            source = scene_source(scene, sc, display, baseline=baseline, convergence=convergence)
+            names.append(write_specular_table(replace(result.table(), source=source), tmp / TABLE_FILE).name)
         raise_if_interrupted()  # a Ctrl-C that waited while Numba was inside LLVM: commit nothing
+    result = result.release()  # the table's memory, before the summary
+    if table and not result.specular:
+        console.print(f"no {TABLE_FILE} written: nothing specular is in view, there is no table to re-solve",
+                      highlight=False)  # fmt: skip
     _summary(sc.name, result, display, out, names)

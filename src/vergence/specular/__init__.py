@@ -21,7 +21,13 @@
   :func:`weighted_block_mean`, :func:`joint_bilateral_upsample`); the table's analysis
   (:func:`analyse_table`, :class:`OffsetAnalysis`) and the whole-image plan (:class:`OffsetPlanner`).
 - End to end (S3 §3-4): :func:`specular_stereo` -> :class:`SpecularResult`, measured per layer
-  (:class:`LayerState`, :func:`comfort_share`).
+  (:class:`LayerState`, :func:`comfort_share`), for the pair shown with a fit on the display
+  (:func:`fit_display`, :data:`DISPLAY_FITS`, :func:`arcmin_per_pixel`, :func:`display_block`); plain
+  and importance-weighted shares inside the comfort zone per layer and per mirror or glass object
+  (:func:`zone_count`, :class:`ZoneCount`, :func:`object_shares`, :func:`specular_objects`,
+  :func:`zone_warnings`, :data:`MOSTLY_OUTSIDE`); the offset table kept on disk and re-solved
+  (:class:`SpecularTable`, :func:`write_specular_table`, :func:`read_specular_table`,
+  :func:`specular_from_table`, :data:`TABLE_FILE`, :data:`TABLE_FORMAT`).
 - The baselines S3 §4.1 compares with: every specular layer at the disparity of the surface it is
   seen on, or a constant offset behind or in front of it (Templin et al. 2012) (:func:`on_surface`,
   :func:`near_surface`).
@@ -94,6 +100,16 @@ from vergence.specular.offsets import (
     tabulate_offsets,
 )
 from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, SAME_SURFACE_FRACTION, near_surface, on_surface
+from vergence.specular.display_fit import DISPLAY_FITS, arcmin_per_pixel, display_block, fit_display
+from vergence.specular.shares import MOSTLY_OUTSIDE, ZoneCount, object_shares, specular_objects, zone_count, zone_warnings
+from vergence.specular.table_file import (
+    TABLE_FILE,
+    TABLE_FORMAT,
+    SpecularTable,
+    read_specular_table,
+    specular_from_table,
+    write_specular_table,
+)
 
 __all__ = [
     "ABSOLUTE_VARIANTS",
@@ -104,6 +120,7 @@ __all__ = [
     "CostTerms",
     "DEFAULT_VARIANT",
     "DESCENT_STEPS",
+    "DISPLAY_FITS",
     "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
     "FIRST_STEP",
@@ -114,6 +131,7 @@ __all__ = [
     "MATCH_WINDOW",
     "MAX_OFFSET_STEPS",
     "MAX_TABLE_BYTES",
+    "MOSTLY_OUTSIDE",
     "NEAR_SURFACE_ARCMIN",
     "OffsetAnalysis",
     "OffsetPlan",
@@ -131,7 +149,12 @@ __all__ = [
     "SEPARATION_ARCMIN",
     "SSD_WINDOW",
     "SpecularResult",
+    "SpecularTable",
+    "TABLE_FILE",
+    "TABLE_FORMAT",
+    "ZoneCount",
     "analyse_table",
+    "arcmin_per_pixel",
     "comfort_share",
     "contrast_q",
     "csf_lowpass",
@@ -139,8 +162,10 @@ __all__ = [
     "disparity_arcmin",
     "disparity_cost",
     "disparity_cost_gradient",
+    "display_block",
     "distinctiveness",
     "fill_matches",
+    "fit_display",
     "importance",
     "joint_bilateral_upsample",
     "layer_disparity",
@@ -148,6 +173,7 @@ __all__ = [
     "layer_lightness",
     "lightness_from_srgb",
     "near_surface",
+    "object_shares",
     "offset_camera",
     "offset_rays",
     "offset_table_bytes",
@@ -156,10 +182,16 @@ __all__ = [
     "peli_contrast",
     "perceived_lightness",
     "pixels_per_degree",
+    "read_specular_table",
     "render_offsets",
     "rivalry",
     "scene_diameter",
+    "specular_from_table",
+    "specular_objects",
     "specular_stereo",
     "tabulate_offsets",
     "weighted_block_mean",
+    "write_specular_table",
+    "zone_count",
+    "zone_warnings",
 ]

@@ -15,7 +15,13 @@ shifted-sensor rig:
    :func:`~vergence.specular.near_surface`).
 
 A scene with nothing specular in view (no layer past the first has a surface in either eye) stops
-after the physical pair: the result is that pair (``specular`` False).
+after the physical pair: the result is that pair (``specular`` False). A scene with a mirror or glass
+and ``max_depth = 0`` (no specular layer at all) is refused before anything is rendered.
+
+Every arcmin figure is for the pair shown with ``fit`` on the display (:func:`~vergence.specular.fit_display`:
+stretched to the screen's width, or one image pixel per display pixel); the report states it
+(``display``) and gives, per layer and per mirror or glass object, the plain share of matched pixels
+inside the comfort zone beside the importance-weighted one (:mod:`vergence.specular.shares`).
 """
 
 from __future__ import annotations
@@ -31,6 +37,8 @@ import numpy as np
 from vergence._validate import readonly_fields
 from vergence.camera import Camera
 from vergence.specular.cost import COST_WEIGHTS, CostTerms, disparity_cost
+from vergence.specular.display_fit import display_block, fit_display
+from vergence.specular.shares import specular_objects
 from vergence.specular.importance_factors import importance
 from vergence.specular.lightness import PerceivedLightness, layer_lightness, pixels_per_degree
 from vergence.specular.matching import MATCH_WINDOW, disparity_arcmin, layer_disparity
@@ -202,16 +210,44 @@ class SpecularResult:
         variant = self.settings["variant"] if variant is None else variant
         return _optimise(self._session, alpha=alpha, variant=variant, maps=maps, progress=progress)
 
+    def table(self) -> object:
+        """The offset table of this run with what re-solving it needs, for
+        :func:`~vergence.specular.write_specular_table` (:class:`~vergence.specular.SpecularTable`).
+
+        Raises
+        ------
+        ValueError
+            If the run kept no table (``specular_stereo(..., keep_table=True)``), or nothing is specular.
+        """
+        from vergence.specular.table_file import SpecularTable
+
+        s = self._session
+        if s is None or s.analysis is None:
+            why = "nothing specular is in view" if not self.specular else "run specular_stereo with keep_table=True"
+            raise ValueError(f"this result keeps no offset table: {why}")
+        return SpecularTable(analysis=s.analysis, physical_left=s.physical_left, right=s.right_render,
+                             zone=s.zone, exposure=s.exposure, epsilon=s.epsilon, window=s.window,
+                             settings=dict(self.settings))  # fmt: skip
+
     def release(self) -> SpecularResult:
         """This result without the planner and renderer :meth:`reoptimise` keeps (frees their memory)."""
         return dataclasses.replace(self, _session=None)
 
     def report(self) -> dict:
-        """JSON-ready figures: cost terms before and after, and per layer the matched share, the
-        comfort share and the separation share before and after."""
+        """JSON-ready figures: the display geometry they assume, cost terms before and after, and per
+        layer the matched share, the plain share of matched pixels inside the comfort zone
+        (``inside_share``, with its counts ``matched_pixels`` and ``inside_pixels``) beside the
+        importance-weighted one (``comfort_share``), the separation share and the mean offset; the
+        same plain and weighted shares pooled over the specular layers (``specular_layers``) and per
+        mirror or glass object (``objects``, :func:`~vergence.specular.object_shares`), and one
+        ``warnings`` line per object that stays mostly outside the zone."""
+        from vergence.specular.shares import _pooled, object_shares, zone_count, zone_warnings
+
         names = layer_labels(self.y.shape[0])
         layers = []
         share_b, share_a = comfort_share(self.before, self.zone), comfort_share(self.after, self.zone)
+        count_b, count_a = zone_count(self.before, self.zone), zone_count(self.after, self.zone)
+        plain_b, plain_a = count_b.share(), count_a.share()
         sep_b = _separated_share(self.before, self.before)
         sep_a = _separated_share(self.after, self.before)
         for i, name in enumerate(names):
@@ -220,17 +256,28 @@ class SpecularResult:
                 "layer": i + 1, "name": name, "pixels": present,
                 "matched_before": _ratio(self.before.matched[i].sum(), present),
                 "matched_after": _ratio(self.after.matched[i].sum(), int(self.after.present[i].sum())),
+                "matched_pixels_before": int(count_b.matched[i]), "inside_pixels_before": int(count_b.inside[i]),
+                "matched_pixels_after": int(count_a.matched[i]), "inside_pixels_after": int(count_a.inside[i]),
+                "inside_share_before": _num(plain_b[i]), "inside_share_after": _num(plain_a[i]),
                 "comfort_share_before": _num(share_b[i]), "comfort_share_after": _num(share_a[i]),
                 "separated_share_before": _num(sep_b[i]), "separated_share_after": _num(sep_a[i]),
                 "offset_mean": float(self.y[i][self.before.present[i]].mean()) if present else None,
             })  # fmt: skip
+        settings = {k: v for k, v in self.settings.items() if k not in ("display", "objects")}
+        oid = getattr(self.physical_left, "object_id", None)
+        objects = [] if oid is None else object_shares(self.before, self.after, oid[0], self.settings.get("objects", []),
+                                                       self.zone, names)  # fmt: skip
         return {
             "specular": self.specular,
-            "settings": self.settings,
+            "display": self.settings.get("display"),
+            "settings": settings,
             "comfort_zone_arcmin": [self.zone.min_arcmin, self.zone.max_arcmin],
             "cost_before": self.cost_before.means(),
             "cost_after": self.cost_after.means(),
             "layers": layers,
+            "specular_layers": _pooled(count_b, count_a, slice(1, None)),
+            "objects": objects,
+            "warnings": zone_warnings(objects, self.zone),
             "seconds": {k: round(v, 3) for k, v in self.seconds.items()},
         }
 
@@ -288,6 +335,8 @@ def specular_stereo(
     maps: Mapping[str, object] | None = None,
     factor: int = PLAN_FACTOR,
     near_arcmin: float = NEAR_SURFACE_ARCMIN,
+    fit: str = "screen",
+    keep_table: bool = False,
     progress: Progress | None = None,
 ) -> SpecularResult:
     """Make the glass and mirrors of ``scene`` fusible on ``display`` (S3 §3): offsets, renders, figures.
@@ -299,6 +348,12 @@ def specular_stereo(
         A shifted-sensor rig (:func:`vergence.rigs.stereo_pair`).
     display : vergence.viewing.Display
         Where the pair is shown; its resolution must be known.
+    fit : {"screen", "native"}
+        How the image is shown on ``display`` (:func:`~vergence.specular.fit_display`): stretched to
+        its width (default, as full screen) or one image pixel per display pixel. Every arcmin
+        figure (disparity, the CSF's scale, the comfort zone's share) is for that geometry.
+    keep_table : bool
+        Keep the table's analysis in the result, for :meth:`SpecularResult.table` (it stays in memory).
     k : int
         Offset steps of the table (S3: 32), in [2, :data:`~vergence.specular.MAX_OFFSET_STEPS`].
     max_depth, samples
@@ -342,6 +397,12 @@ def specular_stereo(
     except (TypeError, ValueError) as exc:  # named as this function's caller knows it
         raise type(exc)(str(exc).replace("offset_arcmin", "near_arcmin", 1)) from exc
     check_display(display, resolution=True)
+    screen_display, display = display, fit_display(display, left.width, fit=fit)  # what the image occupies
+    if not isinstance(keep_table, bool):
+        raise TypeError(f"keep_table must be a bool; got {type(keep_table).__name__}")
+    if max_depth == 0 and _has_specular(tracer.scene):
+        raise ValueError("max_depth 0 traces no specular layer (the first hit only), but the scene has mirror or glass "
+                         "objects: use max_depth >= 1 (S3: 2)")  # fmt: skip
     zone = ComfortZone() if zone is None else zone
     if not isinstance(zone, ComfortZone):
         raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
@@ -356,9 +417,10 @@ def specular_stereo(
     disparity_cost(empty, empty[..., 0], empty[..., 0], empty, maps=maps, **cost_kw)  # now, not after the table
     report = progress if progress is not None else (lambda f, m: None)
     seconds: dict[str, float] = {}
-    settings = {"k": k, "max_depth": max_depth, "samples": samples, "variant": variant,
+    settings = {"scene": tracer.scene.name, "k": k, "max_depth": max_depth, "samples": samples, "variant": variant,
                 "alpha": [float(a) for a in alpha], "factor": factor, "near_surface_arcmin": near_arcmin,
-                "maps": sorted(maps or {})}  # fmt: skip
+                "maps": sorted(maps or {}), "display": display_block(screen_display, left.width, fit=fit),
+                "objects": specular_objects(tracer.scene)}  # fmt: skip
 
     def stage(lo: float, hi: float) -> Progress:
         return lambda f, m: report(lo + (hi - lo) * f, m)
@@ -378,25 +440,37 @@ def specular_stereo(
     specular = bool(np.isfinite(phys.position[1:]).any() or np.isfinite(right_res.position[1:]).any())
     before, epsilon = _state(phys, right_res, right_lit, display, exposure, epsilon, window)
     settings["match_epsilon_m"] = epsilon  # the cutoff of every match of the run
-    planner = None
+    analysis = None
     if specular and table is not None:
         analysis = analyse_table(table, display, exposure=exposure, progress=stage(0.6, 0.8))
         seconds["tabulate_analyse"] = analysis.seconds
-        del table  # the radiance of every offset is no longer needed
-        planner = OffsetPlanner(analysis, factor=factor)
-        del analysis  # the planner keeps its reduced table
-        seconds["plan_reduce"] = planner.seconds_reduce
+    del table  # the radiance of every offset is no longer needed
     report(0.8, "baselines: on-surface, near-surface")
+    session = _session(tracer, left, right, display, zone, samples, phys, right_res, right_lit, exposure, epsilon,
+                       window, before, analysis, factor=factor, near_arcmin=near_arcmin, specular=specular,
+                       settings=settings, seconds=seconds, t0=t0, keep_table=keep_table)  # fmt: skip
+    del analysis  # the planner keeps its reduced table (and the session the analysis, with keep_table)
+    return _optimise(session, alpha=alpha, variant=variant, maps=maps, progress=stage(0.8, 1.0))
+
+
+def _session(tracer, left, right, display, zone, samples, phys, right_res, right_lit, exposure, epsilon, window,  # noqa: ANN001
+             before, analysis, *, factor, near_arcmin, specular, settings, seconds, t0, keep_table) -> _Session:  # noqa: ANN001  # fmt: skip
+    """The planner on ``analysis`` (None: nothing to plan) and the baselines, kept with the physical pair
+    for :func:`_optimise`; ``seconds`` gains ``plan_reduce``, ``baselines`` and ``total`` (since ``t0``)."""
+    planner = None
+    if analysis is not None:
+        planner = OffsetPlanner(analysis, factor=factor)
+        seconds["plan_reduce"] = planner.seconds_reduce
     t1 = time.perf_counter()
     on_res = on_surface(phys, right_res)
     near_res = near_surface(phys, right_res, display, offset_arcmin=near_arcmin)
     seconds["baselines"] = time.perf_counter() - t1
-    session = _Session(tracer=tracer, left=left, right=right, display=display, zone=zone, samples=samples,
-                       physical_left=phys, right_render=right_res, right_lightness=right_lit, exposure=exposure,
-                       epsilon=epsilon, window=window, before=before, planner=planner, on_surface_left=on_res,
-                       near_surface_left=near_res, specular=specular, settings=settings,
-                       seconds={**seconds, "total": time.perf_counter() - t0})  # fmt: skip
-    return _optimise(session, alpha=alpha, variant=variant, maps=maps, progress=stage(0.8, 1.0))
+    return _Session(tracer=tracer, left=left, right=right, display=display, zone=zone, samples=samples,
+                    physical_left=phys, right_render=right_res, right_lightness=right_lit, exposure=exposure,
+                    epsilon=epsilon, window=window, before=before, planner=planner, on_surface_left=on_res,
+                    near_surface_left=near_res, specular=specular, settings=settings,
+                    seconds={**seconds, "total": time.perf_counter() - t0},
+                    analysis=analysis if keep_table else None)  # fmt: skip
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -424,6 +498,7 @@ class _Session:
     specular: bool
     settings: dict
     seconds: dict
+    analysis: object = None  # the table's OffsetAnalysis, kept for SpecularResult.table (keep_table)
 
 
 def _optimise(session: _Session, *, alpha: object, variant: str, maps: Mapping[str, object] | None,

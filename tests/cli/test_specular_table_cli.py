@@ -1,0 +1,138 @@
+"""``vergence specular`` (issue 26): --fit and the report's display block, plain and weighted shares on
+the terminal, --table written once and --reoptimise from it, and their refusals (exit 2, one line)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+
+import numpy as np
+import pytest
+
+from vergence.cli import main
+
+W, H = 48, 36
+TINY = ["--width", str(W), "--height", str(H), "--k", "2", "--samples", "1"]
+
+
+def _main(*args: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(list(args))
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def tabled(tmp_path_factory):
+    """A tiny run on glasses that also writes its offset table."""
+    tmp = tmp_path_factory.mktemp("tabled")
+    out = tmp / "run"
+    code, stdout, stderr = _main("specular", "glasses", "--out", str(out), *TINY, "--table")
+    assert code == 0, stderr
+    return tmp, out, stdout
+
+
+def test_the_table_is_written_and_the_report_states_the_display(tabled):
+    from vergence.specular import TABLE_FILE, read_specular_table
+
+    _, out, stdout = tabled
+    table = read_specular_table(out / TABLE_FILE)
+    assert table.source["scene"] == "glasses" and table.source["path"] is None
+    report = json.loads((out / "report.json").read_text())
+    display = report["display"]
+    assert display["fit"] == "screen" and display["name"] == "samsung-2233rz"
+    assert display["arcmin_per_px"] == pytest.approx(60 * np.degrees(2 * np.arctan(0.47376 / W / 1.2)), rel=1e-5)
+    assert f"{display['arcmin_per_px']:.3g} arcmin per image pixel" in stdout
+    assert "importance-weighted" in stdout and "inside the zone" in stdout
+    for obj in report["objects"]:  # every mirror and glass object in view has its line
+        assert f"{obj['type']} '{obj['name']}' (objects[{obj['object']}]" in stdout
+    assert {"matched_before", "inside_share_after", "comfort_share_after"} <= set(report["specular_layers"])
+
+
+def test_reoptimise_resolves_the_table_with_new_weights(tabled, tmp_path):
+    _, out, _ = tabled
+    again = tmp_path / "again"
+    code, stdout, stderr = _main("specular", "--reoptimise", str(out), "--out", str(again), "--weights", "1,1,10,1")
+    assert code == 0, stderr
+    assert "re-solved the table of" in stdout
+    first, second = (json.loads((d / "report.json").read_text()) for d in (out, again))
+    assert second["settings"]["alpha"] == [1.0, 1.0, 10.0, 1.0]
+    assert second["display"] == first["display"]
+    assert "tabulate_render" not in second["seconds"]  # nothing tabulated again
+    # the physical pair is the table's: the same before figures
+    assert [r["inside_share_before"] for r in second["layers"]] == [r["inside_share_before"] for r in first["layers"]]
+    assert not (again / "specular_table.npz").exists()
+
+
+@pytest.mark.parametrize("scene, args, message", [
+    ([], ["--fit", "native"], "its table was made with --fit 'screen'; got 'native'"),
+    ([], ["--k", "8"], "its table was made with --k 2; got 8"),
+    ([], ["--width", "64"], "its table was made with --width 48; got 64"),
+    (["tabletop"], [], "its table was made with SCENE 'glasses'; got 'tabletop'"),
+    ([], ["--table"], "--table and --reoptimise together"),
+    ([], ["--weights", "1,1"], "--weights must be four numbers"),
+])  # fmt: skip
+def test_reoptimise_refuses_what_the_table_fixes(tabled, tmp_path, scene, args, message):
+    _, out, _ = tabled
+    dest = tmp_path / "dest"
+    code, _, stderr = _main("specular", *scene, "--reoptimise", str(out), "--out", str(dest), *args)
+    assert code == 2 and stderr.startswith("error: ") and stderr.count("\n") == 1 and message in stderr, stderr
+    assert not dest.exists()
+
+
+def test_reoptimise_refuses_a_missing_folder_an_empty_one_and_damaged_tables(tabled, tmp_path):
+    from vergence.specular import TABLE_FILE
+
+    _, out, _ = tabled
+    good = (out / TABLE_FILE).read_bytes()
+    cases = {"missing": None, "empty": b"", "cut": good[: len(good) // 3], "text": b"not a table"}
+    for name, content in cases.items():
+        folder = tmp_path / name
+        if content is not None:
+            folder.mkdir()
+            if content:
+                (folder / TABLE_FILE).write_bytes(content)
+        dest = tmp_path / f"out-{name}"
+        code, _, stderr = _main("specular", "--reoptimise", str(folder), "--out", str(dest))
+        assert code == 2 and stderr.startswith("error: ") and stderr.count("\n") == 1, (name, stderr)
+        want = {"missing": "does not exist", "empty": f"holds no {TABLE_FILE}", "cut": "damaged or truncated",
+                "text": "damaged or truncated"}[name]  # fmt: skip
+        assert want in stderr, (name, stderr)
+        assert not dest.exists()
+    code, _, stderr = _main("specular", "--reoptimise", str(out), "--out", str(out))
+    assert code == 2 and "--out must not be the --reoptimise folder" in stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (["glasses", "--fit", "wide"], "--fit must be one of screen, native; got 'wide'"),
+    (["glasses", "--depth", "0"], "--depth 0 traces no specular layer (the first hit only), but glasses has mirror"),
+    ([], "give a SCENE (a scene file or a built-in name), or --reoptimise DIR"),
+])  # fmt: skip
+def test_bad_fit_depth_0_and_no_scene_are_one_line(tmp_path, monkeypatch, args, message):
+    import vergence.specular.offsets as offsets
+
+    def no_render(*a, **k):
+        raise AssertionError("rendered before refusing")
+
+    monkeypatch.setattr(offsets, "tabulate_offsets", no_render)
+    out = tmp_path / "out"
+    code, _, stderr = _main("specular", *args, "--out", str(out), *TINY)
+    assert code == 2 and stderr.startswith("error: ") and stderr.count("\n") == 1 and message in stderr, stderr
+    assert not out.exists()
+
+
+def test_native_fit_scales_every_arcmin_figure(tabled, tmp_path):
+    _, out, _ = tabled
+    native = tmp_path / "native"
+    code, stdout, stderr = _main("specular", "glasses", "--out", str(native), *TINY, "--fit", "native")
+    assert code == 0, stderr
+    screen_rep, native_rep = (json.loads((d / "report.json").read_text()) for d in (out, native))
+    ratio = screen_rep["display"]["arcmin_per_px"] / native_rep["display"]["arcmin_per_px"]
+    assert ratio == pytest.approx(1680 / W, rel=1e-4)
+    with np.load(out / "analysis.npz") as s, np.load(native / "analysis.npz") as n:
+        small = np.isfinite(s["disparity_before"][..., 0]) & (np.abs(s["disparity_before"][..., 0]) < 30)
+        # under 30' the vergence change is nearly linear in the parallax: the same pixels, 35 x the angle
+        np.testing.assert_allclose(s["disparity_before"][..., 0][small], ratio * n["disparity_before"][..., 0][small],
+                                   rtol=2e-2, atol=1e-3)  # fmt: skip
+    assert "fit native" in stdout
