@@ -136,9 +136,9 @@ class Caster:
                 raise ValueError(f"unknown shape kind {kind!r}")
         self._scene = mi.load_dict(spec)
         ids = [(int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0]), int(s.id()[3:])) for s in self._scene.shapes()]
-        self._lookup = np.full(max([r for r, _ in ids], default=0) + 1, -1, dtype=np.int64)
+        self.lookup = np.full(max([r for r, _ in ids], default=0) + 1, -1, dtype=np.int64)
         for registry_id, obj in ids:
-            self._lookup[registry_id] = obj
+            self.lookup[registry_id] = obj
 
     def intersect(
         self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None
@@ -162,15 +162,39 @@ class Caster:
         m = len(origins)
         for s in range(0, m, _CHUNK):
             e = min(m, s + _CHUNK)
-            ray = mi.Ray3f(mi.Point3f(np.ascontiguousarray(origins[s:e].T, dtype=np.float32)),
-                           mi.Vector3f(np.ascontiguousarray(dirs[s:e].T, dtype=np.float32)))  # fmt: skip
-            if maxt is not None:
-                ray.maxt = mi.Float(np.ascontiguousarray(np.minimum(maxt[s:e], np.finfo(np.float32).max), dtype=np.float32))
-            pi = self._scene.ray_intersect_preliminary(ray, True)
-            registry = dr.reinterpret_array(mi.UInt32, pi.shape).numpy().astype(np.int64)
-            obj[s:e] = self._lookup[np.minimum(registry, len(self._lookup) - 1)]
-            prim[s:e] = pi.prim_index.numpy()
-            t[s:e] = pi.t.numpy()
+            registry, prim[s:e], t[s:e] = self._cast(np.ascontiguousarray(origins[s:e].T, dtype=np.float32),
+                                                     np.ascontiguousarray(dirs[s:e].T, dtype=np.float32),
+                                                     None if maxt is None else maxt[s:e])  # fmt: skip
+            obj[s:e] = self.lookup[np.minimum(registry, len(self.lookup) - 1)]
+
+    def _cast(self, o32: np.ndarray, d32: np.ndarray, maxt: np.ndarray | None):  # noqa: ANN202
+        """One ``ray_intersect_preliminary`` of rays in Mitsuba's layout; its three answers evaluated in one
+        kernel (read one at a time, each ``numpy()`` would launch the traversal again)."""
+        ray = mi.Ray3f(mi.Point3f(o32), mi.Vector3f(d32))
+        if maxt is not None:
+            ray.maxt = mi.Float(np.ascontiguousarray(np.minimum(maxt, np.finfo(np.float32).max), dtype=np.float32))
+        pi = self._scene.ray_intersect_preliminary(ray, True)
+        registry = dr.reinterpret_array(mi.UInt32, pi.shape)
+        dr.eval(registry, pi.prim_index, pi.t)
+        return registry.numpy(), pi.prim_index.numpy(), pi.t.numpy()
+
+    def cast(self, o32: np.ndarray, d32: np.ndarray, maxt: np.ndarray | None = None):  # noqa: ANN201
+        """First hits of rays in Mitsuba's layout, float32 ``(3, M)``: the shape registry ids (``lookup`` turns
+        them into object ids, -1 for none), primitive indices and float32 distances (``inf``: no hit).
+
+        ``maxt`` ``(M,)`` bounds each ray's search (unbounded when None; ``inf`` entries are unbounded).
+        """
+        m = o32.shape[1]
+        registry = np.zeros(m, dtype=np.uint32)
+        prim = np.zeros(m, dtype=np.uint32)
+        t = np.full(m, np.inf, dtype=np.float32)
+        with _deferred_sigint():
+            for s in range(0, m, _CHUNK):
+                e = min(m, s + _CHUNK)
+                registry[s:e], prim[s:e], t[s:e] = self._cast(np.ascontiguousarray(o32[:, s:e]),
+                                                              np.ascontiguousarray(d32[:, s:e]),
+                                                              None if maxt is None else maxt[s:e])  # fmt: skip
+        return registry, prim, t
 
     def occluded(self, origins: np.ndarray, dirs: np.ndarray, maxt: np.ndarray | None = None) -> np.ndarray:
         """Whether each ray hits anything before ``maxt`` (unbounded when None), in one Mitsuba call.

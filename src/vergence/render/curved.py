@@ -190,43 +190,99 @@ def _initial_grid(u_near: float, u_far: float) -> np.ndarray:
     return grid
 
 
-def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol):  # noqa: ANN001, ANN202
+def _neighbours(pixel: np.ndarray, path: np.ndarray, width: int, span: int) -> tuple[np.ndarray, np.ndarray]:
+    """Index of the segment of the pixel to the right and of the pixel below with the same ``path``, -1 if absent.
+
+    Segments of one level with the same path (the same bisections of the same first segment) span the
+    same inverse depths bit for bit, so the midpoint of the right neighbour's segment is this
+    midpoint moved one pixel in x, ``q_m + z_m (K^-1 e_x)``: the point the forward difference of
+    ``J_x`` needs (``J_y`` likewise with the pixel below).
+    """
+    key = pixel * span + path
+    order = np.argsort(key, kind="stable")
+    sk = key[order]
+
+    def find(q: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        i = np.minimum(np.searchsorted(sk, q), len(sk) - 1)
+        return np.where(valid & (sk[i] == q), order[i], -1)
+
+    return find(key + span, pixel % width != width - 1), find(key + width * span, np.ones(len(key), dtype=bool))
+
+
+def _jacobian(to_world, pm, qm, step, mapped, nb) -> np.ndarray:  # noqa: ANN001
+    """``J = P(q_m + step) - P_m``, the forward point from the neighbour ``nb`` (or ``mapped`` where it has
+    none); backward where the forward one is undefined (as :func:`_mapped_with_steps`)."""
+    j = np.empty_like(pm)
+    has = nb >= 0
+    j[has] = pm[nb[has]] - pm[has]
+    j[~has] = mapped - pm[~has]
+    bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
+    if bad.any():
+        j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
+    return j
+
+
+def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol, pixel=None, width=1):  # noqa: ANN001, ANN202
     """Adaptive polylines of rays ``q(z) = center + z r`` over the inverse depths ``grid`` (module notes).
 
     ``step_*``: one pixel at unit depth. Returns the :class:`CurveSamples` and, per ray, whether the
     curve became undefined within ``grid`` (the ray ends there).
+
+    All rays advance one bisection level at a time, each level's points mapped by one call of
+    ``to_world``. A point is mapped once: a split segment's children have the parent's quarter points
+    as their midpoints, and the one-pixel steps of ``J_x``, ``J_y`` are the midpoints of the
+    neighbouring pixels' segments of the same level where those exist (``pixel``: each ray's flat
+    pixel index in an image ``width`` wide; :func:`_neighbours`). :func:`_mapped_with_steps` and
+    :func:`_gap_px` (numpy) are the reference of this bookkeeping and of the gap kernel.
     """
+    from vergence.render._kernels import segment_gaps_ok
+
     n, m = len(r), len(grid) - 1
+    pixel = np.arange(n) if pixel is None else np.asarray(pixel, dtype=np.int64)
+    span = m << (MAX_SPLIT_LEVELS + 1)
     ends = _map(to_world, center + r[:, None, :] / grid[None, :, None])
     undefined = np.isnan(ends[..., 0])
     u_end = np.where(undefined.any(axis=1), grid[np.argmax(undefined, axis=1)], -np.inf)  # first NaN's u
     ray = np.repeat(np.arange(n), m)
+    path = np.tile(np.arange(m), n)
     ua, ub = np.tile(grid[:-1], n), np.tile(grid[1:], n)
     pa, pb = ends[:, :-1].reshape(-1, 3), ends[:, 1:].reshape(-1, 3)
     last = np.tile(np.arange(m) == m - 1, n) & open_far
+    known = None  # the midpoints mapped at the level before (its quarter points)
     done: list[tuple[np.ndarray, ...]] = []
     total = 0
     for level in range(MAX_SPLIT_LEVELS + 1):
         keep = ua > u_end[ray]  # segments from the first undefined sample on are dropped
-        ray, ua, ub, pa, pb, last = (v[keep] for v in (ray, ua, ub, pa, pb, last))
+        ray, path, ua, ub, pa, pb, last = (v[keep] for v in (ray, path, ua, ub, pa, pb, last))
+        known = None if known is None else known[keep]
         if not len(ray):
             break
+        k = len(ray)
         um = 0.5 * (ua + ub)
         zm = (1.0 / um)[:, None]
-        qm = center + zm * r[ray]
+        rr = r[ray]
+        qm = center + zm * rr
         if level < MAX_SPLIT_LEVELS:
-            pm, jx, jy = _mapped_with_steps(to_world, qm, zm * step_x, zm * step_y)
-            gap = _gap_px(pa, pb, pm, jx, jy)
             # the quarter points too: a segment across an inflection of psi (where the curve turns from one
-            # side of its chord to the other) can have its midpoint on the chord and bend by pixels elsewhere
-            zq = 1.0 / np.concatenate([0.75 * ua + 0.25 * ub, 0.25 * ua + 0.75 * ub])
-            pq = _map(to_world, center + zq[:, None] * np.concatenate([r[ray], r[ray]]))
-            k2 = len(ray)
-            gap = np.fmax(gap, np.fmax(_gap_px(pa, pb, pq[:k2], jx, jy), _gap_px(pa, pb, pq[k2:], jx, jy)))
-            gap[(np.isnan(jx[:, 0]) | np.isnan(jy[:, 0])) & ~np.isnan(pm[:, 0])] = 0.0  # unmeasurable
-            ok = ~np.isnan(pb[:, 0]) & (gap <= tol)
+            # side of its chord to the other) can have its midpoint on the chord and bend by pixels elsewhere;
+            # they are the midpoints of the children if the segment is split
+            zq = 1.0 / np.concatenate([0.5 * (ua + um), 0.5 * (um + ub)])
+            nx, ny = _neighbours(pixel[ray], path, width, span)
+            sx, sy = zm * step_x, zm * step_y
+            mx, my = nx < 0, ny < 0
+            parts = [qm] if known is None else []
+            parts += [qm[mx] + sx[mx], qm[my] + sy[my], center + zq[:, None] * np.concatenate([rr, rr])]
+            out = _map(to_world, np.concatenate(parts))
+            at = k if known is None else 0
+            pm = out[:k] if known is None else known
+            jx = _jacobian(to_world, pm, qm, sx, out[at : at + mx.sum()], nx)
+            at += int(mx.sum())
+            jy = _jacobian(to_world, pm, qm, sy, out[at : at + my.sum()], ny)
+            at += int(my.sum())
+            pq = out[at:]
+            ok = segment_gaps_ok(pa, pb, pm, jx, jy, pq[:k], pq[k:], tol)
         else:
-            pm = _map(to_world, qm)
+            pm = _map(to_world, qm) if known is None else known
             ok = ~np.isnan(pb[:, 0])
         np.maximum.at(u_end, ray[np.isnan(pm[:, 0])], um[np.isnan(pm[:, 0])])
         done.append((ray[ok], ua[ok], ub[ok], pa[ok], pb[ok], last[ok]))
@@ -234,8 +290,10 @@ def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol):  # 
         if level == MAX_SPLIT_LEVELS:
             break
         s = ~ok
-        ray, ua, ub, pa, pb, last, um, pm = (v[s] for v in (ray, ua, ub, pa, pb, last, um, pm))
+        ray, path, ua, ub, pa, pb, last, um, pm = (v[s] for v in (ray, path, ua, ub, pa, pb, last, um, pm))
+        known = np.concatenate([pq[:k][s], pq[k:][s]])
         ray, ua, ub = np.concatenate([ray, ray]), np.concatenate([ua, um]), np.concatenate([um, ub])
+        path = np.concatenate([2 * path, 2 * path + 1])
         pa, pb = np.concatenate([pa, pm]), np.concatenate([pm, pb])
         last = np.concatenate([np.zeros_like(last), last])
         if total + len(ray) > MAX_MEAN_SEGMENTS * n * m:
@@ -313,7 +371,8 @@ def sample_curves(camera: Camera, to_world: Callable, *, near: float, far: float
     near, far, tol = _check_curve_options(camera, to_world, near, far, tolerance_px)
     r, step_x, step_y = _pixel_rays(camera, np.arange(camera.width * camera.height))
     grid = _far_grid(near, far)
-    return _sample_chunk(camera.center, r, step_x, step_y, to_world, grid, not np.isfinite(far), tol)[0]
+    return _sample_chunk(camera.center, r, step_x, step_y, to_world, grid, not np.isfinite(far), tol,
+                         np.arange(camera.width * camera.height), camera.width)[0]  # fmt: skip
 
 
 def _cast_chunk(tracer: Tracer, curves: CurveSamples):  # noqa: ANN202
@@ -380,7 +439,7 @@ def _follow(tracer, camera, to_world, grid, open_far, tol, pix, out, report) -> 
         if report is not None:
             report(j)
         curves, ended = _sample_chunk(camera.center, r[alive], step_x, step_y, to_world, grid[j : j + 2],
-                                      open_far and j == m - 1, tol)  # fmt: skip
+                                      open_far and j == m - 1, tol, pix[alive], camera.width)  # fmt: skip
         seg, t, c = _cast_chunk(tracer, curves)
         casts += c
         has = curves.segments > 0

@@ -17,7 +17,7 @@ from vergence._validate import as_float_array
 from vergence.camera import Camera
 from vergence.render.lenses import FisheyeCamera
 
-__all__ = ["RAY_GENERATORS", "RayBatch", "SUBPIXEL_OFFSET_RANGE", "camera_rays", "subpixel_rays"]
+__all__ = ["RAY_GENERATORS", "RayBatch", "SUBPIXEL_OFFSET_RANGE", "camera_rays", "subpixel_grid_rays", "subpixel_rays"]
 
 #: Offsets of :func:`subpixel_rays` from a pixel centre, pixels, per axis: [-0.5, 0.5], the pixel's own
 #: square (centres at integer coordinates). A ray farther out samples a neighbouring pixel, which a
@@ -114,3 +114,32 @@ def subpixel_rays(camera: Camera, offsets: np.ndarray) -> RayBatch:
     n = len(d)
     return RayBatch(origins=np.broadcast_to(camera.center, (n, 3)).copy(), directions=d, pixels=np.arange(n),
                     shape=(camera.height, camera.width))  # fmt: skip
+
+
+def subpixel_grid_rays(camera: Camera, k: int, rng: np.random.Generator | None = None) -> RayBatch:
+    """The k x k sub-pixel rays of every pixel of ``camera``, as one batch (a Numba kernel; supersampling).
+
+    Block ``j = iy k + ix`` (``pixels`` ``j H W + p``) holds the rays through the cell centres
+    ``(ix + 1/2) / k - 1/2``, ``(iy + 1/2) / k - 1/2`` of every pixel ``p``; with an ``rng`` each ray
+    moves by a uniform offset within its cell, drawn block by block as ``rng.random((H, W, 2))``.
+    :func:`subpixel_rays` (numpy), one block at a time, is its reference.
+
+    Raises
+    ------
+    TypeError
+        If ``camera`` is not a pinhole :class:`~vergence.camera.Camera`.
+    """
+    from vergence.render import _kernels
+
+    if not isinstance(camera, Camera):
+        raise TypeError(f"sub-pixel rays need a pinhole Camera; got {type(camera).__name__}")
+    h, w = camera.height, camera.width
+    cells = (np.arange(k) + 0.5) / k - 0.5
+    grid = np.array([[gx, gy] for gy in cells for gx in cells], dtype=np.float64)
+    jitter = np.zeros((0, h, w, 2))
+    if rng is not None:
+        jitter = np.stack([(rng.random((h, w, 2)) - 0.5) / k for _ in range(k * k)])
+    dirs = _kernels.subpixel_directions(np.linalg.inv(camera.K), np.ascontiguousarray(camera.R), w, h, grid, jitter)
+    n = len(dirs)
+    return RayBatch(origins=np.broadcast_to(camera.center, (n, 3)).copy(), directions=dirs, pixels=np.arange(n),
+                    shape=(h, w))  # fmt: skip

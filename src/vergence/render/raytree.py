@@ -27,7 +27,7 @@ off the surface, on the side they leave from.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,15 +38,19 @@ from vergence.render import _kernels, surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
 from vergence.render.limits import MAX_DEPTH, MAX_RENDER_SIDE, check_max_depth, render_cost
-from vergence.render.rays import RayBatch, camera_rays, subpixel_rays
+from vergence.render.rays import RayBatch, camera_rays, subpixel_grid_rays, subpixel_rays
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 from vergence.render.shader import WhittedShader, offset
 
-__all__ = ["MAX_DEPTH", "Tracer", "render", "render_stereo"]
+__all__ = ["MAX_DEPTH", "Tracer", "WAVEFRONT_SLOTS", "render", "render_stereo"]
 
 
 Progress = Callable[[float, str], None]
+
+#: Rays per tree level of one wavefront of :meth:`Tracer.render_many` (cameras beyond it start the next):
+#: 4 Mi rays, Mitsuba's chunk; about 1.5 GiB at the first level with D = 2 and its layer arrays.
+WAVEFRONT_SLOTS = 1 << 22
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -94,6 +98,11 @@ class Tracer:
         :class:`~vergence.render.intersect.Hits`; needs a ``packed`` attribute and a ``variant``.
     shader : object, optional
         With the methods ``background``, ``diffuse`` and ``specular`` of :class:`WhittedShader`.
+    staged : bool
+        Run the stages one by one (numpy and small kernels between Mitsuba's casts): the readable
+        reference. By default the default stages run fused (:mod:`vergence.render.wavefront`: a few
+        kernels per tree level, ambient occlusion as shadow rays), to float rounding the same result;
+        a tracer with a stage of its own always runs staged.
 
     Examples
     --------
@@ -106,7 +115,8 @@ class Tracer:
     [True]
     """
 
-    def __init__(self, scene: Scene, *, rays: Callable[..., RayBatch] | None = None, intersector=None, shader=None) -> None:  # noqa: ANN001
+    def __init__(self, scene: Scene, *, rays: Callable[..., RayBatch] | None = None, intersector=None, shader=None,
+                 staged: bool = False) -> None:  # noqa: ANN001  # fmt: skip
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
         if rays is not None and not callable(rays):
@@ -126,6 +136,19 @@ class Tracer:
         self.packed = self.intersector.packed
         caster = getattr(self.intersector, "caster", None)
         self.shader = WhittedShader(scene, self.packed, caster) if shader is None else shader
+        if not isinstance(staged, bool):
+            raise TypeError(f"staged must be a bool; got {type(staged).__name__}")
+        self.fused = (not staged and self.rays is camera_rays and type(self.intersector) is Intersector
+                      and type(self.shader) is WhittedShader)  # fmt: skip
+        self._pack = None
+
+    def _shading_pack(self):  # noqa: ANN202
+        """The materials and environment as kernel arrays (:func:`~vergence.render.wavefront.pack_shading`), once."""
+        if self._pack is None:
+            from vergence.render.wavefront import pack_shading
+
+            self._pack = pack_shading(self.packed, self.shader.lighting)
+        return self._pack
 
     # ------------------------------------------------------------------ public entry points
     def render(self, camera: Camera | FisheyeCamera | None = None, *, max_depth: int = 2, samples: int = 16,
@@ -137,6 +160,50 @@ class Tracer:
         supersample = _check_supersample(supersample, [cam])
         return self._render_many([cam], max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
                                  progress=progress, supersample=supersample)[0]  # fmt: skip
+
+    def render_many(self, cameras: Sequence[Camera | FisheyeCamera], *, max_depth: int = 2, samples: int = 16,
+                    rng: np.random.Generator | None = None, ao_distance: float | None = None,
+                    progress: Progress | None = None, supersample: int = 1) -> list[RenderResult]:  # fmt: skip
+        """Ray-trace several cameras' views, their rays side by side in one wavefront per tree level.
+
+        A rig's cameras, S3's table of offsets: one Mitsuba cast and one set of kernels per level for
+        all of them. Cameras are grouped into wavefronts of at most :data:`WAVEFRONT_SLOTS` rays per
+        level (``(1 + k^2) H W`` a camera with ``supersample`` k), in order. Each result is
+        :meth:`render`'s for that camera; with an ``rng`` the draws follow the joint order (a camera's
+        pixels after the previous camera's within a wavefront), so they differ from separate renders.
+        Parameters as :func:`render`; ``progress`` reports the wavefronts.
+
+        Raises
+        ------
+        TypeError, ValueError
+            As :meth:`render`, for any camera (before any ray is traced); an empty ``cameras``.
+        """
+        cams = list(cameras) if isinstance(cameras, list | tuple) else None
+        if not cams:
+            raise ValueError(f"cameras must be a non-empty list of Camera or FisheyeCamera; got {cameras!r:.80}")
+        for cam in cams:
+            max_depth, samples, ao_distance = _check_options(self.scene, cam, max_depth, samples, rng, ao_distance)
+        supersample = _check_supersample(supersample, cams)
+        if progress is not None and not callable(progress):
+            raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
+        groups: list[list] = [[]]
+        slots = 0
+        for cam in cams:
+            n = (1 + (supersample * supersample if supersample > 1 else 0)) * cam.width * cam.height
+            if groups[-1] and slots + n > WAVEFRONT_SLOTS:
+                groups.append([])
+                slots = 0
+            groups[-1].append(cam)
+            slots += n
+        out: list[RenderResult] = []
+        for g, group in enumerate(groups):
+            say = None
+            if progress is not None:
+                say = lambda f, m, g=g, c=len(out), k=len(group): progress(  # noqa: E731
+                    (g + f) / len(groups), f"views {c + 1}-{c + k} of {len(cams)}: {m}")  # fmt: skip
+            out += self._render_many(group, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                                     progress=say, supersample=supersample)  # fmt: skip
+        return out
 
     def render_curved(self, camera: Camera, to_world: Callable, *, near: float, far: float, tolerance_px: float = 0.25,
                       max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
@@ -251,7 +318,11 @@ class Tracer:
         try:
             batches = [self.rays(c) for c in cameras]
             sizes = [c.height * c.width for c in cameras]
-            if supersample > 1:
+            if supersample > 1 and self.fused:  # one kernel per camera for its k x k sub-pixel blocks
+                for c in cameras:
+                    batches.append(subpixel_grid_rays(c, supersample, rng))
+                    sizes.extend([c.height * c.width] * k2)
+            elif supersample > 1:
                 grid = (np.arange(supersample) + 0.5) / supersample - 0.5
                 for c in cameras:
                     for gy in grid:
@@ -262,9 +333,11 @@ class Tracer:
                             batches.append(subpixel_rays(c, off))
                             sizes.append(c.height * c.width)
             starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-            shifted = [RayBatch(b.origins, b.directions, b.pixels + s, b.shape) for b, s in zip(batches, starts)]
+            offsets = starts[:len(cameras)].tolist() + [int(starts[len(cameras) + k * k2]) for k in range(len(cameras))] \
+                if supersample > 1 and self.fused else starts  # fmt: skip
+            shifted = [RayBatch(b.origins, b.directions, b.pixels + s, b.shape) for b, s in zip(batches, offsets)]
             flat = self._trace(shifted, starts, tmax=None, max_depth=max_depth, samples=samples, rng=rng,
-                               ao_distance=ao_distance, progress=progress)  # fmt: skip
+                               ao_distance=ao_distance, progress=progress, geo_slots=int(starts[len(cameras)]))  # fmt: skip
         except MemoryError:
             c = cameras[0]
             gib = 3 * n * c.height * c.width * 3 * 4 / 2**30  # radiance, position, normal (float32)
@@ -294,7 +367,19 @@ class Tracer:
                                     object_id=flat.object_id[:, sl].reshape(n, h, w)))  # fmt: skip
         return out
 
-    def _trace(self, batches, starts, *, tmax, max_depth, samples, rng, ao_distance, progress) -> _Flat:  # noqa: ANN001
+    def _trace(self, batches, starts, *, tmax, max_depth, samples, rng, ao_distance, progress,
+               geo_slots=None) -> _Flat:  # noqa: ANN001  # fmt: skip
+        """The tree of every ray of ``batches`` (slots ``pixels``); position and normal are kept for the
+        first ``geo_slots`` slots at least (all by default; the fused path keeps only those)."""
+        if self.fused:
+            from vergence.render.wavefront import trace_wavefront
+
+            cat = lambda name: (getattr(batches[0], name) if len(batches) == 1  # noqa: E731
+                                else np.concatenate([getattr(b, name) for b in batches]))  # fmt: skip
+            return _Flat(*trace_wavefront(self, cat("origins"), cat("directions"), cat("pixels"), starts, tmax=tmax,
+                                          max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                                          progress=progress,
+                                          geo_slots=int(starts[-1]) if geo_slots is None else geo_slots))  # fmt: skip
         n_nodes = 2 ** (max_depth + 1) - 1
         n_slots, n_views = int(starts[-1]), len(starts) - 1
         view_of = lambda slots: np.searchsorted(starts[1:], slots, side="right")  # noqa: E731
