@@ -47,6 +47,8 @@ def test_a_tiny_glasses_job_writes_the_outputs_and_its_report(client):
     assert job["result"] == report
     assert report["settings"]["k"] == 2 and report["settings"]["variant"] == "comfort"
     assert set(report["cost_before"]) == set(report["cost_after"]) and report["layers"]
+    assert report["display"]["fit"] == "screen" and report["display"]["image_width_px"] == 64  # the default fit
+    assert {"inside_share_before", "comfort_share_before"} <= set(report["layers"][1])
     png = client.get(f"/api/jobs/{job['id']}/files/optimised_anaglyph.png")
     assert png.status_code == 200 and png.headers["content-type"] == "image/png"
     arr = cv2.imdecode(np.frombuffer(png.content, np.uint8), cv2.IMREAD_COLOR)
@@ -68,6 +70,8 @@ def test_a_tiny_glasses_job_writes_the_outputs_and_its_report(client):
     ({**TINY, "weights": [1, 1, 1]}, "weights"),
     ({**TINY, "display": "nope"}, "display: "),
     ({**TINY, "depth": 9}, "depth must be at most 6"),
+    ({**TINY, "fit": "wide"}, "fit must be one of screen, native; got 'wide'"),
+    ({**TINY, "depth": 0}, "depth 0 traces no specular layer (the first hit only), but scene 'scene:glasses' has"),
 ])
 def test_bad_specular_parameters_are_422(client, body, message):
     assert message in _refused(client.post("/api/jobs/specular", json=body), 422)
@@ -99,7 +103,7 @@ def test_a_scene_file_without_a_stereo_block_is_422(tmp_path):
 def test_the_specular_kind_is_listed_with_its_parameters(client):
     kinds = {k["name"]: k for k in client.get("/api/jobs").json()["kinds"]}
     assert set(kinds["specular"]["parameters"]["properties"]) == {
-        "scene", "width", "height", "k", "depth", "samples", "display", "variant", "weights"}
+        "scene", "width", "height", "k", "depth", "samples", "display", "fit", "variant", "weights"}
 
 
 def _upload_npy(client, array) -> str:

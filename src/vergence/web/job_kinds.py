@@ -122,6 +122,8 @@ class SpecularJob(RequestModel):
     depth: int = pydantic.Field(2, ge=0, description="Maximum specular bounces D: 2^(D+1)-1 layers (S3: 2).")
     samples: int = pydantic.Field(4, ge=1, description="Ambient-occlusion rays per diffuse hit.")
     display: str = pydantic.Field("samsung-2233rz", description="A display preset of GET /api/displays.")
+    fit: str = pydantic.Field("screen", description="How the image is shown on the display: 'screen' (stretched to "
+                              "its width, full screen) or 'native' (one image pixel per display pixel).")
     variant: str = pydantic.Field("comfort", description="The absolute term: 'comfort' or 'screen' (S3's).")
     weights: tuple[float, float, float, float] = pydantic.Field(
         (1.0, 1.0, 10.0, 0.1), description="Cost weights absolute, relative, rivalry, data (S3 §4: 1, 1, 10, 0.1).")
@@ -134,11 +136,13 @@ _MAX_WEIGHT = 1e6
 def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     from vergence.commands._scene import scene_rig
     from vergence.render import render_cost
-    from vergence.specular import ABSOLUTE_VARIANTS, MAX_TABLE_BYTES, offset_table_bytes
+    from vergence.specular import ABSOLUTE_VARIANTS, DISPLAY_FITS, MAX_TABLE_BYTES, offset_table_bytes, specular_objects
     from vergence.viewing.geometry import Display
 
     if not isinstance(params, SpecularJob):
         raise TypeError(f"params must be a SpecularJob; got {type(params).__name__}")
+    if params.fit not in DISPLAY_FITS:
+        raise ValueError(f"fit must be one of {', '.join(DISPLAY_FITS)}; got {params.fit!r}")
     if params.variant not in ABSOLUTE_VARIANTS:
         raise ValueError(f"variant must be one of {', '.join(ABSOLUTE_VARIANTS)}; got {params.variant!r}")
     if not all(0 <= w <= _MAX_WEIGHT for w in params.weights):  # NaN fails too
@@ -153,6 +157,9 @@ def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
         raise ValueError(f"scene {params.scene!r} has no \"stereo\" block (baseline, convergence): a specular job "
                          "uses the scene's own rig (docs/scenes.md)")  # fmt: skip
     left, right, _, _ = scene_rig(scene, None, None, needed_by=f"scene {params.scene!r}: a specular job")
+    if params.depth == 0 and specular_objects(scene):
+        raise ValueError(f"depth 0 traces no specular layer (the first hit only), but scene {params.scene!r} has "
+                         "mirror or glass objects: use depth 1 or more (S3: 2)")  # fmt: skip
     cost = render_cost(params.width, params.height, max_depth=params.depth, samples=params.samples)
     size = f"{params.width}x{params.height} pixels with depth {params.depth}"
     if cost.problem() is not None:
@@ -172,7 +179,7 @@ def _prepare_specular(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
 
         result = specular_stereo(scene, left, right, display, k=params.k, max_depth=params.depth,
                                  samples=params.samples, alpha=params.weights, variant=params.variant,
-                                 progress=ctx.progress)  # fmt: skip
+                                 fit=params.fit, progress=ctx.progress)  # fmt: skip
         ctx.progress(1.0, "writing the outputs")
         return JobResult(result.report(), _write_specular(result, ctx.folder, layers=True), live=result)
 

@@ -59,6 +59,7 @@ function specRequest() {
     scene: document.getElementById("spec-scene").value,
     width: num("spec-width"), height: num("spec-height"), k: num("spec-k"), samples: num("spec-samples"),
     display: document.getElementById("spec-display").value,
+    fit: document.getElementById("spec-fit").value,
     variant: document.getElementById("spec-variant").value,
     weights: specWeights(),
   };
@@ -304,11 +305,16 @@ function showSpecular(id, report) {
     tr.dataset.layer = layer.layer;
     specCell(tr, undefined, `${layer.layer} · ${layer.name}`);
     specCell(tr, layer.pixels, String(layer.pixels), `spec-pixels-${layer.layer}`);
+    specCell(tr, layer.inside_share_before, specShare(layer.inside_share_before), `spec-inside-before-${layer.layer}`);
+    specCell(tr, layer.inside_share_after, specShare(layer.inside_share_after), `spec-inside-after-${layer.layer}`);
     specCell(tr, layer.comfort_share_before, specShare(layer.comfort_share_before), `spec-comfort-before-${layer.layer}`);
     specCell(tr, layer.comfort_share_after, specShare(layer.comfort_share_after), `spec-comfort-after-${layer.layer}`);
     specCell(tr, layer.matched_before, specShare(layer.matched_before), `spec-matched-before-${layer.layer}`);
     specCell(tr, layer.matched_after, specShare(layer.matched_after), `spec-matched-after-${layer.layer}`);
   }
+  const d = report.display;
+  document.getElementById("spec-display-line").textContent = d ? `${d.name ?? "display"}, fit ${d.fit}: ` +
+    `${d.arcmin_per_px.toFixed(2)} arcmin per image pixel; ` + report.warnings.map((w) => `warning: ${w}`).join("; ") : "";
   const costs = document.querySelector("#spec-costs tbody");
   costs.replaceChildren();
   for (const term of Object.keys(report.cost_before)) {
