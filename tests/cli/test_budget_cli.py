@@ -32,6 +32,15 @@ def _hand(z: float, b=0.12, H=8.0, W=2.4, bp=0.063, Hp=2.2, Wp=1.1, N=1280) -> d
             "roundness": b * Hp * W / den}
 
 
+def test_divergence_depth_is_where_the_disparity_reaches_the_eyes_limit(capsys):
+    # b = 0.2 > b_div: d(z) = b/W (z - H)/z reaches b'/W' at z = H / (1 - (b'/W')(W/b)) (S0 Eq. 1a, 2).
+    code, out, _err = _run(capsys, "--baseline", "0.2", "--convergence", "8", "--window", "2.4", *DISPLAY_ARGS,
+                           "--depth", "8", "--json")
+    assert code == 0
+    want = 8 / (1 - (0.063 / 1.1) * (2.4 / 0.2))
+    assert json.loads(out)["divergence_depth"] == pytest.approx(want, rel=RTOL)
+
+
 def test_json_matches_hand_computation(capsys):
     code, out, err = _run(capsys, *RIG_ARGS, *DISPLAY_ARGS, "--screen-pixels", "1280",
                           "--depth", "4", "--depth", "8", "--depth", "20", "--depth", "100", "--json")
@@ -40,7 +49,9 @@ def test_json_matches_hand_computation(capsys):
     zone = "outside the comfort zone (±60 arcmin of vergence: d from -0.03492 to +0.03491 of the screen width)"
     assert code == 0 and err == f"warning: {zone}: z = 4, 100 m\n"
     data = json.loads(out)
-    assert list(data) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "depths", "warnings"]
+    assert list(data) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "divergence_depth", "depths",
+                          "warnings"]
+    assert data["divergence_depth"] is None  # b < b_div: the eyes never diverge
     assert data["warnings"] == [f"{zone}: z = 4, 100 m"]
     assert data["divergence_baseline"] == pytest.approx(0.063 * 2.4 / 1.1, rel=RTOL)
     assert data["roundness_baseline"] == pytest.approx(0.063 * 8 / 2.2, rel=RTOL)

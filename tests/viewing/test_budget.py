@@ -33,7 +33,7 @@ def test_json_matches_hand_computation():
     # b_div = b'W/W' = 0.065*3/1.2; b_round = b'H/H' = 0.065*30/3; f/f' = 10/2.5.
     # b'W - bW' = -0.117, bHW' = 9.36, b'H'W = 0.585, bH'W = 2.34; divergence beyond 80 m.
     out = depth_budget(RIG, TV, [30.0, 60.0, 90.0]).to_dict()
-    assert list(out) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "depths", "warnings"]
+    assert list(out) == ["divergence_baseline", "roundness_baseline", "focal_ratio", "divergence_depth", "depths", "warnings"]
     # d(60) = (0.26/3)(1/2) = 0.0433 lies inside the +-60 arcmin zone at 3 m (+-3 tan(1 deg)/1.2 = 0.0436);
     # 90 m diverges (issue 9: divergence is a warning in the JSON and on stderr).
     assert out["warnings"] == ["the eyes diverge at z = 90 m (beyond z = 80 m): baseline b = 0.26 m exceeds "

@@ -173,7 +173,7 @@ def test_invalid_input_shows_the_api_error(workbench, server_url):
     message = answer.json()["error"]
     assert message.startswith("baseline ") and "--" not in message  # the field the page sent
     assert error.is_visible()
-    assert error.inner_text() == message
+    assert error.inner_text() == "baseline b" + message.removeprefix("baseline")  # the page's label
     page.fill("#baseline", str(RIG["baseline"]))  # fixed: the message goes away
     assert settle(page) == "ready"
     assert error.is_hidden()
@@ -222,11 +222,12 @@ def test_focal_length_and_sensor_instead_of_the_window(workbench, server_url):
     api = post(server_url, "budget", body).json()
     assert shown(page, "focal-ratio")[0] == api["focal_ratio"]
     assert shown(page, "perceived-at-probe")[0] == api["depths"][1]["perceived_depth"]
-    # a focal length alone is refused by the API, in its words
+    # a focal length alone is refused by the API; the page says it with its own labels
     page.fill("#sensor-mm", "")
     assert settle(page) == "error"
     message = post(server_url, "budget", {**body, "sensor_mm": None}).json()
-    assert page.locator('[data-testid="error"]').inner_text() == message.get("error")
+    assert message.get("error") == "sensor_mm (sensor width in mm) is required with focal_mm"
+    assert page.locator('[data-testid="error"]').inner_text() == "sensor S (sensor width in mm) is required with focal length F"
 
 
 def test_the_page_asks_only_its_own_server(page, server_url):
@@ -242,3 +243,64 @@ def test_the_page_asks_only_its_own_server(page, server_url):
     assert outside == []
     assert {server_url + "/static/common.js", server_url + "/static/pages/budget.html",
             server_url + "/static/style.css"} <= set(requests)
+
+
+PLOT = {"width": 560, "height": 260, "left": 56, "right": 14, "top": 12, "bottom": 38}  # common.js's PLOT
+
+
+def _path_points(d: str) -> list[tuple[float, float]]:
+    import re
+
+    return [(float(x), float(y)) for x, y in re.findall(r"[ML](-?[\d.]+),(-?[\d.]+)", d)]
+
+
+def _x_of(z: float, lo: float, hi: float) -> float:
+    import math
+
+    span = PLOT["width"] - PLOT["left"] - PLOT["right"]
+    return PLOT["left"] + (math.log(z) - math.log(lo)) / (math.log(hi) - math.log(lo)) * span
+
+
+def test_divergence_is_shaded_from_its_exact_depth_and_roundness_stops_there(workbench, server_url):
+    page = workbench
+    enter_rig(page)
+    api = post(server_url, "budget", {**RIG, "display": "desktop-24", "depth": [RIG["convergence"]]}).json()
+    z_div = api["divergence_depth"]
+    assert 1 < z_div < 50  # inside the scene's depths (1-50 m)
+    assert shown(page, "divergence-depth")[0] == z_div  # not the first sampled depth past it
+    shade_x = float(page.locator("#plot-perceived rect.shade").get_attribute("x"))
+    assert shade_x == pytest.approx(_x_of(z_div, 1, 50), abs=0.01)
+    roundness = _path_points(page.locator('#plot-roundness path[data-series="budget"]').get_attribute("d"))
+    assert len(roundness) > 20 and max(x for x, _ in roundness) <= shade_x + 0.01
+    # a probe past the limit: no roundness to show
+    page.fill("#probe", "40")
+    assert settle(page) == "ready"
+    value, text = shown(page, "roundness-at-probe")
+    assert value is None and "diverge" in text
+
+
+def test_psi_stays_inside_the_perceived_depth_plot_and_far_may_be_infinite(workbench, server_url):
+    page = workbench
+    enter_rig(page)
+    page.click('[data-testid="add-constraint"]')
+    page.locator('[data-testid="constraints"] tr').first.locator('input[data-field="perceived"]').fill("0.6")
+    page.fill("#far", "inf")
+    assert settle(page) == "ready", page.locator('[data-testid="error"]').inner_text()
+    assert "--far inf" in page.input_value('[data-testid="cli-mapping"]')
+    psi = _path_points(page.locator('#plot-perceived path[data-series="psi"]').get_attribute("d"))
+    assert len(psi) > 10
+    top, bottom = PLOT["top"], PLOT["height"] - PLOT["bottom"]
+    assert all(top - 0.01 <= y <= bottom + 0.01 for _, y in psi)  # psi's whole curve is in the frame
+    assert int(page.get_attribute("#plot-perceived", "data-points")) > 50
+
+
+def test_a_mapping_error_names_the_pages_field(workbench):
+    page = workbench
+    enter_rig(page)
+    page.click('[data-testid="add-constraint"]')
+    page.locator('[data-testid="constraints"] tr').first.locator('input[data-field="perceived"]').fill("0.6")
+    assert settle(page) == "ready"
+    page.fill("#baseline", "0")
+    assert settle(page) == "error"
+    text = page.locator('[data-testid="error"]').inner_text()
+    assert text.startswith("baseline b ") and "reference" not in text and "--" not in text

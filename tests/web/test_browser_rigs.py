@@ -98,7 +98,7 @@ def test_edit_a_shot_see_its_plan_and_render_it(page, server_url, check_screensh
     result = httpx.get(f"{server_url}/api/jobs/{again['id']}", timeout=30).json()["result"]
     for eye in ("left", "right"):
         row = page.locator(f'#rig-metrics tr[data-method="ulr"][data-eye="{eye}"]')
-        for key in ("psnr", "dssim", "coverage"):
+        for key in ("psnr", "dssim", "psnr_filled", "coverage"):
             shown = float(row.locator(f'[data-key="{key}"]').get_attribute("data-value"))
             assert shown == result["methods"]["ulr"][eye][key]
     for name in ("ulr_left", "ulr_right", "ulr_anaglyph", "truth_left", "truth_right", "ulr_error_left",
@@ -108,6 +108,13 @@ def test_edit_a_shot_see_its_plan_and_render_it(page, server_url, check_screensh
         img.evaluate("el => el.decode()")
         assert img.evaluate("el => el.naturalWidth") == WIDTH
     check_screenshot(page, "workbench_rigs.png")
+    # a field edited after the render: the render shown is of the old settings, dimmed and said so
+    assert page.locator("#rig-result .stale-note").is_hidden()
+    page.locator('[data-testid="rig-setback"]').fill("25")
+    page.wait_for_function(READY, timeout=15_000)
+    expect(page.locator("#rig-result .stale-note")).to_be_visible()
+    opacity = page.locator('[data-testid="rig-img-ulr_left"]').evaluate("el => Number(getComputedStyle(el).opacity)")
+    assert opacity < 0.5
 
 
 def test_a_bad_field_shows_the_api_error(page, server_url):

@@ -152,11 +152,13 @@ class DepthBudget:
             raise TypeError("warnings must be a sequence of str")
 
     def to_dict(self) -> dict[str, object]:
-        """The JSON of ``vergence budget --json`` (issue 2): baselines, focal ratio and the depths."""
+        """The JSON of ``vergence budget --json``: baselines, focal ratio, the depth beyond which the eyes
+        diverge (``divergence_depth``, None when they never do) and the depths."""
         return {
             "divergence_baseline": self.divergence_baseline,
             "roundness_baseline": self.roundness_baseline,
             "focal_ratio": self.focal_ratio,
+            "divergence_depth": self.divergence_depth if math.isfinite(self.divergence_depth) else None,
             "depths": [s.to_dict() for s in self.samples],
             "warnings": list(self.warnings),
         }

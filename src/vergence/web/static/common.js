@@ -175,7 +175,7 @@ function drawPlot(svg, series, opts) {
   const xs = [], ys = [];
   for (const s of series) for (const [x, y] of s.points) {
     if (Number.isFinite(x) && (!opts.xlog || x > 0)) xs.push(x);
-    if (Number.isFinite(y) && (!opts.yclip || (y >= opts.yclip[0] && y <= opts.yclip[1]))) ys.push(y);
+    if (Number.isFinite(y) && (s.unclipped || !opts.yclip || (y >= opts.yclip[0] && y <= opts.yclip[1]))) ys.push(y);
   }
   if (!xs.length || !ys.length) {
     svg.append(el("text", { x: width / 2, y: height / 2, class: "empty", "text-anchor": "middle" }, opts.empty || "no data"));

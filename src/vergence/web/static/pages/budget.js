@@ -9,6 +9,30 @@ const DEBOUNCE_MS = 200;
 // leave the frame (they blow up where the eyes turn parallel). The figures above show exact values.
 const PERCEIVED_CAP = 4;
 const ROUNDNESS_CLIP = [-1, 3];
+// A farthest depth of infinity ("inf", "∞"): the curves are drawn out to this many times the nearest
+// depth (a log axis has no infinity); psi itself is built for the scene out to infinity.
+const FAR_PLOT_FACTOR = 1000;
+// The page's names of the fields the API names in its messages (the mapping's reference rig is the
+// page's rig): a snake_case name anywhere, a one-word name at the start of the message.
+const FIELD_LABELS = { reference_baseline: "baseline b", baseline: "baseline b", convergence: "convergence distance H",
+  window: "window W", focal_mm: "focal length F", sensor_mm: "sensor S", near: "nearest depth",
+  far: "farthest depth", eye_separation: "eye separation", viewing_distance: "viewing distance",
+  screen_width: "screen width", screen_pixels: "screen pixels" };
+
+// An API message in the page's words.
+function pageMessage(message) {
+  const lead = /^([a-z]+)\b/.exec(message);
+  const out = lead && FIELD_LABELS[lead[1]] ? FIELD_LABELS[lead[1]] + message.slice(lead[1].length) : message;
+  return out.replace(/\b[a-z]+(?:_[a-z]+)+\b/g, (name) => FIELD_LABELS[name] || name);
+}
+
+// A depth field: a number, or infinity written "inf", "infinity" or "∞"; null when blank, NaN when unreadable.
+function depthValue(text) {
+  const t = text.trim().toLowerCase();
+  if (t === "") return null;
+  if (["inf", "+inf", "infinity", "∞"].includes(t)) return Infinity;
+  return Number(t);
+}
 
 function initBudget() {
   const form = document.getElementById("budget-form");
@@ -53,7 +77,8 @@ function initBudget() {
   }
 
   function denseDepths() {
-    const near = number("near"), far = number("far");
+    const near = number("near"), given = depthValue(value("far"));
+    const far = given === Infinity ? near * FAR_PLOT_FACTOR : given;
     if (!(near > 0 && far > near && Number.isFinite(far))) return [];
     const out = [];
     for (let i = 0; i < DENSE_SAMPLES; i++) out.push(Number((near * (far / near) ** (i / (DENSE_SAMPLES - 1))).toPrecision(6)));
@@ -82,7 +107,8 @@ function initBudget() {
     Object.assign(body, displayFields(false));
     body.constraint = constraints();
     if (number("near") !== null) body.near = number("near");
-    if (number("far") !== null) body.far = number("far");
+    const far = depthValue(value("far"));
+    if (far !== null) body.far = far === Infinity ? "inf" : far;
     return body;
   }
 
@@ -101,38 +127,44 @@ function initBudget() {
     setFigure("roundness-at-convergence", atH.roundness);
     setFigure("perceived-at-probe", atProbe.perceived_depth,
       atProbe.perceived_depth === null ? (atProbe.diverges ? "— (eyes diverge)" : "∞") : `${fmt(atProbe.perceived_depth)} m`);
-    setFigure("roundness-at-probe", atProbe.roundness);
-    const firstDiverging = dense.find((s) => s.diverges);
-    setFigure("divergence-depth", firstDiverging ? firstDiverging.depth : null,
-      firstDiverging ? `from z ≈ ${fmt(firstDiverging.depth)} m (first sampled depth)` : "not in the scene's depths");
+    // Roundness means nothing where the eyes diverge (no fused point to be round)
+    setFigure("roundness-at-probe", atProbe.diverges ? null : atProbe.roundness,
+      atProbe.diverges ? "— (eyes diverge)" : undefined);
+    // The exact depth the eyes start to diverge (S0 Eq. 2), not the first sampled depth past it
+    const zDiv = result.divergence_depth;
+    const inScene = zDiv !== null && dense.length > 0 && zDiv <= dense[dense.length - 1].depth;
+    setFigure("divergence-depth", inScene ? zDiv : null,
+      zDiv === null ? "never" : `beyond z = ${fmt(zDiv)} m` + (inScene ? "" : " (past the scene's depths)"));
     const list = document.getElementById("warnings");
     list.replaceChildren(...result.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w, title: w })));
-    return { dense, firstDiverging, probe, convergence, viewingDistance: number("viewing-distance") || 1 };
+    return { dense, divergence: inScene ? zDiv : null, probe, convergence, viewingDistance: number("viewing-distance") || 1 };
   }
 
-  // A budget curve as [z, value] points, broken where the eyes start to diverge (the curve jumps there).
-  function budgetPoints(samples, key) {
+  // A budget curve as [z, value] points, broken where the eyes start to diverge (the curve jumps there);
+  // with ``convergedOnly`` the diverging part is left out (roundness has no meaning there).
+  function budgetPoints(samples, key, convergedOnly = false) {
     const points = [];
     samples.forEach((s, i) => {
       if (i > 0 && samples[i - 1].diverges !== s.diverges) points.push([s.depth, null]);
-      points.push([s.depth, s[key]]);
+      points.push([s.depth, convergedOnly && s.diverges ? null : s[key]]);
     });
     return points;
   }
 
   function drawAll(budget, mapping) {
-    const { dense, firstDiverging, probe, convergence, viewingDistance } = budget;
-    const shade = firstDiverging ? { from: firstDiverging.depth, label: "eyes diverge" } : null;
+    const { dense, divergence, probe, convergence, viewingDistance } = budget;
+    const shade = divergence !== null ? { from: divergence, label: "eyes diverge" } : null;
     const vlines = [{ x: convergence, label: "H", cls: "h" }, { x: probe, label: "z", cls: "probe" }];
     const xrange = dense.length ? [dense[0].depth, dense[dense.length - 1].depth] : null;
     const mapped = mapping ? mapping.samples.filter((s) => s.depth !== null) : [];
     const common = { xlog: true, xrange, shade, vlines, xlabel: "scene depth z (m)" };
     drawPlot(document.getElementById("plot-perceived"), [
       { points: budgetPoints(dense, "perceived_depth"), cls: "budget", label: "budget" },
-      ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.perceived_depth]), cls: "psi", label: "psi" }] : []),
+      // psi keeps z' finite: its whole curve sets the range (the budget's blows up, so it is clipped)
+      ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.perceived_depth]), cls: "psi", label: "psi", unclipped: true }] : []),
     ], { ...common, ylabel: "z′ (m)", yclip: [0, PERCEIVED_CAP * viewingDistance] });
     drawPlot(document.getElementById("plot-roundness"), [
-      { points: budgetPoints(dense, "roundness"), cls: "budget", label: "budget" },
+      { points: budgetPoints(dense, "roundness", true), cls: "budget", label: "budget" },
       ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.roundness]), cls: "psi", label: "psi" }] : []),
     ], { ...common, ylabel: "roundness ρ", yinclude: [0, 1], yclip: ROUNDNESS_CLIP });
     const psiSvg = document.getElementById("plot-psi");
@@ -165,7 +197,7 @@ function initBudget() {
     if (psiBody) document.getElementById("cli-mapping").value = cliLine("mapping", psiBody);
     try {
       if (readouts.length < 2) throw new ApiError("enter the convergence distance H and the depth z to look at");
-      if (!dense.length) throw new ApiError("the scene's depths: enter 0 < nearest < farthest, both finite");
+      if (!dense.length) throw new ApiError("the scene's depths: enter 0 < nearest < farthest (farthest may be inf)");
       const [budget, curves, mapping] = await Promise.all([
         api("/api/budget", body), api("/api/budget", { ...body, depth: dense }),
         psiBody ? api("/api/mapping", psiBody) : null]);
@@ -178,7 +210,7 @@ function initBudget() {
       if (mine !== sequence) return;
       if (!(exc instanceof ApiError)) throw exc;
       document.querySelector(".results").classList.add("stale");
-      showError(exc.message);
+      showError(pageMessage(exc.message));
       document.body.dataset.state = "error";
     } finally {
       if (mine === sequence) document.body.dataset.updates = String(++updates);

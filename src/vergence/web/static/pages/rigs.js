@@ -35,7 +35,12 @@ async function initRigs() {
     }
     if (rigPresets.length) rigFill(rigPresets[0].shot);
     const later = debounce(rigPlan, RIG_PLAN_DEBOUNCE_MS);
-    const changed = () => { document.body.dataset.state = "loading"; rigEl("rig-results").classList.add("stale"); later(); };
+    const changed = () => {
+      document.body.dataset.state = "loading";
+      rigEl("rig-results").classList.add("stale");
+      rigEl("rig-result").classList.add("stale");  // the render shown is of the settings as they were: dimmed until the next
+      later();
+    };
     const form = rigEl("rig-form");
     form.addEventListener("input", (ev) => { if (ev.target.id !== "rig-preset") changed(); });
     presets.addEventListener("change", () => {
@@ -449,6 +454,7 @@ async function rigRender() {
   progress.value = 1;
   message.textContent = status.cached ? "done (cached)" : "done";
   rigShowResult(status.id, status.result, status.files);
+  rigEl("rig-result").classList.remove("stale");
   document.body.dataset.state = "ready";
 }
 
@@ -492,6 +498,8 @@ function rigShowResult(id, result, files) {
       cell(null, eye);
       cell(m.psnr, m.psnr === null ? (m.note || "∞ (identical)") : m.psnr.toFixed(2), "psnr");
       cell(m.dssim, m.dssim === null ? "—" : m.dssim.toExponential(2), "dssim");
+      const filled = m.psnr_filled === undefined ? null : m.psnr_filled;
+      cell(filled, filled === null ? "—" : filled.toFixed(2), "psnr_filled");
       cell(m.coverage, `${(100 * m.coverage).toFixed(1)} %`, "coverage");
     }
   }
