@@ -27,7 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["RIG_SOURCES", "RIG_WEIGHTS", "SHOT_SUPERSAMPLE", "ShotRender", "check_ibr_settings", "render_shot"]
+__all__ = ["RIG_SOURCES", "RIG_WEIGHTS", "SHOT_SUPERSAMPLE", "ShotRender", "check_ibr_settings", "measure_against_truth",
+           "render_shot"]
 
 # --sources choices of `vergence rig render` (a Quadri-Rig's eyes): "all" blends all 2N real cameras
 # into each virtual eye (the weights choose per pixel; our default), "eye" only the eye's own N cameras,
@@ -212,12 +213,30 @@ def _tracer(shot: object) -> object:
 
 
 def _trace_all(tracer, named, samples, supersample, say, start, span):  # noqa: ANN001, ANN202
-    """Render each (name, camera): name -> RenderResult, reporting progress over [start, start + span]."""
-    out = {}
-    for i, (name, cam) in enumerate(named):
-        say(start + span * i / len(named), f"ray-tracing {name}")
-        out[name] = tracer.render(cam, samples=samples, supersample=supersample)
-    return out
+    """Render the (name, camera) pairs side by side (``Tracer.render_many``: one wavefront per tree level for
+    all of them): name -> RenderResult, reporting progress over [start, start + span]."""
+    names = ", ".join(n for n, _ in named)
+    report = lambda f, m: say(start + span * f, f"ray-tracing {names}: {m}")  # noqa: E731
+    results = tracer.render_many([c for _, c in named], samples=samples, supersample=supersample, progress=report)
+    return dict(zip((n for n, _ in named), results))
+
+
+class _Stages:
+    """Wall seconds per stage of a shot, in order (``report.json``'s ``timings``)."""
+
+    def __init__(self) -> None:
+        self.start = self.mark = time.perf_counter()
+        self.seconds: dict[str, float] = {}
+
+    def done(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.seconds[stage] = round(self.seconds.get(stage, 0.0) + now - self.mark, 3)
+        self.mark = now
+
+    def report(self, ray_tracing: Sequence[str]) -> dict:
+        """The stages' seconds, their sum for ``ray_tracing_s`` (the one figure before per-stage times) and the total."""
+        return {"ray_tracing_s": round(sum(self.seconds.get(k, 0.0) for k in ray_tracing), 2),
+                "total_s": round(time.perf_counter() - self.start, 2), "stages_s": dict(self.seconds)}  # fmt: skip
 
 
 def _tone(beauty: np.ndarray, exposure: float) -> np.ndarray:
@@ -230,7 +249,8 @@ def _tonemapped(results: dict, exposure: float) -> dict:
     return {k: _tone(r.beauty, exposure) for k, r in results.items()}
 
 
-def _measure(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray, proxy_depth: np.ndarray | None = None) -> dict:
+def measure_against_truth(image: np.ndarray, truth: np.ndarray, coverage: np.ndarray,
+                          proxy_depth: np.ndarray | None = None) -> dict:
     """PSNR and DSSIM over the covered pixels (a window reaching a hole compares its black), DSSIM
     from the windows wholly inside the covered area (``dssim_inside``, None where none is) with the
     share of the image those windows centre on (``inside``), the coverage, and, given the proxy's
@@ -287,16 +307,19 @@ def _render_quadri(shot, rig, methods, samples, supersample, sources, ibr, say) 
     from vergence.render import auto_exposure
     from vergence.synthesis import render_ibr
 
-    t0 = time.perf_counter()
+    stages = _Stages()
     tracer = _tracer(shot)
+    stages.done("scene")
     real = [(rc.name, rc.camera) for rc in rig.cameras]
     renders = _trace_all(tracer, real, samples, supersample, say, 0.0, 0.4)
+    stages.done("real_cameras")
     _check_seen(renders, [n for n, _ in real])  # before the virtual eyes are traced
     named = real + [("virtual_left", rig.left), ("virtual_right", rig.right)]
     renders.update(_trace_all(tracer, named[len(real):], samples, supersample, say, 0.4, 0.2))
-    t_render = time.perf_counter() - t0
+    stages.done("virtual_eyes")
     exposure = auto_exposure(renders["virtual_left"].beauty)  # one exposure for every image of the shot
     images = _tonemapped(renders, exposure)
+    stages.done("tone_mapping")
     cams = dict(named)
     truth = {"left": images["virtual_left"], "right": images["virtual_right"]}
     results: dict = {}
@@ -309,13 +332,15 @@ def _render_quadri(shot, rig, methods, samples, supersample, sources, ibr, say) 
             names = [rc.name for rc in (rig.cameras if sources == "all" else rig.sources(eye))]
             res = render_ibr(rig.left if eye == "left" else rig.right, _sources(names, cams, images, renders),
                              weights=method, **ibr)  # fmt: skip
+            stages.done(f"ibr_{method}")
             _check_covered(res.coverage, eye, method)
             results[method][eye] = res
-            report[method][eye] = _measure(res.image, truth[eye], res.coverage, res.proxy_depth)
+            report[method][eye] = measure_against_truth(res.image, truth[eye], res.coverage, res.proxy_depth)
+            stages.done("measures")
     pairs = {m: {eye: results[m][eye].image for eye in ("left", "right")} for m in methods}
     say(1.0, "done")
     cameras = {rc.name: (images[rc.name], np.asarray(renders[rc.name].depth)) for rc in rig.cameras}
-    timing = {"ray_tracing_s": round(t_render, 2), "total_s": round(time.perf_counter() - t0, 2)}
+    timing = stages.report(("scene", "real_cameras", "virtual_eyes"))
     return ShotRender(shot=shot, rig=rig, exposure=float(exposure), cameras=cameras, truth=truth, results=results,
                       images=pairs, mapped_disparity=None,
                       report={"sources": sources, "methods": report, "timings": timing})  # fmt: skip
@@ -325,10 +350,12 @@ def _render_tri(shot, rig, methods, samples, supersample, ibr, say) -> ShotRende
     from vergence.render import auto_exposure
     from vergence.synthesis import render_ibr
 
-    t0 = time.perf_counter()
+    stages = _Stages()
     tracer = _tracer(shot)
+    stages.done("scene")
     named = [(rc.name, rc.camera) for rc in rig.cameras]
-    renders = _trace_all(tracer, named, samples, supersample, say, 0.0, 0.4)
+    renders = _trace_all(tracer, named, samples, supersample, say, 0.0, 0.1)
+    stages.done("real_cameras")
     director = renders["director"]
     _check_seen(renders, [n for n, _ in named])
     depths = np.concatenate([np.asarray(r.depth, dtype=np.float64).ravel() for r in renders.values()])
@@ -338,35 +365,40 @@ def _render_tri(shot, rig, methods, samples, supersample, ibr, say) -> ShotRende
     near = float(dist.depth(near_real))
     if not (math.isfinite(near) and near > 0):
         raise ValueError(f"the distortion maps the nearest depth {near_real:g} m to {near:g} m: no curved-ray truth")
-    say(0.4, "ray-tracing the right truth through curved rays")
-    truth_right = _curved_beauty(tracer, rig.reference_right, dist.inverse, near, samples, supersample)
-    t_render = time.perf_counter() - t0
+    say(0.1, "ray-tracing the right truth through curved rays")
+    truth_right = _curved_beauty(tracer, rig.reference_right, dist.inverse, near, samples, supersample,
+                                 lambda f, m: say(0.1 + 0.8 * f, f"curved-ray truth: {m}"))  # fmt: skip
+    stages.done("curved_truth")
     exposure = auto_exposure(director.beauty)
     images = _tonemapped(renders, exposure)
     images["truth_right"] = _tone(truth_right, exposure)
+    stages.done("tone_mapping")
     cams = dict(named)
     truth = {"left": images["director"], "right": images["truth_right"]}
     results: dict = {}
     report: dict = {}
     for mi, method in enumerate(methods):
-        say(0.7 + 0.3 * mi / len(methods), f"{method}: synthesising the right eye")
+        say(0.9 + 0.1 * mi / len(methods), f"{method}: synthesising the right eye")
         res = render_ibr(rig.reference_right, _sources([n for n, _ in named], cams, images, renders), weights=method,
                          distortion=dist, **ibr)  # fmt: skip
+        stages.done(f"ibr_{method}")
         _check_covered(res.coverage, "right", method)
         results[method] = {"right": res}
         everywhere = np.ones(res.coverage.shape, dtype=bool)
-        report[method] = {"left": {**_measure(images["director"], truth["left"], everywhere), "note": "the director's image"},
-                          "right": _measure(res.image, truth["right"], res.coverage, res.proxy_depth)}  # fmt: skip
+        director = measure_against_truth(images["director"], truth["left"], everywhere)
+        report[method] = {"left": {**director, "note": "the director's image"},
+                          "right": measure_against_truth(res.image, truth["right"], res.coverage, res.proxy_depth)}
+        stages.done("measures")
     pairs = {m: {"left": images["director"], "right": results[m]["right"].image} for m in methods}
     say(1.0, "done")
     cameras = {n: (images[n], np.asarray(renders[n].depth)) for n, _ in named}
-    timing = {"ray_tracing_s": round(t_render, 2), "total_s": round(time.perf_counter() - t0, 2)}
+    timing = stages.report(("scene", "real_cameras", "curved_truth"))
     return ShotRender(shot=shot, rig=rig, exposure=float(exposure), cameras=cameras, truth=truth, results=results,
                       images=pairs, mapped_disparity=mapped_disparity(rig, np.asarray(director.depth)),
                       report={"methods": report, "timings": timing})  # fmt: skip
 
 
-def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int) -> np.ndarray:  # noqa: ANN001
+def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int, progress=None) -> np.ndarray:  # noqa: ANN001
     """The curved-ray image of ``camera`` with k x k rays per pixel, averaged in linear radiance.
 
     Traced as a camera k times finer (``fx k``, ``cx_k = k (cx + 1/2) - 1/2``: the k x k fine pixel
@@ -381,7 +413,7 @@ def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int) 
         K[0, 2] = k * (K[0, 2] + 0.5) - 0.5
         K[1, 2] = k * (K[1, 2] + 0.5) - 0.5
     fine = Camera(K=K, R=camera.R, t=camera.t, width=camera.width * k, height=camera.height * k)
-    res = tracer.render_curved(fine, to_world, near=near, far=math.inf, samples=samples)
+    res = tracer.render_curved(fine, to_world, near=near, far=math.inf, samples=samples, progress=progress)
     beauty = np.asarray(res.beauty, dtype=np.float64)
     return beauty.reshape(camera.height, k, camera.width, k, 3).mean(axis=(1, 3)).astype(np.float32)
 
