@@ -88,6 +88,23 @@ def test_plan_prints_a_table_and_plots(run, tmp_path):
     assert plot.stat().st_size > 1000
 
 
+@pytest.mark.parametrize("width", [80, 200])
+def test_plan_fits_the_terminal_and_drops_no_column(run, width):
+    """At 80 columns the table would squeeze "centre (m)" to nothing: one camera to two lines instead."""
+    from vergence.cli._app import console
+
+    saved = console._width
+    console.width = width
+    try:
+        code, out, err = run("rig", "plan", str(Path(__file__).resolve().parents[2] / "examples" / "shots" / "stadium-quadri.json"))
+    finally:
+        console._width = saved
+    assert code == 0, err
+    assert max(len(line) for line in out.splitlines()) <= width
+    assert "-0.30 2.80 -0.04" in out  # subject_left's centre, whichever the layout
+    assert ("centre (m)" in out) == (width == 200)
+
+
 @pytest.mark.parametrize(
     ("extra", "needle"),
     [

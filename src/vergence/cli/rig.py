@@ -18,6 +18,7 @@ from rich.table import Table
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli.budget import print_warnings
+from vergence.cli._spinner import ProgressLines
 from vergence.cli._app import app, check_output_path, console, err_console, option, options_named, print_json, \
     run_command  # fmt: skip
 from vergence.commands.rig_plan import RIG_PLAN
@@ -50,11 +51,19 @@ def _print_plan(shot, rig) -> None:  # noqa: ANN001
                          no_wrap=col != "centre (m)", min_width=17 if col == "centre (m)" else None)
     from vergence.rigs import plan_document
 
+    lines = []
     for row, rc in zip(plan_document(shot, rig)["cameras"], rig.cameras):
         c = " ".join(f"{v:.2f}" for v in rc.camera.center)
         b = "—" if row["baseline"] is None else f"{row['baseline']:.4f}"
         table.add_row(row["name"], row["element"], row["eye"], c, f"{row['fx']:.1f}", f"{row['fx_ratio']:.3f}", b)
-    console.print(table)
+        lines += [f"  {row['name']} ({row['element']}, {row['eye']} eye)",
+                  f"    centre {c} m; fx {row['fx']:.1f} px, {row['fx_ratio']:.3f} x {ratio_of}; baseline {b} m"]
+    if console.measure(table, options=console.options.update(max_width=10_000)).maximum <= console.width:
+        console.print(table)
+    else:  # a narrow terminal or a log: one line a camera rather than a squeezed column
+        console.print(table.title, highlight=False)
+        for line in lines:
+            console.print(line, highlight=False, soft_wrap=False)
     if shot.rig == "quadri":
         console.print(f"virtual eyes: baseline {_baseline(rig.left, rig.right):.4g} m; real cameras {rig.setback:g} m "
                       "behind them", highlight=False)  # fmt: skip
@@ -142,10 +151,12 @@ def render(
     with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
         task = bar.add_task("rendering", total=1.0)
 
+        lines = ProgressLines()  # not on a terminal: a line a tenth (the curved-ray truth reports every octave)
+
         def report(fraction: float, message: str) -> None:
             bar.update(task, completed=fraction, description=message)
             if not err_console.is_terminal:
-                err_console.print(f"{message}", highlight=False)
+                lines(fraction, message)
 
         with options_named(samples="--samples", supersample="--supersample", sources="--sources", k="--ulr-k",
                            occlusion_tolerance="--visibility-tolerance", deformation_cap="--deformation-cap"):
