@@ -198,7 +198,8 @@ def test_match_keeps_zero_disparities_in_pfm_and_tells_them_from_unknown_in_png(
     code, stdout, err = _run(capsys, *args, "--out", str(tmp_path / "d.png"), "--scale", "16", "--json")
     assert code == 0, err
     warning = f"{int(zero.sum())} pixels of disparity 0 (below 0.03125 px) are stored as 1/16 px"
-    assert err.startswith(f"warning: {warning}") and json.loads(stdout)["warnings"][0].startswith(warning)
+    # (a pair whose content sits at disparity 0, the search's lower bound, is also said to sit there)
+    assert f"warning: {warning}" in err and json.loads(stdout)["warnings"][-1].startswith(warning)
     stored = read_disparity(tmp_path / "d.png", scale=16)
     np.testing.assert_array_equal(np.isnan(stored), np.isnan(d))  # unknown stays unknown, zero stays known
     assert (stored[zero] == 1 / 16).all()
@@ -326,7 +327,8 @@ def test_match_refuses_a_uniform_pair_and_warns_on_a_mostly_flat_one(capsys, tmp
                              "15", "--out", str(tmp_path / "d.pfm"), "--json")
     assert code == 0, err
     summary = json.loads(stdout)
-    assert len(summary["warnings"]) == 2 and summary["textured_percent"] < 10.0
+    assert len(summary["warnings"]) == 3 and summary["textured_percent"] < 10.0
+    assert "sit at the search's lower bound (0 px)" in summary["warnings"][2]  # a pair matched against itself
     assert err.splitlines() == [f"warning: {w}" for w in summary["warnings"]]
 
 

@@ -61,9 +61,9 @@ def test_progress_reaches_one_after_every_analysed_frame(clips):
     ({"display": "tv-99"}, "display: unknown display preset 'tv-99'", "--display: unknown display preset 'tv-99'"),
     ({"input_kind": "mono"}, "input_kind must be one of stereo, 2d+depth; got 'mono'",
      "--input-kind must be one of stereo, 2d+depth; got 'mono'"),
-    ({"budget_arcmin": 20.0}, "budget_arcmin apply to a 2d+depth input_path; clips_LRF_Full_SBS.mp4 is read as stereo "
-     "(input_kind)", "--budget-arcmin apply to a 2d+depth INPUT; clips_LRF_Full_SBS.mp4 is read as stereo "
-     "(--input-kind)"),
+    # the budget applies to a stereo clip too (its suggestion says how convert would map it there)
+    ({"budget_arcmin": 0.0}, "budget_arcmin must be a number in (0, 600]; got 0.0",
+     "--budget-arcmin must be a number in (0, 600]; got 0.0"),
     ({"layout": "lr"}, "layout must be one of sbs, half-sbs, tb, half-tb; got 'lr'",
      "--layout must be one of sbs, half-sbs, tb, half-tb; got 'lr'"),
     ({"comfort_arcmin": -1.0}, "comfort_arcmin must lie in", "--comfort-arcmin must lie in"),

@@ -111,8 +111,10 @@ def test_resume_reuses_the_finished_shot_after_an_interruption(clips, tmp_path):
     # is not byte-reproducible here, even with one x264 thread (measured: a few levels apart): equal up to the codec.
     assert a.shape == b.shape and np.abs(a - b).mean() < CODEC_MEAN_ATOL
     # resuming with other options is refused
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(FileExistsError, match="give force=True to replace it"):  # the output is there now
         convert_clip(open_depth_clip(clips.rgbd), out, DISPLAY, progress=stop_in_second_shot)
+    with pytest.raises(KeyboardInterrupt):
+        convert_clip(open_depth_clip(clips.rgbd), out, DISPLAY, force=True, progress=stop_in_second_shot)
     with pytest.raises(ValueError, match=r"--resume: the work folder .* belongs to another input or other options"):
         convert_clip(open_depth_clip(clips.rgbd), out, DISPLAY, budget_arcmin=20.0, resume=True)
 

@@ -134,3 +134,22 @@ def test_given_range_missing_far_content_is_flagged(other):
     first = result.shots[0]  # true -110..-40 px
     assert first.search["features_outside"] > 0.2 and first.saturated
     assert any(line.startswith("shot 0 ") and "outside" in line for line in result.warnings)
+
+
+def test_match_warns_when_the_matches_pile_up_at_a_bound():
+    """vergence match (compute_disparity): a textured plane at 40 px searched up to 24 px piles up at the bound and
+    is warned about; searched up to 64 px it is not (issue 28: every command that matches)."""
+    from vergence.depth import compute_disparity
+    from vergence.depth.matching import bound_shares
+
+    rng = np.random.default_rng(3)
+    import cv2
+
+    texture = np.clip(cv2.resize(rng.random((40, 90)).astype(np.float32), (360, 160), interpolation=cv2.INTER_CUBIC),
+                      0.0, 1.0)
+    left, right = texture[:, :-40], texture[:, 40:]  # left x is right x - 40: D = 40 everywhere
+    short = compute_disparity(left, right, max_disparity=24, keep_invalid=True)
+    assert any("upper bound (24 px)" in w for w in short.warnings), short.warnings
+    wide = compute_disparity(left, right, max_disparity=64, keep_invalid=True)
+    assert not any("bound" in w for w in wide.warnings), wide.warnings
+    assert bound_shares(wide.disparity, 0, 64) == (0.0, 0.0)

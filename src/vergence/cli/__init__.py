@@ -65,6 +65,16 @@ _sigint_seen = False
 _sigint_pending = False
 
 
+# What the "interrupted" line adds, set by a command that left something to resume (convert's finished shots).
+_interrupted_note: str | None = None
+
+
+def note_if_interrupted(note: str | None) -> None:
+    """Have the ``interrupted`` line say ``note`` (``interrupted: NOTE``) should this run end interrupted."""
+    global _interrupted_note
+    _interrupted_note = note
+
+
 def sigint_seen() -> bool:
     """Whether the console script's handler saw Ctrl-C (SIGINT) in this process."""
     return _sigint_seen
@@ -114,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     (``KeyboardInterrupt``, or any error raised once the console script saw SIGINT) prints
     ``interrupted`` and returns :data:`EXIT_INTERRUPTED`.
     """
+    note_if_interrupted(None)  # a note of an earlier run in this process (tests call main again)
     try:
         pause_for_test("START")
         from vergence.cli._run import run
@@ -127,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         code = EXIT_INTERRUPTED
     _forget_pending()  # the run is over: a late retry must not raise while we report
     if code == EXIT_INTERRUPTED or _sigint_seen:
-        sys.stderr.write("interrupted\n")
+        sys.stderr.write("interrupted\n" if not _interrupted_note else f"interrupted: {_interrupted_note}\n")
         sys.stderr.flush()
         return EXIT_INTERRUPTED
     return code

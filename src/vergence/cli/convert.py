@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vergence.cli import raise_if_interrupted
+from vergence.cli import note_if_interrupted, raise_if_interrupted
 from vergence.cli.budget import print_warnings
 from vergence.cli._app import SYNTHESIS_BUDGET_ARCMIN, app, check_output_path, console, err_console, options_named, \
     preset_display, print_json  # fmt: skip
@@ -73,6 +73,10 @@ def convert(
     fps: float | None = FPS_OPTION,
     resume: bool = typer.Option(False, "--resume", help="Reuse the finished shots of an interrupted run (its work "
                                 "folder .OUT.parts beside the output)."),
+    floating_window: bool = typer.Option(False, "--floating-window", help="Mask, per shot, the frame edge where "
+                                         "content comes in front of the screen (black columns at the left edge of "
+                                         "the left view, the right edge of the right view); without it such a shot "
+                                         "is warned about."),
     force: bool = typer.Option(False, "--force", help="Replace an output file (or an image folder holding files) "
                                "that exists; never an input."),
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
@@ -101,7 +105,7 @@ def convert(
     own segment (the same output).
     """
     from vergence.video import converted_path
-    from vergence.video.convert import convert_clip
+    from vergence.video import convert as _conversion
 
     display = preset_display(display_preset)
     check_input_kind(kind)
@@ -162,14 +166,21 @@ def convert(
                     rate = done / max(time.perf_counter() - t0, 1e-9)
                     bar.update(task, completed=done, fps=f"{rate:.1f} fps")
 
-                result = convert_clip(
-                    clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
-                    preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
-                    alpha=stabilize_alpha,
-                    transition=transition, method=method or "sgbm", min_disparity=min_disparity,
-                    max_disparity=max_disparity, resume=resume, force=force, progress=progress, workers=run_workers,
-                    scheduler=run_scheduler, split_frames=split_frames,
-                )  # fmt: skip
+                from vergence.video._segments import work_folder
+
+                work = work_folder(target)
+                note_if_interrupted(f"run the same command with --resume to reuse the finished shots in {work}")
+                try:
+                    result = _conversion.convert_clip(
+                        clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
+                        preset=preset, origin=origin, stabilize=not no_stabilize, threshold=static_threshold,
+                        alpha=stabilize_alpha, transition=transition, method=method or "sgbm", min_disparity=min_disparity,
+                        max_disparity=max_disparity, floating_window=floating_window, resume=resume, force=force,
+                        progress=progress, workers=run_workers, scheduler=run_scheduler, split_frames=split_frames,
+                    )  # fmt: skip
+                finally:  # the note only where a finished shot is kept for --resume
+                    if not (work.is_dir() and any(p.name.startswith("shot_") for p in work.iterdir())):
+                        note_if_interrupted(None)
         print_warnings(result.warnings)
         if as_json:
             print_json(result.to_dict())
@@ -178,24 +189,18 @@ def convert(
                                  f"the {result.frames} frames before are in {result.out}")
             return
         for k, shot in enumerate(result.shots):
-            lo, hi = shot.range_px
-            note = " (reused)" if shot.reused else ""
-            slope = "" if shot.mapping is None else f" (psi slope {shot.mapping.gain:.4g})"  # None: a reused stereo shot
-            source = ""
-            if shot.search is not None and not shot.reused:
-                (s_lo, s_hi), bound = shot.search["search_px"], " ".join(shot.search["on_bound"])
-                source = (f", from disparity {shot.range_in[0]:+.2f} .. {shot.range_in[1]:+.2f} px (1-99 %, searched "
-                          f"{s_lo} .. {s_hi} px{', on bound: ' + bound if bound else ''})")
-            measured = "" if shot.output is None else (f", measured on the output {shot.output.range_px[0]:+.2f} .. "
-                                                       f"{shot.output.range_px[1]:+.2f} px (1-99 %, rank correlation "
-                                                       f"with the source {shot.output.rank_correlation:.2f})")
-            console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, parallax {lo:+.2f} .. {hi:+.2f} px planned"
-                          f"{measured}{source}{slope}{note}", highlight=False)  # fmt: skip
+            console.print(f"shot {k}: frames {shot.start}-{shot.end - 1}, {_shot_line(shot)}", highlight=False)
         before, after = result.flicker_before.mean_px, result.flicker_after.mean_px
         if result.flicker_after.pairs:
+            output = result.flicker_output
+            seen = "" if not output.pairs else (f"; measured on the output (re-matched, {output.pairs} frame pairs): "
+                                                f"{output.mean_px:.4f} px")  # fmt: skip
             console.print(f"flicker on static content: {before:.4f} px before, {after:.4f} px after stabilisation "
-                          f"({result.flicker_after.pairs} frame pairs)", highlight=False)  # fmt: skip
-        console.print(f"wrote {result.frames} frames ({result.frames / result.seconds:.2f} fps) to {result.out}",
+                          f"(the filtered disparity, {result.flicker_after.pairs} frame pairs){seen}",
+                          highlight=False)  # fmt: skip
+        reused = result.frames - result.rendered
+        rate = f"{result.rendered / result.seconds:.2f} fps" if result.rendered else "none rendered"
+        console.print(f"wrote {result.frames} frames ({rate}{f', {reused} reused' if reused else ''}) to {result.out}",
                       highlight=False)  # fmt: skip
         if result.stopped is not None:
             raise ValueError(f"INPUT {input_path.name} stopped after frame {result.frames - 1}: {result.stopped}; the "
@@ -267,3 +272,26 @@ def convert(
                   f"{f' ({kept} kept from an earlier run)' if kept else ''}", highlight=False)  # fmt: skip
     if skipped:
         raise ValueError(f"--skip-errors: {len(skipped)} of {len(files)} files skipped ({', '.join(skipped)})")
+
+
+def _shot_line(shot) -> str:
+    """A converted shot in one line: every disparity ``x_left - x_right`` in px, positive in front of the screen."""
+    lo, hi = shot.disparity_out_px
+    if shot.search is not None:
+        (s_lo, s_hi), bound = shot.search["search_px"], " ".join(shot.search["on_bound"])
+        source = (f"disparity {shot.range_in[0]:+.2f} .. {shot.range_in[1]:+.2f} px (1-99 %, searched {s_lo} .. "
+                  f"{s_hi} px{', on bound: ' + bound if bound else ''})")  # fmt: skip
+    else:
+        source = f"nearness {shot.range_in[0]:.4g} .. {shot.range_in[1]:.4g}"
+    measured = ""
+    if shot.output is not None:
+        d = shot.output.disparity_px
+        measured = (f", measured on the output {d['p1']:+.2f} .. {d['p99']:+.2f} px (1-99 %, rank correlation with "
+                    f"the source {shot.output.rank_correlation:.2f})")  # fmt: skip
+    window = ""
+    if shot.window is not None and (shot.window["left_px"] or shot.window["right_px"]):
+        masked = ", ".join(f"{e} {shot.window[f'{e}_px']} px" for e in ("left", "right") if shot.window[f"{e}_px"])
+        window = f"; floating window: {masked}"
+    note = " (reused)" if shot.reused else ""
+    return (f"{source} -> {lo:+.2f} .. {hi:+.2f} px planned{measured} (psi slope {shot.mapping.gain:.4g})"
+            f"{window}{note}")

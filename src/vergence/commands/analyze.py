@@ -135,8 +135,8 @@ ANALYZE = Command(
         LAYOUT,
         DEPTH_KIND,
         DEPTH_SCALE,
-        Parameter("budget_arcmin", "number", "The parallax budget of vergence synthesize and convert (+-A arcmin; "
-                  f"default {DEFAULT_BUDGET_ARCMIN:g}): a 2D + depth clip is planned into it per shot, and each shot's "
+        Parameter("budget_arcmin", "number", "The parallax budget of vergence synthesize and convert, +-A arcmin; "
+                  f"default {DEFAULT_BUDGET_ARCMIN:g}. A 2D + depth clip is planned into it per shot; each shot's "
                   "suggestion says how convert would map it there.", None),
         Parameter("comfort_arcmin", "number", "The comfort zone, +-C arcmin of vergence.", 60.0),
         Parameter("every", "integer", "Analyse every Nth frame (matching is slow); cuts use all frames.", 1),

@@ -24,7 +24,16 @@ from vergence.depth.planes import fill_from_planes
 from vergence.depth.refine import SMOOTHING_METHODS, RefinedDisparity, confidence_map, refine_disparity
 from vergence.depth.texture import LOW_TEXTURED_PERCENT, MIN_TEXTURE, MIN_TEXTURED_PERCENT, textured_pixels
 
-__all__ = ["MATCHERS", "compute_disparity", "match_bm", "match_sgbm", "sgbm_parameters"]
+__all__ = ["BOUND_PX", "BOUND_SHARE", "MATCHERS", "bound_shares", "compute_disparity", "match_bm", "match_sgbm",
+           "sgbm_parameters"]
+
+# A matched pixel within this of a search bound is at the bound (px; SGBM's quarter-pixel steps and the
+# refinement's median move a saturated match by less).
+BOUND_PX = 1.0
+# More than this share of the matched pixels at a bound (over the columns where the whole range fits): the
+# content reaches past it. Half a percent: a plane past the bound covers far more, noise at a bound far less
+# (vergence.video.search uses the same figures for each frame of a clip).
+BOUND_SHARE = 0.005
 
 
 def sgbm_parameters(height: int, width: int, num_disparities: int, channels: int) -> dict:
@@ -255,7 +264,8 @@ def compute_disparity(
     RefinedDisparity
         ``disparity`` (float32, pixels), ``confidence`` in [0, 1], the ``matched`` mask, the
         ``textured_percent`` of the left image and ``warnings`` (a pair with less than
-        :data:`~vergence.depth.texture.LOW_TEXTURED_PERCENT` % of textured pixels).
+        :data:`~vergence.depth.texture.LOW_TEXTURED_PERCENT` % of textured pixels; matches piled up at a
+        bound of the search: :func:`bound_shares` above :data:`BOUND_SHARE`, the content reaching past it).
 
     Raises
     ------
@@ -305,10 +315,12 @@ def compute_disparity(
     if method == "patchmatch":
         result = _patchmatch_refined(left, right, max_disparity, min_disparity, smoothing, keep_invalid, block_size,
                                      patchmatch, inside, planes)
+        warnings += _bound_warnings(np.where(result.matched, result.disparity, np.nan), min_disparity, max_disparity)
     else:
         raw = MATCHERS[method](left, right, max_disparity=max_disparity, min_disparity=min_disparity,
                                block_size=block_size)
         raw[~inside] = np.nan
+        warnings += _bound_warnings(raw, min_disparity, max_disparity)
         result = refine_disparity(raw, as_image("left", left), smoothing=smoothing, keep_invalid=keep_invalid,
                                   planes=planes)
     disparity, confidence = result.disparity.copy(), result.confidence.copy()
@@ -316,6 +328,37 @@ def compute_disparity(
     confidence[~inside] = 0.0
     return dataclasses.replace(result, disparity=disparity, confidence=confidence, matched=result.matched & inside,
                                textured_percent=textured["left"], warnings=warnings)
+
+
+def bound_shares(disparity: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+    """Shares of the matched pixels (finite ``disparity``) within :data:`BOUND_PX` of the search bounds ``lo``
+    and ``hi``, over the columns where every disparity of ``[lo, hi]`` has its match inside the other view
+    (``[max(hi, 0), width + min(lo, 0))``; elsewhere a matcher's edge values say nothing of the bounds).
+
+    A matcher cannot return a disparity outside its search: content beyond a bound is matched at (or near)
+    it, so a share there well above that of its neighbours says the range was too narrow.
+
+    Examples
+    --------
+    >>> d = np.full((2, 8), 3.0); d[0, 4:] = 6.0
+    >>> bound_shares(d, 0, 6)
+    (0.0, 0.5)
+    """
+    d = np.asarray(disparity, dtype=np.float64)
+    first, end = max(int(np.ceil(hi)), 0), d.shape[1] + min(int(np.floor(lo)), 0)
+    known = d[:, first:end] if end > first else d
+    known = known[np.isfinite(known)]
+    if known.size == 0:
+        return 0.0, 0.0
+    return float(np.mean(known <= lo + BOUND_PX)), float(np.mean(known >= hi - BOUND_PX))
+
+
+def _bound_warnings(raw: np.ndarray, lo: int, hi: int) -> tuple[str, ...]:
+    """A warning per search bound the matches pile up at (:func:`bound_shares` above :data:`BOUND_SHARE`)."""
+    shares = bound_shares(raw, lo, hi)
+    return tuple(f"{100 * share:.1f} % of the matched pixels sit at the search's {side} bound ({bound} px): their "
+                 "disparity is that bound, not a measure (the content may lie past it: search a wider range to know)"
+                 for side, bound, share in (("lower", lo, shares[0]), ("upper", hi, shares[1])) if share > BOUND_SHARE)
 
 
 def _patchmatch_refined(left: object, right: object, max_disparity: int, min_disparity: int, smoothing: str,

@@ -63,7 +63,8 @@ def write_range(work: Path, piece: int, matched) -> None:
     h = matched.histogram
     with atomic_write(work / f"range_{piece:04d}.npz") as tmp, open(tmp, "wb") as fh:
         np.savez(fh, counts=h.counts, extremes=np.array([h.lo, h.hi]), search_px=np.array(matched.search_px),
-                 frames=np.array([matched.widened_frames, matched.saturated_frames]))  # fmt: skip
+                 frames=np.array([matched.widened_frames, matched.saturated_frames]),
+                 edges=np.array(matched.edges, np.float64))  # fmt: skip
 
 
 def read_range(work: Path, piece: int, width: int):
@@ -81,9 +82,10 @@ def read_range(work: Path, piece: int, width: int):
             h.lo, h.hi = (float(v) for v in data["extremes"])
             lo, hi = (int(v) for v in data["search_px"])
             widened, saturated = (int(v) for v in data["frames"])
+            left, right = (float(v) for v in data["edges"])
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"--resume: {path} is missing or damaged ({type(exc).__name__}): run without --resume") from None
-    return MatchedPiece(h, (lo, hi), widened, saturated)
+    return MatchedPiece(h, (lo, hi), widened, saturated, (left, right))
 
 
 def join_videos(segments: list[Path], out: Path, audio_from: Path | None, duration_s: float, *,

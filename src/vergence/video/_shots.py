@@ -23,6 +23,7 @@ pair across its start (the warm-up's last frame), so the pairs measured are thos
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 import os
 from collections.abc import Callable, Iterator
@@ -67,7 +68,7 @@ def split_shots(shots: list[tuple[int, int]], split_frames: int, warmup: int) ->
     Examples
     --------
     >>> split_shots([(0, 5), (5, 15)], 4, 2)
-    [(0, 0, 3, 0), (0, 3, 5, 2), (1, 5, 9, 0), (1, 9, 12, 2), (1, 12, 15, 2)]
+    [(0, 0, 2, 0), (0, 2, 5, 2), (1, 5, 8, 0), (1, 8, 12, 2), (1, 12, 15, 2)]
     """
     pieces = []
     for s, (a, b) in enumerate(shots):
@@ -106,6 +107,8 @@ class ShotJob:
     warmup: int = 0  # frames before start run through the disparity filter only (module docstring)
     # A stereo piece's matching: (its shot's search range, method); run by match_shot before any render.
     match: tuple[SearchRange, str] | None = None
+    # The floating window: columns masked at the left edge of the left view and the right edge of the right one.
+    window: tuple[int, int] = (0, 0)
 
 
 class _Filtered:
@@ -149,6 +152,61 @@ class MatchedPiece:
     search_px: tuple[int, int]
     widened_frames: int
     saturated_frames: int
+    edges: tuple[float, float] = (math.nan, math.nan)  # the largest edge cue of its frames (edge_cues), left and right
+
+
+# Share of the width whose depth cue decides a floating window (as vergence analyze's window band), and the
+# percentile of each frame's band taken (a few stray matches do not widen the window).
+EDGE_BAND = 0.02
+EDGE_PERCENTILE = 95
+
+
+def edge_cues(cue: np.ndarray) -> tuple[float, float]:
+    """The ``EDGE_PERCENTILE``-th percentile of a frame's depth cue (disparity or nearness: larger is nearer) in
+    its left and right edge bands (``EDGE_BAND`` of the width, at least 2 columns); NaN where a band has none."""
+    w = cue.shape[1]
+    band = min(w, max(2, int(round(EDGE_BAND * w))))
+    out = []
+    for values in (cue[:, :band], cue[:, w - band:]):
+        known = values[np.isfinite(values)]
+        out.append(float(np.percentile(known, EDGE_PERCENTILE)) if known.size else math.nan)
+    return out[0], out[1]
+
+
+# The left band's fill: the median of the row's first matched values, this many.
+FILL_FROM = 8
+
+
+def fill_left_band(d: np.ndarray) -> np.ndarray:
+    """``d`` with each row's band at the left edge that has no match given the row's first matched value.
+
+    A point in front of the screen near the left edge of the left view lies left of the right view's frame
+    (``x - D < 0``): nothing matches it, and a disparity filled from the background side would put it behind
+    the planned range. The nearest disparities of its row whose match lands inside the right view
+    (``x - D >= 1``) are the better guess (a surface cut by the frame's edge continues to them): the values
+    before them (unknown, or matched onto the right view's edge) take the median of the first
+    :data:`FILL_FROM`. Rows without any such value are
+    left as they are.
+
+    Examples
+    --------
+    >>> fill_left_band(np.array([[np.nan, 0.9, 5.0, np.nan, 3.0, 4.0, 2.0]], np.float32)).tolist()
+    [[3.0, 3.0, 3.0, 3.0, 3.0, 4.0, 2.0]]
+    >>> fill_left_band(np.array([[np.nan, np.nan, 1.0, 2.0, 2.0, 2.0]], np.float32)).tolist()
+    [[2.0, 2.0, 1.0, 2.0, 2.0, 2.0]]
+    """
+    cols = np.arange(d.shape[1])
+    with np.errstate(invalid="ignore"):
+        known = np.isfinite(d) & (cols[None, :] - d >= 1.0)
+    first = known.argmax(axis=1)
+    rows = np.flatnonzero(known.any(axis=1) & (first > 0))
+    if rows.size == 0:
+        return d
+    out = np.array(d)
+    for r in rows:  # a loop over rows with a gap only (a Python loop, not per pixel)
+        ahead = d[r, first[r]:][known[r, first[r]:]][:FILL_FROM]  # a stray match at the gap's end weighs little
+        out[r, cols < first[r]] = np.median(ahead)
+    return out
 
 
 def match_shot(job: ShotJob, source: Iterator | None = None,
@@ -172,23 +230,25 @@ def match_shot(job: ShotJob, source: Iterator | None = None,
     histogram = ShotHistogram(clip.width)
     lo, hi = search.lo, search.hi
     widened = saturated = 0
+    edges = [math.nan, math.nan]
     disparity = np.lib.format.open_memmap(job.disparity, mode="w+", dtype=np.float32,
                                           shape=(end - start, clip.height, clip.width))  # fmt: skip
     for k in range(first, end):
         left, right = next(source)
         frame = match_searched(left, right, search, method, lo=lo, hi=hi)
         lo, hi = frame.lo, frame.hi  # a widened range holds for the rest of the piece
-        d = filtered.step(left, frame.disparity.astype(np.float32), k < start)
+        d = filtered.step(left, fill_left_band(frame.disparity.astype(np.float32)), k < start)
         if k < start:
             continue
         widened, saturated = widened + frame.widened, saturated + frame.saturated
+        edges = [float(np.fmax(e, c)) for e, c in zip(edges, edge_cues(d))]
         disparity[k - start] = d
         histogram.add(d[np.isfinite(d)].astype(np.float64))
         if report is not None:
             report()
     disparity.flush()
     del disparity  # closed before the render opens it again
-    return filtered.finish(), MatchedPiece(histogram, (lo, hi), widened, saturated)
+    return filtered.finish(), MatchedPiece(histogram, (lo, hi), widened, saturated, (edges[0], edges[1]))
 
 
 def psi_at(job: ShotJob, k: int):
@@ -278,7 +338,8 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
                         continue
                 result = synthesize_stereo(image, d, kind="disparity", mapping=psi_at(job, k), display=job.display,
                                            origin=job.origin)  # fmt: skip
-                sink.write(packed_uint8(result.left, result.right, job.layout), k)
+                left, right = masked_window(result.left, result.right, job.window)
+                sink.write(packed_uint8(left, right, job.layout), k)
                 if report is not None:
                     report()
     finally:
@@ -287,6 +348,24 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
         job.disparity.unlink(missing_ok=True)
         return None
     return filtered.finish()
+
+
+def masked_window(left: np.ndarray, right: np.ndarray, window: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """The views with a floating window: ``window[0]`` columns black at the left edge of the left view,
+    ``window[1]`` at the right edge of the right view (the inputs are not modified).
+
+    Masking ``w`` columns of the left view's left edge puts that edge of the window ``w`` px in front of the
+    screen (``D = x_left - x_right = w`` for the frame's edge): content at the edge with ``D <= w`` is then
+    behind the window: the floating window of stereoscopic cinema (Devernay & Beardsley 2010).
+    """
+    wl, wr = window
+    if wl > 0:
+        left = np.array(left)
+        left[:, :wl] = 0.0
+    if wr > 0:
+        right = np.array(right)
+        right[:, right.shape[1] - wr:] = 0.0
+    return left, right
 
 
 def _match_task(job: ShotJob) -> tuple[int, tuple, MatchedPiece]:
@@ -307,8 +386,23 @@ def local_cluster(workers: int):
     except ImportError:
         raise ImportError(f"dask.distributed is not installed: {DASK_HINT}") from None
     # The scheduler's small HTTP server (health, metrics) on a free local port, not 8787 (a warning when taken).
-    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
+    # Its logs silenced, in the workers and in this process (the "distributed" loggers): stderr keeps our own lines
+    # ("Worker process still alive after 4.0 seconds, killing" at every close, SIGINT notices at Ctrl-C).
+    # The worker processes start with SIGINT ignored (an ignored signal stays ignored across exec, and Python then
+    # installs no KeyboardInterrupt handler): Ctrl-C at a terminal reaches the whole process group, and a worker's
+    # traceback would bury our "interrupted" line; this process stops them when it closes the cluster.
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                            silence_logs=logging.CRITICAL,
+                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
+    finally:
+        if main and previous is not None:  # None: a handler not set from Python, left as it was
+            signal.signal(signal.SIGINT, previous)
 
 
 def open_client(scheduler: str, workers: int):
@@ -320,6 +414,7 @@ def open_client(scheduler: str, workers: int):
     if scheduler == "local":
         cluster = local_cluster(workers)
         return Client(cluster), cluster
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)  # our lines only on stderr (local_cluster)
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
     except (OSError, TimeoutError, ValueError, TypeError) as exc:

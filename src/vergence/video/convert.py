@@ -38,8 +38,8 @@ A piece first runs the disparity filter over the frames before it, so the filter
 the unsplit shot to 1e-3 of the filter's state (:mod:`vergence.video._shots`). The serial run loops
 over the jobs; ``workers > 1`` or ``scheduler`` submits one Dask task per piece and pass
 (``dask.distributed``, the ``dask`` extra): a stereo clip's matching (pass 2), then, once every psi is
-known, the renders (pass 3). The joined output is the same (byte for byte as PNG frames; H.264 through
-PyAV is not byte-reproducible even run to run). Pass 1 (cuts, ranges) stays in the caller.
+known, the renders (pass 3). The joined output is the same, byte for byte (PNG frames and H.264 files:
+``tests/video/test_convert_dask.py``). Pass 1 (cuts, ranges) stays in the caller.
 
 **Views.** A stereo clip keeps its left view and re-synthesises the right one (``origin="left"``,
 default) or synthesises both around the left camera (``origin="center"``: half the disocclusions in
@@ -61,6 +61,7 @@ import numpy as np
 
 from vergence.video._shots import (
     SPLIT_FRAMES,
+    edge_cues,
     SharedSource,
     ShotJob,
     close_client,
@@ -119,6 +120,16 @@ def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, displa
     return plan_parallax(row, kind="disparity", budget_arcmin=budget_arcmin, display=display).mapping
 
 
+def _window(mapping, edge: tuple[float, float], apply: bool) -> dict:
+    """A shot's stereo window at its edges: the output's disparity ``D' = -psi(-q)`` of the edge cues ``q``
+    (:func:`~vergence.video._shots.edge_cues`), and the floating window masking it (``apply``) in whole columns."""
+    from vergence.video.analysis import WINDOW_MIN_PX
+
+    d = [float(-mapping(-q)) if math.isfinite(q) else math.nan for q in edge]
+    widths = [int(math.ceil(v)) if apply and math.isfinite(v) and v > WINDOW_MIN_PX else 0 for v in d]
+    return {"edge_disparity_px": d, "applied": bool(apply), "left_px": widths[0], "right_px": widths[1]}
+
+
 def convert_clip(
     clip: StereoClip | DepthClip,
     out: str | os.PathLike[str],
@@ -137,6 +148,7 @@ def convert_clip(
     method: str = "sgbm",
     min_disparity: int | None = None,
     max_disparity: int | None = None,
+    floating_window: bool = False,
     resume: bool = False,
     force: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
@@ -177,6 +189,11 @@ def convert_clip(
         Frames over which psi ramps across a cut (0: reset at the cut).
     method, min_disparity, max_disparity
         Stereo clips: the matcher and its search range, as :func:`~vergence.video.analyze_clip`.
+    floating_window : bool
+        Mask, per shot, the frame edge where content comes in front of the screen (a stereo-window
+        violation): black columns at the left edge of the left view and the right edge of the right view,
+        as wide as the output's disparity there (:attr:`ShotConversion.window`; module docstring). Without
+        it, such a shot is warned about.
     resume : bool
         Reuse the finished shots of an interrupted run with the same input and options (its work
         folder ``.NAME.parts`` beside ``out``).
@@ -253,6 +270,7 @@ def _convert_clip(
     method: str,
     min_disparity: int | None,
     max_disparity: int | None,
+    floating_window: bool,
     resume: bool,
     force: bool,
     progress: Callable[[str, int, int], None] | None,
@@ -322,6 +340,7 @@ def _convert_clip(
     # Pass 1: cuts, and the nearness range of each frame of a 2D + depth clip.
     guard = _segments.Stopped()
     ranges: list[tuple[float, float]] = []
+    edges: list[tuple[float, float]] = []  # 2D + depth: each frame's nearness at its edges (edge_cues)
     if stereo:
         def colour_frames():
             yield from guard.wrap(clip.lefts())
@@ -332,6 +351,7 @@ def _convert_clip(
                 with np.errstate(all="ignore"):
                     ranges.append((float(np.nanmin(q)), float(np.nanmax(q))) if np.isfinite(q).any()
                                   else (math.nan, math.nan))  # fmt: skip
+                    edges.append(edge_cues(q))
                 yield image
 
     try:
@@ -350,7 +370,7 @@ def _convert_clip(
     manifest = {"inputs": [str(Path(p).resolve()) for p in _inputs(clip)], "kind": "stereo" if stereo else "2d+depth",
                 "frames": n, "shots": [list(s) for s in shots], "layout": layout, "pixel_format": pixel_format,
                 "crf": int(crf), "preset": preset, "budget_arcmin": budget, "origin": origin,
-                "stabilize": bool(stabilize), "split_frames": split_frames,
+                "stabilize": bool(stabilize), "split_frames": split_frames, "floating_window": bool(floating_window),
                 "threshold": float(threshold), "alpha": float(alpha), "transition": transition,
                 "display": [display.eye_separation, display.distance, display.width, display.resolution],
                 **({"method": method, "search_px": [[r.lo, r.hi] for r in searches]} if stereo else
@@ -374,6 +394,7 @@ def _convert_clip(
         # Pass 2 (stereo): each unfinished piece matched and stabilised, its disparity kept in the work folder; the
         # range of every piece of a shot that is not wholly reused (a finished piece's from its record).
         range_in: list[tuple[float, float]] = []
+        edge_in: list[tuple[float, float]] = []  # each shot's largest depth cue at its left and right edges
         searched: list[dict | None] = [None] * len(shots)
         if stereo:
             piece_matched: dict = {}
@@ -411,6 +432,8 @@ def _convert_clip(
                     pooled.merge(f.histogram)
                 pct = dict(zip(PERCENTILES, pooled.pooled()))
                 range_in.append((float(pct[1]), float(pct[99])) if found else (math.inf, -math.inf))
+                edge_in.append(tuple(float(np.fmax.reduce([f.edges[e] for f in found])) if found else math.nan
+                                     for e in (0, 1)))  # fmt: skip
                 if found:
                     lo = min(f.search_px[0] for f in found)
                     hi = max(f.search_px[1] for f in found)
@@ -423,11 +446,14 @@ def _convert_clip(
                 with np.errstate(all="ignore"):
                     range_in.append((float(np.nanmin([r[0] for r in ranges[a:b]])),
                                      float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
+                    edge_in.append(tuple(float(np.fmax.reduce([e[side] for e in edges[a:b]])) for side in (0, 1)))
         mappings = [_shot_mapping(*range_in[s], width, budget, display, s, shots[s]) for s in range(len(shots))]
+        windows = [_window(mappings[s], edge_in[s], floating_window) for s in range(len(shots))]
 
         # Pass 3: render, pack and encode the unfinished pieces, one segment each (a job per piece: _shots).
-        jobs = [replace(job, mappings=tuple(mappings)) for job in jobs]
-        todo = sum(job.end - job.start for job in jobs)
+        jobs = [replace(job, mappings=tuple(mappings), window=(windows[job.shot]["left_px"], windows[job.shot]["right_px"]))
+                for job in jobs]  # fmt: skip
+        todo = rendered_frames = sum(job.end - job.start for job in jobs)
         count = 0
 
         def rendered(job: ShotJob, piece_meters) -> None:
@@ -483,11 +509,11 @@ def _convert_clip(
         ShotConversion(start=a, end=b, mapping=mappings[s], range_in=range_in[s],
                        range_px=(math.nan, math.nan) if mappings[s] is None else  # P = psi(-q), psi increasing
                        (float(mappings[s](-range_in[s][1])), float(mappings[s](-range_in[s][0]))), reused=reused[s],
-                       search=searched[s])
+                       search=searched[s], window=windows[s])
         for s, (a, b) in enumerate(shots)
     )  # fmt: skip
-    conversions = measure_output(conversions, clip, out, layout, method, searches)
+    conversions = measure_output(conversions, clip, out, layout, method, searches, threshold)
     return Conversion(out=out, kind="stereo" if stereo else "2d+depth", frames=n, fps=float(clip.fps), layout=layout,
                       pixel_format=None if images else pixel_format, shots=conversions,
                       flicker_before=combined(0), flicker_after=combined(1), stopped=guard.reason,
-                      seconds=time.perf_counter() - started)  # fmt: skip
+                      seconds=time.perf_counter() - started, rendered=rendered_frames)  # fmt: skip

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence.depth.matching import BOUND_PX, BOUND_SHARE, bound_shares
 from vergence.video._matching import default_search_px, match_padded
 
 __all__ = [
@@ -59,14 +60,14 @@ SEARCH_TAIL = 1.0
 # (content without features, such as a flat wall, can lie a little beyond the textured content).
 SEARCH_MARGIN_SHARE = 0.25
 SEARCH_MARGIN_MIN_PX = 16
-# A matched pixel within this of a bound is at the bound (px).
-SATURATION_PX = 1.0
+# A matched pixel within this of a bound is at the bound (px): the matcher's rule (vergence.depth.BOUND_PX).
+SATURATION_PX = BOUND_PX
 # A frame is saturated at a bound when more than this share of its matched pixels are at it; a shot, also when
 # more than this share of its features lie outside the range. With the margin, content does not reach a bound
 # that holds it: on the clips of tests/video/test_search.py a range that holds the content puts 0.0 % at each
 # bound, ranges 10-30 px short of it 0.3-12 % (content far beyond a bound is mostly left unmatched, not piled
 # up: hence the features' share too).
-SATURATION_SHARE = 0.005
+SATURATION_SHARE = BOUND_SHARE
 
 
 @dataclass(frozen=True, slots=True)
@@ -192,17 +193,6 @@ def _outside(values: np.ndarray, lo: int, hi: int, fixed: tuple[bool, bool]) -> 
     return float(np.mean((fixed[0] & (values < lo)) | (fixed[1] & (values > hi))))
 
 
-def _at_bounds(d: np.ndarray, lo: int, hi: int) -> tuple[float, float]:
-    """Shares of the matched pixels at each bound, over the columns where every disparity of the range has its
-    match inside the other view (``[max(hi, 0), width + min(lo, 0))``; edge columns are matched into padding)."""
-    first, end = max(hi, 0), d.shape[1] + min(lo, 0)
-    known = d[:, first:end] if end > first else d
-    known = known[np.isfinite(known)]
-    if known.size == 0:
-        return 0.0, 0.0
-    return float(np.mean(known <= lo + SATURATION_PX)), float(np.mean(known >= hi - SATURATION_PX))
-
-
 def match_searched(left: np.ndarray, right: np.ndarray, search: SearchRange, method: str, *,
                    lo: int | None = None, hi: int | None = None) -> SearchedFrame:  # fmt: skip
     """Match a frame in ``[lo, hi]`` (default the shot's ``search``), and once more with each saturated bound that
@@ -211,7 +201,7 @@ def match_searched(left: np.ndarray, right: np.ndarray, search: SearchRange, met
     lo = search.lo if lo is None else lo
     hi = search.hi if hi is None else hi
     d = match_padded(left, right, lo, hi, method)
-    shares = _at_bounds(d, lo, hi)
+    shares = bound_shares(d, lo, hi)
     step = max(16, hi - lo)
     limit = width // 2
     new_lo = max(-limit, lo - step) if shares[0] > SATURATION_SHARE and not search.fixed[0] else lo
@@ -219,7 +209,7 @@ def match_searched(left: np.ndarray, right: np.ndarray, search: SearchRange, met
     if (new_lo, new_hi) == (lo, hi):
         return SearchedFrame(d, lo, hi, False, shares)
     d = match_padded(left, right, new_lo, new_hi, method)
-    return SearchedFrame(d, new_lo, new_hi, True, _at_bounds(d, new_lo, new_hi))
+    return SearchedFrame(d, new_lo, new_hi, True, bound_shares(d, new_lo, new_hi))
 
 
 def on_bound(percentiles: dict[str, float], lo: float, hi: float) -> list[str]:
