@@ -20,19 +20,20 @@ from pathlib import Path
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.io._files import input_path
-from vergence.io.camera_set import (
-    CameraSet,
-    _camera,
-    _check_set,
-    _check_size,
-    _count,
-    _floats,
-    _fmt,
-    _image_size,
-    _text_lines,
-    _write_text,
+from vergence.io._camera_files import (
+    check_camera_set,
+    check_image_size,
+    checked_camera,
+    checked_image_list,
+    format_float,
+    parse_count,
+    parse_floats,
+    read_image_size,
+    text_lines,
+    write_text,
 )
+from vergence.io._files import input_path
+from vergence.io.camera_set import CameraSet
 
 __all__ = ["read_bundler", "write_bundler"]
 
@@ -61,20 +62,6 @@ def _folder_images(p: Path, count: int) -> tuple[list[Path], str] | None:
     return None
 
 
-def _checked_image_list(image_list: object) -> Path | list[str]:
-    """``image_list`` as the path of an existing list.txt or as a list of image names."""
-    if isinstance(image_list, str | os.PathLike):
-        if os.fspath(image_list) == "":
-            raise ValueError("image_list must name a file (Bundler's list.txt); got ''")
-        return input_path(image_list)
-    if not isinstance(image_list, Sequence):
-        raise TypeError(f"image_list must be a path to list.txt or a sequence of names; got {type(image_list).__name__}")
-    for i, entry in enumerate(image_list):
-        if not isinstance(entry, str | os.PathLike) or os.fspath(entry) == "":
-            raise TypeError(f"image_list[{i}] must be an image name (a non-empty str); got {entry!r}")
-    return [os.fspath(e) for e in image_list]
-
-
 def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], list[Path] | None, tuple[str, ...]]:
     if image_list is None:
         found = [c for c in (p.parent / "list.txt", p.parent.parent / "list.txt") if c.is_file()]
@@ -84,9 +71,9 @@ def _bundler_names(p: Path, count: int, image_list: object) -> tuple[list[str], 
                 return [str(i) for i in range(count)], None, ()
             return [q.name for q in images[0]], images[0], (images[1],)
         image_list = found[0]
-    checked = _checked_image_list(image_list)
+    checked = checked_image_list(image_list)
     if isinstance(checked, Path):
-        entries = [ln.split()[0] for ln in _text_lines(checked) if ln.strip()]
+        entries = [ln.split()[0] for ln in text_lines(checked) if ln.strip()]
         paths = [checked.parent / e for e in entries]
     else:
         entries = checked
@@ -129,7 +116,7 @@ def read_bundler(
         On a wrong header, a truncated or malformed file, or a missing image size.
     """
     p = input_path(path)
-    lines = _text_lines(p)
+    lines = text_lines(p)
     if not lines or not lines[0].startswith("# Bundle file v0.3"):
         raise ValueError(f"{p}: expected the header '# Bundle file v0.3'; got {lines[0][:40] if lines else ''!r}")
     tokens = " ".join(lines[1:]).split()
@@ -139,17 +126,17 @@ def read_bundler(
         nonlocal pos
         if pos + n > len(tokens):
             raise ValueError(f"{p} is truncated: ran out of numbers while reading {what}")
-        vals = _floats(tokens[pos:pos + n], p, 0)
+        vals = parse_floats(tokens[pos:pos + n], p, 0)
         pos += n
         return vals
 
     cams_read, pts_read = take(2, "the camera and point counts")
-    n_cams, n_pts = _count(cams_read, "cameras", p), _count(pts_read, "points", p)
+    n_cams, n_pts = parse_count(cams_read, "cameras", p), parse_count(pts_read, "points", p)
     names, paths, notes = _bundler_names(p, n_cams, image_list)
     if image_size is not None:
-        sizes = [_check_size(image_size)] * n_cams
+        sizes = [check_image_size(image_size)] * n_cams
     elif paths is not None:
-        sizes = [_image_size(q) for q in paths]
+        sizes = [read_image_size(q) for q in paths]
     else:
         raise ValueError(f"image_size is required: {p.name} stores no image sizes and no list.txt was found beside it")
     cams: list[Camera | None] = []
@@ -163,14 +150,14 @@ def read_bundler(
             continue
         w, h = sizes[i]
         K = np.array([[f, 0.0, (w - 1) / 2.0], [0.0, f, (h - 1) / 2.0], [0.0, 0.0, 1.0]])
-        cams.append(_camera(K, _FLIP_YZ @ R_b, _FLIP_YZ @ t_b, (w, h), f"{p}: camera {i}"))
+        cams.append(checked_camera(K, _FLIP_YZ @ R_b, _FLIP_YZ @ t_b, (w, h), f"{p}: camera {i}"))
         dist[i, :2] = k1, k2
     pts, cols, obs, pix = np.zeros((n_pts, 3)), np.zeros((n_pts, 3), np.uint8), [], []
     for j in range(n_pts):
         pts[j] = take(3, f"point {j}")
         cols[j] = np.clip(take(3, f"point {j}"), 0, 255)
         (n_views,) = take(1, f"point {j}")
-        for _ in range(_count(n_views, f"views of point {j}", p)):
+        for _ in range(parse_count(n_views, f"views of point {j}", p)):
             cam_i, key, xb, yb = take(4, f"point {j}")
             if cam_i != int(cam_i) or not 0 <= cam_i < n_cams or cams[int(cam_i)] is None:
                 raise ValueError(f"{p}: point {j} is observed by camera {int(cam_i)}, which is not registered")
@@ -187,7 +174,7 @@ def write_bundler(path: str | os.PathLike[str], cameras: CameraSet) -> None:
     Raises ``ValueError`` unless every registered camera has square pixels, no skew, the principal
     point at the image centre and radial-only distortion (p1 = p2 = 0), as Bundler's model requires.
     """
-    _check_set(cameras)
+    check_camera_set(cameras)
     rows = ["# Bundle file v0.3", f"{len(cameras)} {len(cameras.points)}"]
     for i, cam in enumerate(cameras.cameras):
         if cam is None:
@@ -200,8 +187,8 @@ def write_bundler(path: str | os.PathLike[str], cameras: CameraSet) -> None:
             raise ValueError(f"camera {cameras.names[i]!r} does not fit Bundler's model (square pixels, centred "
                              "principal point, radial distortion only)")
         R, t = _FLIP_YZ @ cam.R, _FLIP_YZ @ cam.t
-        rows.append(" ".join(_fmt(v) for v in (K[0, 0], *cameras.distortion[i, :2])))
-        rows += [" ".join(_fmt(v) for v in row) for row in R] + [" ".join(_fmt(v) for v in t)]
+        rows.append(" ".join(format_float(v) for v in (K[0, 0], *cameras.distortion[i, :2])))
+        rows += [" ".join(format_float(v) for v in row) for row in R] + [" ".join(format_float(v) for v in t)]
     for j, (pt, col) in enumerate(zip(cameras.points, cameras.colors)):
         sel = np.flatnonzero(cameras.observations[:, 0] == j)
         views = []
@@ -209,6 +196,6 @@ def write_bundler(path: str | os.PathLike[str], cameras: CameraSet) -> None:
             _, ci, key = cameras.observations[k]
             cam = cameras.cameras[ci]
             x, y = cameras.observation_pixels[k]
-            views += [str(ci), str(key), _fmt(x - (cam.width - 1) / 2.0), _fmt((cam.height - 1) / 2.0 - y)]
-        rows += [" ".join(_fmt(v) for v in pt), " ".join(str(int(c)) for c in col), " ".join([str(len(sel)), *views])]
-    _write_text(path, "\n".join(rows) + "\n")
+            views += [str(ci), str(key), format_float(x - (cam.width - 1) / 2.0), format_float((cam.height - 1) / 2.0 - y)]
+        rows += [" ".join(format_float(v) for v in pt), " ".join(str(int(c)) for c in col), " ".join([str(len(sel)), *views])]
+    write_text(path, "\n".join(rows) + "\n")

@@ -1,29 +1,23 @@
-"""The calibrated camera set shared by every camera-file format, and the helpers their readers share.
+"""The calibrated camera set shared by every camera-file format.
 
 Every reader (:mod:`~vergence.io.middlebury`, :mod:`~vergence.io.colmap`, :mod:`~vergence.io.bundler`,
 :mod:`~vergence.io.cameras_json`) returns a :class:`CameraSet` in our conventions
 (``docs/conventions.md``): camera frame x right, y down, z forward; ``x_cam = R @ x_world + t``;
 pixel centres at integer coordinates with the origin at the top-left pixel. Lens distortion is kept
 beside each camera as OpenCV ``(k1, k2, p1, p2)`` in normalised image coordinates, ready for
-``cv2.undistort``. :func:`vergence.io.read_cameras` picks the reader from the file name.
+``cv2.undistort``. :func:`vergence.io.read_cameras` picks the reader from the file name; the helpers
+the readers share are in :mod:`vergence.io._camera_files`.
 """
 
 from __future__ import annotations
 
-import math
 import os
-import warnings
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from vergence.camera import Camera
-from vergence.io._files import read_bytes
-from vergence.io.atomic import atomic_write
-from vergence.io.images import MAX_IMAGE_PIXELS
 
 __all__ = ["CameraSet"]
 
@@ -128,80 +122,3 @@ class CameraSet:
         if cam is None:
             raise ValueError(f"camera {self.names[i]!r} is not registered in the reconstruction (f = 0)")
         return cam
-
-
-# ---------------------------------------------------------------------------------------- helpers
-def _text_lines(path: Path) -> list[str]:
-    """The lines of a UTF-8 text file; a byte-order mark and CRLF or CR line ends are accepted."""
-    try:
-        return read_bytes(path).decode("utf-8-sig").splitlines()
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"cannot read {path}: not a UTF-8 text file") from exc
-
-
-def _floats(tokens: Sequence[str], path: Path, line: int) -> list[float]:
-    try:
-        values = [float(t) for t in tokens]
-    except ValueError as exc:
-        where = f"{path}:{line}" if line else str(path)
-        raise ValueError(f"{where}: expected numbers; got {' '.join(tokens)[:60]!r}") from exc
-    if not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{path}:{line}: numbers must be finite" if line else f"{path}: numbers must be finite")
-    return values
-
-
-def _image_size(path: Path) -> tuple[int, int]:
-    if not path.is_file():
-        raise FileNotFoundError(f"cannot find image {path} to read its size; pass image_size=(width, height)")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the limit is checked below
-            with Image.open(path) as im:
-                width, height = int(im.size[0]), int(im.size[1])
-    except Image.DecompressionBombError as exc:
-        raise ValueError(
-            f"cannot use image {path}: its header declares more pixels than the limit of {MAX_IMAGE_PIXELS:,} ({exc})"
-        ) from exc
-    except OSError as exc:
-        raise ValueError(f"cannot read the size of image {path}: {exc}") from exc
-    if width * height > MAX_IMAGE_PIXELS:
-        raise ValueError(
-            f"cannot use image {path}: its header declares {width} x {height} = {width * height:,} pixels; "
-            f"the limit is {MAX_IMAGE_PIXELS:,}"
-        )
-    return width, height
-
-
-def _check_size(image_size: object) -> tuple[int, int]:
-    if (not isinstance(image_size, Sequence) or len(image_size) != 2
-            or not all(isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= 1 for v in image_size)):
-        raise ValueError(f"image_size must be (width, height) with positive integers; got {image_size!r}")
-    return int(image_size[0]), int(image_size[1])
-
-
-def _camera(K: np.ndarray, R: np.ndarray, t: np.ndarray, size: tuple[int, int], where: str) -> Camera:
-    try:
-        return Camera(K=K, R=R, t=t, width=size[0], height=size[1])
-    except ValueError as exc:
-        raise ValueError(f"{where}: {exc}") from exc
-
-
-def _fmt(v: float) -> str:
-    return repr(float(v))
-
-
-def _count(value: float, what: str, path: Path) -> int:
-    """A count read from a file: a non-negative integer."""
-    if value != int(value) or value < 0:
-        raise ValueError(f"{path}: the number of {what} must be an integer >= 0; got {value:g}")
-    return int(value)
-
-
-def _check_set(cameras: object) -> None:
-    if not isinstance(cameras, CameraSet):
-        raise TypeError(f"cameras must be a CameraSet; got {type(cameras).__name__}")
-
-
-def _write_text(path: str | os.PathLike[str], text: str) -> None:
-    with atomic_write(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")

@@ -17,8 +17,9 @@ from types import MappingProxyType
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.io.bundler import _checked_image_list, read_bundler, write_bundler
-from vergence.io.camera_set import CameraSet, _check_size
+from vergence.io._camera_files import check_image_size, checked_image_list
+from vergence.io.bundler import read_bundler, write_bundler
+from vergence.io.camera_set import CameraSet
 from vergence.io.cameras_json import read_cameras_json, write_cameras_json
 from vergence.io.colmap import read_colmap, write_colmap
 from vergence.io.middlebury import read_middlebury_par, write_middlebury_par
@@ -141,9 +142,9 @@ def read_cameras(
         If ``image_list`` is a path to a missing file.
     """
     if image_size is not None:
-        _check_size(image_size)
+        check_image_size(image_size)
     if image_list is not None:
-        _checked_image_list(image_list)
+        checked_image_list(image_list)
     p, fmt = _format_of(path, format)
     if image_list is not None and "image_list" not in fmt.options:
         name = next(n for n, f in CAMERA_FORMATS.items() if f is fmt)

@@ -11,9 +11,10 @@ import os
 import numpy as np
 
 from vergence.camera import Camera
+from vergence.io._camera_files import check_camera_set
 from vergence.io._files import input_path
 from vergence.io.atomic import write_json
-from vergence.io.camera_set import CameraSet, _check_set
+from vergence.io.camera_set import CameraSet
 from vergence.io.jsonfile import read_json
 
 __all__ = ["read_cameras_json", "write_cameras_json"]
@@ -21,7 +22,7 @@ __all__ = ["read_cameras_json", "write_cameras_json"]
 
 def write_cameras_json(path: str | os.PathLike[str], cameras: CameraSet) -> None:
     """Write our JSON camera file (``Camera.to_dict`` per camera, ``null`` when unregistered)."""
-    _check_set(cameras)
+    check_camera_set(cameras)
     entries = [{"name": n, "camera": None if c is None else c.to_dict(), "distortion": d.tolist()}
                for n, c, d in zip(cameras.names, cameras.cameras, cameras.distortion)]
     write_json(path, {"format": "vergence-cameras", "version": 1, "cameras": entries,

@@ -15,16 +15,16 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from vergence.io._files import input_path
-from vergence.io.camera_set import (
-    CameraSet,
-    _camera,
-    _check_set,
-    _floats,
-    _fmt,
-    _text_lines,
-    _write_text,
+from vergence.io._camera_files import (
+    check_camera_set,
+    checked_camera,
+    format_float,
+    parse_floats,
+    text_lines,
+    write_text,
 )
+from vergence.io._files import input_path
+from vergence.io.camera_set import CameraSet
 
 __all__ = ["read_colmap", "write_colmap"]
 _COLMAP_PARAMS = {"SIMPLE_PINHOLE": 3, "PINHOLE": 4, "SIMPLE_RADIAL": 4, "RADIAL": 5, "OPENCV": 8}
@@ -73,7 +73,7 @@ def read_colmap(path: str | os.PathLike[str]) -> CameraSet:
     folder = _colmap_dir(path)
     cpath, ipath = input_path(folder / "cameras.txt"), input_path(folder / "images.txt")
     intr: dict[int, tuple[np.ndarray, np.ndarray, tuple[int, int]]] = {}
-    for i, line in enumerate(_text_lines(cpath), start=1):
+    for i, line in enumerate(text_lines(cpath), start=1):
         tok = line.split()
         if not tok or tok[0].startswith("#"):
             continue
@@ -82,13 +82,13 @@ def read_colmap(path: str | os.PathLike[str]) -> CameraSet:
                              f"got {tok[1] if len(tok) > 1 else line!r}")
         if len(tok) != 4 + _COLMAP_PARAMS[tok[1]]:
             raise ValueError(f"{cpath}:{i}: {tok[1]} takes {_COLMAP_PARAMS[tok[1]]} parameters; got {len(tok) - 4}")
-        K, dist = _colmap_intrinsics(tok[1], _floats(tok[4:], cpath, i))
+        K, dist = _colmap_intrinsics(tok[1], parse_floats(tok[4:], cpath, i))
         width, height = _integer(tok[2], "WIDTH", cpath, i), _integer(tok[3], "HEIGHT", cpath, i)
         if width < 1 or height < 1:
             raise ValueError(f"{cpath}:{i}: the image size must be positive; got {width}x{height}")
         intr[_integer(tok[0], "CAMERA_ID", cpath, i)] = (K, dist, (width, height))
     names, cams, dists = [], [], []
-    lines = _text_lines(ipath)
+    lines = text_lines(ipath)
     i = 0
     while i < len(lines):
         tok = lines[i].split()
@@ -97,8 +97,8 @@ def read_colmap(path: str | os.PathLike[str]) -> CameraSet:
             continue
         if len(tok) != 10:
             raise ValueError(f"{ipath}:{i}: expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME; got {len(tok)} fields")
-        q = _floats(tok[1:5], ipath, i)
-        t = np.array(_floats(tok[5:8], ipath, i))
+        q = parse_floats(tok[1:5], ipath, i)
+        t = np.array(parse_floats(tok[5:8], ipath, i))
         cam_id = _integer(tok[8], "CAMERA_ID", ipath, i)
         if cam_id not in intr:
             raise ValueError(f"{ipath}:{i}: image {tok[9]} uses camera {cam_id}, which cameras.txt does not define")
@@ -108,7 +108,7 @@ def read_colmap(path: str | os.PathLike[str]) -> CameraSet:
         R = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()  # scipy order: x, y, z, w
         K, dist, size = intr[cam_id]
         names.append(Path(tok[9]).name)
-        cams.append(_camera(K, R, t, size, f"{ipath}:{i}"))
+        cams.append(checked_camera(K, R, t, size, f"{ipath}:{i}"))
         dists.append(dist)
         i += 1  # skip the POINTS2D line (may be empty)
     return CameraSet(names=tuple(names), cameras=tuple(cams), distortion=np.array(dists).reshape(-1, 4))
@@ -132,7 +132,7 @@ def write_colmap(folder: str | os.PathLike[str], cameras: CameraSet) -> None:
     The smallest model that holds each camera is chosen (SIMPLE_PINHOLE ... OPENCV). Raises
     ``ValueError`` for skewed intrinsics and unregistered cameras, which COLMAP cannot represent.
     """
-    _check_set(cameras)
+    check_camera_set(cameras)
     out = Path(folder)
     if not out.is_dir():
         raise FileNotFoundError(f"cannot write a COLMAP model into {out}: no such folder")
@@ -143,8 +143,8 @@ def write_colmap(folder: str | os.PathLike[str], cameras: CameraSet) -> None:
         if cam.K[0, 1] != 0.0:
             raise ValueError(f"camera {name!r} has skew {cam.K[0, 1]:g}; COLMAP models have none")
         model, prm = _colmap_model(cam.K, cameras.distortion[i - 1])
-        crows.append(" ".join([str(i), model, str(cam.width), str(cam.height), *(_fmt(v) for v in prm)]))
+        crows.append(" ".join([str(i), model, str(cam.width), str(cam.height), *(format_float(v) for v in prm)]))
         x, y, z, w = Rotation.from_matrix(cam.R).as_quat()
-        irows += [" ".join([str(i), *(_fmt(v) for v in (w, x, y, z, *cam.t)), str(i), name]), ""]
-    _write_text(out / "cameras.txt", "\n".join(crows) + "\n")
-    _write_text(out / "images.txt", "\n".join(irows) + "\n")
+        irows += [" ".join([str(i), *(format_float(v) for v in (w, x, y, z, *cam.t)), str(i), name]), ""]
+    write_text(out / "cameras.txt", "\n".join(crows) + "\n")
+    write_text(out / "images.txt", "\n".join(irows) + "\n")

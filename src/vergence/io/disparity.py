@@ -28,10 +28,10 @@ from types import MappingProxyType
 import numpy as np
 
 from vergence._validate import check_positive
+from vergence.io._codecs import decode_png, encode_image, load_npy, save_npy
 from vergence.io._files import input_path, read_bytes, suffix_of
 from vergence.io._pnm import decode_pnm, encode_pnm
 from vergence.io.atomic import atomic_write
-from vergence.io.images import _decode_png, _encode, _load_npy, _save_npy
 from vergence.io.pfm import read_pfm, write_pfm
 
 __all__ = ["read_disparity", "stores_integers", "write_disparity"]
@@ -138,10 +138,10 @@ def read_disparity(path: str | os.PathLike[str], *, scale: float | None = None) 
     if suffix == ".pfm":
         arr = read_pfm(p)
     elif suffix == ".npy":
-        arr = _load_npy(p, "disparity")
+        arr = load_npy(p, "disparity")
     else:
         data = read_bytes(p)
-        arr, _ = _decode_png(data, p) if suffix == ".png" else decode_pnm(data, p)
+        arr, _ = decode_png(data, p) if suffix == ".png" else decode_pnm(data, p)
     if arr.ndim == 3 and (arr.shape[2] == 1 or (arr == arr[:, :, :1]).all()):
         arr = arr[:, :, 0]  # grey stored as palette or RGB with equal channels (Middlebury tsukuba)
     if arr.ndim != 2 or 0 in arr.shape:
@@ -219,7 +219,7 @@ def write_disparity(
         samples = np.zeros(d.shape, np.uint16)
         samples[known] = scaled.astype(np.uint16)
         if suffix == ".png":
-            payload = _encode(".png", samples, [], p)
+            payload = encode_image(".png", samples, [], p)
         else:
             payload = encode_pnm(samples)
         with atomic_write(p) as tmp:
@@ -229,4 +229,4 @@ def write_disparity(
     if suffix == ".pfm":
         write_pfm(p, np.where(known, out, np.float32(np.inf)))
         return
-    _save_npy(p, out)
+    save_npy(p, out)

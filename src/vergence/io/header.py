@@ -15,8 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vergence.io.images import _jpeg_size, _png_size
-from vergence.io.pfm import _HEADER as _PFM_HEADER  # one pattern for the reader and the header
+from vergence.io._codecs import PFM_HEADER, jpeg_size, png_size  # the readers' own header parsers
 
 __all__ = ["HEADER_FORMATS", "ImageHeader", "read_header"]
 
@@ -103,7 +102,7 @@ def read_header(data: bytes) -> ImageHeader:
         raise TypeError(f"data must be bytes; got {type(data).__name__}")
     data = bytes(data)
     if data.startswith(_PNG_MAGIC):
-        size = _png_size(data)
+        size = png_size(data)
         if size is None or len(data) < 26:
             raise ValueError("PNG header is truncated (no IHDR chunk)")
         bits, colour = data[24], data[25]
@@ -111,13 +110,13 @@ def read_header(data: bytes) -> ImageHeader:
             raise ValueError(f"PNG colour type {colour} is not valid")
         return ImageHeader("png", *size, _PNG_CHANNELS[colour], "uint16" if bits == 16 else "uint8")
     if data.startswith(_JPEG_MAGIC):
-        size = _jpeg_size(data)
+        size = jpeg_size(data)
         if size is None:
             raise ValueError("JPEG header is truncated or malformed (no start-of-frame marker)")
         sof = _sof_components(data)
         return ImageHeader("jpeg", *size, sof, "uint8")
     if data.startswith((b"PF", b"Pf")):
-        m = _PFM_HEADER.match(data[:256])
+        m = PFM_HEADER.match(data[:256])
         if m is None:
             raise ValueError("PFM header is malformed (expected 'PF' or 'Pf', width height, scale)")
         return ImageHeader("pfm", int(m.group(2)), int(m.group(3)), 3 if m.group(1) == b"PF" else 1, "float32")

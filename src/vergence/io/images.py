@@ -18,32 +18,29 @@ needs an extra download (the FreeImage plug-in) to read it. Convert EXR files to
 
 from __future__ import annotations
 
-import io
 import os
-import re
-import sys
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import cv2
 import numpy as np
-from PIL import Image, UnidentifiedImageError
 
 from vergence._validate import as_image
-from vergence.io._files import check_not_empty, input_path, read_bytes, suffix_of
+from vergence.io._codecs import (
+    MAX_IMAGE_PIXELS,
+    decode_hdr,
+    decode_jpeg,
+    decode_png,
+    encode_image,
+    load_npy,
+    save_npy,
+)
+from vergence.io._files import input_path, read_bytes, suffix_of
 from vergence.io._pnm import decode_pnm, encode_pnm
 from vergence.io.atomic import atomic_write
 from vergence.io.pfm import read_pfm, write_pfm
 
-__all__ = ["MAX_IMAGE_PIXELS", "read_image", "write_image"]
+__all__ = ["MAX_IMAGE_PIXELS", "read_image", "write_image"]  # MAX_IMAGE_PIXELS: beside the decoders that enforce it
 
-#: Largest image (width x height) that ``read_image`` decodes: 80 Mpx, i.e. 960 MB as float32 RGB.
-#: Below Pillow's own decompression-bomb threshold (89.5 Mpx), so Pillow never warns first.
-MAX_IMAGE_PIXELS = 80_000_000
-
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _JPEG_SUFFIXES = (".jpg", ".jpeg")
 _PNM_SUFFIXES = (".pgm", ".ppm", ".pnm")
 _INTEGER_SUFFIXES = (".png", *_JPEG_SUFFIXES, *_PNM_SUFFIXES)
@@ -68,176 +65,6 @@ def _unknown_suffix(path: Path) -> ValueError:
 def _to_unit(samples: np.ndarray, maxval: int) -> np.ndarray:
     """Integer samples to float32 in [0, 1]."""
     return samples.astype(np.float32) / np.float32(maxval)
-
-
-def _drop_opaque_alpha(arr: np.ndarray, path: Path) -> np.ndarray:
-    """Return the colour channels of a 4-channel array whose alpha is fully opaque; refuse otherwise."""
-    full = np.iinfo(arr.dtype).max
-    transparent = int(np.count_nonzero(arr[:, :, 3] != full))
-    if transparent:
-        raise ValueError(
-            f"cannot read {path}: it has an alpha channel with {transparent} non-opaque pixels; "
-            "Vergence images have no alpha, flatten it onto a background first"
-        )
-    return arr[:, :, :3]
-
-
-def _png_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from the IHDR chunk, or None when the header is too short to say."""
-    if len(data) < 24 or data[12:16] != b"IHDR":
-        return None
-    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
-
-
-def _hdr_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from the Radiance resolution line (``-Y H +X W`` and its variants), or None."""
-    m = re.search(rb"\n\n([-+][XY]) (\d+) ([-+][XY]) (\d+)\n", data[:65536])
-    if m is None:
-        return None
-    first, second = int(m.group(2)), int(m.group(4))
-    return (second, first) if m.group(1)[1:] == b"Y" else (first, second)
-
-
-def _jpeg_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from the first start-of-frame marker, or None when none is found."""
-    i, n = 2, len(data)
-    while i + 9 <= n:
-        if data[i] != 0xFF:
-            return None
-        marker = data[i + 1]
-        if marker == 0xFF:  # fill byte
-            i += 1
-            continue
-        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:  # markers without a length
-            i += 2
-            continue
-        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
-        i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
-    return None
-
-
-_HEADER_SIZES = {".png": _png_size, ".hdr": _hdr_size, ".jpg": _jpeg_size, ".jpeg": _jpeg_size}
-
-
-def _check_declared_size(data: bytes, suffix: str, path: Path) -> None:
-    """Refuse a file whose header declares more than ``MAX_IMAGE_PIXELS`` pixels, before decoding."""
-    size = _HEADER_SIZES[suffix](data)
-    if size is not None and size[0] * size[1] > MAX_IMAGE_PIXELS:
-        raise ValueError(
-            f"cannot read {path}: its header declares {size[0]} x {size[1]} = {size[0] * size[1]:,} pixels; "
-            f"the limit is {MAX_IMAGE_PIXELS:,}"
-        )
-
-
-@contextmanager
-def _codec_messages() -> Iterator[list[str]]:
-    """Collect what C codecs print on file descriptor 2 (libpng's "libpng error: IDAT: CRC error")
-    instead of letting it reach the user's terminal; the lines are available after the block.
-
-    OpenCV's own logging is silenced too. If descriptor 2 cannot be duplicated, nothing is collected.
-    """
-    lines: list[str] = []
-    level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError, AttributeError):
-        saved = None
-    try:
-        if saved is None:
-            yield lines
-            return
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield lines
-            finally:
-                os.dup2(saved, 2)
-                os.close(saved)
-                sink.seek(0)
-                text = sink.read().decode("utf-8", errors="replace")
-                lines.extend(ln.removeprefix("libpng error: ").removeprefix("libpng warning: ")
-                             for ln in text.splitlines() if ln.strip())  # fmt: skip
-    finally:
-        cv2.utils.logging.setLogLevel(level)
-
-
-def _imdecode(data: bytes, path: Path, what: str) -> np.ndarray:
-    """``cv2.imdecode``; a corrupt file is reported once, by our ValueError naming the codec's reason,
-    not also by libpng's or OpenCV's own lines on stderr."""
-    with _codec_messages() as messages:
-        arr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
-    if arr is None:
-        reason = f" ({'; '.join(messages)})" if messages else ""
-        raise ValueError(f"cannot read {path}: {what} data is corrupt or truncated{reason}")
-    return arr
-
-
-def _decode_png(data: bytes, path: Path) -> tuple[np.ndarray, int]:
-    """Raw PNG samples ``(H, W)`` or ``(H, W, 3)`` RGB (uint8 or uint16) and their maxval."""
-    if not data.startswith(_PNG_SIGNATURE):
-        raise ValueError(f"cannot read {path}: not a PNG file (bad signature)")
-    if data.rfind(b"IEND") < 0:
-        raise ValueError(f"cannot read {path}: PNG file is truncated (no IEND chunk)")
-    _check_declared_size(data, ".png", path)
-    colour_type = data[25] if len(data) > 25 else -1
-    arr = _imdecode(data, path, "PNG")
-    if arr.ndim == 3 and arr.shape[2] == 4:
-        arr = _drop_opaque_alpha(arr, path)
-    if arr.ndim == 3:
-        # grey (+alpha) PNGs come back from OpenCV with the grey replicated, and so do palette PNGs
-        # whose colours are all grey (Middlebury masks): keep one channel
-        grey_palette = colour_type == 3 and bool((arr == arr[:, :, :1]).all())
-        arr = arr[:, :, 0] if colour_type in (0, 4) or grey_palette else arr[:, :, ::-1]  # BGR -> RGB
-    return np.ascontiguousarray(arr), int(np.iinfo(arr.dtype).max)
-
-
-def _decode_jpeg(data: bytes, path: Path) -> np.ndarray:
-    """8-bit JPEG samples ``(H, W)`` or ``(H, W, 3)`` RGB; truncation is detected by Pillow."""
-    _check_declared_size(data, ".jpg", path)
-    try:
-        with Image.open(io.BytesIO(data), formats=["JPEG"]) as im:
-            im.load()
-            if im.mode not in ("L", "RGB"):
-                raise ValueError(f"cannot read {path}: JPEG mode {im.mode} is not supported; expected grey or RGB")
-            return np.asarray(im, dtype=np.uint8).copy()
-    except UnidentifiedImageError as exc:
-        raise ValueError(f"cannot read {path}: not a JPEG file") from exc
-    except OSError as exc:  # Pillow reports truncated or broken data as OSError
-        raise ValueError(f"cannot read {path}: JPEG data is corrupt or truncated ({exc})") from exc
-
-
-def _decode_hdr(data: bytes, path: Path) -> np.ndarray:
-    """Radiance RGBE to linear float32 RGB ``(H, W, 3)``."""
-    if not data.startswith((b"#?RADIANCE", b"#?RGBE")):
-        raise ValueError(f"cannot read {path}: not a Radiance HDR file (expected a '#?RADIANCE' header)")
-    _check_declared_size(data, ".hdr", path)
-    arr = _imdecode(data, path, "Radiance HDR")
-    if arr.ndim != 3 or arr.dtype != np.float32:
-        raise ValueError(f"cannot read {path}: Radiance HDR data is corrupt or truncated")
-    return np.ascontiguousarray(arr[:, :, ::-1])  # BGR -> RGB
-
-
-def _load_npy(path: Path, what: str) -> np.ndarray:
-    """Load a ``.npy`` array without pickles; errors name the path."""
-    check_not_empty(path)
-    try:
-        fh = open(path, "rb")  # noqa: SIM115 - closed below; open errors stay OSError
-    except OSError as exc:
-        raise OSError(f"cannot read {path}: {exc.strerror or exc}") from exc
-    with fh:
-        try:
-            return np.load(fh, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise ValueError(f"cannot read {path}: not a valid {what} .npy file ({exc})") from exc
-
-
-def _save_npy(path: Path, array: np.ndarray) -> None:
-    """Write ``array`` as ``.npy`` (no pickles) atomically."""
-    with atomic_write(path) as tmp, open(tmp, "wb") as fh:
-        np.save(fh, array, allow_pickle=False)
 
 
 def _image_from_array(arr: np.ndarray, path: Path) -> np.ndarray:
@@ -306,18 +133,18 @@ def read_image(path: str | os.PathLike[str]) -> np.ndarray:
     p = input_path(path)
     suffix = suffix_of(p)
     if suffix == ".npy":
-        return _image_from_array(_load_npy(p, "image"), p)
+        return _image_from_array(load_npy(p, "image"), p)
     if suffix == ".pfm":
         return _image_from_array(read_pfm(p), p)
     if suffix not in (*_INTEGER_SUFFIXES, ".hdr"):
         raise _unknown_suffix(p)
     data = read_bytes(p)
     if suffix == ".hdr":
-        return _decode_hdr(data, p)
+        return decode_hdr(data, p)
     if suffix == ".png":
-        samples, maxval = _decode_png(data, p)
+        samples, maxval = decode_png(data, p)
     elif suffix in _JPEG_SUFFIXES:
-        samples, maxval = _decode_jpeg(data, p), 255
+        samples, maxval = decode_jpeg(data, p), 255
     else:
         samples, maxval = decode_pnm(data, p)
     return _to_unit(samples, maxval)
@@ -425,20 +252,20 @@ def write_image(path: str | os.PathLike[str], image: object, *, bit_depth: int =
             write_pfm(p, arr)
             return
         if suffix == ".npy":
-            _save_npy(p, arr)
+            save_npy(p, arr)
             return
         if float(arr.min()) < 0.0:
             raise ValueError(f"image values must be >= 0 for Radiance .hdr; got min {float(arr.min()):g}")
         rgb = np.repeat(arr[:, :, None], 3, axis=2) if arr.ndim == 2 else arr
-        payload = _encode(".hdr", np.ascontiguousarray(rgb[:, :, ::-1]), [], p)
+        payload = encode_image(".hdr", np.ascontiguousarray(rgb[:, :, ::-1]), [], p)
     elif suffix in _JPEG_SUFFIXES:
         if depth != 8:
             raise ValueError(f"bit_depth must be 8 for JPEG; got {depth}")
         samples = _quantise(image, 8, "JPEG")
-        payload = _encode(".jpg", _bgr(samples), [cv2.IMWRITE_JPEG_QUALITY, 95], p)
+        payload = encode_image(".jpg", _bgr(samples), [cv2.IMWRITE_JPEG_QUALITY, 95], p)
     elif suffix == ".png":
         samples = _quantise(image, depth, "PNG")
-        payload = _encode(".png", _bgr(samples), [], p)
+        payload = encode_image(".png", _bgr(samples), [], p)
     else:
         samples = _quantise(image, depth, suffix[1:].upper())
         if suffix == ".pgm" and samples.ndim != 2:
@@ -455,13 +282,3 @@ def _bgr(samples: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(samples[:, :, ::-1]) if samples.ndim == 3 else samples
 
 
-def _encode(ext: str, arr: np.ndarray, params: list[int], path: Path) -> bytes:
-    try:
-        with _codec_messages() as messages:
-            ok, buf = cv2.imencode(ext, arr, params)
-    except cv2.error:
-        ok = False
-    if not ok:
-        reason = f" ({'; '.join(messages)})" if messages else ""
-        raise ValueError(f"cannot write {path}: the {ext} encoder refused a {arr.shape[1]} x {arr.shape[0]} image{reason}")
-    return buf.tobytes()

@@ -11,18 +11,14 @@ in Vergence.
 from __future__ import annotations
 
 import os
-import re
 
 import numpy as np
 
+from vergence.io._codecs import PFM_HEADER
 from vergence.io._files import input_path, read_bytes
 from vergence.io.atomic import atomic_write
 
 __all__ = ["read_pfm", "write_pfm"]
-
-# Header: type, width, height, scale, then exactly one whitespace byte before the raster.
-_HEADER = re.compile(rb"\A(P[Ff])\s+(\d+)\s+(\d+)\s+([-+]?[0-9.]+(?:[eE][-+]?\d+)?)\s")
-
 
 def read_pfm(path: str | os.PathLike[str]) -> np.ndarray:
     """Read a PFM file as float32, rows top to bottom: ``(H, W)`` for ``Pf``, ``(H, W, 3)`` for ``PF``.
@@ -59,7 +55,7 @@ def read_pfm(path: str | os.PathLike[str]) -> np.ndarray:
     """
     p = input_path(path)
     data = read_bytes(p)
-    m = _HEADER.match(data[:256])
+    m = PFM_HEADER.match(data[:256])
     if m is None:
         raise ValueError(f"cannot read {p}: not a PFM file (expected a 'PF' or 'Pf' header)")
     channels = 3 if m.group(1) == b"PF" else 1
