@@ -81,6 +81,23 @@ ISSUE_CASES: tuple[tuple[str, tuple[str, ...], bool], ...] = (
     ("render", ("--width", "1000000", "--height", "24"), False),
     ("render", ("--seed", "-1"), False),
     ("compare", ("{fx}/tiny.png", "{fx}/tiny.png"), False),
+    # issue 26: a damaged or truncated offset table, a folder without one, an unknown fit, depth 0 on glass
+    ("specular", ("--reoptimise", "{fx}/damaged_table"), True),
+    ("specular", ("--reoptimise", "{fx}/truncated_table"), True),
+    ("specular", ("--reoptimise", "{fx}/no_table"), True),
+    ("specular", ("--fit", "wide"), True),
+    ("specular", ("--depth", "0"), True),
+    # issue 28: nothing lost (an output that exists is refused without --force; a missing --out folder is made),
+    # a stereo INPUT whose layout cannot be guessed or is not one (the refusal names --layout)
+    ("convert", ("--out", "{fx}/taken"), True),
+    ("convert", ("--out", "{case}/new/deeper"), False),
+    ("analyze", ("--report", "{fx}/old_report"), True),
+    ("analyze", ("INPUT", "{fx}/sbs.png", "--depth", "", "--depth-kind", ""), True),
+    ("analyze", ("INPUT", "{fx}/sbs.png", "--depth", "", "--depth-kind", "", "--layout", "lr"), True),
+    ("convert", ("INPUT", "{fx}/sbs.png", "--depth", "", "--depth-kind", "", "--layout", "lr"), True),
+    ("convert", ("INPUT", "{fx}/sbs.png", "--depth", "", "--depth-kind", "", "--layout", "sbs", "--floating-window",
+                 ""), False),
+    ("match", ("--max-disparity", "2"), False),  # the content at 3 px piles up at the bound: a warning, exit 0
 )
 
 
@@ -127,6 +144,24 @@ def write_fixtures(folder: Path) -> None:
     write_image(folder / "left.png", texture[:, shift:])
     write_image(folder / "right.png", texture[:, :width])
     write_middlebury_par(folder / "cameras_par.txt", CameraSet(names=("left.png", "right.png"), cameras=cams))
+    # vergence specular --reoptimise (issue 26): a folder without a table, a table whose bytes are
+    # damaged (a zip header, then noise) and one cut short (a real .npz archive, half of it)
+    (folder / "no_table").mkdir(exist_ok=True)
+    (folder / "damaged_table").mkdir(exist_ok=True)
+    (folder / "damaged_table" / "specular_table.npz").write_bytes(b"PK\x03\x04" + rng.bytes(2048))
+    (folder / "truncated_table").mkdir(exist_ok=True)
+    whole = folder / "truncated_table" / "whole.npz"
+    np.savez_compressed(whole, meta=np.array("{}"), analysis_disparity=rng.random((2, 3, 4, 5, 2)).astype(np.float32))
+    data = whole.read_bytes()
+    whole.unlink()
+    (folder / "truncated_table" / "specular_table.npz").write_bytes(data[: len(data) // 2])
+    # issue 28: a folder holding the output convert would write (refused without --force), a report folder holding
+    # an earlier analyze report, and a side-by-side stereo image without a layout tag in its name
+    (folder / "taken" / "image_LRF_Full_SBS").mkdir(parents=True, exist_ok=True)
+    (folder / "taken" / "image_LRF_Full_SBS" / "frame_000000.png").write_bytes((folder / "image.png").read_bytes())
+    (folder / "old_report").mkdir(exist_ok=True)
+    (folder / "old_report" / "analysis.json").write_text("{}\n")
+    write_image(folder / "sbs.png", np.concatenate([texture[:, shift:], texture[:, :width]], axis=1))
 
 
 def _option_kind(param) -> str:
@@ -255,7 +290,12 @@ def cli_cases(*, quick: bool, rng: random.Random, per_option: int = 1, sample: i
             argv = list(extra)
         else:
             for option, v in zip(extra[0::2], extra[1::2]):
-                argv = _replace_option(argv, option, [] if v == "" else [v], set())
+                if option == "INPUT":  # the first argument (positional arguments come first in every base)
+                    argv[0] = v
+                elif option == "--floating-window":  # a flag: added
+                    argv.append(option)
+                else:
+                    argv = _replace_option(argv, option, [] if v == "" else [v], set())
         cases.append(Case(id=f"cli/{command}/issue9-{n}", kind="cli", target=command, argv=(command, *argv),
                           strict=strict, note="issue 9: " + " ".join(extra)))
     return cases
