@@ -14,6 +14,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from vergence._validate import check_finite
+from vergence.viewing._shared import check_depths, check_type, depth_ratio, real_array
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import (
     CARDBOARD_ROUNDNESS,
@@ -28,7 +29,6 @@ from vergence.viewing.geometry import (
     roundness,
     roundness_baseline,
 )
-from vergence.viewing.geometry import _check_type, _depth_ratio, _depths, _real_array
 
 __all__ = ["DEFAULT_DEPTH_FACTORS", "DIVERGENCE_FLAG_ULPS", "DepthBudget", "DepthSample", "default_depths", "depth_budget"]
 
@@ -166,7 +166,7 @@ class DepthBudget:
 
 def default_depths(shooting: Shooting) -> tuple[float, ...]:
     """Scene depths used when none are given: :data:`DEFAULT_DEPTH_FACTORS` times ``H``."""
-    _check_type("shooting", shooting, Shooting)
+    check_type("shooting", shooting, Shooting)
     return tuple(k * shooting.convergence for k in DEFAULT_DEPTH_FACTORS)
 
 
@@ -217,7 +217,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     if depths is None:
         z = np.array(default_depths(shooting))
     else:
-        z = np.atleast_1d(_real_array("depths", depths, allow_inf=True))
+        z = np.atleast_1d(real_array("depths", depths, allow_inf=True))
         if z.ndim != 1 or z.size == 0:
             raise ValueError(f"depths must be a non-empty 1-D sequence of metres; got shape {z.shape}")
         bad = np.isnan(z) | np.isneginf(z)
@@ -227,7 +227,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
             raise ValueError(f"depths must be > 0 (in front of the cameras); got {z.min():g}")
     finite = np.isfinite(z)
     z_fin = np.where(finite, z, shooting.convergence)  # the z-forms below only see finite depths
-    _depths("depths", z_fin)  # the documented range of a finite depth
+    check_depths("depths", z_fin)  # the documented range of a finite depth
     # Eq. (1a); at z = inf its limit b/W.
     d = np.where(finite, np.atleast_1d(disparity(z_fin, shooting)), shooting.baseline / shooting.window)
     # Eq. (2) and (4) in the form that is exact where it is used (issue 9: at extreme set-ups the
@@ -241,7 +241,7 @@ def depth_budget(shooting: Shooting, display: Display, depths: object = None) ->
     # At z = inf only the gap form applies (z' of Eq. 1b at d = b/W; rho -> 0, Eq. 4's limit).
     use_gap = near | ~finite
     with np.errstate(divide="ignore", invalid="ignore"):
-        zp_gap = _depth_ratio(display.distance, gap)
+        zp_gap = depth_ratio(display.distance, gap)
         rho_gap = shooting.baseline * display.distance / (display.eye_separation * z * np.where(near, gap, 1.0))
     zp_z = np.asarray(perceived_depth_from_depth(z_fin, shooting, display))  # NaN exactly past divergence_depth
     zp = np.where(use_gap, zp_gap, zp_z)

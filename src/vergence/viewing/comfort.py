@@ -23,7 +23,8 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from vergence._validate import check_finite, check_in_range
-from vergence.viewing.geometry import MAX_ABS_DISPARITY, Display, _out, _real_array, check_display
+from vergence.viewing._shared import float_or_array, real_array
+from vergence.viewing.geometry import MAX_ABS_DISPARITY, Display, check_display
 
 __all__ = [
     "ARCMIN_PER_RADIAN",
@@ -98,7 +99,7 @@ def _check_exact(exact: object) -> None:
 def _checked(name: str, values: object, display: object, exact: object) -> np.ndarray:
     """The common checks of the two conversions: real values, NaN only beside a valid one, the display
     with its resolution, ``exact`` a bool."""
-    arr = _real_array(name, values, allow_nan=True)
+    arr = real_array(name, values, allow_nan=True)
     if arr.size == 0 or np.isnan(arr).all():
         raise ValueError(f"{name} must hold at least one value that is not NaN (NaN marks an invalid pixel "
                          f"of a map); got {arr.size} value(s), none valid")
@@ -157,7 +158,7 @@ def arcmin_from_pixels(parallax_px: object, display: Display, *, exact: bool = T
         raise ValueError(f"parallax_px must lie in [-{limit:g}, {limit:g}] (MAX_ABS_DISPARITY screen widths); "
                          f"got {px[too_far].flat[0]:g}")
     s = px * display.pixel_pitch
-    return _out(_arcmin_from_parallax(s, display, exact))
+    return float_or_array(_arcmin_from_parallax(s, display, exact))
 
 
 def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: bool = True) -> float | np.ndarray:
@@ -204,7 +205,7 @@ def pixels_from_arcmin(disparity_arcmin: object, display: Display, *, exact: boo
         raise ValueError(f"disparity_arcmin must lie in [-{MAX_VERGENCE_ARCMIN:g}, {MAX_VERGENCE_ARCMIN:g}] arcmin "
                          f"(a vergence change of at most 180 degrees); got {theta[too_wide].flat[0]:g}")
     pitch = display.pixel_pitch
-    return _out(_parallax_from_arcmin(theta, display, exact) / pitch)
+    return float_or_array(_parallax_from_arcmin(theta, display, exact) / pitch)
 
 
 @dataclass(frozen=True, slots=True)
@@ -374,7 +375,7 @@ def check_disparity_range(
     >>> r.inside, round(r.far_margin_px, 1), round(r.divergence_px, 1)
     (True, 7.2, 230.5)
     """
-    values = _real_array("parallax_px", parallax_px, allow_nan=True)
+    values = real_array("parallax_px", parallax_px, allow_nan=True)
     check_display(display)
     finite = values[np.isfinite(values)]
     if finite.size == 0:

@@ -17,7 +17,22 @@ from types import MappingProxyType
 
 import numpy as np
 
-from vergence._validate import as_float_array, check_positive, check_positive_int
+from vergence._validate import check_positive, check_positive_int
+from vergence.viewing._shared import (  # the ranges are public here, in __all__
+    LENGTH_RANGE,
+    MAX_ABS_DISPARITY,
+    MAX_SCENE_DEPTH,
+    ROUNDNESS_RANGE,
+    check_depths,
+    check_disparities,
+    check_length,
+    check_roundness,
+    check_type,
+    depth_ratio,
+    float_or_array,
+    perceived_depth_array,
+    real_array,
+)
 
 __all__ = [
     "CARDBOARD_ROUNDNESS",
@@ -43,41 +58,11 @@ __all__ = [
     "shift_sensor_positions",
 ]
 
-# Rig and display lengths (b, H, W, b', H', W'), metres: a micrometre to a thousand kilometres. Every
-# figure of Eq. (1)-(6) is a product or ratio of at most four lengths and one depth, so inside these
-# ranges each stays between 1e-50 and 1e50: finite and normal in float64 (no overflow to inf, no
-# underflow to 0, no numpy warnings). Lengths outside are refused, never clamped.
-LENGTH_RANGE = (1e-6, 1e6)
-# Scene depths run from LENGTH_RANGE[0] to MAX_SCENE_DEPTH (1e20 m, far beyond any scene; the budget of a
-# point at infinity is its limit, b/W).
-MAX_SCENE_DEPTH = 1e20
-# Largest |d| accepted as an input disparity, in image widths (S0's normalised disparity). A rig inside
-# LENGTH_RANGE gives |d(z)| = (b/W)|1 - H/z| <= 1e24 at the depths allowed, so 1e30 refuses no real
-# disparity, and it keeps 1 - d/(b/W) and Eq. (1b) finite (|d| W/b <= 1e42): no overflow warnings.
-MAX_ABS_DISPARITY = 1e30
-# focal_mm and sensor_mm of Shooting.from_focal, millimetres: the metre range above.
+# focal_mm and sensor_mm of Shooting.from_focal, millimetres: LENGTH_RANGE in millimetres.
 _MM_RANGE = (1e-3, 1e9)
 
-# Roundness factors rho (S0 Eq. 4 and 9) a user may ask for: 1 is round, CARDBOARD_ROUNDNESS flat. A
-# thousandth to a thousand times round covers every look a director wants (S0 §6 uses 0.5 to 2); past
-# it, psi' = rho z b'/(b_r z') sends the mapped disparities to thousands of image widths (issue 9:
-# roundness 1e9 gave crossed disparities of -3e8 widths). Outside is refused, never clamped.
-ROUNDNESS_RANGE = (1e-3, 1e3)
 # The paper's cardboard criterion (S0 §2): roundness below this looks like a flat cut-out.
 CARDBOARD_ROUNDNESS = 0.3
-
-
-def _length(name: str, value: object, bounds: tuple[float, float] = LENGTH_RANGE, unit: str = "m") -> float:
-    """``value`` as a float in ``bounds`` (default :data:`LENGTH_RANGE`, metres), else ValueError."""
-    v = check_positive(name, value)
-    if not bounds[0] <= v <= bounds[1]:
-        raise ValueError(f"{name} must lie in [{bounds[0]:g}, {bounds[1]:g}]{' ' + unit if unit else ''}; got {v:g}")
-    return v
-
-
-def _roundness(name: str, value: object) -> float:
-    """``value`` as a float in :data:`ROUNDNESS_RANGE`, else ValueError (TypeError for a non-number)."""
-    return _length(name, value, ROUNDNESS_RANGE, "")
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,13 +81,13 @@ class Shooting:
 
     def __post_init__(self) -> None:
         for name in ("baseline", "convergence", "window"):
-            object.__setattr__(self, name, _length(name, getattr(self, name)))
+            object.__setattr__(self, name, check_length(name, getattr(self, name)))
 
     @classmethod
     def from_focal(cls, *, baseline: float, convergence: float, focal_mm: float, sensor_mm: float) -> Shooting:
         """Build from a physical focal length F and sensor width S: ``f = F/S = H/W`` (S0 §2)."""
-        f = _length("focal_mm", focal_mm, _MM_RANGE, "mm") / _length("sensor_mm", sensor_mm, _MM_RANGE, "mm")
-        return cls(baseline=baseline, convergence=convergence, window=_length("convergence", convergence) / f)
+        f = check_length("focal_mm", focal_mm, _MM_RANGE, "mm") / check_length("sensor_mm", sensor_mm, _MM_RANGE, "mm")
+        return cls(baseline=baseline, convergence=convergence, window=check_length("convergence", convergence) / f)
 
     @property
     def focal(self) -> float:
@@ -129,7 +114,7 @@ class Display:
 
     def __post_init__(self) -> None:
         for name in ("eye_separation", "distance", "width"):
-            object.__setattr__(self, name, _length(name, getattr(self, name)))
+            object.__setattr__(self, name, check_length(name, getattr(self, name)))
         if self.resolution is not None:
             object.__setattr__(self, "resolution", check_positive_int("resolution", self.resolution))
 
@@ -227,62 +212,6 @@ DISPLAY_PRESETS: Mapping[str, Display] = MappingProxyType({
 })
 
 
-def _real_array(name: str, value: object, *, allow_nan: bool = False, allow_inf: bool = False) -> np.ndarray:
-    """:func:`as_float_array` that also refuses text (numpy would read ``'30'`` as 30.0): TypeError.
-
-    ``allow_inf`` lets +-inf (and NaN) through unchecked, for callers that check them themselves."""
-    try:
-        kind = np.asarray(value).dtype.kind
-    except (TypeError, ValueError):  # ragged nesting and the like
-        kind = "O"
-    if isinstance(value, str | bytes) or kind in "USO":
-        raise TypeError(f"{name} must be numeric; got {type(value).__name__}")
-    if allow_inf:
-        return np.asarray(value, dtype=np.float64)
-    return as_float_array(name, value, allow_nan=allow_nan)
-
-
-def _check_type(name: str, value: object, cls: type) -> None:
-    """TypeError naming the argument unless ``value`` is a ``cls`` (never an AttributeError later)."""
-    if not isinstance(value, cls):
-        raise TypeError(f"{name} must be a {cls.__name__}; got {type(value).__name__}")
-
-
-def _disparities(name: str, d: object, unit: str = " image widths") -> np.ndarray:
-    """Finite disparities (image widths) with ``|d| <=`` :data:`MAX_ABS_DISPARITY`."""
-    arr = _real_array(name, d)
-    if arr.size and np.abs(arr).max() > MAX_ABS_DISPARITY:
-        raise ValueError(f"{name} must lie in [-{MAX_ABS_DISPARITY:g}, {MAX_ABS_DISPARITY:g}]{unit}; "
-                         f"got {arr.flat[np.abs(arr).argmax()]:g}")
-    return arr
-
-
-def _depths(name: str, z: object) -> np.ndarray:
-    arr = _real_array(name, z)
-    if (arr <= 0).any():
-        raise ValueError(f"{name} must be > 0 (in front of the cameras); got min {arr.min():g}")
-    if arr.size and (arr.min() < LENGTH_RANGE[0] or arr.max() > MAX_SCENE_DEPTH):
-        bad = arr.min() if arr.min() < LENGTH_RANGE[0] else arr.max()
-        raise ValueError(f"{name} must lie in [{LENGTH_RANGE[0]:g}, {MAX_SCENE_DEPTH:g}] m; got {bad:g}")
-    return arr
-
-
-def _out(arr: np.ndarray) -> float | np.ndarray:
-    """A 0-d result as a Python float; arrays as they are (scalar in, float out)."""
-    return float(arr) if arr.ndim == 0 else arr
-
-
-def _depth_ratio(numerator: float | np.ndarray, denominator: np.ndarray) -> np.ndarray:
-    """``numerator / denominator`` where the denominator is > 0, ``inf`` where it is exactly 0 (parallel
-    rays: a point at infinity) and NaN where it is negative (the rays meet behind: no such depth).
-
-    The callers write their denominators so that the sign, and an exact 0 at the limit, are exact.
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = numerator / denominator
-    return np.where(denominator > 0, ratio, np.where(denominator == 0, np.inf, np.nan))
-
-
 def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
     """Disparity of a point at depth ``z``, as a fraction of the window width (S0 Eq. 1a).
 
@@ -293,9 +222,9 @@ def disparity(z: object, shooting: Shooting) -> float | np.ndarray:
     >>> disparity(60.0, Shooting(baseline=0.2, convergence=30.0, window=2.0))
     0.05
     """
-    z_ = _depths("z", z)
-    _check_type("shooting", shooting, Shooting)
-    return _out((shooting.baseline / shooting.window) * (z_ - shooting.convergence) / z_)
+    z_ = check_depths("z", z)
+    check_type("shooting", shooting, Shooting)
+    return float_or_array((shooting.baseline / shooting.window) * (z_ - shooting.convergence) / z_)
 
 
 def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndarray:
@@ -303,12 +232,12 @@ def scene_depth_from_disparity(d: object, shooting: Shooting) -> float | np.ndar
 
     Disparities at or beyond ``b/W`` have no depth in front of the cameras: NaN there (inf at equality).
     """
-    d_ = _disparities("d", d)
-    _check_type("shooting", shooting, Shooting)
+    d_ = check_disparities("d", d)
+    check_type("shooting", shooting, Shooting)
     # Eq. (1c) as H / (1 - d/(b/W)): the gap is exactly 0 at d == b/W, so z = inf there
     # (b - W(b/W) need not round to 0).
     gap = 1.0 - d_ / (shooting.baseline / shooting.window)
-    return _out(_depth_ratio(shooting.convergence, gap))
+    return float_or_array(depth_ratio(shooting.convergence, gap))
 
 
 def perceived_depth(d: object, display: Display) -> float | np.ndarray:
@@ -322,16 +251,9 @@ def perceived_depth(d: object, display: Display) -> float | np.ndarray:
     >>> perceived_depth(0.0, Display(eye_separation=0.065, distance=3.0, width=1.2))
     3.0
     """
-    d_ = _disparities("d", d)
+    d_ = check_disparities("d", d)
     check_display(display)
-    return _out(_perceived_depth(d_, display))
-
-
-def _perceived_depth(d: np.ndarray, display: Display) -> np.ndarray:
-    """S0 Eq. (1b) on a validated array (see :func:`perceived_depth`)."""
-    # Written as H' / (1 - d/(b'/W')): the gap is exactly 0 at d == b'/W' (Display.divergence_disparity),
-    # so parallel eyes give inf, not a huge finite depth (b' - W'(b'/W') need not round to 0).
-    return _depth_ratio(display.distance, 1.0 - d / display.divergence_disparity)
+    return float_or_array(perceived_depth_array(d_, display))
 
 
 def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) -> float | np.ndarray:
@@ -339,10 +261,10 @@ def perceived_depth_from_depth(z: object, shooting: Shooting, display: Display) 
 
     ``z'(z) = z b'H'W / (z (b'W - bW') + bHW')``.
     """
-    z_ = _depths("z", z)
+    z_ = check_depths("z", z)
     _check_rig(shooting, display)
     den = _eq2_denominator(z_, shooting, display)
-    return _out(_depth_ratio(z_ * display.eye_separation * display.distance * shooting.window, den))
+    return float_or_array(depth_ratio(z_ * display.eye_separation * display.distance * shooting.window, den))
 
 
 def roundness(z: object, shooting: Shooting, display: Display) -> float | np.ndarray:
@@ -357,25 +279,25 @@ def roundness(z: object, shooting: Shooting, display: Display) -> float | np.nda
     >>> round(roundness(30.0, Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2)), 12)
     1.0
     """
-    z_ = _depths("z", z)
+    z_ = check_depths("z", z)
     _check_rig(shooting, display)
     den = _eq2_denominator(z_, shooting, display)  # Eq. (4) shares Eq. (2)'s denominator
     with np.errstate(divide="ignore"):
         rho = shooting.baseline * display.distance * shooting.window / den
-    return _out(rho)
+    return float_or_array(rho)
 
 
 def divergence_baseline(window: float, display: Display) -> float:
     """Largest baseline with no ocular divergence at any depth: ``b_div = b'W / W'`` (S0 Eq. 3)."""
-    w = _length("window", window)
+    w = check_length("window", window)
     check_display(display)
     return display.eye_separation * w / display.width
 
 
 def roundness_baseline(convergence: float, display: Display, *, roundness: float = 1.0) -> float:
     """Baseline giving roundness ``rho`` on the convergence plane: ``b = rho b' H / H'`` (S0 Eq. 5)."""
-    rho = _roundness("roundness", roundness)
-    h = _length("convergence", convergence)
+    rho = check_roundness("roundness", roundness)
+    h = check_length("convergence", convergence)
     check_display(display)
     return rho * display.eye_separation * h / display.distance
 
@@ -416,7 +338,7 @@ def divergence_depth(shooting: Shooting, display: Display) -> float:
 
 
 def _check_rig(shooting: object, display: object) -> None:
-    _check_type("shooting", shooting, Shooting)
+    check_type("shooting", shooting, Shooting)
     check_display(display)
 
 
@@ -461,14 +383,14 @@ def shift_sensor_parallax(
     >>> shift_sensor_parallax(4.0, focal_px=1000.0, interaxial=0.06, convergence=2.0)
     15.0
     """
-    z = _depths("depth", depth)
+    z = check_depths("depth", depth)
     a = check_positive("focal_px", focal_px)
-    tc = _length("interaxial", interaxial)
-    zc = _length("convergence", convergence)
+    tc = check_length("interaxial", interaxial)
+    zc = check_length("convergence", convergence)
     if not math.isfinite(a * tc / LENGTH_RANGE[0] ** 2):  # |P| <= alpha t_c (1/Z_c + 1/Z): keep it finite
         raise ValueError(f"focal_px must be <= {sys.float_info.max * LENGTH_RANGE[0] ** 2 / tc:g} with interaxial "
                          f"{tc:g} m (the parallax would overflow); got {a:g}")
-    return _out(a * tc * (1.0 / zc - 1.0 / z))
+    return float_or_array(a * tc * (1.0 / zc - 1.0 / z))
 
 
 def shift_sensor_positions(
@@ -478,7 +400,7 @@ def shift_sensor_positions(
 
     ``x_l = x_c + (alpha_u t_c / 2)(1/Z - 1/Z_c)``, ``x_r = x_c - (alpha_u t_c / 2)(1/Z - 1/Z_c)``.
     """
-    xc = _real_array("x_center", x_center)
+    xc = real_array("x_center", x_center)
     p = np.asarray(shift_sensor_parallax(depth, focal_px=focal_px, interaxial=interaxial, convergence=convergence))
     if p.shape != xc.shape and p.ndim and xc.ndim:
         raise ValueError(f"depth must have shape {xc.shape} matching x_center; got {p.shape}")

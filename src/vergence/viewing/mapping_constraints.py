@@ -24,25 +24,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence.viewing._shared import (
+    IN_FRONT_OF_VIEWER,
+    check_length,
+    check_length_or_inf,
+    check_roundness,
+    check_scene_depths,
+    disparity_array,
+    perceived_depth_array,
+)
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import (
     LENGTH_RANGE,
     MAX_SCENE_DEPTH,
     Display,
     Shooting,
-    _length,
-    _perceived_depth,
-    _roundness,
     check_display,
     scene_depth_from_disparity,
 )
 from vergence.viewing.mapping_hermite import pchip_slopes
 from vergence.viewing.mapping_operators import DisparityMapping, RationalHermiteMapping
 from vergence.viewing.mapping_perception import (
-    _VIEWER,
-    _disparity_of,
-    _length_or_inf,
-    _scene_depths,
     mapped_perceived_depth,
     mapped_roundness,
     psi_slope_for_roundness,
@@ -89,13 +91,13 @@ class DirectorConstraint:
     roundness: float | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "depth", _length_or_inf("depth", self.depth))
+        object.__setattr__(self, "depth", check_length_or_inf("depth", self.depth))
         object.__setattr__(
-            self, "perceived_depth", _length_or_inf("perceived_depth", self.perceived_depth, where=_VIEWER)
+            self, "perceived_depth", check_length_or_inf("perceived_depth", self.perceived_depth, where=IN_FRONT_OF_VIEWER)
         )
         if self.roundness is not None:
             try:
-                rho = _roundness("roundness", self.roundness)
+                rho = check_roundness("roundness", self.roundness)
             except ValueError as exc:
                 raise ValueError(f"{exc} (psi' = roundness z b'/(b_r z'))") from None
             if math.isinf(self.perceived_depth):
@@ -227,7 +229,7 @@ class ConstrainedMapping:
     @property
     def disparity_range(self) -> tuple[float, float]:
         """``(d(near), d(far))`` with the reference rig (S0 Eq. 1a)."""
-        lo, hi = _disparity_of(np.array([self.near, self.far]), self.reference)
+        lo, hi = disparity_array(np.array([self.near, self.far]), self.reference)
         return float(lo), float(hi)
 
     def _grid(self, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -294,14 +296,14 @@ class ConstrainedMapping:
         ValueError
             If a depth is not > 0, is NaN, or lies outside ``[near, far]``.
         """
-        z = np.atleast_1d(_scene_depths("depths", depths))
+        z = np.atleast_1d(check_scene_depths("depths", depths))
         if z.ndim != 1 or z.size == 0:
             raise ValueError(f"depths must be a non-empty 1-D sequence of metres; got shape {z.shape}")
         outside = (z < self.near) | (z > self.far)
         if outside.any():
             raise ValueError(f"depths must lie in the scene [{self.near:g}, {_num(self.far)}] m (near, far); "
                              f"got {_num(float(z[outside][0]))}")
-        return self._samples(_disparity_of(z, self.reference), z)
+        return self._samples(disparity_array(z, self.reference), z)
 
     def _samples(self, d: np.ndarray, z: np.ndarray) -> MappingSamples:
         mapped = np.asarray(self.psi(d))
@@ -309,7 +311,7 @@ class ConstrainedMapping:
             disparity=d,
             depth=z,
             mapped=mapped,
-            perceived_depth=_perceived_depth(mapped, self.display),  # Eq. (7): Eq. (1b) of psi(d)
+            perceived_depth=perceived_depth_array(mapped, self.display),  # Eq. (7): Eq. (1b) of psi(d)
             roundness=np.asarray(self.roundness(z)),  # Eq. (9)
         )
 
@@ -460,8 +462,8 @@ def psi_from_constraints(
     if not isinstance(reference, Shooting):
         raise TypeError(f"reference must be a Shooting; got {type(reference).__name__}")
     check_display(display)
-    z_near = _length("near", near, (LENGTH_RANGE[0], MAX_SCENE_DEPTH))
-    z_far = _length_or_inf("far", far)
+    z_near = check_length("near", near, (LENGTH_RANGE[0], MAX_SCENE_DEPTH))
+    z_far = check_length_or_inf("far", far)
     if not z_near < z_far:
         raise ValueError(f"far must be > near {z_near:g}; got {z_far:g}")
     if isinstance(constraints, str | DirectorConstraint):
@@ -490,7 +492,7 @@ def psi_from_constraints(
         )
 
     depths = np.array([c.depth for c in items])
-    knots = _disparity_of(depths, reference)
+    knots = disparity_array(depths, reference)
     for k in np.flatnonzero(np.diff(knots) <= 0):
         raise ValueError(
             f"constraints {items[k]} and {items[k + 1]} are too close: "
@@ -524,7 +526,7 @@ def psi_from_constraints(
         ControlPoint(float(x), float(y), float(s), p) for x, y, s, p in zip(knots, values, slopes, prescribed)
     )
 
-    lo, hi = _disparity_of(np.array([z_near, z_far]), reference)
+    lo, hi = disparity_array(np.array([z_near, z_far]), reference)
     d = np.union1d(np.linspace(lo, hi, CHECK_SAMPLES), knots)
     value, slope = np.asarray(psi(d)), np.asarray(psi.derivative(d))
     monotone = bool(np.all(np.diff(value) >= 0) and np.all(slope >= 0))

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from vergence._validate import check_positive
-from vergence.viewing.geometry import MAX_ABS_DISPARITY, _disparities, _real_array
+from vergence.viewing._shared import check_disparities, real_array
+from vergence.viewing.geometry import MAX_ABS_DISPARITY
 
 __all__ = ["SCALE_RANGE", "gradient_domain_mapping"]
 
@@ -84,12 +85,12 @@ def gradient_domain_mapping(disparity: object, *, threshold: float, scale: float
     >>> np.round(gradient_domain_mapping(profile, threshold=1.0, scale=0.2), 6).tolist()
     [3.2, 3.3, 3.4, 5.4, 5.5]
     """
-    d = _real_array("disparity", disparity, allow_nan=True)
+    d = real_array("disparity", disparity, allow_nan=True)
     if d.ndim not in (1, 2) or d.size == 0:
         raise ValueError(f"disparity must have shape (N,) or (H, W) and not be empty; got {d.shape}")
     if np.isnan(d).all():
         raise ValueError(f"disparity must hold at least one valid (not NaN) value; got {d.size} NaN")
-    _disparities("disparity", d[~np.isnan(d)], unit="")  # |d| <= MAX_ABS_DISPARITY: differences stay finite
+    check_disparities("disparity", d[~np.isnan(d)], unit="")  # |d| <= MAX_ABS_DISPARITY: differences stay finite
     tau = check_positive("threshold", threshold)
     factor = check_positive("scale", scale)
     if not SCALE_RANGE[0] <= factor <= SCALE_RANGE[1]:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range, check_positive, check_positive_int
-from vergence.viewing.geometry import _out, _real_array
+from vergence.viewing._shared import float_or_array, real_array
 from vergence.viewing.mapping_hermite import (
     gregory_delbourgo,
     gregory_delbourgo_derivative,
@@ -69,7 +69,7 @@ class DisparityMapping(ABC):
         return bisect_inverse(self._value, value, *self.domain())
 
     def _checked(self, name: str, d: object) -> np.ndarray:
-        arr = _real_array(name, d, allow_nan=True)
+        arr = real_array(name, d, allow_nan=True)
         lo, hi = self.domain()
         bad = ~np.isnan(arr) & ((arr <= lo) | (arr >= hi))
         if bad.any():
@@ -83,13 +83,13 @@ class DisparityMapping(ABC):
         """psi(d), same shape as ``d``; NaN stays NaN."""
         arr = self._checked("d", d)
         with np.errstate(invalid="ignore"):
-            return _out(self._value(arr))
+            return float_or_array(self._value(arr))
 
     def derivative(self, d: object) -> float | np.ndarray:
         """psi'(d), same shape as ``d``; NaN stays NaN."""
         arr = self._checked("d", d)
         with np.errstate(invalid="ignore"):
-            return _out(self._derivative(arr))
+            return float_or_array(self._derivative(arr))
 
     def inverse(self, value: object) -> float | np.ndarray:
         """The disparity ``d`` with ``psi(d) = value`` (the smallest one where psi is flat).
@@ -102,7 +102,7 @@ class DisparityMapping(ABC):
         ValueError
             If a value lies outside the range of psi.
         """
-        y = _real_array("value", value, allow_nan=True)
+        y = real_array("value", value, allow_nan=True)
         with np.errstate(all="ignore"):
             d = np.asarray(self._inverse(y), dtype=np.float64)
             lo, hi = self.domain()
@@ -114,7 +114,7 @@ class DisparityMapping(ABC):
                 f"value must lie in the range ({ends[0]:g}, {ends[1]:g}) of {type(self).__name__}; "
                 f"got {y[bad].flat[0]:g}"
             )
-        return _out(d)
+        return float_or_array(d)
 
 
 def bisect_inverse(

@@ -13,17 +13,16 @@ import math
 
 import numpy as np
 
-from vergence.viewing.geometry import (
-    LENGTH_RANGE,
-    MAX_SCENE_DEPTH,
-    Display,
-    Shooting,
-    _out,
-    _perceived_depth,
-    _real_array,
-    _roundness,
-    check_display,
+from vergence.viewing._shared import (
+    IN_FRONT_OF_VIEWER,
+    check_length_or_inf,
+    check_roundness,
+    check_scene_depths,
+    disparity_array,
+    float_or_array,
+    perceived_depth_array,
 )
+from vergence.viewing.geometry import Display, Shooting, check_display
 from vergence.viewing.mapping_operators import DisparityMapping
 
 __all__ = [
@@ -32,22 +31,6 @@ __all__ = [
     "psi_slope_for_roundness",
     "psi_value_for_depth",
 ]
-
-
-def _length_or_inf(name: str, value: object, *, where: str = "in front of the camera") -> float:
-    """A length > 0 in ``[LENGTH_RANGE[0], MAX_SCENE_DEPTH]`` metres, or +inf (an infinitely far point)."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a real number; got {type(value).__name__}")
-    v = float(value)
-    if math.isnan(v) or v <= 0:
-        raise ValueError(f"{name} must be > 0 ({where}); got {v:g}")
-    if math.isfinite(v) and not LENGTH_RANGE[0] <= v <= MAX_SCENE_DEPTH:
-        raise ValueError(f"{name} must lie in [{LENGTH_RANGE[0]:g}, {MAX_SCENE_DEPTH:g}] m or be inf; got {v:g}")
-    return v
-
-
-# A perceived depth <= 0 would need psi > b'/W': the eyes would diverge (S0 Eq. 8).
-_VIEWER = "in front of the viewer; a negative one is past the divergence limit b'/W'"
 
 
 def psi_value_for_depth(perceived: float, display: Display) -> float:
@@ -60,7 +43,7 @@ def psi_value_for_depth(perceived: float, display: Display) -> float:
     >>> psi_value_for_depth(3.0, Display(0.065, 3.0, 1.2))
     0.0
     """
-    zp = _length_or_inf("perceived", perceived, where=_VIEWER)
+    zp = check_length_or_inf("perceived", perceived, where=IN_FRONT_OF_VIEWER)
     check_display(display)
     limit = display.divergence_disparity
     return limit if math.isinf(zp) else limit * (1.0 - display.distance / zp)
@@ -76,34 +59,13 @@ def psi_slope_for_roundness(
     >>> psi_slope_for_roundness(1.0, 30.0, 3.0, Shooting(0.65, 30.0, 3.0), Display(0.065, 3.0, 1.2))
     1.0
     """
-    rho = _roundness("roundness", roundness)
-    z = _length_or_inf("depth", depth)
-    zp = _length_or_inf("perceived", perceived, where=_VIEWER)
+    rho = check_roundness("roundness", roundness)
+    z = check_length_or_inf("depth", depth)
+    zp = check_length_or_inf("perceived", perceived, where=IN_FRONT_OF_VIEWER)
     if math.isinf(z) or math.isinf(zp):
         raise ValueError(f"depth and perceived must be finite for a roundness (psi' = rho z b'/(b_r z')); got {z:g}, {zp:g}")
     _check_setup(None, reference, display)
     return rho * z * display.eye_separation / (reference.baseline * zp)
-
-
-def _scene_depths(name: str, z: object) -> np.ndarray:
-    arr = _real_array(name, z, allow_nan=True, allow_inf=True)
-    if np.isnan(arr).any() or (arr <= 0).any():
-        bad = arr[np.isnan(arr) | (arr <= 0)].flat[0]
-        raise ValueError(f"{name} must be > 0 (in front of the camera; inf allowed); got {bad:g}")
-    if (arr < LENGTH_RANGE[0]).any():  # 1/z of Eq. (9) would overflow near 5e-324
-        raise ValueError(f"{name} must be >= {LENGTH_RANGE[0]:g} m (LENGTH_RANGE; inf allowed); "
-                         f"got {arr[arr < LENGTH_RANGE[0]].flat[0]:g}")
-    return arr
-
-
-def _disparity_of(z: np.ndarray, reference: Shooting) -> np.ndarray:
-    """S0 Eq. (1a) with ``d(inf) = b/W``."""
-    finite = np.isfinite(z)
-    d = np.full(z.shape, reference.baseline / reference.window)
-    # Eq. (1a) as b/W (1 - H/z)-like ratio (z - H)/z: finite for every z > 0, including the depths past
-    # MAX_SCENE_DEPTH that inverting a grid of disparities near b/W produces (no range check here).
-    d[finite] = (reference.baseline / reference.window) * ((z[finite] - reference.convergence) / z[finite])
-    return d
 
 
 def _check_setup(psi: object, reference: object, display: object) -> None:
@@ -130,9 +92,9 @@ def mapped_perceived_depth(
     5.571429
     """
     _check_setup(psi, reference, display)
-    d = _disparity_of(_scene_depths("z", z), reference)
+    d = disparity_array(check_scene_depths("z", z), reference)
     # Eq. (7) is Eq. (1b) of psi(d): inf exactly where psi reaches b'/W', NaN past it.
-    return _out(_perceived_depth(np.asarray(psi(d), dtype=np.float64), display))  # Eq. (7)
+    return float_or_array(perceived_depth_array(np.asarray(psi(d), dtype=np.float64), display))  # Eq. (7)
 
 
 def mapped_roundness(z: object, psi: DisparityMapping, reference: Shooting, display: Display) -> float | np.ndarray:
@@ -150,11 +112,11 @@ def mapped_roundness(z: object, psi: DisparityMapping, reference: Shooting, disp
     0.5
     """
     _check_setup(psi, reference, display)
-    zz = _scene_depths("z", z)
-    d = _disparity_of(zz, reference)
+    zz = check_scene_depths("z", z)
+    d = disparity_array(zz, reference)
     value, slope = np.asarray(psi(d)), np.asarray(psi.derivative(d))
     gap = 1.0 - value / display.divergence_disparity  # (b' - W' psi)/b', exactly 0 at psi = b'/W'
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = reference.baseline * display.distance * slope / (zz * display.eye_separation * gap)  # Eq. (9)
-    return _out(rho)
+    return float_or_array(rho)
 
