@@ -136,3 +136,20 @@ def test_native_fit_scales_every_arcmin_figure(tabled, tmp_path):
         np.testing.assert_allclose(s["disparity_before"][..., 0][small], ratio * n["disparity_before"][..., 0][small],
                                    rtol=2e-2, atol=1e-3)  # fmt: skip
     assert "fit native" in stdout
+
+
+def test_reoptimise_refuses_a_scene_file_that_changed(tmp_path):
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[2] / "examples" / "scenes" / "spheres_and_mirror.json"
+    scene = tmp_path / "scene.json"
+    scene.write_text(source.read_text())
+    out = tmp_path / "run"
+    code, _, stderr = _main("specular", str(scene), "--out", str(out), *TINY, "--table")
+    assert code == 0, stderr
+    again = tmp_path / "again"
+    code, _, stderr = _main("specular", "--reoptimise", str(out), "--out", str(again))
+    assert code == 0, stderr  # the same file: re-solved from the table
+    scene.write_text(source.read_text().replace('"fov_deg"', ' "fov_deg"', 1))  # one byte more, same scene
+    code, _, stderr = _main("specular", "--reoptimise", str(out), "--out", str(tmp_path / "third"))
+    assert code == 2 and stderr.count("\n") == 1 and "changed since the table was written" in stderr, stderr

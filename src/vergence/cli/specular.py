@@ -114,6 +114,11 @@ def _summary(name: str, result, display_name: str, out: Path, names: list[str]) 
     for obj in rep["objects"]:
         console.print(f"  {obj['type']} '{obj['name']}' (objects[{obj['object']}], {obj['shape']}, {obj['pixels']} px "
                       f"seen): {_inside(obj)}", highlight=False)  # fmt: skip
+    check, raw = rep.get("render_check"), rep.get("render_check_raw")
+    if check is not None:  # the final render against the physical left eye: layer pixels lost or gained
+        console.print(f"  final render: {sum(check['lost'])} layer pixels lost, {sum(check['foreign'])} foreign, "
+                      f"{check['rim']} rim pixels" + ("" if raw is None else f" (as first traced: {sum(raw['lost'])} "
+                      f"lost, {sum(raw['foreign'])} foreign, {raw['rim']} rim pixels)"), highlight=False)  # fmt: skip
     for line in rep["warnings"]:
         err_console.print(f"[yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
     b, a = rep["cost_before"], rep["cost_after"]

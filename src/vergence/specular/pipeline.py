@@ -278,6 +278,8 @@ class SpecularResult:
             "specular_layers": _pooled(count_b, count_a, slice(1, None)),
             "objects": objects,
             "warnings": zone_warnings(objects, self.zone),
+            **{key: check.to_dict() for key in ("render_check", "render_check_raw")
+               if (check := getattr(self, key, None)) is not None},
             "seconds": {k: round(v, 3) for k, v in self.seconds.items()},
         }
 
