@@ -264,3 +264,37 @@ def test_one_handle_per_cell_changes_the_view_little(shared_data, monkeypatch):
     full = s2_view(target, sources, points=col.points)
     assert (full.handle_counts > 2 * thin.handle_counts).all()  # dino's cloud is dense: thinning matters
     assert np.abs(full.image - thin.image).mean() < 0.005
+
+
+def _first_rows_reference(q):
+    """Indices (ascending) of the first occurrence of each distinct row of ``q (M, 2)`` (numpy)."""
+    order = np.lexsort((q[:, 1], q[:, 0]))  # stable: equal rows keep their order
+    ranked = q[order]
+    first = np.ones(len(q), dtype=bool)
+    first[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
+    return np.sort(order[first])
+
+
+@pytest.mark.parametrize("cell", [4.0, 1.0, 1e-6, 37.5])
+def test_handle_selection_kernel_matches_the_numpy_rule(cell):
+    # One point per cell of the target, the first in index order, of the points a source sees in front
+    # of the target; points far outside the image and exactly on cell borders included.
+    rng = np.random.default_rng(int(cell * 10) % 97)
+    n_points = 3000
+    q = np.concatenate([rng.uniform(-50, 700, (n_points - 40, 2)), np.floor(rng.uniform(0, 20, (20, 2))) * cell,
+                        rng.uniform(-1e7, 1e7, (20, 2))])  # fmt: skip
+    q[rng.integers(0, n_points, 300)] = q[rng.integers(0, n_points, 300)]  # exact duplicates
+    seen = rng.random((5, n_points)) < 0.6
+    in_front = rng.random(n_points) < 0.9
+    ids = np.array([3, 0, 4, 1])
+    chosen = np.empty((len(ids), n_points), dtype=np.int64)
+    counts = np.empty(len(ids), dtype=np.int64)
+    from vergence.stereospace.mls_view import _cell_window
+
+    window = _cell_window(640, 480, cell)
+    assert (window[2] > window[0]) == (cell >= 1.0)  # a grid, or every point sorted
+    _mls_view_kernels.select_handles(seen, ids, in_front, q, cell, window, chosen, counts)
+    for s, n in enumerate(ids):
+        sel = np.flatnonzero(seen[n] & in_front)
+        expected = sel[_first_rows_reference(np.floor(q[sel] / cell))]
+        assert_array_equal(chosen[s, : counts[s]], expected)

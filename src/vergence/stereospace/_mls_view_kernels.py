@@ -1,8 +1,13 @@
-"""Numba kernel of S2's novel view (:func:`vergence.stereospace.s2_view`): the MLS maps read off
-their grid, the angle + field-of-view penalty on a proxy plane, the ULR weights and the bilinear
-samples of the sources, fused in one pass over the target's pixels (no full-size intermediate).
-The public function validates; the kernel trusts its inputs. Its slow, obviously-correct numpy
-twin is in ``tests/stereospace/test_mls_view.py``.
+"""Numba kernels of S2's novel view (:func:`vergence.stereospace.s2_view`).
+
+- :func:`render_view`: the MLS maps read off their grid, the angle + field-of-view penalty on a
+  proxy plane, the ULR weights and the bilinear samples of the sources, fused in one pass over the
+  target's pixels (no full-size intermediate);
+- :func:`select_handles`: each source's MLS handles, one per cell of the target image;
+- :func:`node_angles`: the angle penalty at the grid nodes.
+
+The public function validates; the kernels trust their inputs. Their slow, obviously-correct numpy
+twins are in ``tests/stereospace/test_mls_view.py``.
 """
 
 from __future__ import annotations
@@ -12,7 +17,11 @@ import math
 import numba as nb
 import numpy as np
 
-__all__ = ["render_view"]
+__all__ = ["node_angles", "render_view", "select_handles"]
+
+# Cell coordinates are clipped to +-2**62 to fit int64 (a point 2**62 cells out shares its cell with
+# the others as far).
+_KEY_CLIP = 1 << 62
 
 
 @nb.njit(cache=True, inline="always")
@@ -141,3 +150,83 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
         for x in range(w):
             for c in range(n_ch):
                 image[y, x, c] = row[x, c]
+
+
+@nb.njit(cache=True)
+def _first_per_cell(kx, ky, keep):  # pragma: no cover - compiled
+    """``keep[r]`` True for the first ``r`` (in order) of each distinct ``(kx[r], ky[r])``: two stable sorts."""
+    by_y = np.argsort(ky, kind="mergesort")
+    order = by_y[np.argsort(kx[by_y], kind="mergesort")]
+    for r in range(order.shape[0]):
+        a = order[r]
+        keep[a] = r == 0 or kx[a] != kx[order[r - 1]] or ky[a] != ky[order[r - 1]]
+
+
+@nb.njit(cache=True, parallel=True)
+def select_handles(seen, ids, in_front, q, cell, window, chosen, counts):  # pragma: no cover - compiled
+    """The handles of the sources ``ids``: one point per ``cell`` x ``cell`` square of the target image.
+
+    Source ``s`` keeps, of the points ``p`` with ``seen[ids[s], p]`` and ``in_front[p]`` (its
+    ``(N, P)`` and ``(P,)`` bool masks), the first (in index order) whose target position ``q[p]``
+    falls in each cell ``floor(q / cell)``; writes their indices, ascending, to
+    ``chosen[s, :counts[s]]`` (``chosen (S, P)`` int64). Cells inside ``window = (x0, y0, x1, y1)``
+    (cell coordinates, ``x0 <= kx < x1``) are marked in a grid in one pass; the few points outside
+    it are sorted by cell (two stable sorts). The numpy twin sorts all cells with ``np.lexsort``
+    (``tests/stereospace/test_mls_view.py``).
+    """
+    n_points = in_front.shape[0]
+    gx0, gy0, gx1, gy1 = window[0], window[1], window[2], window[3]
+    for s in nb.prange(ids.shape[0]):
+        n = ids[s]
+        taken = np.zeros((gy1 - gy0, gx1 - gx0), dtype=np.bool_)
+        keep = np.zeros(n_points, dtype=np.bool_)
+        out_idx = np.empty(n_points, dtype=np.int64)
+        out_kx = np.empty(n_points, dtype=np.int64)
+        out_ky = np.empty(n_points, dtype=np.int64)
+        m_out = 0
+        for p in range(n_points):
+            if not (seen[n, p] and in_front[p]):
+                continue
+            kx = np.int64(min(max(math.floor(q[p, 0] / cell), -_KEY_CLIP), _KEY_CLIP))
+            ky = np.int64(min(max(math.floor(q[p, 1] / cell), -_KEY_CLIP), _KEY_CLIP))
+            if gx0 <= kx < gx1 and gy0 <= ky < gy1:
+                if not taken[ky - gy0, kx - gx0]:
+                    taken[ky - gy0, kx - gx0] = True
+                    keep[p] = True
+            else:
+                out_idx[m_out] = p
+                out_kx[m_out] = kx
+                out_ky[m_out] = ky
+                m_out += 1
+        if m_out:
+            first = np.zeros(m_out, dtype=np.bool_)
+            _first_per_cell(out_kx[:m_out], out_ky[:m_out], first)
+            for r in range(m_out):
+                if first[r]:
+                    keep[out_idx[r]] = True
+        c = 0
+        for p in range(n_points):
+            if keep[p]:
+                chosen[s, c] = p
+                c += 1
+        counts[s] = c
+
+
+@nb.njit(cache=True, parallel=True, error_model="numpy")
+def node_angles(nodes, K_inv, R_t, centre, centres, depth, out):  # pragma: no cover - compiled
+    """``P_ANG (S, len(nodes))`` (S2 §3.1 Eq. (4)) into ``out``: at each node's proxy point ``P`` (its
+    ray at camera-frame depth ``depth``: ``P = R^T (depth K^-1 [x, y, 1] - t)``, given as
+    ``centre + depth R^T K^-1 [x, y, 1]``), the angle between ``centre - P`` and ``centres[s] - P``
+    as ``atan2(|a x b|, a . b)`` (accurate at small angles too)."""
+    for k in nb.prange(nodes.shape[0]):
+        ray = np.empty(3)
+        for r in range(3):
+            ray[r] = K_inv[r, 0] * nodes[k, 0] + K_inv[r, 1] * nodes[k, 1] + K_inv[r, 2]
+        px = centre[0] + depth * (R_t[0, 0] * ray[0] + R_t[0, 1] * ray[1] + R_t[0, 2] * ray[2])
+        py = centre[1] + depth * (R_t[1, 0] * ray[0] + R_t[1, 1] * ray[1] + R_t[1, 2] * ray[2])
+        pz = centre[2] + depth * (R_t[2, 0] * ray[0] + R_t[2, 1] * ray[1] + R_t[2, 2] * ray[2])
+        ax, ay, az = centre[0] - px, centre[1] - py, centre[2] - pz
+        for s in range(centres.shape[0]):
+            bx, by, bz = centres[s, 0] - px, centres[s, 1] - py, centres[s, 2] - pz
+            cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+            out[s, k] = math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz)

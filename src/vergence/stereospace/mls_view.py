@@ -5,6 +5,7 @@ blended with S2's penalties (angle + field of view) on a proxy built from the po
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -127,24 +128,29 @@ def _source_set(cameras: Sequence[Camera], images: Sequence[np.ndarray], points:
     return _SourceSet(tuple(cameras), stack, sizes, centres, pixels, seen)
 
 
-def _first_rows(q: np.ndarray) -> np.ndarray:
-    """Indices (ascending) of the first occurrence of each distinct row of ``q (M, 2)``."""
-    order = np.lexsort((q[:, 1], q[:, 0]))  # stable: equal rows keep their order
-    ranked = q[order]
-    first = np.ones(len(q), dtype=bool)
-    first[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
-    return np.sort(order[first])
+# The handle cells marked in a grid (the rest sorted): those of the target image and as much again
+# around it, at most this many cells (a handle cell far below a pixel has no grid).
+_MAX_GRID_CELLS = 1 << 22
+
+
+def _cell_window(width: int, height: int, cell: float) -> np.ndarray:
+    """``(x0, y0, x1, y1)``, the cells of :func:`_mls_view_kernels.select_handles`'s grid."""
+    x0, y0 = math.floor(-width / 2 / cell), math.floor(-height / 2 / cell)
+    x1, y1 = math.floor(1.5 * width / cell) + 1, math.floor(1.5 * height / cell) + 1
+    if (x1 - x0) * (y1 - y0) > _MAX_GRID_CELLS:
+        x1, y1 = x0, y0  # no grid: every point sorted
+    return np.array([x0, y0, x1, y1], dtype=np.int64)
 
 
 def _node_angles(target: Camera, nodes: np.ndarray, centres: np.ndarray, depth: float) -> np.ndarray:
     """``P_ANG (S, len(nodes))`` (S2 §3.1 Eq. (4)): at each node's proxy point ``P`` (its ray at
     camera-frame ``depth``), the angle between ``C_target - P`` and ``centres[s] - P`` (atan2 of
-    the cross and dot products: accurate at small angles too)."""
-    proxy = target.backproject(nodes, np.full(len(nodes), depth))
-    to_target = target.center - proxy
-    to_sources = centres[:, None, :] - proxy[None]
-    cross = np.linalg.norm(np.cross(to_target[None], to_sources), axis=-1)
-    return np.arctan2(cross, np.einsum("pk,spk->sp", to_target, to_sources))
+    the cross and dot products: accurate at small angles too); :func:`_mls_view_kernels.node_angles`."""
+    out = np.empty((len(centres), len(nodes)))
+    _mls_view_kernels.node_angles(np.ascontiguousarray(nodes, dtype=np.float64), np.linalg.inv(target.K),
+                                  np.ascontiguousarray(target.R.T), target.center,
+                                  np.ascontiguousarray(centres, dtype=np.float64), float(depth), out)  # fmt: skip
+    return out
 
 
 def _render(
@@ -171,10 +177,13 @@ def _render(
     counts = np.zeros(len(ids), dtype=np.int64)
     at_nodes = np.zeros((len(ids), ys.size, xs.size, 3))
     at_nodes[..., 2] = _node_angles(target, nodes, sources.centres[ids], proxy_depth).reshape(-1, ys.size, xs.size)
+    chosen = np.empty((len(ids), len(points)), dtype=np.int64)
+    found = np.empty(len(ids), dtype=np.int64)
+    _mls_view_kernels.select_handles(sources.seen, ids, in_front, q, float(S2_HANDLE_CELL_PX),
+                                     _cell_window(w, h, S2_HANDLE_CELL_PX), chosen, found)  # fmt: skip
     handles = []
     for s, n in enumerate(ids):
-        sel = np.flatnonzero(sources.seen[n] & in_front)
-        sel = sel[_first_rows(np.floor(q[sel] / S2_HANDLE_CELL_PX))]
+        sel = chosen[s, : found[s]]
         if sel.size < MLS_MIN_HANDLES:
             used[s] = -1
             continue
