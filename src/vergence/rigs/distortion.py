@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.rigs.stereo import _right_of
+from vergence.rigs._shifted import shifted_right_camera
 from vergence.viewing.geometry import Shooting
 
 __all__ = ["WINDOW_RTOL", "WorldDistortion"]
@@ -234,4 +234,4 @@ class WorldDistortion:
         Its pixel disparity with ``left`` is ``x_l - x_r = fx b_r (1/z - 1/H_r)`` (S0 Eq. 1a), so it sees
         the distorted world with S0's disparity ``psi(d(z))``.
         """
-        return _right_of(self.left, self.reference.baseline, self.reference.convergence)
+        return shifted_right_camera(self.left, self.reference.baseline, self.reference.convergence)

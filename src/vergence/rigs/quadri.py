@@ -26,8 +26,9 @@ import numpy as np
 
 from vergence._validate import as_float_array
 from vergence.camera import Camera
+from vergence.rigs._shifted import check_rig_length
 from vergence.rigs.cameras import RIG_EYES, RigCamera, check_element_name
-from vergence.rigs.stereo import _rig_length, stereo_pair
+from vergence.rigs.stereo import stereo_pair
 
 __all__ = ["QUADRI_MAX_FOCAL_RATIO", "QUADRI_WARN_FOCAL_RATIO", "QuadriRig", "plan_quadri_rig"]
 
@@ -184,7 +185,7 @@ def plan_quadri_rig(
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a vergence.camera.Camera; got {type(camera).__name__}")
     left, right = stereo_pair(camera, baseline=baseline, convergence=convergence)
-    s = _rig_length("setback", setback)
+    s = check_rig_length("setback", setback)
     items = _elements(elements)
     forward = camera.R[2]
     b_v = float(np.linalg.norm(right.center - left.center))

@@ -18,9 +18,8 @@ import math
 
 import numpy as np
 
-from vergence._validate import check_positive
 from vergence.camera import Camera
-from vergence.viewing.geometry import LENGTH_RANGE
+from vergence.rigs._shifted import check_rig_length
 
 __all__ = ["stereo_pair"]
 
@@ -70,8 +69,8 @@ def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple
     """
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a vergence.camera.Camera; got {type(camera).__name__}")
-    b = _rig_length("baseline", baseline)
-    H = _rig_length("convergence", convergence)
+    b = check_rig_length("baseline", baseline)
+    H = check_rig_length("convergence", convergence)
     right_axis = camera.R[0]
     shift_px = float(camera.K[0, 0]) * b / (2.0 * H)  # sensor shift fx b / (2H), S0 §2 (Python floats: no warning)
     cx = float(camera.K[0, 2])
@@ -85,23 +84,3 @@ def stereo_pair(camera: Camera, *, baseline: float, convergence: float) -> tuple
         K[0, 2] = cx + sign * shift_px
         cams.append(Camera(K=K, R=camera.R, t=-camera.R @ center, width=camera.width, height=camera.height))
     return cams[0], cams[1]
-
-
-def _rig_length(name: str, value: object) -> float:
-    """A rig length in metres, refused outside LENGTH_RANGE (where the rig's figures stay finite)."""
-    v = check_positive(name, value)
-    if not LENGTH_RANGE[0] <= v <= LENGTH_RANGE[1]:
-        raise ValueError(f"{name} must be in [{LENGTH_RANGE[0]:g}, {LENGTH_RANGE[1]:g}] m (LENGTH_RANGE); got {v:g}")
-    return v
-
-
-def _right_of(camera: Camera, baseline: float, convergence: float) -> Camera:
-    """``camera`` moved ``baseline`` along its right axis, principal point ``cx + fx b / H``: the right
-    camera of a shifted-sensor pair whose left camera is ``camera`` (S0 §2; its window is ``camera``'s
-    image at depth ``H``). Lengths already validated by the caller."""
-    center = camera.center + baseline * camera.R[0]
-    K = np.array(camera.K, copy=True)
-    K[0, 2] += camera.focal_px * baseline / convergence  # sensor shift fx b / H (S0 §2)
-    if not math.isfinite(K[0, 2]):
-        raise ValueError(f"convergence must keep the sensor shift fx b / H finite; got cx = {K[0, 2]:g} px")
-    return Camera(K=K, R=camera.R, t=-camera.R @ center, width=camera.width, height=camera.height)

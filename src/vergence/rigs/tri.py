@@ -30,9 +30,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from vergence.camera import Camera
+from vergence.rigs._shifted import shifted_right_camera
 from vergence.rigs.cameras import RigCamera
 from vergence.rigs.distortion import WorldDistortion
-from vergence.rigs.stereo import _right_of
 from vergence.viewing import ConstrainedMapping, DirectorConstraint, Display, Shooting, check_display, psi_from_constraints
 
 __all__ = ["TRI_REFERENCES", "TriRig", "plan_tri_rig"]
@@ -230,8 +230,8 @@ def plan_tri_rig(
         raise ValueError(f"constraints {listed}: psi passes the divergence limit b'/W' = {display.divergence_disparity:g} "
                          f"on [near, far] (S0 Eq. 8)")  # fmt: skip
     distortion = WorldDistortion(director, ref, mapping.psi)
-    subject = _right_of(director, b_s, H)
-    background = _right_of(director, b_3, H)
+    subject = shifted_right_camera(director, b_s, H)
+    background = shifted_right_camera(director, b_3, H)
     cameras = (
         RigCamera(name="director", element="director", eye="left", camera=director),
         RigCamera(name="subject", element="subject", eye="right", camera=subject),
