@@ -76,9 +76,10 @@ def refine_one(
     kind: np.ndarray, center: np.ndarray, radius: np.ndarray, normal: np.ndarray, right: np.ndarray, up: np.ndarray,
     size: np.ndarray, tri_offset: np.ndarray, tri_v: np.ndarray, tri_n: np.ndarray, tri_uv: np.ndarray,
     k: int, prim: int, ox: float, oy: float, oz: float, dx: float, dy: float, dz: float, t_approx: float,
+    want_uv: bool,
 ) -> tuple:  # fmt: skip
     """One hit of :func:`refine_hits`: ``(t, ng_x, ng_y, ng_z, ns_x, ns_y, ns_z, u, v)``, the outward geometric
-    and shading normals and the texture coordinates."""
+    and shading normals and the texture coordinates (a sphere's left 0 unless ``want_uv``)."""
     u, v = 0.0, 0.0
     if kind[k] == 0:
         cx, cy, cz, r = center[k, 0], center[k, 1], center[k, 2], radius[k]
@@ -92,8 +93,9 @@ def refine_one(
         qx, qy, qz = (ox + ti * dx - cx) / r, (oy + ti * dy - cy) / r, (oz + ti * dz - cz) / r
         ln = math.sqrt(qx * qx + qy * qy + qz * qz)
         qx, qy, qz = qx / ln, qy / ln, qz / ln
-        u = 0.5 + math.atan2(qx, qz) / (2 * math.pi)
-        v = 1.0 - math.acos(min(max(qy, -1.0), 1.0)) / math.pi
+        if want_uv:
+            u = 0.5 + math.atan2(qx, qz) / (2 * math.pi)
+            v = 1.0 - math.acos(min(max(qy, -1.0), 1.0)) / math.pi
         return ti, qx, qy, qz, qx, qy, qz, u, v
     elif kind[k] == 1:
         nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
@@ -161,7 +163,7 @@ def refine_hits(
         dx, dy, dz = d[r_, 0], d[r_, 1], d[r_, 2]
         ti, ng[i, 0], ng[i, 1], ng[i, 2], ns[i, 0], ns[i, 1], ns[i, 2], uv[i, 0], uv[i, 1] = refine_one(
             kind, center, radius, normal, right, up, size, tri_offset, tri_v, tri_n, tri_uv, obj[i], prim[i],
-            ox, oy, oz, dx, dy, dz, t_approx[i])  # fmt: skip
+            ox, oy, oz, dx, dy, dz, t_approx[i], True)  # fmt: skip
         t[i] = ti
         p[i, 0], p[i, 1], p[i, 2] = ox + ti * dx, oy + ti * dy, oz + ti * dz
     return t, p, ng, ns, uv

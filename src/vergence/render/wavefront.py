@@ -30,6 +30,9 @@ __all__ = ["ShadingPack", "pack_shading", "trace_wavefront"]
 _EMPTY_MAP = np.zeros((0, 1, 3), dtype=np.float32)
 # Rays shaded per kernel call within a level: bounds the scratch (21 float64 per ray: 350 MiB).
 _LEVEL_CHUNK = 1 << 21
+# Runs of rays per level chunk (each a parallel iteration of shade_level and compact_level, in order:
+# a two-level scan places the diffuse hits and children) and the fewest rays in a run.
+_BLOCKS, _RUN = 256, 512
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -92,10 +95,10 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
     n_slots, n_views = int(starts[-1]), len(starts) - 1
     view_of = lambda slots: np.searchsorted(starts[1:], slots, side="right")  # noqa: E731
     rad = np.zeros((n_nodes, n_slots, 3), dtype=np.float32)
-    pos = np.full((n_nodes, geo_slots, 3), np.nan, dtype=np.float32)
-    nrm = np.full((n_nodes, geo_slots, 3), np.nan, dtype=np.float32)
-    first_p = np.full((n_slots, 3), np.nan)
-    first_t = np.full(n_slots, np.nan)
+    pos = np.empty((n_nodes, geo_slots, 3), dtype=np.float32)  # NaN where no hit: finish_layers
+    nrm = np.empty((n_nodes, geo_slots, 3), dtype=np.float32)
+    first_p = np.empty((n_slots, 3))
+    first_t = np.empty(n_slots)
     oid = np.full((n_nodes, n_slots), -1, dtype=np.int32)
     pk, shader, sp = tracer.packed, tracer.shader, tracer._shading_pack()
     caster = tracer.intersector.caster
@@ -103,7 +106,7 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
     slot = np.ascontiguousarray(pixels, dtype=np.int64)
     o = np.ascontiguousarray(origins, dtype=np.float64)
     d = np.ascontiguousarray(directions, dtype=np.float64)
-    thr = np.ones((len(slot), 3))
+    thr = np.zeros((0, 3))  # 1 at the first level
     o32, d32 = wk.start_rays(o, d)
     queue: list[tuple[np.ndarray, ...]] = []
     tree_rays = np.zeros(n_views, dtype=np.int64)
@@ -123,7 +126,7 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
             q, children, r_part, t_part = _shade_chunk(slice(c0, c1), node, slot, o, d, thr, registry, prim, t32,
                                              tmax[c0:c1] if bounded else no_tmax, bounded, level == max_depth,
                                              level == 0, geo_slots, pk, sp, caster.lookup, rad, pos, nrm, first_p,
-                                             first_t, oid)  # fmt: skip
+                                             first_t, oid, tracer._uv_objects())  # fmt: skip
             if len(q[0]):
                 queue.append(q)
             reflected.append(r_part)
@@ -134,6 +137,7 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
             c_node, c_slot, c_o, c_d, c_thr, o32, d32 = (np.concatenate([p[k] for p in reflected + refracted],
                                                                         axis=1 if k >= 5 else 0) for k in range(7))  # fmt: skip
         node, slot, o, d, thr = c_node, c_slot, c_o, c_d, c_thr
+    wk.finish_layers(oid, pos, nrm, first_p, first_t)
     if progress is not None:
         progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")
     ao_count = np.zeros(n_views, dtype=np.int64)
@@ -149,25 +153,29 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
 
 
 def _shade_chunk(sl, node, slot, o, d, thr, registry, prim, t32, tmax, bounded, last, first, geo_slots, pk, sp, lookup,
-                 rad, pos, nrm, first_p, first_t, oid):  # noqa: ANN001, ANN202  # fmt: skip
+                 rad, pos, nrm, first_p, first_t, oid, want_uv):  # noqa: ANN001, ANN202  # fmt: skip
     """``shade_level`` and ``compact_level`` on the rays ``sl`` of a level: their diffuse hits, their children
     (``(node, slot, origin, direction, throughput, o32, d32)``: the reflections then the refractions) and
     these two parts as views."""
-    node, slot, o, d, thr = node[sl], slot[sl], o[sl], d[sl], thr[sl]
+    node, slot, o, d = node[sl], slot[sl], o[sl], d[sl]
+    thr = thr[sl] if len(thr) else thr
     m = len(node)
     cls = np.empty(m, dtype=np.int8)
     h = np.empty((m, 21))
-    wk.shade_level(node, slot, o, d, thr, registry[sl], lookup, prim[sl], t32[sl], tmax, bounded, pk.kind, pk.center,
-                   pk.radius, pk.normal, pk.right, pk.up, pk.size, pk.tri_offset, pk.tri_v, pk.tri_n, pk.tri_uv,
-                   pk.material, pk.mat_kind, pk.mat_color, pk.mat_ior, sp.alb_kind, sp.alb_color, sp.alb_squares,
-                   sp.tex_base, sp.tex_h, sp.tex_w, sp.tex_data, sp.env_map, sp.env_color, sp.rotation, last, first,
-                   geo_slots, rad, pos, nrm, first_p, first_t, oid, cls, h)  # fmt: skip
-    q_at, r_at, t_at, nq, nr, nt = wk.level_counts(cls)
+    blocks = max(1, min(m // _RUN, _BLOCKS))
+    counts = wk.shade_level(node, slot, o, d, thr, registry[sl], lookup, prim[sl], t32[sl], tmax, bounded, pk.kind,
+                            pk.center, pk.radius, pk.normal, pk.right, pk.up, pk.size, pk.tri_offset, pk.tri_v,
+                            pk.tri_n, pk.tri_uv, pk.material, pk.mat_kind, pk.mat_color, pk.mat_ior, sp.alb_kind,
+                            sp.alb_color, sp.alb_squares, sp.tex_base, sp.tex_h, sp.tex_w, sp.tex_data, sp.env_map,
+                            sp.env_color, sp.rotation, last, first, geo_slots, rad, pos, nrm, first_p, first_t, oid,
+                            cls, h, want_uv, blocks)  # fmt: skip
+    starts = np.cumsum(counts, axis=0) - counts
+    nq, nr, nt = (int(v) for v in counts.sum(axis=0))
     nc = nr + nt
     q = (np.empty(nq, np.int64), np.empty(nq, np.int64), np.empty((nq, 9)), np.empty((nq, 3)))
     c = (np.empty(nc, np.int64), np.empty(nc, np.int64), np.empty((nc, 3)), np.empty((nc, 3)), np.empty((nc, 3)),
          np.empty((3, nc), np.float32), np.empty((3, nc), np.float32))  # fmt: skip
-    wk.compact_level(cls, h, node, slot, q_at, r_at, t_at, nr, EPS_REL, *q, *c)
+    wk.compact_level(cls, h, node, slot, starts, nr, EPS_REL, *q, *c)
     cut = lambda part: tuple(a[:, part] if k >= 5 else a[part] for k, a in enumerate(c))  # noqa: E731
     return q, c, cut(slice(0, nr)), cut(slice(nr, nc))
 
