@@ -464,10 +464,10 @@ def test_one_16_bit_level_of_texture_is_not_flat():
 
 
 def test_ranked_distances_use_the_nearest_rank():
-    from vergence.metrics import _summaries
+    from vergence._summaries import distance_summaries
 
     # N = 5: k = 0.3 -> ceil(1.5) = 2nd smallest, k = 0.5 -> ceil(2.5) = 3rd, k = 1 -> the largest.
-    rms, median, ranked = _summaries(np.array([5.0, 1.0, 4.0, 2.0, 3.0]), (0.3, 0.5, 1.0))
+    rms, median, ranked = distance_summaries(np.array([5.0, 1.0, 4.0, 2.0, 3.0]), (0.3, 0.5, 1.0))
     assert ranked == {0.3: 2.0, 0.5: 3.0, 1.0: 5.0}
     assert median == 3.0 and rms == pytest.approx(math.sqrt(11.0), rel=FLOAT64_TOL)
 

@@ -16,6 +16,7 @@ import numpy as np
 from skimage.metrics import structural_similarity
 
 from vergence._metrics_kernels import SIMILARITY_SSD, SIMILARITY_ZNCC, patch_sums, registration_search
+from vergence._summaries import distance_summaries
 from vergence._validate import as_image_pair, check_bool, check_finite, check_in_range, check_positive, check_positive_int
 
 __all__ = [
@@ -348,16 +349,6 @@ def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([dy[order], dx[order]], axis=1).astype(np.int64), dist[order]
 
 
-def _summaries(values: np.ndarray, ranks: Sequence[float]) -> tuple[float, float, dict[float, float]]:
-    """RMS, median and nearest-rank k-th ranked values (the ``ceil(k N)``-th smallest of the N
-    values, k in (0, 1]; Eq. 13, k = 1 is Eq. 12) of a non-empty set of distances."""
-    flat = np.sort(np.asarray(values, dtype=np.float64).ravel())
-    ranked = {k: float(flat[max(math.ceil(k * flat.size), 1) - 1]) for k in ranks}
-    peak = float(flat[-1])  # the RMS scaled by the largest distance: a subnormal radius's squares underflow to 0
-    rms = peak * float(np.sqrt(np.mean((flat / peak) ** 2))) if peak > 0.0 else 0.0
-    return rms, float(np.median(flat)), ranked
-
-
 def _patch_contrast(sums: np.ndarray, squares: np.ndarray, k: int) -> np.ndarray:
     """RMS deviation of each k x k patch about its per-channel means, pooled over the C channels.
 
@@ -543,7 +534,7 @@ def registration_error(
     )
     distance[best < tau] = r
     distance[~evaluated] = np.nan
-    rms, median, ranked = _summaries(distance[evaluated], ks)  # Eq. (12)-(13)
+    rms, median, ranked = distance_summaries(distance[evaluated], ks)  # Eq. (12)-(13)
     return RegistrationError(
         distance=distance,
         rms=rms,

@@ -15,13 +15,13 @@ from types import MappingProxyType
 
 import numpy as np
 
+from vergence._summaries import distance_summaries
 from vergence._validate import as_image_pair, check_finite, check_in_range, check_positive
 from vergence.metrics import (
     MAX_REGISTRATION_RADIUS,
     MIN_CONTRAST,
     REGISTRATION_PATCH,
     SSIM_WINDOW,
-    _summaries,
     patch_contrast,
     psnr,
     registration_error,
@@ -176,7 +176,7 @@ def assess_view(
         dist = reg.distance[selected]
         evaluated = dist[~np.isnan(dist)]
         # Eq. (13), nearest rank; k = 1 is the Hausdorff distance of Eq. (12).
-        rms, median, ranked = _summaries(evaluated, _RANKS)
+        rms, median, ranked = distance_summaries(evaluated, _RANKS)
     else:  # a flat view (inside the mask): nothing to register, and the search would be wasted
         if not check_positive("radius", radius) <= MAX_REGISTRATION_RADIUS:
             raise ValueError(f"radius must be at most {MAX_REGISTRATION_RADIUS} px (MAX_REGISTRATION_RADIUS); got {radius:g}")
