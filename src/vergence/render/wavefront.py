@@ -141,12 +141,10 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
     if progress is not None:
         progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")
     ao_count = np.zeros(n_views, dtype=np.int64)
-    if queue:
-        q_node, q_slot, q_geo, q_alb = (np.concatenate([b[k] for b in queue]) for k in range(4))
+    for q_node, q_slot, q_geo, q_alb in queue:  # in the staged order (an rng's draws continue block to block)
         _ambient_occlusion(shader, sp, q_node, q_slot, q_geo, q_alb, rad, samples=samples, rng=rng,
                            ao_distance=ao_distance)  # fmt: skip
-        ao_count = (len(q_slot) if n_views == 1 else np.bincount(view_of(q_slot), minlength=n_views)) * samples
-        ao_count = np.broadcast_to(ao_count, (n_views,)).astype(np.int64)
+        ao_count += (len(q_slot) if n_views == 1 else np.bincount(view_of(q_slot), minlength=n_views)) * samples
     if progress is not None:
         progress(1.0, "done")
     return rad, pos, nrm, first_p, first_t, tree_rays, ao_count, oid
