@@ -70,9 +70,9 @@ def test_the_console_script_sets_the_folder_and_the_library_does_not(tmp_path):
     code = """
         import atexit, os, sys
         atexit.register(lambda: print(os.environ.get("NUMBA_CACHE_DIR")))
-        from vergence.cli import _entry
+        from vergence.cli import entry
         sys.argv[0] = "vergence"
-        _entry()
+        entry()
     """
     result = subprocess.run([sys.executable, "-c", textwrap.dedent(code), "--help"], env=env, capture_output=True,
                             text=True, timeout=SUBPROCESS_TIMEOUT_S)

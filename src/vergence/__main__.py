@@ -1,6 +1,6 @@
-"""``python -m vergence``: the ``vergence`` command (:func:`vergence.cli._entry`)."""
+"""``python -m vergence``: the ``vergence`` command (:func:`vergence.cli.entry`)."""
 
-from vergence.cli import _entry
+from vergence.cli import entry
 
 if __name__ == "__main__":
-    _entry()
+    entry()

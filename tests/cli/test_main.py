@@ -97,7 +97,7 @@ def _run_cli(*args: str, env: dict[str, str] | None = None) -> "subprocess.Compl
     import subprocess
     import sys
 
-    code = "import sys; from vergence.cli import _entry; sys.argv[0] = 'vergence'; _entry()"
+    code = "import sys; from vergence.cli import entry; sys.argv[0] = 'vergence'; entry()"
     full_env = {**os.environ, **(env or {})}
     return subprocess.run([sys.executable, "-c", code, *args], env=full_env, capture_output=True, text=True,
                           timeout=120)
@@ -173,7 +173,7 @@ def test_ctrl_c_at_start_up_is_one_line_and_exit_code_130(point, args):
     import subprocess
     import sys
 
-    code = "import sys; from vergence.cli import _entry; sys.argv[0] = 'vergence'; _entry()"
+    code = "import sys; from vergence.cli import entry; sys.argv[0] = 'vergence'; entry()"
     env = {**os.environ, f"VERGENCE_TEST_SLEEP_{point}": "60"}
     proc = subprocess.Popen([sys.executable, "-c", code, *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)

@@ -13,7 +13,7 @@ import time
 from collections.abc import MutableMapping
 from types import FrameType
 
-__all__ = ["COMMANDS", "EXIT_INTERRUPTED", "app", "main"]
+__all__ = ["COMMANDS", "EXIT_INTERRUPTED", "app", "entry", "main"]
 
 # name -> (module in vergence.cli, one-line summary for ``vergence --help``). A new command is one
 # row here and a module that registers it with ``@app.command(name)``; keep the rows sorted.
@@ -229,8 +229,9 @@ def _use_user_kernel_cache() -> None:
     _compile_notice.install()
 
 
-def _entry() -> None:
-    """The console script: SIGINT handler first (before any heavy import), then :func:`main`."""
+def entry() -> None:
+    """The console script (``vergence``, ``python -m vergence``): SIGINT handler first (before any heavy
+    import), then :func:`main`; exits with its code."""
     _signal.signal(_signal.SIGINT, _on_sigint)
     _prefer_passive_omp_wait(os.environ)
     _use_user_kernel_cache()
