@@ -39,9 +39,12 @@ it Mitsuba. The table and the final render trace rays.
 
 from vergence.specular.cost import (
     ABSOLUTE_VARIANTS,
+    COMFORT_MARGIN_ARCMIN,
     COST_TERMS,
     COST_WEIGHTS,
     RELATIVE_LAMBDA_ARCMIN,
+    RIVALRY_TOLERANCE,
+    VERTICAL_TOLERANCE_ARCMIN,
     CostTerms,
     disparity_cost,
     disparity_cost_gradient,
@@ -77,7 +80,14 @@ from vergence.specular.matching import (
 )
 from vergence.specular.optimise import DESCENT_STEPS, FIRST_STEP, RESTARTS, OffsetSolution, optimise_offsets
 from vergence.specular.tabulated import OffsetAnalysis, analyse_table
-from vergence.specular.planning import PLAN_FACTOR, PLAN_SIGMA_RANGE, OffsetPlan, OffsetPlanner
+from vergence.specular.planning import (
+    FILL_WEIGHT,
+    IMPORTANCE_FLOOR,
+    PLAN_FACTOR,
+    PLAN_SIGMA_RANGE,
+    OffsetPlan,
+    OffsetPlanner,
+)
 from vergence.specular.pipeline import (
     DEFAULT_VARIANT,
     MAX_TABLE_BYTES,
@@ -89,7 +99,14 @@ from vergence.specular.pipeline import (
     offset_table_bytes,
     specular_stereo,
 )
-from vergence.specular.resample import joint_bilateral_upsample, weighted_block_mean
+from vergence.specular.render_check import (
+    REPAIR_STEPS,
+    RenderCheck,
+    RepairedRender,
+    check_render,
+    repair_render,
+)
+from vergence.specular.resample import joint_bilateral_upsample, push_pull_fill, weighted_block_mean
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 from vergence.specular.offsets import (
     MAX_OFFSET_STEPS,
@@ -113,6 +130,7 @@ from vergence.specular.table_file import (
 
 __all__ = [
     "ABSOLUTE_VARIANTS",
+    "COMFORT_MARGIN_ARCMIN",
     "CONTRAST_SATURATION_JND",
     "CONTRAST_WINDOW",
     "COST_TERMS",
@@ -123,7 +141,9 @@ __all__ = [
     "DISPLAY_FITS",
     "DISTINCTIVENESS_SCALE",
     "EPSILON_FRACTION",
+    "FILL_WEIGHT",
     "FIRST_STEP",
+    "IMPORTANCE_FLOOR",
     "Importance",
     "LAYER_MATCH_METHODS",
     "LayerDisparity",
@@ -142,8 +162,12 @@ __all__ = [
     "PLAN_SIGMA_RANGE",
     "PerceivedLightness",
     "RELATIVE_LAMBDA_ARCMIN",
+    "REPAIR_STEPS",
     "RESTARTS",
+    "RIVALRY_TOLERANCE",
     "RIVALRY_WINDOW",
+    "RenderCheck",
+    "RepairedRender",
     "Rivalry",
     "SAME_SURFACE_FRACTION",
     "SEPARATION_ARCMIN",
@@ -152,9 +176,11 @@ __all__ = [
     "SpecularTable",
     "TABLE_FILE",
     "TABLE_FORMAT",
+    "VERTICAL_TOLERANCE_ARCMIN",
     "ZoneCount",
     "analyse_table",
     "arcmin_per_pixel",
+    "check_render",
     "comfort_share",
     "contrast_q",
     "csf_lowpass",
@@ -182,8 +208,10 @@ __all__ = [
     "peli_contrast",
     "perceived_lightness",
     "pixels_per_degree",
+    "push_pull_fill",
     "read_specular_table",
     "render_offsets",
+    "repair_render",
     "rivalry",
     "scene_diameter",
     "specular_from_table",

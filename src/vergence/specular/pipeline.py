@@ -44,6 +44,7 @@ from vergence.specular.lightness import PerceivedLightness, layer_lightness, pix
 from vergence.specular.matching import MATCH_WINDOW, disparity_arcmin, layer_disparity
 from vergence.specular.offsets import render_offsets, tabulate_offsets
 from vergence.specular.planning import PLAN_FACTOR, OffsetPlanner
+from vergence.specular.render_check import RenderCheck, repair_render
 from vergence.specular.rivalry_map import rivalry
 from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, near_surface, on_surface
 from vergence.specular.tabulated import analyse_table
@@ -158,7 +159,9 @@ class SpecularResult:
     before, after : LayerState
         The physical left eye and the optimised one, each measured against the right eye.
     cost_before, cost_after : CostTerms
-        S3 Eq. 2 of those states (``before`` is the original, so its data term is 0).
+        S3 Eq. 2 of those states, with the physical pair's importance (with S3's variant the data
+        term of ``before`` is 0; with ours it equals the absolute term: both measure the distance
+        to the target zone).
     zone : ComfortZone
     specular : bool
         False when nothing specular is in view (then the optimised eye is the physical one).
@@ -166,6 +169,11 @@ class SpecularResult:
         Wall time per stage.
     settings : dict
         What was asked (k, variant, alpha, factor, ...), JSON-ready.
+    render_check, render_check_raw : RenderCheck or None
+        Layer pixels lost or foreign in the final render against the physical left eye
+        (:func:`~vergence.specular.check_render`), after the repair (``render_check``, 0 by
+        construction) and as first traced (``render_check_raw``: what was repaired); None when
+        nothing is specular.
     """
 
     physical_left: object
@@ -183,6 +191,8 @@ class SpecularResult:
     seconds: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     _session: _Session | None = field(default=None, repr=False)
+    render_check: RenderCheck | None = None
+    render_check_raw: RenderCheck | None = None
 
     def reoptimise(
         self,
@@ -319,7 +329,8 @@ def _has_specular(scene: object) -> bool:
 
 
 def _cost(state: LayerState, original: LayerState, **kw: object) -> CostTerms:
-    return disparity_cost(state.disparity, state.rivalry, state.importance, original.disparity, **kw)
+    # importance of the physical pair for both states (S3 §3.2; the objective holds it fixed)
+    return disparity_cost(state.disparity, state.rivalry, original.importance, original.disparity, **kw)
 
 
 def specular_stereo(
@@ -523,15 +534,17 @@ def _optimise(session: _Session, *, alpha: object, variant: str, maps: Mapping[s
         report(0.3, "final render with per-pixel cameras")
         t1 = time.perf_counter()
         optimised = render_offsets(s.tracer, s.left, s.right, plan.y, samples=s.samples)
+        repaired = repair_render(s.tracer, s.left, s.right, plan.y, phys, optimised, samples=s.samples)
+        optimised, y, checks = repaired.render, repaired.y, (repaired.after, repaired.before)
         seconds["final_render"] = time.perf_counter() - t1
-        y = plan.y
         after, _ = _state(optimised, s.right_render, s.right_lightness, s.display, s.exposure, s.epsilon, s.window)
     else:
-        optimised, y, after = phys, np.ones((n, h, w), np.float32), before
+        optimised, y, after, checks = phys, np.ones((n, h, w), np.float32), before, (None, None)
     seconds["total"] = s.seconds["total"] + time.perf_counter() - t0
     report(1.0, "done")
     return SpecularResult(physical_left=phys, right=s.right_render, optimised_left=optimised,
                           on_surface_left=s.on_surface_left, near_surface_left=s.near_surface_left, y=y,
                           before=before, after=after, cost_before=_cost(before, before, maps=maps, **cost_kw),
                           cost_after=_cost(after, before, maps=maps, **cost_kw), zone=s.zone, specular=s.specular,
-                          seconds=seconds, settings=settings, _session=session)  # fmt: skip
+                          seconds=seconds, settings=settings, _session=session, render_check=checks[0],
+                          render_check_raw=checks[1])  # fmt: skip

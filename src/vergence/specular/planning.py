@@ -7,13 +7,19 @@ weighted by its importance". :class:`OffsetPlanner` does that on an
 :class:`~vergence.specular.OffsetAnalysis`:
 
 1. once: the table reduced ``factor`` times in each direction, each block's disparity and rivalry
-   averaged with the importance as weight (:func:`~vergence.specular.weighted_block_mean`), the
-   importance by its plain block mean;
+   at every offset averaged with the *physical* importance as weight
+   (:func:`~vergence.specular.weighted_block_mean`): the same pixels make a block's disparity at
+   every offset, so that a block cannot change its disparity by changing which of its pixels are
+   important; the block's importance is its plain mean of the physical importance;
 2. per :meth:`OffsetPlanner.solve` (a weight changed, a map painted): the per-pixel descent on the
-   reduced table (:func:`~vergence.specular.optimise_offsets`); S3's edge-aware blur of the offsets,
-   at the solve's resolution (:func:`~vergence.specular.joint_bilateral_upsample` at equal size,
-   ``blur_radius``, ``blur_sigma``); then the joint bilateral upsampling to full resolution (same
-   function, ``radius``, ``sigma_space``). Both are weighted by each block's physical importance and
+   reduced table (:func:`~vergence.specular.optimise_offsets`); blocks without importance take the
+   push-pull interpolation of their neighbours' offsets (:func:`~vergence.specular.push_pull_fill`),
+   not a constant (a constant 1 drew vertical stripes of physical stereo across a surface wherever
+   a block of it had no feature); S3's edge-aware blur of the offsets, at the solve's resolution
+   (:func:`~vergence.specular.joint_bilateral_upsample` at equal size, ``blur_radius``,
+   ``blur_sigma``); then the joint bilateral upsampling to full resolution (same function,
+   ``radius``, ``sigma_space``). Both are weighted by each block's physical importance (plus
+   :data:`FILL_WEIGHT`, so that a filled block counts only where no important one is near) and
    guided by the layer's physical horizontal disparity, so that an offset does not leak across a
    depth edge of its layer (a mirror's frame, a sphere's rim) while neighbouring pixels of one
    surface, solved independently and sometimes landing in different local minima, agree.
@@ -32,18 +38,35 @@ from numbers import Integral
 import numpy as np
 
 from vergence._validate import check_positive, readonly_fields
-from vergence.specular.cost import COST_TERMS, COST_WEIGHTS, RELATIVE_LAMBDA_ARCMIN
+from vergence.specular.cost import (
+    COMFORT_MARGIN_ARCMIN,
+    COST_TERMS,
+    COST_WEIGHTS,
+    RELATIVE_LAMBDA_ARCMIN,
+    RIVALRY_TOLERANCE,
+    VERTICAL_TOLERANCE_ARCMIN,
+)
 from vergence.specular.optimise import DESCENT_STEPS, RESTARTS, optimise_offsets
-from vergence.specular.resample import joint_bilateral_upsample, weighted_block_mean
+from vergence.specular.resample import joint_bilateral_upsample, push_pull_fill, weighted_block_mean
 from vergence.specular.tabulated import OffsetAnalysis
 
-__all__ = ["PLAN_FACTOR", "PLAN_SIGMA_RANGE", "OffsetPlan", "OffsetPlanner"]
+__all__ = ["FILL_WEIGHT", "IMPORTANCE_FLOOR", "PLAN_FACTOR", "PLAN_SIGMA_RANGE", "OffsetPlan", "OffsetPlanner"]
 
 #: Default reduction of the solve (S3 §3.4 "lower resolution"; ours): 4 x 4 pixels per solved pixel.
 PLAN_FACTOR = 4
 #: Default range sigma of the upsampling, arcmin of the layer's physical disparity (ours: twice
 #: S3's relative target lambda_x = 3'; a disparity step of 12' or more keeps its sides apart).
 PLAN_SIGMA_RANGE = 6.0
+#: The least importance of a matched layer pixel in the plan (ours): S3 weights every term by
+#: importance, so an unimportant pixel's offset is left to chance (to its neighbours, or to the
+#: fill); but the importance model is an estimate, and a viewer or an independent matcher that
+#: matches the pixel finds it wherever it was left. With a floor every matched pixel is solved (each
+#: term of a pixel scales with w^2 alike, so a lone pixel's minimum does not depend on w), while
+#: important pixels still dominate the blur and the upsampling twenty to one.
+IMPORTANCE_FLOOR = 0.05
+#: The weight of a block's filled offset in the blur and the upsampling (ours): a thousandth of a
+#: fully important block, so that filled offsets only speak where no important block is in reach.
+FILL_WEIGHT = 1e-3
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -127,11 +150,15 @@ class OffsetPlanner:
         self.factor, self.radius, self.blur_radius = int(factor), int(radius), int(blur_radius)
         self._shape = analysis.importance.shape[1:]
         t0 = time.perf_counter()
-        weight = analysis.importance
-        self._disparity, self._importance = weighted_block_mean(analysis.disparity, weight, self.factor)
+        # S3 §3.2: importance of the physical pair, for every offset; a matched pixel counts at least
+        # IMPORTANCE_FLOOR (ours: a viewer may fuse what the importance model calls unimportant)
+        matched = np.isfinite(analysis.original[..., 0])
+        physical = np.where(matched, np.maximum(analysis.importance[-1], IMPORTANCE_FLOOR), 0.0).astype(np.float32)
+        weight = np.broadcast_to(physical, analysis.importance.shape)
+        self._disparity, _ = weighted_block_mean(analysis.disparity, weight, self.factor)
         self._rivalry, _ = weighted_block_mean(analysis.rivalry, weight, self.factor)
         # the importance of a block is its plain mean: NaN-free, in [0, 1]
-        self._importance = np.nan_to_num(self._importance, nan=0.0)
+        _, self._importance = weighted_block_mean(np.zeros(physical.shape, np.float32), physical, self.factor)
         self._guide_high = np.array(analysis.original[..., 0])
         self._guide_low = np.array(self._disparity[-1, ..., 0])
         self.seconds_reduce = time.perf_counter() - t0
@@ -168,6 +195,9 @@ class OffsetPlanner:
         zone: tuple[float, float] | None = None,
         maps: Mapping[str, object] | None = None,
         lam: tuple[float, float] = RELATIVE_LAMBDA_ARCMIN,
+        margin: float = COMFORT_MARGIN_ARCMIN,
+        vertical: float = VERTICAL_TOLERANCE_ARCMIN,
+        rivalry_tolerance: float = RIVALRY_TOLERANCE,
         fixed: object = (0,),
         steps: int = DESCENT_STEPS,
         restarts: int = RESTARTS,
@@ -175,23 +205,30 @@ class OffsetPlanner:
         """The offsets minimising S3 Eq. 2 for these weights (arguments as :func:`~vergence.specular.optimise_offsets`).
 
         ``maps`` are full-resolution ``(N, H, W)`` painted weights by term; they are block-averaged
-        to the solve's resolution.
+        to the solve's resolution. A layer whose four maps are 0 at a pixel keeps ``y = 1`` there.
         """
         t0 = time.perf_counter()
         low_maps = self._reduced_maps(maps)
         sol = optimise_offsets(self._disparity, self._rivalry, self._importance, self._disparity[-1], alpha=alpha,
-                               variant=variant, zone=zone, maps=low_maps, lam=lam, fixed=fixed, steps=steps,
+                               variant=variant, zone=zone, maps=low_maps, lam=lam, margin=margin, vertical=vertical,
+                               rivalry_tolerance=rivalry_tolerance, fixed=fixed, steps=steps,
                                restarts=restarts)  # fmt: skip
-        y_low = sol.y
+        weight = self._importance
+        y_low = push_pull_fill(sol.y, weight)
+        weight = weight + FILL_WEIGHT
         if self.blur_radius:  # S3's edge-aware blur, at the solve's resolution
-            y_low = joint_bilateral_upsample(y_low, self._importance[-1], self._guide_low, self._guide_low,
+            y_low = joint_bilateral_upsample(y_low, weight, self._guide_low, self._guide_low,
                                              sigma_space=self.blur_sigma, sigma_range=self.sigma_range,
                                              radius=self.blur_radius, fill=1.0)  # fmt: skip
-        y = joint_bilateral_upsample(y_low, self._importance[-1], self._guide_low, self._guide_high,
+        y = joint_bilateral_upsample(y_low, weight, self._guide_low, self._guide_high,
                                      sigma_space=self.sigma_space, sigma_range=self.sigma_range, radius=self.radius,
                                      fill=1.0)  # fmt: skip
         y = np.clip(y, 0.0, 1.0).astype(np.float32)
         for i in fixed:
             y[i] = 1.0
+        if maps:  # frozen where every painted map of the layer is 0
+            full = [np.asarray(maps[t], dtype=np.float32) if maps.get(t) is not None else None for t in COST_TERMS]
+            if all(f is not None for f in full):
+                y[sum(full) == 0] = 1.0
         return OffsetPlan(y=y, y_low=np.array(sol.y), cost_low=np.array(sol.cost), factor=self.factor,
                           seconds=time.perf_counter() - t0)  # fmt: skip

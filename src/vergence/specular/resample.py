@@ -5,11 +5,13 @@ filter. [...] The solution is found at lower resolution and later up-sampled [KC
 the contribution of each pixel is weighted by its importance, i.e., unimportant pixels with mostly
 meaningless solutions do not affect their neighbors."
 
-Two stages, both weighted by importance:
+Three stages, all weighted by importance:
 
 - :func:`weighted_block_mean` takes a full-resolution table (the disparities of
   :func:`~vergence.specular.tabulate_offsets`, the importance) down to the grid of the solve: the
   importance-weighted mean of each ``f x f`` block, and the block's mean importance.
+- :func:`push_pull_fill` gives the pixels without importance a value interpolated from the others
+  (Gortler et al. 1996's push-pull), so that the next stage has no constant to fall back on;
 - :func:`joint_bilateral_upsample` brings the solved offsets back up with the full-resolution guide
   (Kopf et al. 2007); at equal resolution it is the importance-weighted joint bilateral filter that
   S3 calls the edge-aware blur.
@@ -22,7 +24,7 @@ import numpy as np
 from vergence._validate import check_positive, check_positive_int
 from vergence.specular import _resample_kernels as _k
 
-__all__ = ["joint_bilateral_upsample", "weighted_block_mean"]
+__all__ = ["joint_bilateral_upsample", "push_pull_fill", "weighted_block_mean"]
 
 
 def _real_array(name: str, value: object) -> np.ndarray:
@@ -233,3 +235,83 @@ def joint_bilateral_upsample(
     out = np.empty(gh.shape, np.float64)
     _k.joint_bilateral(vw, wq, gl, gh, 0.5 / s_space**2, 0.5 / s_range**2, int(radius), float(fill), out)
     return out.astype(np.float32)
+
+
+def _half(a: np.ndarray) -> np.ndarray:
+    """Sum of each 2 x 2 block of ``(N, h, w)`` (an odd last row or column padded with 0)."""
+    n, h, w = a.shape
+    p = np.zeros((n, h + h % 2, w + w % 2))
+    p[:, :h, :w] = a
+    return p[:, 0::2, 0::2] + p[:, 1::2, 0::2] + p[:, 0::2, 1::2] + p[:, 1::2, 1::2]
+
+
+def _double(a: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Bilinear up-sampling of ``(N, h, w)`` by two to ``shape`` (pixel centres aligned, edges held)."""
+    n, h, w = a.shape
+    big_h, big_w = shape
+    ys = np.clip((np.arange(big_h) + 0.5) / 2.0 - 0.5, 0, h - 1)
+    xs = np.clip((np.arange(big_w) + 0.5) / 2.0 - 0.5, 0, w - 1)
+    y0, x0 = np.floor(ys).astype(int), np.floor(xs).astype(int)
+    y1, x1 = np.minimum(y0 + 1, h - 1), np.minimum(x0 + 1, w - 1)
+    ty, tx = (ys - y0)[None, :, None], (xs - x0)[None, None, :]
+    top = a[:, y0][:, :, x0] * (1 - tx) + a[:, y0][:, :, x1] * tx
+    bottom = a[:, y1][:, :, x0] * (1 - tx) + a[:, y1][:, :, x1] * tx
+    return top * (1 - ty) + bottom * ty
+
+
+def push_pull_fill(values: object, weights: object, *, fill: float = 1.0) -> np.ndarray:
+    """``values`` where ``weights > 0``; elsewhere interpolated from them by push-pull (S3 §3.4's regularisation).
+
+    Parameters
+    ----------
+    values : (N, h, w) array_like
+        Per image (S3: per layer) the values to keep where the weight is positive (the solved offsets).
+    weights : (N, h, w) array_like
+        Finite and >= 0 (S3: importance).
+    fill : float, keyword-only
+        The value of an image with no positive weight at all (S3: 1, the physical stereo camera).
+
+    Returns
+    -------
+    (N, h, w) float64
+        Equal to ``values`` where ``weights > 0``.
+
+    Raises
+    ------
+    ValueError
+        On shapes that differ, empty input, NaN or inf values where the weight is positive, or bad weights.
+
+    Notes
+    -----
+    Push: sums of ``w v`` and ``w`` over 2 x 2 blocks, level after level, down to one pixel. Pull:
+    from the coarsest level up, a pixel with weight keeps its weighted mean, one without takes the
+    bilinear up-sampling of the level above (Gortler et al. 1996, "The Lumigraph", §3.3.1). The
+    fill is smooth, so that S3's edge-aware blur does not see steps that no feature asked for; a
+    constant fill (1) drew stripes of physical stereo across surfaces (issue 26).
+
+    Examples
+    --------
+    >>> push_pull_fill(np.array([[[0.0, 5.0, 5.0, 1.0]]]), np.array([[[1.0, 0.0, 0.0, 1.0]]])).round(2).tolist()
+    [[[0.0, 0.25, 0.75, 1.0]]]
+    """
+    v = _stack("values", values, nan=True)
+    w = _stack("weights", weights, nan=False)
+    if w.shape != v.shape:
+        raise ValueError(f"weights must have the shape of values {v.shape}; got {w.shape}")
+    if (w < 0).any():
+        raise ValueError("weights must be >= 0")
+    if not np.isfinite(v[w > 0]).all():
+        raise ValueError("values must be finite where the weight is positive")
+    if isinstance(fill, bool) or not np.isfinite(fill):
+        raise ValueError(f"fill must be a finite number; got {fill!r}")
+    wv, ww = [np.where(w > 0, v * w, 0.0)], [w]
+    while ww[-1].shape[1] > 1 or ww[-1].shape[2] > 1:
+        wv.append(_half(wv[-1]))
+        ww.append(_half(ww[-1]))
+    top = ww[-1]
+    out = np.where(top > 0, wv[-1] / np.where(top > 0, top, 1.0), float(fill))
+    for level in range(len(ww) - 2, -1, -1):
+        up = _double(out, ww[level].shape[1:])
+        has = ww[level] > 0
+        out = np.where(has, wv[level] / np.where(has, ww[level], 1.0), up)
+    return np.where(w > 0, v, out)
