@@ -385,8 +385,8 @@ def _render_tri(shot, rig, methods, samples, supersample, ibr, say) -> ShotRende
         _check_covered(res.coverage, "right", method)
         results[method] = {"right": res}
         everywhere = np.ones(res.coverage.shape, dtype=bool)
-        director = measure_against_truth(images["director"], truth["left"], everywhere)
-        report[method] = {"left": {**director, "note": "the director's image"},
+        left = measure_against_truth(images["director"], truth["left"], everywhere)
+        report[method] = {"left": {**left, "note": "the director's image"},
                           "right": measure_against_truth(res.image, truth["right"], res.coverage, res.proxy_depth)}
         stages.done("measures")
     pairs = {m: {"left": images["director"], "right": results[m]["right"].image} for m in methods}
