@@ -52,6 +52,9 @@ MAX_OFFSET_STEPS = 256
 # A rig is shifted-sensor when the rotations, focal lengths, skew and cy agree and the baseline lies
 # along the camera x axis to this relative tolerance (rounding of look_at and of the centres' sums).
 _RIG_TOL = 1e-9
+# Offsets rendered side by side in one wavefront by tabulate_offsets: fewer, larger casts; their ray trees
+# are held until matched (at 512 x 512, D = 2, about 70 MB each).
+_RENDER_BATCH = 8
 
 Progress = Callable[[float, str], None]
 
@@ -328,6 +331,8 @@ def tabulate_offsets(
     ``k + 1`` renders are needed, yet only ``k`` are traced besides the right eye: the camera at
     ``y = 0`` is the right camera itself (:func:`offset_camera`), so its row is the right render
     and its disparity is zero wherever a layer exists. S3 §3.4 reports "up to one minute" on a GPU.
+    The renders go :data:`_RENDER_BATCH` at a time side by side, one wavefront per tree level
+    (:meth:`~vergence.render.Tracer.render_many`); with an ``rng`` the AO draws follow that joint order.
 
     *Memory.* Radiance and disparity take ``(k + 1) N H W (3 + 2 + 1) x 4`` bytes (float32); at S3's
     512 x 512, D = 2 (N = 7), k = 32 that is 33 x 7 x 262144 x 24 B = 1.45 GB (2.18 GB with
@@ -349,14 +354,21 @@ def tabulate_offsets(
     seconds_render = seconds_match = 0.0
     right_res = left_res = pos = None
     # The physical pair first (its match fixes epsilon), then y = 0 (the right render itself), then 1/k ...
-    for done, m in enumerate([k, 0, *range(1, k)]):
+    order = [k, 0, *range(1, k)]
+    rendered: dict = {}
+    for done, m in enumerate(order):
         if progress is not None:
             progress(done / (k + 1), f"offset {m}/{k} ({done + 1} of {k + 1})")
-        t0 = time.perf_counter()
-        if right_res is None:
-            right_res = tracer.render(right, **opts)
-        res = right_res if m == 0 else tracer.render(offset_camera(left, right, offsets[m]), **opts)
-        seconds_render += time.perf_counter() - t0
+        if m not in rendered:  # the next offsets side by side in one wavefront (Tracer.render_many)
+            t0 = time.perf_counter()
+            batch = [j for j in order[done : done + _RENDER_BATCH] if j != 0]
+            cams = ([right] if right_res is None else []) + [offset_camera(left, right, offsets[j]) for j in batch]
+            results = tracer.render_many(cams, **opts)
+            if right_res is None:
+                right_res, results = results[0], results[1:]
+            rendered = {0: right_res, **dict(zip(batch, results))}
+            seconds_render += time.perf_counter() - t0
+        res = rendered.pop(m)
         t0 = time.perf_counter()
         match = layer_disparity(res.position, right_res.position, window=window, epsilon=epsilon)
         seconds_match += time.perf_counter() - t0
