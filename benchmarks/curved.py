@@ -5,7 +5,8 @@ The map is smoothly curved, of the Tri-Rig's kind (S0 §6): a scaling about a ce
 left of the camera (a left camera's centre), by Z(z) / z with Z(z) = z up to 30 m and
 z + (z - 30)^2 / 60 beyond (the distortion compresses depths beyond 30 m; ``to_world`` stretches them
 back). Prints the median wall times (one tracer, the first JIT-compiling calls not timed), their ratio,
-the segments per ray (sampled over [near, CURVE_CUT_DEPTH], and cast until the hit), and the pixel
+the points ``to_world`` maps per ray (each render maps each sample, midpoint, one-pixel step and
+quarter point once: issue 31), the segments per ray (sampled over [near, CURVE_CUT_DEPTH], and cast until the hit), and the pixel
 error of the hits: phi(position) projected by the camera against the pixel centres (phi = to_world^-1
 in closed form), to compare with ``tolerance_px``.
 """
@@ -13,10 +14,12 @@ in closed form), to compare with ``tolerance_px``.
 from __future__ import annotations
 
 import argparse
+import os
 
-import numpy as np
-from _timing import median_time
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # as the vergence command: idle OpenMP threads must not spin
 
+import numpy as np  # noqa: E402
+from _timing import median_time  # noqa: E402
 
 
 def main() -> None:
@@ -46,12 +49,19 @@ def main() -> None:
         z = np.where(zr > 30.0, 30.0 + 30.0 * (np.sqrt(1.0 + np.maximum(zr - 30.0, 0.0) / 15.0) - 1.0), zr)
         return c + (z / zr)[..., None] * (p - c)
 
+    mapped = [0]
+
+    def counted(q):  # noqa: ANN001, ANN202
+        mapped[0] += np.asarray(q).size // 3
+        return to_world(q)
+
     tracer = Tracer(scene)
     options = {"near": args.near, "far": np.inf, "tolerance_px": args.tolerance, "samples": args.samples}
     tracer.render(cam, samples=args.samples)
     tracer.render_curved(cam, to_world, **options)
     t_straight, straight = median_time(lambda: tracer.render(cam, samples=args.samples), args.repeat)
-    t_curved, bent = median_time(lambda: tracer.render_curved(cam, to_world, **options), args.repeat)
+    t_curved, bent = median_time(lambda: tracer.render_curved(cam, counted, **options), args.repeat)
+    per_ray = mapped[0] / args.repeat / (args.width * args.height)
     t_identity, _ = median_time(lambda: tracer.render_curved(cam, lambda q: q, **options), args.repeat)
     sampled = sample_curves(cam, to_world, near=args.near, far=np.inf, tolerance_px=args.tolerance).segments
     n = args.width * args.height
@@ -64,6 +74,7 @@ def main() -> None:
     print(f"render        {t_straight:.3f} s")
     print(f"render_curved {t_curved:.3f} s ({t_curved / t_straight:.2f}x); identity map {t_identity:.3f} s "
           f"({t_identity / t_straight:.2f}x)")  # fmt: skip
+    print(f"to_world maps {per_ray:.1f} points per ray")
     print(f"segments per ray: {sampled.mean():.2f} sampled over [near, CURVE_CUT_DEPTH] (max {sampled.max()}), "
           f"{cast:.2f} cast until the hit")  # fmt: skip
     print(f"hit pixel error: max {np.nanmax(err):.3f} px, mean {np.nanmean(err):.3f} px; "
