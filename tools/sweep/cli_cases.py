@@ -101,6 +101,24 @@ ISSUE_CASES: tuple[tuple[str, tuple[str, ...], bool], ...] = (
 )
 
 
+# StereoSpace (issue 27): sub-commands of `vergence stereospace` on a built space of the fixtures
+# (write_fixtures: a five-camera row over a textured plane, built once), the valid pair, then hostile
+# inputs that must be refused in one line with exit code 2: a damaged points.npz (garbage, a cut zip,
+# empty), an --out folder already used by another pair, unknown camera names.
+STEREOSPACE_BASE = ("stereospace", "pair", "{fx}/space", "--at", "0,0.5,1,0.5", "--out", "{case}/pair", "--no-map")
+STEREOSPACE_CASES: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("damaged-points-garbage", ("stereospace", "pair", "{fx}/space_garbage", "--best", "--out", "{case}/pair")),
+    ("damaged-points-cut", ("stereospace", "pair", "{fx}/space_cut", "--best", "--out", "{case}/pair")),
+    ("damaged-points-empty", ("stereospace", "info", "{fx}/space_empty")),
+    ("used-out", ("stereospace", "pair", "{fx}/space", "--best", "--out", "{fx}/used_out", "--no-map")),
+    ("unknown-near", ("stereospace", "pair", "{fx}/space", "--near", "nobody", "--out", "{case}/pair")),
+    ("unknown-view-at", ("stereospace", "view", "{fx}/stereo/cameras.json", "--images", "{fx}/stereo", "--at",
+                         "nobody", "--out", "{case}/view.png")),
+    ("view-at-without-image", ("stereospace", "view", "{fx}/stereo/cameras.json", "--images", "{fx}/stereo_gap",
+                               "--at", "v2", "--out", "{case}/view.png")),
+)
+
+
 @dataclass(frozen=True)
 class Case:
     """One run of the harness: a command line (``kind`` "cli"/"sigint") or a batch of API calls."""
@@ -144,6 +162,7 @@ def write_fixtures(folder: Path) -> None:
     write_image(folder / "left.png", texture[:, shift:])
     write_image(folder / "right.png", texture[:, :width])
     write_middlebury_par(folder / "cameras_par.txt", CameraSet(names=("left.png", "right.png"), cameras=cams))
+    write_stereospace_fixtures(folder)
     # vergence specular --reoptimise (issue 26): a folder without a table, a table whose bytes are
     # damaged (a zip header, then noise) and one cut short (a real .npz archive, half of it)
     (folder / "no_table").mkdir(exist_ok=True)
@@ -162,6 +181,52 @@ def write_fixtures(folder: Path) -> None:
     (folder / "old_report").mkdir(exist_ok=True)
     (folder / "old_report" / "analysis.json").write_text("{}\n")
     write_image(folder / "sbs.png", np.concatenate([texture[:, shift:], texture[:, :width]], axis=1))
+
+
+def write_stereospace_fixtures(folder: Path) -> None:
+    """A built StereoSpace of five cameras on a row over a textured plane (``space``), copies whose
+    ``points.npz`` is garbage, cut or empty, a used ``--out`` folder, and the images without ``v2``."""
+    import shutil
+
+    from vergence.camera import look_at
+    from vergence.io import CameraSet, write_cameras_json, write_image
+    from vergence.stereospace import build_space, save_space
+
+    width, height, plane_z = 64, 48, 5.0
+    for stale in ("stereo", "stereo_gap", "space", "space_garbage", "space_cut", "space_empty", "used_out"):
+        shutil.rmtree(folder / stale, ignore_errors=True)  # a sweep run again into its folder
+    stereo = folder / "stereo"
+    stereo.mkdir(parents=True, exist_ok=True)
+    cams = tuple(look_at([x, 0.0, 0.0], [0.0, 0.0, plane_z], [0.0, -1.0, 0.0], fov_deg=60.0, width=width,
+                         height=height) for x in (-1.0, -0.5, 0.0, 0.5, 1.0))  # fmt: skip
+    names = tuple(f"v{k}.png" for k in range(len(cams)))
+    for name, cam in zip(names, cams):
+        d = cam.ray_directions()
+        t = (plane_z - cam.center[2]) / d[..., 2]
+        x, y = cam.center[0] + t * d[..., 0], cam.center[1] + t * d[..., 1]
+        g = 0.5 + 0.4 * np.sin(2.1 * x) * np.cos(2.7 * y)
+        write_image(stereo / name, np.stack([g, 0.5 + 0.3 * np.sin(3.3 * x), 1.0 - g], axis=-1).astype(np.float32))
+    rng = np.random.default_rng(7)
+    pts = np.column_stack([rng.uniform(-2.5, 2.5, 150), rng.uniform(-1.5, 1.5, 150), np.full(150, plane_z)])
+    obs, pixels = [], []
+    for c, cam in enumerate(cams):
+        xy, z = cam.project(pts)
+        seen = np.flatnonzero((z > 0) & (xy[:, 0] >= 0) & (xy[:, 0] <= width - 1) & (xy[:, 1] >= 0)
+                              & (xy[:, 1] <= height - 1))  # fmt: skip
+        obs += [(int(p), c, int(p)) for p in seen]
+        pixels.append(xy[seen])
+    write_cameras_json(stereo / "cameras.json", CameraSet(
+        names=names, cameras=cams, points=pts, colors=np.full((len(pts), 3), 128, np.uint8),
+        observations=np.array(obs), observation_pixels=np.concatenate(pixels)))  # fmt: skip
+    gap = shutil.copytree(stereo, folder / "stereo_gap")
+    (gap / "v2.png").unlink()
+    space = save_space(build_space(stereo / "cameras.json", images=stereo), folder / "space")
+    whole = (space / "points.npz").read_bytes()
+    for label, damage in (("garbage", b"not a zip archive\n" * 8), ("cut", whole[: len(whole) // 2]), ("empty", b"")):
+        copy = shutil.copytree(space, folder / f"space_{label}")
+        (copy / "points.npz").write_bytes(damage)
+    (folder / "used_out").mkdir(exist_ok=True)
+    (folder / "used_out" / "pair.json").write_text('{"a": "pair of another state"}\n')
 
 
 def _option_kind(param) -> str:
@@ -284,6 +349,11 @@ def cli_cases(*, quick: bool, rng: random.Random, per_option: int = 1, sample: i
         bases = [c for c in cases if not c.hostile and c.id.endswith("/base")]
         rest = [c for c in cases if c not in bases]
         cases = bases + rng.sample(rest, min(sample, len(rest)))
+    cases.append(Case(id="cli/stereospace/base", kind="cli", target="stereospace", argv=STEREOSPACE_BASE,
+                      hostile=False, note="the valid base invocation"))
+    for name, argv in STEREOSPACE_CASES:
+        cases.append(Case(id=f"cli/stereospace/issue27-{name}", kind="cli", target="stereospace", argv=argv,
+                          strict=True, note="issue 27: " + name.replace("-", " ")))
     for n, (command, extra, strict) in enumerate(ISSUE_CASES):
         argv = list(BASES[command])
         if command == "compare" and extra[0].startswith("{fx}"):

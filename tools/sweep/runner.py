@@ -28,7 +28,7 @@ import numpy as np
 from tools.sweep.classify import Result
 
 REPO = Path(__file__).resolve().parents[2]
-ENTRY = "import sys; sys.argv[0] = 'vergence'; from vergence.cli import _entry; _entry()"
+ENTRY = "import sys; sys.argv[0] = 'vergence'; from vergence.cli import entry; entry()"
 # Share of pixels exactly black above which an output image counts as empty (a valid view of a
 # textured fixture has none; issue 9 saw 84 % holes and all-black views).
 BLACK_SHARE = 0.5

@@ -131,6 +131,9 @@ def load_space(folder: str | os.PathLike[str]) -> BuiltSpace:
         raise ValueError(f"{root} is damaged: it has no {POINTS_FILE}")
     try:
         with open(points_path, "rb") as fh:  # ours to close: np.load leaks its handle on a broken zip
+            if fh.read(4) != b"PK\x03\x04":  # np.load would take other bytes for a pickle
+                raise ValueError("not an .npz archive")
+            fh.seek(0)
             data = np.load(fh, allow_pickle=False)
             if not isinstance(data, np.lib.npyio.NpzFile):
                 raise ValueError("not an .npz archive")
