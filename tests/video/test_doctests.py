@@ -8,7 +8,7 @@ import importlib
 import pytest
 
 
-@pytest.mark.parametrize("name", ["clips", "cuts", "layout", "outputs", "reader", "search", "stability", "writer"])
+@pytest.mark.parametrize("name", ["clips", "cuts", "edges", "layout", "outputs", "reader", "search", "stability", "writer"])
 def test_docstring_examples(name):
     module = importlib.import_module(f"vergence.video.{name}")
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from vergence.video._histogram import ShotHistogram
+from vergence.video.edges import edge_cues, fill_left_band, masked_window
 from vergence.video.search import SearchRange
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import FlickerMeter
@@ -155,58 +156,27 @@ class MatchedPiece:
     edges: tuple[float, float] = (math.nan, math.nan)  # the largest edge cue of its frames (edge_cues), left and right
 
 
-# Share of the width whose depth cue decides a floating window (as vergence analyze's window band), and the
-# percentile of each frame's band taken (a few stray matches do not widen the window).
-EDGE_BAND = 0.02
-EDGE_PERCENTILE = 95
+def pooled_shot(found: list[MatchedPiece], search: SearchRange,
+                width: int) -> tuple[tuple[float, float], tuple[float, float], dict | None]:  # fmt: skip
+    """What the matched pieces of one stereo shot found, together: its range (the 1st and 99th percentiles of all
+    its pixels, pooled, as ``vergence analyze``), its largest edge cues (:mod:`vergence.video.edges`) and its
+    search record (the range searched, frames widened and saturated, the ends of the range on its bound);
+    ``(inf, -inf)``, NaN and None for a shot without a matched piece."""
+    from vergence.video._histogram import PERCENTILES
+    from vergence.video.search import on_bound
 
-
-def edge_cues(cue: np.ndarray) -> tuple[float, float]:
-    """The ``EDGE_PERCENTILE``-th percentile of a frame's depth cue (disparity or nearness: larger is nearer) in
-    its left and right edge bands (``EDGE_BAND`` of the width, at least 2 columns); NaN where a band has none."""
-    w = cue.shape[1]
-    band = min(w, max(2, int(round(EDGE_BAND * w))))
-    out = []
-    for values in (cue[:, :band], cue[:, w - band:]):
-        known = values[np.isfinite(values)]
-        out.append(float(np.percentile(known, EDGE_PERCENTILE)) if known.size else math.nan)
-    return out[0], out[1]
-
-
-# The left band's fill: the median of the row's first matched values, this many.
-FILL_FROM = 8
-
-
-def fill_left_band(d: np.ndarray) -> np.ndarray:
-    """``d`` with each row's band at the left edge that has no match given the row's first matched value.
-
-    A point in front of the screen near the left edge of the left view lies left of the right view's frame
-    (``x - D < 0``): nothing matches it, and a disparity filled from the background side would put it behind
-    the planned range. The nearest disparities of its row whose match lands inside the right view
-    (``x - D >= 1``) are the better guess (a surface cut by the frame's edge continues to them): the values
-    before them (unknown, or matched onto the right view's edge) take the median of the first
-    :data:`FILL_FROM`. Rows without any such value are
-    left as they are.
-
-    Examples
-    --------
-    >>> fill_left_band(np.array([[np.nan, 0.9, 5.0, np.nan, 3.0, 4.0, 2.0]], np.float32)).tolist()
-    [[3.0, 3.0, 3.0, 3.0, 3.0, 4.0, 2.0]]
-    >>> fill_left_band(np.array([[np.nan, np.nan, 1.0, 2.0, 2.0, 2.0]], np.float32)).tolist()
-    [[2.0, 2.0, 1.0, 2.0, 2.0, 2.0]]
-    """
-    cols = np.arange(d.shape[1])
-    with np.errstate(invalid="ignore"):
-        known = np.isfinite(d) & (cols[None, :] - d >= 1.0)
-    first = known.argmax(axis=1)
-    rows = np.flatnonzero(known.any(axis=1) & (first > 0))
-    if rows.size == 0:
-        return d
-    out = np.array(d)
-    for r in rows:  # a loop over rows with a gap only (a Python loop, not per pixel)
-        ahead = d[r, first[r]:][known[r, first[r]:]][:FILL_FROM]  # a stray match at the gap's end weighs little
-        out[r, cols < first[r]] = np.median(ahead)
-    return out
+    if not found:
+        return (math.inf, -math.inf), (math.nan, math.nan), None
+    pooled = ShotHistogram(width)
+    for f in found:
+        pooled.merge(f.histogram)
+    pct = dict(zip(PERCENTILES, pooled.pooled()))
+    edges = tuple(float(np.fmax.reduce([f.edges[e] for f in found])) for e in (0, 1))
+    lo, hi = min(f.search_px[0] for f in found), max(f.search_px[1] for f in found)
+    record = {**search.to_dict(), "search_px": [lo, hi], "widened_frames": sum(f.widened_frames for f in found),
+              "saturated_frames": sum(f.saturated_frames for f in found),
+              "on_bound": on_bound({"p1": pct[1], "p99": pct[99]}, lo, hi)}  # fmt: skip
+    return (float(pct[1]), float(pct[99])), (edges[0], edges[1]), record
 
 
 def match_shot(job: ShotJob, source: Iterator | None = None,
@@ -348,24 +318,6 @@ def render_shot(job: ShotJob, source: Iterator | None = None,
         job.disparity.unlink(missing_ok=True)
         return None
     return filtered.finish()
-
-
-def masked_window(left: np.ndarray, right: np.ndarray, window: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """The views with a floating window: ``window[0]`` columns black at the left edge of the left view,
-    ``window[1]`` at the right edge of the right view (the inputs are not modified).
-
-    Masking ``w`` columns of the left view's left edge puts that edge of the window ``w`` px in front of the
-    screen (``D = x_left - x_right = w`` for the frame's edge): content at the edge with ``D <= w`` is then
-    behind the window: the floating window of stereoscopic cinema (Devernay & Beardsley 2010).
-    """
-    wl, wr = window
-    if wl > 0:
-        left = np.array(left)
-        left[:, :wl] = 0.0
-    if wr > 0:
-        right = np.array(right)
-        right[:, right.shape[1] - wr:] = 0.0
-    return left, right
 
 
 def _match_task(job: ShotJob) -> tuple[int, tuple, MatchedPiece]:

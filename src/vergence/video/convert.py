@@ -41,6 +41,12 @@ over the jobs; ``workers > 1`` or ``scheduler`` submits one Dask task per piece 
 known, the renders (pass 3). The joined output is the same, byte for byte (PNG frames and H.264 files:
 ``tests/video/test_convert_dask.py``). Pass 1 (cuts, ranges) stays in the caller.
 
+**Edges.** A stereo clip's left band that the right view does not see takes its row's first matched
+disparities, and each shot's depth cue at the frame's left and right edges gives the output's disparity
+there: a stereo-window violation is warned about, or masked with ``floating_window``
+(:mod:`vergence.video.edges`). Nothing is written over an existing ``out`` unless ``force``
+(:func:`vergence.video.check_new_output`).
+
 **Views.** A stereo clip keeps its left view and re-synthesises the right one (``origin="left"``,
 default) or synthesises both around the left camera (``origin="center"``: half the disocclusions in
 each view); a 2D + depth clip is the centre (default) or the left view, as ``vergence synthesize``.
@@ -61,7 +67,7 @@ import numpy as np
 
 from vergence.video._shots import (
     SPLIT_FRAMES,
-    edge_cues,
+    pooled_shot,
     SharedSource,
     ShotJob,
     close_client,
@@ -72,11 +78,11 @@ from vergence.video._shots import (
     split_shots,
     warmup_frames,
 )
-from vergence.video._histogram import PERCENTILES, ShotHistogram
 from vergence.video.conversion import Conversion, ShotConversion
+from vergence.video.edges import edge_cues, floating_window_of
 from vergence.video.measured import measure_output
 from vergence.video.outputs import VIDEO_SUFFIXES, check_new_output, converted_path
-from vergence.video.search import on_bound, shot_search_ranges
+from vergence.video.search import shot_search_ranges
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
 from vergence.video.writer import DEFAULT_CRF, DEFAULT_PRESET, PIXEL_FORMATS, X264_PRESETS
@@ -118,16 +124,6 @@ def _shot_mapping(lo: float, hi: float, width: int, budget_arcmin: float, displa
     row = np.full((1, width), lo, np.float32)
     row[0, -1] = hi  # the shot's range at the clip's width: the budget in px depends on it
     return plan_parallax(row, kind="disparity", budget_arcmin=budget_arcmin, display=display).mapping
-
-
-def _window(mapping, edge: tuple[float, float], apply: bool) -> dict:
-    """A shot's stereo window at its edges: the output's disparity ``D' = -psi(-q)`` of the edge cues ``q``
-    (:func:`~vergence.video._shots.edge_cues`), and the floating window masking it (``apply``) in whole columns."""
-    from vergence.video.analysis import WINDOW_MIN_PX
-
-    d = [float(-mapping(-q)) if math.isfinite(q) else math.nan for q in edge]
-    widths = [int(math.ceil(v)) if apply and math.isfinite(v) and v > WINDOW_MIN_PX else 0 for v in d]
-    return {"edge_disparity_px": d, "applied": bool(apply), "left_px": widths[0], "right_px": widths[1]}
 
 
 def convert_clip(
@@ -425,22 +421,10 @@ def _convert_clip(
                     matched(job, *match_shot(job, source.at(job.start - job.warmup), tick))
                     source.moved(job.end)
             for s in range(len(shots)):
-                # The shot's range: the 1st and 99th percentiles of all its pixels (pooled, as vergence analyze).
                 found = [piece_matched[i] for i, (s2, *_) in enumerate(pieces) if s2 == s and i in piece_matched]
-                pooled = ShotHistogram(width)
-                for f in found:
-                    pooled.merge(f.histogram)
-                pct = dict(zip(PERCENTILES, pooled.pooled()))
-                range_in.append((float(pct[1]), float(pct[99])) if found else (math.inf, -math.inf))
-                edge_in.append(tuple(float(np.fmax.reduce([f.edges[e] for f in found])) if found else math.nan
-                                     for e in (0, 1)))  # fmt: skip
-                if found:
-                    lo = min(f.search_px[0] for f in found)
-                    hi = max(f.search_px[1] for f in found)
-                    searched[s] = {**searches[s].to_dict(), "search_px": [lo, hi],
-                                   "widened_frames": sum(f.widened_frames for f in found),
-                                   "saturated_frames": sum(f.saturated_frames for f in found),
-                                   "on_bound": on_bound({"p1": pct[1], "p99": pct[99]}, lo, hi)}  # fmt: skip
+                shot_range, shot_edges, searched[s] = pooled_shot(found, searches[s], width)
+                range_in.append(shot_range)
+                edge_in.append(shot_edges)
         else:
             for a, b in shots:
                 with np.errstate(all="ignore"):
@@ -448,7 +432,7 @@ def _convert_clip(
                                      float(np.nanmax([r[1] for r in ranges[a:b]]))))  # fmt: skip
                     edge_in.append(tuple(float(np.fmax.reduce([e[side] for e in edges[a:b]])) for side in (0, 1)))
         mappings = [_shot_mapping(*range_in[s], width, budget, display, s, shots[s]) for s in range(len(shots))]
-        windows = [_window(mappings[s], edge_in[s], floating_window) for s in range(len(shots))]
+        windows = [floating_window_of(mappings[s], edge_in[s], floating_window) for s in range(len(shots))]
 
         # Pass 3: render, pack and encode the unfinished pieces, one segment each (a job per piece: _shots).
         jobs = [replace(job, mappings=tuple(mappings), window=(windows[job.shot]["left_px"], windows[job.shot]["right_px"]))
