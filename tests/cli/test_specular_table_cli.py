@@ -48,6 +48,16 @@ def test_the_table_is_written_and_the_report_states_the_display(tabled):
     for obj in report["objects"]:  # every mirror and glass object in view has its line
         assert f"{obj['type']} '{obj['name']}' (objects[{obj['object']}]" in stdout
     assert {"matched_before", "inside_share_after", "comfort_share_after"} <= set(report["specular_layers"])
+    with np.load(out / "analysis.npz") as npz:  # what an independent check needs to regroup the pixels
+        assert str(npz["fit"]) == "screen" and float(npz["arcmin_per_px"]) == display["arcmin_per_px"]
+        first = npz["first_object"]
+        dx = npz["disparity_before"][..., 0]
+    for obj in report["objects"]:
+        mask = first == obj["object"]
+        assert obj["pixels"] == int(mask.sum())
+        matched = np.isfinite(dx[1:]) & mask
+        assert obj["matched_before"] == int(matched.sum())
+        assert obj["inside_before"] == int((matched & (np.abs(np.nan_to_num(dx[1:])) <= 60)).sum())
 
 
 def test_reoptimise_resolves_the_table_with_new_weights(tabled, tmp_path):

@@ -19,6 +19,9 @@
   ``match_window`` (width, height): :func:`~vergence.specular.layer_disparity` of
   ``optimised_left.npz``'s positions against ``right.npz``'s with them, in arcmin
   (:func:`~vergence.specular.disparity_arcmin`) for the display, gives ``disparity_after``;
+  ``fit`` and ``arcmin_per_px`` say how the pair was taken to be shown (``report.json``'s
+  ``display``), ``first_object`` ``(H, W)`` the index in the scene's objects of each pixel's first
+  hit in the physical left eye (-1: none), what the per-object shares group by;
 - contact sheets: ``analysis_disparity.png`` (horizontal disparity, a diverging map centred at 0
   with the comfort zone marked on the colour bar), ``analysis_importance.png``,
   ``analysis_rivalry.png`` and ``offsets.png``: one row per layer with a surface somewhere, NaN
@@ -144,6 +147,18 @@ def _masked(values: np.ndarray, present: np.ndarray) -> np.ndarray:
     return np.where(present, values, np.nan).astype(np.float32)
 
 
+def _geometry(result: SpecularResult) -> dict[str, np.ndarray]:
+    """``fit``, ``arcmin_per_px`` and ``first_object`` of ``analysis.npz``, where the result knows them."""
+    out = {}
+    display = result.settings.get("display")
+    if display is not None:
+        out |= {"fit": np.array(display["fit"]), "arcmin_per_px": np.array(display["arcmin_per_px"])}
+    oid = getattr(result.physical_left, "object_id", None)
+    if oid is not None:
+        out["first_object"] = np.asarray(oid[0], dtype=np.int32)
+    return out
+
+
 def _finite_max(*arrays: np.ndarray, percentile: float = 100.0) -> float:
     finite = np.concatenate([a[np.isfinite(a)].ravel() for a in arrays])
     return float(np.percentile(finite, percentile)) if finite.size else 0.0
@@ -222,6 +237,7 @@ def write_specular_outputs(result: SpecularResult, folder: str | os.PathLike[str
         present=b.present, present_after=a.present, y=np.asarray(result.y, dtype=np.float32),
         layer_names=np.array(names), comfort_zone_arcmin=np.array([zone.min_arcmin, zone.max_arcmin]),
         match_epsilon_m=np.array(epsilon), match_window=np.array(MATCH_WINDOW),
+        **_geometry(result),
     ))  # fmt: skip
     rows = [i for i in range(n) if b.present[i].any() or a.present[i].any()]
     dx_b, dx_a = b.disparity[..., 0], a.disparity[..., 0]
