@@ -152,7 +152,7 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                 image[y, x, c] = row[x, c]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")  # inlined: compiled with select_handles, never on its own
 def _first_per_cell(kx, ky, keep):  # pragma: no cover - compiled
     """``keep[r]`` True for the first ``r`` (in order) of each distinct ``(kx[r], ky[r])``: two stable sorts."""
     by_y = np.argsort(ky, kind="mergesort")

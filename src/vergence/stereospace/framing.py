@@ -201,7 +201,7 @@ def convergence_shift(left: Camera, right: Camera, points: object, display: Disp
             if abs(step) <= _SHIFT_TOLERANCE_PX:
                 break
     after = check_disparity_range(np.array([d.min(), d.max()]) * scale, display, zone=zone)
-    note = "" if after.inside else (
+    note = "" if after.inside else "the disparities leave the comfort zone (not shifted)" if not apply else (
         f"the disparity range ({after.max_arcmin - after.min_arcmin:.0f} arcmin) is wider than the comfort zone "
         f"({zone_arcmin[1] - zone_arcmin[0]:.0f} arcmin): no shift brings it inside"
         if (before.max_arcmin - before.min_arcmin) > zone_arcmin[1] - zone_arcmin[0]
