@@ -163,3 +163,22 @@ def test_reoptimise_refuses_a_scene_file_that_changed(tmp_path):
     scene.write_text(source.read_text().replace('"fov_deg"', ' "fov_deg"', 1))  # one byte more, same scene
     code, _, stderr = _main("specular", "--reoptimise", str(out), "--out", str(tmp_path / "third"))
     assert code == 2 and stderr.count("\n") == 1 and "changed since the table was written" in stderr, stderr
+
+
+def test_reoptimise_takes_painted_maps_of_the_tables_size(tabled, tmp_path):
+    from vergence.io import write_image
+
+    _, out, _ = tabled
+    zero = tmp_path / "zero.png"
+    write_image(zero, np.zeros((H, W), np.float32))
+    dest = tmp_path / "painted"
+    code, _, stderr = _main("specular", "--reoptimise", str(out), "--out", str(dest), "--weight-map", f"2={zero}")
+    assert code == 0, stderr
+    report = json.loads((dest / "report.json").read_text())
+    assert report["settings"]["maps"] == ["absolute", "data", "relative", "rivalry"]
+    small = tmp_path / "small.png"
+    write_image(small, np.zeros((H // 2, W // 2), np.float32))
+    code, _, stderr = _main("specular", "--reoptimise", str(out), "--out", str(tmp_path / "no"), "--weight-map",
+                            f"2={small}")  # fmt: skip
+    assert code == 2 and "must be 48 x 36 pixels (the render's W x H); got 24 x 18" in stderr, stderr
+    assert not (tmp_path / "no").exists()
