@@ -97,7 +97,7 @@ def test_image_and_depth_give_every_layout_and_the_comfort_figures(client, ids):
     assert job["state"] == "done", job
     result = job["result"]
     assert set(result["layouts"]) == set(LAYOUTS)
-    assert set(job["files"]) == {"left.png", "right.png", "synthesis.json", *result["layouts"].values()}
+    assert set(job["files"]) == {"left.png", "right.png", "parallax.npy", "synthesis.json", *result["layouts"].values()}
     assert client.get(f"/api/jobs/{job['id']}/files/synthesis.json").json() == result
     # the library's own answer for the same input
     expected = synthesize_stereo(_image(), _depth(), display=Display.preset("desktop-24"), budget_px=3.0)
@@ -252,3 +252,57 @@ def test_the_cli_line_of_the_example_makes_the_same_pair(client, tmp_path, capsy
         assert printed[key] == job["result"][key], key
     served = _decode(client.get(f"/api/jobs/{job['id']}/files/stereo_sbs.png").content)
     assert np.array_equal(served, _decode((out / "stereo_sbs.png").read_bytes()))
+
+
+def _overlay_job(client, ids) -> dict:
+    job = _wait(client, client.post("/api/jobs/synthesize", json={"image": ids["image"], "depth": ids["depth"],
+                                                                  "budget_arcmin": 45.0}).json()["id"])  # fmt: skip
+    assert job["state"] == "done", job
+    return job
+
+
+def _zone_px_by_hand(display: Display, width: int, theta_arcmin: float) -> float:
+    """The parallax (px of a ``width``-px pair filling the screen) whose vergence differs from the screen's by
+    ``theta_arcmin`` (positive behind): ``s = e - 2 D tan(gamma_0 / 2 - theta / 2)``, ``gamma_0 = 2 atan(e / 2D)``."""
+    import math
+
+    e, d = display.eye_separation, display.distance
+    half = math.atan(e / (2 * d)) - math.radians(theta_arcmin / 60.0) / 2
+    metres = e - 2 * d * math.tan(half)
+    return metres / (display.width / display.resolution) / (display.resolution / width)
+
+
+def test_the_parallax_map_and_the_overlay_geometry(client, ids):
+    """parallax.npy is the plan's P = x_r - x_l of the same input (the library's own answer), and the overlay's
+    comfort zone, divergence limit and colour scale are those of the display worked by hand."""
+    job = _overlay_job(client, ids)
+    served = np.load(io.BytesIO(client.get(f"/api/jobs/{job['id']}/files/parallax.npy").content))
+    expected = synthesize_stereo(_image(), _depth(), display=Display.preset("desktop-24"), budget_arcmin=45.0)
+    assert served.dtype == np.float32 and served.shape == (H, W)
+    np.testing.assert_array_equal(served, expected.plan.parallax_px)
+    geo = client.get(f"/api/stereo/{job['id']}/overlay").json()
+    display = Display.preset("desktop-24")
+    assert (geo["width"], geo["height"], geo["display"]) == (W, H, "desktop-24")
+    assert geo["display_px_per_px"] == display.resolution / W
+    np.testing.assert_allclose(geo["zone_px"], [_zone_px_by_hand(display, W, -60), _zone_px_by_hand(display, W, 60)],
+                               rtol=1e-9)  # fmt: skip
+    assert geo["divergence_px"] == pytest.approx(display.eye_separation / display.width * W, rel=1e-12)
+    assert geo["scale"]["arcmin"] == [-120.0, 120.0]
+    np.testing.assert_allclose(geo["scale"]["px"], [_zone_px_by_hand(display, W, a) for a in (-120, 120)], rtol=1e-9)
+    assert [t["arcmin"] for t in geo["scale"]["ticks"]] == [-120, -90, -60, -30, 0, 30, 60, 90, 120]
+    assert geo["window"] == {"band_px": 2, "min_px": 0.5, "share": 0.1, "mask_percentile": 95}  # round(0.02 * 64) = 1 -> 2
+    assert geo["parallax"] == "parallax.npy" and geo["row_alignment"] is None  # measured for a stereo pair only
+    wide = client.get(f"/api/stereo/{job['id']}/overlay", params={"scale_arcmin": 240}).json()
+    assert wide["scale"]["arcmin"] == [-240.0, 240.0] and wide["zone_px"] == geo["zone_px"]
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "601", "nan", "inf", "wide"])
+def test_the_overlay_refuses_a_bad_scale_422(client, ids, value):
+    job = _overlay_job(client, ids)
+    message = _refused(client.get(f"/api/stereo/{job['id']}/overlay", params={"scale_arcmin": value}), 422)
+    assert "scale_arcmin" in message
+
+
+def test_the_overlay_of_an_unknown_job_is_404(client):
+    assert "unknown job id 'nope'" in _refused(client.get("/api/stereo/nope/overlay"), 404)
+    assert "no such page or endpoint" in _refused(client.get("/api/stereo/nope/overlays"), 404)

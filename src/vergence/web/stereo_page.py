@@ -15,7 +15,13 @@ comfort zone, S3 §3, and the share of pixels outside it). Its input is one of:
   ``vergence render`` does (:func:`vergence.render.render`, written and read back through
   :func:`vergence.report.preview.save_render`), so that a fresh clone has an input.
 
-The page runs two such jobs (parameter sets A and B, the same input) and wipes between them.
+The page runs two such jobs (parameter sets A and B, the same input) and wipes between them. Each job also
+writes ``parallax.npy``, the pair's parallax map ``P = x_r - x_l`` (image px of the pair, float32, NaN where
+unknown; :attr:`vergence.synthesis.ParallaxPlan.parallax_px`), and, for a stereo pair, the vertical disparity of
+the pair as ``vergence rectify --check`` measures it (:func:`vergence.depth.measure_row_alignment`).
+``GET /api/stereo/{job_id}/overlay`` answers what the page's overlays need besides that map: the comfort zone,
+the divergence limit and a fixed colour scale in px of the pair, and the stereo-window rule of
+:mod:`vergence.video` (docs/workbench.md, "Overlays").
 """
 
 from __future__ import annotations
@@ -30,9 +36,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pydantic
+from fastapi import FastAPI, Query
+from fastapi.responses import JSONResponse, Response
 
+from vergence.web._errors import refusal
 from vergence.web._models import RequestModel
-from vergence.web.jobs import JobContext, JobKind, JobResult, Prepared
+from vergence.web.jobs import JobContext, JobKind, JobManager, JobResult, Prepared
 
 if TYPE_CHECKING:
     import numpy as np
@@ -40,7 +49,9 @@ if TYPE_CHECKING:
     from vergence.web.job_kinds import JobEnv
     from vergence.web.uploads import Upload
 
-__all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "KINDS", "MAX_EXAMPLE_SIDE", "MAX_STEREO_JOB_PIXELS", "SynthesizeJob"]
+__all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "HEAT_SCALE_ARCMIN", "KINDS", "MAX_EXAMPLE_SIDE", "MAX_HEAT_SCALE_ARCMIN",
+           "MAX_STEREO_JOB_PIXELS", "PARALLAX_FILE", "SynthesizeJob", "VERTICAL_WARN_PX", "WINDOW_MASK_PERCENTILE",
+           "add_routes", "overlay_geometry"]
 
 #: Largest input of a synthesize job, pixels (12 Mpx, 4000 x 3000): the pair and all its layouts
 #: are written as PNG for the page; larger images are ``vergence synthesize``'s work.
@@ -53,6 +64,25 @@ MAX_EXAMPLE_SIDE = 640
 #: the depth of the first hit are all synthesis needs.
 EXAMPLE_DEPTH = 0
 EXAMPLE_SAMPLES = 4
+
+#: The parallax map each job writes (``P = x_r - x_l``, image px of the pair, float32 ``(H, W)``, NaN unknown).
+PARALLAX_FILE = "parallax.npy"
+
+#: The heat map's fixed colour scale, +-arcmin of vergence on the job's display (twice the default comfort
+#: zone: the zone's limits fall a quarter of the way in from each end); ``?scale_arcmin=`` changes it, up to
+#: MAX_HEAT_SCALE_ARCMIN (10 degrees).
+HEAT_SCALE_ARCMIN = 120.0
+MAX_HEAT_SCALE_ARCMIN = 600.0
+
+#: A stereo pair's vertical disparity (median ``|y_r - y_l|`` of the SIFT matches, ``vergence rectify --check``'s
+#: measure) above this many px of the pair is warned about: the matcher searches along rows, and a pixel of
+#: vertical offset is where block matching starts to lose the match. ``rectify --check`` itself prints the
+#: measure without a threshold.
+VERTICAL_WARN_PX = 1.0
+
+#: The floating window's width at a violating edge: this percentile of the crossed parallax in the edge band,
+#: rounded up to whole columns (as ``vergence convert --floating-window``: a few stray pixels do not widen it).
+WINDOW_MASK_PERCENTILE = 95
 
 # The example renders kept in memory (scene, size -> image, depth): A and B of one input render once.
 _EXAMPLES_KEPT = 4
@@ -306,6 +336,8 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
     kind = {"depth": params.depth_kind, "pair": "disparity", "example": "metric"}[source]
 
     def run(ctx: JobContext) -> JobResult:
+        import numpy as np
+
         from vergence.display import pack
         from vergence.io import read_image, write_image
         from vergence.synthesis import plan_comfort, synthesize_stereo
@@ -329,6 +361,8 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
             summary["inputs"] = {field: _shown(u, field) for field, u in uploads.items()}
             summary["match"] = {"method": params.method, "max_disparity": params.max_disparity,
                                 "min_disparity": params.min_disparity, **matched.to_dict()}  # fmt: skip
+            ctx.progress(0.4, "measuring the vertical disparity (rectify --check)")
+            summary["row_alignment"] = _row_alignment(picture, other)
         else:
             picture, depth = _render_example(inputs, scene, ctx)
             summary["inputs"] = {"scene": scene_name, "width": params.example_width, "height": params.example_height,
@@ -354,9 +388,10 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
                         "outside_share": outside},  # fmt: skip
             "layouts": layouts,
         }
-        names = ["left.png", "right.png"]
+        names = ["left.png", "right.png", PARALLAX_FILE]
         write_image(ctx.folder / "left.png", result.left)
         write_image(ctx.folder / "right.png", result.right)
+        np.save(ctx.folder / PARALLAX_FILE, result.plan.parallax_px.astype(np.float32))
         for k, (layout, name) in enumerate(layouts.items()):
             ctx.progress(0.6 + 0.4 * k / len(layouts), f"writing {name}")
             write_image(ctx.folder / name, pack(result.left, result.right, layout=layout))
@@ -374,3 +409,77 @@ KINDS = {
         "of vergence.display, with its comfort figures on the display (vergence synthesize).",
         SynthesizeJob, _prepare_synthesize),
 }
+
+
+def _row_alignment(left: np.ndarray, right: np.ndarray) -> dict[str, Any]:
+    """The pair's vertical disparity as ``vergence rectify --check`` measures it (median and 90th percentile of
+    ``|y_r - y_l|`` over the SIFT + RANSAC matches, px of the pair), with :data:`VERTICAL_WARN_PX` and whether
+    the median is above it; ``{"error": ...}`` when too few features match (the job goes on without it)."""
+    import cv2
+
+    from vergence.depth import measure_row_alignment
+
+    try:
+        found = measure_row_alignment(left, right)
+    except (ValueError, cv2.error) as exc:  # too few features, or RANSAC found no model
+        return {"error": " ".join(str(exc).split()), "threshold_px": VERTICAL_WARN_PX}
+    return {**found.to_dict(), "threshold_px": VERTICAL_WARN_PX, "above": found.median_abs_dy_px > VERTICAL_WARN_PX}
+
+
+def overlay_geometry(summary: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_ARCMIN) -> dict[str, Any]:
+    """What the page's overlays need besides the parallax map, for a done ``synthesize`` job's ``summary``:
+    every length in px of the pair (``P = x_r - x_l``, positive behind the screen), converted by the library.
+
+    The image fills the display's width: one px of the pair is ``resolution / W`` display px
+    (:func:`vergence.synthesis.plan_comfort`'s rule). ``zone_px``: the comfort zone
+    (:meth:`vergence.viewing.ComfortZone.pixels`, exact vergence angles); ``divergence_px``: the divergence limit
+    ``b'/W'`` of S0 Eq. (8) times ``W``; ``scale``: the heat map's fixed colour scale, ``+-scale_arcmin``
+    (:func:`vergence.viewing.pixels_from_arcmin`) with ticks every quarter; ``window``: the stereo-window rule
+    of ``vergence analyze`` (:data:`vergence.video.WINDOW_BAND`, ``WINDOW_MIN_PX``, ``WINDOW_SHARE``) and the
+    floating window's percentile (:data:`WINDOW_MASK_PERCENTILE`).
+    """
+    import numpy as np
+
+    from vergence.video import WINDOW_BAND, WINDOW_MIN_PX, WINDOW_SHARE
+    from vergence.viewing import ComfortZone, pixels_from_arcmin
+
+    display = _display(summary["display"]["preset"])
+    width, height = summary["size"]
+    per_px = display.resolution / width  # display px per px of the pair
+    zone = ComfortZone()
+    ticks = np.linspace(-scale_arcmin, scale_arcmin, 9)
+    ticks_px = np.asarray(pixels_from_arcmin(ticks, display)) / per_px
+    lo, hi = zone.pixels(display)
+    return {
+        "width": width, "height": height, "display": summary["display"]["preset"], "display_px_per_px": per_px,
+        "zone_arcmin": [zone.min_arcmin, zone.max_arcmin], "zone_px": [lo / per_px, hi / per_px],
+        "divergence_px": display.divergence_disparity * width,
+        "scale": {"arcmin": [-scale_arcmin, scale_arcmin], "px": [float(ticks_px[0]), float(ticks_px[-1])],
+                  "ticks": [{"arcmin": float(a), "px": float(p)} for a, p in zip(ticks, ticks_px)]},
+        "window": {"band_px": min(width, max(2, int(round(WINDOW_BAND * width)))), "min_px": WINDOW_MIN_PX,
+                   "share": WINDOW_SHARE, "mask_percentile": WINDOW_MASK_PERCENTILE},
+        "parallax": PARALLAX_FILE, "row_alignment": summary.get("row_alignment"),
+    }  # fmt: skip
+
+
+def add_routes(app: FastAPI, jobs: JobManager) -> None:
+    """``GET /api/stereo/{job_id}/overlay``."""
+    error = {"content": {"application/json": {"example": {"error": "one line"}}}}
+
+    @app.get("/api/stereo/{job_id}/overlay", summary="What the 2D + depth page's overlays need for a synthesize job",
+             responses={404: error, 409: error, 422: error})
+    def overlay(job_id: str, scale_arcmin: float = Query(
+            HEAT_SCALE_ARCMIN, gt=0, le=MAX_HEAT_SCALE_ARCMIN, allow_inf_nan=False,
+            description="The heat map's colour scale, +-arcmin of vergence on the job's display.")) -> Response:
+        """The comfort zone, divergence limit and colour scale in px of the pair, the stereo-window rule, the
+        name of the job's parallax map (``GET /api/jobs/{job_id}/files/parallax.npy``) and, for a stereo pair,
+        its vertical disparity; 404 for an unknown id or another kind of job, 409 before it is done."""
+        try:
+            status, _ = jobs.status(jobs.get(job_id))
+        except KeyError as exc:
+            return refusal(404, str(exc.args[0]))
+        if status["kind"] != "synthesize":
+            return refusal(404, f"job {job_id} is a {status['kind']} job, not a synthesize job")
+        if status["state"] != "done":
+            return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
+        return JSONResponse(overlay_geometry(status["result"], scale_arcmin=scale_arcmin))

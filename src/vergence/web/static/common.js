@@ -277,3 +277,57 @@ function jobDone(status, message) {
 
 // The URL of a done job's file.
 function jobFile(id, name) { return `/api/jobs/${id}/files/${encodeURIComponent(name)}`; }
+
+// ---------------------------------------------------------------- histograms
+// bars: [{lo, hi, value}] drawn as SVG rectangles on a fixed x range (opts.xrange), each with data-lo,
+// data-hi and data-value; opts.bands: [{from, to, cls, label}] shaded spans; opts.vlines as drawPlot's.
+// The plot's layout is drawPlot's (PLOT), its height the svg's viewBox height.
+function drawHistogram(svg, bars, opts) {
+  svg.replaceChildren();
+  const { width, left, right, top, bottom } = PLOT;
+  const height = svg.viewBox.baseVal && svg.viewBox.baseVal.height ? svg.viewBox.baseVal.height : PLOT.height;
+  const [xlo, xhi] = opts.xrange;
+  const ymax = Math.max(...bars.map((b) => b.value), ...(opts.yinclude || [0]));
+  const yr = niceTicks(0, ymax > 0 ? ymax : 1, 4);
+  const tx = (x) => left + (x - xlo) / (xhi - xlo || 1) * (width - left - right);
+  const ty = (y) => top + (yr.hi - y) / (yr.hi - yr.lo || 1) * (height - top - bottom);
+  const clamp = (x) => Math.max(left, Math.min(width - right, tx(x)));
+  const labels = [];
+  for (const band of opts.bands || []) {
+    const x0 = clamp(band.from), x1 = clamp(band.to);
+    if (x1 > x0) svg.append(el("rect", { x: x0, y: top, width: x1 - x0, height: height - top - bottom, class: band.cls || "shade" }));
+    // a narrow band at the right edge is labelled left of its start
+    const outside = x1 - x0 < 80 && x1 >= width - right - 1;
+    if (band.label && x1 > x0) labels.push(el("text", { x: outside ? x0 - 3 : x0 + 3, y: top + 11 + 13 * labels.length,
+      "text-anchor": outside ? "end" : "start", class: "shade-label halo" }, band.label));
+  }
+  const grid = el("g", { class: "axes" });
+  for (const t of niceTicks(xlo, xhi, 8).ticks) {
+    if (t < xlo || t > xhi) continue;
+    grid.append(el("line", { x1: tx(t), x2: tx(t), y1: top, y2: height - bottom, class: "grid" }));
+    grid.append(el("text", { x: tx(t), y: height - bottom + 14, "text-anchor": "middle" }, fmt(t, 3)));
+  }
+  for (const t of yr.ticks) {
+    grid.append(el("line", { x1: left, x2: width - right, y1: ty(t), y2: ty(t), class: "grid" }));
+    grid.append(el("text", { x: left - 6, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
+  }
+  grid.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom, class: "frame" }));
+  grid.append(el("text", { x: (left + width - right) / 2, y: height - 6, "text-anchor": "middle", class: "label" }, opts.xlabel));
+  grid.append(el("text", { x: 12, y: (top + height - bottom) / 2, "text-anchor": "middle", class: "label",
+    transform: `rotate(-90 12 ${(top + height - bottom) / 2})` }, opts.ylabel));
+  svg.append(grid);
+  const g = el("g", { class: "bars" });
+  for (const b of bars) {
+    const x0 = clamp(b.lo), x1 = clamp(b.hi);
+    g.append(el("rect", { x: x0, y: ty(b.value), width: Math.max(0, x1 - x0), height: ty(0) - ty(b.value),
+      class: `bar ${b.cls || ""}`, "data-lo": String(b.lo), "data-hi": String(b.hi), "data-value": String(b.value) }));
+  }
+  svg.append(g);
+  for (const v of opts.vlines || []) {
+    if (!(v.x >= xlo && v.x <= xhi)) continue;
+    svg.append(el("line", { x1: tx(v.x), x2: tx(v.x), y1: top, y2: height - bottom, class: `vline ${v.cls || ""}` }));
+    svg.append(el("text", { x: tx(v.x) + 3, y: height - bottom - 4, class: "vline-label halo" }, v.label));
+  }
+  svg.append(...labels);  // over the bars
+  svg.dataset.bars = String(bars.length);
+}
