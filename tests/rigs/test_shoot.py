@@ -68,3 +68,30 @@ def test_error_image_is_the_gained_difference_and_blue_holes():
         result.error_image("ulr", "left")
     with pytest.raises(KeyError, match="bayesian/right"):
         result.error_image("bayesian", "right")
+
+
+def test_progress_reaches_inside_the_curved_truth_and_timings_are_per_stage():
+    seen = []
+    result = render_shot(_tri(), weights=("ulr",), samples=1, supersample=2, progress=lambda f, m: seen.append((f, m)))
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    inside = [m for _, m in seen if m.startswith("curved-ray truth: curved rays")]
+    assert len(inside) >= 2  # octave by octave, not one step for the whole truth
+    timings = result.report["timings"]
+    assert list(timings["stages_s"]) == ["scene", "real_cameras", "curved_truth", "tone_mapping", "ibr_ulr", "measures"]
+    assert all(v >= 0 for v in timings["stages_s"].values())
+    parts = sum(timings["stages_s"][k] for k in ("scene", "real_cameras", "curved_truth"))
+    assert timings["ray_tracing_s"] == pytest.approx(parts, abs=0.02)
+    assert sum(timings["stages_s"].values()) <= timings["total_s"] + 0.02
+
+
+def test_the_rig_cameras_side_by_side_equal_separate_renders():
+    from vergence.rigs.shoot import _tracer
+
+    shot = _tri()
+    rig = shot.plan()
+    tracer = _tracer(shot)
+    cams = [rc.camera for rc in rig.cameras]
+    together = tracer.render_many(cams, samples=2, supersample=2)
+    for cam, res in zip(cams, together):
+        np.testing.assert_array_equal(res.beauty, tracer.render(cam, samples=2, supersample=2).beauty)

@@ -142,14 +142,14 @@ class Tracer:
                       and type(self.shader) is WhittedShader)  # fmt: skip
         self._pack = None
 
-    def _uv_objects(self) -> np.ndarray:
+    def uv_objects(self) -> np.ndarray:
         """Per object: whether its material reads texture coordinates (a checker or a texture)."""
         from vergence.render.scene import Checker, Texture
 
         pk = self.packed
         return np.array([isinstance(pk.materials[m], Checker | Texture) for m in pk.material], dtype=np.bool_)
 
-    def _shading_pack(self):  # noqa: ANN202
+    def shading_pack(self):  # noqa: ANN201
         """The materials and environment as kernel arrays (:func:`~vergence.render.wavefront.pack_shading`), once."""
         if self._pack is None:
             from vergence.render.wavefront import pack_shading

@@ -22,7 +22,8 @@ __all__ = ["AO_PATTERNS", "SpecularSplit", "WhittedShader"]
 # Offset of secondary ray origins, relative to the coordinates' magnitude: well above the float32
 # error of Mitsuba's intersection (~1e-6 relative), well below any feature of the built-in scenes.
 EPS_REL = 1e-4
-_AO_CHUNK = 1 << 21  # shadow rays per Mitsuba call
+#: Shadow rays per Mitsuba call of the ambient occlusion (staged and fused alike).
+AO_CHUNK = 1 << 21
 
 
 def offset(p: np.ndarray, n: np.ndarray, sign: float = 1.0) -> np.ndarray:
@@ -132,7 +133,7 @@ class WhittedShader:
         """Cosine-weighted unoccluded fraction of the hemisphere around ``n_shade`` at each point."""
         out = np.empty(len(points))
         lattice = ao_lattice(samples)
-        step = max(1, _AO_CHUNK // samples)
+        step = max(1, AO_CHUNK // samples)
         for s in range(0, len(points), step):
             e = min(len(points), s + step)
             if rng is not None:

@@ -142,6 +142,21 @@ class Lighting:
         cos = np.maximum(normals @ texels.T, 0.0)  # (normals, texels)
         self._irr = (cos @ weights).reshape(_IRR_H, _IRR_W, 3).astype(np.float32)
 
+    @property
+    def radiance_map(self) -> np.ndarray | None:
+        """The environment map times its intensity, ``(h, w, 3)`` float32; None for a constant colour."""
+        return self._map
+
+    @property
+    def irradiance_table(self) -> np.ndarray | None:
+        """``E(n)`` tabulated on a 32 x 16 equirectangular grid of normals, float32; None for a constant colour."""
+        return self._irr
+
+    @property
+    def rotation(self) -> float:
+        """The map's rotation about the vertical axis, radians (``Environment.rotation_deg``)."""
+        return self._rot
+
     @staticmethod
     def _grid_dirs(w: int, h: int) -> np.ndarray:
         """Unrotated directions of texel centres of an equirectangular ``(h, w)`` map."""

@@ -22,7 +22,7 @@ from vergence.render import _wavefront_kernels as wk
 from vergence.render import surfaces
 from vergence.render._kernels import ao_rays
 from vergence.render.scene import Checker, Texture
-from vergence.render.shader import _AO_CHUNK, AO_PATTERNS, EPS_REL
+from vergence.render.shader import AO_CHUNK, AO_PATTERNS, EPS_REL
 from vergence.render.shading import ao_lattice
 
 __all__ = ["ShadingPack", "pack_shading", "trace_wavefront"]
@@ -77,10 +77,10 @@ def pack_shading(packed: surfaces.PackedScene, lighting: object) -> ShadingPack:
     if env.color is not None:
         const = np.asarray(env.color * env.intensity, dtype=np.float64)  # as Lighting.radiance
         irr_const = np.asarray(np.pi * env.color * env.intensity, dtype=np.float64)  # as Lighting.irradiance
-    env_map = _EMPTY_MAP if lighting._map is None else np.ascontiguousarray(lighting._map)
-    irr_map = _EMPTY_MAP if lighting._irr is None else np.ascontiguousarray(lighting._irr)
+    env_map = _EMPTY_MAP if lighting.radiance_map is None else np.ascontiguousarray(lighting.radiance_map)
+    irr_map = _EMPTY_MAP if lighting.irradiance_table is None else np.ascontiguousarray(lighting.irradiance_table)
     return ShadingPack(kind, color, squares, base, th, tw, np.concatenate(data) if data else np.zeros(1), env_map,
-                       const, irr_map, irr_const, float(lighting._rot))  # fmt: skip
+                       const, irr_map, irr_const, float(lighting.rotation))  # fmt: skip
 
 
 def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_depth, samples, rng, ao_distance,
@@ -100,7 +100,7 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
     first_p = np.empty((n_slots, 3))
     first_t = np.empty(n_slots)
     oid = np.full((n_nodes, n_slots), -1, dtype=np.int32)
-    pk, shader, sp = tracer.packed, tracer.shader, tracer._shading_pack()
+    pk, shader, sp = tracer.packed, tracer.shader, tracer.shading_pack()
     caster = tracer.intersector.caster
     node = np.ones(len(pixels), dtype=np.int64)
     slot = np.ascontiguousarray(pixels, dtype=np.int64)
@@ -126,7 +126,7 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
             q, children, r_part, t_part = _shade_chunk(slice(c0, c1), node, slot, o, d, thr, registry, prim, t32,
                                              tmax[c0:c1] if bounded else no_tmax, bounded, level == max_depth,
                                              level == 0, geo_slots, pk, sp, caster.lookup, rad, pos, nrm, first_p,
-                                             first_t, oid, tracer._uv_objects())  # fmt: skip
+                                             first_t, oid, tracer.uv_objects())  # fmt: skip
             if len(q[0]):
                 queue.append(q)
             reflected.append(r_part)
@@ -181,7 +181,7 @@ def _shade_chunk(sl, node, slot, o, d, thr, registry, prim, t32, tmax, bounded, 
 def _ambient_occlusion(shader, sp, q_node, q_slot, q_geo, q_alb, rad, *, samples, rng, ao_distance) -> None:  # noqa: ANN001
     """``WhittedShader.diffuse`` of the queued diffuse hits, written into ``rad``: shadow rays, chunked as the shader."""
     lattice = ao_lattice(samples)
-    step = max(1, _AO_CHUNK // samples)
+    step = max(1, AO_CHUNK // samples)
     pattern = AO_PATTERNS[shader.ao_pattern]
     n = len(q_slot)
     for s in range(0, n, step):
