@@ -177,7 +177,7 @@ def _bend(q):
 
 def test_neighbour_jacobians_equal_the_forward_differences(monkeypatch):
     """Sampling with the neighbours' midpoints as the one-pixel steps gives the polylines of the numpy
-    forward differences (curved._mapped_with_steps, one to_world call per step) to rounding."""
+    forward differences (without neighbours: one to_world call per step) to rounding."""
     cam = look_at([0.4, 0.1, 0.0], [0.4, 0.1, 1.0], [0, -1, 0], fov_deg=60, width=9, height=7)
     fast = curved.sample_curves(cam, _bend, near=0.5, far=40.0, tolerance_px=0.05)
 

@@ -27,6 +27,13 @@ the quarter points are tested too, since a segment across an inflection of psi c
 midpoint on the chord (measured on the stadium Tri-Rig: up to 0.94 px off at a 0.25 px tolerance
 with the midpoint alone). Straight and affine maps need no split.
 
+**Cost.** ``to_world`` is called once per bisection level for all the rays being sampled (up to
+``_CHUNK_RAYS``), and maps each point once: a split segment's children have the parent's quarter
+points as midpoints (the quarter points are computed as the children's midpoints, bit for bit), and
+the one-pixel steps of ``J_x``, ``J_y`` are the midpoints of the neighbouring pixels' segments of the
+same level where those exist (the same point, to rounding). On the stadium Tri-Rig at 320 x 180 this
+maps 92 points per ray instead of 182, with the same polylines (issue 31).
+
 **Far end.** ``far = inf`` cuts the sampling at :data:`CURVE_CUT_DEPTH`; the last segment then
 continues without bound. Where ``to_world`` returns NaN (or inf) the curve is undefined: the ray
 ends at the last defined sample before it (the boundary located by bisection) without a hit.
@@ -161,23 +168,6 @@ def _gap_px(pa, pb, pm, jx, jy) -> np.ndarray:  # noqa: ANN001
         return np.hypot(a, b)  # NaN or inf where the frame is degenerate or a point undefined: split
 
 
-def _mapped_with_steps(to_world, qm: np.ndarray, sx: np.ndarray, sy: np.ndarray):  # noqa: ANN001, ANN202
-    """``P_m = to_world(q_m)`` and the real-world displacements ``J_x``, ``J_y`` of one-pixel steps ``sx``, ``sy``.
-
-    One call of ``to_world`` for the three; forward differences, backward where the forward one is
-    undefined; NaN where both are (the gap cannot be measured there and the segment is kept: the map
-    is undefined within a pixel of the curve on both sides).
-    """
-    m = len(qm)
-    out = _map(to_world, np.concatenate([qm, qm + sx, qm + sy]))
-    pm, jx, jy = out[:m], out[m : 2 * m] - out[:m], out[2 * m :] - out[:m]
-    for j, step in ((jx, sx), (jy, sy)):
-        bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
-        if bad.any():
-            j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
-    return pm, jx, jy
-
-
 def _initial_grid(u_near: float, u_far: float) -> np.ndarray:
     """Inverse depths of the first samples: depths in geometric progression of ratio <= MAX_DEPTH_RATIO.
 
@@ -210,8 +200,10 @@ def _neighbours(pixel: np.ndarray, path: np.ndarray, width: int, span: int) -> t
 
 
 def _jacobian(to_world, pm, qm, step, mapped, nb) -> np.ndarray:  # noqa: ANN001
-    """``J = P(q_m + step) - P_m``, the forward point from the neighbour ``nb`` (or ``mapped`` where it has
-    none); backward where the forward one is undefined (as :func:`_mapped_with_steps`)."""
+    """``J = P(q_m + step) - P_m``, the forward point from the neighbour ``nb`` (or ``mapped``, ``to_world(q_m +
+    step)``, where it has none); backward, ``P_m - P(q_m - step)``, where the forward one is undefined; NaN where
+    both are (the gap cannot be measured there and the segment is kept: the map is undefined within a pixel of
+    the curve on both sides)."""
     j = np.empty_like(pm)
     has = nb >= 0
     j[has] = pm[nb[has]] - pm[has]
@@ -232,8 +224,9 @@ def _sample_chunk(center, r, step_x, step_y, to_world, grid, open_far, tol, pixe
     ``to_world``. A point is mapped once: a split segment's children have the parent's quarter points
     as their midpoints, and the one-pixel steps of ``J_x``, ``J_y`` are the midpoints of the
     neighbouring pixels' segments of the same level where those exist (``pixel``: each ray's flat
-    pixel index in an image ``width`` wide; :func:`_neighbours`). :func:`_mapped_with_steps` and
-    :func:`_gap_px` (numpy) are the reference of this bookkeeping and of the gap kernel.
+    pixel index in an image ``width`` wide; :func:`_neighbours`). Without neighbours every step is mapped
+    by ``to_world`` itself (the reference of this bookkeeping in the tests), and :func:`_gap_px` (numpy)
+    is the reference of the gap kernel.
     """
     from vergence.render._kernels import segment_gaps_ok
 
