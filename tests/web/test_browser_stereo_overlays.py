@@ -178,9 +178,36 @@ def test_the_histogram_and_its_shares_follow_the_hit_slider(page, server_url, tm
             width = float(page.locator('[data-testid="st-hist"]').get_attribute("data-bin-width"))
             assert (1 / width) == round(1 / width)
             np.testing.assert_allclose([(lo + shift, hi + shift, v) for lo, hi, v in before], shown, atol=1e-9)
+    # the shown pair is the job's views moved apart by s: the left view -s/2, the right +s/2 (the canvas is 2x)
+    canvas = _canvas_rgb(page)
+    views = {name: _view(server_url, job_id, name) for name in ("left.png", "right.png")}
+    cols = np.arange(2 * W)
+    for channel, name, dx in ((0, "left.png", 5), (1, "right.png", -5), (2, "right.png", -5)):
+        src = (cols + dx) // 2  # the view's column drawn at canvas column c
+        inside = (src >= 0) & (src < W)
+        expected = np.zeros((2 * H, 2 * W))
+        expected[:, inside] = np.repeat(views[name][:, src[inside], channel], 2, axis=0)
+        np.testing.assert_allclose(canvas[:, :, channel], expected, atol=1, err_msg=name)
     assert "HIT +5 px" in page.locator('[data-testid="st-cli-b"]').input_value()
     assert "HIT" not in page.locator('[data-testid="st-cli-a"]').input_value()
     assert "hit+5px" in page.locator('[data-testid="st-save-shown"]').get_attribute("download")
+
+
+def _canvas_rgb(page) -> np.ndarray:
+    """The shown pair's canvas as (2H, 2W, 3) values 0-255."""
+    data = page.evaluate("""() => {
+        const c = document.getElementById('st-pair-canvas');
+        return [c.width, c.height, Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data)];
+    }""")
+    width, height, values = data
+    return np.array(values, float).reshape(height, width, 4)[:, :, :3]
+
+
+def _view(server_url: str, job_id: str, name: str) -> np.ndarray:
+    import cv2
+
+    data = httpx.get(f"{server_url}/api/jobs/{job_id}/files/{name}", timeout=30).content
+    return cv2.cvtColor(cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB).astype(float)
 
 
 def _red_columns(page, x0: int, x1: int) -> np.ndarray:

@@ -612,7 +612,13 @@ function stOverlaysError(exc) {
 }
 
 function stInitOverlays() {
-  const redraw = () => stDrawOverlays();
+  // One redraw per frame however fast the slider moves (a large pair takes a while to count).
+  let pending = false;
+  const redraw = () => {
+    if (pending) return;
+    pending = true;
+    requestAnimationFrame(() => { pending = false; stDrawOverlays(); });
+  };
   document.getElementById("st-ov-set").addEventListener("change", (ev) => stLoadOverlays(ev.target.value).catch(stOverlaysError));
   document.getElementById("st-heat-scale").addEventListener("change", () => stLoadOverlays(stOv.set).catch(stOverlaysError));
   document.getElementById("st-heat").addEventListener("change", redraw);
