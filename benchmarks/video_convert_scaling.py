@@ -99,6 +99,7 @@ def main() -> None:
     parser.add_argument("--workers", default="1,2,4,8,16", help="worker counts, comma-separated")
     parser.add_argument("--kinds", default="rgbd,stereo")
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--no-warmup", action="store_true", help="no warm-up run (Numba's cache already filled)")
     args = parser.parse_args()
     if args.make is not None:
         make(args.make, args.width, args.frames_per_shot, args.tile)
@@ -110,7 +111,7 @@ def main() -> None:
         parser.error("give --make DIR or --clips DIR")
     from distributed import LocalCluster
 
-    counts = [int(n) for n in args.workers.split(",")]
+    counts = [int(n) for n in args.workers.split(",") if n]  # "": the serial run only
     display = Display.preset("tv-55")
     out_folder = Path(tempfile.mkdtemp())
     openers = {"rgbd": lambda: open_depth_clip(args.clips / NAMES["rgbd"]),
@@ -124,10 +125,13 @@ def main() -> None:
             convert_clip(openers[kind](), out, display, budget_arcmin=30.0, scheduler=scheduler)
             out.unlink()
 
-        convert()
+        if not args.no_warmup:
+            convert()
         serial = [timed(convert) for _ in range(args.repeats)]
         print(f"{kind}: {frames} frames, {os.cpu_count()} cores; medians of {args.repeats}", flush=True)
         base = report(f"{kind}, serial", serial, width=36)
+        cpu = float(sorted(c for _, c in serial)[len(serial) // 2])
+        print(f"{'':36s} = {base / frames:.3f} s a frame, {cpu / frames:.3f} CPU-s a frame (this process)", flush=True)
         print(f"{'':36s} = {frames / base:6.2f} frames/s", flush=True)
         walls: dict[int, float] = {}
         for n in counts:
@@ -135,7 +139,8 @@ def main() -> None:
                                    silence_logs=logging.CRITICAL,
                                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})  # fmt: skip
             try:
-                convert(cluster.scheduler_address)
+                if not args.no_warmup:
+                    convert(cluster.scheduler_address)
                 runs = [timed(lambda: convert(cluster.scheduler_address)) for _ in range(args.repeats)]
             finally:
                 cluster.close()

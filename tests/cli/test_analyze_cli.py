@@ -131,7 +131,23 @@ def test_options_of_the_other_kind_of_input_are_refused(clips, capsys):
                                    "--no-vertical"])
     assert code == 2 and err.startswith("error: --method, --no-vertical apply to a stereo INPUT; clips_RGBD.mp4 is "
                                         "read as 2d+depth")
-    code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--budget-arcmin", "20"])
-    assert code == 2 and err.startswith("error: --budget-arcmin apply to a 2d+depth INPUT")
+    # --budget-arcmin applies to a stereo clip too (issue 28: each shot's suggestion says what convert would do there)
+    code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--budget-arcmin", "0"])
+    assert code == 2 and err.startswith("error: --budget-arcmin must be a number in (0, 600]; got 0.0")
     code, out, err = _run(capsys, ["analyze", str(clips.stereo), "--display", "tv-55", "--method", "nope"])
     assert code == 2 and err.startswith("error: --method must be one of bm, ncc, patchmatch, sad, sgbm, ssd; got 'nope'")
+
+
+def test_an_unnamed_input_and_an_untagged_one_name_the_path_and_layout(clips, tmp_path, capsys, monkeypatch):
+    """Issue 28: `analyze .` said "cannot guess the stereo layout of : ..." (an empty name); the refusal names the
+    folder, and the option that answers it (--layout), as for a file without a tag."""
+    import shutil
+
+    shutil.copy(clips.stereo, tmp_path / "plain.mp4")
+    monkeypatch.chdir(tmp_path)
+    code, out, err = _run(capsys, ["analyze", ".", "--display", "tv-55"])
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"error: cannot guess the stereo layout of {tmp_path.resolve()}: its name carries no tag")
+    assert err.rstrip().endswith("give --layout (sbs, half-sbs, tb, half-tb)"), err
+    code, out, err = _run(capsys, ["analyze", "plain.mp4", "--display", "tv-55"])
+    assert code == 2 and err.startswith("error: cannot guess the stereo layout of plain.mp4") and "--layout" in err
