@@ -241,7 +241,8 @@ def test_a_window_violation_is_flagged_and_the_floating_window_masks_it(page, se
     assert _red_columns(page, 0, 2 * width).max() > 0  # not masked yet: the left view's bright texture
 
     page.check('[data-testid="st-float"]')
-    expect(page.locator('[data-testid="st-float-note"]')).to_contain_text(f"left edge of the left view: {width} px black")
+    note = page.locator('[data-testid="st-float-note"]')
+    expect(note).to_contain_text(f"left edge of the left view: {width} px black")
     assert page.locator('[data-testid="st-overlays"]').get_attribute("data-mask-left") == str(width)
     assert page.locator('[data-testid="st-overlays"]').get_attribute("data-mask-right") == "0"
     assert _red_columns(page, 0, 2 * width).max() == 0  # the canvas is the pair at 2x: 2 columns per px

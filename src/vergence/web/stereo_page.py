@@ -49,9 +49,9 @@ if TYPE_CHECKING:
     from vergence.web.job_kinds import JobEnv
     from vergence.web.uploads import Upload
 
-__all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "HEAT_SCALE_ARCMIN", "KINDS", "MAX_EXAMPLE_SIDE", "MAX_HEAT_SCALE_ARCMIN",
-           "MAX_STEREO_JOB_PIXELS", "PARALLAX_FILE", "SynthesizeJob", "VERTICAL_WARN_PX", "WINDOW_MASK_PERCENTILE",
-           "add_routes", "overlay_geometry"]
+__all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "HEAT_SCALE_ARCMIN", "KINDS", "MAX_EXAMPLE_SIDE",
+           "MAX_HEAT_SCALE_ARCMIN", "MAX_STEREO_JOB_PIXELS", "PARALLAX_FILE", "SynthesizeJob", "VERTICAL_WARN_PX",
+           "WINDOW_MASK_PERCENTILE", "add_routes", "overlay_geometry"]
 
 #: Largest input of a synthesize job, pixels (12 Mpx, 4000 x 3000): the pair and all its layouts
 #: are written as PNG for the page; larger images are ``vergence synthesize``'s work.
