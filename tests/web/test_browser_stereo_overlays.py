@@ -237,6 +237,8 @@ def test_a_window_violation_is_flagged_and_the_floating_window_masks_it(page, se
     assert left.get_attribute("data-violation") == "true" and right.get_attribute("data-violation") == "false"
     assert float(left.get_attribute("data-share")) == pytest.approx(np.mean(near > 0.5), abs=1e-12)
     assert int(left.get_attribute("data-width")) == width
+    rows = np.flatnonzero((near > 0.5).any(axis=1))
+    expect(left).to_contain_text(f"rows {rows[0]}–{rows[-1]}")
     expect(left).to_contain_text(f"floating window of {width} px")
     assert _red_columns(page, 0, 2 * width).max() > 0  # not masked yet: the left view's bright texture
 

@@ -342,6 +342,7 @@ function stImage(url) {
 async function stLoadOverlays(set) {
   const token = ++stOv.token;
   const id = stState.jobs[set];
+  if (!id) return;  // nothing synthesized yet
   const scale = document.getElementById("st-heat-scale").value;
   document.getElementById("st-overlays").dataset.state = "loading";
   const [geo, buffer, left, right] = await Promise.all([
@@ -400,13 +401,13 @@ function stOvState() {
   const edges = {};
   for (const edge of ["left", "right"]) {
     const x0 = edge === "left" ? 0 : W - band;
-    let crossed = 0;
+    let crossed = 0, first = -1, last = -1;
     const values = [];
     for (let y = 0; y < H; y++) for (let x = x0; x < x0 + band; x++) {
       const p = P[y * W + x];
       if (!Number.isFinite(p)) continue;
       const near = -(p + s);
-      if (near > geo.window.min_px) crossed++;
+      if (near > geo.window.min_px) { crossed++; if (first < 0) first = y; last = y; }
       values.push(near);
     }
     const share = crossed / (band * H);
@@ -418,7 +419,7 @@ function stOvState() {
       const i = Math.floor(pos);
       cue = i + 1 < values.length ? values[i] + (pos - i) * (values[i + 1] - values[i]) : values[i];
     }
-    edges[edge] = { share, violation, cue, width: violation && cue > geo.window.min_px ? Math.ceil(cue) : 0 };
+    edges[edge] = { share, violation, cue, rows: [first, last], width: violation && cue > geo.window.min_px ? Math.ceil(cue) : 0 };
   }
   return { counts, known, outside, diverging, mean: known ? sum / known : NaN, edges };
 }
@@ -553,7 +554,8 @@ function stShowWindow(state, floating, mask) {
     li.dataset.width = String(e.width);
     const band = `${(100 * e.share).toFixed(1)} % of the ${geo.window.band_px}-px band in front of the screen`;
     li.textContent = e.violation
-      ? `${edge} edge: stereo-window violation (${band}, ≥ ${100 * geo.window.share} %): a floating window of ${e.width} px masks it`
+      ? `${edge} edge: stereo-window violation, rows ${e.rows[0]}–${e.rows[1]} (${band}, ≥ ${100 * geo.window.share} %): ` +
+        `a floating window of ${e.width} px masks it`
       : `${edge} edge: no violation (${band})`;
     li.className = e.violation ? (mask[edge] ? "st-masked" : "st-violation") : "";
     return li;
