@@ -188,3 +188,24 @@ def test_reoptimise_takes_painted_maps_of_the_tables_size(tabled, tmp_path):
                             f"2={small}")  # fmt: skip
     assert code == 2 and "must be 48 x 36 pixels (the render's W x H); got 24 x 18" in stderr, stderr
     assert not (tmp_path / "no").exists()
+
+
+def test_reoptimise_reads_a_table_the_library_wrote(tmp_path):
+    """A table of write_specular_table alone (no command-line source): the built-in scene by its name,
+    the display by its preset name."""
+    from vergence.render import Tracer, builtin_scene
+    from vergence.rigs import stereo_pair
+    from vergence.specular import TABLE_FILE, specular_stereo, write_specular_table
+    from vergence.viewing import Display
+
+    tracer = Tracer(builtin_scene("glasses", width=32, height=24))
+    left, right = stereo_pair(tracer.scene.camera.build(), baseline=0.065, convergence=3.6)
+    result = specular_stereo(tracer, left, right, Display.preset("samsung-2233rz"), k=2, samples=1, keep_table=True)
+    (tmp_path / "lib").mkdir()
+    write_specular_table(result.table(), tmp_path / "lib" / TABLE_FILE)
+    code, stdout, stderr = _main("specular", "--reoptimise", str(tmp_path / "lib"), "--out", str(tmp_path / "re"))
+    assert code == 0, stderr
+    assert "display samsung-2233rz, fit screen" in stdout
+    code, _, stderr = _main("specular", "--reoptimise", str(tmp_path / "lib"), "--out", str(tmp_path / "no"),
+                            "--display", "tv-55")  # fmt: skip
+    assert code == 2 and "its table was made with --display 'samsung-2233rz'; got 'tv-55'" in stderr, stderr

@@ -43,9 +43,10 @@ def _table_values(table: object) -> dict:
     """The options a table fixes, as the command line spells them."""
     src, s = table.source, table.settings
     cam = table.physical_left.camera
-    return {"SCENE": src.get("scene"), "--display": src.get("display"), "--fit": s["display"]["fit"],
-            "--k": s["k"], "--depth": s["max_depth"], "--samples": s["samples"], "--width": cam.width,
-            "--height": cam.height, "--baseline": src.get("baseline"), "--convergence": src.get("convergence")}  # fmt: skip
+    return {"SCENE": src.get("scene"), "--display": src.get("display") or s["display"]["name"],
+            "--fit": s["display"]["fit"], "--k": s["k"], "--depth": s["max_depth"], "--samples": s["samples"],
+            "--width": cam.width, "--height": cam.height, "--baseline": src.get("baseline"),
+            "--convergence": src.get("convergence")}  # fmt: skip
 
 
 def _read(folder: Path) -> object:
@@ -84,7 +85,8 @@ def reoptimise_folder(folder: Path, out: Path, *, given: dict, weights: tuple | 
     fixed = _table_values(table)
     for option, value in given.items():
         if value is not None and value != fixed[option]:
-            made = "the scene's" if fixed[option] is None else repr(fixed[option])
+            unknown = "the scene's" if option in ("--baseline", "--convergence") else "a value it does not record"
+            made = unknown if fixed[option] is None else repr(fixed[option])
             raise ValueError(f"--reoptimise {folder}: its table was made with {option} {made}; got {value!r} (the "
                              f"table fixes {option}: run without --reoptimise for a new table)")  # fmt: skip
     src = table.source
@@ -95,7 +97,10 @@ def reoptimise_folder(folder: Path, out: Path, *, given: dict, weights: tuple | 
         if _sha256(path) != src.get("sha256"):
             raise ValueError(f"--reoptimise {folder}: its scene file {path} changed since the table was written; "
                              "run without --reoptimise for a new table")  # fmt: skip
-    spec = src.get("path") or src.get("scene")
+    from vergence.render.builtin import BUILTIN_SCENES
+
+    name = table.settings.get("scene")  # a table written by the library alone records the scene's name only
+    spec = src.get("path") or src.get("scene") or (name if name in BUILTIN_SCENES else None)
     if spec is None:
         raise ValueError(f"--reoptimise {folder}: its table does not say which scene it was made of")
     cam = table.physical_left.camera
