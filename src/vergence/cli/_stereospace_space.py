@@ -319,8 +319,10 @@ def _write_pair(out: Path, result, layout: str, record: dict, built, state) -> N
         raise_if_interrupted()
 
 
-# Columns of `stereospace info`'s table of best states (it fits 80 columns with names up to this).
-_INFO_NAME = 24
+# `stereospace info`'s table of best states fits 80 columns: camera names shortened to this many
+# characters, the pair column this wide.
+_INFO_NAME = 12
+_INFO_PAIR = 2 * _INFO_NAME + 3
 
 
 def _short(name: str, width: int) -> str:
@@ -388,11 +390,11 @@ def info(
     say(f"  {record['fit_with_shift']} of them fit the zone with a shift")
     say()
     say("best states (pair --best: the first; pair --at STATE); range of the disparities")
-    say(f"{'#':>3}  {'state':<14} {'cameras':<{2 * _INFO_NAME // 2 + 3}} {'quality':>7} {'range':>7} {'fits':>4}")
+    say(f"{'#':>3}  {'state':<14} {'cameras':<{_INFO_PAIR}} {'quality':>7} {'range':>7} {'fits':>4}")
     for row in record["best"]:
-        pair_names = " + ".join(_short(n, _INFO_NAME // 2) for n in row["cameras"])
+        pair_names = " + ".join(_short(n, _INFO_NAME) for n in row["cameras"])
         span = "-" if row["range_arcmin"] is None else f"{row['range_arcmin']:.0f}'"
-        say(f"{row['rank']:>3}  {row['at']:<14} {pair_names:<{2 * _INFO_NAME // 2 + 3}} {row['quality']:>7.3f} "
+        say(f"{row['rank']:>3}  {row['at']:<14} {pair_names:<{_INFO_PAIR}} {row['quality']:>7.3f} "
             f"{span:>7} {'yes' if row['fits_with_shift'] else 'no':>4}")
     say()
     say("cameras (pair --near NAME):")
