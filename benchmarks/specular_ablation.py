@@ -14,7 +14,7 @@ against the right eye (the pipeline's independent position match):
 - ``med``: the median horizontal disparity of the mirror's important pixels (physical importance
   >= 0.5), before -> after, arcmin;
 - ``behind``: of the mirror's reflection pixels (layer R), the share at least one image pixel behind
-  the mirror's own surface (layer 1) after;
+  the mirror's own surface (layer 1), before -> after;
 - ``lost``: layer pixels present in the physical left eye and missing in the final render (and the
   rim pixels the repair of :func:`~vergence.specular.repair_render` fixed before that);
 - the mean offset y of each specular layer (1: physical, 0: mono);
@@ -74,9 +74,10 @@ def measure(result, arcmin_per_px: float) -> dict:  # noqa: ANN001
         out[f"mirror_{tag}"] = _shares(state, w, zone, mirror_layers)[0]
         imp = mirror & (w[1] >= IMPORTANT) & np.isfinite(state.disparity[1, ..., 0])
         out[f"med_{tag}"] = float(np.median(state.disparity[1, ..., 0][imp])) if imp.any() else float("nan")
-    refl = mirror & np.isfinite(after.disparity[1, ..., 0]) & np.isfinite(after.disparity[0, ..., 0])
-    gap = after.disparity[1, ..., 0] - after.disparity[0, ..., 0]
-    out["behind"] = float((gap[refl] >= arcmin_per_px * 0.999).mean()) if refl.any() else float("nan")
+    for tag, state in (("before", before), ("after", after)):
+        refl = mirror & np.isfinite(state.disparity[1, ..., 0]) & np.isfinite(state.disparity[0, ..., 0])
+        gap = state.disparity[1, ..., 0] - state.disparity[0, ..., 0]
+        out[f"behind_{tag}"] = float((gap[refl] >= arcmin_per_px * 0.999).mean()) if refl.any() else float("nan")
     out["lost"] = [int((present[i] & ~np.isfinite(result.optimised_left.position[i]).all(axis=-1)).sum())
                    for i in range(n)]  # fmt: skip
     out["y"] = [float(result.y[i][present[i]].mean()) if present[i].any() else float("nan") for i in range(n)]
@@ -106,7 +107,8 @@ def report(name: str, label: str, m: dict, zone, step: float) -> None:  # noqa: 
     print(f"  {label:14s} in {m['in_before'][0]:.3f}/{m['in_before'][1]:.3f} -> {m['in_after'][0]:.3f}/"
           f"{m['in_after'][1]:.3f}  mirror {m['mirror_before']:.3f} -> {m['mirror_after']:.3f}  "
           f"med {m['med_before']:6.1f} -> {m['med_after']:6.1f}{_edge(m['med_after'], zone, step)}  "
-          f"behind {m['behind']:.3f}  lost {lost:5d} (repaired rim {m['raw_rim']})  y: {ys}")  # fmt: skip
+          f"behind {m['behind_before']:.3f} -> {m['behind_after']:.3f}  lost {lost:5d} "
+          f"(repaired rim {m['raw_rim']})  y: {ys}")  # fmt: skip
     ins = " ".join(f"{names[i]} {m['layer_in'][i]:.2f}" for i in range(1, len(m["y"])) if m["present"][i])
     print(f"  {'':14s} comfortable before: |d after - d before| median {m['comfy'][0]:.1f}', 90th pct "
           f"{m['comfy'][1]:.1f}', mean 1 - y {m['comfy'][2]:.3f}")  # fmt: skip
