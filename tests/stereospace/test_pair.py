@@ -327,3 +327,30 @@ def test_a_display_shifts_the_pair_into_the_zone(plane):
     assert plain.shift is None
     gap = lambda r: r.rectified[1].K[0, 2] - r.rectified[0].K[0, 2]  # noqa: E731
     assert gap(res) - gap(plain) == pytest.approx(res.shift.shift_px)
+
+
+def test_framing_and_shift_refuse_bad_input(plane):
+    from vergence.stereospace import convergence_shift, frame_cameras
+
+    col, _ = plane
+    a, b = col.cameras[:2]
+    display = Display.preset("desktop-24")
+    for size in ((0, 10), (10,), (10.5, 10), (True, 10)):
+        with pytest.raises(ValueError, match=r"size must be \(width, height\)"):
+            frame_cameras(a, b, size)
+    with pytest.raises(ValueError, match="framing must be one of fit, crop"):
+        frame_cameras(a, b, (W, H), framing="stretch")
+    with pytest.raises(TypeError, match="Camera"):
+        frame_cameras(a, "b", (W, H))
+    with pytest.raises(ValueError, match="points"):
+        convergence_shift(a, b, np.full((3, 3), np.nan), display)
+    with pytest.raises(ValueError, match=r"trim must be a fraction in \[0, 0.5\)"):
+        convergence_shift(a, b, col.points, display, trim=0.5)
+    with pytest.raises(TypeError, match="zone must be a ComfortZone"):
+        convergence_shift(a, b, col.points, display, zone=(-60, 60))
+    with pytest.raises(ValueError, match="resolution"):
+        convergence_shift(a, b, col.points, Display(0.065, 0.6, 0.5))
+    with pytest.raises(ValueError, match="framing must be one of"):
+        stereo_pair(plane[1], StereoState((0, 1), 0.5, 0.5), framing="stretch")
+    with pytest.raises(ValueError, match="give width or size, not both"):
+        stereo_pair(plane[1], StereoState((0, 1), 0.5, 0.5), width=32, size=(32, 24))

@@ -30,7 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.viewing import ComfortZone, Display, arcmin_from_pixels, check_disparity_range, pixels_from_arcmin
+from vergence._validate import as_float_array
+from vergence.viewing import (ComfortZone, Display, arcmin_from_pixels, check_disparity_range, check_display,
+                              pixels_from_arcmin)
 
 __all__ = ["FRAMINGS", "ConvergenceShift", "convergence_shift", "frame_cameras"]
 
@@ -69,12 +71,20 @@ def frame_cameras(left: Camera, right: Camera, size: tuple[int, int], *, framing
     ------
     ValueError
         An unknown ``framing``, a size that is not two positive whole numbers.
+    TypeError
+        Cameras that are not Camera.
     """
+    if not isinstance(left, Camera) or not isinstance(right, Camera):
+        raise TypeError("left and right must be Camera instances")
     if framing not in FRAMINGS:
         raise ValueError(f"framing must be one of {', '.join(FRAMINGS)}; got {framing!r}")
-    width, height = size
-    if width < 1 or height < 1:
-        raise ValueError(f"size must be two positive whole numbers of pixels; got {size!r}")
+    if (not isinstance(size, tuple | list) or len(size) != 2
+            or not all(isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= 1 for v in size)):  # fmt: skip
+        raise ValueError(f"size must be (width, height), two positive whole numbers of pixels; got {size!r}")
+    if reference_width is not None and (isinstance(reference_width, bool) or not isinstance(reference_width, int | np.integer)
+                                        or reference_width < 1):  # fmt: skip
+        raise ValueError(f"reference_width must be a positive whole number of pixels; got {reference_width!r}")
+    width, height = int(size[0]), int(size[1])
     w_rect, h_rect = left.width, left.height
     if framing == "fit":
         s = min(width / w_rect, height / h_rect)
@@ -169,6 +179,13 @@ def convergence_shift(left: Camera, right: Camera, points: object, display: Disp
     (Camera, Camera, ConvergenceShift)
         The shifted cameras (``cx`` moved by ``-h/2`` and ``+h/2``) and what was done.
 
+    Raises
+    ------
+    ValueError
+        Non-finite points or not ``(P, 3)``, a display without resolution, ``trim`` outside [0, 0.5).
+    TypeError
+        Cameras that are not Camera, a zone that is not a ComfortZone.
+
     Notes
     -----
     In screen pixels, with the range ``[p_min, p_max]`` and the zone ``[z_min, z_max]``
@@ -177,8 +194,17 @@ def convergence_shift(left: Camera, right: Camera, points: object, display: Disp
     shift moves points across the views' edges) until it changes by under 0.01 px (at most 6
     rounds). Parallax is ``x_r - x_l`` (positive behind the screen).
     """
+    if not isinstance(left, Camera) or not isinstance(right, Camera):
+        raise TypeError("left and right must be Camera instances")
+    check_display(display, resolution=True)
     zone = ComfortZone() if zone is None else zone
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a ComfortZone; got {type(zone).__name__}")
+    if isinstance(trim, bool) or not isinstance(trim, int | float) or not 0.0 <= trim < 0.5:
+        raise ValueError(f"trim must be a fraction in [0, 0.5); got {trim!r}")
+    if not isinstance(apply, bool):
+        raise TypeError(f"apply must be a bool; got {type(apply).__name__}")
+    pts = as_float_array("points", points, shape=(None, 3))
     zone_arcmin = (zone.min_arcmin, zone.max_arcmin)
     d = _seen_disparities(left, right, pts, trim) if len(pts) else np.zeros(0)
     if d.size == 0:
