@@ -519,13 +519,12 @@ function stDrawHistogram(state) {
     cls: (k + 1) * w <= geo.zone_px[0] || k * w >= geo.zone_px[1] ? "st-bar-out" : "" }));
   const reach = Number(document.getElementById("st-hit").max);
   const lo = Math.min(bins.lo - reach, geo.zone_px[0]) - w, hi = Math.max(bins.hi + reach, geo.zone_px[1]) + w;
-  const divOn = geo.divergence_px <= hi + 0.5 * (hi - lo);  // far off the plot: said in the label instead
+  const divOn = geo.divergence_px <= hi + 0.5 * (hi - lo);  // far off the plot: said beside its share instead
   const xhi = divOn ? Math.max(hi, geo.divergence_px + w) : hi;
   const svg = document.getElementById("st-hist");
   drawHistogram(svg, bars, {
     xrange: [lo, xhi],
-    xlabel: "parallax P + s, px of the pair (negative: in front of the screen)" +
-      (divOn ? "" : `; divergence limit at ${fmt(geo.divergence_px, 3)} px, off the plot`),
+    xlabel: "parallax P + s, px of the pair (negative: in front of the screen)",
     ylabel: "% of pixels",
     bands: [{ from: geo.zone_px[0], to: geo.zone_px[1], cls: "st-zone", label: `comfort zone ±${fmt(geo.zone_arcmin[1], 3)}′` },
       ...(divOn ? [{ from: geo.divergence_px, to: xhi, cls: "shade", label: "diverging" }] : [])],
@@ -537,7 +536,8 @@ function stDrawHistogram(state) {
   for (const [id, count] of [["st-share-zone", state.outside], ["st-share-div", state.diverging]]) {
     const share = state.known ? count / state.known : 0;
     const b = document.getElementById(id);
-    b.textContent = `${(100 * share).toFixed(1)} % (${count} of ${state.known})`;
+    b.textContent = `${(100 * share).toFixed(1)} % (${count} of ${state.known})` +
+      (id === "st-share-div" ? `; the limit at ${fmt(geo.divergence_px, 3)} px${divOn ? "" : ", off the plot"}` : "");
     b.dataset.value = String(share);
   }
 }
