@@ -255,3 +255,23 @@ def test_split_frames_cuts_a_shot_into_pieces_with_the_same_frames(clips, tmp_pa
     assert len(whole) == 16 and [p.read_bytes() for p in whole] == [p.read_bytes() for p in split]
     code, _, err = _run(capsys, [*args, "--out", tmp_path / "bad", "--split-frames", "-2"])
     assert code == 2 and "--split-frames must be an integer >= 0" in err and len(err.strip().splitlines()) == 1
+
+
+def test_floating_window_is_reported_in_the_terminal_and_the_json(clips, tmp_path, capsys):
+    """The tabletop's table crosses the frame's edges in front of the screen: without --floating-window a warning per
+    edge-breaking shot; with it, each such shot says the columns it masked, and --json lists them per edge."""
+    import json
+
+    args = ["convert", clips.rgbd, "--display", "tv-55", "--preset", "ultrafast"]
+    code, out, err = _run(capsys, [*args, "--out", tmp_path / "plain"])
+    assert code == 0 and "breaks the stereo window: a floating window (--floating-window) masks it" in err, err
+    code, out, err = _run(capsys, [*args, "--out", tmp_path / "masked", "--floating-window"])
+    assert code == 0 and "stereo window" not in err, err
+    table = out.splitlines()[0]
+    assert table.startswith("shot 0: frames 0-7, nearness ") and "; floating window: left " in table, out
+    code, out, err = _run(capsys, [*args, "--out", tmp_path / "json", "--floating-window", "--json"])
+    shot = json.loads(out)["shots"][0]
+    widths = {w["edge"]: w["width_px"] for w in shot["window"]["floating_window"]}
+    assert widths and all(w >= 1 for w in widths.values()) and shot["window"]["violations"] == []
+    lo, hi = shot["disparity_out_px"]
+    assert lo < 0 < hi and all(w <= hi + 1 for w in widths.values())  # never wider than the nearest content
