@@ -307,3 +307,19 @@ def test_the_overlay_refuses_a_bad_scale_422(client, ids, value):
 def test_the_overlay_of_an_unknown_job_is_404(client):
     assert "unknown job id 'nope'" in _refused(client.get("/api/stereo/nope/overlay"), 404)
     assert "no such page or endpoint" in _refused(client.get("/api/stereo/nope/overlays"), 404)
+
+
+def test_the_overlay_of_another_kind_of_job_is_404_and_of_a_running_one_409(client, ids):
+    render = _wait(client, client.post("/api/jobs/render", json={"scene": "scene:tabletop", "width": 8, "height": 6,
+                                                                 "depth": 0, "samples": 1}).json()["id"])  # fmt: skip
+    assert render["state"] == "done", render
+    assert "is a render job, not a synthesize job" in _refused(client.get(f"/api/stereo/{render['id']}/overlay"), 404)
+    # a large example takes seconds to render: asked at once, the job is still queued or running
+    running = client.post("/api/jobs/synthesize", json={"example": "scene:tabletop", "example_width": 640,
+                                                        "example_height": 639}).json()  # fmt: skip
+    try:
+        assert running["state"] in ("queued", "running"), running
+        message = _refused(client.get(f"/api/stereo/{running['id']}/overlay"), 409)
+        assert "its overlays exist once it is done" in message
+    finally:
+        client.delete(f"/api/jobs/{running['id']}")
