@@ -104,3 +104,12 @@ def test_object_shares_and_warnings_by_hand():
     lines = zone_warnings(object_shares(before, after_bad, first, objects, ZONE, ["first hit", "R"]), ZONE)
     assert len(lines) == 1 and "mirror 'mirror' (objects[4], rectangle)" in lines[0]
     assert "0 % of its 2 matched layer pixels inside after optimisation (0 % before)" in lines[0]
+
+
+def test_the_display_fit_doctests_hold():
+    import doctest
+
+    import vergence.specular.display_fit as module
+
+    result = doctest.testmod(module, raise_on_error=False)
+    assert result.attempted >= 4 and result.failed == 0
