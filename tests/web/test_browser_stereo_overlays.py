@@ -191,6 +191,14 @@ def test_the_histogram_and_its_shares_follow_the_hit_slider(page, server_url, tm
     assert "HIT +5 px" in page.locator('[data-testid="st-cli-b"]').input_value()
     assert "HIT" not in page.locator('[data-testid="st-cli-a"]').input_value()
     assert "hit+5px" in page.locator('[data-testid="st-save-shown"]').get_attribute("download")
+    with page.expect_download() as info:
+        page.click('[data-testid="st-save-shown"]')
+    saved = tmp_path / "saved.png"
+    info.value.save_as(saved)
+    assert info.value.suggested_filename == "b_anaglyph_hit+5px.png"
+    from vergence.io import read_image
+
+    np.testing.assert_allclose(255 * read_image(saved)[..., :3], canvas, atol=1)  # the pair as shown
 
 
 def _canvas_rgb(page) -> np.ndarray:

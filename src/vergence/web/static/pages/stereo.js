@@ -172,6 +172,7 @@ async function stRun() {
 }
 
 function stShow() {
+  stOv.applied = null;  // the CLI lines carry no note of the last result's HIT until the new overlays are drawn
   const { a } = stState.results;
   const select = document.getElementById("st-format");
   const layouts = Object.keys(a.layouts);
