@@ -175,7 +175,7 @@ def test_ctrl_c_swallowed_by_a_library_still_exits_130_and_writes_nothing(monkey
     _quick_tail(monkeypatch, swallowing)
     out = tmp_path / "demo-output"
     assert main(["demo", "--out", str(out)]) == 130
-    assert "interrupted" in capsys.readouterr().err
+    assert capsys.readouterr().err == f"interrupted: nothing was written to {out}\n"  # one line, not two
     assert list(tmp_path.iterdir()) == []  # no demo-output, no temporary folder
 
 

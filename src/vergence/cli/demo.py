@@ -8,10 +8,8 @@ from pathlib import Path
 
 import typer
 
-from vergence.cli._app import app, console, err_console
-
-# The exit status of a program stopped by Ctrl-C (128 + SIGINT), as shells report it.
-EXIT_INTERRUPTED = 130
+from vergence.cli import EXIT_INTERRUPTED, note_if_interrupted
+from vergence.cli._app import app, console
 
 
 @app.command("demo")
@@ -29,6 +27,7 @@ def demo(
         interrupted.set()
         raise KeyboardInterrupt
 
+    note_if_interrupted(f"nothing was written to {out}")
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, on_sigint) if main_thread else None
     try:
@@ -41,8 +40,7 @@ def demo(
 
             result = run_demo(out, progress=step)
     except KeyboardInterrupt:
-        err_console.print(f"[bold red]interrupted:[/] nothing was written to {out}", highlight=False)
-        raise typer.Exit(EXIT_INTERRUPTED) from None
+        raise typer.Exit(EXIT_INTERRUPTED) from None  # the one "interrupted: ..." line is the console script's
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
