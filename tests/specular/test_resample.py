@@ -387,3 +387,43 @@ V = np.ones((1, 3, 3))
 def test_jbu_errors(args, kwargs, error, match):
     with pytest.raises(error, match=match):
         joint_bilateral_upsample(*args, **kwargs)
+
+
+def test_push_pull_fill_keeps_weighted_values_and_interpolates_the_rest():
+    from vergence.specular import push_pull_fill
+
+    rng = np.random.default_rng(3)
+    v = rng.uniform(0, 1, (2, 9, 13))
+    w = (rng.uniform(0, 1, (2, 9, 13)) > 0.7) * rng.uniform(0.1, 1, (2, 9, 13))
+    out = push_pull_fill(v, w)
+    assert out.shape == v.shape
+    np.testing.assert_array_equal(out[w > 0], v[w > 0])
+    assert out.min() >= v[w > 0].min() - 1e-12 and out.max() <= v[w > 0].max() + 1e-12  # a convex fill
+    # one weighted pixel: its value everywhere; none: the fill value
+    one = np.zeros((1, 5, 7))
+    one[0, 2, 3] = 1.0
+    np.testing.assert_allclose(push_pull_fill(np.full((1, 5, 7), 0.4), one), 0.4)
+    np.testing.assert_array_equal(push_pull_fill(np.full((1, 5, 7), 0.4), np.zeros((1, 5, 7)), fill=1.0), 1.0)
+    # a weighted ramp with a gap: the gap is filled between its sides, monotone
+    ramp = np.linspace(0, 1, 16)[None, None, :].repeat(4, axis=1)
+    gap = np.ones((1, 4, 16))
+    gap[..., 5:11] = 0.0
+    filled = push_pull_fill(np.where(gap > 0, ramp, 9.0), gap)[0, 0]
+    assert np.all(np.diff(filled) >= -1e-12) and 0.3 < filled[8] < 0.7
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"weights": -np.ones((1, 2, 2))}, "weights must be >= 0"),
+        ({"weights": np.ones((1, 2, 3))}, "shape of values"),
+        ({"values": np.full((1, 2, 2), np.nan)}, "finite where the weight is positive"),
+        ({"fill": np.inf}, "fill must be a finite number"),
+    ],
+)
+def test_push_pull_fill_bad_input(kwargs, match):
+    from vergence.specular import push_pull_fill
+
+    args = {"values": np.zeros((1, 2, 2)), "weights": np.ones((1, 2, 2)), **kwargs}
+    with pytest.raises(ValueError, match=match):
+        push_pull_fill(args.pop("values"), args.pop("weights"), **args)
