@@ -116,7 +116,7 @@ def test_resume_reuses_the_finished_shot_after_an_interruption(clips, tmp_path):
     with pytest.raises(KeyboardInterrupt):
         convert_clip(open_depth_clip(clips.rgbd), out, DISPLAY, force=True, progress=stop_in_second_shot)
     with pytest.raises(ValueError, match=r"--resume: the work folder .* belongs to another input or other options"):
-        convert_clip(open_depth_clip(clips.rgbd), out, DISPLAY, budget_arcmin=20.0, resume=True)
+        convert_clip(open_depth_clip(clips.rgbd), out, DISPLAY, budget_arcmin=20.0, resume=True, force=True)
 
 
 def test_a_clip_that_breaks_mid_way_keeps_the_frames_before(clips, tmp_path):
