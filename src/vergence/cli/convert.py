@@ -82,7 +82,8 @@ def convert(
     workers: int = typer.Option(1, "--workers", help="Render the shots as Dask tasks on a local cluster of N "
                                 "processes (N > 1; needs the dask extra of vergence)."),
     as_json: bool = typer.Option(False, "--json", help="Print the conversion as JSON (per shot: the range matched, "
-                                 "its search, the parallax planned and measured on the output, the depth order)."),
+                                 "its search, the disparity planned and measured on the output, positive in front "
+                                 "of the screen, the depth order, the flicker, the floating window)."),
     batch: bool = typer.Option(False, "--batch", help="INPUT is a folder: convert each .mp4/.mkv/.mov in it into the "
                                "--out folder (kind and layout guessed per file; one Dask cluster for all)."),
     skip_errors: bool = typer.Option(False, "--skip-errors", help="--batch: a file that fails is reported in one "
