@@ -116,6 +116,7 @@ def test_one_sign_in_the_json(converted):
         assert lo < 0 < hi and abs(out["p1"] - lo) < 1.0 and abs(out["p99"] - hi) < 1.0
         assert list(out.values()) == sorted(out.values())
         assert "range_px" not in shot and "range_px" not in shot["output"]
+        assert shot["budget_used"] == pytest.approx((out["p99"] - out["p1"]) / (hi - lo)) and shot["budget_used"] > 0.9
 
 
 def test_floating_window_masks_the_violating_edges(converted, tmp_path):

@@ -287,8 +287,9 @@ def _shot_line(shot) -> str:
     measured = ""
     if shot.output is not None:
         d = shot.output.disparity_px
-        measured = (f", measured on the output {d['p1']:+.2f} .. {d['p99']:+.2f} px (1-99 %, rank correlation with "
-                    f"the source {shot.output.rank_correlation:.2f})")  # fmt: skip
+        used = "" if shot.budget_used is None else f"{100 * shot.budget_used:.0f} % of the plan, "
+        measured = (f", measured on the output {d['p1']:+.2f} .. {d['p99']:+.2f} px (1-99 %, {used}rank correlation "
+                    f"with the source {shot.output.rank_correlation:.2f})")  # fmt: skip
     window = ""
     if shot.window is not None and (shot.window["left_px"] or shot.window["right_px"]):
         masked = ", ".join(f"{e} {shot.window[f'{e}_px']} px" for e in ("left", "right") if shot.window[f"{e}_px"])

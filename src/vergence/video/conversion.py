@@ -65,6 +65,15 @@ class ShotConversion:
         return (-self.range_px[1], -self.range_px[0])
 
     @property
+    def budget_used(self) -> float | None:
+        """The share of the planned range (the budget) that the output's re-matched 1st-99th percentiles span;
+        None when the output was not measured."""
+        if self.output is None:
+            return None
+        lo, hi = self.disparity_out_px
+        return (self.output.disparity_px["p99"] - self.output.disparity_px["p1"]) / (hi - lo) if hi > lo else None
+
+    @property
     def window_edges(self) -> tuple[tuple[str, float], ...]:
         """The edges (``"left"``, ``"right"``) whose content the output puts in front of the screen, with its
         disparity there (px): a stereo-window violation unless masked."""
@@ -84,7 +93,7 @@ class ShotConversion:
                                           if self.window[f"{e}_px"] > 0],
                       "violations": [e for e, _ in self.window_edges if not self.window[f"{e}_px"]]}  # fmt: skip
         return {"start": self.start, "end": self.end, "range_in": list(self.range_in),
-                "disparity_out_px": list(self.disparity_out_px),
+                "disparity_out_px": list(self.disparity_out_px), "budget_used": self.budget_used,
                 "gain": None if self.mapping is None else self.mapping.gain, "reused": self.reused,
                 **({} if self.search is None else {"search": self.search, "saturated": self.saturated}),
                 "window": window, "output": None if self.output is None else self.output.to_dict()}  # fmt: skip
