@@ -1,6 +1,8 @@
 """Ray-tree render speed: the built-in ``glasses`` scene at 512 x 512, D = 2 (7 layers).
 
-Run: ``.venv/bin/python benchmarks/render.py [--size 512] [--samples 4] [--repeat 5]``.
+Run: ``.venv/bin/python benchmarks/render.py [--size 512] [--samples 4] [--repeat 5]``; with ``--table``,
+S3's table of 33 renders instead (``tabulate_offsets`` on ``glasses`` 320x240, k = 32, 16 AO samples),
+fused and staged.
 Prints the median wall time of :func:`vergence.render.render` (deterministic AO with the test
 sample count, 4; it prepares the scene anew on every call), the same for
 :meth:`vergence.render.Tracer.render` on a tracer built once (the path for many cameras: S3's
@@ -32,13 +34,41 @@ def _time(fn) -> float:  # noqa: ANN001
     return time.perf_counter() - start
 
 
+def _table() -> None:
+    """S3's table of 33 renders (``tabulate_offsets``, ``glasses`` 320x240, k = 32, D = 2, 16 AO samples),
+    with the fused tracer (8 offsets side by side per wavefront) and the staged one, in this process."""
+    from vergence.render import Tracer, builtin_scene
+    from vergence.rigs import stereo_pair
+    from vergence.specular import tabulate_offsets
+
+    def rig(w: int, h: int, staged: bool):  # noqa: ANN202
+        scene = builtin_scene("glasses", width=w, height=h)
+        cam = scene.camera.build()
+        return Tracer(scene, staged=staged), *stereo_pair(cam, baseline=scene.stereo.baseline,
+                                                          convergence=scene.stereo.convergence)  # fmt: skip
+
+    for staged in (False, True):
+        tabulate_offsets(*rig(32, 24, staged), k=2, samples=2)  # compiles
+    tables = {}
+    for staged in (False, True):
+        t0 = time.perf_counter()
+        tables[staged] = tab = tabulate_offsets(*rig(320, 240, staged), k=32, samples=16, max_depth=2)
+        print(f"tabulate_offsets glasses 320x240, k = 32, D = 2, 16 AO ({'staged, one render at a time' if staged else 'fused, 8 offsets side by side'}): "
+              f"{time.perf_counter() - t0:.2f} s (renders {tab.seconds_render:.2f} s, matching {tab.seconds_match:.2f} s)")  # fmt: skip
+    print(f"radiance max |fused - staged|: {np.abs(tables[False].radiance - tables[True].radiance).max():.2g}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--samples", type=int, default=4, help="AO samples (the tests' glasses fixture uses 4)")
     parser.add_argument("--depth", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--table", action="store_true", help="instead: time S3's table (tabulate_offsets), fused and staged")
     args = parser.parse_args()
+    if args.table:
+        _table()
+        return
 
     import drjit as dr
     import mitsuba as mi

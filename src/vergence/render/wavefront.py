@@ -9,7 +9,10 @@ gathers the diffuse hits and the children in the same order as the staged path
 (``compact_level``, which also writes the next cast in Mitsuba's float32 layout); then the ambient
 occlusion of every diffuse hit of the tree as shadow rays (``Scene.ray_test``: any hit, no
 shading), in chunks, finished by one kernel (``ao_finish``). The same maths in the same order: with
-or without an ``rng`` the two paths agree to float rounding (``tests/render/test_wavefront.py``).
+or without an ``rng`` the two paths agree to float rounding (``tests/render/test_wavefront.py``: bit
+for bit on the test scenes). numpy's ``einsum`` sums the staged path's dot products in another order,
+so a grazing secondary ray can, rarely, hit elsewhere: one layer-pixel of the 33 x 7 x 76,800 of S3's
+table at 320 x 240 (``benchmarks/render.py --table``).
 """
 
 from __future__ import annotations
