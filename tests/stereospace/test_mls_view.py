@@ -117,8 +117,12 @@ def _render_reference(images, ids, at_nodes, xs, ys, shape, k):
 
 def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, shape, k, weights, negligible=0.0):
     image = np.empty((*shape, stack.shape[3]), np.float32)
+    if stack.dtype == np.uint8:
+        unit = 1.0 / 255.0
+    else:
+        unit = 1.0
     _mls_view_kernels.render_view(stack, np.array(sizes), ids, at_nodes, xs, ys, 4, S2_PENALTY_FLOOR, k,
-                                  S2_THRESHOLD_SCALE, negligible, image, weights)  # fmt: skip
+                                  S2_THRESHOLD_SCALE, negligible, image, weights, unit)  # fmt: skip
     return image
 
 
@@ -147,6 +151,16 @@ def test_render_kernel_matches_a_slow_reference(k):
     # the k-th source's weight (~1e-7) not sampled: the colour moves by less than the weights left out
     skipped = _render_kernel(stack, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0)), NEGLIGIBLE_WEIGHT)
     assert_allclose(skipped, ref_image, atol=len(ids) * NEGLIGIBLE_WEIGHT + 1e-6, rtol=0)
+    # 8-bit sources kept as bytes: the same view from the stored values scaled once by 1/255
+    codes = rng.integers(0, 256, stack.shape).astype(np.uint8)
+    as_float = codes.astype(np.float32) / np.float32(255.0)
+    images8 = [as_float[n, : hh, : ww] for n, (hh, ww) in enumerate(sizes)]
+    ref8, _ = _render_reference(images8, ids, at_nodes, xs, ys, (10, 13), k)
+    assert_allclose(_render_kernel(codes, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))), ref8,
+                    atol=1e-6)  # fmt: skip
+    assert_allclose(_render_kernel(codes, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))),
+                    _render_kernel(as_float, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))),
+                    atol=2e-7, rtol=0)  # float32 round-off of one scaling  # fmt: skip
 
 
 def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():

@@ -39,11 +39,13 @@ def _taps(u, v, h, w, base, row_stride, n_ch, weight):  # pragma: no cover - com
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
-def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, negligible, image,
-                weights):  # pragma: no cover - compiled
+def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, negligible, image, weights,
+                unit):  # pragma: no cover - compiled
     """S2's view of a target camera from ``S`` warped sources.
 
-    Source ``s`` is the image ``images[ids[s]]`` (``images (N, Hm, Wm, C)`` float32, its pixels
+    Source ``s`` is the image ``unit * images[ids[s]]`` (``images (N, Hm, Wm, C)`` float32 with
+    ``unit`` 1, or uint8 with ``unit`` 1/255: the colour is summed from the stored values and scaled
+    once; its pixels
     ``sizes[ids[s]] = (h_s, w_s)``; ``ids[s] < 0``: left out). ``at_nodes[s] (ny, nx, 3)`` holds at
     the node columns ``xs`` and rows ``ys`` (``0, step, 2 step, ..., last pixel``; at least 2 of
     each) its MLS map (target pixel -> source position ``(u, v)``) and its angle penalty ``P_ANG``
@@ -149,7 +151,7 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                                           + w11 * flat[o11 + c])  # fmt: skip
         for x in range(w):
             for c in range(n_ch):
-                image[y, x, c] = row[x, c]
+                image[y, x, c] = row[x, c] * unit
 
 
 @nb.njit(cache=True, inline="always")  # inlined: compiled with select_handles, never on its own

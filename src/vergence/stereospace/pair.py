@@ -164,9 +164,10 @@ class PreparedCollection:
     """A collection made ready for fast stereo pairs (done once, then reused for every pair).
 
     Holds the camera graph, its StereoSpace and segment cameras, the camera centres and what S2's
-    novel view needs of every camera as a source, whatever the target: its image decoded as float32
-    (decoding a 640 x 480 JPEG costs several milliseconds a view) in one stack, and the sparse points
-    projected into it with the mask of those in front of it and on its image.
+    novel view needs of every camera as a source, whatever the target: its image decoded
+    (decoding a 640 x 480 JPEG costs several milliseconds a view) in one stack, as bytes when the
+    photos are 8-bit, and the sparse points projected into it with the mask of those in front of it
+    and on its image.
 
     Parameters
     ----------
@@ -182,7 +183,7 @@ class PreparedCollection:
         (``benchmarks/stereospace_pair.py``).
     """
 
-    __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "images", "segment_cameras", "space", "up")
+    __slots__ = ("_sources", "centers", "collection", "graph", "grid_step", "segment_cameras", "space", "up")
 
     def __init__(self, collection: Collection, *, graph: CameraGraph | None = None,
                  grid_step: int = S2_GRID_STEP) -> None:  # fmt: skip
@@ -197,15 +198,23 @@ class PreparedCollection:
         images = _colour_images([_decoded(collection, k) for k in range(len(collection))])
         self._sources = _source_set(collection.cameras, images, collection.points)
         images.clear()
-        stack = self._sources.images
-        stack.flags.writeable = False
-        grey = stack.shape[3] == 1
-        self.images = tuple(stack[k, : c.height, : c.width, 0] if grey else stack[k, : c.height, : c.width]
-                            for k, c in enumerate(collection.cameras))  # fmt: skip
+        self._sources.images.flags.writeable = False
 
     def image(self, k: int) -> np.ndarray:
-        """The decoded float32 image of camera ``k``."""
-        return self.images[k]
+        """The decoded float32 image of camera ``k``, ``(H, W)`` or ``(H, W, C)``, read-only.
+
+        8-bit photos are kept as bytes (a quarter of the memory): the float32 image is made again
+        on each call, equal to the decoded one bit for bit.
+        """
+        img = self._sources.image(k)
+        if img.flags.writeable:
+            img.flags.writeable = False
+        return img[..., 0] if img.shape[2] == 1 else img
+
+    @property
+    def images(self) -> tuple[np.ndarray, ...]:
+        """Every camera's decoded float32 image (:meth:`image`), in the collection's order."""
+        return tuple(self.image(k) for k in range(len(self.collection)))
 
     def view_sources(self, ids: Sequence[int]) -> tuple[_SourceSet, np.ndarray]:
         """The sources of S2's views and the positions in it of the cameras ``ids``."""
