@@ -96,6 +96,9 @@ JOINT_OVERLAP = 1e-5
 #: span in inverse depth, far below the float32 precision of the depth map.
 DEPTH_BISECTIONS = 26
 
+# Share of progress given to sampling and casting the curves; shading the first hits takes the rest
+# (the smaller part where to_world is costly, as the Tri-Rig distortion).
+_SAMPLING_SHARE = 0.8
 _CHUNK_RAYS = 1 << 16  # rays sampled and cast together: bounds the segment arrays (MAX_MEAN_SEGMENTS: < 0.5 GiB)
 
 
@@ -478,12 +481,12 @@ def trace_curved(tracer: Tracer, camera: Camera, to_world: Callable, *, near: fl
         report = None
         if progress is not None:
             report = lambda j, c0=c0, k=len(pix): progress(  # noqa: E731
-                0.5 * (c0 + k * j / (len(grid) - 1)) / n, f"curved rays: pixels {c0:,}-{c0 + k - 1:,} of {n:,}, "
+                _SAMPLING_SHARE * (c0 + k * j / (len(grid) - 1)) / n, f"curved rays: pixels {c0:,}-{c0 + k - 1:,} of {n:,}, "
                 f"octave {j + 1} of {len(grid) - 1}")  # fmt: skip
         casts += _follow(tracer, camera, to_world, grid, not np.isfinite(far), tol, pix,
                          (origin, direction, bound, depth, hit), report)  # fmt: skip
     if progress is not None:
-        progress(0.5, f"shading {int(hit.sum()):,} first hits (image-based lighting x ambient occlusion)")
+        progress(_SAMPLING_SHARE, f"shading {int(hit.sum()):,} first hits (image-based lighting x ambient occlusion)")
     k = np.flatnonzero(hit)
     nodes = 2 ** (max_depth + 1) - 1
     rad = np.zeros((nodes, n, 3), dtype=np.float32)
@@ -492,9 +495,12 @@ def trace_curved(tracer: Tracer, camera: Camera, to_world: Callable, *, near: fl
     settings = RenderSettings(scene=tracer.scene.name, max_depth=max_depth, samples=samples, deterministic=rng is None,
                               ao_distance=ao_distance, variant=tracer.intersector.variant,
                               environment=tracer.scene.environment.describe())  # fmt: skip
+    shading = None
+    if progress is not None:
+        shading = lambda f, m: progress(_SAMPLING_SHARE + (1.0 - _SAMPLING_SHARE) * f, f"shading: {m}")  # noqa: E731
     if len(k):
         tree = tracer.trace_rays(origin[k], direction[k], tmax=bound[k], max_depth=max_depth, samples=samples,
-                                 rng=rng, ao_distance=ao_distance)  # fmt: skip
+                                 rng=rng, ao_distance=ao_distance, progress=shading)  # fmt: skip
         rad[:, k], pos[:, k], nrm[:, k] = tree.radiance, tree.position, tree.normal
         depth[k[~tree.hit]] = np.nan  # the shading cast repeats the segment cast; a miss here has no depth
         settings = tree.settings

@@ -224,7 +224,7 @@ class Tracer:
     def trace_rays(
         self, origins: object, directions: object, *, shape: tuple[int, ...] | None = None, tmax: object = None,
         max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
-        ao_distance: float | None = None,
+        ao_distance: float | None = None, progress: Progress | None = None,
     ) -> RayTree:  # fmt: skip
         """Trace arbitrary rays into their ray tree (per-pixel camera origins, segments of curved rays).
 
@@ -240,7 +240,7 @@ class Tracer:
         tmax : float or array broadcasting to the leading shape, optional
             Largest distance of each primary ray's hit (> 0, ``inf`` allowed); default: unbounded.
             Only the primary ray is bounded; the tree below a hit is traced in full.
-        max_depth, samples, rng, ao_distance
+        max_depth, samples, rng, ao_distance, progress
             As :func:`render`.
 
         Returns
@@ -291,7 +291,7 @@ class Tracer:
         rays = RayBatch(origins=o.reshape(n, 3).copy(), directions=(d / norm[..., None]).reshape(n, 3),
                         pixels=np.arange(n), shape=(n,))  # fmt: skip
         flat = self._trace([rays], np.array([0, n]), tmax=bound, max_depth=max_depth, samples=samples, rng=rng,
-                           ao_distance=ao_distance, progress=None)  # fmt: skip
+                           ao_distance=ao_distance, progress=progress)  # fmt: skip
         nodes = flat.radiance.shape[0]
         settings = self._settings(max_depth, samples, rng, ao_distance, int(flat.tree_rays[0]), int(flat.ao_rays[0]))
         rad = flat.radiance.reshape(nodes, *out_shape, 3)
