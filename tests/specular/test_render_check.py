@@ -50,8 +50,11 @@ def test_repair_leaves_no_layer_pixel_lost_or_foreign(rig):
     assert fixed.after.rim == 0
     np.testing.assert_array_equal(np.isfinite(fixed.render.position).all(-1), np.isfinite(phys.position).all(-1))
     moved = fixed.y != y
-    lost = np.isfinite(phys.position).all(-1) & ~np.isfinite(raw.position).all(-1)
-    assert not (moved & ~lost).any()  # only lost pixels change their offset ...
+    has = np.isfinite(phys.position).all(-1)
+    lost = has & ~np.isfinite(raw.position).all(-1)
+    assert np.all(fixed.y[1:][~has[1:]] == 1.0)  # a layer the pixel does not have: 1
+    moved[1:][~has[1:]] = False
+    assert not (moved & ~lost).any()  # otherwise only lost pixels change their offset ...
     allowed = [y[1, 0, 0] + (1 - y[1, 0, 0]) * t for t in (*REPAIR_STEPS, 1.0)]
     assert np.all(np.isin(np.round(fixed.y[moved], 5), np.round(np.array(allowed, np.float32), 5)))  # ... to these
     # layer pixels with nothing to repair keep what was traced; foreign ones are gone

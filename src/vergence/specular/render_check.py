@@ -148,7 +148,8 @@ def repair_render(
     RepairedRender
         ``render``: layer ``i`` removed where ``physical`` has none, and re-traced where
         ``physical`` has it and ``optimised`` does not; ``y``: the offsets with those pixels' new
-        values (1 where the physical layer was copied); ``before``/``after``: :func:`check_render`
+        values (1 where the physical layer was copied), and 1 where ``physical`` has no such layer
+        past the first (no camera shades it); ``before``/``after``: :func:`check_render`
         of ``optimised`` and of ``render`` (``after.rim`` is 0).
 
     Raises
@@ -163,10 +164,11 @@ def repair_render(
     left, right = _check_rig(left, right)
     n = physical.position.shape[0]
     ymap = np.array(_offset_map(np.asarray(y), (n, left.height, left.width)), dtype=np.float32)
+    has, got = _present(physical), _present(optimised)
+    ymap[1:][~has[1:]] = 1.0  # a layer the pixel does not have is shaded from no camera: say physical
     if before.clean:
         return RepairedRender(render=optimised, y=ymap, before=before, after=before)
     rad, pos, nrm = (np.array(getattr(optimised, name)) for name in ("radiance", "position", "normal"))
-    has, got = _present(physical), _present(optimised)
     for i in range(n):
         rad[i][~has[i] & got[i]] = 0.0  # foreign: not a layer of this pixel
         pos[i][~has[i] & got[i]] = np.nan
