@@ -12,9 +12,10 @@ ours, ``comfort``: only what lies outside the display's comfort zone), one
 - the mean offset ``y`` (1: physical, 0: mono);
 - the matched share before -> after (of the layer's pixels with a surface);
 
-and the mean cost terms before and after, the matching rate and the stage times. The default
-variant of :func:`~vergence.specular.specular_stereo` is the one this comparison favours
-(docs/specular.md). Each run renders its own table: about a minute per run at 512 px on 2 cores.
+and the mean cost terms before and after, the matching rate and the stage times. Each run renders
+its own table: about a minute per run at 512 px on 2 cores. The two variants are now S3 Eq. 2 as
+written and our objective (issue 26); ``benchmarks/specular_ablation.py`` compares them on scenes of
+large excess, term by term, with plain and weighted shares (docs/specular.md).
 
 Run: ``.venv/bin/python benchmarks/specular_variants.py [--width 512] [--k 32] [--display samsung-2233rz]
 [--scenes glasses examples/scenes/far_mirror.json]``
