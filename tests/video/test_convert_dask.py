@@ -78,3 +78,25 @@ def test_dask_resume_after_an_interruption_gives_the_serial_frames(clips, tmp_pa
     assert any(s.reused for s in r.shots) and not work.exists()
     serial = convert_clip(open_stereo(clips.stereo), tmp_path / "serial", DISPLAY)
     assert _frames(r.out) == _frames(serial.out)
+
+
+def test_local_workers_ignore_ctrl_c_and_log_nothing():
+    """Ctrl-C at a terminal reaches the whole process group: the workers ignore it (this process stops them), so
+    no worker traceback or distributed log line comes before our "interrupted" line (issue 28)."""
+    import logging
+    import signal
+
+    from distributed import Client
+
+    from vergence.video._shots import local_cluster
+
+    before = signal.getsignal(signal.SIGINT)
+    cluster = local_cluster(1)
+    try:
+        assert signal.getsignal(signal.SIGINT) is before  # restored in this process
+        with Client(cluster) as client:
+            handlers = client.run(lambda: str(signal.getsignal(signal.SIGINT)))
+        assert list(handlers.values()) == [str(signal.SIG_IGN)]
+        assert logging.getLogger("distributed").getEffectiveLevel() >= logging.CRITICAL
+    finally:
+        cluster.close()
