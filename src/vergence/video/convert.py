@@ -81,7 +81,7 @@ from vergence.video._shots import (
 from vergence.video.conversion import Conversion, ShotConversion
 from vergence.video.edges import edge_cues, floating_window_of
 from vergence.video.measured import measure_output
-from vergence.video.outputs import VIDEO_SUFFIXES, check_new_output, converted_path
+from vergence.video.outputs import VIDEO_SUFFIXES, check_new_output
 from vergence.video.search import shot_search_ranges
 from vergence.video.sources import DepthClip, StereoClip
 from vergence.video.stability import STABILIZE_ALPHA, STATIC_THRESHOLD, Flicker, FlickerMeter
