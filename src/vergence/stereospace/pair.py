@@ -33,7 +33,7 @@ image decoded into one float32 stack, the sparse points projected into every cam
 costs one parallel MLS evaluation of its sources at the grid nodes (float32, nodes x handles) and
 one fused pass over its pixels (maps, penalties, ULR weights, bilinear samples); the handles and
 the nodes' angle penalties come from Numba kernels too (``_mls_view_kernels``). Issue 27's figures
-(a dino pair 107 CPU-ms at load 7, the render kernel 62 of them; goal 70 not met) are in
+(a dino pair 87-105 CPU-ms at load 5-7, the render kernel 48-51 of them; goal 70 not met) are in
 docs/stereospace.md. Measured earlier on the
 shared 2-core development machine (load average 2.5 to 4.5), median anaglyph-packed 640 x 480
 pairs from 4 sources (``benchmarks/stereospace_pair.py``): kermit (634 points) 85-109 ms prepared
