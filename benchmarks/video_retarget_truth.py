@@ -86,7 +86,7 @@ def main() -> None:
     inputs = np.stack(list(open_frames(clips.stereo).frames()))
     for kind, clip in (("2d+depth", open_depth_clip(clips.rgbd)), ("stereo", open_stereo(clips.stereo))):
         out = folder / f"{kind.replace('+', '_')}_LRF_Full_SBS"
-        conversion = convert_clip(clip, out, display, budget_arcmin=args.budget_arcmin, origin="left")
+        conversion = convert_clip(clip, out, display, budget_arcmin=args.budget_arcmin, origin="left", force=True)
         frames = np.stack(list(open_frames(out).frames()))
         analysis = analyze_clip(open_stereo(out), display, vertical=False)
         for s, (shot, conv) in enumerate(zip(CLIP_SHOTS, conversion.shots)):

@@ -35,10 +35,10 @@ def main() -> None:
         for kind, clip_of in (("2d+depth", lambda: open_depth_clip(clips.rgbd)), ("stereo", lambda: open_stereo(clips.stereo))):
             out = folder / f"{name}_{kind.replace('+', '_')}_LRF_Full_SBS.mp4"
             start = time.perf_counter()
-            result = convert_clip(clip_of(), out, display, budget_arcmin=args.budget_arcmin)
+            result = convert_clip(clip_of(), out, display, budget_arcmin=args.budget_arcmin, force=True)  # a rerun replaces
             seconds = time.perf_counter() - start
             off = convert_clip(clip_of(), folder / f"{name}_{kind.replace('+', '_')}_raw_LRF_Full_SBS.mp4", display,
-                               budget_arcmin=args.budget_arcmin, stabilize=False)  # fmt: skip
+                               budget_arcmin=args.budget_arcmin, stabilize=False, force=True)  # fmt: skip
             print(f"{name:6s} {kind:8s}: {result.frames} frames in {seconds:.1f} s; flicker on static content "
                   f"{result.flicker_before.mean_px:.4f} px before, {result.flicker_after.mean_px:.4f} px after "
                   f"(static share {result.flicker_after.static_share:.2f}; the unstabilised output: "
