@@ -142,7 +142,7 @@ def test_pair_from_a_state_with_pan_and_zoom(space_dir, run, tmp_path):
         (("--at", "0,0.5,1,0.5", "--best"), "give exactly one of --at"),
         (("--near", "v9"), "--near: no camera 'v9' in the collection"),
         (("--best", "--size", "64"), "--size must be WxH"),
-        (("--best", "--size", "0x10"), "--size must be (width, height), whole numbers of pixels in [1, 8192]"),
+        (("--best", "--size", "0x10"), "--size must be (width, height), whole numbers of pixels in [1, 4096]"),
         (("--best", "--framing", "zoom"), "--framing must be one of fit, crop"),
         (("--at", "0,0.5,1,0.5", "--format", "hologram"), "--format must be one of"),
         (("--at", "0,0.5,1,0.5", "--method", "nerf"), "--method must be one of mls"),

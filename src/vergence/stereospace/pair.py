@@ -70,7 +70,7 @@ __all__ = ["MAX_VIEW_SIDE", "PAIR_METHODS", "PreparedCollection", "StereoPairRes
 
 ViewMethod = Callable[["PreparedCollection", Camera], np.ndarray]
 
-MAX_VIEW_SIDE = 8192
+MAX_VIEW_SIDE = 4096
 """Largest width or height of a pair's views, pixels (:func:`stereo_pair`'s ``size``)."""
 
 
