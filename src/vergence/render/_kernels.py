@@ -12,6 +12,7 @@ __all__ = [
     "bilinear_wrap",
     "equirect_lookup",
     "equirect_one",
+    "neighbour_steps",
     "offset_points",
     "pinhole_directions",
     "refine_hits",
@@ -345,6 +346,24 @@ def segment_gaps_ok(pa: np.ndarray, pb: np.ndarray, pm: np.ndarray, jx: np.ndarr
             gap = 0.0
         ok[i] = not math.isnan(pb[i, 0]) and gap <= tol
     return ok
+
+
+@numba.njit(cache=True)
+def neighbour_steps(pm: np.ndarray, nb: np.ndarray, mapped: np.ndarray) -> np.ndarray:
+    """``J[i] = P[nb[i]] - P[i]`` where ``nb[i] >= 0``, else the next row of ``mapped`` minus ``P[i]``
+    (``curved._jacobian``'s forward differences; ``mapped`` holds the rows without a neighbour, in order)."""
+    m = pm.shape[0]
+    j = np.empty_like(pm)
+    k = 0
+    for i in range(m):
+        if nb[i] >= 0:
+            for c in range(3):
+                j[i, c] = pm[nb[i], c] - pm[i, c]
+        else:
+            for c in range(3):
+                j[i, c] = mapped[k, c] - pm[i, c]
+            k += 1
+    return j
 
 
 @numba.njit(parallel=True, cache=True)

@@ -207,10 +207,9 @@ def _jacobian(to_world, pm, qm, step, mapped, nb) -> np.ndarray:  # noqa: ANN001
     step)``, where it has none); backward, ``P_m - P(q_m - step)``, where the forward one is undefined; NaN where
     both are (the gap cannot be measured there and the segment is kept: the map is undefined within a pixel of
     the curve on both sides)."""
-    j = np.empty_like(pm)
-    has = nb >= 0
-    j[has] = pm[nb[has]] - pm[has]
-    j[~has] = mapped - pm[~has]
+    from vergence.render._kernels import neighbour_steps
+
+    j = neighbour_steps(pm, nb, np.ascontiguousarray(mapped))
     bad = np.isnan(j[:, 0]) & ~np.isnan(pm[:, 0])
     if bad.any():
         j[bad] = pm[bad] - _map(to_world, qm[bad] - step[bad])
