@@ -204,3 +204,20 @@ def test_each_point_is_mapped_once():
     points = np.concatenate(seen)
     _, counts = np.unique(points, axis=0, return_counts=True)
     assert counts.max() == 1
+
+
+def test_neighbour_steps_kernel_against_a_loop():
+    from vergence.render._kernels import neighbour_steps
+
+    rng = np.random.default_rng(4)
+    pm = rng.normal(size=(50, 3))
+    nb = np.where(rng.random(50) < 0.6, rng.integers(0, 50, 50), -1)
+    mapped = rng.normal(size=(int((nb < 0).sum()), 3))
+    expected, k = [], 0
+    for i in range(50):
+        if nb[i] >= 0:
+            expected.append(pm[nb[i]] - pm[i])
+        else:
+            expected.append(mapped[k] - pm[i])
+            k += 1
+    assert_array_equal(neighbour_steps(pm, nb, mapped), np.array(expected))
