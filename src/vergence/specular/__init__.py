@@ -92,11 +92,10 @@ from vergence.specular.pipeline import (
     DEFAULT_VARIANT,
     MAX_TABLE_BYTES,
     SEPARATION_ARCMIN,
-    LayerState,
     SpecularResult,
-    comfort_share,
     layer_labels,
     offset_table_bytes,
+    specular_from_table,
     specular_stereo,
 )
 from vergence.specular.render_check import (
@@ -118,13 +117,21 @@ from vergence.specular.offsets import (
 )
 from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, SAME_SURFACE_FRACTION, near_surface, on_surface
 from vergence.specular.display_fit import DISPLAY_FITS, arcmin_per_pixel, display_block, fit_display
-from vergence.specular.shares import MOSTLY_OUTSIDE, ZoneCount, object_shares, specular_objects, zone_count, zone_warnings
+from vergence.specular.shares import (
+    MOSTLY_OUTSIDE,
+    LayerState,
+    ZoneCount,
+    comfort_share,
+    object_shares,
+    specular_objects,
+    zone_count,
+    zone_warnings,
+)
 from vergence.specular.table_file import (
     TABLE_FILE,
     TABLE_FORMAT,
     SpecularTable,
     read_specular_table,
-    specular_from_table,
     write_specular_table,
 )
 

@@ -38,7 +38,7 @@ from vergence._validate import readonly_fields
 from vergence.camera import Camera
 from vergence.specular.cost import COST_WEIGHTS, CostTerms, disparity_cost
 from vergence.specular.display_fit import display_block, fit_display
-from vergence.specular.shares import specular_objects
+from vergence.specular.shares import LayerState, comfort_share, specular_objects
 from vergence.specular.importance_factors import importance
 from vergence.specular.lightness import PerceivedLightness, layer_lightness, pixels_per_degree
 from vergence.specular.matching import MATCH_WINDOW, disparity_arcmin, layer_disparity
@@ -47,12 +47,13 @@ from vergence.specular.planning import PLAN_FACTOR, OffsetPlanner
 from vergence.specular.render_check import RenderCheck, repair_render
 from vergence.specular.rivalry_map import rivalry
 from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, near_surface, on_surface
+from vergence.specular.table_file import SpecularTable
 from vergence.specular.tabulated import analyse_table
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import Display, check_display
 
-__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "LayerState", "SpecularResult", "comfort_share",
-           "offset_table_bytes", "specular_stereo"]
+__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "SpecularResult", "layer_labels",
+           "offset_table_bytes", "specular_from_table", "specular_stereo"]
 
 #: The absolute term :func:`specular_stereo` uses unless told otherwise (chosen in docs/specular.md).
 DEFAULT_VARIANT = "comfort"
@@ -80,54 +81,6 @@ def offset_table_bytes(width: int, height: int, *, k: int, max_depth: int) -> in
 SEPARATION_ARCMIN = 2.0
 
 Progress = Callable[[float, str], None]
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class LayerState:
-    """What a viewer gets from the left eye's layers against the right eye (S3 §3.2). Arrays are read-only.
-
-    Attributes
-    ----------
-    disparity : (N, H, W, 2) float32
-        Arcmin on the display, NaN where the layer has no match.
-    importance : (N, H, W) float32
-    rivalry : (N, H, W) float32
-        (ΔL*)^2, NaN in a layer with no match at all.
-    present : (N, H, W) bool
-        Where the left eye's layer has a surface.
-    """
-
-    disparity: np.ndarray
-    importance: np.ndarray
-    rivalry: np.ndarray
-    present: np.ndarray
-
-    def __post_init__(self) -> None:
-        readonly_fields(self, "disparity", "importance", "rivalry", "present")
-
-    @property
-    def matched(self) -> np.ndarray:
-        """``(N, H, W)`` bool: the layer pixel has a match."""
-        return ~np.isnan(self.disparity[..., 0])
-
-
-def comfort_share(state: LayerState, zone: ComfortZone) -> np.ndarray:
-    """Per layer, the importance-weighted share of matched pixels whose horizontal disparity lies in ``zone``.
-
-    ``sum w [min <= d_x <= max] / sum w`` over the layer's matched pixels, ``w`` the importance;
-    NaN for a layer with no important matched pixel. (The vertical disparity is not part of the
-    comfort zone; :func:`specular_stereo`'s cost counts it whole.)
-    """
-    if not isinstance(state, LayerState):
-        raise TypeError(f"state must be a LayerState; got {type(state).__name__}")
-    if not isinstance(zone, ComfortZone):
-        raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
-    dx = state.disparity[..., 0]
-    w = np.where(state.matched, state.importance, 0.0).astype(np.float64)
-    inside = (dx >= zone.min_arcmin) & (dx <= zone.max_arcmin)
-    total = w.sum(axis=(1, 2))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(total > 0, (w * inside).sum(axis=(1, 2)) / total, np.nan)
 
 
 def _separated_share(state: LayerState, physical: LayerState) -> np.ndarray:
@@ -229,8 +182,6 @@ class SpecularResult:
         ValueError
             If the run kept no table (``specular_stereo(..., keep_table=True)``), or nothing is specular.
         """
-        from vergence.specular.table_file import SpecularTable
-
         s = self._session
         if s is None or s.analysis is None:
             why = "nothing specular is in view" if not self.specular else "run specular_stereo with keep_table=True"
@@ -548,3 +499,66 @@ def _optimise(session: _Session, *, alpha: object, variant: str, maps: Mapping[s
                           cost_after=_cost(after, before, maps=maps, **cost_kw), zone=s.zone, specular=s.specular,
                           seconds=seconds, settings=settings, _session=session, render_check=checks[0],
                           render_check_raw=checks[1])  # fmt: skip
+
+
+def specular_from_table(
+    table: SpecularTable,
+    scene: object,
+    *,
+    alpha: object = None,
+    variant: str | None = None,
+    maps: Mapping[str, object] | None = None,
+    factor: int | None = None,
+    progress: object = None,
+) -> object:
+    """Re-solve a stored table for new weights or maps, render the final left eye and measure it.
+
+    The result is what :func:`~vergence.specular.specular_stereo` returns with the same options
+    (the planner, the final render and the measurements run again; the table and the physical pair
+    are the stored ones).
+
+    Parameters
+    ----------
+    table : SpecularTable
+    scene : vergence.render.Scene or vergence.render.Tracer
+        The scene the table was made of (its name must be the table's ``settings["scene"]``).
+    alpha, variant : optional
+        The cost's weights and absolute term; default the table run's.
+    maps : mapping, optional
+        Painted maps (:func:`~vergence.specular.disparity_cost`).
+    factor : int, optional
+        The planner's reduction; default the table run's.
+    progress : callable(fraction, message), optional
+
+    Returns
+    -------
+    SpecularResult
+
+    Raises
+    ------
+    TypeError, ValueError
+        A table that is not one, a scene of another name, a bad weight, variant, factor or map.
+    """
+    from vergence.specular.offsets import _tracer
+    from vergence.specular.planning import _check_factor
+
+    if not isinstance(table, SpecularTable):
+        raise TypeError(f"table must be a SpecularTable; got {type(table).__name__}")
+    tracer = _tracer(scene)
+    s = dict(table.settings)
+    if tracer.scene.name != s.get("scene"):
+        raise ValueError(f"scene is {tracer.scene.name!r}, but the table was made of {s.get('scene')!r}")
+    factor = _check_factor(s["factor"] if factor is None else factor)
+    alpha = s["alpha"] if alpha is None else alpha
+    variant = s["variant"] if variant is None else variant
+    t0 = time.perf_counter()
+    display = table.analysis.display
+    phys, right_res = table.physical_left, table.right
+    right_lit = layer_lightness(right_res.radiance, right_res.position, display, exposure=table.exposure)
+    before, _ = _state(phys, right_res, right_lit, display, table.exposure, table.epsilon, table.window)
+    settings = {**s, "factor": factor}
+    session = _session(tracer, phys.camera, right_res.camera, display, table.zone, int(s["samples"]), phys, right_res,
+                       right_lit, table.exposure, table.epsilon, table.window, before, table.analysis,
+                       factor=factor, near_arcmin=float(s["near_surface_arcmin"]), specular=True, settings=settings,
+                       seconds={"measure_physical": time.perf_counter() - t0}, t0=t0, keep_table=False)  # fmt: skip
+    return _optimise(session, alpha=alpha, variant=variant, maps=maps, progress=progress)

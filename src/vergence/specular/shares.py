@@ -15,13 +15,63 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vergence._validate import readonly_fields
 from vergence.viewing.comfort import ComfortZone
 
-__all__ = ["MOSTLY_OUTSIDE", "ZoneCount", "object_shares", "specular_objects", "zone_count", "zone_warnings"]
+__all__ = ["MOSTLY_OUTSIDE", "LayerState", "ZoneCount", "comfort_share", "object_shares", "specular_objects",
+           "zone_count", "zone_warnings"]
 
 #: A specular object whose plain share inside the zone after optimisation is below this is warned
 #: about ("stays mostly outside the zone").
 MOSTLY_OUTSIDE = 0.5
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LayerState:
+    """What a viewer gets from the left eye's layers against the right eye (S3 §3.2). Arrays are read-only.
+
+    Attributes
+    ----------
+    disparity : (N, H, W, 2) float32
+        Arcmin on the display, NaN where the layer has no match.
+    importance : (N, H, W) float32
+    rivalry : (N, H, W) float32
+        (ΔL*)^2, NaN in a layer with no match at all.
+    present : (N, H, W) bool
+        Where the left eye's layer has a surface.
+    """
+
+    disparity: np.ndarray
+    importance: np.ndarray
+    rivalry: np.ndarray
+    present: np.ndarray
+
+    def __post_init__(self) -> None:
+        readonly_fields(self, "disparity", "importance", "rivalry", "present")
+
+    @property
+    def matched(self) -> np.ndarray:
+        """``(N, H, W)`` bool: the layer pixel has a match."""
+        return ~np.isnan(self.disparity[..., 0])
+
+
+def comfort_share(state: LayerState, zone: ComfortZone) -> np.ndarray:
+    """Per layer, the importance-weighted share of matched pixels whose horizontal disparity lies in ``zone``.
+
+    ``sum w [min <= d_x <= max] / sum w`` over the layer's matched pixels, ``w`` the importance;
+    NaN for a layer with no important matched pixel. (The vertical disparity is not part of the
+    comfort zone; :func:`specular_stereo`'s cost counts it whole.)
+    """
+    if not isinstance(state, LayerState):
+        raise TypeError(f"state must be a LayerState; got {type(state).__name__}")
+    if not isinstance(zone, ComfortZone):
+        raise TypeError(f"zone must be a vergence.viewing.ComfortZone; got {type(zone).__name__}")
+    dx = state.disparity[..., 0]
+    w = np.where(state.matched, state.importance, 0.0).astype(np.float64)
+    inside = (dx >= zone.min_arcmin) & (dx <= zone.max_arcmin)
+    total = w.sum(axis=(1, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(total > 0, (w * inside).sum(axis=(1, 2)) / total, np.nan)
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,8 +123,6 @@ def zone_count(state: object, zone: ComfortZone, mask: np.ndarray | None = None)
     -------
     ZoneCount
     """
-    from vergence.specular.pipeline import LayerState
-
     if not isinstance(state, LayerState):
         raise TypeError(f"state must be a LayerState; got {type(state).__name__}")
     if not isinstance(zone, ComfortZone):

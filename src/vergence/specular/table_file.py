@@ -15,7 +15,6 @@ re-solves it for new weights or maps, renders the final left eye and measures it
 from __future__ import annotations
 
 import json
-import time
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -26,8 +25,7 @@ import numpy as np
 from vergence.specular.tabulated import OffsetAnalysis
 from vergence.viewing.comfort import ComfortZone
 
-__all__ = ["TABLE_FILE", "TABLE_FORMAT", "SpecularTable", "read_specular_table", "specular_from_table",
-           "write_specular_table"]
+__all__ = ["TABLE_FILE", "TABLE_FORMAT", "SpecularTable", "read_specular_table", "write_specular_table"]
 
 #: The table's file name in an output folder (``vergence specular --table``).
 TABLE_FILE = "specular_table.npz"
@@ -194,68 +192,3 @@ def read_specular_table(path: str | Path) -> SpecularTable:
         raise ValueError(f"{path} is not a complete offset table: {exc.args[0]!r} is missing") from None
     except (TypeError, ValueError, json.JSONDecodeError) as exc:
         raise ValueError(f"{path} is not a valid offset table: {str(exc).splitlines()[0]}") from None
-
-
-def specular_from_table(
-    table: SpecularTable,
-    scene: object,
-    *,
-    alpha: object = None,
-    variant: str | None = None,
-    maps: Mapping[str, object] | None = None,
-    factor: int | None = None,
-    progress: object = None,
-) -> object:
-    """Re-solve a stored table for new weights or maps, render the final left eye and measure it.
-
-    The result is what :func:`~vergence.specular.specular_stereo` returns with the same options
-    (the planner, the final render and the measurements run again; the table and the physical pair
-    are the stored ones).
-
-    Parameters
-    ----------
-    table : SpecularTable
-    scene : vergence.render.Scene or vergence.render.Tracer
-        The scene the table was made of (its name must be the table's ``settings["scene"]``).
-    alpha, variant : optional
-        The cost's weights and absolute term; default the table run's.
-    maps : mapping, optional
-        Painted maps (:func:`~vergence.specular.disparity_cost`).
-    factor : int, optional
-        The planner's reduction; default the table run's.
-    progress : callable(fraction, message), optional
-
-    Returns
-    -------
-    SpecularResult
-
-    Raises
-    ------
-    TypeError, ValueError
-        A table that is not one, a scene of another name, a bad weight, variant, factor or map.
-    """
-    from vergence.specular.offsets import _tracer
-    from vergence.specular.pipeline import _optimise, _session, _state
-    from vergence.specular.planning import _check_factor
-    from vergence.specular.lightness import layer_lightness
-
-    if not isinstance(table, SpecularTable):
-        raise TypeError(f"table must be a SpecularTable; got {type(table).__name__}")
-    tracer = _tracer(scene)
-    s = dict(table.settings)
-    if tracer.scene.name != s.get("scene"):
-        raise ValueError(f"scene is {tracer.scene.name!r}, but the table was made of {s.get('scene')!r}")
-    factor = _check_factor(s["factor"] if factor is None else factor)
-    alpha = s["alpha"] if alpha is None else alpha
-    variant = s["variant"] if variant is None else variant
-    t0 = time.perf_counter()
-    display = table.analysis.display
-    phys, right_res = table.physical_left, table.right
-    right_lit = layer_lightness(right_res.radiance, right_res.position, display, exposure=table.exposure)
-    before, _ = _state(phys, right_res, right_lit, display, table.exposure, table.epsilon, table.window)
-    settings = {**s, "factor": factor}
-    session = _session(tracer, phys.camera, right_res.camera, display, table.zone, int(s["samples"]), phys, right_res,
-                       right_lit, table.exposure, table.epsilon, table.window, before, table.analysis,
-                       factor=factor, near_arcmin=float(s["near_surface_arcmin"]), specular=True, settings=settings,
-                       seconds={"measure_physical": time.perf_counter() - t0}, t0=t0, keep_table=False)  # fmt: skip
-    return _optimise(session, alpha=alpha, variant=variant, maps=maps, progress=progress)
