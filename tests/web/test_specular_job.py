@@ -209,3 +209,81 @@ def test_only_the_most_recent_jobs_keep_their_table(tmp_path):
         error = _refused(c.post("/api/jobs/specular-reoptimise", json={"job": a["id"]}), 409)
         assert "no longer keeps its work in memory" in error and "run it again" in error
         assert c.post("/api/jobs/specular-reoptimise", json={"job": b["id"]}).status_code == 202
+
+
+def _zeros_on_layer(client, done_job, layer: int) -> dict:
+    import numpy as np
+
+    return {"job": done_job["id"], "weight_maps": [{"layer": layer, "upload": _upload_npy(client, np.zeros((48, 64)))}]}
+
+
+def test_a_layer_no_weight_can_move_is_refused_and_the_solve_agrees(client, done_job):
+    """The layers refused (422, naming the layer and why) are exactly those whose paint leaves every offset
+    where it was in the library's own solve: each layer's four terms painted 0 everywhere, one at a time."""
+    import numpy as np
+
+    from vergence.specular import COST_TERMS
+
+    base = client.app.state.jobs.live(done_job["id"], "specular")
+    names = {layer["layer"]: layer["name"] for layer in done_job["result"]["layers"]}
+    refused, moved = set(), set()
+    for layer in names:
+        maps = {t: np.ones(base.y.shape) for t in COST_TERMS}
+        for m in maps.values():
+            m[layer - 1] = 0.0
+        if not np.array_equal(base.reoptimise(maps=maps).y, base.y):
+            moved.add(layer)
+        response = client.post("/api/jobs/specular-reoptimise", json=_zeros_on_layer(client, done_job, layer))
+        if response.status_code == 422:
+            refused.add(layer)
+            error = response.json()["error"]
+            assert f"layer {layer} ({names[layer]}) has no matched pixel in the physical pair" in error, error
+            assert "no weight can move its offsets" in error
+        else:
+            assert response.status_code in (200, 202), response.text
+            _wait(client, response.json()["id"])
+    assert refused, "the tiny glasses run has a layer without matches (RR at 64 x 48); the test needs one"
+    assert refused == set(names) - moved
+
+
+def test_a_map_of_ones_is_refused(client, done_job):
+    import numpy as np
+
+    body = {"job": done_job["id"], "weight_maps": [{"layer": 2, "upload": _upload_npy(client, np.ones((48, 64)))}]}
+    assert "is 1 everywhere: it changes no weight" in _refused(client.post("/api/jobs/specular-reoptimise", json=body), 422)
+
+
+def test_reoptimise_answers_with_the_left_eye_first_and_writes_the_rest_on_request(client, done_job):
+    """The job is done with what the page shows (SHOWN_FIRST); the other files are pending until asked for."""
+    import io
+
+    import cv2
+    import numpy as np
+
+    from vergence.report.specular_outputs import SPECULAR_OUTPUT_FILES
+    from vergence.web.job_kinds import SHOWN_FIRST
+
+    paint = np.ones((48, 64), np.float32)
+    paint[:, 32:] = 3.0
+    body = {"job": done_job["id"], "weights": [1, 1, 7, 0.1],
+            "weight_maps": [{"layer": 3, "term": "relative", "upload": _upload_npy(client, paint)}]}
+    job = _wait(client, client.post("/api/jobs/specular-reoptimise", json=body).json()["id"])
+    assert job["state"] == "done", job
+    assert set(job["files"]) == set(SHOWN_FIRST)
+    assert set(job["pending"]) == set(SPECULAR_OUTPUT_FILES) - set(SHOWN_FIRST)
+    assert set(job["result"]["web_seconds"]) == {"reoptimise", "report", "write_shown"}
+    maps = {"relative": np.ones((7, 48, 64))}
+    maps["relative"][2] = paint
+    expected = client.app.state.jobs.live(done_job["id"], "specular").reoptimise(alpha=(1, 1, 7, 0.1), maps=maps)
+    overlay = np.load(io.BytesIO(client.get(f"/api/jobs/{job['id']}/files/disparity_after.npy").content))
+    np.testing.assert_array_equal(overlay, expected.after.disparity[..., 0])
+    png = client.get(f"/api/jobs/{job['id']}/files/optimised_anaglyph.png")
+    assert cv2.imdecode(np.frombuffer(png.content, np.uint8), cv2.IMREAD_COLOR).shape[:2] == (48, 64)
+
+    sheet = client.get(f"/api/jobs/{job['id']}/files/analysis_disparity.png")  # pending: written now
+    assert sheet.status_code == 200 and sheet.headers["content-type"] == "image/png", sheet.text
+    after = client.get(f"/api/jobs/{job['id']}").json()
+    assert after["pending"] == [] and set(SPECULAR_OUTPUT_FILES) <= set(after["files"])
+    analysis = np.load(io.BytesIO(client.get(f"/api/jobs/{job['id']}/files/analysis.npz").content))
+    np.testing.assert_array_equal(analysis["disparity_after"][..., 0], overlay)
+    assert "no file 'nope.png'" in _refused(client.get(f"/api/jobs/{job['id']}/files/nope.png"), 404)

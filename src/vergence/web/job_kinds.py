@@ -21,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import pydantic
 
 from vergence.web._models import RequestModel
@@ -30,8 +31,8 @@ if TYPE_CHECKING:
     from vergence.web.data import DataIndex
     from vergence.web.uploads import UploadStore
 
-__all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS", "JobEnv",
-           "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap"]
+__all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS",
+           "SHOWN_FIRST", "JobEnv", "paintable_layers", "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
 MAX_RENDER_JOB_SIDE = 2048
@@ -197,6 +198,8 @@ def _write_specular(result: Any, folder: Any, *, layers: bool) -> tuple[str, ...
     from vergence.report.specular_outputs import write_specular_outputs
 
     names = [p.name for p in write_specular_outputs(result, folder)]
+    _write_overlay(result, folder)
+    names.append("disparity_after.npy")
     if layers:
         phys = result.physical_left
         exposure = auto_exposure(np.asarray(phys.beauty, dtype=np.float64))
@@ -255,9 +258,13 @@ def _prepare_reoptimise(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
                          f"(e.g. 1, 1, 10, 0.1); got {list(params.weights)}")  # fmt: skip
     n, h, w = base.y.shape
     specs, inputs = [], [params.job]
+    paintable = paintable_layers(base)
     for painted in params.weight_maps:
         if painted.term is not None and painted.term not in COST_TERMS:
             raise ValueError(f"weight_maps: unknown cost term {painted.term!r}; the terms are {', '.join(COST_TERMS)}")
+        if paintable.get(painted.layer) is not None:
+            can = ", ".join(str(i) for i, why in paintable.items() if why is None) or "none"
+            raise ValueError(f"weight_maps: {paintable[painted.layer]}; the layers a paint can change: {can}")
         upload = env.uploads.get(painted.upload)
         specs.append((f"{painted.term + ':' if painted.term else ''}{painted.layer}", upload))
         inputs.append(upload.sha256)
@@ -270,14 +277,83 @@ def _prepare_reoptimise(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
             message = message.replace(f"{spec}={upload.path}", f"{spec} (upload {upload.id})")
             message = message.replace(str(upload.path), f"upload {upload.id}")
         raise ValueError(message) from None
+    for (spec, upload), painted in zip(specs, params.weight_maps, strict=True):  # a map of ones weighs nothing
+        if all(np.all(m == 1.0) for m in weight_maps([f"{spec}={upload.path}"], n_layers=n, width=w, height=h).values()):
+            raise ValueError(f"weight_maps: the map of layer {painted.layer} (upload {upload.id}) is 1 everywhere: "
+                             "it changes no weight (1 is every pixel's weight unpainted)")  # fmt: skip
 
     def run(ctx: JobContext) -> JobResult:
+        import time
+
+        from vergence.report.specular_outputs import SPECULAR_OUTPUT_FILES
+
+        t0 = time.perf_counter()
         result = base.reoptimise(alpha=params.weights, variant=params.variant, maps=maps or None,
-                                 progress=lambda f, m: ctx.progress(0.9 * f, m))  # fmt: skip
-        ctx.progress(0.9, "writing the outputs")
-        return JobResult(result.report(), _write_specular(result.release(), ctx.folder, layers=False))
+                                 progress=lambda f, m: ctx.progress(0.9 * f, m)).release()  # fmt: skip
+        t1 = time.perf_counter()
+        ctx.progress(0.9, "writing the new left eye")
+        report = result.report()
+        t2 = time.perf_counter()
+        shown = _write_shown(result, report, ctx.folder)
+        t3 = time.perf_counter()
+        report["web_seconds"] = {"reoptimise": round(t1 - t0, 3), "report": round(t2 - t1, 3),
+                                 "write_shown": round(t3 - t2, 3)}  # fmt: skip
+        pending = tuple(n for n in SPECULAR_OUTPUT_FILES if n not in shown)
+        return JobResult(report, shown, pending=pending,
+                         write_pending=lambda folder: _write_specular(result, folder, layers=False))
 
     return Prepared(tuple(inputs), run)
+
+
+def _write_shown(result: Any, report: dict, folder: Any) -> tuple[str, ...]:
+    """What the page shows first after a re-optimisation (:data:`SHOWN_FIRST`): the new left eye and its
+    anaglyph (as ``vergence specular`` writes them: the physical left eye's exposure, Dubois), its
+    comfort overlay ``disparity_after.npy`` and ``report.json``; the other outputs wait for a request."""
+    from vergence.display import anaglyph
+    from vergence.io import write_image, write_json
+    from vergence.render import tonemap
+    from vergence.render.tonemap import auto_exposure
+
+    exposure = auto_exposure(np.asarray(result.physical_left.beauty, dtype=np.float64))
+    left = tonemap(result.optimised_left.beauty, exposure=exposure)
+    write_image(folder / "optimised_left.png", left)
+    write_image(folder / "optimised_anaglyph.png",
+                anaglyph(left, tonemap(result.right.beauty, exposure=exposure), method="dubois"))
+    _write_overlay(result, folder)
+    write_json(folder / "report.json", report)
+    return SHOWN_FIRST
+
+
+def _write_overlay(result: Any, folder: Any) -> None:
+    """``disparity_after.npy``: ``(N, H, W)`` float32, the horizontal disparity (arcmin on the display, NaN:
+    no match) of each layer of the optimised left eye against the right eye, as report.json measures it;
+    the page marks a layer's pixels outside ``comfort_zone_arcmin``."""
+    from vergence.io import atomic_write
+
+    with atomic_write(folder / "disparity_after.npy") as tmp, open(tmp, "wb") as fh:
+        np.save(fh, np.ascontiguousarray(result.after.disparity[..., 0], dtype=np.float32))
+
+
+#: The files a ``specular-reoptimise`` job writes before it is done; the rest of ``vergence specular``'s
+#: files (the npz archives, the analysis sheets, the other previews) are written when first asked for.
+SHOWN_FIRST = ("optimised_left.png", "optimised_anaglyph.png", "disparity_after.npy", "report.json")
+
+
+def paintable_layers(base: Any) -> dict[int, str | None]:
+    """Per layer (1-based) of a specular result, None when a painted weight can move offsets, else why
+    not: a layer with no matched pixel in the physical pair gives S3 Eq. 2 no disparity to weigh, so
+    the solve leaves every offset where it was (checked against the solve in tests/web/test_specular_job.py).
+    The first hit counts: its weights enter the other layers' solve."""
+    from vergence.specular.pipeline import layer_labels
+
+    out: dict[int, str | None] = {}
+    for i, name in enumerate(layer_labels(base.y.shape[0])):
+        out[i + 1] = None
+        if not base.before.matched[i].any():
+            pixels = int(base.before.present[i].sum())
+            out[i + 1] = (f"layer {i + 1} ({name}) has no matched pixel in the physical pair ({pixels} px with a "
+                          "surface, none matched in the right eye): no weight can move its offsets")  # fmt: skip
+    return out
 
 
 #: The kinds of this module, by name (``POST /api/jobs/{name}``; the app gathers every page module's KINDS).

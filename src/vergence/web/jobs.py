@@ -90,11 +90,21 @@ class JobRefused(Exception):
 class JobResult:
     """What a finished job returns: a JSON summary, the names of the files it wrote in its folder, and
     ``live``: objects a follow-up request of the page reuses without running the job again (the
-    specular job's planner, a prepared collection); kept in memory while the job is, never sent."""
+    specular job's planner, a prepared collection); kept in memory while the job is, never sent.
+
+    ``pending`` names files the job is done without: ``write_pending(folder)`` writes them (and may
+    write the ready ones again, atomically) when one is first asked for (:meth:`JobManager.file`), so a
+    job answers with what the page shows first and draws the rest on request."""
 
     summary: dict[str, Any]
     files: tuple[str, ...] = ()
     live: Any = field(default=None, compare=False, repr=False)
+    pending: tuple[str, ...] = ()
+    write_pending: Callable[[Path], object] | None = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.pending and self.write_pending is None:
+            raise TypeError("a JobResult with pending files needs write_pending, the function that writes them")
 
 
 @dataclass(frozen=True, slots=True)
@@ -164,6 +174,7 @@ class Job:
     version: int = 0
     cancel_requested: threading.Event = field(default_factory=threading.Event)
     future: concurrent.futures.Future[None] | None = None
+    writing: threading.Lock = field(default_factory=threading.Lock)  # held while its pending files are written
 
 
 def _one_line(text: str) -> str:
@@ -262,7 +273,8 @@ class JobManager:
             return {"id": job.id, "kind": job.kind, "state": job.state, "progress": job.fraction,
                     "message": job.message, "error": job.error,
                     "result": None if job.result is None else job.result.summary,
-                    "files": [] if job.result is None else list(job.result.files)}, job.version  # fmt: skip
+                    "files": [] if job.result is None else list(job.result.files),
+                    "pending": [] if job.result is None else list(job.result.pending)}, job.version  # fmt: skip
 
     def cancel(self, job_id: str) -> Job:
         """Cancel a queued or running job (a running one stops at its next progress report).
@@ -288,6 +300,10 @@ class JobManager:
     def file(self, job_id: str, name: str) -> Path:
         """The path of a result file the job lists by name (never a client's path).
 
+        A name of the job's ``pending`` files is written first, on the caller's thread, with the other
+        pending ones (:attr:`JobResult.write_pending`; a second request for them waits for the first);
+        then they are listed in ``files``.
+
         Raises ``KeyError`` for an unknown id or a name the job does not list, :class:`JobRefused`
         (409) while the job is not done.
         """
@@ -295,9 +311,29 @@ class JobManager:
         with self._lock:
             if job.state != "done" or job.result is None:
                 raise JobRefused(409, f"job {job_id} is {job.state}: its files exist once it is done")
-            if name not in job.result.files:
-                raise KeyError(f"job {job_id} has no file {name!r}; its files: {', '.join(job.result.files) or 'none'}")
-            return job.folder / name
+            result = job.result
+            if name in result.files:
+                return job.folder / name
+            if name not in result.pending:
+                names = ", ".join((*result.files, *result.pending)) or "none"
+                raise KeyError(f"job {job_id} has no file {name!r}; its files: {names}")
+        with job.writing:
+            with self._lock:
+                result = job.result
+                if result is None or not job.folder.is_dir():
+                    raise KeyError(f"job {job_id} was evicted from the cache with its files")
+                if name in result.files:  # written by the request that held the lock before
+                    return job.folder / name
+            result.write_pending(job.folder)
+            missing = [n for n in result.pending if not (job.folder / n).is_file()]
+            if missing:
+                raise RuntimeError(f"the job's pending writer did not write: {', '.join(missing)}")
+            with self._lock:
+                if job.result is not None:
+                    job.result = dataclasses.replace(job.result, files=(*job.result.files, *job.result.pending),
+                                                     pending=())  # fmt: skip
+                    job.version += 1
+        return job.folder / name
 
     def live(self, job_id: str, kind: str) -> Any:
         """The in-memory ``live`` objects of a done job of ``kind`` (:attr:`JobResult.live`).
