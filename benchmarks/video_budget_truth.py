@@ -10,8 +10,9 @@ their defaults and measures against the truth:
    disparity of another shifted-sensor rig). The right view is the left one forward-warped by it
    (:func:`vergence.synthesis.forward_warp`, holes filled from the background:
    :func:`vergence.synthesis.fill_holes`); each frame is a 480 x 272 window of the pair panning 2 px a
-   frame. H.264 crf 16 (:class:`vergence.video.VideoWriter`). The truth of a frame is NaN where the
-   scene's disparity is unknown or the match falls left of the right view (``x - D < 0``).
+   frame (less in long shots, to stay inside). H.264 crf 16 (:class:`vergence.video.VideoWriter`). The
+   truth of a frame is NaN where the scene's disparity is unknown or the match falls left of the right
+   view (``x - D < 0``).
 2. **analyze** (defaults: the search range from the content): each shot's p50 and p95 against the
    truth's, with issue 28's tolerance max(3 px, 5 %).
 3. **convert** ``--budget-arcmin 30`` on tv-55 (defaults): the output matched again (``vergence analyze``
@@ -69,8 +70,9 @@ def write_clip(path: Path, frames_per_shot: int) -> np.ndarray:
         for name, lo, hi in SCENES:
             left, right, truth = _scene(name, lo, hi)
             y0 = (left.shape[0] - HEIGHT) // 2
+            pan = min(PAN_PX, (left.shape[1] - WIDTH) / max(1, frames_per_shot - 1))  # the window stays inside
             for f in range(frames_per_shot):
-                x0 = PAN_PX * f
+                x0 = int(round(pan * f))
                 window = (slice(y0, y0 + HEIGHT), slice(x0, x0 + WIDTH))
                 writer.write(np.concatenate([left[window], right[window]], axis=1))
                 t = truth[window].copy()
