@@ -8,8 +8,10 @@
 const SPEC_METHODS = [["physical", "Physical"], ["optimised", "Optimised"], ["on_surface", "On surface"],
   ["near_surface", "Near surface"]];
 const SPEC_SHEETS = ["analysis_disparity.png", "analysis_importance.png", "analysis_rivalry.png", "offsets.png"];
-// Layer 1 (the first hit) keeps the physical left eye in S3 §3.4: painting its weights changes no offset.
-const SPEC_FIXED_LAYER = 1;
+// The sheet drawn large is at most this many times its own size (it is drawn at 100 dpi: 9 pt text, 12.5 px).
+const SPEC_SHEET_ZOOM = 1.5;
+// The comfort overlay: the chosen layer's pixels outside the zone after the latest solve, in magenta.
+const SPEC_OUTSIDE_RGBA = [255, 0, 200, 0.75];
 // The painted weight's tint on the picture: blue where it is below 1 (the term matters less), red above.
 const SPEC_TINT_ALPHA = 0.6;
 const SPEC_TINT_SATURATION = 4;  // a weight of 1 + 4 gets the full red tint
@@ -22,6 +24,13 @@ const spec = {
   maps: new Map(), // "layer|term" -> Float32Array(width * height) of painted weights (1: unpainted)
   picture: null,   // ImageData of the chosen layer's picture
   painting: false,
+  stroked: false,  // the pointer painted since it went down
+  report: null,    // the shown result's report
+  overlay: null,   // {id, n, data: Float32Array(n * height * width)} horizontal disparity after, arcmin (NaN: none)
+  running: false,  // a re-optimisation is being asked for or shown
+  again: false,    // a stroke ended while a re-optimisation ran: run again when it ends
+  strokeMs: [],    // stroke (pointer up) to the new anaglyph and overlay drawn, ms, one per answered stroke
+  sheet: SPEC_SHEETS[0],
 };
 
 async function initSpecular() {
@@ -37,7 +46,9 @@ async function initSpecular() {
     if (displays.displays.some((d) => d.name === "samsung-2233rz")) select.value = "samsung-2233rz";
     document.getElementById("spec-run").addEventListener("click", runSpecular);
     document.getElementById("spec-cancel").addEventListener("click", () => { if (spec.job) cancelJob(spec.job); });
-    document.getElementById("spec-reoptimise").addEventListener("click", reoptimiseSpecular);
+    document.getElementById("spec-reoptimise").addEventListener("click", () => reoptimiseSpecular(null));
+    document.getElementById("spec-overlay").addEventListener("change", specDraw);
+    document.getElementById("spec-draw-sheets").addEventListener("click", () => specSheets(spec.shown, true));
     document.getElementById("spec-clear").addEventListener("click", () => { spec.maps.clear(); specDraw(); });
     document.getElementById("spec-layer").addEventListener("change", specLoadPicture);
     document.getElementById("spec-term").addEventListener("change", specDraw);
@@ -114,20 +125,32 @@ async function runSpecular() {
   spec.maps.clear();
   document.getElementById("spec-reopt-message").textContent = "";
   specLayers(status.result);
-  showSpecular(status.id, status.result);
+  await showSpecular(status.id, status.result);
   await specLoadPicture();
   document.body.dataset.state = "ready";
 }
 
 // ---------------------------------------------------------------- painting
+// Every layer is listed; one with no matched pixel in the physical pair is greyed out (disabled), its tooltip
+// saying why: the server refuses its paint (422), since no weight can move its offsets.
 function specLayers(report) {
   const select = document.getElementById("spec-layer");
   select.replaceChildren();
   for (const layer of report.layers) {
-    if (layer.layer === SPEC_FIXED_LAYER || !layer.pixels) continue;
-    select.add(new Option(`${layer.layer} · ${layer.name} (${layer.pixels} px)`, String(layer.layer)));
+    const option = new Option(`${layer.layer} · ${layer.name} (${layer.matched_pixels_before} of ${layer.pixels} px matched)`,
+      String(layer.layer));
+    if (!layer.matched_pixels_before) {
+      option.disabled = true;
+      option.title = `layer ${layer.layer} (${layer.name}) has no matched pixel in the physical pair `
+        + `(${layer.pixels} px with a surface): no weight can move its offsets`;
+      option.dataset.testid = "spec-layer-greyed";
+    }
+    select.add(option);
   }
-  const none = !select.options.length;
+  // the first specular layer that can be painted (the first hit can too: its weights enter the others' solve)
+  const first = [...select.options].find((o) => !o.disabled && o.value !== "1") || [...select.options].find((o) => !o.disabled);
+  if (first) select.value = first.value;
+  const none = !first;
   document.getElementById("spec-reoptimise").disabled = false;
   document.getElementById("spec-painted").textContent = none
     ? "no reflected or refracted layer in view: nothing to paint" : "nothing painted";
@@ -172,6 +195,7 @@ function specDraw() {
         out.data[4 * i + 2] += (b - out.data[4 * i + 2]) * a;
       }
     }
+    specOutside(out);
     canvas.getContext("2d").putImageData(out, 0, 0);
   }
   const painted = [...spec.maps.entries()].map(([key, map]) => {
@@ -207,11 +231,18 @@ function specCanvasEvents(canvas) {
   canvas.addEventListener("pointerdown", (event) => {
     if (!spec.picture) return;
     spec.painting = true;
+    spec.stroked = true;
     canvas.setPointerCapture(event.pointerId);
     specPaintAt(event);
   });
   canvas.addEventListener("pointermove", (event) => { if (spec.painting) specPaintAt(event); });
-  for (const name of ["pointerup", "pointercancel"]) canvas.addEventListener(name, () => { spec.painting = false; });
+  canvas.addEventListener("pointercancel", () => { spec.painting = false; });
+  canvas.addEventListener("pointerup", () => {
+    spec.painting = false;
+    if (!spec.stroked) return;
+    spec.stroked = false;
+    if (document.getElementById("spec-auto").checked) reoptimiseSpecular(performance.now());
+  });
 }
 
 // A float32 (height, width) array as a .npy file (format 1.0, little-endian, C order).
@@ -239,8 +270,17 @@ async function specUpload(map, name) {
   return data.id;
 }
 
-async function reoptimiseSpecular() {
+// Re-optimise with the painted maps. strokeStart: the time the stroke ended (performance.now()), or null for the
+// button; a stroke that ends while one runs is answered once it is done, with every map painted by then.
+async function reoptimiseSpecular(strokeStart) {
   if (!spec.base) return;
+  if (spec.running) { spec.again = true; return; }
+  spec.running = true;
+  try { await specReoptimiseOnce(strokeStart); } finally { spec.running = false; }
+  if (spec.again) { spec.again = false; await reoptimiseSpecular(null); }
+}
+
+async function specReoptimiseOnce(strokeStart) {
   const weightMaps = [];
   try {
     for (const [key, map] of spec.maps) {
@@ -257,12 +297,65 @@ async function reoptimiseSpecular() {
   const body = { job: spec.base, weights: specWeights(), variant: document.getElementById("spec-variant").value,
     weight_maps: weightMaps };
   const status = await specJob("specular-reoptimise", body, "spec-reopt-message");
-  if (!status) return;
-  const s = status.result.seconds;
-  document.getElementById("spec-reopt-message").textContent = `re-optimised with ${weightMaps.length} painted map(s): `
-    + `solve ${fmt(s.plan_solve, 2)} s, render ${fmt(s.final_render ?? 0, 2)} s${status.cached ? " (cached)" : ""}`;
-  showSpecular(status.id, status.result);
-  document.body.dataset.state = "ready";
+  if (status) {
+    await showSpecular(status.id, status.result);
+    const s = status.result.seconds;
+    let text = `re-optimised with ${weightMaps.length} painted map(s): solve ${fmt(s.plan_solve, 2)} s, `
+      + `render ${fmt(s.final_render ?? 0, 2)} s${status.cached ? " (cached)" : ""}`;
+    if (strokeStart !== null) {
+      const ms = performance.now() - strokeStart;
+      spec.strokeMs.push(ms);
+      document.getElementById("spec-result").dataset.strokeMs = spec.strokeMs.map((v) => v.toFixed(1)).join(",");
+      text += `; stroke to new image ${(ms / 1000).toFixed(2)} s`;
+    }
+    document.getElementById("spec-reopt-message").textContent = text;
+    document.body.dataset.state = "ready";
+  }
+}
+
+// The shown result's comfort overlay (disparity_after.npy: (N, H, W) float32 arcmin, NaN: no match), loaded once.
+async function specLoadOverlay(id) {
+  if (spec.overlay && spec.overlay.id === id) return;
+  const response = await fetch(jobFile(id, "disparity_after.npy"));
+  if (!response.ok) throw new ApiError(`disparity_after.npy: HTTP ${response.status}`);
+  const bytes = await response.arrayBuffer();
+  const view = new DataView(bytes);
+  const headerLength = view.getUint16(8, true);
+  const header = new TextDecoder().decode(new Uint8Array(bytes, 10, headerLength));
+  if (!header.includes("'<f4'")) throw new ApiError("disparity_after.npy: expected little-endian float32");
+  const shape = header.match(/'shape': \((\d+), (\d+), (\d+)\)/).slice(1).map(Number);
+  spec.overlay = { id, n: shape[0], height: shape[1], width: shape[2],
+    data: new Float32Array(bytes.slice(10 + headerLength)) };
+}
+
+// Tint the chosen layer's pixels outside the comfort zone after the latest solve (when the box is ticked) and
+// say how many there are.
+function specOutside(out) {
+  const note = document.getElementById("spec-outside");
+  const o = spec.overlay;
+  const layer = Number(document.getElementById("spec-layer").value);
+  if (!o || !spec.report || !layer || o.width !== spec.width || o.height !== spec.height) { note.textContent = ""; return; }
+  const [lo, hi] = spec.report.comfort_zone_arcmin;
+  const plane = o.data.subarray((layer - 1) * o.width * o.height, layer * o.width * o.height);
+  const show = document.getElementById("spec-overlay").checked;
+  const [r, g, b, a] = SPEC_OUTSIDE_RGBA;
+  let matched = 0;
+  let outside = 0;
+  for (let i = 0; i < plane.length; i++) {
+    const d = plane[i];
+    if (Number.isNaN(d)) continue;
+    matched++;
+    if (d >= lo && d <= hi) continue;
+    outside++;
+    if (!show) continue;
+    out.data[4 * i] += (r - out.data[4 * i]) * a;
+    out.data[4 * i + 1] += (g - out.data[4 * i + 1]) * a;
+    out.data[4 * i + 2] += (b - out.data[4 * i + 2]) * a;
+  }
+  note.textContent = `layer ${layer} after the latest solve: ${outside} of ${matched} matched px outside the comfort zone`
+    + ` [${lo}′, ${hi}′]${show && outside ? " (magenta)" : ""}`;
+  note.dataset.outside = String(outside);
+  note.dataset.job = o.id;
 }
 
 // ---------------------------------------------------------------- the result
@@ -276,13 +369,18 @@ function specCell(row, value, text, testid) {
 
 function specShare(v) { return v === null || v === undefined ? "—" : `${(100 * v).toFixed(1)} %`; }
 
-function showSpecular(id, report) {
+// Show a result: the new optimised anaglyph and the comfort overlay first (a re-optimisation keeps the base job's
+// other three methods: they do not change), then the tables; the sheets are drawn for the base job, and for a
+// re-optimisation when asked (its sheets are pending on the server until then).
+async function showSpecular(id, report) {
   spec.shown = id;
+  spec.report = report;
+  const src = (method) => jobFile(method === "optimised" ? id : spec.base, `${method}_anaglyph.png`);
   const row = document.getElementById("spec-anaglyphs");
   row.replaceChildren(...SPEC_METHODS.map(([method, label]) => {
     const fig = document.createElement("figure");
     const img = document.createElement("img");
-    img.src = jobFile(id, `${method}_anaglyph.png`);
+    img.src = src(method);
     img.alt = `${label} anaglyph`;
     img.dataset.testid = `spec-anaglyph-${method}`;
     const caption = document.createElement("figcaption");
@@ -290,14 +388,18 @@ function showSpecular(id, report) {
     fig.append(img, caption);
     return fig;
   }));
-  const sheets = document.getElementById("spec-sheets");
-  sheets.replaceChildren(...SPEC_SHEETS.map((name) => {
-    const img = document.createElement("img");
-    img.src = jobFile(id, name);
-    img.alt = name;
-    img.dataset.testid = `spec-sheet-${name.replace(".png", "")}`;
-    return img;
-  }));
+  const latest = document.getElementById("spec-latest");
+  latest.src = src("optimised");
+  try {
+    await Promise.all([latest.decode(), specLoadOverlay(id)]);
+  } catch (exc) {
+    showError(exc.message || "the new anaglyph cannot be loaded");
+  }
+  specDraw();
+  latest.dataset.job = id;
+  document.getElementById("spec-latest-caption").textContent = id === spec.base
+    ? "optimised anaglyph (the first run)" : "optimised anaglyph (the latest re-optimisation)";
+  specSheets(id, id === spec.base);
   const layers = document.querySelector("#spec-layers tbody");
   layers.replaceChildren();
   for (const layer of report.layers) {
@@ -327,6 +429,61 @@ function showSpecular(id, report) {
   result.dataset.job = id;
   result.dataset.base = spec.base;
   result.hidden = false;
+}
+
+// The analysis sheets of job id as thumbnails (click: drawn at full size below, labelled), or, when not drawn
+// yet (draw false: a re-optimisation's sheets are pending on the server), a button that asks for them.
+function specSheets(id, draw) {
+  const sheets = document.getElementById("spec-sheets");
+  const button = document.getElementById("spec-draw-sheets");
+  const note = document.getElementById("spec-sheets-note");
+  const view = document.getElementById("spec-sheet-view");
+  if (!draw) {
+    sheets.replaceChildren();
+    view.hidden = true;
+    document.getElementById("spec-sheet-caption").textContent = "";
+    button.hidden = false;
+    note.textContent = "the analysis sheets of this re-optimisation are drawn when asked (a few seconds)";
+    return;
+  }
+  button.hidden = true;
+  note.textContent = "";
+  sheets.replaceChildren(...SPEC_SHEETS.map((name) => {
+    const thumb = document.createElement("button");
+    thumb.type = "button";
+    thumb.title = `${name}: click to draw it at full size below`;
+    thumb.dataset.testid = `spec-thumb-${name.replace(".png", "")}`;
+    const img = document.createElement("img");
+    img.src = jobFile(id, name);
+    img.alt = name;
+    img.dataset.testid = `spec-sheet-${name.replace(".png", "")}`;
+    thumb.append(img);
+    thumb.addEventListener("click", () => specShowSheet(id, name));
+    return thumb;
+  }));
+  specShowSheet(id, spec.sheet);
+}
+
+const SPEC_SHEET_TITLES = { "analysis_disparity.png": "per-layer disparity, before and after (arcmin)",
+  "analysis_importance.png": "per-layer importance, before and after", "analysis_rivalry.png":
+  "per-layer rivalry (ΔL*)², before and after", "offsets.png": "per-layer camera offsets y (1: physical)" };
+
+async function specShowSheet(id, name) {
+  spec.sheet = name;
+  for (const thumb of document.querySelectorAll("#spec-sheets button")) {
+    thumb.setAttribute("aria-pressed", String(thumb.dataset.testid === `spec-thumb-${name.replace(".png", "")}`));
+  }
+  const view = document.getElementById("spec-sheet-view");
+  view.src = jobFile(id, name);
+  view.alt = `${name}: ${SPEC_SHEET_TITLES[name]}`;
+  try { await view.decode(); } catch (exc) { return; }
+  if (view.src !== new URL(jobFile(id, name), location.href).href) return;  // another sheet was chosen meanwhile
+  const room = view.parentElement.clientWidth || view.naturalWidth;
+  view.style.width = `${Math.round(Math.min(room, SPEC_SHEET_ZOOM * view.naturalWidth))}px`;
+  view.hidden = false;
+  view.dataset.sheet = name;
+  document.getElementById("spec-sheet-caption").textContent = `${name}: ${SPEC_SHEET_TITLES[name]}; `
+    + "one row per layer, its number and name at the left";
 }
 
 registerPage("specular", initSpecular);
