@@ -275,7 +275,9 @@ def test_pair_size_and_framing(space_dir, run, tmp_path):
 def test_info_lists_the_best_states_and_the_cameras(space_dir, run):
     code, stdout, err = run("stereospace", "info", space_dir)
     assert code == 0, err
-    assert max(len(line) for line in stdout.splitlines()) <= 80
+    lines = stdout.splitlines()
+    assert lines[0].startswith(f"{space_dir}: ")  # the folder as given, however long the test's tmp path
+    assert max(len(line) for line in lines[1:]) <= 80
     assert "v0 v1 v2 v3 v4" in stdout
     code, stdout, err = run("stereospace", "info", space_dir, "--json", "--top", "3")
     assert code == 0, err

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from vergence.stereospace import JUMP_CONE_DEG, MOVE_EVENTS, StereoSpace, StereoState
+from vergence.stereospace import JUMP_CONE_DEG, MOVE_EVENTS, StereoSpace, StereoState, pan, tangent, zoom
 
 # Two parallel unit segments 1 apart: regions (0, 0), (0, 1), (1, 1).
 LADDER = StereoSpace([[[0, 0, 0], [1, 0, 0]], [[0, 1, 0], [1, 1, 0]]])
@@ -54,12 +54,12 @@ def test_gradient_by_hand():
 def test_pan_keeps_the_interocular_distance_to_first_order(region, li, lj):
     space = StereoSpace([[[0, 0, 0], [1, 0, 0.2]], [[0.3, 1, 0], [1.2, 1.4, 0]]])
     state = StereoState(region, li, lj)
-    T = space.tangent(state)
+    T = tangent(space, state)
     assert abs(T @ space.gradient(state)) < 1e-15
     assert_allclose(np.linalg.norm(T), 1.0)
     errors = []
     for v in (1e-3, 5e-4):
-        moved = space.pan(state, v)
+        moved = pan(space, state, v)
         assert moved.event == "moved"
         errors.append(abs(_sw(space, moved.state) - _sw(space, state)))
         mid_shift = space.point(region[0], moved.state.li, region[1], moved.state.lj)[:3] - space.point(region[0], li, region[1], lj)[:3]
@@ -73,7 +73,7 @@ def test_pan_keeps_the_interocular_distance_to_first_order(region, li, lj):
 
 def test_pan_moves_along_the_baseline():
     state = StereoState((0, 0), 0.2, 0.5)  # first eye at x = 0.2, second at x = 0.5
-    moved = LADDER.pan(state, 0.1)
+    moved = pan(LADDER, state, 0.1)
     assert moved.event == "moved"
     assert_allclose((moved.state.li, moved.state.lj), (0.3, 0.6), atol=1e-12)
     assert_allclose(_sw(LADDER, moved.state), 0.3, atol=1e-12)
@@ -83,28 +83,28 @@ def test_pan_moves_along_the_baseline():
 def test_zoom_changes_the_interocular_distance_by_v(v):
     space = StereoSpace([[[0, 0, 0], [1, 0, 0.2]], [[0.3, 1, 0], [1.2, 1.4, 0]]])
     state = StereoState((0, 1), 0.4, 0.6)
-    moved = space.zoom(state, v)
+    moved = zoom(space, state, v)
     assert moved.event == "moved"
     change = _sw(space, moved.state) - _sw(space, state)
     assert abs(change - v) < 2 * v * v  # first order in v
-    assert space.zoom(state, 0.0).state == state
+    assert zoom(space, state, 0.0).state == state
 
 
 def test_zoom_where_the_gradient_vanishes():
     # eyes on the triangle's diagonal coincide: s_w grows along (-1, 1) by exactly v
-    moved = LADDER.zoom(StereoState((0, 0), 0.5, 0.5), 0.2)
+    moved = zoom(LADDER, StereoState((0, 0), 0.5, 0.5), 0.2)
     assert moved.event == "moved"
     assert_allclose((moved.state.li, moved.state.lj), (0.4, 0.6), atol=1e-12)
     # eyes straight across the ladder: s_w = 1 is the minimum, it grows to 1.1 exactly
-    moved = LADDER.zoom(StereoState((0, 1), 0.5, 0.5), 0.1)
+    moved = zoom(LADDER, StereoState((0, 1), 0.5, 0.5), 0.1)
     assert_allclose(_sw(LADDER, moved.state), 1.1, atol=1e-12)
     # nothing has an interocular distance below 0
-    assert LADDER.zoom(StereoState((0, 0), 0.5, 0.5), -0.1).event == "stopped"
+    assert zoom(LADDER, StereoState((0, 0), 0.5, 0.5), -0.1).event == "stopped"
 
 
 def test_zoom_slides_along_the_border():
     # at lj = 1 the gradient (-1, 1)/√... pushes lj out: only li moves, s_w still grows by v
-    moved = LADDER.zoom(StereoState((0, 0), 0.5, 1.0), 0.1)
+    moved = zoom(LADDER, StereoState((0, 0), 0.5, 1.0), 0.1)
     assert moved.event == "moved"
     assert_allclose((moved.state.li, moved.state.lj), (0.4, 1.0), atol=1e-12)
 
@@ -113,7 +113,7 @@ def test_jump_none_in_the_cone_stops_at_the_border():
     # At the top of triangle (0, 0), p = (0.5, 0, 0, 1), zooming in heads along +s_w. The ladder's
     # region (0, 1) is 0.5 away in y and at most √2 - 1 higher: at least atan(0.5 / 0.414) = 50.4° off.
     top = StereoState((0, 0), 0.0, 1.0)
-    moved = LADDER.zoom(top, 0.1)
+    moved = zoom(LADDER, top, 0.1)
     assert moved == type(moved)(top, "stopped")
     assert JUMP_CONE_DEG == 40.0
 
@@ -121,7 +121,7 @@ def test_jump_none_in_the_cone_stops_at_the_border():
 def test_jump_lands_on_the_closest_point_in_the_cone():
     # With a 60° cone the closest point of region (0, 1) is on the cone: Δy = 0.5, Δs_w = 0.5 / tan 60°,
     # mid-point x = 0.5 (li + lj = 1) and s_w = √((lj - li)² + 1) = 1 + 0.5 / tan 60°.
-    moved = LADDER.zoom(StereoState((0, 0), 0.0, 1.0), 0.1, cone_deg=60.0)
+    moved = zoom(LADDER, StereoState((0, 0), 0.0, 1.0), 0.1, cone_deg=60.0)
     assert moved.event == "jumped"
     assert moved.state.region == (0, 1)
     gap = math.sqrt((1 + 0.5 / math.tan(math.radians(60))) ** 2 - 1)
@@ -132,11 +132,11 @@ def test_jump_lands_on_the_closest_point_in_the_cone():
 def test_jump_along_a_polyline_then_slide():
     # At the top of triangle (0, 0) the eyes are the ends of segment 0; region (0, 1) holds the same
     # pair at (0, 0), and zooming in goes on there with the second eye on segment 1.
-    moved = POLYLINE.zoom(StereoState((0, 0), 0.0, 1.0), 0.3)
+    moved = zoom(POLYLINE, StereoState((0, 0), 0.0, 1.0), 0.3)
     assert moved.event == "jumped"
     assert moved.state.region == (0, 1)
     assert_allclose((moved.state.li, moved.state.lj), (0.0, 0.0), atol=JUMP_TOL)
-    moved = POLYLINE.zoom(moved.state, 0.3)
+    moved = zoom(POLYLINE, moved.state, 0.3)
     assert moved.event == "moved"
     assert_allclose(moved.state.li, 0.0, atol=JUMP_TOL)
     assert_allclose(_sw(POLYLINE, moved.state), 1.3, atol=JUMP_TOL)
@@ -144,7 +144,7 @@ def test_jump_along_a_polyline_then_slide():
 
 
 def test_pan_off_the_end_stops():
-    moved = LADDER.pan(StereoState((0, 0), 0.2, 0.5), -0.3)
+    moved = pan(LADDER, StereoState((0, 0), 0.2, 0.5), -0.3)
     assert moved.event == "stopped"
     assert_allclose((moved.state.li, moved.state.lj), (0.0, 0.3), atol=1e-12)
 
@@ -152,12 +152,12 @@ def test_pan_off_the_end_stops():
 @pytest.mark.parametrize(
     ("call", "error", "match"),
     [
-        (lambda: LADDER.zoom(StereoState((0, 0), 0.2, 0.5), np.nan), ValueError, "v must be finite"),
-        (lambda: LADDER.pan(StereoState((0, 0), 0.2, 0.5), "1"), TypeError, "v must be a real number"),
-        (lambda: LADDER.zoom(StereoState((0, 0), 0.2, 0.5), 0.1, cone_deg=95), ValueError, r"cone_deg must lie in \[0, 90\]"),
-        (lambda: LADDER.pan(StereoState((0, 0), 0.5, 0.2), 0.1), ValueError, "li must be <= lj"),
-        (lambda: LADDER.zoom((0, 0, 0.1, 0.2), 0.1), TypeError, "state must be a StereoState"),
-        (lambda: LADDER.tangent(StereoState((0, 2), 0.1, 0.2)), ValueError, "does not exist"),
+        (lambda: zoom(LADDER, StereoState((0, 0), 0.2, 0.5), np.nan), ValueError, "v must be finite"),
+        (lambda: pan(LADDER, StereoState((0, 0), 0.2, 0.5), "1"), TypeError, "v must be a real number"),
+        (lambda: zoom(LADDER, StereoState((0, 0), 0.2, 0.5), 0.1, cone_deg=95), ValueError, r"cone_deg must lie in \[0, 90\]"),
+        (lambda: pan(LADDER, StereoState((0, 0), 0.5, 0.2), 0.1), ValueError, "li must be <= lj"),
+        (lambda: zoom(LADDER, (0, 0, 0.1, 0.2), 0.1), TypeError, "state must be a StereoState"),
+        (lambda: tangent(LADDER, StereoState((0, 2), 0.1, 0.2)), ValueError, "does not exist"),
     ],
 )
 def test_bad_navigation_arguments(call, error, match):
@@ -174,7 +174,7 @@ def test_jump_keeps_the_orientation_of_the_eyes():
     ring = np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)
     space = StereoSpace(np.stack([ring[:-1], ring[1:]], axis=1))
     top = StereoState((0, 0), 0.0, 1.0)
-    moved = space.zoom(top, 0.05)
+    moved = zoom(space, top, 0.05)
     assert moved.event == "jumped"
     assert moved.state.region == (0, 1)
     assert_allclose((moved.state.li, moved.state.lj), (0.0, 0.0), atol=JUMP_TOL)
@@ -211,12 +211,12 @@ def test_moves_stay_in_the_space(seg, li, lj, v):
     for region in ((0, 2), (1, 1)):
         a, b = (min(li, lj), max(li, lj)) if region == (1, 1) else (li, lj)
         state = StereoState(region, a, b)
-        for move in (space.zoom(state, v), space.pan(state, v)):
+        for move in (zoom(space, state, v), pan(space, state, v)):
             assert move.event in MOVE_EVENTS
             space.check_state(move.state)  # a valid state of this space
             if move.event != "jumped":
                 assert move.state.region == region
-        zoomed = space.zoom(state, v)
+        zoomed = zoom(space, state, v)
         if v > 0 and zoomed.event == "moved":  # s_w is convex in (li, lj): a step up the gradient rises
             assert _sw(space, zoomed.state) >= _sw(space, state) - 1e-12
 
@@ -260,16 +260,16 @@ def test_a_pan_past_a_jump_spends_its_whole_step(v):
     # to x = 1 + v in the world: 0.5 inside region (0, 1), the rest after the jump (the tree before
     # issue 27 stopped at x = 1.5, the landing point, dropping the remainder).
     start = StereoState((0, 1), 0.5, 0.5)
-    moved = ROW.pan(start, v)
+    moved = pan(ROW, start, v)
     assert moved.event == "jumped"
     eyes = ROW.eyes(moved.state)
     assert_allclose(eyes.mean(axis=0), [1.0 + v, 0.0, 0.0], atol=JUMP_TOL)
     assert_allclose(eyes[1] - eyes[0], [1.0, 0.0, 0.0], atol=JUMP_TOL)  # same interocular, same order
-    back = ROW.pan(moved.state, -v)
+    back = pan(ROW, moved.state, -v)
     assert_allclose(ROW.eyes(back.state).mean(axis=0), [1.0, 0.0, 0.0], atol=2 * JUMP_TOL)
 
 
 def test_a_pan_past_the_last_region_stops_there_after_jumping():
-    moved = ROW.pan(StereoState((0, 1), 0.5, 0.5), 5.0)
+    moved = pan(ROW, StereoState((0, 1), 0.5, 0.5), 5.0)
     assert moved.event == "jumped"  # jumped once, then stopped at the row's end
     assert_allclose(ROW.eyes(moved.state), [[2.0, 0.0, 0.0], [3.0, 0.0, 0.0]], atol=JUMP_TOL)

@@ -31,14 +31,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from numbers import Integral
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vergence._validate import as_float_array, check_finite, check_in_range, readonly_copy
-
-if TYPE_CHECKING:
-    from vergence.stereospace.navigation import Move
 
 __all__ = ["JUMP_CONE_DEG", "PARALLEL_SINE", "RELATIVE_TOLERANCE", "StereoSpace", "StereoState", "stereo_point"]
 
@@ -122,7 +118,7 @@ class StereoSpace:
     -----
     Region ``(i, j)``, ``i <= j``, is ``{s(c(i, λi), c(j, λj))}`` with ``c(k, λ) = s_k0 (1 - λ) + s_k1 λ``
     (S2 §4.1); see the module docstring for the conventions (first eye on segment ``i``, triangles
-    ``λi <= λj``). The navigation (:meth:`zoom`, :meth:`pan`) is in :mod:`vergence.stereospace.navigation`.
+    ``λi <= λj``). The navigation (:func:`~vergence.stereospace.zoom`, :func:`~vergence.stereospace.pan`) is in :mod:`vergence.stereospace.navigation`.
 
     Examples
     --------
@@ -373,30 +369,10 @@ class StereoSpace:
 
         ``∇s_w = (d · u_i, -d · u_j) / |d|`` with ``d = c(i, li) - c(j, lj)`` and ``u_k = s_k1 - s_k0``
         (S2 §4.1). Where the eyes coincide s_w is not differentiable; there the gradient is (0, 0)
-        and :meth:`zoom` uses the direction of steepest growth instead.
+        and :func:`~vergence.stereospace.zoom` uses the direction of steepest growth instead.
         """
         state = self.check_state(state)
         return self._jacobian(state.region, np.array([state.li, state.lj]))[3]
-
-    # -- navigation (S2 §4.1), in vergence.stereospace.navigation --------------------------------
-    def tangent(self, state: StereoState) -> np.ndarray:
-        """The unit pan direction in parameter space; see :func:`navigation.tangent`."""
-        from vergence.stereospace.navigation import tangent
-
-        return tangent(self, state)
-
-    def zoom(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG) -> Move:
-        """Change the interocular distance by ``v`` metres; see :func:`navigation.zoom`."""
-        from vergence.stereospace.navigation import zoom
-
-        return zoom(self, state, v, cone_deg=cone_deg)
-
-    def pan(self, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG) -> Move:
-        """Move the view position by ``v`` metres at constant interocular distance; see
-        :func:`navigation.pan`."""
-        from vergence.stereospace.navigation import pan
-
-        return pan(self, state, v, cone_deg=cone_deg)
 
 
 def _pair(name: str, value: object) -> tuple[float, float]:
