@@ -213,8 +213,8 @@ def _tracer(shot: object) -> object:
 
 
 def _trace_all(tracer, named, samples, supersample, say, start, span):  # noqa: ANN001, ANN202
-    """Render the (name, camera) pairs side by side (``Tracer.render_many``: one wavefront per tree level for
-    all of them): name -> RenderResult, reporting progress over [start, start + span]."""
+    """Render the (name, camera) pairs through ``Tracer.render_many`` (side by side up to its ``WAVEFRONT_SLOTS``
+    rays a level): name -> RenderResult, reporting progress over [start, start + span]."""
     names = ", ".join(n for n, _ in named)
     report = lambda f, m: say(start + span * f, f"ray-tracing {names}: {m}")  # noqa: E731
     results = tracer.render_many([c for _, c in named], samples=samples, supersample=supersample, progress=report)

@@ -52,8 +52,8 @@ MAX_OFFSET_STEPS = 256
 # A rig is shifted-sensor when the rotations, focal lengths, skew and cy agree and the baseline lies
 # along the camera x axis to this relative tolerance (rounding of look_at and of the centres' sums).
 _RIG_TOL = 1e-9
-# Offsets rendered side by side in one wavefront by tabulate_offsets: fewer, larger casts; their ray trees
-# are held until matched (at 512 x 512, D = 2, about 70 MB each).
+# Offsets handed to Tracer.render_many at once by tabulate_offsets (side by side up to its WAVEFRONT_SLOTS
+# rays a level); their ray trees are held until matched (at 512 x 512, D = 2, about 70 MB each).
 _RENDER_BATCH = 8
 
 Progress = Callable[[float, str], None]
