@@ -3,9 +3,12 @@
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
-__all__ = ["HISTOGRAM_STEP_PX", "PERCENTILES", "ShotHistogram"]
+__all__ = ["HISTOGRAM_STEP_PX", "PERCENTILES", "MatchedPiece", "ShotHistogram"]
 
 PERCENTILES = (1, 5, 50, 95, 99)
 # Bin width of the per-shot histograms of D: shot percentiles are exact to this (px).
@@ -52,3 +55,16 @@ class ShotHistogram:
         if not self.counts.any():
             return np.full(len(PERCENTILES), np.nan)
         return self.percentiles(self.lo, self.hi)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class MatchedPiece:
+    """What matching one stereo piece found: the pooled histogram of its disparities (the shot's range is
+    read from its pieces' merged histograms), the search range of its last frame, and how many frames were
+    matched again in a widened range or stayed saturated (:mod:`vergence.video.search`)."""
+
+    histogram: ShotHistogram
+    search_px: tuple[int, int]
+    widened_frames: int
+    saturated_frames: int
+    edges: tuple[float, float] = (math.nan, math.nan)  # the largest edge cue of its frames (edge_cues), left and right

@@ -56,7 +56,7 @@ def prepare_work(work: Path, manifest: dict, resume: bool) -> None:
 
 
 def write_range(work: Path, piece: int, matched) -> None:
-    """Record what matching a piece found (:class:`vergence.video._shots.MatchedPiece`; a later ``--resume``
+    """Record what matching a piece found (:class:`vergence.video._histogram.MatchedPiece`; a later ``--resume``
     needs its histogram for its shot's psi)."""
     from vergence.io import atomic_write
 
@@ -68,9 +68,8 @@ def write_range(work: Path, piece: int, matched) -> None:
 
 
 def read_range(work: Path, piece: int, width: int):
-    """A finished piece's :class:`vergence.video._shots.MatchedPiece`, as :func:`write_range` recorded it."""
-    from vergence.video._histogram import ShotHistogram
-    from vergence.video._shots import MatchedPiece
+    """A finished piece's :class:`vergence.video._histogram.MatchedPiece`, as :func:`write_range` recorded it."""
+    from vergence.video._histogram import MatchedPiece, ShotHistogram
 
     path = work / f"range_{piece:04d}.npz"
     try:

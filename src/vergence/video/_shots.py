@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vergence.video._histogram import ShotHistogram
+from vergence.video._histogram import MatchedPiece, ShotHistogram
 from vergence.video.edges import edge_cues, fill_left_band, masked_window
 from vergence.video.search import SearchRange
 from vergence.video.sources import DepthClip, StereoClip
@@ -141,19 +141,6 @@ class _Filtered:
         for m in self.meters:
             m.reset()  # the last frame stays behind
         return self.meters
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class MatchedPiece:
-    """What matching one stereo piece found: the pooled histogram of its disparities (the shot's range is
-    read from its pieces' merged histograms), the search range of its last frame, and how many frames were
-    matched again in a widened range or stayed saturated (:mod:`vergence.video.search`)."""
-
-    histogram: ShotHistogram
-    search_px: tuple[int, int]
-    widened_frames: int
-    saturated_frames: int
-    edges: tuple[float, float] = (math.nan, math.nan)  # the largest edge cue of its frames (edge_cues), left and right
 
 
 def pooled_shot(found: list[MatchedPiece], search: SearchRange,
