@@ -17,7 +17,7 @@ import typer
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import console, err_console, options_named
 from vergence.cli._spinner import ProgressLines
-from vergence.cli.stereospace import stereospace_app
+from vergence.cli._stereospace_group import camera_index, stereospace_app
 
 __all__ = ["parse_state"]
 
@@ -192,7 +192,6 @@ def pair(
     if space_dir.is_dir() and out.resolve() == space_dir.resolve():
         raise ValueError(f"--out {out} is the space folder; give another folder")
 
-    from vergence.cli.stereospace import _camera_index
     from vergence.stereospace import best_states, load_space, state_at_camera
 
     t0 = time.perf_counter()
@@ -200,7 +199,7 @@ def pair(
     names = built.collection.names
     chosen: dict = {"by": option.lstrip("-")}
     if near is not None:
-        camera = _camera_index(names, near, "--near")  # refused before the images are decoded
+        camera = camera_index(names, near, "--near")  # refused before the images are decoded
     prepared = None
     if best:
         ranked = best_states(built, count=1)

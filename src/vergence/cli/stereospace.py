@@ -14,44 +14,14 @@ from pathlib import Path
 import typer
 
 from vergence.cli import raise_if_interrupted
-from vergence.cli._app import app, check_output_path, console, err_console, options_named
+from vergence.cli._app import check_output_path, console, err_console, options_named
 from vergence.cli._spinner import ProgressLines
+from vergence.cli._stereospace_group import camera_index, stereospace_app
 
 __all__ = ["stereospace_app"]
 
-stereospace_app = typer.Typer(name="stereospace", help="Browse a calibrated photo collection in stereo (S2): view, "
-                              "build, pair.",
-                              no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False)  # fmt: skip
-app.add_typer(stereospace_app, name="stereospace")
-
 #: ``--method`` values: the one-plane baseline, then :data:`vergence.stereospace.NOVEL_VIEW_METHODS`.
 VIEW_METHODS = ("depth", "mls", "plane")
-# Camera names listed in the message that refuses an unknown one: enough to show the pattern.
-_LISTED_NAMES = 5
-
-
-def _camera_index(names: tuple[str, ...], name: str, option: str, roster: dict[str, str] | None = None) -> int:
-    """Index of the camera ``name`` (its image's file name, or that name without its extension).
-
-    With ``roster`` (:func:`vergence.stereospace.camera_roster` of the camera file, ``names`` then
-    its kept cameras), a camera of the file that the collection left out is named as such (no image,
-    unregistered) rather than as unknown.
-    """
-    if name in names:
-        return names.index(name)
-    stems = [i for i, n in enumerate(names) if Path(n).stem == name]
-    if len(stems) == 1:
-        return stems[0]
-    if roster is not None:
-        found = name if name in roster else next((n for n in roster if Path(n).stem == name), None)
-        if found is not None and roster[found] == "no image":
-            raise ValueError(f"{option}: camera {found!r} has no image in --images (left out of the collection)")
-        if found is not None and roster[found] == "unregistered":
-            raise ValueError(f"{option}: camera {found!r} is not registered in CAMERAS (f = 0: left out of the "
-                             "collection)")  # fmt: skip
-    shown = ", ".join(names[:_LISTED_NAMES]) + (f", ... ({len(names)} cameras)" if len(names) > _LISTED_NAMES else "")
-    raise ValueError(f"{option}: no camera {name!r} in the collection; it has {shown}")
-
 
 @stereospace_app.command("view")
 def view(
@@ -109,21 +79,21 @@ def view(
     for option, given in (("--at", [at] if at is not None else []), ("--between", list(between or ())),
                           ("--exclude", exclude)):  # refused before the slow triangulation
         for n in given:
-            _camera_index(kept, n, option, roster)
+            camera_index(kept, n, option, roster)
     with options_named(cameras_path="CAMERAS", images="--images"), ProgressLines() as progress:
         collection = load_collection(cameras, images=images, progress=progress)
     for note in collection.warnings:
         err_console.print(f"note: {note}", highlight=False, soft_wrap=True)
     check_output_path(out, *collection.image_paths)
     names = collection.names
-    left_out = {names[_camera_index(names, n, "--exclude", roster)] for n in exclude}
+    left_out = {names[camera_index(names, n, "--exclude", roster)] for n in exclude}
     if at is not None:
-        i = _camera_index(names, at, "--at", roster)
+        i = camera_index(names, at, "--at", roster)
         target = collection.cameras[i]
         if not keep_target:
             left_out.add(names[i])
     else:
-        a, b = (_camera_index(names, n, "--between", roster) for n in between)
+        a, b = (camera_index(names, n, "--between", roster) for n in between)
         with options_named(s="--position"):
             target = interpolate(collection.cameras[a], collection.cameras[b], position)
     if len(left_out) >= len(names):
