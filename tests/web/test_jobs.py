@@ -290,3 +290,41 @@ def test_shutdown_cancels_running_jobs_and_removes_the_folder():
         assert workdir.is_dir()
     assert not workdir.exists()
     assert app.state.jobs.status(app.state.jobs.jobs()[0])[0]["state"] == "cancelled"
+
+
+def test_pending_files_are_written_once_on_the_first_request(app, client):
+    """A job done with some files pending: the status lists them; asking for one writes them all once
+    (two requests at once: one write), then they are files."""
+    import threading
+
+    calls = []
+
+    def later(params, env):  # noqa: ANN001, ANN202
+        def run(ctx):  # noqa: ANN001, ANN202
+            (ctx.folder / "first.txt").write_text("first")
+
+            def write_pending(folder):  # noqa: ANN001, ANN202
+                calls.append(folder)
+                time.sleep(0.2)
+                (folder / "later.txt").write_text(params.tag)
+
+            return JobResult({"tag": params.tag}, ("first.txt",), pending=("later.txt",), write_pending=write_pending)
+
+        return Prepared((), run)
+
+    app.state.jobs.register(JobKind("later", "A test kind: one file now, one on request.", Steps, later))
+    job = _wait(client, client.post("/api/jobs/later", json={"tag": "x"}).json()["id"])
+    assert job["state"] == "done" and job["files"] == ["first.txt"] and job["pending"] == ["later.txt"]
+    assert calls == []
+    answers = []
+    threads = [threading.Thread(target=lambda: answers.append(client.get(f"/api/jobs/{job['id']}/files/later.txt")))
+               for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert [a.text for a in answers] == ["x", "x"] and len(calls) == 1
+    again = client.get(f"/api/jobs/{job['id']}").json()
+    assert again["files"] == ["first.txt", "later.txt"] and again["pending"] == []
+    with pytest.raises(TypeError, match="needs write_pending"):
+        JobResult({}, (), pending=("a.txt",))

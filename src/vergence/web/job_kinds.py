@@ -11,7 +11,11 @@
   The result stays in memory (``live``) for:
 - ``specular-reoptimise``: a done specular job's run again with new weights and painted per-layer
   maps (:meth:`SpecularResult.reoptimise <vergence.specular.SpecularResult.reoptimise>`: the table
-  is reused, so this takes a solve and one render); the same files and report.
+  is reused, so this takes a solve and one render). The job is done once what the page shows first is
+  written (:data:`SHOWN_FIRST`: the new left eye, its anaglyph, the comfort overlay
+  ``disparity_after.npy``, ``report.json`` with ``web_seconds``); the other files of ``vergence
+  specular`` are pending, written when one is first asked for (:class:`vergence.web.jobs.JobResult`).
+  A map on a layer no weight can move (:func:`paintable_layers`) or a map of ones is refused.
 """
 
 from __future__ import annotations
