@@ -32,7 +32,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
 
-    from vergence.render import Tracer, builtin_scene
+    from vergence.render import Tracer, builtin_scene, trace_curved
     from vergence.render.curved import sample_curves
 
     scene = builtin_scene("stadium", width=args.width, height=args.height)
@@ -58,11 +58,11 @@ def main() -> None:
     tracer = Tracer(scene)
     options = {"near": args.near, "far": np.inf, "tolerance_px": args.tolerance, "samples": args.samples}
     tracer.render(cam, samples=args.samples)
-    tracer.render_curved(cam, to_world, **options)
+    trace_curved(tracer, cam, to_world, **options)
     t_straight, straight = median_time(lambda: tracer.render(cam, samples=args.samples), args.repeat)
-    t_curved, bent = median_time(lambda: tracer.render_curved(cam, counted, **options), args.repeat)
+    t_curved, bent = median_time(lambda: trace_curved(tracer, cam, counted, **options), args.repeat)
     per_ray = mapped[0] / args.repeat / (args.width * args.height)
-    t_identity, _ = median_time(lambda: tracer.render_curved(cam, lambda q: q, **options), args.repeat)
+    t_identity, _ = median_time(lambda: trace_curved(tracer, cam, lambda q: q, **options), args.repeat)
     sampled = sample_curves(cam, to_world, near=args.near, far=np.inf, tolerance_px=args.tolerance).segments
     n = args.width * args.height
     cast = (bent.settings.tree_rays - straight.settings.tree_rays) / n

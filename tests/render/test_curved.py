@@ -29,7 +29,7 @@ from vergence.render import (
     render_curved,
 )
 from vergence.render import curved
-from vergence.render.curved import INITIAL_SEGMENTS, sample_curves
+from vergence.render.curved import INITIAL_SEGMENTS, sample_curves, trace_curved
 
 SKY = (0.25, 0.5, 0.75)
 W, H = 24, 16
@@ -105,7 +105,7 @@ def _pixel_error(camera: Camera, points: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------- (1) identity
 def test_identity_map_reproduces_render(tracer):
     want = tracer.render(CAM, samples=4)
-    got = tracer.render_curved(CAM, lambda q: q, near=0.05, far=np.inf, samples=4)
+    got = trace_curved(tracer, CAM, lambda q: q, near=0.05, far=np.inf, samples=4)
     assert np.isfinite(want.depth).all() and (want.position[1] == want.position[1]).any()  # mirror layer used
     assert_allclose(got.depth, want.depth, rtol=1e-6)
     assert_allclose(got.position, want.position, atol=POS_ATOL)
@@ -123,7 +123,7 @@ def test_identity_map_reproduces_render(tracer):
 def test_module_level_render_curved_matches_the_method():
     scene = _scene([PLANE, CURVED_BALL])
     a = render_curved(scene, OFF_CAM, bend, near=0.1, far=np.inf, samples=2, max_depth=0)
-    b = Tracer(scene).render_curved(OFF_CAM, bend, near=0.1, far=np.inf, samples=2, max_depth=0)
+    b = trace_curved(Tracer(scene), OFF_CAM, bend, near=0.1, far=np.inf, samples=2, max_depth=0)
     assert_array_equal(a.beauty, b.beauty)
     assert_array_equal(a.depth, b.depth)
     assert a.radiance.shape == (1, H, W, 3)
@@ -137,7 +137,7 @@ def test_hit_exactly_at_a_joint_is_neither_missed_nor_doubled():
     t = Tracer(_scene([wall]))
     samples = sample_curves(cam, lambda q: q, near=1.0, far=5.0)
     assert_allclose(samples.depth[samples.start[:-1] + 2], np.sqrt(5.0), rtol=1e-12)  # the wall is at a joint
-    got = t.render_curved(cam, lambda q: q, near=1.0, far=5.0, samples=2)
+    got = trace_curved(t, cam, lambda q: q, near=1.0, far=5.0, samples=2)
     want = t.render(cam, samples=2)
     assert np.isfinite(got.depth).all()
     assert_allclose(got.depth, np.sqrt(5.0), rtol=1e-6)
@@ -153,7 +153,7 @@ def test_rigid_motion_equals_the_moved_straight_camera(tracer):
     cam_q = look_at([BASE, 0, -0.5], [-1.0, 0, 8.0], [0, -1, 0], fov_deg=60, width=W, height=H)
     moved = Camera(cam_q.K, cam_q.R @ rot.T, cam_q.t - cam_q.R @ rot.T @ shift, W, H)
     want = tracer.render(moved, samples=4)
-    got = tracer.render_curved(cam_q, lambda q: q @ rot.T + shift, near=0.05, far=np.inf, samples=4)
+    got = trace_curved(tracer, cam_q, lambda q: q @ rot.T + shift, near=0.05, far=np.inf, samples=4)
     assert np.isnan(want.depth).sum() < W * H // 2
     assert_allclose(got.depth, want.depth, rtol=1e-6)
     assert_allclose(got.position, want.position, atol=POS_ATOL)
@@ -165,7 +165,7 @@ def test_uniform_scaling_reports_the_distorted_depth(tracer):
     s, c0 = 1.6, np.array([0.2, 0.1, 2.0])
     moved = Camera(CAM.K, CAM.R, s * CAM.t + (s - 1.0) * CAM.R @ c0, W, H)
     want = tracer.render(moved, samples=4)
-    got = tracer.render_curved(CAM, lambda q: c0 + s * (q - c0), near=0.05, far=np.inf, samples=4)
+    got = trace_curved(tracer, CAM, lambda q: c0 + s * (q - c0), near=0.05, far=np.inf, samples=4)
     assert_allclose(got.depth, want.depth / s, rtol=1e-6)
     assert_allclose(got.position, want.position, atol=POS_ATOL)
     assert_allclose(got.beauty, want.beauty, atol=RAD_ATOL)
@@ -204,7 +204,7 @@ def _reference_hits(camera: Camera):
 def test_curved_map_hits_match_closed_form(curved_tracer, tolerance_px):
     depth, points, on_ball, clear = _reference_hits(OFF_CAM)
     assert 10 < on_ball.sum() < W * H - 100  # both the ball and the plane are seen
-    got = curved_tracer.render_curved(OFF_CAM, bend, near=0.05, far=np.inf, tolerance_px=tolerance_px, samples=2)
+    got = trace_curved(curved_tracer, OFF_CAM, bend, near=0.05, far=np.inf, tolerance_px=tolerance_px, samples=2)
     m = clear.reshape(H, W)
     assert np.isfinite(got.depth).all()
     # As the camera sees them, the found hits lie within the tolerance of the pixel centres (the rule
@@ -220,7 +220,7 @@ def test_curved_map_hits_match_closed_form(curved_tracer, tolerance_px):
 
 
 def test_a_loose_tolerance_misses_where_a_tight_one_hits(curved_tracer):
-    loose = curved_tracer.render_curved(OFF_CAM, bend, near=0.05, far=np.inf, tolerance_px=4.0, samples=1, max_depth=0)
+    loose = trace_curved(curved_tracer, OFF_CAM, bend, near=0.05, far=np.inf, tolerance_px=4.0, samples=1, max_depth=0)
     err = _pixel_error(OFF_CAM, loose.position[0].astype(np.float64))
     assert err.max() > 1.5 * 0.25  # so the bound of the test above is not met by any polyline
 
@@ -301,7 +301,7 @@ def _undefined_beyond(z_max):
 
 def test_nan_from_to_world_ends_the_ray_without_a_hit(curved_tracer):
     cam = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=40, width=W, height=H)  # the ball is beyond z = 2.8
-    got = curved_tracer.render_curved(cam, _undefined_beyond(2.0), near=0.1, far=np.inf, samples=2)
+    got = trace_curved(curved_tracer, cam, _undefined_beyond(2.0), near=0.1, far=np.inf, samples=2)
     assert np.isnan(got.depth).all() and np.isnan(got.position).all()
     assert_allclose(got.beauty, np.broadcast_to(SKY, (H, W, 3)), atol=1e-6)  # left along the last segment
     # the curve stops at the last defined sample, found by bisection just short of z = 2
@@ -316,7 +316,7 @@ def test_nan_on_half_the_rays(curved_tracer):
         q[q[..., 0] > BASE] = np.nan
         return q
 
-    got = curved_tracer.render_curved(CAM, to_world, near=0.1, far=np.inf, samples=2)
+    got = trace_curved(curved_tracer, CAM, to_world, near=0.1, far=np.inf, samples=2)
     want = curved_tracer.render(CAM, samples=2)
     left = np.arange(W) < (W - 1) / 2  # the columns whose rays keep x <= BASE
     assert_allclose(got.depth[:, left], want.depth[:, left], rtol=1e-6)
@@ -339,7 +339,7 @@ def test_gap_is_measured_beside_an_undefined_region():
 
 
 def test_undefined_from_near_on_sees_the_environment(curved_tracer):
-    got = curved_tracer.render_curved(CAM, lambda q: np.full_like(q, np.inf), near=0.1, far=10.0, samples=1)
+    got = trace_curved(curved_tracer, CAM, lambda q: np.full_like(q, np.inf), near=0.1, far=10.0, samples=1)
     assert np.isnan(got.depth).all()
     assert_allclose(got.beauty, np.broadcast_to(SKY, (H, W, 3)), atol=1e-6)
     assert (sample_curves(CAM, lambda q: q * np.nan, near=0.1, far=10.0).segments == 0).all()
@@ -348,7 +348,7 @@ def test_undefined_from_near_on_sees_the_environment(curved_tracer):
 # ---------------------------------------------------------------------------- progress, (5) validation
 def test_progress_reports_to_one(curved_tracer):
     seen = []
-    curved_tracer.render_curved(CAM, bend, near=0.1, far=np.inf, samples=1, progress=lambda f, m: seen.append(f))
+    trace_curved(curved_tracer, CAM, bend, near=0.1, far=np.inf, samples=1, progress=lambda f, m: seen.append(f))
     assert seen[-1] == 1.0 and seen == sorted(seen) and len(seen) >= 3
 
 
@@ -384,7 +384,7 @@ FISHEYE = FisheyeCamera(R=np.eye(3), t=np.zeros(3), width=8, height=8, fov_deg=9
 def test_bad_input_is_refused_in_one_line(curved_tracer, kwargs, error, match):
     args = {"camera": CAM, "to_world": bend, "near": 0.1, "far": np.inf, **kwargs}
     with pytest.raises(error, match=match) as info:
-        curved_tracer.render_curved(args.pop("camera"), args.pop("to_world"), **args)
+        trace_curved(curved_tracer, args.pop("camera"), args.pop("to_world"), **args)
     assert "\n" not in str(info.value)
 
 
@@ -392,7 +392,7 @@ def test_a_map_too_rough_to_follow_is_refused(curved_tracer):
     rng = np.random.default_rng(0)
     rough = lambda q: q + 0.05 * rng.standard_normal(q.shape)  # noqa: E731
     with pytest.raises(ValueError, match="MAX_MEAN_SEGMENTS"):
-        curved_tracer.render_curved(CAM, rough, near=0.1, far=np.inf, samples=1)
+        trace_curved(curved_tracer, CAM, rough, near=0.1, far=np.inf, samples=1)
 
 
 def test_module_level_refuses_a_non_scene():
@@ -401,9 +401,9 @@ def test_module_level_refuses_a_non_scene():
 
 
 def test_rendering_is_independent_of_the_chunking(curved_tracer, monkeypatch):
-    whole = curved_tracer.render_curved(CAM, bend, near=0.1, far=np.inf, samples=1, max_depth=0)
+    whole = trace_curved(curved_tracer, CAM, bend, near=0.1, far=np.inf, samples=1, max_depth=0)
     monkeypatch.setattr(curved, "_CHUNK_RAYS", 50)
-    parts = curved_tracer.render_curved(CAM, bend, near=0.1, far=np.inf, samples=1, max_depth=0)
+    parts = trace_curved(curved_tracer, CAM, bend, near=0.1, far=np.inf, samples=1, max_depth=0)
     assert_array_equal(parts.depth, whole.depth)
     assert_array_equal(parts.beauty, whole.beauty)
 

@@ -9,14 +9,14 @@ time); the ray tree, the materials and the shading are ours. Importing this pack
 arbitrary rays (:meth:`Tracer.trace_rays`) through three swappable stages: ray generation
 (:func:`camera_rays`, one generator per camera type in :data:`RAY_GENERATORS`), intersection
 (:class:`Intersector`) and shading (:class:`WhittedShader`). :func:`render` and
-:func:`render_stereo` are one-call conveniences on top. :meth:`Tracer.render_curved` and
+:func:`render_stereo` are one-call conveniences on top. :func:`trace_curved` (on a Tracer) and
 :func:`render_curved` follow a distorted world's straight rays as curves through the real scene
 (the Tri-Rig's ground truth, S0 §6; :mod:`vergence.render.curved`).
 """
 
 from vergence.render._mitsuba import select_variant
 from vergence.render.builtin import BUILTIN_SCENES, builtin_scene, open_scene
-from vergence.render.curved import render_curved
+from vergence.render.curved import render_curved, trace_curved
 from vergence.render.lenses import MIN_FOV_DEG, FisheyeCamera
 from vergence.render.disparity import screen_disparity
 from vergence.render.intersect import Hits, Intersector
@@ -100,4 +100,5 @@ __all__ = [
     "stereo_preview",
     "subpixel_rays",
     "tonemap",
+    "trace_curved",
 ]

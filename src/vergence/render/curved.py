@@ -59,12 +59,13 @@ import numpy as np
 from vergence._validate import check_positive
 from vergence.camera import Camera
 from vergence.render.limits import MAX_RENDER_SIDE, render_cost
-from vergence.render.raytree import Progress, Tracer, _check_options
+from vergence.render.raytree import Progress, Tracer, check_render_options
 from vergence.render.results import RenderResult, RenderSettings
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 
 __all__ = ["CURVE_CUT_DEPTH", "CurveSamples", "DEPTH_BISECTIONS", "INITIAL_SEGMENTS", "JOINT_OVERLAP",
-           "MAX_DEPTH_RATIO", "MAX_MEAN_SEGMENTS", "MAX_SPLIT_LEVELS", "MIN_NEAR", "render_curved", "sample_curves"]  # fmt: skip
+           "MAX_DEPTH_RATIO", "MAX_MEAN_SEGMENTS", "MAX_SPLIT_LEVELS", "MIN_NEAR", "render_curved", "sample_curves",
+           "trace_curved"]  # fmt: skip
 
 #: Fewest segments per ray before any split: more than one so that a curve that bends one way then
 #: the other (an inflection at the single midpoint) is still tested.
@@ -459,9 +460,10 @@ def trace_curved(tracer: Tracer, camera: Camera, to_world: Callable, *, near: fl
                  tolerance_px: float = 0.25, max_depth: int = 2, samples: int = 16,
                  rng: np.random.Generator | None = None, ao_distance: float | None = None,
                  progress: Progress | None = None) -> RenderResult:  # fmt: skip
-    """:meth:`Tracer.render_curved` (parameters as :func:`render_curved`)."""
+    """:func:`render_curved` with a :class:`~vergence.render.Tracer` already made of the scene (a rig's
+    renders share one); parameters as :func:`render_curved`."""
     near, far, tol = _check_curve_options(camera, to_world, near, far, tolerance_px)
-    max_depth, samples, ao_distance = _check_options(tracer.scene, camera, max_depth, samples, rng, ao_distance)
+    max_depth, samples, ao_distance = check_render_options(tracer.scene, camera, max_depth, samples, rng, ao_distance)
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
     h, w = camera.height, camera.width
@@ -558,7 +560,7 @@ def render_curved(scene: Scene, camera: Camera, to_world: Callable, *, near: flo
         or the curves need more than :data:`MAX_MEAN_SEGMENTS` segments per ray.
     """
     near, far, _ = _check_curve_options(camera, to_world, near, far, tolerance_px)
-    _check_options(scene, camera, max_depth, samples, rng, ao_distance)
-    return Tracer(scene).render_curved(camera, to_world, near=near, far=far, tolerance_px=tolerance_px,
-                                       max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
-                                       progress=progress)  # fmt: skip
+    check_render_options(scene, camera, max_depth, samples, rng, ao_distance)
+    return trace_curved(Tracer(scene), camera, to_world, near=near, far=far, tolerance_px=tolerance_px,
+                        max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
+                        progress=progress)  # fmt: skip

@@ -43,7 +43,7 @@ from vergence.render.results import RayTree, RenderResult, RenderSettings, layer
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
 from vergence.render.shader import WhittedShader, offset
 
-__all__ = ["MAX_DEPTH", "Tracer", "WAVEFRONT_SLOTS", "render", "render_stereo"]
+__all__ = ["MAX_DEPTH", "Tracer", "WAVEFRONT_SLOTS", "check_render_options", "render", "render_stereo"]
 
 
 Progress = Callable[[float, str], None]
@@ -164,7 +164,7 @@ class Tracer:
                rng: np.random.Generator | None = None, ao_distance: float | None = None,
                progress: Progress | None = None, supersample: int = 1) -> RenderResult:  # fmt: skip
         """Ray-trace one camera's view (default: the scene's camera); parameters as :func:`render`."""
-        max_depth, samples, ao_distance = _check_options(self.scene, camera, max_depth, samples, rng, ao_distance)
+        max_depth, samples, ao_distance = check_render_options(self.scene, camera, max_depth, samples, rng, ao_distance)
         cam = self.scene.camera.build() if camera is None else camera
         supersample = _check_supersample(supersample, [cam])
         return self._render_many([cam], max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
@@ -191,7 +191,7 @@ class Tracer:
         if not cams:
             raise ValueError(f"cameras must be a non-empty list of Camera or FisheyeCamera; got {cameras!r:.80}")
         for cam in cams:
-            max_depth, samples, ao_distance = _check_options(self.scene, cam, max_depth, samples, rng, ao_distance)
+            max_depth, samples, ao_distance = check_render_options(self.scene, cam, max_depth, samples, rng, ao_distance)
         supersample = _check_supersample(supersample, cams)
         if progress is not None and not callable(progress):
             raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
@@ -213,15 +213,6 @@ class Tracer:
             out += self._render_many(group, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
                                      progress=say, supersample=supersample)  # fmt: skip
         return out
-
-    def render_curved(self, camera: Camera, to_world: Callable, *, near: float, far: float, tolerance_px: float = 0.25,
-                      max_depth: int = 2, samples: int = 16, rng: np.random.Generator | None = None,
-                      ao_distance: float | None = None, progress: Progress | None = None) -> RenderResult:  # fmt: skip
-        """Ray-trace the curved rays ``to_world(straight ray of camera)`` (S0 §6); see :func:`~vergence.render.render_curved`."""
-        from vergence.render.curved import trace_curved
-
-        return trace_curved(self, camera, to_world, near=near, far=far, tolerance_px=tolerance_px, max_depth=max_depth,
-                            samples=samples, rng=rng, ao_distance=ao_distance, progress=progress)  # fmt: skip
 
     def trace_rays(
         self, origins: object, directions: object, *, shape: tuple[int, ...] | None = None, tmax: object = None,
@@ -256,7 +247,7 @@ class Tracer:
         ValueError
             On a malformed, non-finite or zero input, a ``shape`` of another size or ``tmax <= 0``.
         """
-        max_depth, samples, ao_distance = _check_options(self.scene, None, max_depth, samples, rng, ao_distance)
+        max_depth, samples, ao_distance = check_render_options(self.scene, None, max_depth, samples, rng, ao_distance)
         d = as_float_array("directions", directions)
         if d.ndim == 0 or d.shape[-1] != 3:
             raise ValueError(f"directions must have shape (..., 3); got {d.shape}")
@@ -490,7 +481,7 @@ def _camera_reach(camera: Camera | FisheyeCamera) -> float:
     return float(np.abs(camera.center).max())
 
 
-def _check_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
+def check_render_options(scene, camera, max_depth, samples, rng, ao_distance):  # noqa: ANN001, ANN202
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a vergence.render.Scene; got {type(scene).__name__}")
     if camera is not None and not isinstance(camera, Camera | FisheyeCamera):
@@ -555,7 +546,7 @@ def render(
     S3 §3.1); glass splits by Schlick's ``R`` (Schlick 1994) with total internal reflection; an escaping
     ray takes the environment radiance. ``beauty == radiance.sum(axis=0)`` (S3 §3.1: ``L = sum_i L_i``).
     """
-    max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
+    max_depth, samples, ao_distance = check_render_options(scene, camera, max_depth, samples, rng, ao_distance)
     return Tracer(scene).render(camera, max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
                                 progress=progress, supersample=supersample)  # fmt: skip
 
@@ -590,7 +581,7 @@ def render_stereo(
     """
     from vergence.rigs import stereo_pair
 
-    max_depth, samples, ao_distance = _check_options(scene, camera, max_depth, samples, rng, ao_distance)
+    max_depth, samples, ao_distance = check_render_options(scene, camera, max_depth, samples, rng, ao_distance)
     cam = scene.camera.build() if camera is None else camera
     if not isinstance(cam, Camera):
         raise TypeError(f"render_stereo needs a pinhole Camera; got {type(cam).__name__}")

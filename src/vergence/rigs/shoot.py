@@ -405,6 +405,7 @@ def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int, 
     centres tile each pixel) and box-filtered, as :meth:`Tracer.render`'s ``supersample`` does.
     """
     from vergence.camera import Camera
+    from vergence.render import trace_curved
 
     K = np.array(camera.K, dtype=np.float64)
     if k > 1:
@@ -413,7 +414,7 @@ def _curved_beauty(tracer, camera, to_world, near: float, samples: int, k: int, 
         K[0, 2] = k * (K[0, 2] + 0.5) - 0.5
         K[1, 2] = k * (K[1, 2] + 0.5) - 0.5
     fine = Camera(K=K, R=camera.R, t=camera.t, width=camera.width * k, height=camera.height * k)
-    res = tracer.render_curved(fine, to_world, near=near, far=math.inf, samples=samples, progress=progress)
+    res = trace_curved(tracer, fine, to_world, near=near, far=math.inf, samples=samples, progress=progress)
     beauty = np.asarray(res.beauty, dtype=np.float64)
     return beauty.reshape(camera.height, k, camera.width, k, 3).mean(axis=(1, 3)).astype(np.float32)
 
