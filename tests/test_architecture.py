@@ -128,3 +128,53 @@ def test_the_check_sees_a_private_name_and_lets_a_private_module_through(tmp_pat
     assert _private_imports(source, "vergence.m") == [("vergence.metrics", "_patch_contrast")]
     assert _in_area("vergence.render.raytree") and _in_area("vergence.cli.stereospace_pair")
     assert not _in_area("vergence.rigs.stereo") and not _in_area("vergence.renderer")
+
+
+# ------------------------------------------------------------------ import cycles
+# No two modules import each other (issue 31 found six pairs). Imports under ``if TYPE_CHECKING:``
+# are annotations only and do not count; nor does a package's ``__init__`` with its own submodules
+# (``vergence.cli.main`` runs ``vergence.cli._run``, which reads the package's Ctrl-C state).
+
+
+def _runtime_imports(path: Path, module: str) -> set[str]:
+    """Modules of the package that ``path`` imports at run time (lazy imports included), resolved to
+    module names (``from vergence.x import name`` names ``vergence.x.name`` when that is a module)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    skip = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            skip |= {id(n) for n in ast.walk(node)}
+    out = set()
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names if a.name.startswith("vergence")}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(parts + ([node.module] if node.module else []))
+            if not base.startswith("vergence"):
+                continue
+            for a in node.names:
+                out.add(f"{base}.{a.name}" if _is_module(f"{base}.{a.name}") else base)
+    return out
+
+
+def test_no_two_modules_import_each_other():
+    graph = {_module(p): _runtime_imports(p, _module(p)) for p in sorted(PACKAGE.rglob("*.py"))}
+    pairs = []
+    for a, imported in graph.items():
+        for b in imported:
+            if a < b and a in graph.get(b, ()) and not (b.startswith(a + ".") or a.startswith(b + ".")):
+                pairs.append(f"{a} <-> {b}")
+    assert pairs == []
+
+
+def test_the_cycle_check_sees_a_cycle_and_skips_annotations(tmp_path):
+    source = tmp_path / "m.py"
+    source.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from vergence.camera import Camera\n"
+                      "def f():\n    from vergence.render import raytree\n")
+    assert _runtime_imports(source, "vergence.m") == {"vergence.render.raytree"}
