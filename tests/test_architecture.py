@@ -63,21 +63,6 @@ def test_the_check_sees_an_arrow(tmp_path):
 # module that says so (a private module of public names, as vergence.io._camera_files or
 # vergence.viewing._shared), never a ``_name`` imported from another module. Importing a private
 # *module* (``from vergence.render import _kernels``) is fine: its names are its package's internals.
-#
-# Areas still to fix (issue 31), as module prefixes: an import is allowed while its importing or its
-# imported module lies in one. Shrink this list as each area's helpers get their public names.
-PRIVATE_IMPORT_AREAS = (
-    "vergence.cli._stereospace_space",
-    "vergence.cli.stereospace",
-    "vergence.render",
-    "vergence.specular",
-    "vergence.stereospace",
-)
-
-
-def _in_area(module: str) -> bool:
-    return any(module == area or module.startswith(area + ".") or module.startswith(area + "_")
-               for area in PRIVATE_IMPORT_AREAS)
 
 
 def _is_module(name: str) -> bool:
@@ -114,11 +99,8 @@ def _private_imports_across_modules() -> list[str]:
             for source, name in _private_imports(path, module)]
 
 
-def test_no_module_imports_a_private_name_of_another_outside_the_areas_still_to_fix():
-    found = _private_imports_across_modules()
-    wrong = [line for line in found if not (_in_area(line.split()[0]) or _in_area(line.split()[-1]))]
-    print(f"private names imported across modules: {len(found)}, {len(found) - len(wrong)} in PRIVATE_IMPORT_AREAS")
-    assert wrong == []
+def test_no_module_imports_a_private_name_of_another():
+    assert _private_imports_across_modules() == []
 
 
 def test_the_check_sees_a_private_name_and_lets_a_private_module_through(tmp_path):
@@ -126,8 +108,6 @@ def test_the_check_sees_a_private_name_and_lets_a_private_module_through(tmp_pat
     source.write_text("from vergence.render import _kernels\nfrom vergence.io._files import read_bytes\n\n\n"
                       "def f():\n    from vergence.metrics import _patch_contrast\n")
     assert _private_imports(source, "vergence.m") == [("vergence.metrics", "_patch_contrast")]
-    assert _in_area("vergence.render.raytree") and _in_area("vergence.cli.stereospace_pair")
-    assert not _in_area("vergence.rigs.stereo") and not _in_area("vergence.renderer")
 
 
 # ------------------------------------------------------------------ import cycles

@@ -173,7 +173,7 @@ class _NoRender:
 def test_bad_input_is_refused_before_any_render(monkeypatch, kwargs, error, match):
     tracer, (left, right) = _setup("glasses")
     spy = _NoRender(tracer)
-    monkeypatch.setattr("vergence.specular.offsets._tracer", lambda scene: spy)
+    monkeypatch.setattr("vergence.specular.offsets.tracer_of", lambda scene: spy)
     with pytest.raises(error, match=match):
         specular_stereo(tracer, left, right, DISPLAY, **kwargs)
 
@@ -183,7 +183,7 @@ def test_a_table_past_the_memory_limit_is_refused_before_any_render(monkeypatch)
     from vergence.specular import MAX_TABLE_BYTES
 
     tracer, _ = _setup("glasses")
-    monkeypatch.setattr("vergence.specular.offsets._tracer", lambda scene: _NoRender(tracer))
+    monkeypatch.setattr("vergence.specular.offsets.tracer_of", lambda scene: _NoRender(tracer))
     cam = look_at([0.0, 1.15, 3.2], [0.1, 0.55, -0.6], [0.0, -1.0, 0.0], fov_deg=42.0, width=120, height=80)
     left, right = stereo_pair(cam, baseline=0.065, convergence=3.6)
     # 257 offsets x 127 layers x 9600 px x 56 B = 17.5 GB

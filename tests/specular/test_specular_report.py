@@ -158,7 +158,7 @@ def test_depth_0_with_a_mirror_is_refused_before_any_render(monkeypatch):
         def render(self, *args, **kwargs):
             raise AssertionError("rendered before refusing")
 
-    monkeypatch.setattr("vergence.specular.offsets._tracer", lambda scene: NoRender())
+    monkeypatch.setattr("vergence.specular.offsets.tracer_of", lambda scene: NoRender())
     with pytest.raises(ValueError, match="max_depth 0 traces no specular layer"):
         specular_stereo(tracer, left, right, DISPLAY, max_depth=0)
     with pytest.raises(ValueError, match="fit must be one of screen, native"):

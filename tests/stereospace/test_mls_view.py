@@ -15,7 +15,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from vergence.camera import look_at
 from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, s2_view
 from vergence.stereospace import _mls_view_kernels
-from vergence.stereospace.mls import _grid_nodes, _node_grid
+from vergence.stereospace.mls import _grid_nodes, node_grid
 from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, _node_angles
 
 PLANE_Z = 5.0
@@ -166,10 +166,10 @@ def test_render_kernel_matches_a_slow_reference(k):
 def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():
     target = look_at([0.1, 0.2, -0.3], [0.5, 0, 5], [0.1, -1.0, 0.0], fov_deg=5.0, width=61, height=45)
     centres = np.array([[-0.4, 0.0, 0.0], [0.3, 0.2, 0.0], target.center])
-    xs, ys, nodes = _node_grid((45, 61), 1)
+    xs, ys, nodes = node_grid((45, 61), 1)
     exact = _angles_reference(target, centres, 4.5)
     assert_allclose(_node_angles(target, nodes, centres, 4.5).reshape(3, 45, 61), exact, atol=1e-7)  # acos: sqrt(eps)
-    xs, ys, nodes = _node_grid((45, 61), 8)
+    xs, ys, nodes = node_grid((45, 61), 8)
     coarse = _node_angles(target, nodes, centres, 4.5).reshape(3, ys.size, xs.size)
     along_x = np.array([[np.interp(np.arange(61), xs, row) for row in a] for a in coarse])
     fine = np.array([[np.interp(np.arange(45), ys, along_x[s, :, x]) for x in range(61)] for s in range(3)])

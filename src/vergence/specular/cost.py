@@ -142,7 +142,7 @@ def _check_shape(variant, zone, lam, margin, vertical, rivalry_tolerance) -> tup
     return lo, hi, (float(lam[0]), float(lam[1])), float(margin), float(vertical), float(rivalry_tolerance)
 
 
-def _inputs(disparity, rivalry, importance, original, maps, alpha, variant, zone, lam,
+def cost_inputs(disparity, rivalry, importance, original, maps, alpha, variant, zone, lam,
             margin=COMFORT_MARGIN_ARCMIN, vertical=VERTICAL_TOLERANCE_ARCMIN,
             rivalry_tolerance=RIVALRY_TOLERANCE):  # fmt: skip
     d = np.asarray(disparity, dtype=np.float64)
@@ -284,7 +284,7 @@ def disparity_cost(
     >>> [float(c.absolute[0, 0]), float(c.data[0, 0]), float(c.relative[0, 0])]
     [0.0, 0.0, 0.0]
     """
-    d, r, w, o, m, a, opts = _inputs(disparity, rivalry, importance, original, {} if maps is None else maps,
+    d, r, w, o, m, a, opts = cost_inputs(disparity, rivalry, importance, original, {} if maps is None else maps,
                                      alpha, variant, zone, lam, margin, vertical, rivalry_tolerance)  # fmt: skip
     terms, _ = _terms(d, r, w, o, m, opts, variant)
     total = sum(a[t] * terms[name] for t, name in enumerate(COST_TERMS))
@@ -309,7 +309,7 @@ def disparity_cost_gradient(
     """``(df/dd (N, H, W, 2), df/dr (N, H, W))`` of :func:`disparity_cost`'s total at every pixel,
     importance held fixed (S3 §3.4 chains it with the numerical derivative of the tabulated ``g``).
     0 for a layer without a match (``sigma_ij`` is held fixed: it is piecewise constant)."""
-    d, r, w, o, m, a, opts = _inputs(disparity, rivalry, importance, original, {} if maps is None else maps,
+    d, r, w, o, m, a, opts = cost_inputs(disparity, rivalry, importance, original, {} if maps is None else maps,
                                      alpha, variant, zone, lam, margin, vertical, rivalry_tolerance)  # fmt: skip
     _, g = _terms(d, r, w, o, m, opts, variant)
     grad_d = sum(a[t] * g[name][0] for t, name in enumerate(COST_TERMS))

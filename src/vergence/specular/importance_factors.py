@@ -51,7 +51,7 @@ _KAPPA_YY = _KAPPA_XX.T.copy()
 _KAPPA_XY = np.array([[0.25, 0.0, -0.25], [0.0, 0.0, 0.0], [-0.25, 0.0, 0.25]])
 
 
-def _pair(lightness: object, matches: object) -> tuple[PerceivedLightness, LayerDisparity]:
+def checked_pair(lightness: object, matches: object) -> tuple[PerceivedLightness, LayerDisparity]:
     if not isinstance(lightness, PerceivedLightness):
         raise TypeError(f"lightness must be a PerceivedLightness; got {type(lightness).__name__}")
     if not isinstance(matches, LayerDisparity):
@@ -103,7 +103,7 @@ def distinctiveness(
     gives 0. S3 gives no mapping to [0, 1]; the exponential with the perceptual scale of
     :data:`DISTINCTIVENESS_SCALE` is ours. Pixels outside the image repeat the border pixel.
     """
-    lightness, matches = _pair(lightness, matches)
+    lightness, matches = checked_pair(lightness, matches)
     kappa0 = check_positive("scale", scale)
     left = lightness.left.astype(np.float64)  # float64 sums: the curvature is a small difference of large SSDs
     right = lightness.right.astype(np.float64)
@@ -246,7 +246,7 @@ def importance(
     the other eye within the 81 x 9 window lies nearer than epsilon, else 0 (a generalised
     disocclusion). S3 rates the pixels of the *left* image; contrast is measured there.
     """
-    lightness, matches = _pair(lightness, matches)
+    lightness, matches = checked_pair(lightness, matches)
     proximity = np.array(matches.matched)
     dist, _ = distinctiveness(lightness, matches, scale=scale)
     contrast = contrast_q(peli_contrast(lightness.left)).astype(np.float32)

@@ -59,7 +59,7 @@ _RENDER_BATCH = 8
 Progress = Callable[[float, str], None]
 
 
-def _check_rig(left: object, right: object) -> tuple[Camera, Camera]:
+def check_rig(left: object, right: object) -> tuple[Camera, Camera]:
     """``left`` and ``right`` as the two cameras of a shifted-sensor rig (S0 §2), or a one-line error."""
     for name, cam in (("left", left), ("right", right)):
         if not isinstance(cam, Camera):
@@ -133,7 +133,7 @@ def offset_camera(left: Camera, right: Camera, y: float) -> Camera:
     >>> mid.center.tolist(), mid.principal_point
     ([0.0, 0.0, 0.0], (50.0, 25.0))
     """
-    left, right = _check_rig(left, right)
+    left, right = check_rig(left, right)
     y = _check_offset(y)
     if y == 1.0:
         return left
@@ -145,7 +145,7 @@ def offset_camera(left: Camera, right: Camera, y: float) -> Camera:
     return Camera(K=K, R=left.R, t=-left.R @ center, width=left.width, height=left.height)
 
 
-def _offset_map(y: object, shape: tuple[int, ...], name: str = "y") -> np.ndarray:
+def offset_map(y: object, shape: tuple[int, ...], name: str = "y") -> np.ndarray:
     if y is None or isinstance(y, str):
         raise TypeError(f"{name} must be a numeric array; got {type(y).__name__}")
     arr = np.asarray(y)
@@ -184,8 +184,8 @@ def offset_rays(left: Camera, right: Camera, y: object) -> tuple[np.ndarray, np.
     TypeError, ValueError
         As :func:`offset_camera`; ``y`` of another shape or outside [0, 1].
     """
-    left, right = _check_rig(left, right)
-    y = _offset_map(y, (left.height, left.width))
+    left, right = check_rig(left, right)
+    y = offset_map(y, (left.height, left.width))
     s = 1.0 - y  # distance from the left eye, as a fraction of the baseline
     origins = left.center + s[..., None] * (right.center - left.center)
     shift = s * (right.K[0, 2] - left.K[0, 2])  # cx(y) - cx_L, pixels
@@ -195,7 +195,7 @@ def offset_rays(left: Camera, right: Camera, y: object) -> tuple[np.ndarray, np.
     return origins, d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def _check_steps(k: object) -> int:
+def check_steps(k: object) -> int:
     if isinstance(k, bool) or not isinstance(k, Integral):
         raise TypeError(f"k must be an integer; got {type(k).__name__}")
     if not 2 <= int(k) <= MAX_OFFSET_STEPS:
@@ -269,7 +269,7 @@ def _check_progress(progress: object) -> None:
         raise TypeError(f"progress must be a callable(fraction, message) or None; got {type(progress).__name__}")
 
 
-def _tracer(scene: object) -> Tracer:
+def tracer_of(scene: object) -> Tracer:
     from vergence.render import Scene, Tracer
 
     if isinstance(scene, Tracer):
@@ -342,9 +342,9 @@ def tabulate_offsets(
     """
     from vergence.render.limits import check_max_depth
 
-    tracer = _tracer(scene)
-    left, right = _check_rig(left, right)
-    k = _check_steps(k)
+    tracer = tracer_of(scene)
+    left, right = check_rig(left, right)
+    k = check_steps(k)
     max_depth = check_max_depth(max_depth)
     _check_progress(progress)
     if not isinstance(keep_position, bool):
@@ -391,7 +391,7 @@ def tabulate_offsets(
                        seconds_match=seconds_match)  # fmt: skip
 
 
-def _level(node: int) -> int:
+def tree_level(node: int) -> int:
     """Tree level of heap node ``node`` (1-based): its number of specular bounces."""
     return node.bit_length() - 1
 
@@ -451,8 +451,8 @@ def render_offsets(
     from vergence.render import RenderResult
     from vergence.render.limits import MAX_DEPTH
 
-    tracer = _tracer(scene)
-    left, right = _check_rig(left, right)
+    tracer = tracer_of(scene)
+    left, right = check_rig(left, right)
     _check_progress(progress)
     if y is None or isinstance(y, str):
         raise TypeError(f"y must be a numeric array of shape (N, H, W); got {type(y).__name__}")
@@ -462,7 +462,7 @@ def render_offsets(
     if arr.ndim != 3 or n != 2 ** (depth + 1) - 1 or not 0 <= depth <= MAX_DEPTH:
         raise ValueError(f"y must have shape (N, {left.height}, {left.width}) with N = 2^(D+1) - 1 layers, "
                          f"D in [0, {MAX_DEPTH}]; got {arr.shape}")  # fmt: skip
-    ymap = _offset_map(arr, (n, left.height, left.width))
+    ymap = offset_map(arr, (n, left.height, left.width))
     groups: list[tuple[np.ndarray, list[int]]] = []  # distinct maps and their layers (0-based)
     for i in range(n):
         for gmap, layers in groups:
@@ -481,7 +481,7 @@ def render_offsets(
     for g, (gmap, layers) in enumerate(groups):
         if progress is not None:
             progress(g / len(groups), f"pass {g + 1} of {len(groups)}: layers {', '.join(str(i + 1) for i in layers)}")
-        level = max(_level(i + 1) for i in layers)
+        level = max(tree_level(i + 1) for i in layers)
         origins, directions = offset_rays(left, right, gmap)
         tree = tracer.trace_rays(origins, directions, max_depth=level, samples=samples, rng=rng,
                                  ao_distance=ao_distance)  # fmt: skip

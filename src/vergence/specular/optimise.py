@@ -36,7 +36,7 @@ from vergence.specular.cost import (
     RELATIVE_LAMBDA_ARCMIN,
     RIVALRY_TOLERANCE,
     VERTICAL_TOLERANCE_ARCMIN,
-    _inputs,
+    cost_inputs,
 )
 
 __all__ = ["DESCENT_STEPS", "FIRST_STEP", "RESTARTS", "OffsetSolution", "optimise_offsets"]
@@ -116,7 +116,7 @@ def optimise_offsets(
     if orig.shape != (n, h, w, 2):
         raise ValueError(f"original must have shape {(n, h, w, 2)}; got {orig.shape}")
     # alpha, variant, zone, lam and the maps checked as the cost checks them
-    _, _, _, _, m, a, opts = _inputs(orig, np.zeros((n, h, w)), np.zeros((n, h, w)), orig,
+    _, _, _, _, m, a, opts = cost_inputs(orig, np.zeros((n, h, w)), np.zeros((n, h, w)), orig,
                                      {} if maps is None else maps, alpha, variant, zone, lam, margin, vertical,
                                      rivalry_tolerance)  # fmt: skip
     lo, hi, lam_f, _, vert, rho0 = opts

@@ -202,7 +202,7 @@ class SpecularResult:
         same plain and weighted shares pooled over the specular layers (``specular_layers``) and per
         mirror or glass object (``objects``, :func:`~vergence.specular.object_shares`), and one
         ``warnings`` line per object that stays mostly outside the zone."""
-        from vergence.specular.shares import _pooled, object_shares, zone_count, zone_warnings
+        from vergence.specular.shares import pooled_counts, object_shares, zone_count, zone_warnings
 
         names = layer_labels(self.y.shape[0])
         layers = []
@@ -236,7 +236,7 @@ class SpecularResult:
             "cost_before": self.cost_before.means(),
             "cost_after": self.cost_after.means(),
             "layers": layers,
-            "specular_layers": _pooled(count_b, count_a, slice(1, None)),
+            "specular_layers": pooled_counts(count_b, count_a, slice(1, None)),
             "objects": objects,
             "warnings": zone_warnings(objects, self.zone),
             **{key: check.to_dict() for key in ("render_check", "render_check_raw")
@@ -347,17 +347,17 @@ def specular_stereo(
     from vergence.render.tonemap import auto_exposure
     from vergence.render.limits import check_max_depth
     # the checks tabulate_offsets, OffsetPlanner and near_surface make, here before the first render
-    from vergence.specular.offsets import _check_rig, _check_steps, _tracer
-    from vergence.specular.planning import _check_factor
-    from vergence.specular.surface_baselines import _check_offset_arcmin
+    from vergence.specular.offsets import check_rig, check_steps, tracer_of
+    from vergence.specular.planning import check_factor
+    from vergence.specular.surface_baselines import check_offset_arcmin
 
-    tracer = _tracer(scene)  # one Mitsuba scene for the table and the final render
-    left, right = _check_rig(left, right)
-    k = _check_steps(k)
+    tracer = tracer_of(scene)  # one Mitsuba scene for the table and the final render
+    left, right = check_rig(left, right)
+    k = check_steps(k)
     max_depth = check_max_depth(max_depth)
-    factor = _check_factor(factor)
+    factor = check_factor(factor)
     try:
-        near_arcmin = _check_offset_arcmin(near_arcmin)
+        near_arcmin = check_offset_arcmin(near_arcmin)
     except (TypeError, ValueError) as exc:  # named as this function's caller knows it
         raise type(exc)(str(exc).replace("offset_arcmin", "near_arcmin", 1)) from exc
     check_display(display, resolution=True)
@@ -539,16 +539,16 @@ def specular_from_table(
     TypeError, ValueError
         A table that is not one, a scene of another name, a bad weight, variant, factor or map.
     """
-    from vergence.specular.offsets import _tracer
-    from vergence.specular.planning import _check_factor
+    from vergence.specular.offsets import tracer_of
+    from vergence.specular.planning import check_factor
 
     if not isinstance(table, SpecularTable):
         raise TypeError(f"table must be a SpecularTable; got {type(table).__name__}")
-    tracer = _tracer(scene)
+    tracer = tracer_of(scene)
     s = dict(table.settings)
     if tracer.scene.name != s.get("scene"):
         raise ValueError(f"scene is {tracer.scene.name!r}, but the table was made of {s.get('scene')!r}")
-    factor = _check_factor(s["factor"] if factor is None else factor)
+    factor = check_factor(s["factor"] if factor is None else factor)
     alpha = s["alpha"] if alpha is None else alpha
     variant = s["variant"] if variant is None else variant
     t0 = time.perf_counter()

@@ -95,7 +95,7 @@ class OffsetPlan:
         readonly_fields(self, "y", "y_low", "cost_low")
 
 
-def _check_factor(factor: object) -> int:
+def check_factor(factor: object) -> int:
     if isinstance(factor, bool) or not isinstance(factor, Integral) or not 1 <= factor <= 64:
         raise ValueError(f"factor must be an integer in [1, 64]; got {factor!r}")
     return int(factor)
@@ -139,7 +139,7 @@ class OffsetPlanner:
     ) -> None:
         if not isinstance(analysis, OffsetAnalysis):
             raise TypeError(f"analysis must be a vergence.specular.OffsetAnalysis; got {type(analysis).__name__}")
-        factor = _check_factor(factor)
+        factor = check_factor(factor)
         self.sigma_space = check_positive("sigma_space", sigma_space)
         self.sigma_range = check_positive("sigma_range", sigma_range)
         for name, value in (("radius", radius), ("blur_radius", blur_radius)):

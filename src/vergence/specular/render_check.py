@@ -157,13 +157,13 @@ def repair_render(
     TypeError, ValueError
         As :func:`check_render` and :func:`~vergence.specular.render_offsets`.
     """
-    from vergence.specular.offsets import _check_rig, _level, _offset_map, _tracer, offset_rays
+    from vergence.specular.offsets import check_rig, tree_level, offset_map, tracer_of, offset_rays
 
     before = check_render(physical, optimised)
-    tracer = _tracer(scene)
-    left, right = _check_rig(left, right)
+    tracer = tracer_of(scene)
+    left, right = check_rig(left, right)
     n = physical.position.shape[0]
-    ymap = np.array(_offset_map(np.asarray(y), (n, left.height, left.width)), dtype=np.float32)
+    ymap = np.array(offset_map(np.asarray(y), (n, left.height, left.width)), dtype=np.float32)
     has, got = _present(physical), _present(optimised)
     ymap[1:][~has[1:]] = 1.0  # a layer the pixel does not have is shaded from no camera: say physical
     if before.clean:
@@ -179,7 +179,7 @@ def repair_render(
                 break
             trial = ymap[i] + (1.0 - ymap[i]) * np.float32(t)
             origins, directions = offset_rays(left, right, trial)
-            tree = tracer.trace_rays(origins[todo], directions[todo], max_depth=_level(i + 1), samples=samples,
+            tree = tracer.trace_rays(origins[todo], directions[todo], max_depth=tree_level(i + 1), samples=samples,
                                      rng=rng, ao_distance=ao_distance)  # fmt: skip
             ok = np.isfinite(tree.position[i]).all(axis=-1)
             rows, cols = np.nonzero(todo)

@@ -15,7 +15,7 @@ import numpy as np
 
 from vergence._validate import readonly_fields
 from vergence.specular import _importance_kernels as _k
-from vergence.specular.importance_factors import _pair
+from vergence.specular.importance_factors import checked_pair
 from vergence.specular.lightness import PerceivedLightness
 from vergence.specular.matching import LayerDisparity
 
@@ -141,7 +141,7 @@ def rivalry(lightness: PerceivedLightness, matches: LayerDisparity) -> Rivalry:
     the border pixel. S3 compares "luminance"; here L* after tone mapping and the CSF, as for importance.
     A constant shift between the eyes matched exactly gives 0.
     """
-    lightness, matches = _pair(lightness, matches)
+    lightness, matches = checked_pair(lightness, matches)
     disparity = fill_matches(matches.disparity_px)
     mean_sq, point = _k.patch_difference(lightness.left, lightness.right, disparity, RIVALRY_WINDOW // 2)
     return Rivalry(rivalry=mean_sq.astype(np.float32), point_difference=point.astype(np.float32),

@@ -174,7 +174,7 @@ def _layer_rows(before: ZoneCount, after: ZoneCount, names: list[str], first: in
     return rows
 
 
-def _pooled(before: ZoneCount, after: ZoneCount, layers: slice) -> dict:
+def pooled_counts(before: ZoneCount, after: ZoneCount, layers: slice) -> dict:
     """The counts and shares of ``layers`` pooled, before and after (the keys of :func:`object_shares`)."""
     return {"matched_before": int(before.matched[layers].sum()), "inside_before": int(before.inside[layers].sum()),
             "inside_share_before": _num(before.share(layers)), "comfort_share_before": _num(before.weighted_share(layers)),
@@ -214,7 +214,7 @@ def object_shares(before: object, after: object, first_object: np.ndarray, objec
         if not mask.any():
             continue
         b, a = zone_count(before, zone, mask), zone_count(after, zone, mask)
-        out.append({**obj, "pixels": int(mask.sum()), **_pooled(b, a, slice(1, None)),
+        out.append({**obj, "pixels": int(mask.sum()), **pooled_counts(b, a, slice(1, None)),
                     "layers": _layer_rows(b, a, names, 1)})  # fmt: skip
     return out
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from vergence._validate import check_finite
 from vergence.specular.matching import layer_disparity
-from vergence.specular.offsets import _check_rig
+from vergence.specular.offsets import check_rig
 from vergence.viewing.comfort import MAX_VERGENCE_ARCMIN, pixels_from_arcmin
 from vergence.viewing.geometry import Display, check_display
 
@@ -64,11 +64,11 @@ def _check_pair(left: object, right: object) -> tuple[RenderResult, RenderResult
     if left.radiance.shape != right.radiance.shape:
         raise ValueError(f"right must have the layers and size of left (N, H, W, 3) = {left.radiance.shape}; "
                          f"got {right.radiance.shape}")  # fmt: skip
-    _check_rig(left.camera, right.camera)
+    check_rig(left.camera, right.camera)
     return left, right
 
 
-def _check_offset_arcmin(offset_arcmin: object) -> float:
+def check_offset_arcmin(offset_arcmin: object) -> float:
     offset = check_finite("offset_arcmin", offset_arcmin)
     if not 0.0 <= offset <= MAX_VERGENCE_ARCMIN:
         raise ValueError(f"offset_arcmin must lie in [0, {MAX_VERGENCE_ARCMIN:g}] arcmin (a vergence change of at "
@@ -253,7 +253,7 @@ def near_surface(
     """
     left, right = _check_pair(left, right)
     display = check_display(display, resolution=True)
-    offset = _check_offset_arcmin(offset_arcmin)
+    offset = check_offset_arcmin(offset_arcmin)
     n, h, w = left.radiance.shape[:3]
     if n == 1:
         return left

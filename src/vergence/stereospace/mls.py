@@ -115,7 +115,7 @@ def _grid_nodes(n: int, step: int) -> np.ndarray:
     return nodes
 
 
-def _node_grid(shape: tuple[int, int], grid_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def node_grid(shape: tuple[int, int], grid_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node columns ``xs``, rows ``ys`` (:func:`_grid_nodes`) and the ``(len(ys) * len(xs), 2)``
     float64 nodes ``(x, y)``, row by row."""
     h, w = shape
@@ -125,7 +125,7 @@ def _node_grid(shape: tuple[int, int], grid_step: int) -> tuple[np.ndarray, np.n
     return xs, ys, np.ascontiguousarray(np.stack([gx.ravel(), gy.ravel()], axis=1))
 
 
-def _with_cells(xs: np.ndarray, ys: np.ndarray, at_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def with_cells(xs: np.ndarray, ys: np.ndarray, at_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node values ``(len(ys), len(xs), ...)`` with at least two node columns and rows.
 
     A one-pixel-wide (or -high) output has a single node column (row): it is copied to a phantom
@@ -150,11 +150,11 @@ def _source_map(
     pixel: the inverse deformation (handles ``q -> p``) at the grid nodes, bilinear in between;
     inputs already validated."""
     h, w = shape
-    xs, ys, nodes = _node_grid(shape, grid_step)
+    xs, ys, nodes = node_grid(shape, grid_step)
     at_nodes = _deform(nodes, handles_dst, handles_src, alpha).reshape(ys.size, xs.size, 2)
     if grid_step == 1:
         return at_nodes[..., 0].astype(dtype), at_nodes[..., 1].astype(dtype)
-    xs, ys, at_nodes = _with_cells(xs, ys, at_nodes)
+    xs, ys, at_nodes = with_cells(xs, ys, at_nodes)
     map_x = np.empty((h, w), dtype=dtype)
     map_y = np.empty((h, w), dtype=dtype)
     _mls_kernels.interpolate_grid(at_nodes, xs, ys, grid_step, map_x, map_y)

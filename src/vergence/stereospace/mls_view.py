@@ -14,7 +14,7 @@ import numpy as np
 from vergence._validate import as_float_array, as_image, check_positive, check_positive_int
 from vergence.camera import Camera
 from vergence.stereospace import _mls_kernels, _mls_view_kernels
-from vergence.stereospace.mls import MLS_MIN_HANDLES, _node_grid, _with_cells
+from vergence.stereospace.mls import MLS_MIN_HANDLES, node_grid, with_cells
 
 __all__ = ["S2_HANDLE_CELL_PX", "S2_MAX_SOURCES", "S2_PENALTY_FLOOR", "S2_THRESHOLD_SCALE", "S2View", "s2_view"]
 
@@ -94,8 +94,8 @@ def _check_sources(sources: object) -> tuple[list[tuple[Camera, np.ndarray]], bo
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class _SourceSet:
-    """Source cameras made ready for S2's views (:func:`_render`): what depends on the sources
+class SourceSet:
+    """Source cameras made ready for S2's views (:func:`render_source_set`): what depends on the sources
     and the points only, never on the target, so a collection computes it once.
 
     ``images (N, Hm, Wm, C)``, each image in the corner of the largest size, times ``unit`` the
@@ -123,12 +123,12 @@ class _SourceSet:
 
 
 def _from_bytes(values: np.ndarray) -> np.ndarray:
-    """float32 ``v / 255`` of 8-bit values (the rule :func:`_source_set` checks exactness with)."""
+    """float32 ``v / 255`` of 8-bit values (the rule :func:`source_set` checks exactness with)."""
     return values.astype(np.float32) / np.float32(255.0)
 
 
-def _source_set(cameras: Sequence[Camera], images: Sequence[np.ndarray], points: np.ndarray) -> _SourceSet:
-    """A :class:`_SourceSet` of validated cameras, ``(H, W, C)`` float32 images (one channel
+def source_set(cameras: Sequence[Camera], images: Sequence[np.ndarray], points: np.ndarray) -> SourceSet:
+    """A :class:`SourceSet` of validated cameras, ``(H, W, C)`` float32 images (one channel
     count) and ``(P, 3)`` float64 points."""
     sizes = np.array([img.shape[:2] for img in images], dtype=np.int64).reshape(-1, 2)
     as_bytes = [np.rint(img * np.float32(255.0)) for img in images]
@@ -145,7 +145,7 @@ def _source_set(cameras: Sequence[Camera], images: Sequence[np.ndarray], points:
         x, y = pixels[n, :, 0], pixels[n, :, 1]
         seen[n] = (z > 0) & (x >= -0.5) & (x <= cam.width - 0.5) & (y >= -0.5) & (y <= cam.height - 0.5)
     centres = np.array([cam.center for cam in cameras]).reshape(-1, 3)
-    return _SourceSet(tuple(cameras), stack, sizes, centres, pixels, seen, 1.0 / 255.0 if eight_bit else 1.0)
+    return SourceSet(tuple(cameras), stack, sizes, centres, pixels, seen, 1.0 / 255.0 if eight_bit else 1.0)
 
 
 # The handle cells marked in a grid (the rest sorted): those of the target image and as much again
@@ -173,11 +173,11 @@ def _node_angles(target: Camera, nodes: np.ndarray, centres: np.ndarray, depth: 
     return out
 
 
-def _render(
-    target: Camera, sources: _SourceSet, ids: Sequence[int], points: np.ndarray, *, grid_step: int, alpha: float,
+def render_source_set(
+    target: Camera, sources: SourceSet, ids: Sequence[int], points: np.ndarray, *, grid_step: int, alpha: float,
     k: int, keep_weights: bool,
 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, float]:
-    """S2's view of ``target`` from the sources ``ids`` of a :class:`_SourceSet`: ``(image (h, w, C)
+    """S2's view of ``target`` from the sources ``ids`` of a :class:`SourceSet`: ``(image (h, w, C)
     float32, weights (S, h, w) float64 or None, handle counts (S,), proxy depth)``; inputs valid.
 
     A source's handles are the points in front of the source and the target and on the source's
@@ -190,7 +190,7 @@ def _render(
         raise ValueError("points must hold at least one point in front of target")
     proxy_depth = float(np.median(z_target[in_front]))
     h, w = target.height, target.width
-    xs, ys, nodes = _node_grid((h, w), grid_step)
+    xs, ys, nodes = node_grid((h, w), grid_step)
     nodes32 = nodes.astype(np.float32)
     ids = np.asarray(ids, dtype=np.int64)
     used = ids.copy()
@@ -218,7 +218,7 @@ def _render(
         at_nodes[used >= 0, ..., :2] = mapped.reshape(len(handles), ys.size, xs.size, 2)
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
-    xs, ys, cells = _with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
+    xs, ys, cells = with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
     channels = sources.images.shape[3]
     image = np.empty((h, w, channels), dtype=np.float32)
     weights = np.empty((len(ids), h, w) if keep_weights else (len(ids), 0, 0))
@@ -310,8 +310,8 @@ def s2_view(
     step = check_positive_int("grid_step", grid_step)
     a = check_positive("alpha", alpha)
     kk = check_positive_int("k", k)
-    src = _source_set([cam for cam, _ in pairs], [img for _, img in pairs], pts)
-    image, weights, counts, proxy_depth = _render(target, src, range(len(pairs)), pts, grid_step=step, alpha=a,
+    src = source_set([cam for cam, _ in pairs], [img for _, img in pairs], pts)
+    image, weights, counts, proxy_depth = render_source_set(target, src, range(len(pairs)), pts, grid_step=step, alpha=a,
                                                   k=kk, keep_weights=True)  # fmt: skip
     if grey:
         image = image[..., 0]

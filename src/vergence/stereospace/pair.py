@@ -60,7 +60,7 @@ from vergence.stereospace.collection import Collection
 from vergence.stereospace.graph import CameraGraph, camera_graph
 from vergence.stereospace.orientation import collection_up, eye_order
 from vergence.stereospace.quality import DISPARITY_TRIM
-from vergence.stereospace.mls_view import S2_GRID_STEP, S2_MAX_SOURCES, _render, _source_set, _SourceSet
+from vergence.stereospace.mls_view import S2_GRID_STEP, S2_MAX_SOURCES, render_source_set, source_set, SourceSet
 from vergence.stereospace.framing import FRAMINGS, ConvergenceShift, convergence_shift, frame_cameras
 from vergence.stereospace.space import StereoSpace, StereoState
 from vergence.viewing import ComfortZone, Display, check_display
@@ -196,7 +196,7 @@ class PreparedCollection:
         self.centers = collection.centers
         self.up = collection_up(collection.cameras)
         images = _colour_images([_decoded(collection, k) for k in range(len(collection))])
-        self._sources = _source_set(collection.cameras, images, collection.points)
+        self._sources = source_set(collection.cameras, images, collection.points)
         images.clear()
         self._sources.images.flags.writeable = False
 
@@ -216,7 +216,7 @@ class PreparedCollection:
         """Every camera's decoded float32 image (:meth:`image`), in the collection's order."""
         return tuple(self.image(k) for k in range(len(self.collection)))
 
-    def view_sources(self, ids: Sequence[int]) -> tuple[_SourceSet, np.ndarray]:
+    def view_sources(self, ids: Sequence[int]) -> tuple[SourceSet, np.ndarray]:
         """The sources of S2's views and the positions in it of the cameras ``ids``."""
         return self._sources, np.asarray(ids, dtype=np.int64)
 
@@ -236,10 +236,10 @@ class _Unprepared:
     def image(self, k: int) -> np.ndarray:
         return _decoded(self.collection, k)
 
-    def view_sources(self, ids: Sequence[int]) -> tuple[_SourceSet, np.ndarray]:
+    def view_sources(self, ids: Sequence[int]) -> tuple[SourceSet, np.ndarray]:
         cams = [self.collection.cameras[k] for k in ids]
         images = _colour_images([self.image(k) for k in ids])
-        return _source_set(cams, images, self.collection.points), np.arange(len(ids), dtype=np.int64)
+        return source_set(cams, images, self.collection.points), np.arange(len(ids), dtype=np.int64)
 
 
 def _mls_view(prepared: PreparedCollection, target: Camera, *, sources: int = S2_MAX_SOURCES) -> np.ndarray:
@@ -248,7 +248,7 @@ def _mls_view(prepared: PreparedCollection, target: Camera, *, sources: int = S2
     distance = np.linalg.norm(prepared.centers - target.center, axis=1)
     nearest = np.lexsort((np.arange(len(distance)), distance))[:sources]
     source_set, ids = prepared.view_sources(nearest)
-    image = _render(target, source_set, ids, prepared.collection.points, grid_step=prepared.grid_step, alpha=1.0,
+    image = render_source_set(target, source_set, ids, prepared.collection.points, grid_step=prepared.grid_step, alpha=1.0,
                     k=S2_MAX_SOURCES, keep_weights=False)[0]  # fmt: skip
     return image[..., 0] if image.shape[2] == 1 else image
 
