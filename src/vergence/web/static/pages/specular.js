@@ -53,8 +53,9 @@ async function initSpecular() {
     document.getElementById("spec-layer").addEventListener("change", specLoadPicture);
     document.getElementById("spec-term").addEventListener("change", specDraw);
     specCanvasEvents(document.getElementById("spec-canvas"));
+    // the right eye is one render for every re-optimisation: the base job's (a re-optimisation writes it on request)
     offerVR(document.getElementById("spec-vr"), () => ({
-      left: jobFile(spec.shown, "optimised_left.png"), right: jobFile(spec.shown, "optimised_right.png") }));
+      left: jobFile(spec.shown, "optimised_left.png"), right: jobFile(spec.base, "optimised_right.png") }));
     document.body.dataset.state = "ready";
   } catch (exc) {
     showError(exc.message);
@@ -441,6 +442,8 @@ function specSheets(id, draw) {
   if (!draw) {
     sheets.replaceChildren();
     view.hidden = true;
+    view.removeAttribute("src");  // a sheet still loading for the previous result is not shown
+    delete view.dataset.sheet;
     document.getElementById("spec-sheet-caption").textContent = "";
     button.hidden = false;
     note.textContent = "the analysis sheets of this re-optimisation are drawn when asked (a few seconds)";
@@ -477,7 +480,7 @@ async function specShowSheet(id, name) {
   view.src = jobFile(id, name);
   view.alt = `${name}: ${SPEC_SHEET_TITLES[name]}`;
   try { await view.decode(); } catch (exc) { return; }
-  if (view.src !== new URL(jobFile(id, name), location.href).href) return;  // another sheet was chosen meanwhile
+  if (view.src !== new URL(jobFile(id, name), location.href).href) return;  // another sheet or result meanwhile
   const room = view.parentElement.clientWidth || view.naturalWidth;
   view.style.width = `${Math.round(Math.min(room, SPEC_SHEET_ZOOM * view.naturalWidth))}px`;
   view.hidden = false;
