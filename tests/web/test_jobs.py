@@ -328,3 +328,12 @@ def test_pending_files_are_written_once_on_the_first_request(app, client):
     assert again["files"] == ["first.txt", "later.txt"] and again["pending"] == []
     with pytest.raises(TypeError, match="needs write_pending"):
         JobResult({}, (), pending=("a.txt",))
+
+    # past MAX_LIVE_JOBS the least recently used job lets its writer go: its pending file is refused
+    app.state.jobs.max_live = 1
+    one = _wait(client, client.post("/api/jobs/later", json={"tag": "one"}).json()["id"])
+    two = _wait(client, client.post("/api/jobs/later", json={"tag": "two"}).json()["id"])
+    assert client.get(f"/api/jobs/{one['id']}").json()["pending"] == []
+    error = _refused(client.get(f"/api/jobs/{one['id']}/files/later.txt"), 409)
+    assert "no longer keeps the work its file later.txt is written from" in error
+    assert client.get(f"/api/jobs/{two['id']}/files/later.txt").text == "two"

@@ -94,13 +94,16 @@ class JobResult:
 
     ``pending`` names files the job is done without: ``write_pending(folder)`` writes them (and may
     write the ready ones again, atomically) when one is first asked for (:meth:`JobManager.file`), so a
-    job answers with what the page shows first and draws the rest on request."""
+    job answers with what the page shows first and draws the rest on request. Only the
+    :data:`MAX_LIVE_JOBS` most recently used jobs keep their writer (it holds the work in memory); an
+    older job's pending names become ``released``: asking for one is refused (409)."""
 
     summary: dict[str, Any]
     files: tuple[str, ...] = ()
     live: Any = field(default=None, compare=False, repr=False)
     pending: tuple[str, ...] = ()
     write_pending: Callable[[Path], object] | None = field(default=None, compare=False, repr=False)
+    released: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.pending and self.write_pending is None:
@@ -314,6 +317,9 @@ class JobManager:
             result = job.result
             if name in result.files:
                 return job.folder / name
+            if name in result.released:
+                raise JobRefused(409, f"job {job_id} no longer keeps the work its file {name} is written from (only "
+                                      f"the {self.max_live} most recently used jobs do, MAX_LIVE_JOBS): run it again")
             if name not in result.pending:
                 names = ", ".join((*result.files, *result.pending)) or "none"
                 raise KeyError(f"job {job_id} has no file {name!r}; its files: {names}")
@@ -324,6 +330,9 @@ class JobManager:
                     raise KeyError(f"job {job_id} was evicted from the cache with its files")
                 if name in result.files:  # written by the request that held the lock before
                     return job.folder / name
+                if result.write_pending is None:  # let go meanwhile (MAX_LIVE_JOBS)
+                    raise JobRefused(409, f"job {job_id} no longer keeps the work its file {name} is written "
+                                          f"from (only the {self.max_live} most recently used jobs do): run it again")
             result.write_pending(job.folder)
             missing = [n for n in result.pending if not (job.folder / n).is_file()]
             if missing:
@@ -394,6 +403,10 @@ class JobManager:
         live = [j for j in self._jobs.values() if j.result is not None and j.result.live is not None]
         for old in live[: max(0, len(live) - self.max_live)]:  # least recently used first
             old.result = dataclasses.replace(old.result, live=None)
+        writers = [j for j in self._jobs.values() if j.result is not None and j.result.write_pending is not None]
+        for old in writers[: max(0, len(writers) - self.max_live)]:  # what they are written from is let go
+            old.result = dataclasses.replace(old.result, pending=(), write_pending=None,
+                                             released=(*old.result.released, *old.result.pending))  # fmt: skip
         finished = [j for j in self._jobs.values() if j.state in FINAL_STATES]
         for old in finished[: max(0, len(finished) - self.max_kept)]:
             del self._jobs[old.id]
