@@ -30,8 +30,9 @@ import numpy as np  # noqa: E402
 from _timing import report, timed  # noqa: E402
 from vergence.camera import Camera, look_at  # noqa: E402
 from vergence.synthesis import IBRSource, render_ibr  # noqa: E402
-from vergence.synthesis._ibr_stages import FOV_MARGIN_PX  # noqa: E402
+from vergence.synthesis._ibr_stages import FOV_MARGIN_PX, surface_slopes  # noqa: E402
 from vergence.synthesis.ibr import (  # noqa: E402
+    IBR_OCCLUSION_SLOPE_CAP,
     IBR_OCCLUSION_TOLERANCE,
     ULR_ALPHA,
     ULR_BETA,
@@ -97,16 +98,26 @@ def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray)
         y0 = np.minimum(np.floor(vc).astype(np.intp), hs - 1)
         fx, fy = uc - x0, vc - y0
         tol = IBR_OCCLUSION_TOLERANCE * z
+        slopes = surface_slopes(dep, IBR_OCCLUSION_SLOPE_CAP)  # towards -x, +x, -y, +y (tested against a loop)
+
+        def allowed(xj: np.ndarray, yj: np.ndarray) -> np.ndarray:
+            """The visibility test's tolerance at source pixel (xj, yj): relative plus its slope on the
+            projection's side times the distance."""
+            sx = np.where(uc > xj, slopes[1][yj, xj], slopes[0][yj, xj])
+            sy = np.where(vc > yj, slopes[3][yj, xj], slopes[2][yj, xj])
+            return tol + sx * np.abs(uc - xj) + sy * np.abs(vc - yj)
+
+        xn = np.minimum(np.floor(uc + 0.5).astype(np.intp), ws - 1)
+        yn = np.minimum(np.floor(vc + 0.5).astype(np.intp), hs - 1)
         with np.errstate(invalid="ignore"):
-            near = np.abs(dep[np.minimum(np.floor(vc + 0.5).astype(np.intp), hs - 1),
-                              np.minimum(np.floor(uc + 0.5).astype(np.intp), ws - 1)] - z) <= tol
+            near = np.abs(dep[yn, xn] - z) <= allowed(xn, yn)
         vis = inside & near
         total = np.zeros((h, w))
         acc = np.zeros((h, w, 3))
         for dx, dy, b in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)), (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
             xj, yj = np.minimum(x0 + dx, ws - 1), np.minimum(y0 + dy, hs - 1)
             with np.errstate(invalid="ignore"):
-                ok = (b > 0) & (x0 + dx < ws) & (y0 + dy < hs) & (np.abs(dep[yj, xj] - z) <= tol)
+                ok = (b > 0) & (x0 + dx < ws) & (y0 + dy < hs) & (np.abs(dep[yj, xj] - z) <= allowed(xj, yj))
             bb = np.where(ok, b, 0.0)
             total += bb
             acc += bb[..., None] * img[yj, xj]

@@ -311,3 +311,42 @@ def normalise_blend(weights, visible, colours, image, coverage):  # pragma: no c
                 for i in range(s_count):
                     acc += weights[i, y, x] * colours[i, y, x, c]
                 image[y, x, c] = acc
+
+
+@nb.njit(cache=True, inline="always")
+def _abs_diff(depth, y, x, yy, xx):  # pragma: no cover - compiled
+    """``|z(yy, xx) - z(y, x)|``; NaN outside the image or where either depth is unknown."""
+    h, w = depth.shape
+    if yy < 0 or yy >= h or xx < 0 or xx >= w:
+        return np.nan
+    return abs(depth[yy, xx] - depth[y, x])
+
+
+@nb.njit(cache=True, parallel=True)
+def surface_slopes(depth, cap, ratio, out):  # pragma: no cover - compiled
+    """One-sided depth slopes towards -x, +x, -y, +y into ``out`` ``(4, H, W)``
+    (``_ibr_stages.surface_slopes``): a side's ``|difference|``, at most ``ratio`` times the opposite
+    side's; the opposite side's where that side is unknown; 0 if neither; at most ``cap`` times the
+    depth."""
+    h, w = depth.shape
+    for y in nb.prange(h):
+        for x in range(w):
+            limit = cap * depth[y, x]
+            for axis in range(2):
+                if axis == 0:
+                    back, fwd = _abs_diff(depth, y, x, y, x - 1), _abs_diff(depth, y, x, y, x + 1)
+                else:
+                    back, fwd = _abs_diff(depth, y, x, y - 1, x), _abs_diff(depth, y, x, y + 1, x)
+                for side in range(2):
+                    mine, other = (back, fwd) if side == 0 else (fwd, back)
+                    if math.isnan(mine):
+                        s = other
+                    elif math.isnan(other):
+                        s = mine
+                    else:
+                        s = min(mine, ratio * other)
+                    if math.isnan(s):
+                        s = 0.0
+                    if s > limit:  # False where the depth is unknown: that pixel never agrees anyway
+                        s = limit
+                    out[2 * axis + side, y, x] = s
