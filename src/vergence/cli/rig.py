@@ -199,13 +199,14 @@ def _print_report(shot, result, out: Path, elapsed: float) -> None:  # noqa: ANN
         table.add_column(col, justify="left" if col in ("method", "eye") else "right")
     for method, eyes in result.report["methods"].items():
         for eye, m in eyes.items():
-            p = "∞ (identical)" if m["psnr"] is None and m["coverage"] > 0 else (
-                "—" if m["psnr"] is None else f"{m['psnr']:.2f}")
+            p = "∞" if m["psnr"] is None and m["coverage"] > 0 else ("—" if m["psnr"] is None else f"{m['psnr']:.2f}")
             d = "—" if m["dssim"] is None else f"{m['dssim']:.2e}"
             d_in = "—" if m.get("dssim_inside") is None else f"{m['dssim_inside']:.2e} ({100 * m['inside']:.1f} %)"
             f = "—" if m.get("psnr_filled") is None else f"{m['psnr_filled']:.2f}"
             table.add_row(method, eye, p, d, d_in, f, f"{100 * m['coverage']:.1f} %")
     console.print(table)
+    if shot.rig == "tri":
+        console.print("∞: the left eye is the director's image itself", highlight=False)
     console.print("PSNR, DSSIM: over the covered pixels (a DSSIM window reaching a hole compares its black); DSSIM "
                   "inside: from the 7x7 windows wholly inside the covered area (the share of the image they centre "
                   "on); filled: PSNR of the whole image, each row's run of holes filled from its farther side "
