@@ -473,8 +473,7 @@ def _optimise(session: _Session, *, alpha: object, variant: str, maps: Mapping[s
     phys, before = s.physical_left, s.before
     cost_kw = {"alpha": alpha, "variant": variant, "zone": (s.zone.min_arcmin, s.zone.max_arcmin)}
     n, h, w = phys.n_layers, phys.camera.height, phys.camera.width
-    empty = np.zeros((n, h, w, 2))  # the weights and maps checked before the render
-    disparity_cost(empty, empty[..., 0], empty[..., 0], empty, maps=maps, **cost_kw)
+    cost_before = _cost(before, before, maps=maps, **cost_kw)  # also checks the weights and maps before the render
     seconds = dict(s.seconds)
     settings = {**s.settings, "variant": variant, "alpha": [float(a) for a in alpha], "maps": sorted(maps or {})}
     t0 = time.perf_counter()
@@ -495,7 +494,7 @@ def _optimise(session: _Session, *, alpha: object, variant: str, maps: Mapping[s
     report(1.0, "done")
     return SpecularResult(physical_left=phys, right=s.right_render, optimised_left=optimised,
                           on_surface_left=s.on_surface_left, near_surface_left=s.near_surface_left, y=y,
-                          before=before, after=after, cost_before=_cost(before, before, maps=maps, **cost_kw),
+                          before=before, after=after, cost_before=cost_before,
                           cost_after=_cost(after, before, maps=maps, **cost_kw), zone=s.zone, specular=s.specular,
                           seconds=seconds, settings=settings, _session=session, render_check=checks[0],
                           render_check_raw=checks[1])  # fmt: skip
