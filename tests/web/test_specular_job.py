@@ -250,7 +250,8 @@ def test_a_map_of_ones_is_refused(client, done_job):
     import numpy as np
 
     body = {"job": done_job["id"], "weight_maps": [{"layer": 2, "upload": _upload_npy(client, np.ones((48, 64)))}]}
-    assert "is 1 everywhere: it changes no weight" in _refused(client.post("/api/jobs/specular-reoptimise", json=body), 422)
+    error = _refused(client.post("/api/jobs/specular-reoptimise", json=body), 422)
+    assert "is 1 everywhere: it changes no weight" in error
 
 
 def test_reoptimise_answers_with_the_left_eye_first_and_writes_the_rest_on_request(client, done_job):

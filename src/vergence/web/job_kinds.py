@@ -37,7 +37,8 @@ if TYPE_CHECKING:
     from vergence.web.uploads import UploadStore
 
 __all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS",
-           "SHOWN_FIRST", "JobEnv", "paintable_layers", "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap"]
+           "SHOWN_FIRST", "JobEnv", "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap",
+           "paintable_layers"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
 MAX_RENDER_JOB_SIDE = 2048
@@ -283,7 +284,8 @@ def _prepare_reoptimise(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
             message = message.replace(str(upload.path), f"upload {upload.id}")
         raise ValueError(message) from None
     for (spec, upload), painted in zip(specs, params.weight_maps, strict=True):  # a map of ones weighs nothing
-        if all(np.all(m == 1.0) for m in weight_maps([f"{spec}={upload.path}"], n_layers=n, width=w, height=h).values()):
+        alone = weight_maps([f"{spec}={upload.path}"], n_layers=n, width=w, height=h)
+        if all(np.all(m == 1.0) for m in alone.values()):
             raise ValueError(f"weight_maps: the map of layer {painted.layer} (upload {upload.id}) is 1 everywhere: "
                              "it changes no weight (1 is every pixel's weight unpainted)")  # fmt: skip
 
