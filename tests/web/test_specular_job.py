@@ -288,3 +288,17 @@ def test_reoptimise_answers_with_the_left_eye_first_and_writes_the_rest_on_reque
     analysis = np.load(io.BytesIO(client.get(f"/api/jobs/{job['id']}/files/analysis.npz").content))
     np.testing.assert_array_equal(analysis["disparity_after"][..., 0], overlay)
     assert "no file 'nope.png'" in _refused(client.get(f"/api/jobs/{job['id']}/files/nope.png"), 404)
+
+
+def test_a_run_with_nothing_specular_refuses_every_paint(client):
+    """Tabletop has no mirror or glass: the run has no offsets to solve, so a paint on any layer is 422."""
+    import numpy as np
+
+    job = _wait(client, client.post("/api/jobs/specular", json={**TINY, "scene": "scene:tabletop", "width": 32,
+                                                                "height": 24}).json()["id"])  # fmt: skip
+    assert job["state"] == "done" and job["result"]["specular"] is False
+    upload = _upload_npy(client, np.zeros((24, 32)))
+    for layer in (1, 2):
+        body = {"job": job["id"], "weight_maps": [{"layer": layer, "upload": upload}]}
+        error = _refused(client.post("/api/jobs/specular-reoptimise", json=body), 422)
+        assert "nothing specular is in view in this run" in error and "the layers a paint can change: none" in error

@@ -374,13 +374,16 @@ def paintable_layers(base: Any) -> dict[int, str | None]:
     """Per layer (1-based) of a specular result, None when a painted weight can move offsets, else why
     not: a layer with no matched pixel in the physical pair gives S3 Eq. 2 no disparity to weigh, so
     the solve leaves every offset where it was (checked against the solve in tests/web/test_specular_job.py).
-    The first hit counts: its weights enter the other layers' solve."""
+    The first hit counts: its weights enter the other layers' solve. A run with nothing specular in view
+    has no offsets to solve: no layer can be painted."""
     from vergence.specular.pipeline import layer_labels
 
     out: dict[int, str | None] = {}
     for i, name in enumerate(layer_labels(base.y.shape[0])):
         out[i + 1] = None
-        if not base.before.matched[i].any():
+        if not base.specular:
+            out[i + 1] = "nothing specular is in view in this run: it has no offsets to solve"
+        elif not base.before.matched[i].any():
             pixels = int(base.before.present[i].sum())
             out[i + 1] = (f"layer {i + 1} ({name}) has no matched pixel in the physical pair ({pixels} px with a "
                           "surface, none matched in the right eye): no weight can move its offsets")  # fmt: skip

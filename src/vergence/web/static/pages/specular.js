@@ -140,9 +140,10 @@ function specLayers(report) {
   for (const layer of report.layers) {
     const option = new Option(`${layer.layer} · ${layer.name} (${layer.matched_pixels_before} of ${layer.pixels} px matched)`,
       String(layer.layer));
-    if (!layer.matched_pixels_before) {
+    if (!report.specular || !layer.matched_pixels_before) {
       option.disabled = true;
-      option.title = `layer ${layer.layer} (${layer.name}) has no matched pixel in the physical pair `
+      option.title = !report.specular ? "nothing specular is in view in this run: it has no offsets to solve"
+        : `layer ${layer.layer} (${layer.name}) has no matched pixel in the physical pair `
         + `(${layer.pixels} px with a surface): no weight can move its offsets`;
       option.dataset.testid = "spec-layer-greyed";
     }
