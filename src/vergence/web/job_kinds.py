@@ -7,7 +7,8 @@
   :func:`vergence.specular.specular_stereo` (S3, issue 12) at a small size; the files of
   :func:`vergence.report.specular_outputs.write_specular_outputs` and, as the result,
   :meth:`SpecularResult.report() <vergence.specular.SpecularResult.report>` (``report.json``); also
-  ``layer_<n>.png``, each layer of the physical left eye tone-mapped alone (the page paints on them).
+  ``layer_<n>.png``, each layer of the physical left eye tone-mapped alone (the page paints on them),
+  and the comfort overlay ``disparity_after.npy``.
   The result stays in memory (``live``) for:
 - ``specular-reoptimise``: a done specular job's run again with new weights and painted per-layer
   maps (:meth:`SpecularResult.reoptimise <vergence.specular.SpecularResult.reoptimise>`: the table
