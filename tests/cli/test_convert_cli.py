@@ -165,6 +165,22 @@ def test_resume_after_an_interrupted_run(clips, tmp_path, capsys, monkeypatch):
     assert code == 130 and err.splitlines()[-1] == "interrupted"
 
 
+def test_interrupted_while_measuring_says_the_output_is_complete(clips, tmp_path, capsys, monkeypatch):
+    import vergence.video.convert as conversion
+
+    def cut_short(*args, **kwargs):
+        raise KeyboardInterrupt  # Ctrl-C after the output was joined, while it is matched again
+
+    monkeypatch.setattr(conversion, "measure_output", cut_short)
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path, "--display", "tv-55"])
+    target = tmp_path / "clips_LRF_Full_SBS.mp4"
+    assert code == 130 and target.is_file()
+    assert err.splitlines()[-1] == f"interrupted: {target} was written in full; only its measurement was cut short"
+    # with --force over an existing output, the same note
+    code, out, err = _run(capsys, ["convert", clips.rgbd, "--out", tmp_path, "--display", "tv-55", "--force"])
+    assert code == 130 and err.splitlines()[-1].endswith("was written in full; only its measurement was cut short")
+
+
 def test_workers_on_dask_write_the_serial_frames(clips, tmp_path, capsys):
     pytest.importorskip("distributed", reason="dask.distributed is not installed: pip install 'vergence[dask]'")
     args = ["convert", clips.rgbd, "--display", "tv-55", "--images"]

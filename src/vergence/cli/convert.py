@@ -35,6 +35,15 @@ _OPTIONS = {"layout": "--format", "budget_arcmin": "--budget-arcmin", "pixel_for
 _PHASES = {"shots": "finding cuts", "matching": "matching", "converting": "converting"}
 
 
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """The inode and modification time of ``path`` (None if missing): a new output moved into place changes it."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns
+
+
 @app.command("convert")
 def convert(
     input_path: Path = typer.Argument(..., metavar="INPUT", help="A stereo video or image folder (SBS or TB, full or "
@@ -171,6 +180,7 @@ def convert(
 
                 work = work_folder(target)
                 note_if_interrupted(f"run the same command with --resume to reuse the finished shots in {work}")
+                written_before = _stamp(target)
                 try:
                     result = _conversion.convert_clip(
                         clip, target, display, budget_arcmin=budget_arcmin, layout=fmt, pixel_format=pixel_format, crf=crf,
@@ -179,9 +189,13 @@ def convert(
                         max_disparity=max_disparity, floating_window=floating_window, resume=resume, force=force,
                         progress=progress, workers=run_workers, scheduler=run_scheduler, split_frames=split_frames,
                     )  # fmt: skip
-                finally:  # the note only where a finished shot is kept for --resume
-                    if not (work.is_dir() and any(p.name.startswith("shot_") for p in work.iterdir())):
+                except BaseException:  # the note only where a finished shot is kept, or the output is in place
+                    if _stamp(target) not in (None, written_before):  # Ctrl-C while the output was measured
+                        note_if_interrupted(f"{target} was written in full; only its measurement was cut short")
+                    elif not (work.is_dir() and any(p.name.startswith("shot_") for p in work.iterdir())):
                         note_if_interrupted(None)
+                    raise
+                note_if_interrupted(None)  # done: nothing left to resume
         print_warnings(result.warnings)
         if as_json:
             print_json(result.to_dict())
