@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import median_time  # noqa: E402
 
-from vergence.cli._app import scene_rig  # noqa: E402
+from vergence.commands._scene import scene_rig  # noqa: E402
 from vergence.render import Tracer, builtin_scene  # noqa: E402
 from vergence.specular import specular_stereo  # noqa: E402
 from vergence.viewing import Display  # noqa: E402
