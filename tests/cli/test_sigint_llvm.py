@@ -58,10 +58,10 @@ _DRIVER = textwrap.dedent(
             return 0
 
         vergence.cli._run.run = run
-    from vergence.cli import _entry
+    from vergence.cli import entry
 
     sys.argv[0] = "vergence"
-    _entry()
+    entry()
     """
 )
 
