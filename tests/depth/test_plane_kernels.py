@@ -240,3 +240,9 @@ def test_fit_kernels_give_the_numpy_planes_on_a_real_scene(shared_data):
         assert np.isfinite(fit.planes).any(axis=1).mean() > 0.5
         _assert_same_fit(fit_segment_planes(d, labels), fit)
     assert np.isfinite(fill_from_planes(d, left)).mean() > np.isfinite(d).mean()
+
+
+@pytest.mark.parametrize("sigma", [1e300, 1001.0])
+def test_segment_image_refuses_a_gaussian_wider_than_its_limit(sigma):
+    with pytest.raises(ValueError, match="sigma must be at most 1000 px"):
+        segment_image(np.zeros((8, 8)), sigma=sigma)

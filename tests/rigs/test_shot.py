@@ -246,3 +246,17 @@ def test_plan_document_refuses_a_non_shot_and_passes_planner_errors():
     bad = _with(QUADRI, ("elements", 0, "point"), [0.0, 1.0, -10.0])  # behind the virtual rig (z = -20)
     with pytest.raises(ValueError, match="subject"):
         plan_document(shot_from_dict(bad))
+
+
+@pytest.mark.parametrize(("field", "value", "error"), [
+    ("position", (), ValueError), ("position", (0.0, math.nan, 0.0), ValueError), ("look_at", "abc", TypeError),
+    ("look_at", None, ValueError), ("up", (), ValueError), ("fov_deg", math.nan, ValueError),
+    ("width", -math.inf, TypeError), ("height", 0, ValueError), ("look_at", (0.0, 1.6, -20.0), ValueError),  # = position
+])
+def test_a_shot_camera_built_directly_is_checked_as_a_file_would_be(field, value, error):
+    from vergence.rigs import ShotCamera
+
+    args = {"position": (0.0, 1.6, -20.0), "look_at": (0.0, 1.0, -30.0), "up": (0.0, 1.0, 0.0), "fov_deg": 24.0,
+            "width": 480, "height": 270, field: value}
+    with pytest.raises(error, match="target must differ" if value == args["position"] and field == "look_at" else field):
+        ShotCamera(**args)

@@ -96,6 +96,10 @@ class SegmentPlanes:
         return (p[..., 0] * xs + p[..., 1] * ys + p[..., 2]).astype(np.float32)
 
 
+# segment_image's smoothing: a Gaussian wider than this (px) is refused; 4 sigma is its kernel's radius.
+MAX_SEGMENT_SIGMA_PX = 1000.0
+
+
 def segment_image(image: object, *, scale: float = 200.0, sigma: float = 0.8, min_size: int = 100) -> np.ndarray:
     """Colour segments of an image: Felzenszwalb & Huttenlocher's graph segmentation.
 
@@ -123,6 +127,8 @@ def segment_image(image: object, *, scale: float = 200.0, sigma: float = 0.8, mi
     s = check_positive("scale", scale)
     if not (isinstance(sigma, int | float | np.floating) and np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma must be a finite number >= 0; got {sigma!r}")
+    if sigma > MAX_SEGMENT_SIGMA_PX:  # a wider Gaussian only averages the image (and its kernel would not fit)
+        raise ValueError(f"sigma must be at most {MAX_SEGMENT_SIGMA_PX:g} px; got {sigma!r}")
     m = check_positive_int("min_size", min_size)
     return _graph_segments(_pixel_graph(img, float(sigma)), s, m)
 

@@ -112,6 +112,17 @@ class ShotCamera:
     width: int
     height: int
 
+    def __post_init__(self) -> None:
+        for name in ("position", "look_at", "up"):
+            value = getattr(self, name)
+            if isinstance(value, str | bytes):
+                raise TypeError(f"{name} must be 3 numbers; got {type(value).__name__}")
+            object.__setattr__(self, name, tuple(as_float_array(name, value, shape=(3,)).tolist()))
+        object.__setattr__(self, "fov_deg", check_finite("fov_deg", self.fov_deg))
+        object.__setattr__(self, "width", check_positive_int("width", self.width))
+        object.__setattr__(self, "height", check_positive_int("height", self.height))
+        self.camera()  # look_at's own checks: a field of view in (0, 180) degrees, distinct points, up not along the view
+
     def camera(self) -> Camera:
         """The pinhole camera (principal point at the image centre, square pixels)."""
         return look_at(self.position, self.look_at, self.up, fov_deg=self.fov_deg, width=self.width, height=self.height)
@@ -257,19 +268,16 @@ def _display(value: object) -> Display:
 
 def _camera(value: object) -> ShotCamera:
     data = _keys("camera", value, _CAMERA_KEYS)
-    view = ShotCamera(
-        position=_vector("camera.position", data["position"]),
-        look_at=_vector("camera.look_at", data["look_at"]),
-        up=_vector("camera.up", data.get("up", list(_DEFAULT_UP))),
-        fov_deg=check_finite("camera.fov_deg", data["fov_deg"]),
-        width=check_positive_int("camera.width", data["width"]),
-        height=check_positive_int("camera.height", data["height"]),
-    )
+    position = _vector("camera.position", data["position"])
+    target = _vector("camera.look_at", data["look_at"])
+    up = _vector("camera.up", data.get("up", list(_DEFAULT_UP)))
+    fov_deg = check_finite("camera.fov_deg", data["fov_deg"])
+    width = check_positive_int("camera.width", data["width"])
+    height = check_positive_int("camera.height", data["height"])
     try:
-        view.camera()
+        return ShotCamera(position=position, look_at=target, up=up, fov_deg=fov_deg, width=width, height=height)
     except (TypeError, ValueError) as exc:
         raise type(exc)(f"camera: {exc}") from None
-    return view
 
 
 def _elements(value: object) -> tuple[tuple[str, tuple[float, float, float]], ...]:
