@@ -169,6 +169,26 @@ function logTicks(lo, hi) {
 }
 
 // series: [{points: [[x, y|null], ...], cls, label}], x on a log axis when opts.xlog.
+// A plot's axes: grid lines and labels at the ticks, the frame, the axis labels (PLOT's margins; its
+// height given, as a histogram's SVG may be shorter).
+function drawAxes(svg, xticks, yticks, tx, ty, height, opts) {
+  const { width, left, right, top, bottom } = PLOT;
+  const grid = el("g", { class: "axes" });
+  for (const t of xticks) {
+    grid.append(el("line", { x1: tx(t), x2: tx(t), y1: top, y2: height - bottom, class: "grid" }));
+    grid.append(el("text", { x: tx(t), y: height - bottom + 14, "text-anchor": "middle" }, fmt(t, 3)));
+  }
+  for (const t of yticks) {
+    grid.append(el("line", { x1: left, x2: width - right, y1: ty(t), y2: ty(t), class: "grid" }));
+    grid.append(el("text", { x: left - 6, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
+  }
+  grid.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom, class: "frame" }));
+  grid.append(el("text", { x: (left + width - right) / 2, y: height - 6, "text-anchor": "middle", class: "label" }, opts.xlabel));
+  grid.append(el("text", { x: 12, y: (top + height - bottom) / 2, "text-anchor": "middle", class: "label",
+    transform: `rotate(-90 12 ${(top + height - bottom) / 2})` }, opts.ylabel));
+  svg.append(grid);
+}
+
 function drawPlot(svg, series, opts) {
   svg.replaceChildren();
   const { width, height, left, right, top, bottom } = PLOT;
@@ -196,20 +216,7 @@ function drawPlot(svg, series, opts) {
     svg.append(el("rect", { x: x0, y: top, width: Math.max(0, width - right - x0), height: height - top - bottom, class: "shade" }));
     svg.append(el("text", { x: x0 + 4, y: top + 12, class: "shade-label" }, opts.shade.label));
   }
-  const grid = el("g", { class: "axes" });
-  for (const t of opts.xlog ? logTicks(xlo, xhi) : xt.ticks) {
-    grid.append(el("line", { x1: tx(t), x2: tx(t), y1: top, y2: height - bottom, class: "grid" }));
-    grid.append(el("text", { x: tx(t), y: height - bottom + 14, "text-anchor": "middle" }, fmt(t, 3)));
-  }
-  for (const t of yr.ticks) {
-    grid.append(el("line", { x1: left, x2: width - right, y1: ty(t), y2: ty(t), class: "grid" }));
-    grid.append(el("text", { x: left - 6, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
-  }
-  grid.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom, class: "frame" }));
-  grid.append(el("text", { x: (left + width - right) / 2, y: height - 6, "text-anchor": "middle", class: "label" }, opts.xlabel));
-  grid.append(el("text", { x: 12, y: (top + height - bottom) / 2, "text-anchor": "middle", class: "label",
-    transform: `rotate(-90 12 ${(top + height - bottom) / 2})` }, opts.ylabel));
-  svg.append(grid);
+  drawAxes(svg, opts.xlog ? logTicks(xlo, xhi) : xt.ticks, yr.ticks, tx, ty, height, opts);
   for (const v of opts.vlines || []) {
     if (!(v.x >= xlo && v.x <= xhi)) continue;
     svg.append(el("line", { x1: tx(v.x), x2: tx(v.x), y1: top, y2: height - bottom, class: `vline ${v.cls || ""}` }));
@@ -301,21 +308,7 @@ function drawHistogram(svg, bars, opts) {
     if (band.label && x1 > x0) labels.push(el("text", { x: outside ? x0 - 3 : x0 + 3, y: top + 11 + 13 * labels.length,
       "text-anchor": outside ? "end" : "start", class: "shade-label halo" }, band.label));
   }
-  const grid = el("g", { class: "axes" });
-  for (const t of niceTicks(xlo, xhi, 8).ticks) {
-    if (t < xlo || t > xhi) continue;
-    grid.append(el("line", { x1: tx(t), x2: tx(t), y1: top, y2: height - bottom, class: "grid" }));
-    grid.append(el("text", { x: tx(t), y: height - bottom + 14, "text-anchor": "middle" }, fmt(t, 3)));
-  }
-  for (const t of yr.ticks) {
-    grid.append(el("line", { x1: left, x2: width - right, y1: ty(t), y2: ty(t), class: "grid" }));
-    grid.append(el("text", { x: left - 6, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
-  }
-  grid.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom, class: "frame" }));
-  grid.append(el("text", { x: (left + width - right) / 2, y: height - 6, "text-anchor": "middle", class: "label" }, opts.xlabel));
-  grid.append(el("text", { x: 12, y: (top + height - bottom) / 2, "text-anchor": "middle", class: "label",
-    transform: `rotate(-90 12 ${(top + height - bottom) / 2})` }, opts.ylabel));
-  svg.append(grid);
+  drawAxes(svg, niceTicks(xlo, xhi, 8).ticks.filter((t) => t >= xlo && t <= xhi), yr.ticks, tx, ty, height, opts);
   const g = el("g", { class: "bars" });
   for (const b of bars) {
     const x0 = clamp(b.lo), x1 = clamp(b.hi);
