@@ -29,6 +29,7 @@ VARIANTS = (
     ("SIBR k=3", 3, 0.0, math.inf),
     ("SIBR k=2", 2, 0.0, math.inf),
     ("default", 4, ULR_GAMMA, ULR_RELATIVE_THRESHOLD),
+    ("k=3 rel inf", 3, ULR_GAMMA, math.inf),  # Buehler's threshold alone, the last of three sources at weight 0
     ("rel 1.5", 4, ULR_GAMMA, 1.5),
     ("rel 3", 4, ULR_GAMMA, 3.0),
     ("rel 4", 4, ULR_GAMMA, 4.0),
