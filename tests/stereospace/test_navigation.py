@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from vergence.stereospace import JUMP_CONE_DEG, MOVE_EVENTS, StereoSpace, StereoState, pan, tangent, zoom
+from vergence.stereospace import JUMP_CONE_DEG, MOVE_EVENTS, StereoSpace, StereoState, pan, pan_sign, tangent, zoom
 
 # Two parallel unit segments 1 apart: regions (0, 0), (0, 1), (1, 1).
 LADDER = StereoSpace([[[0, 0, 0], [1, 0, 0]], [[0, 1, 0], [1, 1, 0]]])
@@ -273,3 +273,55 @@ def test_a_pan_past_the_last_region_stops_there_after_jumping():
     moved = pan(ROW, StereoState((0, 1), 0.5, 0.5), 5.0)
     assert moved.event == "jumped"  # jumped once, then stopped at the row's end
     assert_allclose(ROW.eyes(moved.state), [[2.0, 0.0, 0.0], [3.0, 0.0, 0.0]], atol=JUMP_TOL)
+
+
+# ---------------------------------------------------------------- which pan is "right" (issue 30)
+def test_pan_sign_by_hand():
+    """LADDER's segment 0 runs along +x; a view looking along +z with up -y has its right at +x
+    (camera frame: x = y x z with y = -up): from the first eye (x = 0.2) towards the second (0.5) is
+    right, from the second towards the first (the state read the other way round) too."""
+    forward, up = [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]
+    assert pan_sign(LADDER, StereoState((0, 0), 0.2, 0.5), forward=forward, up=up) == 1.0
+    assert pan_sign(LADDER, StereoState((0, 0), 0.2, 0.5), forward=[0.0, 0.0, -1.0], up=up) == -1.0
+    moved = pan(LADDER, StereoState((0, 0), 0.2, 0.5), 0.1 * pan_sign(LADDER, StereoState((0, 0), 0.2, 0.5),
+                                                                          forward=[0.0, 0.0, -1.0], up=up))
+    assert moved.state.li < 0.2  # looking along -z, right is -x
+
+
+@pytest.mark.parametrize("bad", [[0.0, 1.0], [np.nan, 0.0, 1.0]])
+def test_pan_sign_refuses_bad_directions(bad):
+    with pytest.raises(ValueError, match="forward must be 3 finite numbers"):
+        pan_sign(LADDER, StereoState((0, 0), 0.2, 0.5), forward=bad, up=[0.0, -1.0, 0.0])
+
+
+def test_right_presses_move_kermit_right_in_the_world(shared_data):
+    """Issue 30: on kermit the eyes' order flips inside region (13, 15) (the baseline turns past the
+    view's axis), so the page's old rule (pan by -step when the pair is swapped) went back and forth
+    (map x -0.09, +0.08, -0.13, +0.03, -0.18). With :func:`pan_sign` every right press moves the eyes'
+    midpoint (world positions, the library's eyes) along the start view's world right, until it stops."""
+    from vergence.stereospace import PreparedCollection, eye_order, load_collection, pair_cameras, start_state
+    from vergence.viewing import Display
+
+    folder = shared_data / "collections" / "kermit"
+    prepared = PreparedCollection(load_collection(folder / "bundle.out", images=folder), grid_step=16)
+    space, col, cams, up = prepared.space, prepared.collection, prepared.segment_cameras, prepared.up
+    start = start_state(prepared, Display.preset("desktop-24"))[0]
+    first, second = pair_cameras(space, col, start, segment_cameras=cams)
+    right = np.cross(first.R[2] + second.R[2], up)  # the start view's world right, fixed for the walk
+    step = 0.25 * space.point(start.region[0], start.li, start.region[1], start.lj)[3]  # the page's pan step
+
+    def walk(rule):
+        state, xs = start, [float(space.eyes(start).mean(axis=0) @ right)]
+        for _ in range(8):
+            a, b = pair_cameras(space, col, state, segment_cameras=cams)
+            move = pan(space, state, step * rule(state, a, b))
+            if move.event == "stopped":
+                break
+            state = move.state
+            xs.append(float(space.eyes(state).mean(axis=0) @ right))
+        return np.diff(xs)
+
+    new = walk(lambda s, a, b: pan_sign(space, s, forward=a.R[2] + b.R[2], up=up))
+    assert len(new) >= 6 and (new > 0).all(), new
+    old = walk(lambda s, a, b: -1.0 if eye_order(a, b, up) else 1.0)
+    assert (old < 0).any(), old  # the flag's rule goes back: the walk above would catch a return to it

@@ -87,7 +87,7 @@ def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_scree
 
     # arrow key: a pan by one step, as POST .../move answers it (the right arrow moves the camera right)
     start = {k: result["start"][k] for k in ("region", "li", "lj")}
-    sign = -1 if result["start"]["swapped"] else 1
+    sign = result["start"]["pan_right"]  # the pan towards the view's world right (issue 30)
     page.keyboard.press("ArrowRight")
     page.wait_for_function(f"JSON.parse(document.getElementById('ss-li').dataset.value) !== {start['li']!r} "
                            f"|| document.body.dataset.state === 'error'", timeout=MOVE_MS)  # fmt: skip
@@ -124,7 +124,7 @@ def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_scree
                          json={"state": before, "zoom": -result["zoom_step"]}, timeout=30).json()
     _check_view(page, wheeled["state"])
     before = {k: wheeled["state"][k] for k in ("region", "li", "lj")}
-    sign = -1 if wheeled["state"]["swapped"] else 1
+    sign = wheeled["state"]["pan_right"]
     page.mouse.move(cx, cy)
     page.mouse.down()
     page.mouse.move(cx + box["width"] / 8 * 1.2, cy, steps=4)

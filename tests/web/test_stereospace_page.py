@@ -10,6 +10,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from numpy.testing import assert_allclose
 import pytest
 
 pytest.importorskip("fastapi", reason="the web extra is not installed: pip install 'vergence[web]'")
@@ -176,6 +177,31 @@ def test_a_long_pan_jumps_at_the_region_border(client, kermit):
     # a pan of zero moves nothing; both zero is no step at all
     still = client.post(f"/api/stereospace/{job['id']}/move", json={"state": _state(r["start"])}).json()
     assert still["event"] == "moved" and still["steps"] == [] and _state(still["state"]) == _state(r["start"])
+
+
+def test_right_presses_keep_moving_kermit_right_in_the_world(client, kermit):
+    """Issue 30: the page pans by ``pan_right * pan_step`` for the right arrow. Successive presses move
+    the eyes' midpoint (world positions from the library, not the server's map) along the start view's
+    world right every time (the eyes' order, ``swapped``, flips on the way in region (13, 15))."""
+    from vergence.stereospace import pair_cameras
+
+    job, prepared = kermit
+    r = job["result"]
+    space = prepared.space
+    first, second = pair_cameras(space, prepared.collection, _lib_state(r["start"]))
+    right = np.cross(first.R[2] + second.R[2], prepared.up)
+    view, xs, flags = r["start"], [], set()
+    for _ in range(8):
+        xs.append(float(space.eyes(_lib_state(view)).mean(axis=0) @ right))
+        assert_allclose(view["centre_world"], space.eyes(_lib_state(view)).mean(axis=0), atol=1e-12)
+        flags.add(view["swapped"])
+        a = client.post(f"/api/stereospace/{job['id']}/move",
+                        json={"state": _state(view), "pan": view["pan_right"] * r["pan_step"]}).json()
+        if a["event"] == "stopped":
+            break
+        view = a["state"]
+    assert len(xs) >= 6 and (np.diff(xs) > 0).all(), xs
+    assert flags == {False, True}  # the walk passes where the eyes' order flips
 
 
 @pytest.mark.parametrize(("body", "message"), [

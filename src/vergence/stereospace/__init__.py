@@ -46,7 +46,7 @@ from vergence.stereospace.triangulation import (
     project_distorted,
     triangulate_points,
 )
-from vergence.stereospace.navigation import JUMP_SAMPLES, MAX_PAN_JUMPS, MOVE_EVENTS, Move, pan, tangent, zoom
+from vergence.stereospace.navigation import JUMP_SAMPLES, MAX_PAN_JUMPS, MOVE_EVENTS, Move, pan, pan_sign, tangent, zoom
 from vergence.stereospace.space import (
     JUMP_CONE_DEG,
     PARALLEL_SINE,
@@ -189,6 +189,7 @@ __all__ = [
     "pair_cameras",
     "pair_quality",
     "pan",
+    "pan_sign",
     "plane_view",
     "project_distorted",
     "render_collection",

@@ -31,7 +31,8 @@ import numpy as np
 from vergence._validate import check_finite, check_in_range
 from vergence.stereospace.space import JUMP_CONE_DEG, StereoSpace, StereoState
 
-__all__ = ["JUMP_CONE_DEG", "JUMP_SAMPLES", "MAX_PAN_JUMPS", "MOVE_EVENTS", "Move", "pan", "tangent", "zoom"]
+__all__ = ["JUMP_CONE_DEG", "JUMP_SAMPLES", "MAX_PAN_JUMPS", "MOVE_EVENTS", "Move", "pan", "pan_sign", "tangent",
+           "zoom"]
 
 JUMP_SAMPLES = 17
 """Samples per side of the tessellation of a region searched for a jump: 289 per region; with the two
@@ -85,6 +86,34 @@ def tangent(space: StereoSpace, state: StereoState) -> np.ndarray:
     if float(mid_rate @ (eyes[1] - eyes[0])) < 0.0:
         T = -T
     return T
+
+
+def pan_sign(space: StereoSpace, state: StereoState, *, forward: object, up: object) -> float:
+    """The sign (1.0 or -1.0) of the :func:`pan` that moves the view position to the viewer's right.
+
+    The viewer's right is the world direction ``forward x up`` (camera frame: x right, y down, z
+    forward, so ``x = (-up) x forward``), ``forward`` the view's direction (e.g. the sum of the eyes'
+    optical axes) and ``up`` the collection's (:func:`~vergence.stereospace.collection_up`); the
+    sign is that of the view position's rate ``(u_i T_i + u_j T_j) / 2`` along it (:func:`tangent`).
+    Unlike the order of the eyes (``eye_order``, which flips where the baseline turns past the
+    view's axis inside a region, e.g. kermit's region (13, 15)), it depends only on where the view
+    looks, so successive presses of one arrow key keep moving the same way in the world
+    (issue 30). 1.0 where the rate has no component along the right (a forward along up).
+
+    Raises
+    ------
+    ValueError
+        A ``forward`` or ``up`` that is not 3 finite numbers; a state outside the space.
+    """
+    f = np.asarray(forward, dtype=np.float64)
+    u = np.asarray(up, dtype=np.float64)
+    for name, v in (("forward", f), ("up", u)):
+        if v.shape != (3,) or not np.isfinite(v).all():
+            raise ValueError(f"{name} must be 3 finite numbers; got {np.asarray(v).tolist()!r}")
+    state, _, ui, uj, _, _ = _frame(space, state)
+    T = tangent(space, state)
+    rate = (ui * T[0] + uj * T[1]) / 2.0
+    return -1.0 if float(rate @ np.cross(f, u)) < 0.0 else 1.0
 
 
 def zoom(space: StereoSpace, state: StereoState, v: float, *, cone_deg: float = JUMP_CONE_DEG) -> Move:

@@ -152,7 +152,7 @@ def _state(state: Any) -> dict[str, Any]:
 
 def _view(live: _Live, state: Any) -> dict[str, Any]:
     """A state as the page shows it: parameters, stereo point, and on the map the eyes and the region."""
-    from vergence.stereospace import eye_order, pair_cameras
+    from vergence.stereospace import eye_order, pair_cameras, pan_sign
 
     prepared = live.prepared
     space, cams, names = prepared.space, prepared.segment_cameras, prepared.collection.names
@@ -160,13 +160,16 @@ def _view(live: _Live, state: Any) -> dict[str, Any]:
     eyes = space.eyes(state)
     first, second = pair_cameras(space, prepared.collection, state, segment_cameras=cams)
     swapped = eye_order(first, second, prepared.up)  # the left eye as vergence.stereospace.stereo_pair orders it
+    # the right arrow pans by pan_right * step: towards the view's world right, whatever the eyes' order
+    pan_right = pan_sign(space, state, forward=first.R[2] + second.R[2], up=prepared.up)
     left, right = live.to_map(eyes[::-1] if swapped else eyes)
     point = space.point(i, state.li, j, state.lj)
     corners = [(0, 0), (1, 0), (1, 1), (0, 1)] if i != j else [(0, 0), (0, 1), (1, 1)]
     seg = space.segments
     outline = live.to_map(np.array([(seg[i, a] + seg[j, b]) / 2.0 for a, b in corners]))
     return {**_state(state), "stereo_point": [float(v) for v in point], "interocular": float(point[3]),
-            "swapped": swapped, "eyes": {"left": _xy(left), "right": _xy(right)},
+            "swapped": swapped, "pan_right": pan_right, "centre_world": [float(v) for v in eyes.mean(axis=0)],
+            "eyes": {"left": _xy(left), "right": _xy(right)},
             "stereo_camera": _xy((left + right) / 2.0), "region_outline": [_xy(p) for p in outline],
             "segments": [[names[cams[s, 0]], names[cams[s, 1]]] for s in (i, j)]}  # fmt: skip
 

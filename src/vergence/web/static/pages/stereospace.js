@@ -115,9 +115,9 @@ function ssStateBody(view) { return { region: view.region, li: view.li, lj: view
 function ssMove(panSteps, zoomSteps) {
   if (!SS.job) return;
   const r = SS.result;
-  // the arrow keys move the stereo camera left or right on screen: positive pan goes from the first eye to the
-  // second, which is the right eye unless the pair is swapped
-  const sign = SS.view && SS.view.swapped ? -1 : 1;
+  // the arrow keys move the stereo camera left or right on screen: the server's pan_right is the sign of the pan
+  // towards the view's world right (not the eyes' order, which flips inside some regions: issue 30)
+  const sign = SS.view ? SS.view.pan_right : 1;
   const clamp = (v) => Math.max(-r.max_move, Math.min(r.max_move, v));
   SS.pending.pan = clamp(SS.pending.pan + sign * panSteps * r.pan_step);
   SS.pending.zoom = clamp(SS.pending.zoom + zoomSteps * r.zoom_step);
