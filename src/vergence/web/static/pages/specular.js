@@ -53,6 +53,7 @@ async function initSpecular() {
     document.getElementById("spec-layer").addEventListener("change", specLoadPicture);
     document.getElementById("spec-term").addEventListener("change", specDraw);
     specCanvasEvents(document.getElementById("spec-canvas"));
+    specInitOverlays();
     // the right eye is one render for every re-optimisation: the base job's (a re-optimisation writes it on request)
     offerVR(document.getElementById("spec-vr"), () => ({
       left: jobFile(spec.shown, "optimised_left.png"), right: jobFile(spec.base, "optimised_right.png") }));
@@ -318,16 +319,8 @@ async function specReoptimiseOnce(strokeStart) {
 // The shown result's comfort overlay (disparity_after.npy: (N, H, W) float32 arcmin, NaN: no match), loaded once.
 async function specLoadOverlay(id) {
   if (spec.overlay && spec.overlay.id === id) return;
-  const response = await fetch(jobFile(id, "disparity_after.npy"));
-  if (!response.ok) throw new ApiError(`disparity_after.npy: HTTP ${response.status}`);
-  const bytes = await response.arrayBuffer();
-  const view = new DataView(bytes);
-  const headerLength = view.getUint16(8, true);
-  const header = new TextDecoder().decode(new Uint8Array(bytes, 10, headerLength));
-  if (!header.includes("'<f4'")) throw new ApiError("disparity_after.npy: expected little-endian float32");
-  const shape = header.match(/'shape': \((\d+), (\d+), (\d+)\)/).slice(1).map(Number);
-  spec.overlay = { id, n: shape[0], height: shape[1], width: shape[2],
-    data: new Float32Array(bytes.slice(10 + headerLength)) };
+  const npy = await ovFetchNpy(id, "disparity_after.npy", 3);
+  spec.overlay = { id, n: npy.shape[0], height: npy.shape[1], width: npy.shape[2], data: npy.data };
 }
 
 // Tint the chosen layer's pixels outside the comfort zone after the latest solve (when the box is ticked) and
@@ -398,6 +391,7 @@ async function showSpecular(id, report) {
     showError(exc.message || "the new anaglyph cannot be loaded");
   }
   specDraw();
+  specLoadOverlays(id).catch(specOverlaysError);  // the heat map and histogram (specular_overlays.js)
   latest.dataset.job = id;
   document.getElementById("spec-latest-caption").textContent = id === spec.base
     ? "optimised anaglyph (the first run)" : "optimised anaglyph (the latest re-optimisation)";
