@@ -73,8 +73,8 @@ def test_the_heat_map_and_histogram_are_the_jobs_disparity(page, server_url):
     heat = page.locator('[data-testid="spec-heat-canvas"]')
     expect(heat).to_be_visible()
     assert heat.evaluate("c => [c.width, c.height]") == [TINY["width"], TINY["height"]]
-    pixels = np.array(heat.evaluate("""c => Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data)"""),
-                      float).reshape(TINY["height"], TINY["width"], 4)
+    rgba = heat.evaluate("c => Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data)")
+    pixels = np.array(rgba, float).reshape(TINY["height"], TINY["width"], 4)
     known = np.isfinite(plane)
     assert (pixels[~known, 3] == 0).all() and (pixels[known, 3] == 255).all()  # unmatched: transparent
     ys, xs = np.nonzero(known)
@@ -94,7 +94,8 @@ def test_the_heat_map_and_histogram_are_the_jobs_disparity(page, server_url):
     inside = np.count_nonzero((values >= zone[0]) & (values <= zone[1]))
     assert _float(page, "spec-share-inside") == pytest.approx(inside / values.size, abs=1e-12)
     assert int(_float(page, "spec-share-inside", "data-count")) == inside
-    assert _float(page, "spec-share-div") == pytest.approx(np.count_nonzero(values > divergence) / values.size, abs=1e-12)
+    diverging = np.count_nonzero(values > divergence) / values.size
+    assert _float(page, "spec-share-div") == pytest.approx(diverging, abs=1e-12)
     expect(page.locator('[data-testid="spec-share-div"]')).to_contain_text(f"{divergence:.4g}′")
     # the chosen layer's plain share inside, as the library's report counts it (inside / matched, after)
     mine = plane[known]
@@ -109,7 +110,8 @@ def test_the_heat_map_and_histogram_are_the_jobs_disparity(page, server_url):
     page.wait_for_function(f"document.getElementById('spec-ov').dataset.layer === '{other}'")
     plane = disparity[other - 1]
     mine = plane[np.isfinite(plane)]
-    assert int(_float(page, "spec-share-layer", "data-count")) == np.count_nonzero((mine >= zone[0]) & (mine <= zone[1]))
+    count = np.count_nonzero((mine >= zone[0]) & (mine <= zone[1]))
+    assert int(_float(page, "spec-share-layer", "data-count")) == count
     assert _float(page, "spec-share-inside") == pytest.approx(inside / values.size, abs=1e-12)
 
 

@@ -44,9 +44,9 @@ if TYPE_CHECKING:
     from vergence.web.data import DataIndex
     from vergence.web.uploads import UploadStore
 
-__all__ = ["HEAT_SCALE_ARCMIN", "KINDS", "MAX_HEAT_SCALE_ARCMIN", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS",
-           "SHOWN_FIRST", "JobEnv", "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap",
-           "add_routes", "paintable_layers", "specular_overlay"]
+__all__ = ["HEAT_SCALE_ARCMIN", "KINDS", "MAX_HEAT_SCALE_ARCMIN", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE",
+           "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS", "SHOWN_FIRST", "JobEnv", "RenderJob", "SpecularJob",
+           "SpecularReoptimiseJob", "WeightMap", "add_routes", "paintable_layers", "specular_overlay"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
 MAX_RENDER_JOB_SIDE = 2048
