@@ -53,6 +53,7 @@ from vergence.web._errors import refusal, validation_message
 from vergence.web._models import RequestModel
 from vergence.web._slots import Busy, run_in_slot
 from vergence.web.jobs import JobContext, JobKind, JobManager, JobRefused, JobResult, Prepared
+from vergence.web.stereospace_scene import scene_image, scene_of
 
 __all__ = ["DEFAULT_PAIR_WIDTH", "KIND", "KINDS", "MAX_MAP_POINTS", "MAX_MOVE_EXTENTS", "MAX_PAIR_FILES",
            "MAX_PAIR_WIDTH", "MIN_PAIR_WIDTH", "PAIR_CACHE", "MoveRequest", "PairRequest", "StateModel",
@@ -167,11 +168,25 @@ def _view(live: _Live, state: Any) -> dict[str, Any]:
     corners = [(0, 0), (1, 0), (1, 1), (0, 1)] if i != j else [(0, 0), (0, 1), (1, 1)]
     seg = space.segments
     outline = live.to_map(np.array([(seg[i, a] + seg[j, b]) / 2.0 for a, b in corners]))
+    quality = _quality(live, (first, second)) if float(point[3]) > space.tolerance else None
     return {**_state(state), "stereo_point": [float(v) for v in point], "interocular": float(point[3]),
+            "quality": quality,
             "swapped": swapped, "pan_right": pan_right, "centre_world": [float(v) for v in eyes.mean(axis=0)],
             "eyes": {"left": _xy(left), "right": _xy(right)},
             "stereo_camera": _xy((left + right) / 2.0), "region_outline": [_xy(p) for p in outline],
             "segments": [[names[cams[s, 0]], names[cams[s, 1]]] for s in (i, j)]}  # fmt: skip
+
+
+def _quality(live: _Live, cameras: tuple) -> dict[str, Any] | None:
+    """The disparity range of a pair's cameras on the job's display (None: the pair cannot be rectified)."""
+    from vergence.stereospace import pair_quality
+
+    try:
+        q = pair_quality(live.prepared.collection, cameras, live.display, trim=0.01)
+    except ValueError:
+        return None
+    return {k: q[k] for k in ("points_seen", "disparity_arcmin", "range_arcmin", "zone_arcmin", "inside",
+                              "fits_with_shift")}  # fmt: skip
 
 
 def _map(live: _Live, paths: list[list[int]]) -> dict[str, Any]:
@@ -340,7 +355,6 @@ def _move(live: _Live, body: MoveRequest) -> dict[str, Any]:
 
 def _pair(live: _Live, job_id: str, body: PairRequest) -> dict[str, Any]:
     from vergence.display import LAYOUTS
-    from vergence.stereospace import pair_quality
 
     if body.format not in LAYOUTS:
         raise _Refused(422, f"format must be one of {', '.join(LAYOUTS)}; got {body.format!r}")
@@ -370,11 +384,7 @@ def _pair(live: _Live, job_id: str, body: PairRequest) -> dict[str, Any]:
                 _write(live, name)
             images[role] = f"/api/stereospace/{job_id}/views/{name}"
         t2 = time.perf_counter()
-    quality = None
-    if result.rectification is not None:
-        q = pair_quality(live.prepared.collection, result.cameras, live.display, trim=0.01)
-        quality = {k: q[k] for k in ("points_seen", "disparity_arcmin", "range_arcmin", "zone_arcmin", "inside",
-                                     "fits_with_shift")}  # fmt: skip
+    quality = _quality(live, result.cameras) if result.rectification is not None else None
     height, width = result.left.shape[:2]
     return {"state": _view(live, state), "format": body.format, "width": int(width), "height": int(height),
             "images": images, "swapped": result.swapped, "quality": quality, "cached": cached,
@@ -431,7 +441,8 @@ def _body_schema(model: type[pydantic.BaseModel]) -> dict[str, Any]:
 
 
 def add_routes(app: FastAPI, jobs: JobManager) -> None:
-    """``POST /api/stereospace/{job_id}/move`` and ``/pair``, ``GET /api/stereospace/{job_id}/views/{name}``."""
+    """``POST /api/stereospace/{job_id}/move`` and ``/pair``, ``GET /api/stereospace/{job_id}/views/{name}``,
+    ``/scene`` and ``/scene/{name}``."""
 
     def live_of(job_id: str) -> _Live:
         try:
@@ -468,6 +479,32 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
         left, right}, swapped, quality, cached, seconds}``: the images' URLs (PNG), the disparity
         range on the job's display (None for coincident eyes) and the time taken."""
         return await answer(job_id, request, PairRequest, lambda live, body: _pair(live, job_id, body))
+
+    @app.get(f"/api/{KIND}/{{job_id}}/scene", summary="What the page needs to draw any state itself (WebGL2)",
+             responses={404: _ERROR, 409: _ERROR})
+    def scene(job_id: str) -> Response:  # sync: starlette runs it in its thread pool
+        """Cameras, segments, up, sparse points, image URLs and S2's render parameters
+        (:func:`vergence.web.stereospace_scene.scene_of`): the browser renders each eye from them."""
+        try:
+            live = live_of(job_id)
+        except _Refused as exc:
+            return refusal(exc.status, exc.message)
+        width = min(DEFAULT_PAIR_WIDTH, live.prepared.collection.cameras[0].width)
+        return JSONResponse(scene_of(live.prepared, image_url=f"/api/{KIND}/{job_id}/scene", default_width=width))
+
+    @app.get(f"/api/{KIND}/{{job_id}}/scene/{{name}}", summary="A source image of the scene (a name /scene answered)",
+             response_class=FileResponse, responses={404: _ERROR, 409: _ERROR})
+    def scene_file(job_id: str, name: str) -> Response:
+        """``source-{k}.png``: camera ``k``'s decoded image, 8-bit PNG; any other name is 404."""
+        try:
+            live = live_of(job_id)
+        except _Refused as exc:
+            return refusal(exc.status, exc.message)
+        with live.lock:
+            path = scene_image(live.prepared, live.folder.parent / "scene", name)
+        if path is None:
+            return refusal(404, f"job {job_id} has no scene image {name[:40]!r}: GET /api/{KIND}/{job_id}/scene names them")
+        return FileResponse(path, media_type="image/png")
 
     @app.get(f"/api/{KIND}/{{job_id}}/views/{{name}}", summary="An image of a pair (a name /pair answered)",
              response_class=FileResponse, responses={404: _ERROR, 409: _ERROR})

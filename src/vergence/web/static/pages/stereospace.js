@@ -5,10 +5,16 @@
 // browses: each move is POST /api/stereospace/{job}/move (S2 §4.1: pan, zoom, jumps at region borders), each
 // view POST /api/stereospace/{job}/pair (the pair's images by URL). The page keeps only the state the server
 // answered; moves asked while one is running are summed and sent as one.
+// With WebGL2 (issue 30) the page draws each pair itself from the job's scene (stereospace_cams.js,
+// stereospace_gl.js: the same cameras, MLS maps and ULR blend as the server's pair) and animates each move at the
+// display's frame rate (within a region along the parameters, across a jump between the eyes' cameras); the server
+// still decides every move (POST .../move). Without WebGL2, or for a layout it does not draw, the server's PNG.
 const SS = {
   job: null, preparing: null, result: null, map: null, view: null, pair: null,
   busy: false, pending: { pan: 0, zoom: 0 }, vr: false, drag: null,
+  gl: null, frames: [], timing: false,  // the browser renderer; per frame {t, ms} (timing: wait for the GPU)
 };
+const SS_ANIMATE_MS = 200;  // a move's animation
 const SS_WIDTHS = [160, 240, 320, 480, 640, 960, 1280];
 const SS_DRAG_STEPS = 8;  // pan steps for a drag across the whole view or map
 const SS_MAP = { width: 600, height: 480, pad: 16 };
@@ -87,6 +93,7 @@ async function ssPrepare() {
   SS.job = status.id;
   SS.result = r;
   SS.pending = { pan: 0, zoom: 0 };
+  await ssStartGL(status.id);
   ssOptions(r);
   const browser = document.getElementById("ss-browser");
   browser.dataset.job = status.id;
@@ -94,6 +101,27 @@ async function ssPrepare() {
   document.getElementById("ss-controls").disabled = false;
   ssShowState(r.start, null);
   await ssShowPair();
+}
+
+// the browser renderer of a job's scene, or null (the page then shows the server's pairs, and says so)
+async function ssStartGL(job) {
+  const note = document.getElementById("ss-renderer");
+  SS.gl = null;
+  let gl = null, why = "WebGL2 is not available in this browser";
+  try {
+    const forced = new URLSearchParams(location.search).get("renderer") === "server";
+    if (forced) why = "?renderer=server asked";
+    else if (typeof SSGL !== "undefined") gl = SSGL.create(document.getElementById("ss-canvas"));
+    if (gl) await gl.load(await api(`/api/stereospace/${job}/scene`));
+  } catch (exc) {
+    why = `the browser renderer failed (${exc.message})`;
+    gl = null;
+  }
+  if (job !== SS.job && SS.job !== null) return;
+  SS.gl = gl;
+  note.dataset.renderer = gl ? "webgl2" : "server";
+  note.textContent = gl ? `Drawn in the browser (WebGL2 on ${gl.name}); moves animate. Layouts ${SSGL.FORMATS.join(", ")}; `
+    + "the others come from the server." : `${why}: each pair is drawn by the server.`;
 }
 
 function ssOptions(r) {
@@ -134,6 +162,7 @@ async function ssRunMoves() {
       const job = SS.job;
       const answer = await api(`/api/stereospace/${job}/move`, { state: ssStateBody(SS.view), pan, zoom });
       if (job !== SS.job) return;
+      if (ssDrawsHere()) await ssAnimate(SS.view, answer.state);
       ssShowState(answer.state, answer);
       if (SS.pending.pan === 0 && SS.pending.zoom === 0) await ssShowPair(true);
     }
@@ -216,8 +245,77 @@ function ssShowState(view, answer) {
   ssDrawMap(view);
 }
 
+// ---------------------------------------------------------------- the browser renderer
+function ssDrawsHere() { return SS.gl !== null && SSGL.FORMATS.includes(document.getElementById("ss-format").value); }
+
+// one frame: the pair of two eye cameras on the canvas; its time in SS.frames
+function ssDrawCameras(first, second) {
+  const t0 = performance.now();
+  const pair = SS.gl.drawCameras(first, second, Number(document.getElementById("ss-width").value),
+    document.getElementById("ss-format").value);
+  if (SS.timing) SS.gl.finish();
+  SS.frames.push({ t: t0, ms: performance.now() - t0 });
+  if (SS.frames.length > 1000) SS.frames.shift();
+  return pair;
+}
+
+function ssDrawState(state) { return ssDrawCameras(...SSCams.eyeCameras(SS.gl.scene(), state)); }
+
+// from one state to the next at the display's frame rate: along the parameters inside a region, between the eyes'
+// cameras across a jump; a state on the way that cannot be drawn (no rectification) ends the animation
+function ssAnimate(from, to) {
+  const scene = SS.gl.scene();
+  const same = from.region[0] === to.region[0] && from.region[1] === to.region[1];
+  const [fa, fb] = SSCams.eyeCameras(scene, from), [ta, tb] = SSCams.eyeCameras(scene, to);
+  return new Promise((resolve) => {
+    let t0 = null;
+    const frame = (now) => {
+      t0 = t0 === null ? now : t0;
+      const t = Math.min(1, (now - t0) / SS_ANIMATE_MS);
+      try {
+        if (same) ssDrawState({ region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) });
+        else ssDrawCameras(SSCams.interpolate(fa, ta, t), SSCams.interpolate(fb, tb, t));
+      } catch (exc) {
+        resolve();
+        return;
+      }
+      if (t < 1) requestAnimationFrame(frame);
+      else resolve();
+    };
+    requestAnimationFrame(frame);
+  });
+}
+
+function ssShowDrawn(inMove) {
+  const canvas = document.getElementById("ss-canvas"), img = document.getElementById("ss-pair");
+  let pair;
+  try {
+    pair = ssDrawState(SS.view);
+  } catch (exc) {
+    document.getElementById("ss-view").classList.add("stale");
+    if (inMove) throw exc;
+    showError(`this pair cannot be shown: ${exc.message}`);
+    document.body.dataset.state = "error";
+    return;
+  }
+  canvas.style.display = "block";
+  img.hidden = true;
+  document.getElementById("ss-view").classList.remove("stale");
+  const q = SS.view.quality, last = SS.frames[SS.frames.length - 1];
+  ssSet("ss-range", q ? q.range_arcmin : null, q && q.range_arcmin !== null
+    ? `${fmt(q.range_arcmin, 3)}′ (zone ${fmt(q.zone_arcmin[1] - q.zone_arcmin[0], 3)}′${q.fits_with_shift ? ", fits with a shift" : ""})`
+    : "— (mono)");
+  document.getElementById("ss-caption").textContent = `The stereo view: ${document.getElementById("ss-format").value}, `
+    + `${pair.left.width} × ${pair.left.height} per view, drawn in the browser in ${fmt(last.ms, 3)} ms.`;
+  showError(null);
+  if (!inMove) document.body.dataset.state = "ready";
+}
+
 async function ssShowPair(inMove = false) {
   if (!SS.job || !SS.view) return;
+  if (ssDrawsHere()) return ssShowDrawn(inMove);
+  document.getElementById("ss-canvas").style.display = "none";
+  document.getElementById("ss-pair").hidden = false;
   const job = SS.job;
   const body = {
     state: ssStateBody(SS.view), format: document.getElementById("ss-format").value,

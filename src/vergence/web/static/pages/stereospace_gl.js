@@ -1,0 +1,238 @@
+"use strict";
+
+// ---------------------------------------------------------------- StereoSpace in the browser: the WebGL2 renderer
+// Draws the stereo pair of any state from the job's scene (GET /api/stereospace/{job}/scene): stereospace_cams.js
+// makes each eye's cameras and S2's view plan (sources, MLS maps and angle penalties at the grid nodes); a
+// fragment shader does _mls_view_kernels.render_view's per-pixel pass (the node values bilinear, P = max(floor,
+// P_ANG) where the map lands on the source, else infinite; ULR weights over the k best, Buehler et al. 2001; the
+// sources sampled bilinearly with edge pixels repeated, texelFetch so the weights are exact) into one texture per
+// eye; a second pass packs the eyes for the display (side by side, top-bottom, cross-eyed, anaglyphs).
+const SSGL = (() => {
+  // the layouts drawn here (vergence.display.pack's names); the others are the server's
+  const FORMATS = ["anaglyph", "anaglyph-red-cyan", "sbs", "cross-eyed", "tb"];
+  const MAX_SOURCES = 4;
+  const VERTEX = `#version 300 es
+in vec2 corner;
+void main() { gl_Position = vec4(corner, 0.0, 1.0); }`;
+  const RENDER = `#version 300 es
+precision highp float; precision highp int; precision highp sampler2DArray;
+uniform sampler2DArray images;
+uniform highp sampler2D nodes;
+uniform int layer[4];
+uniform ivec2 size[4];
+uniform int count, nx, ny, step, height, k;
+uniform float lastX, lastY, floorP, scale, negligible;
+out vec4 colour;
+vec3 node(int s, int j, int i) { return texelFetch(nodes, ivec2(i, s * ny + j), 0).xyz; }
+vec3 tap(int n, int x, int y, ivec2 wh) { return texelFetch(images, ivec3(clamp(x, 0, wh.x - 1), clamp(y, 0, wh.y - 1), n), 0).rgb; }
+void main() {
+  int x = int(gl_FragCoord.x), y = height - 1 - int(gl_FragCoord.y);
+  int i = min(x / step, nx - 2), j = min(y / step, ny - 2);
+  float x1 = i + 1 == nx - 1 ? lastX : float((i + 1) * step), y1 = j + 1 == ny - 1 ? lastY : float((j + 1) * step);
+  float tx = (float(x) - float(i * step)) / (x1 - float(i * step)), ty = (float(y) - float(j * step)) / (y1 - float(j * step));
+  float pen[4]; vec2 uv[4]; float w[4];
+  int m = 0;
+  for (int s = 0; s < 4; s++) {
+    pen[s] = -1.0; w[s] = 0.0; uv[s] = vec2(0.0);
+    if (s >= count || layer[s] < 0) continue;
+    vec3 a0 = node(s, j, i), a1 = node(s, j, i + 1);
+    vec3 a = a0 + ty * (node(s, j + 1, i) - a0), b = a1 + ty * (node(s, j + 1, i + 1) - a1);
+    vec3 v = a + tx * (b - a);
+    uv[s] = v.xy;
+    vec2 wh = vec2(size[s]);
+    if (v.x >= -0.5 && v.x <= wh.x - 0.5 && v.y >= -0.5 && v.y <= wh.y - 0.5) { pen[s] = max(floorP, v.z); m++; }
+  }
+  float total = 0.0;
+  if (m >= k) {  // the k-th smallest penalty: count the valid ones below each
+    float kth = 0.0;
+    for (int s = 0; s < 4; s++) {
+      if (pen[s] < 0.0) continue;
+      int below = 0, tie = 0;
+      for (int r = 0; r < 4; r++) {
+        if (pen[r] < 0.0) continue;
+        if (pen[r] < pen[s]) below++; else if (pen[r] == pen[s] && r < s) tie++;
+      }
+      if (below + tie == k - 1) kth = pen[s];
+    }
+    float thresh = scale * kth;
+    for (int s = 0; s < 4; s++) { w[s] = pen[s] < 0.0 ? 0.0 : max(0.0, 1.0 - pen[s] / thresh); total += w[s]; }
+  } else {
+    for (int s = 0; s < 4; s++) { w[s] = pen[s] < 0.0 ? 0.0 : 1.0; total += w[s]; }
+  }
+  vec3 c = vec3(0.0);
+  for (int s = 0; s < 4; s++) {
+    float wn = total > 0.0 ? w[s] / total : 0.0;
+    if (wn <= negligible) continue;
+    vec2 f = floor(uv[s]), d = uv[s] - f;
+    int ix = int(f.x), iy = int(f.y), n = layer[s];
+    ivec2 wh = size[s];
+    c += wn * ((1.0 - d.y) * ((1.0 - d.x) * tap(n, ix, iy, wh) + d.x * tap(n, ix + 1, iy, wh))
+             + d.y * ((1.0 - d.x) * tap(n, ix, iy + 1, wh) + d.x * tap(n, ix + 1, iy + 1, wh)));
+  }
+  colour = vec4(c, 1.0);
+}`;
+  // the eyes packed for the display: layout 0 anaglyph (Dubois red-cyan in linear light), 1 red-cyan, 2 sbs,
+  // 3 cross-eyed, 4 tb (vergence.display.pack)
+  const PACK = `#version 300 es
+precision highp float;
+uniform sampler2D left, right;
+uniform int mode, width, height;
+out vec4 colour;
+vec3 lin(vec3 c) { return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), c)); }
+vec3 srgb(vec3 c) { return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c)); }
+vec3 at(sampler2D t, int x, int y) { return texelFetch(t, ivec2(x, height - 1 - y), 0).rgb; }
+void main() {
+  int x = int(gl_FragCoord.x), oy = int(gl_FragCoord.y);
+  int y = (mode == 4 ? 2 * height : height) - 1 - oy;
+  if (mode == 2 || mode == 3) {
+    bool first = x < width;
+    colour = vec4(first == (mode == 2) ? at(left, x % width, y) : at(right, x % width, y), 1.0);
+  } else if (mode == 4) {
+    colour = vec4(y < height ? at(left, x, y) : at(right, x, y - height), 1.0);
+  } else if (mode == 1) {
+    colour = vec4(at(left, x, y).r, at(right, x, y).gb, 1.0);
+  } else {
+    mat3 ml = transpose(mat3(0.437, 0.449, 0.164, -0.062, -0.062, -0.024, -0.048, -0.050, -0.017));
+    mat3 mr = transpose(mat3(-0.011, -0.032, -0.007, 0.377, 0.761, 0.009, -0.026, -0.093, 1.234));
+    colour = vec4(srgb(clamp(ml * lin(at(left, x, y)) + mr * lin(at(right, x, y)), 0.0, 1.0)), 1.0);
+  }
+}`;
+
+  function compile(gl, vs, fs) {
+    const program = gl.createProgram();
+    for (const [type, text] of [[gl.VERTEX_SHADER, vs], [gl.FRAGMENT_SHADER, fs]]) {
+      const shader = gl.createShader(type);
+      gl.shaderSource(shader, text);
+      gl.compileShader(shader);
+      if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) throw new Error(`shader: ${gl.getShaderInfoLog(shader)}`);
+      gl.attachShader(program, shader);
+    }
+    gl.bindAttribLocation(program, 0, "corner");
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(`program: ${gl.getProgramInfoLog(program)}`);
+    return program;
+  }
+
+  function texture(gl, target) {
+    const tex = gl.createTexture();
+    gl.bindTexture(target, tex);
+    for (const [p, v] of [[gl.TEXTURE_MIN_FILTER, gl.NEAREST], [gl.TEXTURE_MAG_FILTER, gl.NEAREST],
+      [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) gl.texParameteri(target, p, v);
+    return tex;
+  }
+
+  async function loadImage(url) {
+    const img = new Image();
+    img.src = url;
+    await img.decode();
+    return img;
+  }
+
+  // a renderer on a canvas, or null without WebGL2
+  function create(canvas) {
+    const gl = canvas.getContext("webgl2", { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
+    if (!gl) return null;
+    const render = compile(gl, VERTEX, RENDER), pack = compile(gl, VERTEX, PACK);
+    const quad = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, quad);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 1, -1, -1, 1, 1, 1]), gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+    const loc = (p, n) => gl.getUniformLocation(p, n);
+    const eyes = [0, 1].map(() => ({ tex: texture(gl, gl.TEXTURE_2D), fbo: gl.createFramebuffer(), width: 0, height: 0 }));
+    const nodesTex = texture(gl, gl.TEXTURE_2D);
+    let images = null, scene = null;
+
+    async function load(sceneJson) {
+      scene = SSCams.prepare(sceneJson);
+      const imgs = await Promise.all(sceneJson.images.map(loadImage));
+      const w = Math.max(...imgs.map((i) => i.naturalWidth)), h = Math.max(...imgs.map((i) => i.naturalHeight));
+      images = texture(gl, gl.TEXTURE_2D_ARRAY);
+      gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
+      gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
+      gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
+      gl.texStorage3D(gl.TEXTURE_2D_ARRAY, 1, gl.RGBA8, w, h, imgs.length);
+      imgs.forEach((img, n) => gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, n, img.naturalWidth, img.naturalHeight, 1,
+        gl.RGBA, gl.UNSIGNED_BYTE, img));
+      scene.sizes = imgs.map((i) => [i.naturalWidth, i.naturalHeight]);
+      return scene;
+    }
+
+    function drawEye(eye, cam) {
+      const plan = SSCams.viewPlan(scene, cam), r = scene.render, nx = plan.xs.length, ny = plan.ys.length;
+      if (eye.width !== cam.width || eye.height !== cam.height) {
+        gl.bindTexture(gl.TEXTURE_2D, eye.tex);
+        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, cam.width, cam.height, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
+        gl.bindFramebuffer(gl.FRAMEBUFFER, eye.fbo);
+        gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, eye.tex, 0);
+        eye.width = cam.width; eye.height = cam.height;
+      }
+      gl.bindTexture(gl.TEXTURE_2D, nodesTex);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, ny * plan.ids.length, 0, gl.RGBA, gl.FLOAT, plan.nodes);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, eye.fbo);
+      gl.viewport(0, 0, cam.width, cam.height);
+      gl.useProgram(render);
+      gl.activeTexture(gl.TEXTURE0);
+      gl.bindTexture(gl.TEXTURE_2D_ARRAY, images);
+      gl.activeTexture(gl.TEXTURE1);
+      gl.bindTexture(gl.TEXTURE_2D, nodesTex);
+      gl.uniform1i(loc(render, "images"), 0);
+      gl.uniform1i(loc(render, "nodes"), 1);
+      const layers = [-1, -1, -1, -1], sizes = new Array(8).fill(1);
+      plan.ids.forEach((n, s) => {
+        layers[s] = n;
+        if (n >= 0) [sizes[2 * s], sizes[2 * s + 1]] = scene.sizes[n];
+      });
+      gl.uniform1iv(loc(render, "layer"), layers);
+      gl.uniform2iv(loc(render, "size"), sizes);
+      for (const [name, v] of [["count", Math.min(plan.ids.length, MAX_SOURCES)], ["nx", nx], ["ny", ny],
+        ["step", r.grid_step], ["height", cam.height], ["k", r.k]]) gl.uniform1i(loc(render, name), v);
+      for (const [name, v] of [["lastX", plan.xs[nx - 1]], ["lastY", plan.ys[ny - 1]], ["floorP", r.penalty_floor],
+        ["scale", r.threshold_scale], ["negligible", r.negligible]]) gl.uniform1f(loc(render, name), v);
+      gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+      return plan;
+    }
+
+    // the pair of two eye cameras (the state's first and second) at a working width, packed on the canvas
+    function drawCameras(first, second, width, format) {
+      const pair = SSCams.pairCameras(scene, first, second, width);
+      drawEye(eyes[0], pair.left);
+      drawEye(eyes[1], pair.right);
+      const layout = Math.max(0, FORMATS.indexOf(format)), w = pair.left.width, h = pair.left.height;
+      canvas.width = layout === 2 || layout === 3 ? 2 * w : w;
+      canvas.height = layout === 4 ? 2 * h : h;
+      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+      gl.viewport(0, 0, canvas.width, canvas.height);
+      gl.useProgram(pack);
+      gl.activeTexture(gl.TEXTURE0);
+      gl.bindTexture(gl.TEXTURE_2D, eyes[0].tex);
+      gl.activeTexture(gl.TEXTURE1);
+      gl.bindTexture(gl.TEXTURE_2D, eyes[1].tex);
+      gl.uniform1i(loc(pack, "left"), 0);
+      gl.uniform1i(loc(pack, "right"), 1);
+      for (const [name, v] of [["mode", layout], ["width", w], ["height", h]]) gl.uniform1i(loc(pack, name), v);
+      gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+      return pair;
+    }
+
+    // one eye's pixels, top row first, RGBA bytes as base64 (the tests' read-back)
+    function readEye(k) {
+      const eye = eyes[k], out = new Uint8Array(eye.width * eye.height * 4);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, eyes[k].fbo);
+      gl.readPixels(0, 0, eye.width, eye.height, gl.RGBA, gl.UNSIGNED_BYTE, out);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+      const rows = new Uint8Array(out.length), stride = 4 * eye.width;
+      for (let y = 0; y < eye.height; y++) rows.set(out.subarray(y * stride, (y + 1) * stride), (eye.height - 1 - y) * stride);
+      let text = "";
+      for (let o = 0; o < rows.length; o += 0x8000) text += String.fromCharCode(...rows.subarray(o, o + 0x8000));
+      return { width: eye.width, height: eye.height, rgba: btoa(text) };
+    }
+
+    const finish = () => gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+    const renderer = gl.getExtension("WEBGL_debug_renderer_info");
+    const name = gl.getParameter(renderer ? renderer.UNMASKED_RENDERER_WEBGL : gl.RENDERER);
+    return { gl, name, load, drawCameras, readEye, finish, scene: () => scene };
+  }
+
+  return { FORMATS, create };
+})();
