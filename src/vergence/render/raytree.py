@@ -34,14 +34,15 @@ import numpy as np
 
 from vergence._validate import as_float_array, check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.render import _kernels, surfaces
+from vergence.render import surfaces
 from vergence.render.intersect import Intersector
 from vergence.render.lenses import FisheyeCamera
 from vergence.render.limits import MAX_DEPTH, MAX_RENDER_SIDE, check_max_depth, render_cost
 from vergence.render.rays import RayBatch, camera_rays, subpixel_grid_rays, subpixel_rays
 from vergence.render.results import RayTree, RenderResult, RenderSettings, layer_names
 from vergence.render.scene import MAX_SCENE_EXTENT, Scene
-from vergence.render.shader import WhittedShader, offset
+from vergence.render.shader import WhittedShader
+from vergence.render.staged import trace_staged
 
 __all__ = ["MAX_DEPTH", "Tracer", "WAVEFRONT_SLOTS", "check_render_options", "render", "render_stereo"]
 
@@ -53,15 +54,6 @@ Progress = Callable[[float, str], None]
 #: the caches (8 cameras of glasses, 16 AO samples, joint / one per wavefront, medians of 5 interleaved
 #: rounds on the 2 shared cores: 160x120 0.87, 320x240 1.07, 320x240 with 3x3 rays per pixel 1.22).
 WAVEFRONT_SLOTS = 1 << 19
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("ij,ij->i", a, b)
-
-
-def _take(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """``a[rows]`` for ``(M, k)`` float64 arrays, gathered by a parallel kernel."""
-    return _kernels.take_rows(np.ascontiguousarray(a, dtype=np.float64), rows)
 
 
 @dataclass(frozen=True, slots=True)
@@ -380,73 +372,8 @@ class Tracer:
                                           max_depth=max_depth, samples=samples, rng=rng, ao_distance=ao_distance,
                                           progress=progress,
                                           geo_slots=int(starts[-1]) if geo_slots is None else geo_slots))  # fmt: skip
-        n_nodes = 2 ** (max_depth + 1) - 1
-        n_slots, n_views = int(starts[-1]), len(starts) - 1
-        view_of = lambda slots: np.searchsorted(starts[1:], slots, side="right")  # noqa: E731
-        rad = np.zeros((n_nodes, n_slots, 3), dtype=np.float32)
-        pos = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
-        nrm = np.full((n_nodes, n_slots, 3), np.nan, dtype=np.float32)
-        first_p = np.full((n_slots, 3), np.nan)
-        first_t = np.full(n_slots, np.nan)
-        oid = np.full((n_nodes, n_slots), -1, dtype=np.int32)
-        pix = np.concatenate([b.pixels for b in batches])
-        o = np.concatenate([b.origins for b in batches])  # exact origins (float64 geometry)
-        d = np.concatenate([b.directions for b in batches])
-        node = np.ones(len(pix), dtype=np.int64)
-        oc = o  # origins handed to Mitsuba: moved off the surface they leave
-        thr = np.ones((len(pix), 3))
-        queue: list[tuple[np.ndarray, ...]] = []  # diffuse hits: node, pixel, p, n_geo, n_shade, albedo x throughput
-        pk = self.packed
-        tree_rays = np.zeros(n_views, dtype=np.int64)
-        for level in range(max_depth + 1):
-            if progress is not None:
-                progress(level / (max_depth + 2), f"level {level}: {len(pix):,} rays")
-            if not len(pix):
-                break
-            hits = self.intersector(o, d, cast_from=oc, tmax=tmax if level == 0 else None)
-            tree_rays += np.bincount(view_of(pix), minlength=n_views)
-            esc = np.ones(len(pix), dtype=bool)
-            esc[hits.rays] = False
-            if level == 0 and tmax is not None:
-                esc &= np.isinf(tmax)  # a bounded segment without a hit is unfinished, not escaped
-            _kernels.scatter_weighted(rad, node[esc], pix[esc], thr[esc], self.shader.background(d[esc]))
-            hit = hits.rays
-            node, pix, d, thr, obj = node[hit], pix[hit], _take(d, hit), _take(thr, hit), hits.obj
-            p, ng, ns, uv = hits.points, hits.n_geo, hits.n_shade, hits.uv
-            entering = _dot(d, ng) < 0.0
-            side = np.where(entering, 1.0, -1.0)[:, None]
-            ng, ns = ng * side, ns * side  # both face the arriving ray now
-            _kernels.scatter_nodes(pos, node, pix, p)
-            _kernels.scatter_nodes(nrm, node, pix, ns)
-            oid[node - 1, pix] = obj  # each (node, pixel) is reached by one ray of a level
-            if level == 0:
-                first_p[pix] = p
-                first_t[pix] = hits.t
-            mat = pk.material[obj]
-            kind = pk.mat_kind[mat]
-            s = np.flatnonzero(kind == surfaces.DIFFUSE)
-            queue.append((node[s], pix[s], _take(p, s), _take(ng, s), _take(ns, s),
-                          _take(thr, s) * surfaces.albedo(pk, mat[s], _take(uv, s))))  # fmt: skip
-            if level == max_depth:
-                break  # specular hits at the last level are cut off
-            s = np.flatnonzero(kind != surfaces.DIFFUSE)
-            rdir, rw, g, tdir, tw = self.shader.specular(_take(d, s), _take(ns, s), entering[s], mat[s])
-            ps, ngs, ts = _take(p, s), _take(ng, s), _take(thr, s)
-            pg = _take(ps, g)
-            children = [(2 * node[s], pix[s], ps, offset(ps, ngs), rdir, ts * rw),
-                        (2 * node[s][g] + 1, pix[s][g], pg, offset(pg, _take(ngs, g), -1.0), tdir, _take(ts, g) * tw)]  # fmt: skip
-            node, pix, o, oc, d, thr = (np.concatenate([c[k] for c in children]) for k in range(6))
-        if progress is not None:
-            progress((max_depth + 1) / (max_depth + 2), "shading: image-based lighting x ambient occlusion")
-        ao_rays = np.zeros(n_views, dtype=np.int64)
-        if queue:
-            qn, qpix, qp, qng, qns, qalb = (np.concatenate([q[k] for q in queue]) for k in range(6))
-            light = self.shader.diffuse(qp, qng, qns, samples=samples, rng=rng, ao_distance=ao_distance)
-            _kernels.scatter_weighted(rad, qn, qpix, qalb, np.ascontiguousarray(light, dtype=np.float64))
-            ao_rays = np.bincount(view_of(qpix), minlength=n_views) * samples
-        if progress is not None:
-            progress(1.0, "done")
-        return _Flat(rad, pos, nrm, first_p, first_t, tree_rays, ao_rays, oid)
+        return _Flat(*trace_staged(self, batches, starts, tmax=tmax, max_depth=max_depth, samples=samples, rng=rng,
+                                   ao_distance=ao_distance, progress=progress))  # fmt: skip
 
 
 def _check_cost(cameras, *, max_depth, samples, supersample) -> None:  # noqa: ANN001

@@ -90,8 +90,8 @@ def trace_wavefront(tracer, origins, directions, pixels, starts, *, tmax, max_de
                     progress, geo_slots):  # noqa: ANN001, ANN201  # fmt: skip
     """Trace rays ``(M, 3)`` (unit directions) filling slots ``pixels`` into the tree's flat arrays.
 
-    Returns ``(radiance, position, normal, first_point, first_t, tree_rays, ao_rays, object_id)`` as the staged
-    ``Tracer._trace`` (its ``_Flat``), except that ``position`` and ``normal`` hold only the first
+    Returns ``(radiance, position, normal, first_point, first_t, tree_rays, ao_rays, object_id)`` as
+    :func:`vergence.render.staged.trace_staged`, except that ``position`` and ``normal`` hold only the first
     ``geo_slots`` slots (sub-pixel rays keep only their radiance).
     """
     n_nodes = 2 ** (max_depth + 1) - 1

@@ -46,7 +46,8 @@ from vergence.render.tonemap import auto_exposure, tonemap
 from vergence.report._figures import new_figure, save_png
 from vergence.report.preview import save_render
 from vergence.specular.matching import MATCH_WINDOW
-from vergence.specular.pipeline import SpecularResult, layer_labels
+from vergence.specular.pipeline import SpecularResult
+from vergence.specular.result_report import layer_labels
 
 __all__ = ["SPECULAR_METHODS", "SPECULAR_OUTPUT_FILES", "write_specular_outputs"]
 

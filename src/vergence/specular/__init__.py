@@ -91,9 +91,7 @@ from vergence.specular.planning import (
 from vergence.specular.pipeline import (
     DEFAULT_VARIANT,
     MAX_TABLE_BYTES,
-    SEPARATION_ARCMIN,
     SpecularResult,
-    layer_labels,
     offset_table_bytes,
     specular_from_table,
     specular_stereo,
@@ -105,6 +103,7 @@ from vergence.specular.render_check import (
     check_render,
     repair_render,
 )
+from vergence.specular.result_report import SEPARATION_ARCMIN, layer_labels
 from vergence.specular.resample import joint_bilateral_upsample, push_pull_fill, weighted_block_mean
 from vergence.specular.rivalry_map import RIVALRY_WINDOW, Rivalry, fill_matches, rivalry
 from vergence.specular.offsets import (

@@ -26,7 +26,6 @@ inside the comfort zone beside the importance-weighted one (:mod:`vergence.specu
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Mapping
 import dataclasses
@@ -34,17 +33,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vergence._validate import readonly_fields
 from vergence.camera import Camera
 from vergence.specular.cost import COST_WEIGHTS, CostTerms, disparity_cost
 from vergence.specular.display_fit import display_block, fit_display
-from vergence.specular.shares import LayerState, comfort_share, specular_objects
+from vergence.specular.shares import LayerState, specular_objects
 from vergence.specular.importance_factors import importance
 from vergence.specular.lightness import PerceivedLightness, layer_lightness, pixels_per_degree
 from vergence.specular.matching import MATCH_WINDOW, disparity_arcmin, layer_disparity
 from vergence.specular.offsets import render_offsets, tabulate_offsets
 from vergence.specular.planning import PLAN_FACTOR, OffsetPlanner
 from vergence.specular.render_check import RenderCheck, repair_render
+from vergence.specular.result_report import specular_report
 from vergence.specular.rivalry_map import rivalry
 from vergence.specular.surface_baselines import NEAR_SURFACE_ARCMIN, near_surface, on_surface
 from vergence.specular.table_file import SpecularTable
@@ -52,8 +51,8 @@ from vergence.specular.tabulated import analyse_table
 from vergence.viewing.comfort import ComfortZone
 from vergence.viewing.geometry import Display, check_display
 
-__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SEPARATION_ARCMIN", "SpecularResult", "layer_labels",
-           "offset_table_bytes", "specular_from_table", "specular_stereo"]
+__all__ = ["DEFAULT_VARIANT", "MAX_TABLE_BYTES", "SpecularResult", "offset_table_bytes", "specular_from_table",
+           "specular_stereo"]
 
 #: The absolute term :func:`specular_stereo` uses unless told otherwise (chosen in docs/specular.md).
 DEFAULT_VARIANT = "comfort"
@@ -76,26 +75,7 @@ def offset_table_bytes(width: int, height: int, *, k: int, max_depth: int) -> in
     """
     return (k + 1) * (2 ** (max_depth + 1) - 1) * width * height * _PEAK_BYTES
 
-#: Two layers closer than this in depth pool into one (S3 §2: about 2 arcmin); a specular layer at
-#: least this far from its first surface, on the physical side, still reads as a reflection.
-SEPARATION_ARCMIN = 2.0
-
 Progress = Callable[[float, str], None]
-
-
-def _separated_share(state: LayerState, physical: LayerState) -> np.ndarray:
-    """Per layer past the first, the importance-weighted share of pixels still at least
-    :data:`SEPARATION_ARCMIN` from the first surface on their physical side (NaN: no such pixel)."""
-    d0, p0 = state.disparity[0, ..., 0], physical.disparity[0, ..., 0]
-    out = np.full(state.disparity.shape[0], np.nan)
-    for i in range(1, len(out)):
-        side = np.sign(physical.disparity[i, ..., 0] - p0)
-        ok = state.matched[i] & state.matched[0] & physical.matched[i] & physical.matched[0] & (side != 0)
-        w = np.where(ok, state.importance[i], 0.0).astype(np.float64)
-        if w.sum() > 0:
-            sep = np.where(ok, side * (state.disparity[i, ..., 0] - d0), 0.0)
-            out[i] = float((w * (sep >= SEPARATION_ARCMIN)).sum() / w.sum())
-    return out
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -195,69 +175,10 @@ class SpecularResult:
         return dataclasses.replace(self, _session=None)
 
     def report(self) -> dict:
-        """JSON-ready figures: the display geometry they assume, cost terms before and after, and per
-        layer the matched share, the plain share of matched pixels inside the comfort zone
-        (``inside_share``, with its counts ``matched_pixels`` and ``inside_pixels``) beside the
-        importance-weighted one (``comfort_share``), the separation share and the mean offset; the
-        same plain and weighted shares pooled over the specular layers (``specular_layers``) and per
-        mirror or glass object (``objects``, :func:`~vergence.specular.object_shares`), and one
-        ``warnings`` line per object that stays mostly outside the zone."""
-        from vergence.specular.shares import pooled_counts, object_shares, zone_count, zone_warnings
-
-        names = layer_labels(self.y.shape[0])
-        layers = []
-        share_b, share_a = comfort_share(self.before, self.zone), comfort_share(self.after, self.zone)
-        count_b, count_a = zone_count(self.before, self.zone), zone_count(self.after, self.zone)
-        plain_b, plain_a = count_b.share(), count_a.share()
-        sep_b = _separated_share(self.before, self.before)
-        sep_a = _separated_share(self.after, self.before)
-        for i, name in enumerate(names):
-            present = int(self.before.present[i].sum())
-            layers.append({
-                "layer": i + 1, "name": name, "pixels": present,
-                "matched_before": _ratio(self.before.matched[i].sum(), present),
-                "matched_after": _ratio(self.after.matched[i].sum(), int(self.after.present[i].sum())),
-                "matched_pixels_before": int(count_b.matched[i]), "inside_pixels_before": int(count_b.inside[i]),
-                "matched_pixels_after": int(count_a.matched[i]), "inside_pixels_after": int(count_a.inside[i]),
-                "inside_share_before": _num(plain_b[i]), "inside_share_after": _num(plain_a[i]),
-                "comfort_share_before": _num(share_b[i]), "comfort_share_after": _num(share_a[i]),
-                "separated_share_before": _num(sep_b[i]), "separated_share_after": _num(sep_a[i]),
-                "offset_mean": float(self.y[i][self.before.present[i]].mean()) if present else None,
-            })  # fmt: skip
-        settings = {k: v for k, v in self.settings.items() if k not in ("display", "objects")}
-        oid = getattr(self.physical_left, "object_id", None)
-        objects = [] if oid is None else object_shares(self.before, self.after, oid[0], self.settings.get("objects", []),
-                                                       self.zone, names)  # fmt: skip
-        return {
-            "specular": self.specular,
-            "display": self.settings.get("display"),
-            "settings": settings,
-            "comfort_zone_arcmin": [self.zone.min_arcmin, self.zone.max_arcmin],
-            "cost_before": self.cost_before.means(),
-            "cost_after": self.cost_after.means(),
-            "layers": layers,
-            "specular_layers": pooled_counts(count_b, count_a, slice(1, None)),
-            "objects": objects,
-            "warnings": zone_warnings(objects, self.zone),
-            **{key: check.to_dict() for key in ("render_check", "render_check_raw")
-               if (check := getattr(self, key, None)) is not None},
-            "seconds": {k: round(v, 3) for k, v in self.seconds.items()},
-        }
-
-
-def _num(v: float) -> float | None:
-    return None if not math.isfinite(v) else round(float(v), 4)
-
-
-def _ratio(a: int, b: int) -> float | None:
-    return None if b == 0 else round(float(a) / b, 4)
-
-
-def layer_labels(n: int) -> list[str]:
-    """Names of the heap nodes 1..n: ``"1"`` the first hit, then ``R`` (reflection) / ``T`` (refraction) paths."""
-    from vergence.render.results import layer_names
-
-    return layer_names(int(math.log2(n + 1)) - 1)
+        """JSON-ready figures (:func:`~vergence.specular.result_report.specular_report`): the display
+        geometry they assume, cost terms before and after, and per layer, pooled and per mirror or glass
+        object the plain share of matched pixels inside the comfort zone beside the importance-weighted one."""
+        return specular_report(self)
 
 
 def _state(left, right, right_lightness, display, exposure, epsilon, window) -> tuple[LayerState, float]:  # noqa: ANN001

@@ -384,7 +384,7 @@ def paintable_layers(base: Any) -> dict[int, str | None]:
     the solve leaves every offset where it was (checked against the solve in tests/web/test_specular_job.py).
     The first hit counts: its weights enter the other layers' solve. A run with nothing specular in view
     has no offsets to solve: no layer can be painted."""
-    from vergence.specular.pipeline import layer_labels
+    from vergence.specular.result_report import layer_labels
 
     out: dict[int, str | None] = {}
     for i, name in enumerate(layer_labels(base.y.shape[0])):
@@ -424,7 +424,7 @@ def specular_overlay(report: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE
     ``zone_arcmin``: ``report["comfort_zone_arcmin"]``; ``divergence_arcmin``: the vergence change of a screen
     parallax of one eye separation (the eyes parallel, S0 Eq. (8)'s limit ``b'``), i.e. ``2 atan(e / 2D)``
     (:func:`vergence.viewing.arcmin_from_pixels`, exact); ``scale``: the heat map's range ``+-scale_arcmin`` and
-    its ticks every quarter; ``layers``: the layers' names (:func:`vergence.specular.pipeline.layer_labels`).
+    its ticks every quarter; ``layers``: the layers' names (:func:`vergence.specular.layer_labels`).
     """
     from vergence.viewing import Display, arcmin_from_pixels
 
