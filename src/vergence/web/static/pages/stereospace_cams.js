@@ -224,7 +224,9 @@ const SSCams = (() => {
     const taken = new Set(), out = [];
     for (let p = 0; p < inFront.length; p++) {
       if (!seen[p] || !inFront[p]) continue;
-      const key = `${Math.floor(q[2 * p] / cell)},${Math.floor(q[2 * p + 1] / cell)}`;
+      const kx = Math.floor(q[2 * p] / cell), ky = Math.floor(q[2 * p + 1] / cell);
+      // one number per cell while |kx|, |ky| < 2^20 (a million cells out); a string beyond
+      const key = Math.abs(kx) < 1048576 && Math.abs(ky) < 1048576 ? (kx + 1048576) * 2097152 + ky + 1048576 : `${kx},${ky}`;
       if (taken.has(key)) continue;
       taken.add(key);
       out.push(p);
@@ -233,23 +235,23 @@ const SSCams = (() => {
   }
 
   // the MLS similarity map (handles q -> p) at a point v (Schaefer et al. 2006, alpha 1: w = 1 / |q - v|^2)
-  function mlsAt(vx, vy, qs, ps, n, out, o) {
-    let sw = 0, sax = 0, say = 0, sbx = 0, sby = 0, saa = 0, sab = 0, sac = 0;
-    for (let h = 0; h < n; h++) {
-      const ax = qs[2 * h] - vx, ay = qs[2 * h + 1] - vy, bx = ps[2 * h] - vx, by = ps[2 * h + 1] - vy;
+  function mlsAt(vx, vy, hs, n, out, o) {  // hs: (qx, qy, px, py) per handle
+    let sw = 0, sax = 0, say = 0, sbx = 0, sby = 0, sab = 0, sac = 0;
+    for (let h = 0; h < 4 * n; h += 4) {
+      const ax = hs[h] - vx, ay = hs[h + 1] - vy, bx = hs[h + 2] - vx, by = hs[h + 3] - vy;
       const w = 1 / (ax * ax + ay * ay);
       sw += w; sax += w * ax; say += w * ay; sbx += w * bx; sby += w * by;
-      saa += 1; sab += w * (ax * bx + ay * by); sac += w * (ax * by - ay * bx);
+      sab += w * (ax * bx + ay * by); sac += w * (ax * by - ay * bx);
     }
     const psx = sax / sw, psy = say / sw, qsx = sbx / sw, qsy = sby / sw;
-    const mu = saa - sw * (psx * psx + psy * psy);
+    const mu = n - sw * (psx * psx + psy * psy);  // sum of w |a|^2 = n (alpha 1)
     if (!(sw < Infinity && mu > 0)) {  // on a handle: its target, the limit of the formula
       let best = Infinity, hb = 0;
-      for (let h = 0; h < n; h++) {
-        const d = (qs[2 * h] - vx) ** 2 + (qs[2 * h + 1] - vy) ** 2;
+      for (let h = 0; h < 4 * n; h += 4) {
+        const d = (hs[h] - vx) ** 2 + (hs[h + 1] - vy) ** 2;
         if (d < best) { best = d; hb = h; }
       }
-      out[o] = ps[2 * hb]; out[o + 1] = ps[2 * hb + 1];
+      out[o] = hs[hb + 2]; out[o + 1] = hs[hb + 3];
       return;
     }
     const ar = (sab - sw * (psx * qsx + psy * qsy)) / mu, ai = (sac - sw * (psx * qsy - psy * qsx)) / mu;
@@ -279,20 +281,25 @@ const SSCams = (() => {
       const n = ids[s], src = scene.projected[n], chosen = handles(src.seen, inFront, q, r.handle_cell_px);
       counts.push(chosen.length);
       if (chosen.length < r.min_handles) { used[s] = -1; continue; }
-      const qs = new Float64Array(2 * chosen.length), ps = new Float64Array(2 * chosen.length);
+      const hs = new Float64Array(4 * chosen.length);
       chosen.forEach((p, h) => {
-        qs[2 * h] = q[2 * p]; qs[2 * h + 1] = q[2 * p + 1];
-        ps[2 * h] = src.pixels[2 * p]; ps[2 * h + 1] = src.pixels[2 * p + 1];
+        hs[4 * h] = q[2 * p]; hs[4 * h + 1] = q[2 * p + 1];
+        hs[4 * h + 2] = src.pixels[2 * p]; hs[4 * h + 3] = src.pixels[2 * p + 1];
       });
       const cs = scene.cams[n].center;
       for (let j = 0; j < ny; j++) {
         for (let i = 0; i < nx; i++) {
           const o = 4 * ((s * ny + j) * nx + i);
-          mlsAt(xs[i], ys[j], qs, ps, chosen.length, tmp, 0);
-          const ray = mulv(Kinv, [xs[i], ys[j], 1]), w = mulv(Rt, ray);
-          const Pp = [c[0] + proxy * w[0], c[1] + proxy * w[1], c[2] + proxy * w[2]];
-          const a = sub(c, Pp), b = sub(cs, Pp);
-          nodes[o] = tmp[0]; nodes[o + 1] = tmp[1]; nodes[o + 2] = Math.atan2(norm(cross(a, b)), dot(a, b));
+          mlsAt(xs[i], ys[j], hs, chosen.length, tmp, 0);
+          // P_ANG at the node's proxy point P = c + depth R^T K^-1 (x, y, 1) (_mls_view_kernels.node_angles)
+          const rx = Kinv[0] * xs[i] + Kinv[1] * ys[j] + Kinv[2], ry = Kinv[3] * xs[i] + Kinv[4] * ys[j] + Kinv[5];
+          const rz = Kinv[6] * xs[i] + Kinv[7] * ys[j] + Kinv[8];
+          const ax = -proxy * (Rt[0] * rx + Rt[1] * ry + Rt[2] * rz), ay = -proxy * (Rt[3] * rx + Rt[4] * ry + Rt[5] * rz);
+          const az = -proxy * (Rt[6] * rx + Rt[7] * ry + Rt[8] * rz);  // a = c - P
+          const bx = cs[0] - c[0] + ax, by = cs[1] - c[1] + ay, bz = cs[2] - c[2] + az;  // b = c_s - P
+          const cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
+          nodes[o] = tmp[0]; nodes[o + 1] = tmp[1];
+          nodes[o + 2] = Math.atan2(Math.sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz);
         }
       }
     }

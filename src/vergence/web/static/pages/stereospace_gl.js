@@ -14,62 +14,56 @@ const SSGL = (() => {
   const VERTEX = `#version 300 es
 in vec2 corner;
 void main() { gl_Position = vec4(corner, 0.0, 1.0); }`;
+  // Node values and source pixels are read by the texture units' bilinear filter (one fetch each): a node cell
+  // is a texel cell of the node texture (the last column and row placed at their own spacing by tx, ty), and a
+  // source position clamped to [0, w - 1] x [0, h - 1] repeats the edge pixels over their outer half as the
+  // kernel's taps do. SwiftShader filters in float; GPUs weigh with 8-bit subtexel steps (1/256 of a texel).
   const RENDER = `#version 300 es
 precision highp float; precision highp int; precision highp sampler2DArray;
 uniform sampler2DArray images;
 uniform highp sampler2D nodes;
-uniform int layer[4];
-uniform ivec2 size[4];
-uniform int count, nx, ny, step, height, k;
-uniform float lastX, lastY, floorP, scale, negligible;
+uniform vec4 source[4];  // (layer or -1, width, height, 0)
+uniform int nx, ny, step, height, k;
+uniform float lastX, lastY, floorP, scale, negligible, rows;
+uniform vec2 texel;  // 1 / the image array's (width, height)
 out vec4 colour;
-vec3 node(int s, int j, int i) { return texelFetch(nodes, ivec2(i, s * ny + j), 0).xyz; }
-vec3 tap(int n, int x, int y, ivec2 wh) { return texelFetch(images, ivec3(clamp(x, 0, wh.x - 1), clamp(y, 0, wh.y - 1), n), 0).rgb; }
+const float NONE = 1e30;  // the penalty of a source without a sample here (P_FOV infinite)
+// source s's map (u, v) and its penalty at the node position (fx, fy)
+vec3 sampled(int s, float fx, float fy) {
+  if (source[s].x < 0.0) return vec3(0.0, 0.0, NONE);
+  vec3 v = textureLod(nodes, vec2((fx + 0.5) / float(nx), (float(s * ny) + fy + 0.5) / rows), 0.0).xyz;
+  bool inside = v.x >= -0.5 && v.x <= source[s].y - 0.5 && v.y >= -0.5 && v.y <= source[s].z - 0.5;
+  return vec3(v.xy, inside ? max(floorP, v.z) : NONE);
+}
+vec3 colourOf(int s, vec2 uv, float wn) {
+  if (wn <= negligible) return vec3(0.0);
+  vec2 at = clamp(uv, vec2(0.0), source[s].yz - 1.0);
+  return wn * textureLod(images, vec3((at + 0.5) * texel, source[s].x), 0.0).rgb;
+}
 void main() {
   int x = int(gl_FragCoord.x), y = height - 1 - int(gl_FragCoord.y);
   int i = min(x / step, nx - 2), j = min(y / step, ny - 2);
   float x1 = i + 1 == nx - 1 ? lastX : float((i + 1) * step), y1 = j + 1 == ny - 1 ? lastY : float((j + 1) * step);
-  float tx = (float(x) - float(i * step)) / (x1 - float(i * step)), ty = (float(y) - float(j * step)) / (y1 - float(j * step));
-  float pen[4]; vec2 uv[4]; float w[4];
-  int m = 0;
-  for (int s = 0; s < 4; s++) {
-    pen[s] = -1.0; w[s] = 0.0; uv[s] = vec2(0.0);
-    if (s >= count || layer[s] < 0) continue;
-    vec3 a0 = node(s, j, i), a1 = node(s, j, i + 1);
-    vec3 a = a0 + ty * (node(s, j + 1, i) - a0), b = a1 + ty * (node(s, j + 1, i + 1) - a1);
-    vec3 v = a + tx * (b - a);
-    uv[s] = v.xy;
-    vec2 wh = vec2(size[s]);
-    if (v.x >= -0.5 && v.x <= wh.x - 0.5 && v.y >= -0.5 && v.y <= wh.y - 0.5) { pen[s] = max(floorP, v.z); m++; }
-  }
-  float total = 0.0;
-  if (m >= k) {  // the k-th smallest penalty: count the valid ones below each
-    float kth = 0.0;
-    for (int s = 0; s < 4; s++) {
-      if (pen[s] < 0.0) continue;
-      int below = 0, tie = 0;
-      for (int r = 0; r < 4; r++) {
-        if (pen[r] < 0.0) continue;
-        if (pen[r] < pen[s]) below++; else if (pen[r] == pen[s] && r < s) tie++;
-      }
-      if (below + tie == k - 1) kth = pen[s];
-    }
-    float thresh = scale * kth;
-    for (int s = 0; s < 4; s++) { w[s] = pen[s] < 0.0 ? 0.0 : max(0.0, 1.0 - pen[s] / thresh); total += w[s]; }
+  float fx = float(i) + (float(x) - float(i * step)) / (x1 - float(i * step));
+  float fy = float(j) + (float(y) - float(j * step)) / (y1 - float(j * step));
+  vec3 s0 = sampled(0, fx, fy), s1 = sampled(1, fx, fy), s2 = sampled(2, fx, fy), s3 = sampled(3, fx, fy);
+  vec4 pen = vec4(s0.z, s1.z, s2.z, s3.z);
+  vec4 valid = vec4(lessThan(pen, vec4(NONE)));
+  float m = valid.x + valid.y + valid.z + valid.w;
+  vec4 w;
+  if (m >= float(k)) {  // the k-th smallest penalty (a sorting network of 4)
+    float a = min(pen.x, pen.y), b = max(pen.x, pen.y), c = min(pen.z, pen.w), d = max(pen.z, pen.w);
+    float lo = min(a, c), hi = max(b, d), p = max(a, c), q = min(b, d);
+    vec4 sorted = vec4(lo, min(p, q), max(p, q), hi);
+    float kth = k == 1 ? sorted.x : k == 2 ? sorted.y : k == 3 ? sorted.z : sorted.w;
+    w = valid * max(vec4(0.0), 1.0 - pen / (scale * kth));
   } else {
-    for (int s = 0; s < 4; s++) { w[s] = pen[s] < 0.0 ? 0.0 : 1.0; total += w[s]; }
+    w = valid;
   }
-  vec3 c = vec3(0.0);
-  for (int s = 0; s < 4; s++) {
-    float wn = total > 0.0 ? w[s] / total : 0.0;
-    if (wn <= negligible) continue;
-    vec2 f = floor(uv[s]), d = uv[s] - f;
-    int ix = int(f.x), iy = int(f.y), n = layer[s];
-    ivec2 wh = size[s];
-    c += wn * ((1.0 - d.y) * ((1.0 - d.x) * tap(n, ix, iy, wh) + d.x * tap(n, ix + 1, iy, wh))
-             + d.y * ((1.0 - d.x) * tap(n, ix, iy + 1, wh) + d.x * tap(n, ix + 1, iy + 1, wh)));
-  }
-  colour = vec4(c, 1.0);
+  float total = w.x + w.y + w.z + w.w;
+  vec4 wn = total > 0.0 ? w / total : vec4(0.0);
+  colour = vec4(colourOf(0, s0.xy, wn.x) + colourOf(1, s1.xy, wn.y) + colourOf(2, s2.xy, wn.z)
+                + colourOf(3, s3.xy, wn.w), 1.0);
 }`;
   // the eyes packed for the display: layout 0 anaglyph (Dubois red-cyan in linear light), 1 red-cyan, 2 sbs,
   // 3 cross-eyed, 4 tb (vergence.display.pack)
@@ -113,10 +107,10 @@ void main() {
     return program;
   }
 
-  function texture(gl, target) {
+  function texture(gl, target, filter = gl.NEAREST) {
     const tex = gl.createTexture();
     gl.bindTexture(target, tex);
-    for (const [p, v] of [[gl.TEXTURE_MIN_FILTER, gl.NEAREST], [gl.TEXTURE_MAG_FILTER, gl.NEAREST],
+    for (const [p, v] of [[gl.TEXTURE_MIN_FILTER, filter], [gl.TEXTURE_MAG_FILTER, filter],
       [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) gl.texParameteri(target, p, v);
     return tex;
   }
@@ -140,18 +134,20 @@ void main() {
     gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
     const loc = (p, n) => gl.getUniformLocation(p, n);
     const eyes = [0, 1].map(() => ({ tex: texture(gl, gl.TEXTURE_2D), fbo: gl.createFramebuffer(), width: 0, height: 0 }));
-    const nodesTex = texture(gl, gl.TEXTURE_2D);
-    let images = null, scene = null;
+    if (!gl.getExtension("OES_texture_float_linear")) throw new Error("no OES_texture_float_linear (filtered float textures)");
+    const nodesTex = texture(gl, gl.TEXTURE_2D, gl.LINEAR);
+    let images = null, scene = null, imageSize = [1, 1];
 
     async function load(sceneJson) {
       scene = SSCams.prepare(sceneJson);
       const imgs = await Promise.all(sceneJson.images.map(loadImage));
       const w = Math.max(...imgs.map((i) => i.naturalWidth)), h = Math.max(...imgs.map((i) => i.naturalHeight));
-      images = texture(gl, gl.TEXTURE_2D_ARRAY);
+      images = texture(gl, gl.TEXTURE_2D_ARRAY, gl.LINEAR);
       gl.pixelStorei(gl.UNPACK_COLORSPACE_CONVERSION_WEBGL, gl.NONE);
       gl.pixelStorei(gl.UNPACK_PREMULTIPLY_ALPHA_WEBGL, false);
       gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
       gl.texStorage3D(gl.TEXTURE_2D_ARRAY, 1, gl.RGBA8, w, h, imgs.length);
+      imageSize = [w, h];
       imgs.forEach((img, n) => gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, n, img.naturalWidth, img.naturalHeight, 1,
         gl.RGBA, gl.UNSIGNED_BYTE, img));
       scene.sizes = imgs.map((i) => [i.naturalWidth, i.naturalHeight]);
@@ -178,17 +174,21 @@ void main() {
       gl.bindTexture(gl.TEXTURE_2D, nodesTex);
       gl.uniform1i(loc(render, "images"), 0);
       gl.uniform1i(loc(render, "nodes"), 1);
-      const layers = [-1, -1, -1, -1], sizes = new Array(8).fill(1);
-      plan.ids.forEach((n, s) => {
-        layers[s] = n;
-        if (n >= 0) [sizes[2 * s], sizes[2 * s + 1]] = scene.sizes[n];
-      });
-      gl.uniform1iv(loc(render, "layer"), layers);
-      gl.uniform2iv(loc(render, "size"), sizes);
-      for (const [name, v] of [["count", Math.min(plan.ids.length, MAX_SOURCES)], ["nx", nx], ["ny", ny],
-        ["step", r.grid_step], ["height", cam.height], ["k", r.k]]) gl.uniform1i(loc(render, name), v);
+      const sources = new Array(16).fill(0);
+      for (let s = 0; s < MAX_SOURCES; s++) {
+        const n = s < plan.ids.length ? plan.ids[s] : -1;
+        sources[4 * s] = n;
+        if (n >= 0) [sources[4 * s + 1], sources[4 * s + 2]] = scene.sizes[n];
+      }
+      gl.uniform4fv(loc(render, "source"), sources);
+      for (const [name, v] of [["nx", nx], ["ny", ny], ["step", r.grid_step], ["height", cam.height], ["k", r.k]]) {
+        gl.uniform1i(loc(render, name), v);
+      }
       for (const [name, v] of [["lastX", plan.xs[nx - 1]], ["lastY", plan.ys[ny - 1]], ["floorP", r.penalty_floor],
-        ["scale", r.threshold_scale], ["negligible", r.negligible]]) gl.uniform1f(loc(render, name), v);
+        ["scale", r.threshold_scale], ["negligible", r.negligible], ["rows", ny * plan.ids.length]]) {
+        gl.uniform1f(loc(render, name), v);
+      }
+      gl.uniform2f(loc(render, "texel"), 1 / imageSize[0], 1 / imageSize[1]);
       gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
       return plan;
     }
@@ -199,8 +199,8 @@ void main() {
       drawEye(eyes[0], pair.left);
       drawEye(eyes[1], pair.right);
       const layout = Math.max(0, FORMATS.indexOf(format)), w = pair.left.width, h = pair.left.height;
-      canvas.width = layout === 2 || layout === 3 ? 2 * w : w;
-      canvas.height = layout === 4 ? 2 * h : h;
+      const cw = layout === 2 || layout === 3 ? 2 * w : w, ch = layout === 4 ? 2 * h : h;
+      if (canvas.width !== cw || canvas.height !== ch) [canvas.width, canvas.height] = [cw, ch];  // else no reallocation
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.viewport(0, 0, canvas.width, canvas.height);
       gl.useProgram(pack);
