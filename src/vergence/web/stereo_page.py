@@ -18,10 +18,12 @@ comfort zone, S3 §3, and the share of pixels outside it). Its input is one of:
 The page runs two such jobs (parameter sets A and B, the same input) and wipes between them. Each job also
 writes ``parallax.npy``, the pair's parallax map ``P = x_r - x_l`` (image px of the pair, float32, NaN where
 unknown; :attr:`vergence.synthesis.ParallaxPlan.parallax_px`), and, for a stereo pair, the vertical disparity of
-the pair as ``vergence rectify --check`` measures it (:func:`vergence.depth.measure_row_alignment`).
-``GET /api/stereo/{job_id}/overlay`` answers what the page's overlays need besides that map: the comfort zone,
-the divergence limit and a fixed colour scale in px of the pair, and the stereo-window rule of
-:mod:`vergence.video` (docs/workbench.md, "Overlays").
+the pair as ``vergence rectify --check`` measures it (:func:`vergence.depth.measure_row_alignment`), the matched
+pair's own parallax ``-d`` (``matched_parallax.npy``, ``d = x_l - x_r`` of :func:`vergence.depth.compute_disparity`)
+and its two views as read (``input_left.png``, ``input_right.png``): the matching result's overlays.
+``GET /api/stereo/{job_id}/overlay`` (:mod:`vergence.web.overlays`) answers what the page's overlays need besides
+that map: the comfort zone, the divergence limit and a fixed colour scale in px of the pair, and the stereo-window
+rule of :mod:`vergence.video` (docs/workbench.md, "Overlays").
 """
 
 from __future__ import annotations
@@ -36,12 +38,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pydantic
-from fastapi import FastAPI, Query
-from fastapi.responses import JSONResponse, Response
+from fastapi import FastAPI
 
-from vergence.web._errors import refusal
 from vergence.web._models import RequestModel
 from vergence.web.jobs import JobContext, JobKind, JobManager, JobResult, Prepared
+from vergence.web.overlays import MATCHED_PARALLAX_FILE, PARALLAX_FILE, add_stereo_routes
 
 if TYPE_CHECKING:
     import numpy as np
@@ -49,9 +50,8 @@ if TYPE_CHECKING:
     from vergence.web.job_kinds import JobEnv
     from vergence.web.uploads import Upload
 
-__all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "HEAT_SCALE_ARCMIN", "KINDS", "MAX_EXAMPLE_SIDE",
-           "MAX_HEAT_SCALE_ARCMIN", "MAX_STEREO_JOB_PIXELS", "PARALLAX_FILE", "SynthesizeJob", "VERTICAL_WARN_PX",
-           "WINDOW_MASK_PERCENTILE", "add_routes", "overlay_geometry"]
+__all__ = ["EXAMPLE_DEPTH", "EXAMPLE_SAMPLES", "KINDS", "MAX_EXAMPLE_SIDE", "MAX_STEREO_JOB_PIXELS", "SynthesizeJob",
+           "VERTICAL_WARN_PX", "add_routes"]
 
 #: Largest input of a synthesize job, pixels (12 Mpx, 4000 x 3000): the pair and all its layouts
 #: are written as PNG for the page; larger images are ``vergence synthesize``'s work.
@@ -65,24 +65,11 @@ MAX_EXAMPLE_SIDE = 640
 EXAMPLE_DEPTH = 0
 EXAMPLE_SAMPLES = 4
 
-#: The parallax map each job writes (``P = x_r - x_l``, image px of the pair, float32 ``(H, W)``, NaN unknown).
-PARALLAX_FILE = "parallax.npy"
-
-#: The heat map's fixed colour scale, +-arcmin of vergence on the job's display (twice the default comfort
-#: zone: the zone's limits fall a quarter of the way in from each end); ``?scale_arcmin=`` changes it, up to
-#: MAX_HEAT_SCALE_ARCMIN (10 degrees).
-HEAT_SCALE_ARCMIN = 120.0
-MAX_HEAT_SCALE_ARCMIN = 600.0
-
 #: A stereo pair's vertical disparity (median ``|y_r - y_l|`` of the SIFT matches, ``vergence rectify --check``'s
 #: measure) above this many px of the pair is warned about: the matcher searches along rows, and a pixel of
 #: vertical offset is where block matching starts to lose the match. ``rectify --check`` itself prints the
 #: measure without a threshold.
 VERTICAL_WARN_PX = 1.0
-
-#: The floating window's width at a violating edge: this percentile of the crossed parallax in the edge band,
-#: rounded up to whole columns (as ``vergence convert --floating-window``: a few stray pixels do not widen it).
-WINDOW_MASK_PERCENTILE = 95
 
 # The example renders kept in memory (scene, size -> image, depth): A and B of one input render once.
 _EXAMPLES_KEPT = 4
@@ -392,6 +379,11 @@ def _prepare_synthesize(params: pydantic.BaseModel, env: JobEnv) -> Prepared:
         write_image(ctx.folder / "left.png", result.left)
         write_image(ctx.folder / "right.png", result.right)
         np.save(ctx.folder / PARALLAX_FILE, result.plan.parallax_px.astype(np.float32))
+        if source == "pair":  # the matching result: the input pair's parallax and its views
+            np.save(ctx.folder / MATCHED_PARALLAX_FILE, np.negative(depth, dtype=np.float32))
+            write_image(ctx.folder / "input_left.png", picture)
+            write_image(ctx.folder / "input_right.png", other)
+            names += [MATCHED_PARALLAX_FILE, "input_left.png", "input_right.png"]
         for k, (layout, name) in enumerate(layouts.items()):
             ctx.progress(0.6 + 0.4 * k / len(layouts), f"writing {name}")
             write_image(ctx.folder / name, pack(result.left, result.right, layout=layout))
@@ -426,60 +418,6 @@ def _row_alignment(left: np.ndarray, right: np.ndarray) -> dict[str, Any]:
     return {**found.to_dict(), "threshold_px": VERTICAL_WARN_PX, "above": found.median_abs_dy_px > VERTICAL_WARN_PX}
 
 
-def overlay_geometry(summary: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_ARCMIN) -> dict[str, Any]:
-    """What the page's overlays need besides the parallax map, for a done ``synthesize`` job's ``summary``:
-    every length in px of the pair (``P = x_r - x_l``, positive behind the screen), converted by the library.
-
-    The image fills the display's width: one px of the pair is ``resolution / W`` display px
-    (:func:`vergence.synthesis.plan_comfort`'s rule). ``zone_px``: the comfort zone
-    (:meth:`vergence.viewing.ComfortZone.pixels`, exact vergence angles); ``divergence_px``: the divergence limit
-    ``b'/W'`` of S0 Eq. (8) times ``W``; ``scale``: the heat map's fixed colour scale, ``+-scale_arcmin``
-    (:func:`vergence.viewing.pixels_from_arcmin`) with ticks every quarter; ``window``: the stereo-window rule
-    of ``vergence analyze`` (:data:`vergence.video.WINDOW_BAND`, ``WINDOW_MIN_PX``, ``WINDOW_SHARE``) and the
-    floating window's percentile (:data:`WINDOW_MASK_PERCENTILE`).
-    """
-    import numpy as np
-
-    from vergence.video import WINDOW_BAND, WINDOW_MIN_PX, WINDOW_SHARE
-    from vergence.viewing import ComfortZone, pixels_from_arcmin
-
-    display = _display(summary["display"]["preset"])
-    width, height = summary["size"]
-    per_px = display.resolution / width  # display px per px of the pair
-    zone = ComfortZone()
-    ticks = np.linspace(-scale_arcmin, scale_arcmin, 9)
-    ticks_px = np.asarray(pixels_from_arcmin(ticks, display)) / per_px
-    lo, hi = zone.pixels(display)
-    return {
-        "width": width, "height": height, "display": summary["display"]["preset"], "display_px_per_px": per_px,
-        "zone_arcmin": [zone.min_arcmin, zone.max_arcmin], "zone_px": [lo / per_px, hi / per_px],
-        "divergence_px": display.divergence_disparity * width,
-        "scale": {"arcmin": [-scale_arcmin, scale_arcmin], "px": [float(ticks_px[0]), float(ticks_px[-1])],
-                  "ticks": [{"arcmin": float(a), "px": float(p)} for a, p in zip(ticks, ticks_px)]},
-        "window": {"band_px": min(width, max(2, int(round(WINDOW_BAND * width)))), "min_px": WINDOW_MIN_PX,
-                   "share": WINDOW_SHARE, "mask_percentile": WINDOW_MASK_PERCENTILE},
-        "parallax": PARALLAX_FILE, "row_alignment": summary.get("row_alignment"),
-    }  # fmt: skip
-
-
 def add_routes(app: FastAPI, jobs: JobManager) -> None:
-    """``GET /api/stereo/{job_id}/overlay``."""
-    error = {"content": {"application/json": {"example": {"error": "one line"}}}}
-
-    @app.get("/api/stereo/{job_id}/overlay", summary="What the 2D + depth page's overlays need for a synthesize job",
-             responses={404: error, 409: error, 422: error})
-    def overlay(job_id: str, scale_arcmin: float = Query(
-            HEAT_SCALE_ARCMIN, gt=0, le=MAX_HEAT_SCALE_ARCMIN, allow_inf_nan=False,
-            description="The heat map's colour scale, +-arcmin of vergence on the job's display.")) -> Response:
-        """The comfort zone, divergence limit and colour scale in px of the pair, the stereo-window rule, the
-        name of the job's parallax map (``GET /api/jobs/{job_id}/files/parallax.npy``) and, for a stereo pair,
-        its vertical disparity; 404 for an unknown id or another kind of job, 409 before it is done."""
-        try:
-            status, _ = jobs.status(jobs.get(job_id))
-        except KeyError as exc:
-            return refusal(404, str(exc.args[0]))
-        if status["kind"] != "synthesize":
-            return refusal(404, f"job {job_id} is a {status['kind']} job, not a synthesize job")
-        if status["state"] != "done":
-            return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
-        return JSONResponse(overlay_geometry(status["result"], scale_arcmin=scale_arcmin))
+    """``GET /api/stereo/{job_id}/overlay`` (:func:`vergence.web.overlays.stereo_overlay`)."""
+    add_stereo_routes(app, jobs)

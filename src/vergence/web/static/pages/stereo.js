@@ -190,7 +190,12 @@ function stShow() {
   stShowFormat();
   stShowComfort();
   stOv.shift = 0;
-  stLoadOverlays(document.getElementById("st-ov-set").value).catch(stOverlaysError);
+  // a stereo pair's own parallax as matched is offered beside A and B (the matching result)
+  const ovSet = document.getElementById("st-ov-set");
+  const input = ovSet.querySelector('option[value="input"]');
+  input.hidden = input.disabled = stState.body.a.left === undefined;
+  if (input.disabled && ovSet.value === "input") ovSet.value = "a";
+  stLoadOverlays(ovSet.value).catch(stOverlaysError);
 }
 
 function stShowFormat() {

@@ -12,16 +12,19 @@
 // and the histogram are overlays.js's.
 const stOv = { set: null, geo: null, P: null, W: 0, H: 0, views: null, bins: null, shift: 0, token: 0 };
 
-// Loads the overlays of result `set` (its parallax map, the geometry, both views), then draws them.
+// Loads the overlays of result `set` (its parallax map, the geometry, both views), then draws them. Set "a" or
+// "b": that result's synthesized pair; "input": a stereo pair as it was matched (the matching result: its parallax
+// -d and its views, written by job A; the same in B).
 async function stLoadOverlays(set) {
   const token = ++stOv.token;
-  const id = stState.jobs[set];
+  const id = stState.jobs[set === "input" ? "a" : set];
   if (!id) return;  // nothing synthesized yet
   const scale = document.getElementById("st-heat-scale").value;
   document.getElementById("st-overlays").dataset.state = "loading";
-  const [geo, npy, left, right] = await Promise.all([
-    api(`/api/stereo/${id}/overlay?scale_arcmin=${encodeURIComponent(scale)}`),
-    ovFetchNpy(id, "parallax.npy"), ovImage(jobFile(id, "left.png")), ovImage(jobFile(id, "right.png")),
+  const of = set === "input" ? "input" : "result";
+  const geo = await api(`/api/stereo/${id}/overlay?scale_arcmin=${encodeURIComponent(scale)}&of=${of}`);
+  const [npy, left, right] = await Promise.all([
+    ovFetchNpy(id, geo.parallax), ovImage(jobFile(id, geo.views[0])), ovImage(jobFile(id, geo.views[1])),
   ]);
   if (token !== stOv.token) return;  // a later choice won
   Object.assign(stOv, { set, geo, P: npy.data, H: npy.shape[0], W: npy.shape[1], views: { left, right } });
@@ -211,7 +214,8 @@ function stCliNotes() {
   const { shift, mask } = stOv.applied;
   const tag = `${stOv.set}_anaglyph_hit${shift >= 0 ? "+" : ""}${shift}px${mask.left || mask.right ? `_window-l${mask.left}-r${mask.right}` : ""}`;
   link.download = `${tag}.png`;
-  link.textContent = `Download the shown pair (${stOv.set.toUpperCase()}, red-cyan anaglyph at 2×, HIT ${shift >= 0 ? "+" : ""}${shift} px` +
+  const shown = stOv.set === "input" ? "the stereo pair as matched" : stOv.set.toUpperCase();
+  link.textContent = `Download the shown pair (${shown}, red-cyan anaglyph at 2×, HIT ${shift >= 0 ? "+" : ""}${shift} px` +
     `${mask.left || mask.right ? `, floating window left ${mask.left} px, right ${mask.right} px` : ""})`;
 }
 

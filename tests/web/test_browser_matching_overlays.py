@@ -1,0 +1,116 @@
+"""The matching result's overlays (issue 30) in Chromium: a stereo pair uploaded on page 2 is matched as
+``vergence match`` does; "the stereo pair as matched" draws its own parallax (``-d``) as a heat map over the pair
+and as a histogram against the comfort zone and the divergence limit.
+
+The pair is a texture and its copy moved 4 px left, so every matched parallax is -4 px (in front of the screen):
+the map is checked against that, and the page's colours and counts against numpy on the job's own array.
+"""
+
+from __future__ import annotations
+
+import io
+
+import httpx
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.browser
+
+JOB_MS = 300_000  # the first synthesis compiles the warping kernels
+W, H = 160, 120
+SHIFT_PX = 4  # x_r = x_l - 4: d = 4, P = x_r - x_l = -4
+MATCH_TOL_PX = 0.5  # SGBM's subpixel estimate on a blurred random texture
+STOPS = [(0.0, (178, 24, 43)), (0.25, (239, 138, 98)), (0.5, (247, 247, 247)), (0.75, (103, 169, 207)),
+         (1.0, (33, 102, 172))]
+COLOUR_TOL = 1  # a channel rounded once in the page
+
+
+def _colour(value: float, lo: float, hi: float) -> np.ndarray:
+    t = 0.5 * (1 - min(value / lo, 1.0)) if value <= 0 else 0.5 + 0.5 * min(value / hi, 1.0)
+    for (t0, c0), (t1, c1) in zip(STOPS, STOPS[1:]):
+        if t <= t1:
+            f = (t - t0) / (t1 - t0)
+            return np.array([c + f * (d - c) for c, d in zip(c0, c1)])
+    return np.array(STOPS[-1][1], float)
+
+
+def _ready(page, condition: str = "document.body.dataset.state === 'ready' || document.body.dataset.state === 'error'"):
+    page.wait_for_function(condition, timeout=JOB_MS)
+    assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
+
+
+def test_the_matched_pair_is_drawn_with_its_own_parallax(page, server_url, tmp_path):
+    import cv2
+    from playwright.sync_api import expect
+
+    from vergence.io import write_image
+
+    rng = np.random.default_rng(11)
+    texture = cv2.GaussianBlur(rng.random((H, W + 20)).astype(np.float32), (0, 0), 1.5)
+    texture = (texture - texture.min()) / (texture.max() - texture.min())
+    left, right = texture[:, 10:10 + W], texture[:, 10 + SHIFT_PX:10 + SHIFT_PX + W]
+    write_image(tmp_path / "l.png", left)
+    write_image(tmp_path / "r.png", right)
+    page.goto(server_url + "/#stereo")
+    _ready(page)
+    page.check('[data-testid="st-source-pair"]')
+    for field, name in (("left", "l.png"), ("right", "r.png")):
+        page.set_input_files(f'[data-testid="st-file-{field}"]', str(tmp_path / name))
+        _ready(page)
+    page.fill('[data-testid="st-max-disparity"]', "16")
+    page.click('[data-testid="st-run"]')
+    _ready(page)
+    _ready(page, "document.getElementById('st-overlays').dataset.state === 'ready'")
+    page.select_option('[data-testid="st-ov-set"]', "input")
+    _ready(page, "document.getElementById('st-overlays').dataset.set === 'input' && "
+                 "document.getElementById('st-overlays').dataset.state === 'ready'")
+    job = page.locator('[data-testid="st-overlays"]').get_attribute("data-job")
+    assert job == page.locator("#st-results").get_attribute("data-job-a")
+    geo = httpx.get(f"{server_url}/api/stereo/{job}/overlay?of=input", timeout=30).json()
+    assert geo["parallax"] == "matched_parallax.npy" and geo["views"] == ["input_left.png", "input_right.png"]
+    data = httpx.get(f"{server_url}/api/jobs/{job}/files/matched_parallax.npy", timeout=30).content
+    parallax = np.load(io.BytesIO(data)).astype(np.float64)
+    known = parallax[np.isfinite(parallax)]
+    assert known.size > 0.8 * W * H
+    assert np.mean(np.abs(known + SHIFT_PX) <= MATCH_TOL_PX) > 0.9  # the world's shift, in front of the screen
+
+    # the heat map's colours are the matched parallax
+    heat = page.locator('[data-testid="st-heat-canvas"]')
+    expect(heat).to_be_visible()
+    lo, hi = geo["scale"]["px"]
+    rgba = heat.evaluate("c => Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data)")
+    pixels = np.array(rgba, float).reshape(H, W, 4)
+    ys, xs = np.nonzero(np.isfinite(parallax))
+    for y, x in list(zip(ys, xs))[::97]:
+        np.testing.assert_allclose(pixels[y, x, :3], _colour(parallax[y, x], lo, hi), atol=COLOUR_TOL)
+    assert (pixels[~np.isfinite(parallax), 3] == 0).all()
+
+    # the histogram and its shares, counted here
+    bars = page.locator('[data-testid="st-hist"] rect.bar').evaluate_all(
+        "els => els.map(e => [Number(e.dataset.lo), Number(e.dataset.hi), Number(e.dataset.value)])")
+    assert sum(v for *_, v in bars) == pytest.approx(100.0)
+    for b_lo, b_hi, percent in bars:
+        assert percent == pytest.approx(100 * np.count_nonzero((known >= b_lo) & (known < b_hi)) / known.size, abs=1e-9)
+    outside = np.count_nonzero((known < geo["zone_px"][0]) | (known > geo["zone_px"][1])) / known.size
+    share = float(page.locator('[data-testid="st-share-zone"]').get_attribute("data-value"))
+    assert share == pytest.approx(outside, abs=1e-12)
+
+    # the pair drawn is the uploaded pair itself: the left view in red (the canvas is 2x), at HIT 0
+    canvas = page.evaluate("""() => {
+        const c = document.getElementById('st-pair-canvas');
+        return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data);
+    }""")
+    red = np.array(canvas, float).reshape(2 * H, 2 * W, 4)[::2, ::2, 0]
+    np.testing.assert_allclose(red, np.round(255 * left), atol=1)
+    assert "the stereo pair as matched" in page.locator('[data-testid="st-save-shown"]').inner_text()
+    bad = httpx.get(f"{server_url}/api/stereo/{job}/overlay?of=depth", timeout=30)
+    assert bad.status_code == 422 and "of must be one of result, input" in bad.json()["error"]
+
+
+def test_the_input_overlay_needs_a_stereo_pair():
+    from vergence.web.overlays import stereo_overlay
+
+    summary = {"source": "depth", "display": {"preset": "desktop-24"}, "size": [W, H]}
+    with pytest.raises(ValueError, match="of=input needs a job of a stereo pair"):
+        stereo_overlay(summary, of="input")
+    assert stereo_overlay(summary)["parallax"] == "parallax.npy"
