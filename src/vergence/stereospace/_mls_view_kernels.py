@@ -16,6 +16,7 @@ import math
 
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
 __all__ = ["node_angles", "render_view", "select_handles"]
 
@@ -36,6 +37,18 @@ def _taps(u, v, h, w, base, row_stride, n_ch, weight):  # pragma: no cover - com
     top, bottom = weight * (1.0 - dy), weight * dy
     return (y0 + x0, y0 + x1, y1 + x0, y1 + x1, top * (1.0 - dx), top * dx, bottom * (1.0 - dx),
             bottom * dx)  # fmt: skip
+
+
+def _stored(flat, o, values):  # pragma: no cover - replaced by its overload in compiled code
+    """The value at ``flat[o]`` as float64: a byte through ``values`` (its float64), else itself."""
+    return values[flat[o]] if flat.dtype == np.uint8 else float(flat[o])
+
+
+@overload(_stored, inline="always")
+def _stored_overload(flat, o, values):  # pragma: no cover - compiled
+    if flat.dtype == nb.types.uint8:
+        return lambda flat, o, values: values[flat[o]]
+    return lambda flat, o, values: np.float64(flat[o])
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
@@ -61,9 +74,13 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
       weights where cv2 rounds them to 1/32 pixel).
 
     Writes ``image (h, w, C)`` (0 where no source is valid) and, when ``weights`` is ``(S, h, w)``
-    (not ``(S, 0, 0)``), the normalised weights. One row per task, each stage a loop over the row; the
-    colour is gathered source by source (each source's rows read in order: twice as fast as
-    pixel by pixel, where the sources' rows evict each other from the cache).
+    (not ``(S, 0, 0)``), the normalised weights. One row per task, each stage a loop over the row
+    (branch-free where it can be, so that the compiler vectorises it): the maps and penalties cell
+    by cell of the grid, the ULR threshold (with exactly k valid sources ``P_(k)`` is the largest
+    valid penalty: no sort), the weights and their normalisation (the same divisions as pixel by
+    pixel: the same weights); the colour is gathered source by source (each source's rows read in order: twice
+    as fast as pixel by pixel, where the sources' rows evict each other from the cache), 8-bit
+    values read through a table of their float64 values.
     """
     s_count = ids.shape[0]
     h, w, n_ch = image.shape
@@ -73,44 +90,52 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
     flat = images.reshape(-1)
     row_stride = images.shape[2] * n_ch
     image_stride = images.shape[1] * row_stride
-    cell = np.empty(w, dtype=np.int64)  # each column's grid cell and its position in it
-    frac = np.empty(w)
+    values = np.arange(256).astype(np.float64)  # a stored byte's value (unused for float32 images)
+    frac = np.empty(w)  # each column's position in its grid cell
     for x in range(w):
-        cell[x] = min(x // step, nx - 2)
-        frac[x] = (x - xs[cell[x]]) / (xs[cell[x] + 1] - xs[cell[x]])
+        i = min(x // step, nx - 2)
+        frac[x] = (x - xs[i]) / (xs[i + 1] - xs[i])
     for y in nb.prange(h):
-        pen = np.empty((s_count, w))
+        pen = np.empty((s_count, w))  # the penalties, then the weights
         us = np.empty((s_count, w))
         vs = np.empty((s_count, w))
         along = np.empty((3, nx))
+        count = np.zeros(w, dtype=np.int64)  # valid sources at each pixel
+        largest = np.zeros(w)  # their largest penalty
+        thresh = np.empty(w)
+        total = np.zeros(w)
         order = np.empty(s_count)
-        wts = np.empty(s_count)
         j = min(y // step, ny - 2)
         ty = (y - ys[j]) / (ys[j + 1] - ys[j])
         for s in range(s_count):
+            pen_s, us_s, vs_s = pen[s], us[s], vs[s]
             if ids[s] < 0:
-                pen[s] = np.inf
+                pen_s[:] = np.inf
                 continue
-            hs, wd = sizes[ids[s], 0], sizes[ids[s], 1]
+            v_max, u_max = sizes[ids[s], 0] - 0.5, sizes[ids[s], 1] - 0.5
             for i in range(nx):  # the node rows j and j + 1 mixed: the map and angle along this row
                 for c in range(3):
                     along[c, i] = at_nodes[s, j, i, c] + ty * (at_nodes[s, j + 1, i, c] - at_nodes[s, j, i, c])
+            for i in range(nx - 1):  # cell i: columns i * step to the next node (the last cell: to w)
+                u0, v0, t0 = along[0, i], along[1, i], along[2, i]
+                du, dv, dt = along[0, i + 1] - u0, along[1, i + 1] - v0, along[2, i + 1] - t0
+                for x in range(i * step, (i + 1) * step if i < nx - 2 else w):
+                    tx = frac[x]
+                    u = u0 + tx * du
+                    v = v0 + tx * dv
+                    us_s[x] = u
+                    vs_s[x] = v
+                    valid = (u >= -0.5) & (u <= u_max) & (v >= -0.5) & (v <= v_max)
+                    pen_s[x] = max(floor, t0 + tx * dt) if valid else np.inf
             for x in range(w):
-                i, tx = cell[x], frac[x]
-                u = along[0, i] + tx * (along[0, i + 1] - along[0, i])
-                v = along[1, i] + tx * (along[1, i + 1] - along[1, i])
-                theta = along[2, i] + tx * (along[2, i + 1] - along[2, i])
-                us[s, x] = u
-                vs[s, x] = v
-                valid = -0.5 <= u <= wd - 0.5 and -0.5 <= v <= hs - 0.5
-                pen[s, x] = max(floor, theta) if valid else np.inf
-        for x in range(w):
-            m = 0
-            for s in range(s_count):
-                if pen[s, x] < np.inf:
-                    m += 1
-            total = 0.0
-            if m >= k:
+                valid = pen_s[x] < np.inf
+                count[x] += 1 if valid else 0
+                largest[x] = max(largest[x], pen_s[x]) if valid else largest[x]
+        for x in range(w):  # scale P_(k) where m >= k
+            m = count[x]
+            if m == k:
+                thresh[x] = scale * largest[x]
+            elif m > k:
                 for s in range(s_count):  # insertion sort of at most a few penalties
                     val = pen[s, x]
                     r = s - 1
@@ -118,19 +143,26 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                         order[r + 1] = order[r]
                         r -= 1
                     order[r + 1] = val
-                thresh = scale * order[k - 1]
-                for s in range(s_count):
-                    wts[s] = max(0.0, 1.0 - pen[s, x] / thresh) if pen[s, x] < np.inf else 0.0
-                    total += wts[s]
+                thresh[x] = scale * order[k - 1]
             else:
-                for s in range(s_count):
-                    wts[s] = 1.0 if pen[s, x] < np.inf else 0.0
-                    total += wts[s]
-            for s in range(s_count):
-                wn = wts[s] / total if total > 0.0 else 0.0
-                if keep:
-                    weights[s, y, x] = wn
-                pen[s, x] = wn  # from here on: the weight
+                thresh[x] = np.inf
+        for s in range(s_count):
+            pen_s = pen[s]
+            for x in range(w):
+                p = pen_s[x]
+                wt = max(0.0, 1.0 - p / thresh[x]) if count[x] >= k else 1.0
+                wt = wt if p < np.inf else 0.0
+                pen_s[x] = wt
+                total[x] += wt
+        for x in range(w):
+            total[x] = total[x] if total[x] > 0.0 else np.inf  # no valid source: weights 0
+        for s in range(s_count):
+            pen_s = pen[s]
+            for x in range(w):
+                pen_s[x] /= total[x]
+            if keep:
+                for x in range(w):
+                    weights[s, y, x] = pen_s[x]
         row = np.zeros((w, n_ch))
         for s in range(s_count):  # the colour source by source: each source's rows read in order
             n = ids[s]
@@ -142,13 +174,15 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                     o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], sizes[n, 0], sizes[n, 1],
                                                                    n * image_stride, row_stride, n_ch, wn)  # fmt: skip
                     if n_ch == 3:  # RGB spelt out: the compiler keeps the three sums in registers
-                        row[x, 0] += w00 * flat[o00] + w01 * flat[o01] + w10 * flat[o10] + w11 * flat[o11]
-                        row[x, 1] += w00 * flat[o00 + 1] + w01 * flat[o01 + 1] + w10 * flat[o10 + 1] + w11 * flat[o11 + 1]
-                        row[x, 2] += w00 * flat[o00 + 2] + w01 * flat[o01 + 2] + w10 * flat[o10 + 2] + w11 * flat[o11 + 2]
+                        for c in range(3):
+                            row[x, c] += (w00 * _stored(flat, o00 + c, values) + w01 * _stored(flat, o01 + c, values)
+                                          + w10 * _stored(flat, o10 + c, values)
+                                          + w11 * _stored(flat, o11 + c, values))  # fmt: skip
                     else:
                         for c in range(n_ch):
-                            row[x, c] += (w00 * flat[o00 + c] + w01 * flat[o01 + c] + w10 * flat[o10 + c]
-                                          + w11 * flat[o11 + c])  # fmt: skip
+                            row[x, c] += (w00 * _stored(flat, o00 + c, values) + w01 * _stored(flat, o01 + c, values)
+                                          + w10 * _stored(flat, o10 + c, values)
+                                          + w11 * _stored(flat, o11 + c, values))  # fmt: skip
         for x in range(w):
             for c in range(n_ch):
                 image[y, x, c] = row[x, c] * unit
