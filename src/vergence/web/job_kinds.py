@@ -18,9 +18,9 @@
   specular`` are pending, written when one is first asked for (:class:`vergence.web.jobs.JobResult`).
   A map on a layer no weight can move (:func:`paintable_layers`) or a map of ones is refused.
 
-``GET /api/specular/{job_id}/overlay`` (:func:`specular_overlay`) answers what the page's heat map and histogram
-of ``disparity_after.npy`` need besides the array: the comfort zone, the divergence limit and the colour scale in
-arcmin on the job's display as it is shown (its fit).
+``GET /api/specular/{job_id}/overlay`` (:func:`vergence.web.overlays.specular_overlay`) answers what the page's heat
+map and histogram of ``disparity_after.npy`` need besides the array: the comfort zone, the divergence limit and the
+colour scale in arcmin on the job's display as it is shown (its fit).
 """
 
 from __future__ import annotations
@@ -33,20 +33,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pydantic
-from fastapi import FastAPI, Query
-from fastapi.responses import JSONResponse, Response
+from fastapi import FastAPI
 
-from vergence.web._errors import refusal
 from vergence.web._models import RequestModel
 from vergence.web.jobs import JobContext, JobKind, JobManager, JobResult, Prepared
+from vergence.web.overlays import add_specular_routes
 
 if TYPE_CHECKING:
     from vergence.web.data import DataIndex
     from vergence.web.uploads import UploadStore
 
-__all__ = ["HEAT_SCALE_ARCMIN", "KINDS", "MAX_HEAT_SCALE_ARCMIN", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE",
-           "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS", "SHOWN_FIRST", "JobEnv", "RenderJob", "SpecularJob",
-           "SpecularReoptimiseJob", "WeightMap", "add_routes", "paintable_layers", "specular_overlay"]
+__all__ = ["KINDS", "MAX_RENDER_JOB_RAYS", "MAX_RENDER_JOB_SIDE", "MAX_SPECULAR_JOB_SIDE", "MAX_WEIGHT_MAPS",
+           "SHOWN_FIRST", "JobEnv", "RenderJob", "SpecularJob", "SpecularReoptimiseJob", "WeightMap", "add_routes",
+           "paintable_layers"]
 
 #: Largest side of a render job, pixels: previews on the page, not final frames (``vergence render``).
 MAX_RENDER_JOB_SIDE = 2048
@@ -410,56 +409,6 @@ KINDS = {
 }
 
 
-#: The specular heat map's colour scale, +-arcmin of vergence on the job's display (twice S3's comfort zone, as
-#: page 2's); ``?scale_arcmin=`` changes it, up to MAX_HEAT_SCALE_ARCMIN (10 degrees).
-HEAT_SCALE_ARCMIN = 120.0
-MAX_HEAT_SCALE_ARCMIN = 600.0
-
-
-def specular_overlay(report: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_ARCMIN) -> dict[str, Any]:
-    """What the page's overlays of ``disparity_after.npy`` (``(N, H, W)`` arcmin, positive behind the screen)
-    need besides the array, for a done specular job's ``report``, every figure in arcmin of vergence on the
-    display as the image is shown (``report["display"]``, :func:`vergence.specular.display_block`).
-
-    ``zone_arcmin``: ``report["comfort_zone_arcmin"]``; ``divergence_arcmin``: the vergence change of a screen
-    parallax of one eye separation (the eyes parallel, S0 Eq. (8)'s limit ``b'``), i.e. ``2 atan(e / 2D)``
-    (:func:`vergence.viewing.arcmin_from_pixels`, exact); ``scale``: the heat map's range ``+-scale_arcmin`` and
-    its ticks every quarter; ``layers``: the layers' names (:func:`vergence.specular.layer_labels`).
-    """
-    from vergence.viewing import Display, arcmin_from_pixels
-
-    block = report["display"]
-    shown = Display(eye_separation=block["eye_separation_m"], distance=block["viewing_distance_m"],
-                    width=block["shown_width_m"], resolution=block["image_width_px"])  # fmt: skip
-    divergence = float(arcmin_from_pixels(shown.eye_separation / shown.pixel_pitch, shown, exact=True))
-    ticks = np.linspace(-scale_arcmin, scale_arcmin, 9)
-    return {
-        "display": block["name"], "fit": block["fit"], "arcmin_per_px": block["arcmin_per_px"],
-        "zone_arcmin": list(report["comfort_zone_arcmin"]), "divergence_arcmin": divergence,
-        "scale": {"arcmin": [-scale_arcmin, scale_arcmin], "ticks": [float(t) for t in ticks]},
-        "layers": [{"layer": layer["layer"], "name": layer["name"]} for layer in report["layers"]],
-        "disparity": "disparity_after.npy",
-    }  # fmt: skip
-
-
 def add_routes(app: FastAPI, jobs: JobManager) -> None:
-    """``GET /api/specular/{job_id}/overlay``."""
-    error = {"content": {"application/json": {"example": {"error": "one line"}}}}
-
-    @app.get("/api/specular/{job_id}/overlay", summary="What the specular page's overlays need for a specular job",
-             responses={404: error, 409: error, 422: error})
-    def overlay(job_id: str, scale_arcmin: float = Query(
-            HEAT_SCALE_ARCMIN, gt=0, le=MAX_HEAT_SCALE_ARCMIN, allow_inf_nan=False,
-            description="The heat map's colour scale, +-arcmin of vergence on the job's display.")) -> Response:
-        """The comfort zone, the divergence limit and the colour scale in arcmin of the job's display (as shown),
-        and the name of its disparity array (``GET /api/jobs/{job_id}/files/disparity_after.npy``); 404 for an
-        unknown id or a job of another kind, 409 before it is done."""
-        try:
-            status, _ = jobs.status(jobs.get(job_id))
-        except KeyError as exc:
-            return refusal(404, str(exc.args[0]))
-        if status["kind"] not in ("specular", "specular-reoptimise"):
-            return refusal(404, f"job {job_id} is a {status['kind']} job, not a specular job")
-        if status["state"] != "done":
-            return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
-        return JSONResponse(specular_overlay(status["result"], scale_arcmin=scale_arcmin))
+    """``GET /api/specular/{job_id}/overlay`` (:func:`vergence.web.overlays.specular_overlay`)."""
+    add_specular_routes(app, jobs)

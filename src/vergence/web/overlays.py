@@ -6,7 +6,9 @@ display (the zone, the limit, the colour scale's ticks) is converted here by the
 
 - ``GET /api/stereo/{job_id}/overlay`` (:func:`stereo_overlay`): a ``synthesize`` job's parallax map (page 2), or
   for a stereo pair its input as matched (the matching result, ``?of=input``), in px of the pair, with the
-  stereo-window rule of :mod:`vergence.video` and the pair's vertical disparity.
+  stereo-window rule of :mod:`vergence.video` and the pair's vertical disparity;
+- ``GET /api/specular/{job_id}/overlay`` (:func:`specular_overlay`): a specular job's per-layer disparity after the
+  solve (``disparity_after.npy``, page 5), in arcmin of vergence on the display as the image is shown.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from vergence.web._errors import refusal
 from vergence.web.jobs import JobManager
 
 __all__ = ["HEAT_SCALE_ARCMIN", "MATCHED_PARALLAX_FILE", "MAX_HEAT_SCALE_ARCMIN", "OVERLAY_OF", "PARALLAX_FILE",
-           "WINDOW_MASK_PERCENTILE", "add_stereo_routes", "stereo_overlay"]
+           "WINDOW_MASK_PERCENTILE", "add_specular_routes", "add_stereo_routes", "specular_overlay", "stereo_overlay"]
 
 #: The parallax map each job writes (``P = x_r - x_l``, image px of the pair, float32 ``(H, W)``, NaN unknown).
 PARALLAX_FILE = "parallax.npy"
@@ -34,7 +36,7 @@ MATCHED_PARALLAX_FILE = "matched_parallax.npy"
 OVERLAY_OF = {"result": (PARALLAX_FILE, ("left.png", "right.png")),
               "input": (MATCHED_PARALLAX_FILE, ("input_left.png", "input_right.png"))}
 
-#: The heat map's fixed colour scale, +-arcmin of vergence on the job's display (twice the default comfort
+#: The heat maps' fixed colour scale, +-arcmin of vergence on the job's display (twice the default comfort
 #: zone: the zone's limits fall a quarter of the way in from each end); ``?scale_arcmin=`` changes it, up to
 #: MAX_HEAT_SCALE_ARCMIN (10 degrees).
 HEAT_SCALE_ARCMIN = 120.0
@@ -115,3 +117,54 @@ def add_stereo_routes(app: FastAPI, jobs: JobManager) -> None:
             return JSONResponse(stereo_overlay(status["result"], scale_arcmin=scale_arcmin, of=of))
         except ValueError as exc:
             return refusal(422, str(exc))
+
+
+def specular_overlay(report: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_ARCMIN) -> dict[str, Any]:
+    """What the page's overlays of ``disparity_after.npy`` (``(N, H, W)`` arcmin, positive behind the screen)
+    need besides the array, for a done specular job's ``report``, every figure in arcmin of vergence on the
+    display as the image is shown (``report["display"]``, :func:`vergence.specular.display_block`).
+
+    ``zone_arcmin``: ``report["comfort_zone_arcmin"]``; ``divergence_arcmin``: the vergence change of a screen
+    parallax of one eye separation (the eyes parallel, S0 Eq. (8)'s limit ``b'``), i.e. ``2 atan(e / 2D)``
+    (:func:`vergence.viewing.arcmin_from_pixels`, exact); ``scale``: the heat map's range ``+-scale_arcmin`` and
+    its ticks every quarter; ``layers``: the layers' names (:func:`vergence.specular.layer_labels`).
+    """
+    import numpy as np
+
+    from vergence.viewing import Display, arcmin_from_pixels
+
+    block = report["display"]
+    shown = Display(eye_separation=block["eye_separation_m"], distance=block["viewing_distance_m"],
+                    width=block["shown_width_m"], resolution=block["image_width_px"])  # fmt: skip
+    divergence = float(arcmin_from_pixels(shown.eye_separation / shown.pixel_pitch, shown, exact=True))
+    ticks = np.linspace(-scale_arcmin, scale_arcmin, 9)
+    return {
+        "display": block["name"], "fit": block["fit"], "arcmin_per_px": block["arcmin_per_px"],
+        "zone_arcmin": list(report["comfort_zone_arcmin"]), "divergence_arcmin": divergence,
+        "scale": {"arcmin": [-scale_arcmin, scale_arcmin], "ticks": [float(t) for t in ticks]},
+        "layers": [{"layer": layer["layer"], "name": layer["name"]} for layer in report["layers"]],
+        "disparity": "disparity_after.npy",
+    }  # fmt: skip
+
+
+def add_specular_routes(app: FastAPI, jobs: JobManager) -> None:
+    """``GET /api/specular/{job_id}/overlay``: :func:`specular_overlay` of a done specular job or re-optimisation."""
+    error = {"content": {"application/json": {"example": {"error": "one line"}}}}
+
+    @app.get("/api/specular/{job_id}/overlay", summary="What the specular page's overlays need for a specular job",
+             responses={404: error, 409: error, 422: error})
+    def overlay(job_id: str, scale_arcmin: float = Query(
+            HEAT_SCALE_ARCMIN, gt=0, le=MAX_HEAT_SCALE_ARCMIN, allow_inf_nan=False,
+            description="The heat map's colour scale, +-arcmin of vergence on the job's display.")) -> Response:
+        """The comfort zone, the divergence limit and the colour scale in arcmin of the job's display (as shown),
+        and the name of its disparity array (``GET /api/jobs/{job_id}/files/disparity_after.npy``); 404 for an
+        unknown id or a job of another kind, 409 before it is done."""
+        try:
+            status, _ = jobs.status(jobs.get(job_id))
+        except KeyError as exc:
+            return refusal(404, str(exc.args[0]))
+        if status["kind"] not in ("specular", "specular-reoptimise"):
+            return refusal(404, f"job {job_id} is a {status['kind']} job, not a specular job")
+        if status["state"] != "done":
+            return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
+        return JSONResponse(specular_overlay(status["result"], scale_arcmin=scale_arcmin))
