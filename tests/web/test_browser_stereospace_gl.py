@@ -116,7 +116,14 @@ def test_the_browser_pair_matches_the_servers(page, server_url, wanted):
         psnr = (_psnr(gl_l, cpu_l), _psnr(gl_r, cpu_r))
         figures.append((state["region"], round(state["li"], 3), round(state["lj"], 3), *(round(float(p), 2) for p in psnr)))
         assert min(psnr) >= MIN_PSNR_DB, figures
-    print(f"\n{wanted} at {width} px, PSNR (dB) left, right per state: {figures}")
+    # the same comparison fails for the wrong state: the browser's start against the server's first pan
+    states = _states(server_url, result)
+    gl_l, _, _ = _drawn(page, states[0], width)
+    cpu_l, _, _ = _server(server_url, result["job"], states[1], width)
+    off = _psnr(gl_l, cpu_l)
+    print(f"\n{wanted} at {width} px, PSNR (dB) left, right per state: {figures}; the start against one pan "
+          f"step on: {off:.2f}")
+    assert off < MIN_PSNR_DB
 
 
 def test_a_scripted_pan_animates_and_ends_on_the_servers_pair(page, server_url):
@@ -142,3 +149,47 @@ def test_a_scripted_pan_animates_and_ends_on_the_servers_pair(page, server_url):
     shot = page.evaluate("() => ({ left: SS.gl.readEye(0), right: SS.gl.readEye(1) })")
     cpu_l, cpu_r, _ = _server(server_url, result["job"], state, result["default_width"])
     assert min(_psnr(_eye(shot["left"]), cpu_l), _psnr(_eye(shot["right"]), cpu_r)) >= MIN_PSNR_DB
+
+
+@pytest.mark.skipif(not KERMIT.is_dir(), reason="the shared kermit collection is missing")
+def test_the_right_arrow_moves_kermit_right_in_the_world(page, server_url):
+    """Issue 30: successive right-arrow presses in the page move the stereo camera to the world right of the
+    start view every time. The states are the page's (its readout); the world positions are the library's
+    (:meth:`StereoSpace.eyes` of kermit loaded here), not the page's sign rule or the server's map."""
+    from vergence.stereospace import PreparedCollection, load_collection, pair_cameras
+
+    result = _prepared(page, server_url, "kermit/")
+    prepared = PreparedCollection(load_collection(KERMIT / "bundle.out", images=KERMIT), grid_step=16)
+    space = prepared.space
+
+    def shown():
+        from vergence.stereospace import StereoState
+
+        value = lambda t: json.loads(page.locator(f'[data-testid="{t}"]').get_attribute("data-value"))  # noqa: E731
+        return StereoState(tuple(value("ss-region")), value("ss-li"), value("ss-lj"))
+
+    start = shown()
+    first, second = pair_cameras(space, prepared.collection, start)
+    right = np.cross(first.R[2] + second.R[2], prepared.up)
+    xs = [float(space.eyes(start).mean(axis=0) @ right)]
+    for _ in range(6):
+        before = page.evaluate("() => JSON.stringify(SS.view)")
+        page.keyboard.press("ArrowRight")
+        page.wait_for_function(f"JSON.stringify(SS.view) !== {json.dumps(before)} && !SS.busy "
+                               "&& document.body.dataset.state !== 'loading'", timeout=MOVE_MS)
+        xs.append(float(space.eyes(shown()).mean(axis=0) @ right))
+    print(f"\nkermit, the stereo camera along the start view's right over 6 right presses: {np.round(xs, 3).tolist()}")
+    assert (np.diff(xs) > 0).all(), xs
+
+
+def test_without_webgl2_the_page_shows_the_servers_pair(page, server_url):
+    """``?renderer=server`` (as a browser without WebGL2): the page says so and shows the server's PNG."""
+    page.goto(server_url + "/?renderer=server#stereospace")
+    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
+    page.locator('[data-testid="ss-collection"]').select_option("collection:tabletop")
+    page.click('[data-testid="ss-prepare"]')
+    page.wait_for_function("SS.view !== null && document.body.dataset.state === 'ready'", timeout=JOB_MS)
+    note = page.locator('[data-testid="ss-renderer"]')
+    assert note.get_attribute("data-renderer") == "server" and "drawn by the server" in note.inner_text()
+    assert page.locator('[data-testid="ss-pair"]').evaluate("el => el.naturalWidth") > 0
+    assert page.locator('[data-testid="ss-canvas"]').evaluate("el => getComputedStyle(el).display") == "none"

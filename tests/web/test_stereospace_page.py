@@ -320,6 +320,42 @@ def test_views_serve_only_the_names_the_server_made(client, browsed):
     assert MAX_PAIR_FILES >= 3  # a pair's three images fit
 
 
+def test_the_scene_is_the_library_collection(client, kermit):
+    """``GET .../scene`` (what the browser draws from, issue 30): the cameras, segments, up, points and S2's
+    render parameters of the job's PreparedCollection; each ``source-{k}.png`` is camera k's decoded image."""
+    from PIL import Image
+    import io
+
+    from vergence.stereospace import S2_HANDLE_CELL_PX, S2_MAX_SOURCES, UP_MIN_COSINE
+
+    job, prepared = kermit
+    scene = client.get(f"/api/stereospace/{job['id']}/scene").json()
+    col = prepared.collection
+    assert len(scene["cameras"]) == len(col) == len(scene["images"])
+    for got, cam in zip(scene["cameras"], col.cameras):
+        assert_allclose(np.reshape(got["K"], (3, 3)), cam.K, rtol=0, atol=0)
+        assert_allclose(np.reshape(got["R"], (3, 3)), cam.R, rtol=0, atol=0)
+        assert (got["width"], got["height"]) == (cam.width, cam.height)
+    assert scene["segment_cameras"] == prepared.segment_cameras.tolist()
+    assert_allclose(scene["up"], prepared.up, rtol=0, atol=0)
+    assert_allclose(np.reshape(scene["points"], (-1, 3)), col.points, rtol=0, atol=0)
+    r = scene["render"]
+    assert (r["grid_step"], r["k"], r["handle_cell_px"], r["up_min_cosine"]) == (
+        job["result"]["grid_step"], S2_MAX_SOURCES, S2_HANDLE_CELL_PX, UP_MIN_COSINE)
+    got = client.get(scene["images"][3])
+    assert got.status_code == 200 and got.headers["content-type"] == "image/png"
+    image = np.asarray(Image.open(io.BytesIO(got.content)).convert("RGB"), dtype=np.float64) / 255.0
+    assert_allclose(image, prepared.image(3), atol=0.5 / 255.0)  # 8-bit photos: the stored values
+
+
+def test_the_scene_serves_only_its_images(client, browsed):
+    job = browsed
+    for name in ("source-12.png", "source-01.png", "source--1.png", "map.json", "x" * 300, "..%2Fmap.json"):
+        _refused(client.get(f"/api/stereospace/{job['id']}/scene/{name}"), 404)
+    assert "has no scene image" in _refused(client.get(f"/api/stereospace/{job['id']}/scene/source-99.png"), 404)
+    assert "unknown job id" in _refused(client.get("/api/stereospace/0123456789abcdef/scene"), 404)
+
+
 def test_the_follow_ups_are_documented_in_openapi(bare):
     paths = bare.get("/openapi.json").json()["paths"]
     move = paths["/api/stereospace/{job_id}/move"]["post"]["requestBody"]["content"]["application/json"]["schema"]
@@ -328,6 +364,7 @@ def test_the_follow_ups_are_documented_in_openapi(bare):
     pair = paths["/api/stereospace/{job_id}/pair"]["post"]["requestBody"]["content"]["application/json"]["schema"]
     assert set(pair["properties"]) == {"state", "format", "width"}
     assert "/api/stereospace/{job_id}/views/{name}" in paths
+    assert {"/api/stereospace/{job_id}/scene", "/api/stereospace/{job_id}/scene/{name}"} <= set(paths)
     kinds = {k["name"]: k for k in bare.get("/api/jobs").json()["kinds"]}
     assert set(kinds["stereospace"]["parameters"]["properties"]) == {"collection", "grid_step", "display"}
 
