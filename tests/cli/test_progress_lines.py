@@ -27,3 +27,19 @@ def test_a_new_stage_starts_its_lines_again(capsys):
     lines = capsys.readouterr().err.splitlines()
     assert [line for line in lines if line.startswith("100 %")] == ["100 % points", "100 % views"]
     assert len(lines) == 22
+
+
+@pytest.mark.parametrize("lines", [False, True])
+def test_the_bar_of_a_command_off_a_terminal(capsys, lines):
+    """`render`, `specular` and `rig render` share one bar: off a terminal it prints nothing, or with
+    ``lines`` (the minutes-long rig render) ProgressLines' handful."""
+    from vergence.cli._spinner import progress_bar
+
+    with progress_bar("rendering", lines=lines) as report:
+        for k in range(101):
+            report(k / 100, f"step {k}")
+    err = capsys.readouterr().err.splitlines()
+    if lines:
+        assert err[0] == "  0 % step 0" and err[-1] == "100 % step 100" and len(err) == 11
+    else:
+        assert err == []

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from vergence.cli import main
+from cli_runs import run_main as _main
 from vergence.report.specular_outputs import SPECULAR_OUTPUT_FILES
 
 W, H = 48, 36
@@ -18,14 +16,6 @@ TINY = ["--width", str(W), "--height", str(H), "--k", "2", "--samples", "1"]
 N = 7  # layers of --depth 2
 # analysis.npz stores float32 arcmin; the independent matcher's float64 result is rounded the same way.
 ARCMIN_TOL = 1e-4
-
-
-def _main(*args: str) -> tuple[int, str, str]:
-    """``vergence ARGS`` in-process: (exit code, stdout, stderr); usable from module-scoped fixtures."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(list(args))
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

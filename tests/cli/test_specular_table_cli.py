@@ -3,14 +3,12 @@ the terminal, --table written once and --reoptimise from it, and their refusals 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 
 import numpy as np
 import pytest
 
-from vergence.cli import main
+from cli_runs import run_main as _main
 
 W, H = 48, 36
 TINY = ["--width", str(W), "--height", str(H), "--k", "2", "--samples", "1"]
@@ -19,13 +17,6 @@ TINY = ["--width", str(W), "--height", str(H), "--k", "2", "--samples", "1"]
 ROUNDED_RTOL, ATAN_RTOL = 1e-5, 1e-4
 # below 30' the vergence change is linear in the parallax to ~1 % (exact form, S3 §3.2 / conventions)
 LINEAR_RTOL = 2e-2
-
-
-def _main(*args: str) -> tuple[int, str, str]:
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(list(args))
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

@@ -73,7 +73,7 @@ def reoptimise_folder(folder: Path, out: Path, *, given: dict, weights: tuple | 
     (None: not given); one that differs from the table is refused. Returns ``(result, file names,
     scene name, display name)``.
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from vergence.cli._spinner import progress_bar
 
     from vergence.commands import ParameterError
     from vergence.commands._specular import weight_maps
@@ -117,10 +117,7 @@ def reoptimise_folder(folder: Path, out: Path, *, given: dict, weights: tuple | 
     commit = atomic_folder(out)
     if sc.environment.note:
         err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
-    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-        task = bar.add_task(f"specular {sc.name}: re-solving {folder / TABLE_FILE}", total=1.0)
-        report = lambda f, m: bar.update(task, completed=f, description=m)  # noqa: E731
+    with progress_bar(f"specular {sc.name}: re-solving {folder / TABLE_FILE}") as report:
         with options_named(alpha="--weights", variant="--absolute", factor="--factor"):
             result = specular_from_table(table, sc, alpha=weights, variant=variant, maps=maps or None, factor=factor,
                                          progress=report)  # fmt: skip

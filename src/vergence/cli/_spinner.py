@@ -7,13 +7,16 @@ the work prints between stages (warnings, notes) and the files it writes after a
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from types import TracebackType
 
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.status import Status
 
 from vergence.cli._app import err_console
 
-__all__ = ["ProgressLines", "Spinner"]
+__all__ = ["ProgressLines", "Spinner", "progress_bar"]
 
 
 class Spinner:
@@ -89,3 +92,24 @@ class ProgressLines:
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
         self.stop()
+
+
+@contextmanager
+def progress_bar(description: str, *, lines: bool = False) -> Iterator[Callable[[float, str], None]]:
+    """A Rich bar on stderr as the ``progress(fraction, message)`` hook of a command's work, gone when
+    the block ends: ``with progress_bar("rendering") as report: render(..., progress=report)``.
+
+    The bar shows only on a terminal: piped or captured stderr stays empty (errors are one line), or,
+    with ``lines``, gets :class:`ProgressLines`' dozen lines (for work that runs for minutes).
+    """
+    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+        task = bar.add_task(description, total=1.0)
+        plain = ProgressLines() if lines and not err_console.is_terminal else None
+
+        def report(fraction: float, message: str) -> None:
+            bar.update(task, completed=fraction, description=message)
+            if plain is not None:
+                plain(fraction, message)
+
+        yield report

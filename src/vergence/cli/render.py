@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import app, check_output_path, console, err_console, open_scene_quietly, options_named, spoken
+from vergence.cli._spinner import progress_bar
 from vergence.commands import ParameterError
 from vergence.commands._scene import scene_rig
 
@@ -102,11 +102,7 @@ def render(
     options = {"max_depth": depth, "samples": samples, "rng": rng, "supersample": supersample}
     cam = sc.camera.build()
     start = time.perf_counter()
-    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
-    # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
-    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-        task = bar.add_task(f"rendering {sc.name}", total=1.0)
-        report = lambda f, m: bar.update(task, completed=f, description=m)  # noqa: E731
+    with progress_bar(f"rendering {sc.name}") as report:
         if rig is None:
             results = [vr.render(sc, camera=cam, progress=report, **options)]
         elif eye == "both":

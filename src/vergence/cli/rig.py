@@ -13,14 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli.budget import print_warnings
-from vergence.cli._spinner import ProgressLines
 from vergence.cli._app import app, check_output_path, console, err_console, option, options_named, print_json, \
     run_command  # fmt: skip
+from vergence.cli._spinner import progress_bar
 from vergence.commands.rig_plan import RIG_PLAN
 
 __all__ = ["rig_app"]
@@ -147,17 +146,8 @@ def render(
     if out.exists() and out.resolve() == shot.resolve():
         raise ValueError(f"--out {out} would overwrite the shot file")
     start = time.perf_counter()
-    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-        task = bar.add_task("rendering", total=1.0)
-
-        lines = ProgressLines()  # not on a terminal: a line a tenth (the curved-ray truth reports every octave)
-
-        def report(fraction: float, message: str) -> None:
-            bar.update(task, completed=fraction, description=message)
-            if not err_console.is_terminal:
-                lines(fraction, message)
-
+    # not on a terminal: a line a tenth (the curved-ray truth reports every octave)
+    with progress_bar("rendering", lines=True) as report:
         with options_named(samples="--samples", supersample="--supersample", sources="--sources", k="--ulr-k",
                            occlusion_tolerance="--visibility-tolerance", deformation_cap="--deformation-cap"):
             result = render_shot(s, weights=RIG_WEIGHTS[weights], samples=samples, supersample=supersample,

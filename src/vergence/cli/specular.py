@@ -26,11 +26,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from vergence.cli import raise_if_interrupted
 from vergence.cli._app import (app, check_output_path, console, err_console, open_scene_quietly, options_named,
                                preset_display, spoken)
+from vergence.cli._spinner import progress_bar
 from vergence.commands import ParameterError
 from vergence.commands._scene import scene_rig
 from vergence.commands._specular import MAX_WEIGHT as _MAX_WEIGHT  # largest --weights value (and painted weight)
@@ -239,11 +239,7 @@ def specular(
     commit = atomic_folder(out)  # checks --out now (a file of that name is refused before the renders)
     if sc.environment.note:
         err_console.print(f"[yellow]note:[/] {sc.environment.note}", highlight=False, soft_wrap=True)
-    columns = (TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn())
-    # The bar only on a terminal: piped or captured stderr stays empty (errors are one line).
-    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-        task = bar.add_task(f"specular {sc.name}", total=1.0)
-        report = lambda f, m: bar.update(task, completed=f, description=m)  # noqa: E731
+    with progress_bar(f"specular {sc.name}") as report:
         with options_named(k="--k", max_depth="--depth", samples="--samples", alpha="--weights",
                            variant="--absolute", factor="--factor"):  # fmt: skip
             result = specular_stereo(sc, left, right, screen, k=k, max_depth=depth, samples=samples,
