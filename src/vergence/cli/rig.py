@@ -50,19 +50,19 @@ def _print_plan(shot, rig) -> None:  # noqa: ANN001
                          no_wrap=col != "centre (m)", min_width=17 if col == "centre (m)" else None)
     from vergence.rigs import plan_document
 
-    lines = []
+    rows = []
     for row, rc in zip(plan_document(shot, rig)["cameras"], rig.cameras):
         c = " ".join(f"{v:.2f}" for v in rc.camera.center)
         b = "—" if row["baseline"] is None else f"{row['baseline']:.4f}"
-        table.add_row(row["name"], row["element"], row["eye"], c, f"{row['fx']:.1f}", f"{row['fx_ratio']:.3f}", b)
-        lines += [f"  {row['name']} ({row['element']}, {row['eye']} eye)",
-                  f"    centre {c} m; fx {row['fx']:.1f} px, {row['fx_ratio']:.3f} x {ratio_of}; baseline {b} m"]
+        rows.append((row["name"], row["element"], row["eye"], c, f"{row['fx']:.1f}", f"{row['fx_ratio']:.3f}", b))
+        table.add_row(*rows[-1])
     if console.measure(table, options=console.options.update(max_width=10_000)).maximum <= console.width:
         console.print(table)
     else:  # a narrow terminal or a log: one line a camera rather than a squeezed column
         console.print(table.title, highlight=False)
-        for line in lines:
-            console.print(line, highlight=False, soft_wrap=False)
+        for name, element, eye, c, fx, ratio, b in rows:
+            console.print(f"  {name} ({element}, {eye} eye)\n    centre {c} m; fx {fx} px, {ratio} x {ratio_of}; "
+                          f"baseline {b} m", highlight=False, soft_wrap=False)  # fmt: skip
     if shot.rig == "quadri":
         console.print(f"virtual eyes: baseline {_baseline(rig.left, rig.right):.4g} m; real cameras {rig.setback:g} m "
                       "behind them", highlight=False)  # fmt: skip
