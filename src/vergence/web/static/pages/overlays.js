@@ -110,12 +110,20 @@ function ovHeatBar(svg, opts) {
 }
 
 // The histogram's bins for `values` (NaN skipped): a width from OV_BIN_STEPS x 10^k giving about OV_HIST_BINS
-// over their range (at least `minSpan`), edges on its multiples.
-function ovBins(values, minSpan = 0.5) {
+// over their range (at least `minSpan`), edges on its multiples. With `trim` (a share, e.g. 0.01) the width is
+// set by the range between the trim and 1 - trim quantiles, so that a few far pixels do not make every bin
+// coarse (they keep their own bins); lo and hi stay the whole range.
+function ovBins(values, minSpan = 0.5, trim = 0) {
   let lo = Infinity, hi = -Infinity;
   for (const v of values) if (Number.isFinite(v)) { if (v < lo) lo = v; if (v > hi) hi = v; }
   if (!(hi >= lo)) { lo = 0; hi = 0; }
-  const raw = Math.max(hi - lo, minSpan) / OV_HIST_BINS;
+  let [qlo, qhi] = [lo, hi];
+  if (trim > 0 && hi > lo) {
+    const known = Float64Array.from(values).filter(Number.isFinite).sort();
+    const at = (q) => known[Math.min(known.length - 1, Math.floor(q * (known.length - 1)))];
+    [qlo, qhi] = [at(trim), at(1 - trim)];
+  }
+  const raw = Math.max(qhi - qlo, minSpan) / OV_HIST_BINS;
   const mag = 10 ** Math.floor(Math.log10(raw));
   const width = OV_BIN_STEPS.map((m) => m * mag).find((w) => w >= raw) || 10 * mag;
   return { width, lo, hi, maxAbs: Math.max(Math.abs(lo), Math.abs(hi)) };

@@ -10,6 +10,7 @@
 // pooled, with the plain shares inside the zone and past the limit, and the chosen layer's share inside.
 // The colours, the counts and the histogram are overlays.js's.
 const specOv = { id: null, geo: null, bins: null, token: 0, picture: null };
+const SPEC_OV_TRIM = 0.005;  // the bin width from the 0.5-99.5 % range: a few mismatched far pixels keep it fine
 
 function specOvLayer() { return Number(document.getElementById("spec-ov-layer").value); }
 
@@ -27,7 +28,7 @@ async function specLoadOverlays(id) {
   const [geo] = await Promise.all([api(`/api/specular/${id}/overlay?scale_arcmin=${encodeURIComponent(scale)}`),
     specLoadOverlay(id)]);
   if (token !== specOv.token) return;  // a later result or choice won
-  Object.assign(specOv, { id, geo, bins: ovBins(spec.overlay.data, 1) });
+  Object.assign(specOv, { id, geo, bins: ovBins(spec.overlay.data, 1, SPEC_OV_TRIM) });
   const select = document.getElementById("spec-ov-layer");
   const kept = select.value;
   select.replaceChildren(...geo.layers.map((l) => {
