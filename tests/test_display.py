@@ -268,6 +268,20 @@ def test_inputs_are_not_modified():
     assert_array_equal(right, rc)
 
 
+@pytest.mark.parametrize("method", list(ANAGLYPH_METHODS))
+@pytest.mark.parametrize("shape", [(2, 4), (2, 4, 3)])
+def test_anaglyph_reads_float32_views_without_copying_them_and_returns_a_new_image(method, shape):
+    # anaglyph validates float32 views without a copy (the StereoSpace pair's packing): no method
+    # may write into them or hand one of them back
+    left, right = _views(shape)
+    lc, rc = left.copy(), right.copy()
+    out = anaglyph(left, right, method=method)
+    out[...] = 0.25
+    assert not np.shares_memory(out, left) and not np.shares_memory(out, right)
+    assert_array_equal(left, lc)
+    assert_array_equal(right, rc)
+
+
 # --- tiles -------------------------------------------------------------------------------------
 
 

@@ -102,11 +102,12 @@ def as_float_array(
     return arr
 
 
-def as_image(name: str, image: object) -> np.ndarray:
+def as_image(name: str, image: object, *, copy: bool = True) -> np.ndarray:
     """Return ``image`` as float32 ``(H, W)`` or ``(H, W, C)`` with C in {1, 3, 4}, values in [0, 1].
 
     uint8 and uint16 inputs are scaled by 1/255 and 1/65535; float inputs must already lie in
-    [0, 1] and be finite. Empty images are refused.
+    [0, 1] and be finite. Empty images are refused. ``copy=False`` returns a float32 input itself
+    (for a caller that only reads it); by default the result is always a new array.
     """
     arr = np.asarray(image)
     if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] not in (1, 3, 4)):
@@ -121,7 +122,7 @@ def as_image(name: str, image: object) -> np.ndarray:
         raise TypeError(f"{name} must be a numeric image (float in [0, 1], uint8 or uint16); got {arr.dtype}")
     if np.issubdtype(arr.dtype, np.integer):
         raise TypeError(f"{name} must be float in [0, 1], uint8 or uint16; got {arr.dtype}")
-    out = arr.astype(np.float32, copy=True)
+    out = arr.astype(np.float32, copy=copy)
     lo, hi = float(out.min()), float(out.max())  # a NaN anywhere makes both NaN, an inf one of them
     if not (np.isfinite(lo) and np.isfinite(hi)):
         raise ValueError(f"{name} must be finite (no NaN or inf)")
@@ -155,10 +156,10 @@ def readonly_fields(obj: object, *names: str) -> None:
         object.__setattr__(obj, name, view)
 
 
-def as_view(name: str, image: object) -> np.ndarray:
+def as_view(name: str, image: object, *, copy: bool = True) -> np.ndarray:
     """:func:`as_image` restricted to grey ``(H, W)`` or RGB ``(H, W, 3)``: a single channel axis is
     dropped, alpha is refused."""
-    arr = as_image(name, image)
+    arr = as_image(name, image, copy=copy)
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[:, :, 0]
     if arr.ndim == 3 and arr.shape[2] != 3:
@@ -166,9 +167,10 @@ def as_view(name: str, image: object) -> np.ndarray:
     return arr
 
 
-def as_image_pair(first_name: str, first: object, second_name: str, second: object) -> tuple[np.ndarray, np.ndarray]:
+def as_image_pair(first_name: str, first: object, second_name: str, second: object, *,
+                  copy: bool = True) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Two views (see :func:`as_view`) that must share one shape; float32."""
-    a, b = as_view(first_name, first), as_view(second_name, second)
+    a, b = as_view(first_name, first, copy=copy), as_view(second_name, second, copy=copy)
     if a.shape != b.shape:
         raise ValueError(f"{second_name} must have the same shape as {first_name} {a.shape}; got {b.shape}")
     return a, b

@@ -198,7 +198,8 @@ def anaglyph(left: object, right: object, *, method: str = "dubois") -> np.ndarr
     """
     if not isinstance(method, str) or method not in ANAGLYPH_METHODS:
         raise ValueError(f"method must be one of {', '.join(ANAGLYPH_METHODS)}; got {method!r}")
-    lv, rv = _pair(left, right)
+    # every method reads the views and returns a new image: float32 views are not copied
+    lv, rv = as_image_pair("left", left, "right", right, copy=False)
     out = ANAGLYPH_METHODS[method](_rgb(lv), _rgb(rv))
     return np.ascontiguousarray(out, dtype=np.float32)
 
