@@ -28,7 +28,7 @@ MOVE_MS = 60_000
 # and kermit at 320 px; a wrong camera, handle or weight rule costs far more (a one-pixel shift of kermit's view
 # is about 22 dB).
 MIN_PSNR_DB = 30.0
-# Frames of the scripted pan: at least this many (each press animates for SS_ANIMATE_MS at the display rate).
+# Frames of five animated key presses at least (each animates for SS_ANIMATE_MS at the display rate).
 MIN_FRAMES = 10
 
 
@@ -69,13 +69,17 @@ def _prepared(page, server_url: str, wanted: str) -> dict:
     return {"job": job, **httpx.get(f"{server_url}/api/jobs/{job}", timeout=30).json()["result"]}
 
 
-def _drawn(page, state: dict, width: int) -> tuple[np.ndarray, np.ndarray, bool]:
-    """The page's WebGL2 eyes of a state (left, right) and whether it swapped the eyes."""
-    shot = page.evaluate("""([state, width]) => {
+def _drawn(page, state: dict, width: int, maps: str = "gpu") -> tuple[np.ndarray, np.ndarray, bool]:
+    """The page's WebGL2 eyes of a state (left, right) and whether it swapped the eyes; ``maps`` "gpu" (the
+    MLS maps in a shader pass, where float targets render) or "js" (in stereospace_cams.js)."""
+    shot = page.evaluate("""([state, width, maps]) => {
         const [a, b] = SSCams.eyeCameras(SS.gl.scene(), state);
+        const where = SS.gl.maps(), used = SS.gl.maps(maps);
         const pair = SS.gl.drawCameras(a, b, width, "sbs");
-        return { left: SS.gl.readEye(0), right: SS.gl.readEye(1), swapped: pair.swapped };
-    }""", [state, width])
+        SS.gl.maps(where);
+        return { left: SS.gl.readEye(0), right: SS.gl.readEye(1), swapped: pair.swapped, used };
+    }""", [state, width, maps])
+    assert shot["used"] == maps, f"the page made its maps in {shot['used']}, not {maps}"
     return _eye(shot["left"]), _eye(shot["right"]), shot["swapped"]
 
 
@@ -110,39 +114,81 @@ def test_the_browser_pair_matches_the_servers(page, server_url, wanted):
     width = result["default_width"]
     figures = []
     for state in _states(server_url, result):
-        gl_l, gl_r, gl_swapped = _drawn(page, state, width)
         cpu_l, cpu_r, cpu_swapped = _server(server_url, result["job"], state, width)
-        assert gl_swapped == cpu_swapped and gl_l.shape == cpu_l.shape, (state, gl_l.shape, cpu_l.shape)
-        psnr = (_psnr(gl_l, cpu_l), _psnr(gl_r, cpu_r))
-        figures.append((state["region"], round(state["li"], 3), round(state["lj"], 3), *(round(float(p), 2) for p in psnr)))
-        assert min(psnr) >= MIN_PSNR_DB, figures
+        for maps in ("gpu", "js"):
+            gl_l, gl_r, gl_swapped = _drawn(page, state, width, maps)
+            assert gl_swapped == cpu_swapped and gl_l.shape == cpu_l.shape, (state, gl_l.shape, cpu_l.shape)
+            psnr = (_psnr(gl_l, cpu_l), _psnr(gl_r, cpu_r))
+            figures.append((maps, state["region"], round(state["li"], 3), round(state["lj"], 3),
+                            *(round(float(p), 2) for p in psnr)))
+            assert min(psnr) >= MIN_PSNR_DB, figures
     # the same comparison fails for the wrong state: the browser's start against the server's first pan
     states = _states(server_url, result)
     gl_l, _, _ = _drawn(page, states[0], width)
     cpu_l, _, _ = _server(server_url, result["job"], states[1], width)
     off = _psnr(gl_l, cpu_l)
-    print(f"\n{wanted} at {width} px, PSNR (dB) left, right per state: {figures}; the start against one pan "
+    print(f"\n{wanted} at {width} px, PSNR (dB) left, right per state and maps: {figures}; the start against one pan "
           f"step on: {off:.2f}")
     assert off < MIN_PSNR_DB
 
 
-def test_a_scripted_pan_animates_and_ends_on_the_servers_pair(page, server_url):
-    """Right-arrow presses on the built-in tabletop: each move animates in the browser; the frame times
-    (JavaScript plan + GPU draw, waited for) are printed, and the last frame is the server's pair."""
+# The scripted pan: frames drawn in requestAnimationFrame from the start state to one pan step on
+PAN_FRAMES = 40
+SCRIPTED_PAN = """async ([from, to, n, wait]) => {
+    SS.timing = wait;
+    SS.frames = [];
+    await new Promise((resolve) => {
+        let k = 0;
+        const frame = () => {
+            const t = k / (n - 1);
+            ssDrawState({ region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) });
+            if (++k < n) requestAnimationFrame(frame); else resolve();
+        };
+        requestAnimationFrame(frame);
+    });
+    SS.timing = false;
+    return SS.frames;
+}"""
+
+
+@pytest.mark.parametrize("wanted", COLLECTIONS)
+def test_a_scripted_pan_reports_its_frame_times(page, server_url, wanted):
+    """A pan of PAN_FRAMES frames inside the start region (requestAnimationFrame), twice: the frame interval
+    as the display sees it (drawing pipelined with the GPU), and each frame's time with the GPU waited for
+    (the JavaScript plan of both eyes + the draw + a one-pixel read-back). Median and 95th percentile printed."""
+    result = _prepared(page, server_url, wanted)
+    start = {k: result["start"][k] for k in ("region", "li", "lj")}
+    moved = httpx.post(f"{server_url}/api/stereospace/{result['job']}/move",
+                       json={"state": start, "pan": result["start"]["pan_right"] * result["pan_step"]}, timeout=60).json()
+    to = {k: moved["steps"][0]["to"][k] for k in ("region", "li", "lj")}
+    if to["region"] != start["region"]:  # jumped: pan to the border of the start region instead
+        pytest.skip("the first pan step leaves the start region")
+    figures = {}
+    for wait in (False, True):
+        frames = page.evaluate(SCRIPTED_PAN, [start, to, PAN_FRAMES, wait])
+        assert len(frames) == PAN_FRAMES
+        ms = np.diff([f["t"] for f in frames]) if not wait else np.array([f["ms"] for f in frames])
+        figures["waited" if wait else "interval"] = (float(np.median(ms)), float(np.percentile(ms, 95)))
+    print(f"\n{wanted} scripted pan, {PAN_FRAMES} frames at {result['default_width']} px (anaglyph): frame interval "
+          f"median {figures['interval'][0]:.1f} ms, 95th percentile {figures['interval'][1]:.1f} ms; with the GPU "
+          f"waited for, median {figures['waited'][0]:.1f} ms, 95th percentile {figures['waited'][1]:.1f} ms")
+    # the last frame is the server's pair of the end state
+    shot = page.evaluate("() => ({ left: SS.gl.readEye(0), right: SS.gl.readEye(1) })")
+    cpu_l, cpu_r, _ = _server(server_url, result["job"], to, result["default_width"])
+    assert min(_psnr(_eye(shot["left"]), cpu_l), _psnr(_eye(shot["right"]), cpu_r)) >= MIN_PSNR_DB
+
+
+def test_moves_animate_and_end_on_the_servers_pair(page, server_url):
+    """Keys on the built-in tabletop: each move (the server's answer) animates in the browser over several
+    frames, and the last frame is the server's pair of the state shown."""
     result = _prepared(page, server_url, "collection:tabletop")
-    page.evaluate("() => { SS.timing = true; SS.frames = []; }")
+    page.evaluate("() => { SS.frames = []; }")
     for key in ("ArrowRight", "ArrowLeft", "ArrowLeft", "+", "ArrowRight"):
-        before = json.loads(page.locator("#ss-event").evaluate("() => JSON.stringify(SS.frames.length)"))
+        before = page.evaluate("() => SS.frames.length")
         page.keyboard.press(key)
-        page.wait_for_function(f"SS.frames.length > {before} && document.body.dataset.state !== 'loading'",
+        page.wait_for_function(f"SS.frames.length > {before} && !SS.busy && document.body.dataset.state !== 'loading'",
                                timeout=MOVE_MS)
-    frames = page.evaluate("() => SS.frames")
-    ms = np.array([f["ms"] for f in frames])
-    gaps = np.diff([f["t"] for f in frames])
-    assert len(frames) >= MIN_FRAMES, len(frames)
-    print(f"\ntabletop scripted pan at {result['default_width']} px: {len(frames)} frames, draw median "
-          f"{np.median(ms):.1f} ms, 95th percentile {np.percentile(ms, 95):.1f} ms; frame interval median "
-          f"{np.median(gaps):.1f} ms")
+    assert page.evaluate("() => SS.frames.length") >= MIN_FRAMES
     state = {"region": json.loads(page.locator('[data-testid="ss-region"]').get_attribute("data-value")),
              "li": json.loads(page.locator('[data-testid="ss-li"]').get_attribute("data-value")),
              "lj": json.loads(page.locator('[data-testid="ss-lj"]').get_attribute("data-value"))}

@@ -260,8 +260,10 @@ const SSCams = (() => {
   }
 
   // S2's view plan of a target camera: the sources (camera index or -1: too few handles), the node columns and
-  // rows, and per source and node (u, v, P_ANG, 0) as a Float32Array (source-major, then rows, then columns)
-  function viewPlan(scene, target) {
+  // rows, each used source's handles (qx, qy, px, py; Float32Array, source after source, from offsets[s]), and,
+  // with maps (else the GPU's MLS pass makes them), per source and node (u, v, P_ANG, 0) as a Float32Array
+  // (source-major, then rows, then columns)
+  function viewPlan(scene, target, maps = true) {
     const r = scene.render, P = scene.count;
     const order = scene.cams.map((c, k) => [norm(sub(c.center, target.center)), k]);
     order.sort((a, b) => a[0] - b[0] || a[1] - b[1]);
@@ -276,16 +278,18 @@ const SSCams = (() => {
     const nx = xs.length, ny = ys.length, S = ids.length;
     const nodes = new Float32Array(S * ny * nx * 4), tmp = new Float64Array(2);
     const Kinv = inverse(target.K), Rt = transpose(target.R), c = target.center;
-    const used = ids.slice(), counts = [];
+    const used = ids.slice(), counts = [], sets = [];
     for (let s = 0; s < S; s++) {
       const n = ids[s], src = scene.projected[n], chosen = handles(src.seen, inFront, q, r.handle_cell_px);
       counts.push(chosen.length);
-      if (chosen.length < r.min_handles) { used[s] = -1; continue; }
+      if (chosen.length < r.min_handles) { used[s] = -1; sets.push(new Float64Array(0)); continue; }
       const hs = new Float64Array(4 * chosen.length);
       chosen.forEach((p, h) => {
         hs[4 * h] = q[2 * p]; hs[4 * h + 1] = q[2 * p + 1];
         hs[4 * h + 2] = src.pixels[2 * p]; hs[4 * h + 3] = src.pixels[2 * p + 1];
       });
+      sets.push(hs);
+      if (!maps) continue;
       const cs = scene.cams[n].center;
       for (let j = 0; j < ny; j++) {
         for (let i = 0; i < nx; i++) {
@@ -304,7 +308,11 @@ const SSCams = (() => {
       }
     }
     if (!used.some((u) => u >= 0)) throw new Error(`no source sees ${r.min_handles} of the points of this view`);
-    return { ids: used, counts, xs, ys, nodes, proxy };
+    const offsets = [0];
+    sets.forEach((hs) => offsets.push(offsets[offsets.length - 1] + hs.length / 4));
+    const handleData = new Float32Array(4 * offsets[S]);
+    sets.forEach((hs, s) => handleData.set(hs, 4 * offsets[s]));
+    return { ids: used, counts, xs, ys, nodes: maps ? nodes : null, proxy, handles: handleData, offsets, Kinv, Rt };
   }
 
   return { prepare, project, interpolate, eyeCameras, eyeOrder, rectify, pairCameras, viewPlan, roundHalfEven };

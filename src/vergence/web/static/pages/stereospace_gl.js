@@ -65,6 +65,51 @@ void main() {
   colour = vec4(colourOf(0, s0.xy, wn.x) + colourOf(1, s1.xy, wn.y) + colourOf(2, s2.xy, wn.z)
                 + colourOf(3, s3.xy, wn.w), 1.0);
 }`;
+  // The MLS maps and P_ANG at the grid nodes on the GPU (EXT_color_buffer_float): one fragment per node and source
+  // of a (nx, ny * S) float target; the handles (qx, qy, px, py) in a float texture, HANDLE_ROW a row. As
+  // _mls_kernels.mls_similarity_points (float32, alpha 1: w = 1 / |q - v|^2; on a handle, its target) and
+  // _mls_view_kernels.node_angles (the angle at the node's proxy point, atan2 of |a x b| and a . b).
+  const HANDLE_ROW = 1024;
+  const MLS = `#version 300 es
+precision highp float; precision highp int;
+uniform highp sampler2D handles;
+uniform int offset[5], used[4];
+uniform int nx, ny, step;
+uniform float lastX, lastY, proxy;
+uniform mat3 Kinv, Rt;
+uniform vec3 centre, sourceCentre[4];
+out vec4 node;
+vec4 handle(int h) { return texelFetch(handles, ivec2(h % ${HANDLE_ROW}, h / ${HANDLE_ROW}), 0); }
+void main() {
+  int i = int(gl_FragCoord.x), s = int(gl_FragCoord.y) / ny, j = int(gl_FragCoord.y) % ny;
+  if (used[s] == 0) { node = vec4(0.0); return; }
+  float vx = i == nx - 1 ? lastX : float(i * step), vy = j == ny - 1 ? lastY : float(j * step);
+  float sw = 0.0, sax = 0.0, say = 0.0, sbx = 0.0, sby = 0.0, sab = 0.0, sac = 0.0;
+  int first = offset[s], last = offset[s + 1];
+  for (int h = first; h < last; h++) {
+    vec4 t = handle(h);
+    float ax = t.x - vx, ay = t.y - vy, bx = t.z - vx, by = t.w - vy;
+    float w = 1.0 / (ax * ax + ay * ay);
+    sw += w; sax += w * ax; say += w * ay; sbx += w * bx; sby += w * by;
+    sab += w * (ax * bx + ay * by); sac += w * (ax * by - ay * bx);
+  }
+  float psx = sax / sw, psy = say / sw, qsx = sbx / sw, qsy = sby / sw;
+  float mu = float(last - first) - sw * (psx * psx + psy * psy);
+  vec2 uv;
+  if (!(sw < 3.0e38 && mu > 0.0)) {
+    float best = 3.4e38;
+    for (int h = first; h < last; h++) {
+      vec4 t = handle(h);
+      float d = (t.x - vx) * (t.x - vx) + (t.y - vy) * (t.y - vy);
+      if (d < best) { best = d; uv = t.zw; }
+    }
+  } else {
+    float ar = (sab - sw * (psx * qsx + psy * qsy)) / mu, ai = (sac - sw * (psx * qsy - psy * qsx)) / mu;
+    uv = vec2(vx + qsx - psx * ar + psy * ai, vy + qsy - psx * ai - psy * ar);
+  }
+  vec3 a = -proxy * (Rt * (Kinv * vec3(vx, vy, 1.0))), b = sourceCentre[s] - centre + a;
+  node = vec4(uv, atan(length(cross(a, b)), dot(a, b)), 0.0);
+}`;
   // the eyes packed for the display: layout 0 anaglyph (Dubois red-cyan in linear light), 1 red-cyan, 2 sbs,
   // 3 cross-eyed, 4 tb (vergence.display.pack)
   const PACK = `#version 300 es
@@ -135,7 +180,11 @@ void main() {
     const loc = (p, n) => gl.getUniformLocation(p, n);
     const eyes = [0, 1].map(() => ({ tex: texture(gl, gl.TEXTURE_2D), fbo: gl.createFramebuffer(), width: 0, height: 0 }));
     if (!gl.getExtension("OES_texture_float_linear")) throw new Error("no OES_texture_float_linear (filtered float textures)");
-    const nodesTex = texture(gl, gl.TEXTURE_2D, gl.LINEAR);
+    const nodesTex = texture(gl, gl.TEXTURE_2D, gl.LINEAR), nodesFbo = gl.createFramebuffer();
+    // the maps on the GPU where float targets render, else in JavaScript (stereospace_cams.js)
+    const mls = gl.getExtension("EXT_color_buffer_float") ? compile(gl, VERTEX, MLS) : null;
+    const handlesTex = texture(gl, gl.TEXTURE_2D);
+    let gpuMaps = mls !== null;
     let images = null, scene = null, imageSize = [1, 1];
 
     async function load(sceneJson) {
@@ -154,8 +203,38 @@ void main() {
       return scene;
     }
 
+    function gpuNodes(plan, cam) {
+      const r = scene.render, nx = plan.xs.length, ny = plan.ys.length, S = plan.ids.length;
+      const n = Math.max(1, plan.offsets[S]), rows = Math.ceil(n / HANDLE_ROW);
+      const data = new Float32Array(4 * HANDLE_ROW * rows);
+      data.set(plan.handles);
+      gl.bindTexture(gl.TEXTURE_2D, handlesTex);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, HANDLE_ROW, rows, 0, gl.RGBA, gl.FLOAT, data);
+      gl.bindTexture(gl.TEXTURE_2D, nodesTex);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, ny * S, 0, gl.RGBA, gl.FLOAT, null);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, nodesFbo);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, nodesTex, 0);
+      gl.viewport(0, 0, nx, ny * S);
+      gl.useProgram(mls);
+      gl.activeTexture(gl.TEXTURE2);
+      gl.bindTexture(gl.TEXTURE_2D, handlesTex);
+      gl.uniform1i(loc(mls, "handles"), 2);
+      gl.uniform1iv(loc(mls, "offset"), [0, 1, 2, 3, 4].map((s) => plan.offsets[Math.min(s, S)]));
+      gl.uniform1iv(loc(mls, "used"), [0, 1, 2, 3].map((s) => (s < S && plan.ids[s] >= 0 ? 1 : 0)));
+      for (const [name, v] of [["nx", nx], ["ny", ny], ["step", r.grid_step]]) gl.uniform1i(loc(mls, name), v);
+      for (const [name, v] of [["lastX", plan.xs[nx - 1]], ["lastY", plan.ys[ny - 1]], ["proxy", plan.proxy]]) {
+        gl.uniform1f(loc(mls, name), v);
+      }
+      gl.uniformMatrix3fv(loc(mls, "Kinv"), true, plan.Kinv);
+      gl.uniformMatrix3fv(loc(mls, "Rt"), true, plan.Rt);
+      gl.uniform3fv(loc(mls, "centre"), cam.center);
+      gl.uniform3fv(loc(mls, "sourceCentre"), [0, 1, 2, 3].flatMap((s) => (s < S && plan.ids[s] >= 0
+        ? scene.cams[plan.ids[s]].center : [0, 0, 0])));
+      gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+    }
+
     function drawEye(eye, cam) {
-      const plan = SSCams.viewPlan(scene, cam), r = scene.render, nx = plan.xs.length, ny = plan.ys.length;
+      const plan = SSCams.viewPlan(scene, cam, !gpuMaps), r = scene.render, nx = plan.xs.length, ny = plan.ys.length;
       if (eye.width !== cam.width || eye.height !== cam.height) {
         gl.bindTexture(gl.TEXTURE_2D, eye.tex);
         gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, cam.width, cam.height, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
@@ -163,8 +242,11 @@ void main() {
         gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, eye.tex, 0);
         eye.width = cam.width; eye.height = cam.height;
       }
-      gl.bindTexture(gl.TEXTURE_2D, nodesTex);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, ny * plan.ids.length, 0, gl.RGBA, gl.FLOAT, plan.nodes);
+      if (gpuMaps) gpuNodes(plan, cam);
+      else {
+        gl.bindTexture(gl.TEXTURE_2D, nodesTex);
+        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, ny * plan.ids.length, 0, gl.RGBA, gl.FLOAT, plan.nodes);
+      }
       gl.bindFramebuffer(gl.FRAMEBUFFER, eye.fbo);
       gl.viewport(0, 0, cam.width, cam.height);
       gl.useProgram(render);
@@ -231,7 +313,12 @@ void main() {
     const finish = () => gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
     const renderer = gl.getExtension("WEBGL_debug_renderer_info");
     const name = gl.getParameter(renderer ? renderer.UNMASKED_RENDERER_WEBGL : gl.RENDERER);
-    return { gl, name, load, drawCameras, readEye, finish, scene: () => scene };
+    // where the MLS maps are made: "gpu" (when float targets render) or "js"; the tests compare both
+    const maps = (where) => {
+      if (where !== undefined) gpuMaps = where === "gpu" && mls !== null;
+      return gpuMaps ? "gpu" : "js";
+    };
+    return { gl, name, load, drawCameras, readEye, finish, maps, scene: () => scene };
   }
 
   return { FORMATS, create };
