@@ -105,12 +105,3 @@ def test_the_matched_pair_is_drawn_with_its_own_parallax(page, server_url, tmp_p
     assert "the stereo pair as matched" in page.locator('[data-testid="st-save-shown"]').inner_text()
     bad = httpx.get(f"{server_url}/api/stereo/{job}/overlay?of=depth", timeout=30)
     assert bad.status_code == 422 and "of must be one of result, input" in bad.json()["error"]
-
-
-def test_the_input_overlay_needs_a_stereo_pair():
-    from vergence.web.overlays import stereo_overlay
-
-    summary = {"source": "depth", "display": {"preset": "desktop-24"}, "size": [W, H]}
-    with pytest.raises(ValueError, match="of=input needs a job of a stereo pair"):
-        stereo_overlay(summary, of="input")
-    assert stereo_overlay(summary)["parallax"] == "parallax.npy"

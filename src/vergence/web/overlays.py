@@ -47,6 +47,11 @@ MAX_HEAT_SCALE_ARCMIN = 600.0
 WINDOW_MASK_PERCENTILE = 95
 
 
+def _check_scale(scale_arcmin: float) -> None:
+    if not 0 < scale_arcmin <= MAX_HEAT_SCALE_ARCMIN:  # NaN fails too
+        raise ValueError(f"scale_arcmin must be > 0 and at most {MAX_HEAT_SCALE_ARCMIN:g}; got {scale_arcmin!r}")
+
+
 def stereo_overlay(summary: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_ARCMIN,
                    of: str = "result") -> dict[str, Any]:
     """What the page's overlays need besides the parallax map, for a done ``synthesize`` job's ``summary``:
@@ -61,6 +66,7 @@ def stereo_overlay(summary: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_
     floating window's percentile (:data:`WINDOW_MASK_PERCENTILE`); ``parallax`` and ``views``: the files drawn,
     those of ``of`` in :data:`OVERLAY_OF` (the synthesized pair, or a stereo pair's input as matched).
     """
+    _check_scale(scale_arcmin)
     if of not in OVERLAY_OF:
         raise ValueError(f"of must be one of {', '.join(OVERLAY_OF)}; got {of!r}")
     if of == "input" and summary["source"] != "pair":
@@ -129,6 +135,7 @@ def specular_overlay(report: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE
     (:func:`vergence.viewing.arcmin_from_pixels`, exact); ``scale``: the heat map's range ``+-scale_arcmin`` and
     its ticks every quarter; ``layers``: the layers' names (:func:`vergence.specular.layer_labels`).
     """
+    _check_scale(scale_arcmin)
     import numpy as np
 
     from vergence.viewing import Display, arcmin_from_pixels
