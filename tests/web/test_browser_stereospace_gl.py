@@ -172,6 +172,14 @@ def test_a_scripted_pan_reports_its_frame_times(page, server_url, wanted):
     print(f"\n{wanted} scripted pan, {PAN_FRAMES} frames at {result['default_width']} px (anaglyph): frame interval "
           f"median {figures['interval'][0]:.1f} ms, 95th percentile {figures['interval'][1]:.1f} ms; with the GPU "
           f"waited for, median {figures['waited'][0]:.1f} ms, 95th percentile {figures['waited'][1]:.1f} ms")
+    # the map followed the frames: its eyes sit where the server's view of the end state puts them
+    marks = page.evaluate("""(view) => {
+        const at = (id) => { const n = document.querySelector(`[data-testid="${id}"]`);
+                             return [Number(n.getAttribute("cx")), Number(n.getAttribute("cy"))]; };
+        const want = (p) => [Number(SS.mapXY.X(p[0])), Number(SS.mapXY.Y(p[1]))];
+        return [at("ss-map-left-eye"), at("ss-map-right-eye"), want(view.eyes.left), want(view.eyes.right)];
+    }""", moved["state"])
+    np.testing.assert_allclose(marks[:2], marks[2:], atol=0.02)  # SVG coordinates to 2 decimals
     # the last frame is the server's pair of the end state
     shot = page.evaluate("() => ({ left: SS.gl.readEye(0), right: SS.gl.readEye(1) })")
     cpu_l, cpu_r, _ = _server(server_url, result["job"], to, result["default_width"])

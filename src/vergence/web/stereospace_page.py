@@ -490,7 +490,8 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
         except _Refused as exc:
             return refusal(exc.status, exc.message)
         width = min(DEFAULT_PAIR_WIDTH, live.prepared.collection.cameras[0].width)
-        return JSONResponse(scene_of(live.prepared, image_url=f"/api/{KIND}/{job_id}/scene", default_width=width))
+        return JSONResponse(scene_of(live.prepared, image_url=f"/api/{KIND}/{job_id}/scene", default_width=width,
+                                     map_frame=live.frame))
 
     @app.get(f"/api/{KIND}/{{job_id}}/scene/{{name}}", summary="A source image of the scene (a name /scene answered)",
              response_class=FileResponse, responses={404: _ERROR, 409: _ERROR})

@@ -40,10 +40,12 @@ def _camera(cam: Any) -> dict[str, Any]:
             "t": [float(v) for v in cam.t], "width": int(cam.width), "height": int(cam.height)}  # fmt: skip
 
 
-def scene_of(prepared: Any, *, image_url: str, default_width: int) -> dict[str, Any]:
+def scene_of(prepared: Any, *, image_url: str, default_width: int, map_frame: np.ndarray) -> dict[str, Any]:
     """The scene of a :class:`~vergence.stereospace.PreparedCollection` as the page reads it (JSON-ready).
 
-    ``image_url`` is the URL prefix of the images (``{image_url}/source-{k}.png``).
+    ``image_url`` is the URL prefix of the images (``{image_url}/source-{k}.png``); ``map_frame`` the
+    navigation map's frame (:func:`~vergence.stereospace.map_frame`): the page moves the map's eyes with
+    each frame it draws, at ``frame[:2] @ (p - origin)``, ``origin`` the mean camera centre.
     """
     from vergence.stereospace import MLS_MIN_HANDLES, S2_HANDLE_CELL_PX, S2_MAX_SOURCES, S2_PENALTY_FLOOR
     from vergence.stereospace import S2_THRESHOLD_SCALE, UP_MIN_COSINE
@@ -58,6 +60,8 @@ def scene_of(prepared: Any, *, image_url: str, default_width: int) -> dict[str, 
         "up": [float(v) for v in prepared.up],
         "points": [float(v) for v in points.ravel()],
         "images": [f"{image_url}/source-{k}.png" for k in range(len(col))],
+        "map": {"frame": [[float(v) for v in r] for r in np.asarray(map_frame)[:2]],
+                "origin": [float(v) for v in prepared.centers.mean(axis=0)]},
         "render": {"grid_step": int(prepared.grid_step), "k": S2_MAX_SOURCES, "sources": S2_MAX_SOURCES,
                    "alpha": 1.0, "penalty_floor": S2_PENALTY_FLOOR, "threshold_scale": S2_THRESHOLD_SCALE,
                    "negligible": NEGLIGIBLE_WEIGHT, "handle_cell_px": S2_HANDLE_CELL_PX,

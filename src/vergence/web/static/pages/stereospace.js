@@ -256,7 +256,28 @@ function ssDrawCameras(first, second) {
   if (SS.timing) SS.gl.finish();
   SS.frames.push({ t: t0, ms: performance.now() - t0 });
   if (SS.frames.length > 1000) SS.frames.shift();
+  ssFollowOnMap(pair.swapped ? second : first, pair.swapped ? first : second);
   return pair;
+}
+
+// the map's eyes, baseline and stereo camera at the frame's cameras (S2 Fig. 10: the map follows the view)
+function ssFollowOnMap(left, right) {
+  const m = SS.gl.scene().map, to = SS.mapXY;
+  if (!to || !m) return;
+  const xy = (c) => {
+    const d = [0, 1, 2].map((k) => c[k] - m.origin[k]);
+    return m.frame.map((r) => r[0] * d[0] + r[1] * d[1] + r[2] * d[2]);
+  };
+  const [l, r] = [xy(left.center), xy(right.center)], s = [(l[0] + r[0]) / 2, (l[1] + r[1]) / 2];
+  const svg = document.getElementById("ss-map");
+  const set = (sel, attrs) => {
+    const node = svg.querySelector(sel);
+    if (node) for (const [k, v] of Object.entries(attrs)) node.setAttribute(k, v);
+  };
+  set(".ss-baseline", { x1: to.X(l[0]), y1: to.Y(l[1]), x2: to.X(r[0]), y2: to.Y(r[1]) });
+  set('[data-testid="ss-map-left-eye"]', { cx: to.X(l[0]), cy: to.Y(l[1]) });
+  set('[data-testid="ss-map-right-eye"]', { cx: to.X(r[0]), cy: to.Y(r[1]) });
+  set('[data-testid="ss-map-stereo"]', { x: Number(to.X(s[0])) - 5, y: Number(to.Y(s[1])) - 5 });
 }
 
 function ssDrawState(state) { return ssDrawCameras(...SSCams.eyeCameras(SS.gl.scene(), state)); }
@@ -364,6 +385,7 @@ function ssDrawMap(view) {
   const ox = (SS_MAP.width - k * (x1 - x0)) / 2, oy = (SS_MAP.height - k * (y1 - y0)) / 2;
   const X = (x) => (ox + k * (x - x0)).toFixed(2);
   const Y = (y) => (oy + k * (y1 - y)).toFixed(2);  // "along" points up on the map
+  SS.mapXY = { X, Y };
   svg.append(el("rect", { x: 0, y: 0, width: SS_MAP.width, height: SS_MAP.height, class: "ss-map-bg" }));
   let d = "";
   for (const [x, y] of m.points) d += `M${X(x)},${Y(y)}h0`;
