@@ -20,6 +20,13 @@
   (:func:`vergence.stereospace.stereo_pair` at that working width, packed by
   :func:`vergence.display.pack`), written as PNG into the job's folder under names the server makes;
   ``GET /api/stereospace/{job_id}/views/{name}`` serves them (a name it did not make is 404).
+- ``GET /api/stereospace/{job_id}/scene`` and ``/scene/{name}``: what the page needs to draw any state
+  itself with WebGL2 (:mod:`vergence.web.stereospace_scene`, issue 30).
+
+A state as the page shows it carries ``pan_right``, the sign of the pan towards the view's world right
+(:func:`vergence.stereospace.pan_sign`: the arrow keys' direction, not the eyes' order ``swapped``, which
+flips inside some regions), ``centre_world`` (the eyes' midpoint) and ``quality`` (the disparity range
+on the job's display, as ``/pair`` answers it).
 
 Speed (the shared two-core machine at load average 3-4 from other work, so ranges over three runs;
 ``POST`` through FastAPI's test client, medians of 12 nearby states): dino (48 views of 640 x 480,
