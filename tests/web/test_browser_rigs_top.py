@@ -107,6 +107,7 @@ def test_the_top_view_is_in_metres_and_its_labels_are_clear(page, server_url, pr
         assert {e["name"] for e in plan["elements"]} | {f"convergence H_v = {shot['convergence']:g} m"} <= labels
     else:
         assert sum(text.startswith("z = ") for text in labels) == len(shot["constraints"])
+        assert f"near z = {shot['near']:g} m" in labels  # the depth range's near end
     assert not any(label["legend"] for label in top["labels"]), top["labels"]
     close = _check_view(page, "rig-close", plan)
     named = " = ".join(label["text"] for label in close["labels"])

@@ -5,9 +5,10 @@
 // in metres at one scale on both axes, over a metres grid with labelled axes: the real cameras (filled), the
 // virtual cameras (dashed), each camera's horizontal field of view (the rays through its image's left and right
 // edges, to a common forward distance), the elements (the subject, ...), the convergence plane and a Tri-Rig's
-// constraint depths. The world axis the shot looks along (x or z, whichever its camera's axis leans to) runs to
-// the right, the other up. A label is placed where its box crosses no drawn line, marker or other label and stays
-// inside the plot (rigPlaceLabel); one that finds no such spot is written in a legend under the plot.
+// constraint depths and the near and far of its depth range. The world axis the shot looks along (x or z,
+// whichever its camera's axis leans to) runs to the right, the other up. A label is placed where its box crosses
+// no drawn line, marker or other label and stays inside the plot (rigPlaceLabel); one that finds no such spot is
+// written in a legend under the plot.
 const RIG_TOP = { width: 560, height: 380, left: 52, right: 12, top: 10, bottom: 40 };
 const RIG_CLOSE = { width: 560, height: 200, left: 52, right: 12, top: 10, bottom: 40 };
 const RIG_AXES = ["x", "y", "z"];
@@ -71,6 +72,13 @@ function rigShapes(shot, plan, basis, reach) {
     const half = plan.reference.window / 2;
     shapes.push({ kind: "plane", pts: [basis.project(rigAdd(mid, basis.right, -half)), basis.project(rigAdd(mid, basis.right, half))],
       label: `convergence H = ${fmt(plan.reference.convergence)} m, window W = ${fmt(plan.reference.window)} m` });
+    // the depth range psi maps (the shot's near and far, when given and finite), dotted
+    for (const [name, z] of [["near", shot.near], ["far", shot.far]]) {
+      if (!(Number.isFinite(z) && z > 0)) continue;
+      const at = rigAdd(d, basis.forward, z);
+      shapes.push({ kind: "range", pts: [basis.project(rigAdd(at, basis.right, -reach * 0.08)), basis.project(rigAdd(at, basis.right, reach * 0.08))],
+        label: `${name} z = ${fmt(z)} m` });
+    }
     for (const text of shot.constraints) {
       const z = Number((/z=([^,]+)/.exec(text) || [])[1]);
       const p = (/perceived=([^,]+)/.exec(text) || [])[1];
@@ -158,12 +166,13 @@ function rigHits([x1, y1], [x2, y2], box, pad = 1) {
 
 const rigOverlap = (a, b, pad = 1) => a.x < b.x + b.width + pad && b.x < a.x + a.width + pad && a.y < b.y + b.height + pad && b.y < a.y + a.height + pad;
 
-// Places `text` near `anchor` (SVG px): the first spot, rings of growing radius and 16 directions, whose box
-// lies inside the plot and meets no segment and no box taken; answers its box, or null (the text is removed).
-function rigPlaceLabel(g, text, anchor, plot, segments, taken) {
+// Places `text` near one of `anchors` (SVG px; a line's two ends): the first spot, on rings of growing radius round
+// each anchor in 16 directions, whose box lies inside the plot and meets no segment and no box taken; answers its
+// box, or null (the text is removed).
+function rigPlaceLabel(g, text, anchors, plot, segments, taken) {
   g.append(text);
   for (const r of [7, 12, 20, 30, 44, 62, 86, 120]) {
-    for (let k = 0; k < 16; k++) {
+    for (const anchor of anchors) for (let k = 0; k < 16; k++) {
       const a = Math.PI / 2 + (k * Math.PI) / 8;  // below the anchor first, then round
       const cx = anchor[0] + r * Math.cos(a), cy = anchor[1] + r * Math.sin(a);
       const side = Math.cos(a) > 0.3 ? "start" : Math.cos(a) < -0.3 ? "end" : "middle";
@@ -188,14 +197,14 @@ function rigDrawShapes(svg, shapes, fit, box, basis, { names }) {
   let count = 0;
   for (const s of shapes) {
     const pts = s.pts.map(fit.at);
-    if (s.kind === "line" || s.kind === "plane" || s.kind === "depth") {
+    if (s.kind === "line" || s.kind === "plane" || s.kind === "depth" || s.kind === "range") {
       g.append(el("line", { x1: pts[0][0], y1: pts[0][1], x2: pts[1][0], y2: pts[1][1], class: s.kind === "line" ? `rig-ray ${s.role}` : `rig-${s.kind}` }));
       segments.push(pts);
-      if (s.label) labels.push({ text: s.label, at: pts[1], cls: `rig-${s.kind}-label` });
+      if (s.label) labels.push({ text: s.label, at: [pts[1], pts[0]], cls: `rig-${s.kind}-label` });
     } else if (s.kind === "element") {
       g.append(el("rect", { x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8, class: "rig-element", "data-element": s.name }));
       taken.push({ x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8 });
-      labels.push({ text: s.label, at: pts[0], cls: "label" });
+      labels.push({ text: s.label, at: [pts[0]], cls: "label" });
     } else if (s.kind === "camera") {
       const attrs = { cx: pts[0][0], cy: pts[0][1], r: 4, class: `rig-camera ${s.role}` };
       if (s.role !== "virtual") { attrs["data-camera"] = s.name; count++; } else attrs["data-virtual"] = s.name;
@@ -209,7 +218,7 @@ function rigDrawShapes(svg, shapes, fit, box, basis, { names }) {
   for (const s of shapes.filter((t) => names && t.kind === "camera")) {
     const [x, y] = fit.at(s.pts[0]);
     const key = `${Math.round(x)},${Math.round(y)}`;
-    if (!spots.has(key)) spots.set(key, { at: [x, y], names: [] });
+    if (!spots.has(key)) spots.set(key, { at: [[x, y]], names: [] });
     spots.get(key).names.push(s.name);
   }
   labels.push(...[...spots.values()].map((spot) => ({ text: spot.names.join(" = "), at: spot.at, cls: "rig-name" })));
@@ -236,7 +245,7 @@ function rigDrawTop(shot, plan) {
   const centres = [...plan.cameras.map((r) => r.camera.center), ...(plan.rig === "tri" ? [plan.reference_right.center] : [])];
   const far = plan.rig === "quadri"
     ? Math.max(...plan.elements.map((e) => basis.depth(e.point)))
-    : Math.max(plan.reference.convergence, ...shot.constraints.map((t) => Number((/z=([^,]+)/.exec(t) || [])[1])).filter(Number.isFinite));
+    : Math.max(plan.reference.convergence, ...[shot.near, shot.far].filter(Number.isFinite), ...shot.constraints.map((t) => Number((/z=([^,]+)/.exec(t) || [])[1])).filter(Number.isFinite));
   const reach = 1.15 * Math.max(far, 1e-3);
   const shapes = rigShapes(shot, plan, basis, reach);
   const top = rigEl("rig-top");
