@@ -112,3 +112,25 @@ def test_the_top_view_is_in_metres_and_its_labels_are_clear(page, server_url, pr
     close = _check_view(page, "rig-close", plan)
     named = " = ".join(label["text"] for label in close["labels"])
     assert all(c["name"] in named for c in plan["cameras"])
+
+
+def test_crowded_labels_stay_clear_or_go_to_the_legend(page, server_url):
+    """Thirty elements half a metre apart on the axis: their names cannot all sit on the plot; each is there clear
+    of every line or in the legend under it, and nothing is cut by the view's edges."""
+    page.goto(server_url + "/#rigs")
+    page.wait_for_function(READY, timeout=15_000)
+    page.evaluate("""() => {
+        for (let i = 0; i < 30; i++) rigElementRow({ name: `crowded_element_${i}`, point: [0, 1, -40 - i / 2] });
+        document.getElementById('rig-form').dispatchEvent(new Event('input'));
+    }""")
+    page.wait_for_function("document.querySelectorAll('#rig-top [data-element]').length === 32", timeout=15_000)
+    page.wait_for_function(READY, timeout=15_000)
+    shot = json.loads(page.locator('[data-testid="rig-shot-json"]').text_content())
+    assert len(shot["elements"]) == 32
+    plan = httpx.post(f"{server_url}/api/rigs/plan", json=shot, timeout=30).json()
+    top = _check_view(page, "rig-top", plan)
+    shown = [label["text"] for label in top["labels"]]
+    expected = [e["name"] for e in shot["elements"]] + [f"convergence H_v = {shot['convergence']:g} m"]
+    assert sorted(shown) == sorted(expected)
+    legend = [label for label in top["labels"] if label["legend"]]
+    assert legend and page.locator('[data-testid="rig-top"]').get_attribute("data-legend") == str(len(legend))
