@@ -178,12 +178,13 @@ void main() {
     gl.enableVertexAttribArray(0);
     gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
     const loc = (p, n) => gl.getUniformLocation(p, n);
-    const eyes = [0, 1].map(() => ({ tex: texture(gl, gl.TEXTURE_2D), fbo: gl.createFramebuffer(), width: 0, height: 0 }));
     if (!gl.getExtension("OES_texture_float_linear")) throw new Error("no OES_texture_float_linear (filtered float textures)");
-    const nodesTex = texture(gl, gl.TEXTURE_2D, gl.LINEAR), nodesFbo = gl.createFramebuffer();
+    // each eye's own textures (one eye's passes never wait on the other's), re-allocated only when a size changes
+    const eyes = [0, 1].map(() => ({ tex: texture(gl, gl.TEXTURE_2D), fbo: gl.createFramebuffer(), width: 0, height: 0,
+      nodes: texture(gl, gl.TEXTURE_2D, gl.LINEAR), nodesFbo: gl.createFramebuffer(), nodeSize: "",
+      handles: texture(gl, gl.TEXTURE_2D), handleRows: 0 }));
     // the maps on the GPU where float targets render, else in JavaScript (stereospace_cams.js)
     const mls = gl.getExtension("EXT_color_buffer_float") ? compile(gl, VERTEX, MLS) : null;
-    const handlesTex = texture(gl, gl.TEXTURE_2D);
     let gpuMaps = mls !== null;
     let images = null, scene = null, imageSize = [1, 1];
 
@@ -203,21 +204,35 @@ void main() {
       return scene;
     }
 
-    function gpuNodes(plan, cam) {
+    // the float texture of an eye's node values (nx, ny * S), and its frame buffer for the MLS pass
+    function nodeTexture(eye, nx, rows, data) {
+      gl.bindTexture(gl.TEXTURE_2D, eye.nodes);
+      if (eye.nodeSize !== `${nx}x${rows}`) {
+        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, rows, 0, gl.RGBA, gl.FLOAT, data);
+        eye.nodeSize = `${nx}x${rows}`;
+        if (mls) {
+          gl.bindFramebuffer(gl.FRAMEBUFFER, eye.nodesFbo);
+          gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, eye.nodes, 0);
+        }
+      } else if (data) gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, nx, rows, gl.RGBA, gl.FLOAT, data);
+    }
+
+    function gpuNodes(eye, plan, cam) {
       const r = scene.render, nx = plan.xs.length, ny = plan.ys.length, S = plan.ids.length;
       const n = Math.max(1, plan.offsets[S]), rows = Math.ceil(n / HANDLE_ROW);
       const data = new Float32Array(4 * HANDLE_ROW * rows);
       data.set(plan.handles);
-      gl.bindTexture(gl.TEXTURE_2D, handlesTex);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, HANDLE_ROW, rows, 0, gl.RGBA, gl.FLOAT, data);
-      gl.bindTexture(gl.TEXTURE_2D, nodesTex);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, ny * S, 0, gl.RGBA, gl.FLOAT, null);
-      gl.bindFramebuffer(gl.FRAMEBUFFER, nodesFbo);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, nodesTex, 0);
+      gl.bindTexture(gl.TEXTURE_2D, eye.handles);
+      if (eye.handleRows !== rows) {
+        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, HANDLE_ROW, rows, 0, gl.RGBA, gl.FLOAT, data);
+        eye.handleRows = rows;
+      } else gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, HANDLE_ROW, rows, gl.RGBA, gl.FLOAT, data);
+      nodeTexture(eye, nx, ny * S, null);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, eye.nodesFbo);
       gl.viewport(0, 0, nx, ny * S);
       gl.useProgram(mls);
       gl.activeTexture(gl.TEXTURE2);
-      gl.bindTexture(gl.TEXTURE_2D, handlesTex);
+      gl.bindTexture(gl.TEXTURE_2D, eye.handles);
       gl.uniform1i(loc(mls, "handles"), 2);
       gl.uniform1iv(loc(mls, "offset"), [0, 1, 2, 3, 4].map((s) => plan.offsets[Math.min(s, S)]));
       gl.uniform1iv(loc(mls, "used"), [0, 1, 2, 3].map((s) => (s < S && plan.ids[s] >= 0 ? 1 : 0)));
@@ -242,18 +257,15 @@ void main() {
         gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, eye.tex, 0);
         eye.width = cam.width; eye.height = cam.height;
       }
-      if (gpuMaps) gpuNodes(plan, cam);
-      else {
-        gl.bindTexture(gl.TEXTURE_2D, nodesTex);
-        gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, nx, ny * plan.ids.length, 0, gl.RGBA, gl.FLOAT, plan.nodes);
-      }
+      if (gpuMaps) gpuNodes(eye, plan, cam);
+      else nodeTexture(eye, nx, ny * plan.ids.length, plan.nodes);
       gl.bindFramebuffer(gl.FRAMEBUFFER, eye.fbo);
       gl.viewport(0, 0, cam.width, cam.height);
       gl.useProgram(render);
       gl.activeTexture(gl.TEXTURE0);
       gl.bindTexture(gl.TEXTURE_2D_ARRAY, images);
       gl.activeTexture(gl.TEXTURE1);
-      gl.bindTexture(gl.TEXTURE_2D, nodesTex);
+      gl.bindTexture(gl.TEXTURE_2D, eye.nodes);
       gl.uniform1i(loc(render, "images"), 0);
       gl.uniform1i(loc(render, "nodes"), 1);
       const sources = new Array(16).fill(0);
