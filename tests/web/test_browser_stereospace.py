@@ -2,7 +2,8 @@
 page (the built-in tabletop one, 12 views ray-traced by the job, which a fresh clone has; and the shared
 kermit collection, Bundler, 9 cameras, when the shared data is there), checks that the state and the map it shows are the
 API's answer, moves with the keyboard (arrow key, +) and checks each new state against
-``POST /api/stereospace/{job}/move``.
+``POST /api/stereospace/{job}/move``. The page runs with ``?renderer=server``: the pairs are the server's
+PNGs (the pairs the page draws with WebGL2 are tests/web/test_browser_stereospace_gl.py's).
 
 Run with ``VERGENCE_UPDATE_SCREENSHOTS=1`` to write the README's screenshot,
 docs/images/workbench_stereospace.png; otherwise the screenshot stays in the test's temporary folder.
@@ -67,7 +68,7 @@ def test_prepare_browse_and_move_with_the_keyboard(page, server_url, check_scree
 
     wanted, cameras, screenshot = case
     kermit = _collection(server_url, wanted)
-    page.goto(server_url + "/#stereospace")
+    page.goto(server_url + "/?renderer=server#stereospace")  # the server's pairs (the browser's: *_gl.py)
     page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
     page.locator('[data-testid="ss-collection"]').select_option(kermit["id"])
     page.click('[data-testid="ss-prepare"]')

@@ -200,9 +200,16 @@ def test_moves_animate_and_end_on_the_servers_pair(page, server_url):
     state = {"region": json.loads(page.locator('[data-testid="ss-region"]').get_attribute("data-value")),
              "li": json.loads(page.locator('[data-testid="ss-li"]').get_attribute("data-value")),
              "lj": json.loads(page.locator('[data-testid="ss-lj"]').get_attribute("data-value"))}
-    shot = page.evaluate("() => ({ left: SS.gl.readEye(0), right: SS.gl.readEye(1) })")
+    shot = page.evaluate("() => ({ left: SS.gl.readEye(0), right: SS.gl.readEye(1), vr: SS.gl.eyeURL(1) })")
     cpu_l, cpu_r, _ = _server(server_url, result["job"], state, result["default_width"])
     assert min(_psnr(_eye(shot["left"]), cpu_l), _psnr(_eye(shot["right"]), cpu_r)) >= MIN_PSNR_DB
+    # Enter VR's right image when the page draws: the right eye as a PNG data URL, the same pixels
+    from PIL import Image
+
+    head, data = shot["vr"].split(",", 1)
+    assert head == "data:image/png;base64"
+    vr = np.asarray(Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB"), dtype=np.float64) / 255.0
+    np.testing.assert_array_equal(vr, _eye(shot["right"]))
 
 
 @pytest.mark.skipif(not KERMIT.is_dir(), reason="the shared kermit collection is missing")

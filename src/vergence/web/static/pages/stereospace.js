@@ -307,6 +307,12 @@ function ssAnimate(from, to) {
   });
 }
 
+// Enter VR's pair: the eyes the page drew (PNG data URLs), else the server's last pair
+function ssVRPair() {
+  if (ssDrawsHere()) return { left: SS.gl.eyeURL(0), right: SS.gl.eyeURL(1) };
+  return { left: SS.pair.images.left, right: SS.pair.images.right };
+}
+
 function ssShowDrawn(inMove) {
   const canvas = document.getElementById("ss-canvas"), img = document.getElementById("ss-pair");
   let pair;
@@ -328,6 +334,10 @@ function ssShowDrawn(inMove) {
     : "— (mono)");
   document.getElementById("ss-caption").textContent = `The stereo view: ${document.getElementById("ss-format").value}, `
     + `${pair.left.width} × ${pair.left.height} per view, drawn in the browser in ${fmt(last.ms, 3)} ms.`;
+  if (!SS.vr) {
+    SS.vr = true;
+    offerVR(document.getElementById("ss-vr"), ssVRPair);
+  }
   showError(null);
   if (!inMove) document.body.dataset.state = "ready";
 }
@@ -368,7 +378,7 @@ async function ssShowPair(inMove = false) {
     + `${answer.height} per view, ${answer.cached ? "cached" : `${fmt(1000 * answer.seconds.pair, 3)} ms`}.`;
   if (!SS.vr) {
     SS.vr = true;
-    offerVR(document.getElementById("ss-vr"), () => ({ left: SS.pair.images.left, right: SS.pair.images.right }));
+    offerVR(document.getElementById("ss-vr"), ssVRPair);
   }
   showError(null);  // a pair that could not be shown before (its error) is gone
   if (!inMove) document.body.dataset.state = "ready";

@@ -322,6 +322,15 @@ void main() {
       return { width: eye.width, height: eye.height, rgba: btoa(text) };
     }
 
+    // one eye as a PNG data URL (Enter VR's images when the page draws the pair)
+    function eyeURL(k) {
+      const shot = readEye(k), out = document.createElement("canvas");
+      [out.width, out.height] = [shot.width, shot.height];
+      const bytes = Uint8ClampedArray.from(atob(shot.rgba), (c) => c.charCodeAt(0));
+      out.getContext("2d").putImageData(new ImageData(bytes, shot.width, shot.height), 0, 0);
+      return out.toDataURL("image/png");
+    }
+
     const finish = () => gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
     const renderer = gl.getExtension("WEBGL_debug_renderer_info");
     const name = gl.getParameter(renderer ? renderer.UNMASKED_RENDERER_WEBGL : gl.RENDERER);
@@ -330,7 +339,7 @@ void main() {
       if (where !== undefined) gpuMaps = where === "gpu" && mls !== null;
       return gpuMaps ? "gpu" : "js";
     };
-    return { gl, name, load, drawCameras, readEye, finish, maps, scene: () => scene };
+    return { gl, name, load, drawCameras, readEye, eyeURL, finish, maps, scene: () => scene };
   }
 
   return { FORMATS, create };
