@@ -79,6 +79,45 @@ def test_float32_kernel_matches_float64_for_each_set_of_handles():
     assert_allclose(out[1], mls_similarity(v, q, p), atol=F32_MLS_ATOL, rtol=0)  # the second set of handles
 
 
+def _shared_sets(rng, groups, common, extras, dtype=np.float64):
+    """Handle sets sharing ``common`` handle positions (targets of their own) plus ``extras[g]`` each:
+    (the kernel's arguments, the sets as (src, dst) pairs)."""
+    src = rng.uniform(0, 100, (common + sum(extras), 2))
+    shared, own = src[:common], np.split(src[common:], np.cumsum(extras)[:-1])
+    dst = np.stack([shared + rng.normal(0, 6.0, shared.shape) for _ in range(groups)])
+    extra_dst = [e + rng.normal(0, 6.0, e.shape) for e in own]
+    sets = [(np.vstack([shared, own[g]]), np.vstack([dst[g], extra_dst[g]])) for g in range(groups)]
+    args = (shared.astype(dtype), dst.astype(dtype), np.vstack(own).astype(dtype).reshape(-1, 2),
+            np.vstack(extra_dst).astype(dtype).reshape(-1, 2), np.concatenate([[0], np.cumsum(extras)]).astype(np.int64))
+    return args, sets
+
+
+@pytest.mark.parametrize("alpha", [0.5, 1.0, 2.0])
+@pytest.mark.parametrize(("common", "extras"), [(10, [0, 3]), (12, [2, 0, 4]), (9, [1, 1, 0, 5]), (0, [3, 4])])
+def test_shared_handles_kernel_matches_the_reference_for_each_set(alpha, common, extras):
+    rng = np.random.default_rng(common + len(extras))
+    args, sets = _shared_sets(rng, len(extras), common, extras)
+    # points anywhere, on a shared handle and on a handle of one set only (its own target there)
+    on_own = sets[-1][0][-1]
+    v = np.vstack([rng.uniform(-20, 120, (40, 2)), args[0][:1], on_own[None]])
+    out = np.full((len(extras), len(v), 2), np.nan)
+    _mls_kernels.mls_shared_handles(v, *args, alpha, out)
+    for g, (src, dst) in enumerate(sets):
+        assert_allclose(out[g], _mls_reference(v, src, dst, alpha), atol=REF_ATOL, rtol=0)
+
+
+def test_shared_handles_kernel_in_float32_matches_float64():
+    rng = np.random.default_rng(14)
+    args, sets = _shared_sets(rng, 4, 400, [0, 7, 2, 30], dtype=np.float32)
+    args = tuple(a * np.float32(3.0) if a.dtype == np.float32 else a for a in args)  # pixels ~300
+    v = rng.uniform(-30, 330, (300, 2)).astype(np.float32)
+    out = np.empty((4, len(v), 2), np.float32)
+    _mls_kernels.mls_shared_handles(v, *args, 1.0, out)
+    for g, (src, dst) in enumerate(sets):
+        expected = mls_similarity(v, 3.0 * src.astype(np.float32), 3.0 * dst.astype(np.float32))
+        assert 1e-7 < np.abs(out[g] - expected).max() < F32_MLS_ATOL  # float32 rounding, and no more
+
+
 def test_identity_handles_give_the_identity():
     rng = np.random.default_rng(4)
     p = rng.uniform(0, 100, (9, 2))

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-__all__ = ["interpolate_grid", "mls_similarity_points"]
+__all__ = ["MAX_SHARED_SETS", "interpolate_grid", "mls_shared_handles", "mls_similarity_points"]
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy", fastmath={"reassoc", "contract"})
@@ -132,3 +132,181 @@ def interpolate_grid(at_nodes, xs, ys, step, map_x, map_y):  # pragma: no cover 
                     map_x[y, x] = value
                 else:
                     map_y[y, x] = value
+
+
+# Handle sets of one call of mls_shared_handles (S2's sources of one view).
+MAX_SHARED_SETS = 4
+
+
+@nb.njit(cache=True, parallel=True, error_model="numpy", fastmath={"reassoc", "contract"})
+def mls_shared_handles(points, src, dst, extra_src, extra_dst, extra_offsets, alpha, out):  # pragma: no cover - compiled
+    """``out[g, k] = f_g(points[k])`` for up to :data:`MAX_SHARED_SETS` handle sets that share most
+    of their handles (S2's sources of one view: the points each source sees, mostly the same).
+
+    Set ``g`` is the shared handles ``src (C, 2) -> dst[g] (C, 2)`` (``dst (G, C, 2)``) and its own
+    ``extra_src[e0:e1] -> extra_dst[e0:e1]`` (``e0, e1 = extra_offsets[g], extra_offsets[g + 1]``),
+    at least 2 in all, their sources distinct; all float32 (or all float64). The deformation is
+    :func:`mls_similarity_points`'s (Schaefer et al. 2006 §2.2 in its one-pass form, with
+    ``d = q - p`` for ``q`` and ``b = a + d``): the weight ``w_i = |p_i - v|^(-2 alpha)`` and the
+    sums ``W``, ``sum w a``, ``sum w |a|^2`` of a shared handle depend on the point only, so they
+    are computed once for all the sets, which add ``sum w d``, ``sum w conj(a) d`` of their own
+    targets (one division and 10 operations per shared handle, 6 per set, where each set alone
+    takes one division and 19). One task per point.
+    """
+    n = points.shape[0]
+    groups = dst.shape[0]
+    common = src.shape[0]
+    qx = np.ascontiguousarray(src[:, 0])
+    qy = np.ascontiguousarray(src[:, 1])
+    d = np.zeros((MAX_SHARED_SETS, 2, common), src.dtype)  # sets past the last: offsets 0, unused
+    for g in range(groups):
+        for i in range(common):
+            d[g, 0, i] = dst[g, i, 0] - src[i, 0]
+            d[g, 1, i] = dst[g, i, 1] - src[i, 1]
+    d0x, d0y, d1x, d1y = d[0, 0], d[0, 1], d[1, 0], d[1, 1]
+    d2x, d2y, d3x, d3y = d[2, 0], d[2, 1], d[3, 0], d[3, 1]
+    ex = np.ascontiguousarray(extra_src[:, 0])
+    ey = np.ascontiguousarray(extra_src[:, 1])
+    edx = np.ascontiguousarray(extra_dst[:, 0] - extra_src[:, 0])
+    edy = np.ascontiguousarray(extra_dst[:, 1] - extra_src[:, 1])
+    consts = np.empty(3, src.dtype)  # the constants in the handles' precision
+    consts[0] = 0.0
+    consts[1] = 1.0
+    consts[2] = alpha
+    zero, one, exponent = consts[0], consts[1], consts[2]
+    unit = alpha == 1.0
+    for k in nb.prange(n):
+        vx = one * points[k, 0]
+        vy = one * points[k, 1]
+        sw = zero
+        sax = zero
+        say = zero
+        saa = zero
+        s0x, s0y, a0, c0 = zero, zero, zero, zero
+        s1x, s1y, a1, c1 = zero, zero, zero, zero
+        s2x, s2y, a2, c2 = zero, zero, zero, zero
+        s3x, s3y, a3, c3 = zero, zero, zero, zero
+        if unit:  # w = 1 / |a|^2: one division, w |a|^2 = 1
+            saa = one * common
+            for i in range(common):
+                ax = qx[i] - vx
+                ay = qy[i] - vy
+                w = one / (ax * ax + ay * ay)
+                u = w * ax
+                t = w * ay
+                sw += w
+                sax += u
+                say += t
+                s0x += w * d0x[i]
+                s0y += w * d0y[i]
+                a0 += u * d0x[i] + t * d0y[i]
+                c0 += u * d0y[i] - t * d0x[i]
+                s1x += w * d1x[i]
+                s1y += w * d1y[i]
+                a1 += u * d1x[i] + t * d1y[i]
+                c1 += u * d1y[i] - t * d1x[i]
+                s2x += w * d2x[i]
+                s2y += w * d2y[i]
+                a2 += u * d2x[i] + t * d2y[i]
+                c2 += u * d2y[i] - t * d2x[i]
+                s3x += w * d3x[i]
+                s3y += w * d3y[i]
+                a3 += u * d3x[i] + t * d3y[i]
+                c3 += u * d3y[i] - t * d3x[i]
+        else:
+            for i in range(common):
+                ax = qx[i] - vx
+                ay = qy[i] - vy
+                dd = ax * ax + ay * ay
+                w = dd ** -exponent
+                u = w * ax
+                t = w * ay
+                sw += w
+                sax += u
+                say += t
+                saa += w * dd
+                s0x += w * d0x[i]
+                s0y += w * d0y[i]
+                a0 += u * d0x[i] + t * d0y[i]
+                c0 += u * d0y[i] - t * d0x[i]
+                s1x += w * d1x[i]
+                s1y += w * d1y[i]
+                a1 += u * d1x[i] + t * d1y[i]
+                c1 += u * d1y[i] - t * d1x[i]
+                s2x += w * d2x[i]
+                s2y += w * d2y[i]
+                a2 += u * d2x[i] + t * d2y[i]
+                c2 += u * d2y[i] - t * d2x[i]
+                s3x += w * d3x[i]
+                s3y += w * d3y[i]
+                a3 += u * d3x[i] + t * d3y[i]
+                c3 += u * d3y[i] - t * d3x[i]
+        for g in range(groups):
+            if g == 0:
+                sdx, sdy, sad, scd = s0x, s0y, a0, c0
+            elif g == 1:
+                sdx, sdy, sad, scd = s1x, s1y, a1, c1
+            elif g == 2:
+                sdx, sdy, sad, scd = s2x, s2y, a2, c2
+            else:
+                sdx, sdy, sad, scd = s3x, s3y, a3, c3
+            gw, gax, gay, gaa = sw, sax, say, saa
+            start, stop = extra_offsets[g], extra_offsets[g + 1]
+            if unit:  # the set's own handles
+                gaa += one * (stop - start)
+                for j in range(start, stop):
+                    ax = ex[j] - vx
+                    ay = ey[j] - vy
+                    w = one / (ax * ax + ay * ay)
+                    u = w * ax
+                    t = w * ay
+                    gw += w
+                    gax += u
+                    gay += t
+                    sdx += w * edx[j]
+                    sdy += w * edy[j]
+                    sad += u * edx[j] + t * edy[j]
+                    scd += u * edy[j] - t * edx[j]
+            else:
+                for j in range(start, stop):
+                    ax = ex[j] - vx
+                    ay = ey[j] - vy
+                    dd = ax * ax + ay * ay
+                    w = dd ** -exponent
+                    u = w * ax
+                    t = w * ay
+                    gw += w
+                    gax += u
+                    gay += t
+                    gaa += w * dd
+                    sdx += w * edx[j]
+                    sdy += w * edy[j]
+                    sad += u * edx[j] + t * edy[j]
+                    scd += u * edy[j] - t * edx[j]
+            psx = gax / gw
+            psy = gay / gw
+            qsx = psx + sdx / gw
+            qsy = psy + sdy / gw
+            mu = gaa - gw * (psx * psx + psy * psy)
+            if gw < np.inf and mu > zero:
+                ar = (gaa + sad - gw * (psx * qsx + psy * qsy)) / mu
+                ai = (scd - gw * (psx * qsy - psy * qsx)) / mu
+                out[g, k, 0] = vx + qsx - psx * ar + psy * ai
+                out[g, k, 1] = vy + qsy - psx * ai - psy * ar
+                continue
+            # on a handle (w = inf), or so near one that the others' weights vanish beside its own
+            dmin = np.inf
+            imin = 0
+            for i in range(common):
+                dd = (qx[i] - vx) ** 2 + (qy[i] - vy) ** 2
+                if dd < dmin:
+                    dmin = dd
+                    imin = i
+            out[g, k, 0] = dst[g, imin, 0]
+            out[g, k, 1] = dst[g, imin, 1]
+            for j in range(start, stop):
+                dd = (ex[j] - vx) ** 2 + (ey[j] - vy) ** 2
+                if dd < dmin:
+                    dmin = dd
+                    out[g, k, 0] = extra_dst[j, 0]
+                    out[g, k, 1] = extra_dst[j, 1]

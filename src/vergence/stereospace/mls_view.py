@@ -5,6 +5,7 @@ blended with S2's penalties (angle + field of view) on a proxy built from the po
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -40,6 +41,13 @@ S2_GRID_STEP = 8
 #: benchmarks/stereospace_pair.py) and changes the views by 0.001-0.005 mean absolute (colours in
 #: [0, 1]; tests/stereospace/test_mls_view.py checks dino0011's view).
 S2_HANDLE_CELL_PX = 4.0
+#: The sources' maps share their common handles' weights (one evaluation for all of them) when the
+#: handles not common to all are at most this share of the common ones: a handle not shared costs
+#: about 6 times one evaluated per source in that kernel (a short loop per node), a common one
+#: 0.7 of the 4 sources' separate evaluations. Dino's pairs (1,310-1,325 common handles, 0-2 not)
+#: spend 13.7 instead of 20.5 CPU-ms on their maps; kermit's (about 410 common, 184 not) 13.4 against
+#: 11.3, so they keep the per-source kernel (benchmarks/stereospace_pair.py's states, load 8).
+SHARED_EXTRA_SHARE = 0.2
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,6 +181,32 @@ def _node_angles(target: Camera, nodes: np.ndarray, centres: np.ndarray, depth: 
     return out
 
 
+def _source_maps(nodes: np.ndarray, q: np.ndarray, pixels: np.ndarray, handles: list[tuple[int, np.ndarray]],
+                 alpha: float) -> np.ndarray:
+    """The MLS maps (``q -> p``) of the sources ``handles`` (source, its handles' point indices) at
+    ``nodes`` (float32), ``(len(handles), len(nodes), 2)`` float32: the sources' common handles
+    evaluated once for all of them (:func:`_mls_kernels.mls_shared_handles`) when 2 to 4 sources
+    share most (:data:`SHARED_EXTRA_SHARE`), else each source's own
+    (:func:`_mls_kernels.mls_similarity_points`)."""
+    mapped = np.empty((len(handles), len(nodes), 2), dtype=np.float32)
+    common = functools.reduce(lambda a, b: np.intersect1d(a, b, assume_unique=True), [sel for _, sel in handles])
+    extras = [np.setdiff1d(sel, common, assume_unique=True) for _, sel in handles]
+    n_extra = sum(e.size for e in extras)
+    if 2 <= len(handles) <= _mls_kernels.MAX_SHARED_SETS and n_extra <= SHARED_EXTRA_SHARE * common.size:
+        dst = np.stack([pixels[n, common] for n, _ in handles]).astype(np.float32)
+        extra_src = np.concatenate([q[e] for e in extras]).astype(np.float32)
+        extra_dst = np.concatenate([pixels[n, e] for (n, _), e in zip(handles, extras)]).astype(np.float32)
+        offsets = np.concatenate([[0], np.cumsum([e.size for e in extras])]).astype(np.int64)
+        _mls_kernels.mls_shared_handles(nodes, q[common].astype(np.float32), dst, extra_src, extra_dst, offsets,
+                                        alpha, mapped)  # fmt: skip
+        return mapped
+    p32 = np.concatenate([pixels[n, sel] for n, sel in handles]).astype(np.float32)
+    q32 = np.concatenate([q[sel] for _, sel in handles]).astype(np.float32)
+    offsets = np.concatenate([[0], np.cumsum([sel.size for _, sel in handles])]).astype(np.int64)
+    _mls_kernels.mls_similarity_points(nodes, q32, p32, offsets, alpha, mapped)
+    return mapped
+
+
 def render_source_set(
     target: Camera, sources: SourceSet, ids: Sequence[int], points: np.ndarray, *, grid_step: int, alpha: float,
     k: int, keep_weights: bool,
@@ -208,13 +242,9 @@ def render_source_set(
             used[s] = -1
             continue
         counts[s] = sel.size
-        handles.append((sources.pixels[n, sel], q[sel]))
+        handles.append((n, sel))
     if handles:  # the maps of all sources in one parallel loop
-        p32 = np.concatenate([hp for hp, _ in handles]).astype(np.float32)
-        q32 = np.concatenate([hq for _, hq in handles]).astype(np.float32)
-        mapped = np.empty((len(handles), len(nodes), 2), dtype=np.float32)
-        offsets = np.concatenate([[0], np.cumsum(counts[used >= 0])])
-        _mls_kernels.mls_similarity_points(nodes32, q32, p32, offsets, alpha, mapped)
+        mapped = _source_maps(nodes32, q, sources.pixels, handles, alpha)
         at_nodes[used >= 0, ..., :2] = mapped.reshape(len(handles), ys.size, xs.size, 2)
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
@@ -292,7 +322,8 @@ def s2_view(
 
     Computation (one Numba pass over the pixels, no full-size intermediate): the MLS maps of all
     sources are evaluated at the grid nodes in float32 (within 2e-3 px of float64 on dino's 6,019
-    handles a source), ``P_ANG`` exactly at the nodes (atan2) and both bilinearly in between
+    handles a source; the handles that 2-4 sources share weighed once for all of them,
+    :data:`SHARED_EXTRA_SHARE`), ``P_ANG`` exactly at the nodes (atan2) and both bilinearly in between
     (``P_ANG`` within 3.3e-5 rad of the per-pixel angle on kermit's views, 3.5e-7 rad on dino's);
     sources are sampled bilinearly with exact weights (edge pixels repeated over their outer half),
     and a source whose normalised weight is at most 1e-6 (the k-th one's ~1e-7) is not sampled.
