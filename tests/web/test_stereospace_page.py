@@ -346,6 +346,7 @@ def test_the_scene_is_the_library_collection(client, kermit):
     assert got.status_code == 200 and got.headers["content-type"] == "image/png"
     image = np.asarray(Image.open(io.BytesIO(got.content)).convert("RGB"), dtype=np.float64) / 255.0
     assert_allclose(image, prepared.image(3), atol=0.5 / 255.0)  # 8-bit photos: the stored values
+    assert str(col.image_paths[0].parent.parent) not in str(scene)  # no server path
 
 
 def test_the_scene_serves_only_its_images(client, browsed):

@@ -120,7 +120,8 @@ async function ssStartGL(job) {
   if (job !== SS.job && SS.job !== null) return;
   SS.gl = gl;
   note.dataset.renderer = gl ? "webgl2" : "server";
-  note.textContent = gl ? `Drawn in the browser (WebGL2 on ${gl.name}); moves animate. Layouts ${SSGL.FORMATS.join(", ")}; `
+  note.textContent = gl ? `Drawn in the browser (WebGL2 on ${gl.name}, MLS maps `
+    + `${gl.maps() === "gpu" ? "in a shader pass" : "in JavaScript"}); moves animate. Layouts ${SSGL.FORMATS.join(", ")}; `
     + "the others come from the server." : `${why}: each pair is drawn by the server.`;
 }
 
