@@ -197,6 +197,9 @@ def test_moves_animate_and_end_on_the_servers_pair(page, server_url):
         page.wait_for_function(f"SS.frames.length > {before} && !SS.busy && document.body.dataset.state !== 'loading'",
                                timeout=MOVE_MS)
     assert page.evaluate("() => SS.frames.length") >= MIN_FRAMES
+    # the canvas is shown, the server's image element not (no empty image box above the view)
+    assert page.locator('[data-testid="ss-canvas"]').evaluate("el => getComputedStyle(el).display") == "block"
+    assert page.locator('[data-testid="ss-pair"]').evaluate("el => getComputedStyle(el).display") == "none"
     state = {"region": json.loads(page.locator('[data-testid="ss-region"]').get_attribute("data-value")),
              "li": json.loads(page.locator('[data-testid="ss-li"]').get_attribute("data-value")),
              "lj": json.loads(page.locator('[data-testid="ss-lj"]').get_attribute("data-value"))}

@@ -327,7 +327,7 @@ function ssShowDrawn(inMove) {
     return;
   }
   canvas.style.display = "block";
-  img.hidden = true;
+  img.style.display = "none";  // (style.css shows .ss-view img as a block: the hidden attribute would not hide it)
   document.getElementById("ss-view").classList.remove("stale");
   const q = SS.view.quality, last = SS.frames[SS.frames.length - 1];
   ssSet("ss-range", q ? q.range_arcmin : null, q && q.range_arcmin !== null
@@ -347,7 +347,7 @@ async function ssShowPair(inMove = false) {
   if (!SS.job || !SS.view) return;
   if (ssDrawsHere()) return ssShowDrawn(inMove);
   document.getElementById("ss-canvas").style.display = "none";
-  document.getElementById("ss-pair").hidden = false;
+  document.getElementById("ss-pair").style.display = "";
   const job = SS.job;
   const body = {
     state: ssStateBody(SS.view), format: document.getElementById("ss-format").value,
