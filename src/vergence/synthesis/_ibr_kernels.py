@@ -14,7 +14,10 @@ import numba as nb
 import numpy as np
 
 
-__all__ = ["backproject", "fov_penalty", "normalise_blend", "project_depth", "sample_source", "ulr_weights"]
+__all__ = [
+    "backproject", "catmull_rom", "fov_penalty", "normalise_blend", "project_depth", "sample_source", "surface_slopes",
+    "ulr_weights",
+]
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -69,7 +72,7 @@ def project_depth(depth, Kinv, R, t, Kt, Rt, tt, u, v, zt):  # pragma: no cover 
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _catmull_rom(t, j):  # pragma: no cover - compiled
+def catmull_rom(t, j):  # pragma: no cover - compiled
     """Catmull-Rom (Keys 1981, a = -1/2) weight of tap j in {0, 1, 2, 3} (taps at -1, 0, 1, 2) at offset t."""
     t2 = t * t
     t3 = t2 * t
@@ -178,7 +181,7 @@ def sample_source(points, K, R, t, image, depth, slopes, tol, margin, cubic, pix
                     break
             if not inside:
                 continue
-            wx0, wx1, wx2, wx3 = _catmull_rom(fx, 0), _catmull_rom(fx, 1), _catmull_rom(fx, 2), _catmull_rom(fx, 3)
+            wx0, wx1, wx2, wx3 = catmull_rom(fx, 0), catmull_rom(fx, 1), catmull_rom(fx, 2), catmull_rom(fx, 3)
             xa, xb = max(x0 - 1, 0), min(x0 + 1, ws - 1)
             xc = min(x0 + 2, ws - 1)
             for c in range(nc):
@@ -189,7 +192,7 @@ def sample_source(points, K, R, t, image, depth, slopes, tol, margin, cubic, pix
                     yj = min(max(y0 - 1 + jy, 0), hs - 1)
                     row = (wx0 * image[yj, xa, c] + wx1 * image[yj, x0, c] + wx2 * image[yj, xb, c]
                            + wx3 * image[yj, xc, c])  # fmt: skip
-                    acc += _catmull_rom(fy, jy) * row
+                    acc += catmull_rom(fy, jy) * row
                     if jy == 1 or jy == 2:
                         lo = min(lo, image[yj, x0, c], image[yj, xb, c])
                         hi = max(hi, image[yj, x0, c], image[yj, xb, c])

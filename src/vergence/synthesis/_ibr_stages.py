@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from vergence.camera import Camera
-from vergence.synthesis import _ibr_kernels, _kernels, _stages3d
+from vergence.synthesis import _ibr_fused_kernels, _ibr_kernels, _kernels, _stages3d
 from vergence.synthesis.ibr_source import IBRSource
 
 # Field of view: a proxy point must project within the source's pixel rectangle, the hull of its pixel
@@ -149,8 +150,27 @@ def sample_sources(
     points: np.ndarray, sources: list[IBRSource], tol: float, slope_cap: float, store_pixels: bool, cubic: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per source: proxy pixel ``(S, h, w, 2)`` (empty unless ``store_pixels``), visibility
-    ``(S, h, w)`` and colour ``(S, h, w, 3)``. The visibility test follows each source's surface slopes
-    (:func:`surface_slopes`, capped at ``slope_cap``; 0: the relative tolerance alone)."""
+    ``(S, h, w)`` and colour ``(S, h, w, 3)``, in one pass over the target's rows
+    (``_ibr_fused_kernels.sample_all``). The visibility test follows each source's surface slopes
+    (:func:`surface_slopes`' rule, capped at ``slope_cap``; 0: the relative tolerance alone)."""
+    h, w = points.shape[:2]
+    n = len(sources)
+    pixels = np.empty((n, h, w, 2) if store_pixels else (n, 0, 0, 2))
+    visible = np.empty((n, h, w), dtype=bool)
+    colours = np.empty((n, h, w, 3), dtype=np.float32)
+    cams = [s.camera for s in sources]
+    _ibr_fused_kernels.sample_all(
+        np.ascontiguousarray(points), np.stack([c.K for c in cams]), np.stack([c.R for c in cams]),
+        np.stack([c.t for c in cams]), tuple(s.image for s in sources), tuple(s.depth for s in sources), tol, slope_cap,
+        SLOPE_RATIO, FOV_MARGIN_PX, cubic, pixels, visible, colours)
+    return pixels, visible, colours
+
+
+def sample_sources_staged(
+    points: np.ndarray, sources: list[IBRSource], tol: float, slope_cap: float, store_pixels: bool, cubic: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`sample_sources` one source at a time, each with its full-frame slope maps
+    (:func:`surface_slopes`, ``_ibr_kernels.sample_source``): the slow reference."""
     h, w = points.shape[:2]
     n = len(sources)
     pixels = np.empty((n, h, w, 2) if store_pixels else (n, 0, 0, 2))
@@ -163,6 +183,65 @@ def sample_sources(
         _ibr_kernels.sample_source(pts, np.ascontiguousarray(cam.K), np.ascontiguousarray(cam.R), np.ascontiguousarray(cam.t),
                                    src.image, src.depth, slopes, tol, FOV_MARGIN_PX, cubic, pixels[i], visible[i], colours[i])
     return pixels, visible, colours
+
+
+@dataclass(frozen=True, slots=True)
+class ULRSettings:
+    """The validated options of ULR rendering (see ``render_ibr``): visibility test (``tol``,
+    ``slope_cap``), sampling (``cubic``), penalties and threshold (``k``, ``alpha``, ``beta``, ``gamma``,
+    ``relative``), the field-of-view band as a fraction of a source's smaller side (``band``),
+    SIBR's penalty floor (``floor``) and threshold scale (``scale``)."""
+
+    tol: float
+    slope_cap: float
+    cubic: bool
+    k: int
+    alpha: float
+    beta: float
+    gamma: float
+    relative: float
+    band: float
+    floor: float
+    scale: float
+
+
+def ulr_fused(
+    points: np.ndarray, rays: np.ndarray, centre: np.ndarray, sources: list[IBRSource], settings: ULRSettings
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ULR rendering in one pass (``_ibr_fused_kernels.ulr_render``): normalised weights ``(S, h, w)``,
+    image ``(h, w, 3)`` and coverage ``(h, w)``. ``rays`` ``(0, 0, 3)``: the desired ray is ``p - centre``."""
+    h, w = points.shape[:2]
+    cams = [s.camera for s in sources]
+    sizes = np.array([[c.width, c.height] for c in cams], dtype=np.float64)
+    weights = np.empty((len(sources), h, w), dtype=np.float32)
+    image = np.empty((h, w, 3), dtype=np.float32)
+    coverage = np.empty((h, w), dtype=bool)
+    o = settings
+    _ibr_fused_kernels.ulr_render(
+        np.ascontiguousarray(points), rays, np.ascontiguousarray(centre, dtype=np.float64),
+        np.stack([c.K for c in cams]), np.stack([c.R for c in cams]), np.stack([c.t for c in cams]),
+        np.array([c.center for c in cams], dtype=np.float64), sizes, o.band * sizes.min(axis=1),
+        tuple(s.image for s in sources), tuple(s.depth for s in sources), o.tol, o.slope_cap, SLOPE_RATIO,
+        FOV_MARGIN_PX, o.cubic, o.k, o.alpha, o.beta, o.gamma, o.relative, o.floor, o.scale, weights, image, coverage)
+    return weights, image, coverage
+
+
+def ulr_staged(
+    points: np.ndarray, rays: np.ndarray, centre: np.ndarray, sources: list[IBRSource], settings: ULRSettings
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`ulr_fused` by stages, with full-frame per-source maps (:func:`sample_sources`, then
+    ``_ibr_kernels.ulr_weights``, then :func:`blend`): the slow reference of the fused kernel.
+    The staged path of ``render_ibr`` before the kernels were fused (issue 31)."""
+    o = settings
+    pixels, visible, colours = sample_sources_staged(points, sources, o.tol, o.slope_cap, True, o.cubic)
+    w = np.empty(visible.shape, dtype=np.float32)
+    centres = np.ascontiguousarray([s.camera.center for s in sources], dtype=np.float64)
+    sizes = np.array([[s.camera.width, s.camera.height] for s in sources], dtype=np.float64)
+    _ibr_kernels.ulr_weights(np.ascontiguousarray(points), rays, np.ascontiguousarray(centre, dtype=np.float64),
+                             centres, visible, pixels, sizes, o.k, o.alpha, o.beta, o.gamma, o.band * sizes.min(axis=1),
+                             o.relative, o.floor, o.scale, w)
+    image, coverage = blend(w, visible, colours)
+    return w, image, coverage
 
 
 def desired_rays(distortion: object, points: np.ndarray, points_t: np.ndarray, centre: np.ndarray) -> np.ndarray:

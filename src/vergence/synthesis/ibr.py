@@ -27,7 +27,7 @@ import numpy as np
 
 from vergence._validate import check_positive, check_positive_int
 from vergence.camera import Camera
-from vergence.synthesis import _ibr_kernels, _ibr_stages
+from vergence.synthesis import _ibr_stages
 from vergence.synthesis._checks import check_camera, check_depth_values, check_image, check_method, check_nonnegative
 from vergence.synthesis.ibr_source import IBRSource
 from vergence.synthesis.ibr_bayes import (
@@ -320,20 +320,17 @@ def render_ibr(
     depth_t = _ibr_stages.forward_proxy(target, srcs, distortion, limit) if given is None else given
     points_t = _ibr_stages.backproject(target, depth_t)  # in the distorted world under a distortion
     points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
-    say(0.3, f"sampling {len(srcs)} sources")
-    store_pixels = True  # ULR: the field-of-view penalty; Bayesian: the image velocities
-    pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, slope_cap, store_pixels, interp == "cubic")
     if method == "ulr":
-        say(0.7, "ULR weights")
-        rays = np.zeros((0, 0, 3)) if distortion is None else _ibr_stages.desired_rays(distortion, points, points_t, target.center)
-        w = np.empty(visible.shape, dtype=np.float32)
-        centres = np.ascontiguousarray([s.camera.center for s in srcs], dtype=np.float64)
-        sizes = np.array([[s.camera.width, s.camera.height] for s in srcs], dtype=np.float64)
-        band = ULR_FOV_BAND * sizes.min(axis=1)
-        _ibr_kernels.ulr_weights(points, rays, np.ascontiguousarray(target.center), centres, visible, pixels, sizes, k,
-                                 alpha, beta, gamma, band, relative, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE, w)
-        image, coverage = _ibr_stages.blend(w, visible, colours)
+        say(0.3, f"ULR: {len(srcs)} sources sampled and blended")
+        rays = np.zeros((0, 0, 3))
+        if distortion is not None:
+            rays = _ibr_stages.desired_rays(distortion, points, points_t, target.center)
+        settings = _ibr_stages.ULRSettings(tol, slope_cap, interp == "cubic", k, alpha, beta, gamma, relative,
+                                           ULR_FOV_BAND, ULR_PENALTY_FLOOR, ULR_THRESHOLD_SCALE)
+        w, image, coverage = _ibr_stages.ulr_fused(points, rays, target.center, srcs, settings)
     else:
+        say(0.3, f"sampling {len(srcs)} sources")
+        pixels, visible, colours = _ibr_stages.sample_sources(points, srcs, tol, slope_cap, True, interp == "cubic")
         cameras = [s.camera for s in srcs]
         estimate = None
         for it in range(iterations + 1):
