@@ -134,20 +134,26 @@ def test_the_browser_pair_matches_the_servers(page, server_url, wanted):
 
 # The scripted pan: frames drawn in requestAnimationFrame from the start state to one pan step on
 PAN_FRAMES = 40
+# (with wait, the GPU is waited for in each frame and the eyes of the first, middle and last frames are kept)
 SCRIPTED_PAN = """async ([from, to, n, wait]) => {
     SS.timing = wait;
     SS.frames = [];
+    const shots = [];
     await new Promise((resolve) => {
         let k = 0;
         const frame = () => {
             const t = k / (n - 1);
-            ssDrawState({ region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) });
+            const state = { region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) };
+            ssDrawState(state);
+            if (wait && (k === 0 || k === n >> 1 || k === n - 1)) {
+                shots.push({ state, left: SS.gl.readEye(0), right: SS.gl.readEye(1) });
+            }
             if (++k < n) requestAnimationFrame(frame); else resolve();
         };
         requestAnimationFrame(frame);
     });
     SS.timing = false;
-    return SS.frames;
+    return { frames: SS.frames, shots };
 }"""
 
 
@@ -165,7 +171,8 @@ def test_a_scripted_pan_reports_its_frame_times(page, server_url, wanted):
         pytest.skip("the first pan step leaves the start region")
     figures = {}
     for wait in (False, True):
-        frames = page.evaluate(SCRIPTED_PAN, [start, to, PAN_FRAMES, wait])
+        run = page.evaluate(SCRIPTED_PAN, [start, to, PAN_FRAMES, wait])
+        frames, shots = run["frames"], run["shots"]
         assert len(frames) == PAN_FRAMES
         ms = np.diff([f["t"] for f in frames]) if not wait else np.array([f["ms"] for f in frames])
         figures["waited" if wait else "interval"] = (float(np.median(ms)), float(np.percentile(ms, 95)))
@@ -180,10 +187,11 @@ def test_a_scripted_pan_reports_its_frame_times(page, server_url, wanted):
         return [at("ss-map-left-eye"), at("ss-map-right-eye"), want(view.eyes.left), want(view.eyes.right)];
     }""", moved["state"])
     np.testing.assert_allclose(marks[:2], marks[2:], atol=0.02)  # SVG coordinates to 2 decimals
-    # the last frame is the server's pair of the end state
-    shot = page.evaluate("() => ({ left: SS.gl.readEye(0), right: SS.gl.readEye(1) })")
-    cpu_l, cpu_r, _ = _server(server_url, result["job"], to, result["default_width"])
-    assert min(_psnr(_eye(shot["left"]), cpu_l), _psnr(_eye(shot["right"]), cpu_r)) >= MIN_PSNR_DB
+    # the first, middle and last frames are the server's pairs of their states
+    assert len(shots) == 3
+    for shot in shots:
+        cpu_l, cpu_r, _ = _server(server_url, result["job"], shot["state"], result["default_width"])
+        assert min(_psnr(_eye(shot["left"]), cpu_l), _psnr(_eye(shot["right"]), cpu_r)) >= MIN_PSNR_DB, shot["state"]
 
 
 def test_moves_animate_and_end_on_the_servers_pair(page, server_url):
