@@ -28,3 +28,35 @@ def wait_job(client, job_id: str, *, timeout: float = JOB_WAIT_S, states=FINAL_S
             return status
         time.sleep(0.05)
     raise AssertionError(f"job {job_id} never reached {states}: {status}")
+
+
+# The heat map's colour stops as docs/workbench.md gives them (t = 0: nearest, 0.5: the screen, 1: farthest),
+# written out here, not read from the page: the browser tests of pages 2 and 5 check the page against them.
+HEAT_STOPS = [(0.0, (178, 24, 43)), (0.25, (239, 138, 98)), (0.5, (247, 247, 247)), (0.75, (103, 169, 207)),
+              (1.0, (33, 102, 172))]
+#: A channel the page rounds once: at most one level from the reference.
+HEAT_COLOUR_TOL = 1
+
+
+def heat_colour(value: float, lo: float, hi: float):  # noqa: ANN201 - an (3,) numpy array
+    """The heat map's RGB (0-255) of ``value`` on the scale ``lo`` (< 0, nearest) .. ``hi`` (> 0), clamped."""
+    import numpy as np
+
+    t = 0.5 * (1 - min(value / lo, 1.0)) if value <= 0 else 0.5 + 0.5 * min(value / hi, 1.0)
+    for (t0, c0), (t1, c1) in zip(HEAT_STOPS, HEAT_STOPS[1:]):
+        if t <= t1:
+            f = (t - t0) / (t1 - t0)
+            return np.array([c + f * (d - c) for c, d in zip(c0, c1)])
+    return np.array(HEAT_STOPS[-1][1], float)
+
+
+def match_uploaded_pair(page, left, right, *, max_disparity: int, ready) -> None:  # noqa: ANN001
+    """On page 2 (open in ``page``): upload the files ``left`` and ``right`` as a stereo pair and run its
+    matching with ``max_disparity``; ``ready(page)`` waits for the page after each step."""
+    page.check('[data-testid="st-source-pair"]')
+    for field, path in (("left", left), ("right", right)):
+        page.set_input_files(f'[data-testid="st-file-{field}"]', str(path))
+        ready(page)
+    page.fill('[data-testid="st-max-disparity"]', str(max_disparity))
+    page.click('[data-testid="st-run"]')
+    ready(page)

@@ -13,6 +13,7 @@ import io
 import httpx
 import numpy as np
 import pytest
+from web_checks import HEAT_COLOUR_TOL, heat_colour, match_uploaded_pair
 
 pytestmark = pytest.mark.browser
 
@@ -20,18 +21,6 @@ JOB_MS = 300_000  # the first synthesis compiles the warping kernels
 W, H = 160, 120
 SHIFT_PX = 4  # x_r = x_l - 4: d = 4, P = x_r - x_l = -4
 MATCH_TOL_PX = 0.5  # SGBM's subpixel estimate on a blurred random texture
-STOPS = [(0.0, (178, 24, 43)), (0.25, (239, 138, 98)), (0.5, (247, 247, 247)), (0.75, (103, 169, 207)),
-         (1.0, (33, 102, 172))]
-COLOUR_TOL = 1  # a channel rounded once in the page
-
-
-def _colour(value: float, lo: float, hi: float) -> np.ndarray:
-    t = 0.5 * (1 - min(value / lo, 1.0)) if value <= 0 else 0.5 + 0.5 * min(value / hi, 1.0)
-    for (t0, c0), (t1, c1) in zip(STOPS, STOPS[1:]):
-        if t <= t1:
-            f = (t - t0) / (t1 - t0)
-            return np.array([c + f * (d - c) for c, d in zip(c0, c1)])
-    return np.array(STOPS[-1][1], float)
 
 
 def _ready(page, condition: str = "document.body.dataset.state === 'ready' || document.body.dataset.state === 'error'"):
@@ -53,13 +42,7 @@ def test_the_matched_pair_is_drawn_with_its_own_parallax(page, server_url, tmp_p
     write_image(tmp_path / "r.png", right)
     page.goto(server_url + "/#stereo")
     _ready(page)
-    page.check('[data-testid="st-source-pair"]')
-    for field, name in (("left", "l.png"), ("right", "r.png")):
-        page.set_input_files(f'[data-testid="st-file-{field}"]', str(tmp_path / name))
-        _ready(page)
-    page.fill('[data-testid="st-max-disparity"]', "16")
-    page.click('[data-testid="st-run"]')
-    _ready(page)
+    match_uploaded_pair(page, tmp_path / "l.png", tmp_path / "r.png", max_disparity=16, ready=_ready)
     _ready(page, "document.getElementById('st-overlays').dataset.state === 'ready'")
     page.select_option('[data-testid="st-ov-set"]', "input")
     _ready(page, "document.getElementById('st-overlays').dataset.set === 'input' && "
@@ -82,7 +65,7 @@ def test_the_matched_pair_is_drawn_with_its_own_parallax(page, server_url, tmp_p
     pixels = np.array(rgba, float).reshape(H, W, 4)
     ys, xs = np.nonzero(np.isfinite(parallax))
     for y, x in list(zip(ys, xs))[::97]:
-        np.testing.assert_allclose(pixels[y, x, :3], _colour(parallax[y, x], lo, hi), atol=COLOUR_TOL)
+        np.testing.assert_allclose(pixels[y, x, :3], heat_colour(parallax[y, x], lo, hi), atol=HEAT_COLOUR_TOL)
     assert (pixels[~np.isfinite(parallax), 3] == 0).all()
 
     # the histogram and its shares, counted here

@@ -14,23 +14,12 @@ import math
 import httpx
 import numpy as np
 import pytest
+from web_checks import HEAT_COLOUR_TOL, heat_colour
 
 pytestmark = pytest.mark.browser
 
 JOB_MS = 300_000  # k + 3 renders and the table; the first run compiles Numba kernels
 TINY = {"width": 64, "height": 48, "k": 2, "samples": 1}
-STOPS = [(0.0, (178, 24, 43)), (0.25, (239, 138, 98)), (0.5, (247, 247, 247)), (0.75, (103, 169, 207)),
-         (1.0, (33, 102, 172))]
-COLOUR_TOL = 1  # a channel rounded once in the page: at most one level apart
-
-
-def _colour(value: float, lo: float, hi: float) -> np.ndarray:
-    t = 0.5 * (1 - min(value / lo, 1.0)) if value <= 0 else 0.5 + 0.5 * min(value / hi, 1.0)
-    for (t0, c0), (t1, c1) in zip(STOPS, STOPS[1:]):
-        if t <= t1:
-            f = (t - t0) / (t1 - t0)
-            return np.array([c + f * (d - c) for c, d in zip(c0, c1)])
-    return np.array(STOPS[-1][1], float)
 
 
 def _run(page, server_url: str) -> str:
@@ -79,7 +68,7 @@ def test_the_heat_map_and_histogram_are_the_jobs_disparity(page, server_url):
     assert (pixels[~known, 3] == 0).all() and (pixels[known, 3] == 255).all()  # unmatched: transparent
     ys, xs = np.nonzero(known)
     for y, x in list(zip(ys, xs))[:: max(1, len(ys) // 40)]:
-        np.testing.assert_allclose(pixels[y, x, :3], _colour(plane[y, x], -120.0, 120.0), atol=COLOUR_TOL)
+        np.testing.assert_allclose(pixels[y, x, :3], heat_colour(plane[y, x], -120.0, 120.0), atol=HEAT_COLOUR_TOL)
     labels = page.locator('[data-testid="spec-heat-bar"] text[data-arcmin]').evaluate_all(
         "els => els.map(e => e.textContent)")
     assert labels == ["-120′", "-90′", "-60′", "-30′", "0′", "30′", "60′", "90′", "120′"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import httpx
 import numpy as np
 import pytest
+from web_checks import match_uploaded_pair
 
 pytestmark = pytest.mark.browser
 
@@ -166,13 +167,7 @@ def test_a_stereo_pair_is_matched_from_the_page(page, server_url, tmp_path):
     write_image(tmp_path / "l.png", wide[:, :64].copy())
     write_image(tmp_path / "r.png", wide[:, 4:68].copy())  # disparity 4 px everywhere
     _open(page, server_url)
-    page.check('[data-testid="st-source-pair"]')
-    for field, name in (("left", "l.png"), ("right", "r.png")):
-        page.set_input_files(f'[data-testid="st-file-{field}"]', str(tmp_path / name))
-        _ready(page)
-    page.fill('[data-testid="st-max-disparity"]', "16")
-    page.click('[data-testid="st-run"]')
-    _ready(page)
+    match_uploaded_pair(page, tmp_path / "l.png", tmp_path / "r.png", max_disparity=16, ready=_ready)
     jobs = _shown_figures_equal_the_jobs(page, server_url)
     assert jobs["a"]["result"]["match"]["max_disparity"] == 16
     assert page.locator('[data-testid="st-cli-a"]').input_value().startswith(

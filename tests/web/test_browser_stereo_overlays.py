@@ -15,16 +15,13 @@ import math
 import httpx
 import numpy as np
 import pytest
+from web_checks import HEAT_COLOUR_TOL, heat_colour, match_uploaded_pair
 
 pytestmark = pytest.mark.browser
 
 JOB_MS = 300_000  # the first synthesis compiles the warping kernels
 W, H = 160, 120
 NEAR_ROWS, NEAR_COLS = slice(30, 90), slice(0, 36)  # a near box touching the left edge: a window violation
-# The heat map's colour stops as docs/workbench.md gives them (t = 0: nearest, 0.5: the screen, 1: farthest).
-STOPS = [(0.0, (178, 24, 43)), (0.25, (239, 138, 98)), (0.5, (247, 247, 247)), (0.75, (103, 169, 207)),
-         (1.0, (33, 102, 172))]
-COLOUR_TOL = 1  # a channel rounded once in the page: at most one level apart
 
 
 def _ready(page) -> None:
@@ -80,15 +77,6 @@ def _set_hit(page, shift: int) -> None:
     page.wait_for_function(f"document.getElementById('st-overlays').dataset.shift === '{shift}'")
 
 
-def _colour(value: float, lo: float, hi: float) -> np.ndarray:
-    t = 0.5 * (1 - min(value / lo, 1.0)) if value <= 0 else 0.5 + 0.5 * min(value / hi, 1.0)
-    for (t0, c0), (t1, c1) in zip(STOPS, STOPS[1:]):
-        if t <= t1:
-            f = (t - t0) / (t1 - t0)
-            return np.array([c + f * (d - c) for c, d in zip(c0, c1)])
-    return np.array(STOPS[-1][1], float)
-
-
 def _heat_pixels(page, points) -> np.ndarray:
     return np.array(page.evaluate("""(points) => {
         const c = document.getElementById('st-heat-canvas').getContext('2d');
@@ -128,8 +116,8 @@ def test_the_heat_map_toggles_and_its_colours_are_the_parallax(page, server_url,
         if shift:
             _set_hit(page, shift)
         shown = _heat_pixels(page, points)
-        expected = np.array([_colour(v + shift, lo, hi) for v in values])
-        np.testing.assert_allclose(shown[:, :3], expected, atol=COLOUR_TOL)
+        expected = np.array([heat_colour(v + shift, lo, hi) for v in values])
+        np.testing.assert_allclose(shown[:, :3], expected, atol=HEAT_COLOUR_TOL)
         assert (shown[:, 3] == 255).all()
     # the colour bar is labelled in arcmin of the chosen display, the zone's limits among its ticks
     labels = page.locator('[data-testid="st-heat-bar"] text[data-arcmin]').evaluate_all(
@@ -282,13 +270,7 @@ def test_the_vertical_disparity_of_a_matched_pair(page, server_url, tmp_path):
     write_image(tmp_path / "r.png", texture[12:12 + H, 14:14 + W])  # y_r = y_l - 2, x_r = x_l - 4
     page.goto(server_url + "/#stereo")
     _ready(page)
-    page.check('[data-testid="st-source-pair"]')
-    for field, name in (("left", "l.png"), ("right", "r.png")):
-        page.set_input_files(f'[data-testid="st-file-{field}"]', str(tmp_path / name))
-        _ready(page)
-    page.fill('[data-testid="st-max-disparity"]', "16")
-    page.click('[data-testid="st-run"]')
-    _ready(page)
+    match_uploaded_pair(page, tmp_path / "l.png", tmp_path / "r.png", max_disparity=16, ready=_ready)
     _overlays_ready(page)
     vertical = page.locator('[data-testid="st-vertical"]')
     expect(vertical).to_be_visible()
