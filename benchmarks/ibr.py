@@ -1,26 +1,31 @@
-"""Speed of multi-view IBR at 1920 x 1080: ``render_ibr`` (ULR) vs a plain numpy ULR, 4 sources.
+"""Speed of multi-view IBR at 1920 x 1080: ``render_ibr`` (ULR) vs its staged path and plain numpy, 4 sources.
 
-1. ``render_ibr(weights="ulr")`` with a given proxy depth (Numba kernels: projection, field of view,
-   visibility, bilinear sampling, ULR weights, blend) against a plain numpy implementation of the
-   same ULR (``numpy_ulr`` below: same formulas, same visibility rule, whole-image array
-   operations), same process, same inputs, interleaved runs; medians, their ratio and the largest
-   difference between the two images.
+1. ``render_ibr(weights="ulr")`` with a given proxy depth, bilinear and bicubic (the default): the
+   fused kernel (one pass over the target's rows: projection, field of view, visibility, ULR
+   weights, sampling, blend) against the staged path it replaced (issue 31: per-source full-frame
+   slopes, projection, visibility and colour, then ULR weights, then the blend;
+   ``_ibr_stages.ulr_staged`` swapped in for ``ulr_fused``) and, bilinear, against a plain numpy
+   implementation of the same ULR (``numpy_ulr`` below: same formulas, same visibility rule,
+   whole-image array operations). Same process, same inputs, interleaved runs; medians, their
+   ratios, and the largest differences between the images and weights.
 2. ``render_ibr`` with the proxy forward-warped from the 4 sources' depths (mesh z-buffer).
-3. ``render_ibr(weights="bayesian")`` when ``vergence.synthesis.ibr_bayes`` is present.
+3. ``render_ibr(weights="bayesian")``: the one-pass sampling of all sources against the staged
+   per-source sampling (``_ibr_stages.sample_sources_staged``).
 
 The scene is analytic: a textured wall 10 m away and 12 textured spheres in front of it, seen by
 4 cameras 1920 x 1080 on a 0.6 m x 0.3 m grid around the target. Timings are wall-clock medians of
-``--repeats`` runs after a warm-up that compiles the kernels; the CPU time of the process is
-printed too, since the cores may be shared. Run:
+``--repeats`` runs after a warm-up that compiles the kernels; the CPU time of the process and the
+load average are printed too, since the cores may be shared. Run:
 ``.venv/bin/python benchmarks/ibr.py [--repeats N] [--threads N]``.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
+import contextlib
 import os
 import sys
+from collections.abc import Iterator
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before Numba starts its OpenMP threads
 
@@ -30,6 +35,7 @@ import numpy as np  # noqa: E402
 from _timing import report, timed  # noqa: E402
 from vergence.camera import Camera, look_at  # noqa: E402
 from vergence.synthesis import IBRSource, render_ibr  # noqa: E402
+from vergence.synthesis import _ibr_stages  # noqa: E402
 from vergence.synthesis._ibr_stages import FOV_MARGIN_PX, surface_slopes  # noqa: E402
 from vergence.synthesis.ibr import (  # noqa: E402
     IBR_OCCLUSION_SLOPE_CAP,
@@ -149,6 +155,20 @@ def numpy_ulr(target: Camera, sources: list[IBRSource], proxy_depth: np.ndarray)
     return image, wt
 
 
+@contextlib.contextmanager
+def staged() -> Iterator[None]:
+    """``render_ibr`` as before the fused kernels (issue 31): the staged ULR path and the staged
+    per-source sampling swapped in for the fused ones."""
+    fused, sample = _ibr_stages.ulr_fused, _ibr_stages.sample_sources
+    _ibr_stages.ulr_fused, _ibr_stages.sample_sources = _ibr_stages.ulr_staged, _ibr_stages.sample_sources_staged
+    try:
+        yield
+    finally:
+        _ibr_stages.ulr_fused, _ibr_stages.sample_sources = fused, sample
+
+
+def load() -> str:
+    return "load average " + " ".join(open("/proc/loadavg").read().split()[:3])  # noqa: SIM115
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -164,31 +184,61 @@ def main(argv: list[str] | None = None) -> int:
     target = _camera(0.1, 0.05)
     proxy = render_scene(target, spheres)[1]
     print(f"{WIDTH}x{HEIGHT} target, 4 sources {WIDTH}x{HEIGHT}; cores: {os.cpu_count()}, Numba threads: "
-          f"{numba.get_num_threads()}, layer: {numba.threading_layer()}, OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
-    # The numpy reference samples bilinearly: the like-for-like ratio is against interpolation="linear";
-    # the default bicubic sampling (inside surfaces) is timed after it.
-    fast = render_ibr(target, sources, proxy_depth=proxy, interpolation="linear")  # compile / load the kernels
+          f"{numba.get_num_threads()}, layer: {numba.threading_layer()}, OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}; "
+          f"{load()}")
+
+    def ulr(interpolation: str) -> object:
+        return render_ibr(target, sources, proxy_depth=proxy, interpolation=interpolation)
+
+    def ulr_staged(interpolation: str) -> object:
+        with staged():
+            return ulr(interpolation)
+
+    # Warm-up (compiles or loads the kernels) and agreement.
+    for interp in ("linear", "cubic"):
+        fast, slow = ulr(interp), ulr_staged(interp)
+        print(f"fused vs staged, {interp}: max |image diff| {np.abs(fast.image - slow.image).max():.2e}, max |weight diff| "
+              f"{np.abs(fast.weights - slow.weights).max():.2e}, coverage equal: {bool((fast.coverage == slow.coverage).all())}")
+    fast = ulr("linear")
     ref_image, ref_w = numpy_ulr(target, sources, proxy)
-    print(f"numpy vs render_ibr: max |image diff| {np.abs(fast.image - ref_image).max():.2e}, "
+    print(f"numpy vs render_ibr, linear: max |image diff| {np.abs(fast.image - ref_image).max():.2e}, "
           f"max |weight diff| {np.abs(fast.weights - ref_w).max():.2e}, coverage {fast.coverage.mean():.3f}")
-    fast_runs, np_runs = [], []
-    for _ in range(args.repeats):  # interleaved, so both see the same machine load
-        fast_runs.append(timed(lambda: render_ibr(target, sources, proxy_depth=proxy, interpolation="linear")))
-        np_runs.append(timed(lambda: numpy_ulr(target, sources, proxy)))
-    t_fast = report("render_ibr ulr bilinear, given proxy (Numba)", fast_runs, " goal < 150 ms")
-    t_np = report("plain numpy ULR bilinear, given proxy", np_runs)
-    print(f"speed-up: {t_np / t_fast:.1f}x (goal >= 5x)")
-    render_ibr(target, sources, proxy_depth=proxy)
-    report("render_ibr ulr bicubic (default), given proxy",
-            [timed(lambda: render_ibr(target, sources, proxy_depth=proxy)) for _ in range(args.repeats)])
+    runs: dict[str, list] = {name: [] for name in ("fused cubic", "fused linear", "staged cubic", "staged linear", "numpy")}
+    for _ in range(args.repeats):  # interleaved, so all see the same machine load
+        runs["fused cubic"].append(timed(lambda: ulr("cubic")))
+        runs["staged cubic"].append(timed(lambda: ulr_staged("cubic")))
+        runs["fused linear"].append(timed(lambda: ulr("linear")))
+        runs["staged linear"].append(timed(lambda: ulr_staged("linear")))
+        runs["numpy"].append(timed(lambda: numpy_ulr(target, sources, proxy)))
+    t = {}
+    t["fused cubic"] = report("render_ibr ulr bicubic (default), given proxy", runs["fused cubic"], "  goal < 150 ms", width=50)
+    t["fused linear"] = report("render_ibr ulr bilinear, given proxy", runs["fused linear"], "  goal < 150 ms", width=50)
+    t["staged cubic"] = report("staged (before issue 31) bicubic", runs["staged cubic"], width=50)
+    t["staged linear"] = report("staged (before issue 31) bilinear", runs["staged linear"], width=50)
+    t["numpy"] = report("plain numpy ULR bilinear, given proxy", runs["numpy"], width=50)
+    print(f"fusing: bicubic {t['staged cubic'] / t['fused cubic']:.1f}x, bilinear {t['staged linear'] / t['fused linear']:.1f}x "
+          f"faster; numpy / render_ibr bilinear: {t['numpy'] / t['fused linear']:.1f}x (staged: "
+          f"{t['numpy'] / t['staged linear']:.1f}x); {load()}")
     render_ibr(target, sources)
-    report("render_ibr ulr, forward-warped proxy", [timed(lambda: render_ibr(target, sources)) for _ in range(args.repeats)])
-    if importlib.util.find_spec("vergence.synthesis.ibr_bayes") is not None:
-        render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")
-        report("render_ibr bayesian, given proxy",
-                [timed(lambda: render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")) for _ in range(args.repeats)])
-    else:
-        print("render_ibr bayesian: vergence.synthesis.ibr_bayes not present, not timed")
+    report("render_ibr ulr, forward-warped proxy", [timed(lambda: render_ibr(target, sources)) for _ in range(args.repeats)],
+           width=50)
+
+    def bayes() -> object:
+        return render_ibr(target, sources, proxy_depth=proxy, weights="bayesian")
+
+    def bayes_staged() -> object:
+        with staged():
+            return bayes()
+
+    fast, slow = bayes(), bayes_staged()
+    print(f"bayesian, fused vs staged sampling: max |image diff| {np.abs(fast.image - slow.image).max():.2e}")
+    b_runs: dict[str, list] = {"fused": [], "staged": []}
+    for _ in range(max(1, args.repeats // 2)):
+        b_runs["fused"].append(timed(bayes))
+        b_runs["staged"].append(timed(bayes_staged))
+    tb = report("render_ibr bayesian (4 passes), given proxy", b_runs["fused"], width=50)
+    tbs = report("staged sampling (before issue 31) bayesian", b_runs["staged"], width=50)
+    print(f"bayesian: {tbs / tb:.1f}x; {load()}")
     return 0
 
 

@@ -318,6 +318,7 @@ def render_ibr(
 
     say(0.0, "proxy: sources forward-warped into the target" if given is None else "proxy: given depth")
     depth_t = _ibr_stages.forward_proxy(target, srcs, distortion, limit) if given is None else given
+    say(0.2, "proxy points: back-projected" + ("" if distortion is None else " and undistorted"))
     points_t = _ibr_stages.backproject(target, depth_t)  # in the distorted world under a distortion
     points = points_t if distortion is None else _ibr_stages.call_distortion(distortion.inverse, "inverse", points_t)
     if method == "ulr":
