@@ -23,6 +23,9 @@
 - ``GET /api/stereospace/{job_id}/scene`` and ``/scene/{name}``: what the page needs to draw any state
   itself with WebGL2 (:mod:`vergence.web.stereospace_scene`, issue 30).
 
+What a done job keeps, a state as the page shows it and the map's data are in
+:mod:`vergence.web.stereospace_views`.
+
 A state as the page shows it carries ``pan_right``, the sign of the pan towards the view's world right
 (:func:`vergence.stereospace.pan_sign`: the arrow keys' direction, not the eyes' order ``swapped``, which
 flips inside some regions), ``centre_world`` (the eyes' midpoint) and ``quality`` (the disparity range
@@ -44,10 +47,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-import threading
 import time
-from collections import OrderedDict
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +61,7 @@ from vergence.web._models import RequestModel
 from vergence.web._slots import Busy, run_in_slot
 from vergence.web.jobs import JobContext, JobKind, JobManager, JobRefused, JobResult, Prepared
 from vergence.web.stereospace_scene import scene_image, scene_of
+from vergence.web.stereospace_views import MAX_MAP_POINTS, LiveSpace, map_data, quality_of, state_of, view_of
 
 __all__ = ["DEFAULT_PAIR_WIDTH", "KIND", "KINDS", "MAX_MAP_POINTS", "MAX_MOVE_EXTENTS", "MAX_PAIR_FILES",
            "MAX_PAIR_WIDTH", "MIN_PAIR_WIDTH", "PAIR_CACHE", "MoveRequest", "PairRequest", "StateModel",
@@ -77,15 +78,11 @@ MAX_PAIR_WIDTH = 4096
 PAIR_CACHE = 4
 #: PNG files of a job's pairs kept on disk; the oldest are deleted beyond it.
 MAX_PAIR_FILES = 96
-#: Sparse points sent with the map at most (a fixed random subset beyond): the impostor of the scene.
-MAX_MAP_POINTS = 2000
 #: Largest |pan| or |zoom| of one move, in extents of the collection (the diagonal of its cameras'
 #: bounding box): a bigger step is no browsing move (and would only jump or stop).
 MAX_MOVE_EXTENTS = 1.0
 # Pan and zoom steps the page offers, as fractions of the start's interocular distance.
 _PAN_STEP, _ZOOM_STEP = 0.25, 0.25
-# The map frames the cameras and the central points (as vergence.report.stereospace_map does).
-_POINT_PERCENTILES = (2.0, 98.0)
 
 
 class StereoSpaceJob(RequestModel):
@@ -130,92 +127,6 @@ class PairRequest(RequestModel):
     format: str = pydantic.Field("anaglyph", description="A layout of vergence.display (anaglyph, sbs, tb, ...).")
     width: int = pydantic.Field(DEFAULT_PAIR_WIDTH, ge=MIN_PAIR_WIDTH, le=MAX_PAIR_WIDTH,
                                 description="Working width of each view, pixels (at most the images' width).")
-
-
-@dataclass(eq=False)
-class _Live:
-    """What a done job keeps for its follow-ups: the prepared collection, the map frame, the pairs."""
-
-    prepared: Any  # PreparedCollection
-    frame: np.ndarray
-    display: Any  # Display
-    folder: Path
-    extent: float
-    lock: threading.Lock = field(default_factory=threading.Lock)
-    pairs: OrderedDict = field(default_factory=OrderedDict)  # (region, li, lj, width) -> StereoPairResult
-    files: OrderedDict = field(default_factory=OrderedDict)  # name -> (path, pair key, role), oldest first
-
-    def to_map(self, points: object) -> np.ndarray:
-        """Map coordinates of world points: :meth:`vergence.stereospace.BuiltSpace.to_map`'s frame."""
-        return (np.asarray(points, dtype=np.float64) - self.prepared.centers.mean(axis=0)) @ self.frame[:2].T
-
-
-def _xy(p: np.ndarray) -> list[float]:
-    return [float(p[0]), float(p[1])]
-
-
-def _state(state: Any) -> dict[str, Any]:
-    return {"region": list(state.region), "li": state.li, "lj": state.lj}
-
-
-def _view(live: _Live, state: Any) -> dict[str, Any]:
-    """A state as the page shows it: parameters, stereo point, and on the map the eyes and the region."""
-    from vergence.stereospace import eye_order, pair_cameras, pan_sign
-
-    prepared = live.prepared
-    space, cams, names = prepared.space, prepared.segment_cameras, prepared.collection.names
-    i, j = state.region
-    eyes = space.eyes(state)
-    first, second = pair_cameras(space, prepared.collection, state, segment_cameras=cams)
-    swapped = eye_order(first, second, prepared.up)  # the left eye as vergence.stereospace.stereo_pair orders it
-    # the right arrow pans by pan_right * step: towards the view's world right, whatever the eyes' order
-    pan_right = pan_sign(space, state, forward=first.R[2] + second.R[2], up=prepared.up)
-    left, right = live.to_map(eyes[::-1] if swapped else eyes)
-    point = space.point(i, state.li, j, state.lj)
-    corners = [(0, 0), (1, 0), (1, 1), (0, 1)] if i != j else [(0, 0), (0, 1), (1, 1)]
-    seg = space.segments
-    outline = live.to_map(np.array([(seg[i, a] + seg[j, b]) / 2.0 for a, b in corners]))
-    quality = _quality(live, (first, second)) if float(point[3]) > space.tolerance else None
-    return {**_state(state), "stereo_point": [float(v) for v in point], "interocular": float(point[3]),
-            "quality": quality,
-            "swapped": swapped, "pan_right": pan_right, "centre_world": [float(v) for v in eyes.mean(axis=0)],
-            "eyes": {"left": _xy(left), "right": _xy(right)},
-            "stereo_camera": _xy((left + right) / 2.0), "region_outline": [_xy(p) for p in outline],
-            "segments": [[names[cams[s, 0]], names[cams[s, 1]]] for s in (i, j)]}  # fmt: skip
-
-
-def _quality(live: _Live, cameras: tuple) -> dict[str, Any] | None:
-    """The disparity range of a pair's cameras on the job's display (None: the pair cannot be rectified)."""
-    from vergence.stereospace import pair_quality
-
-    try:
-        q = pair_quality(live.prepared.collection, cameras, live.display, trim=0.01)
-    except ValueError:
-        return None
-    return {k: q[k] for k in ("points_seen", "disparity_arcmin", "range_arcmin", "zone_arcmin", "inside",
-                              "fits_with_shift")}  # fmt: skip
-
-
-def _map(live: _Live, paths: list[list[int]]) -> dict[str, Any]:
-    """The navigation map's data (S2 Fig. 11) in the top view's coordinates."""
-    col = live.prepared.collection
-    centers = live.to_map(col.centers)
-    axes = live.to_map(col.centers + np.array([c.R[2] for c in col.cameras])) - centers
-    norms = np.linalg.norm(axes, axis=1, keepdims=True)
-    axes = np.divide(axes, norms, out=np.zeros_like(axes), where=norms > 0)
-    pts = col.points
-    if len(pts) > MAX_MAP_POINTS:
-        pts = pts[np.sort(np.random.default_rng(0).choice(len(pts), MAX_MAP_POINTS, replace=False))]
-    low, high = centers.min(axis=0), centers.max(axis=0)
-    p2 = live.to_map(pts) if len(pts) else np.zeros((0, 2))
-    if len(p2):
-        low = np.minimum(low, np.percentile(p2, _POINT_PERCENTILES[0], axis=0))
-        high = np.maximum(high, np.percentile(p2, _POINT_PERCENTILES[1], axis=0))
-    return {"cameras": [{"name": n, "x": float(c[0]), "y": float(c[1]), "dx": float(a[0]), "dy": float(a[1])}
-                        for n, c, a in zip(col.names, centers, axes)],
-            "segments": live.prepared.segment_cameras.tolist(), "paths": paths,
-            "points": [[round(float(x), 6), round(float(y), 6)] for x, y in p2],
-            "bounds": [float(low[0]), float(low[1]), float(high[0]), float(high[1])]}  # fmt: skip
 
 
 def _images_folder(path: Path, root: Path) -> Path:
@@ -286,11 +197,11 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
             start = StereoState(prepared.space.regions[0], 0.0, 1.0)
             note = f"start: {exc}; the first segment's two cameras are the start"
         extent = float(np.linalg.norm(np.ptp(collection.centers, axis=0))) or 1.0
-        live = _Live(prepared, map_frame(collection), display, ctx.folder / "views", extent)
+        live = LiveSpace(prepared, map_frame(collection), display, ctx.folder / "views", extent)
         live.folder.mkdir()
         paths = [[int(k) for k in p] for p in capture_paths(prepared.graph)]
-        (ctx.folder / "map.json").write_text(json.dumps(_map(live, paths)))
-        view = _view(live, start)
+        (ctx.folder / "map.json").write_text(json.dumps(map_data(live, paths)))
+        view = view_of(live, start)
         first = collection.cameras[0]
         summary = {"collection": params.collection, "name": entry.name, "cameras": len(collection),
                    "points": collection.point_count, "points_source": collection.points_source,
@@ -329,7 +240,7 @@ class _Refused(Exception):
         self.status, self.message = status, message
 
 
-def _checked_state(live: _Live, model: StateModel) -> Any:
+def _checked_state(live: LiveSpace, model: StateModel) -> Any:
     from vergence.stereospace import StereoState
 
     try:
@@ -338,7 +249,7 @@ def _checked_state(live: _Live, model: StateModel) -> Any:
         raise _Refused(422, f"state: {exc}") from None
 
 
-def _move(live: _Live, body: MoveRequest) -> dict[str, Any]:
+def _move(live: LiveSpace, body: MoveRequest) -> dict[str, Any]:
     from vergence.stereospace import pan, zoom
 
     for name in ("pan", "zoom"):
@@ -353,14 +264,15 @@ def _move(live: _Live, body: MoveRequest) -> dict[str, Any]:
         if v == 0.0:
             continue
         moved = fn(live.prepared.space, state, v)
-        steps.append({"action": name, "by": v, "event": moved.event, "from": _state(state), "to": _state(moved.state)})
+        steps.append({"action": name, "by": v, "event": moved.event, "from": state_of(state),
+                      "to": state_of(moved.state)})
         state = moved.state
     events = {s["event"] for s in steps}
     event = "jumped" if "jumped" in events else "stopped" if "stopped" in events else "moved"
-    return {"event": event, "steps": steps, "state": _view(live, state)}
+    return {"event": event, "steps": steps, "state": view_of(live, state)}
 
 
-def _pair(live: _Live, job_id: str, body: PairRequest) -> dict[str, Any]:
+def _pair(live: LiveSpace, job_id: str, body: PairRequest) -> dict[str, Any]:
     from vergence.display import LAYOUTS
 
     if body.format not in LAYOUTS:
@@ -391,14 +303,14 @@ def _pair(live: _Live, job_id: str, body: PairRequest) -> dict[str, Any]:
                 _write(live, name)
             images[role] = f"/api/stereospace/{job_id}/views/{name}"
         t2 = time.perf_counter()
-    quality = _quality(live, result.cameras) if result.rectification is not None else None
+    quality = quality_of(live, result.cameras) if result.rectification is not None else None
     height, width = result.left.shape[:2]
-    return {"state": _view(live, state), "format": body.format, "width": int(width), "height": int(height),
+    return {"state": view_of(live, state), "format": body.format, "width": int(width), "height": int(height),
             "images": images, "swapped": result.swapped, "quality": quality, "cached": cached,
             "seconds": {"pair": t1 - t0, "files": t2 - t1}}  # fmt: skip
 
 
-def _result(live: _Live, key: tuple) -> Any:
+def _result(live: LiveSpace, key: tuple) -> Any:
     """The pair of ``key`` (region, li, lj, width) from the cache, else made (call under ``live.lock``)."""
     from vergence.stereospace import StereoState, stereo_pair
 
@@ -415,7 +327,7 @@ def _result(live: _Live, key: tuple) -> Any:
     return result
 
 
-def _write(live: _Live, name: str) -> Path:
+def _write(live: LiveSpace, name: str) -> Path:
     """The PNG of a registered name, written if it is not yet (call under ``live.lock``)."""
     from vergence.display import pack
     from vergence.io import write_image
@@ -451,7 +363,7 @@ def add_routes(app: FastAPI, jobs: JobManager) -> None:
     """``POST /api/stereospace/{job_id}/move`` and ``/pair``, ``GET /api/stereospace/{job_id}/views/{name}``,
     ``/scene`` and ``/scene/{name}``."""
 
-    def live_of(job_id: str) -> _Live:
+    def live_of(job_id: str) -> LiveSpace:
         try:
             return jobs.live(job_id, KIND)
         except KeyError as exc:
