@@ -88,7 +88,8 @@ def _shared_sets(rng, groups, common, extras, dtype=np.float64):
     extra_dst = [e + rng.normal(0, 6.0, e.shape) for e in own]
     sets = [(np.vstack([shared, own[g]]), np.vstack([dst[g], extra_dst[g]])) for g in range(groups)]
     args = (shared.astype(dtype), dst.astype(dtype), np.vstack(own).astype(dtype).reshape(-1, 2),
-            np.vstack(extra_dst).astype(dtype).reshape(-1, 2), np.concatenate([[0], np.cumsum(extras)]).astype(np.int64))
+            np.vstack(extra_dst).astype(dtype).reshape(-1, 2),
+            np.concatenate([[0], np.cumsum(extras)]).astype(np.int64))
     return args, sets
 
 

@@ -139,7 +139,8 @@ MAX_SHARED_SETS = 4
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy", fastmath={"reassoc", "contract"})
-def mls_shared_handles(points, src, dst, extra_src, extra_dst, extra_offsets, alpha, out):  # pragma: no cover - compiled
+def mls_shared_handles(points, src, dst, extra_src, extra_dst, extra_offsets, alpha,
+                       out):  # pragma: no cover - compiled
     """``out[g, k] = f_g(points[k])`` for up to :data:`MAX_SHARED_SETS` handle sets that share most
     of their handles (S2's sources of one view: the points each source sees, mostly the same).
 

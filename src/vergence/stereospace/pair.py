@@ -32,9 +32,10 @@ Speed
 image decoded into one float32 stack, the sparse points projected into every camera. A view then
 costs one parallel MLS evaluation of its sources at the grid nodes (float32, nodes x handles) and
 one fused pass over its pixels (maps, penalties, ULR weights, bilinear samples); the handles and
-the nodes' angle penalties come from Numba kernels too (``_mls_view_kernels``). Issue 27's figures
-(a dino pair 87-105 CPU-ms at load 5-7, the render kernel 48-51 of them; goal 70 not met) are in
-docs/stereospace.md. Measured earlier on the
+the nodes' angle penalties come from Numba kernels too (``_mls_view_kernels``), and the handles
+the sources share are weighed once for all of them. Issue 27's figures (a dino pair 92-99 CPU-ms
+median at load 5-7, 63-69 the least, 87-106 before its last session; the render kernel 48-58 of
+them; the goal of 70 met only in the quietest runs) are in docs/stereospace.md. Measured earlier on the
 shared 2-core development machine (load average 2.5 to 4.5), median anaglyph-packed 640 x 480
 pairs from 4 sources (``benchmarks/stereospace_pair.py``): kermit (634 points) 85-109 ms prepared
 (140-147 ms of CPU time on 2 threads), 139-164 ms from the bare collection; dino (6,487 points,
