@@ -13,7 +13,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from vergence.camera import look_at
-from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, s2_view
+from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, mls_similarity, s2_view
 from vergence.stereospace import _mls_view_kernels
 from vergence.stereospace.mls import _grid_nodes, node_grid
 from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, _node_angles
@@ -312,3 +312,31 @@ def test_handle_selection_kernel_matches_the_numpy_rule(cell):
         sel = np.flatnonzero(seen[n] & in_front)
         expected = sel[_first_rows_reference(np.floor(q[sel] / cell))]
         assert_array_equal(chosen[s, : counts[s]], expected)
+
+
+# float32 maps (tests/stereospace/test_mls.py's F32_MLS_ATOL): sums of a few hundred handles of pixel
+# coordinates ~300 in float32, in two summation orders.
+SOURCE_MAPS_ATOL = 2e-3
+
+
+@pytest.mark.parametrize(("own", "shared"), [(0, True), (10, True), (60, False)])
+def test_source_maps_share_the_common_handles_only_when_few_are_not(monkeypatch, own, shared):
+    from vergence.stereospace import _mls_kernels
+    from vergence.stereospace import mls_view
+
+    rng = np.random.default_rng(own)
+    n_points = 500
+    q = rng.uniform(0, 300, (n_points, 2))  # the points in the target
+    pixels = q[None] + rng.normal(0, 5.0, (4, n_points, 2)) + rng.uniform(-20, 20, (4, 1, 2))  # in 4 sources
+    common = np.arange(200)
+    handles = [(n, np.sort(np.concatenate([common, rng.choice(np.arange(200, n_points), own, replace=False)])))
+               for n in (2, 0, 3)]  # fmt: skip
+    nodes = rng.uniform(-10, 310, (150, 2)).astype(np.float32)
+    calls = []
+    kernel = _mls_kernels.mls_shared_handles
+    monkeypatch.setattr(_mls_kernels, "mls_shared_handles", lambda *a: calls.append(1) or kernel(*a))
+    maps = mls_view._source_maps(nodes, q, pixels, handles, 1.0)
+    assert bool(calls) == shared  # 30 handles not shared against 200 shared: shared; 180: each its own
+    for g, (n, sel) in enumerate(handles):  # each source's map on its own handles, float64
+        expected = mls_similarity(nodes.astype(np.float64), q[sel], pixels[n, sel])
+        assert_allclose(maps[g], expected, atol=SOURCE_MAPS_ATOL, rtol=0)
