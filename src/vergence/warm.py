@@ -212,6 +212,8 @@ def _warm_stereospace(folder: Path) -> None:
     navigation_map(built, folder / "map.png", state=state)
     for method in PAIR_METHODS:
         stereo_pair(prepared, state, layout="anaglyph", method=method)
+    # views from one source: the per-source MLS kernel (2-4 sources sharing their handles take the other)
+    stereo_pair(prepared, state, method=lambda p, camera: PAIR_METHODS["mls"](p, camera, sources=1))
     zoom(built.space, pan(built.space, state, 0.01).state, 0.01)
     pan(built.space, state, 10.0)  # far past the region's border: the search for a jump (S2 §4.1)
     # the demo's leave-one-out views from the prepared collection's (read-only) images
