@@ -8,7 +8,8 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_browser.py [--coll
 then, interleaved round by round on the same states (a pan inside the start region, ``--frames`` states):
 
 - the browser: one frame of the page's WebGL2 path (both eyes' camera and MLS plans, the shader passes, a
-  one-pixel read-back so that the GPU's work is waited for);
+  one-pixel read-back so that the GPU's work is waited for) at the working width (a still frame), and one at the
+  page's reduced width while the view moves (SS_MOTION_DIVISOR);
 - the reference, what each key press cost before: ``POST /api/stereospace/{job}/pair`` (``stereo_pair`` on the
   server at the same width, anaglyph, PNG written) and the GET of its PNG.
 
@@ -30,12 +31,20 @@ import numpy as np
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "collections"
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run"]
-FRAME = """([state, width]) => {
+FRAME = """([state, moving]) => {
     SS.timing = true;
     const n = SS.frames.length;
-    ssDrawState(state);
+    ssDrawState(state, moving);
     SS.timing = false;
     return SS.frames[n].ms;
+}"""
+# one frame with the GPU waited for after each stage (stereospace_gl.js drawCameras' profile): milliseconds per stage
+PROFILE = """([state, moving]) => {
+    const times = {}, full = Number(document.getElementById("ss-width").value);
+    const width = moving ? Math.max(SS.result.min_width, Math.round(full / SS_MOTION_DIVISOR)) : full;
+    const [a, b] = SSCams.eyeCameras(SS.gl.scene(), state);
+    SS.gl.drawCameras(a, b, width, document.getElementById("ss-format").value, times);
+    return times;
 }"""
 
 
@@ -63,6 +72,9 @@ def main() -> None:
     parser.add_argument("--maps", choices=("auto", "gpu", "js"), default="auto",
                         help="where the browser makes the MLS maps: the page's choice (auto: JavaScript on a software "
                              "GPU), a shader pass (gpu) or JavaScript (js)")
+    parser.add_argument("--profile", action="store_true",
+                        help="also time each stage of a frame (cameras, plans, maps, blend, pack) with the GPU waited "
+                             "for after each, over the same states")
     args = parser.parse_args()
     if args.frames < 2:
         parser.error("--frames must be at least 2")
@@ -93,30 +105,43 @@ def main() -> None:
         end = httpx.post(f"{url}/api/stereospace/{job}/move", json=body, timeout=60).json()["steps"][0]["to"]
         if end["region"] != start["region"]:
             end = {**end, "region": start["region"], "li": start["li"], "lj": start["lj"]}
-        browser_ms, server_ms = [], []
+        browser_ms, motion_ms, server_ms, stages, motion_stages = [], [], [], [], []
         for k in range(args.frames + 1):  # the first round warms both up, untimed
             t = k / args.frames
             state = {"region": start["region"], "li": start["li"] + t * (end["li"] - start["li"]),
                      "lj": start["lj"] + t * (end["lj"] - start["lj"])}
-            drawn = page.evaluate(FRAME, [state, width])
+            drawn = page.evaluate(FRAME, [state, False])
+            moving = page.evaluate(FRAME, [state, True])
             t0 = time.perf_counter()
             answer = httpx.post(f"{url}/api/stereospace/{job}/pair",
                                 json={"state": state, "format": "anaglyph", "width": width}, timeout=60).json()
             httpx.get(url + answer["images"]["packed"], timeout=60).raise_for_status()
             if k:
                 browser_ms.append(drawn)
+                motion_ms.append(moving)
                 server_ms.append(1e3 * (time.perf_counter() - t0))
+            if args.profile and k:
+                stages.append(page.evaluate(PROFILE, [state, False]))
+                motion_stages.append(page.evaluate(PROFILE, [state, True]))
+        motion = page.evaluate("() => SS.frames[SS.frames.length - 1].width")
         name = page.evaluate("() => SS.gl.name")
         maps = page.evaluate("() => SS.gl.maps()")
         browser.close()
     server.should_exit = True
-    b, s = np.array(browser_ms), np.array(server_ms)
+    b, m, s = np.array(browser_ms), np.array(motion_ms), np.array(server_ms)
     print(f"{entry['name']}: {result['cameras']} cameras, {result['points']} points, {width} px per eye, grid "
           f"{result['grid_step']}; renderer {name}, MLS maps on the {maps}")
-    print(f"browser frame (plans + draw, GPU waited for): median {np.median(b):.1f} ms, 95th percentile "
+    print(f"browser still frame (plans + draw, GPU waited for): median {np.median(b):.1f} ms, 95th percentile "
           f"{np.percentile(b, 95):.1f} ms over {len(b)} states")
+    print(f"browser frame while moving (the page's motion frames, {motion} px per eye): median {np.median(m):.1f} ms, "
+          f"95th percentile {np.percentile(m, 95):.1f} ms")
     print(f"server pair (POST .../pair + its PNG, the reference): median {np.median(s):.1f} ms, 95th percentile "
           f"{np.percentile(s, 95):.1f} ms")
+    for kind, runs in (("still", stages), ("motion", motion_stages)):
+        if runs:
+            print(f"stages of a {kind} frame (GPU waited for after each; medians over the states, ms): " + ", ".join(
+                f"{n} {np.median([st.get(n, 0.0) for st in runs]):.1f}" for n in runs[0])
+                + f"; their sum {np.median([sum(st.values()) for st in runs]):.1f}")
     print(f"ratio server / browser (medians): {np.median(s) / np.median(b):.2f}; load average "
           f"{' '.join(open('/proc/loadavg').read().split()[:3])}")
 

@@ -135,7 +135,7 @@ def test_the_browser_pair_matches_the_servers(page, server_url, wanted):
 # The scripted pan: frames drawn in requestAnimationFrame from the start state to one pan step on
 PAN_FRAMES = 40
 # (with wait, the GPU is waited for in each frame and the eyes of the first, middle and last frames are kept)
-SCRIPTED_PAN = """async ([from, to, n, wait]) => {
+SCRIPTED_PAN = """async ([from, to, n, wait, moving]) => {
     SS.timing = wait;
     SS.frames = [];
     const shots = [];
@@ -144,8 +144,8 @@ SCRIPTED_PAN = """async ([from, to, n, wait]) => {
         const frame = () => {
             const t = k / (n - 1);
             const state = { region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) };
-            ssDrawState(state);
-            if (wait && (k === 0 || k === n >> 1 || k === n - 1)) {
+            ssDrawState(state, moving);
+            if (wait && !moving && (k === 0 || k === n >> 1 || k === n - 1)) {
                 shots.push({ state, left: SS.gl.readEye(0), right: SS.gl.readEye(1) });
             }
             if (++k < n) requestAnimationFrame(frame); else resolve();
@@ -159,9 +159,11 @@ SCRIPTED_PAN = """async ([from, to, n, wait]) => {
 
 @pytest.mark.parametrize("wanted", COLLECTIONS)
 def test_a_scripted_pan_reports_its_frame_times(page, server_url, wanted):
-    """A pan of PAN_FRAMES frames inside the start region (requestAnimationFrame), twice: the frame interval
-    as the display sees it (drawing pipelined with the GPU), and each frame's time with the GPU waited for
-    (the JavaScript plan of both eyes + the draw + a one-pixel read-back). Median and 95th percentile printed."""
+    """A pan of PAN_FRAMES frames inside the start region (requestAnimationFrame), three times: the frame
+    interval as the display sees it (drawing pipelined with the GPU), each frame's time with the GPU waited for
+    (the JavaScript plan of both eyes + the draw + a one-pixel read-back), both at the full working width (still
+    frames), and the waited time of the page's motion frames (the working width / SS_MOTION_DIVISOR). Median and
+    95th percentile printed."""
     result = _prepared(page, server_url, wanted)
     start = {k: result["start"][k] for k in ("region", "li", "lj")}
     moved = httpx.post(f"{server_url}/api/stereospace/{result['job']}/move",
@@ -170,15 +172,22 @@ def test_a_scripted_pan_reports_its_frame_times(page, server_url, wanted):
     if to["region"] != start["region"]:  # jumped: pan to the border of the start region instead
         pytest.skip("the first pan step leaves the start region")
     figures = {}
-    for wait in (False, True):
-        run = page.evaluate(SCRIPTED_PAN, [start, to, PAN_FRAMES, wait])
-        frames, shots = run["frames"], run["shots"]
+    widths = {}
+    for name, wait, moving in (("motion", True, True), ("interval", False, False), ("waited", True, False)):
+        run = page.evaluate(SCRIPTED_PAN, [start, to, PAN_FRAMES, wait, moving])
+        frames = run["frames"]
+        if name == "waited":
+            shots = run["shots"]
         assert len(frames) == PAN_FRAMES
         ms = np.diff([f["t"] for f in frames]) if not wait else np.array([f["ms"] for f in frames])
-        figures["waited" if wait else "interval"] = (float(np.median(ms)), float(np.percentile(ms, 95)))
+        figures[name] = (float(np.median(ms)), float(np.percentile(ms, 95)))
+        widths[name] = {f["width"] for f in frames}
+    assert widths["waited"] == {result["default_width"]} and max(widths["motion"]) < result["default_width"], widths
     print(f"\n{wanted} scripted pan, {PAN_FRAMES} frames at {result['default_width']} px (anaglyph): frame interval "
           f"median {figures['interval'][0]:.1f} ms, 95th percentile {figures['interval'][1]:.1f} ms; with the GPU "
-          f"waited for, median {figures['waited'][0]:.1f} ms, 95th percentile {figures['waited'][1]:.1f} ms")
+          f"waited for, median {figures['waited'][0]:.1f} ms, 95th percentile {figures['waited'][1]:.1f} ms; "
+          f"motion frames at {widths['motion']} px, GPU waited for: median {figures['motion'][0]:.1f} ms, "
+          f"95th percentile {figures['motion'][1]:.1f} ms")
     # the map followed the frames: its eyes sit where the server's view of the end state puts them
     marks = page.evaluate("""(view) => {
         const at = (id) => { const n = document.querySelector(`[data-testid="${id}"]`);
@@ -265,3 +274,94 @@ def test_without_webgl2_the_page_shows_the_servers_pair(page, server_url):
     assert note.get_attribute("data-renderer") == "server" and "drawn by the server" in note.inner_text()
     assert page.locator('[data-testid="ss-pair"]').evaluate("el => el.naturalWidth") > 0
     assert page.locator('[data-testid="ss-canvas"]').evaluate("el => getComputedStyle(el).display") == "none"
+
+
+# A scripted pan recording, after each frame, the state drawn and the map's eye markers (SVG user units)
+PAN_MARKERS = """async ([from, to, n]) => {
+    const out = [];
+    await new Promise((resolve) => {
+        let k = 0;
+        const frame = () => {
+            const t = k / (n - 1);
+            const state = { region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) };
+            ssDrawState(state, true);
+            const at = (id) => { const e = document.querySelector(`[data-testid="${id}"]`);
+                                 return [Number(e.getAttribute("cx")), Number(e.getAttribute("cy"))]; };
+            out.push({ state, left: at("ss-map-left-eye"), right: at("ss-map-right-eye") });
+            if (++k < n) requestAnimationFrame(frame); else resolve();
+        };
+        requestAnimationFrame(frame);
+    });
+    return out;
+}"""
+
+
+@pytest.mark.skipif(not KERMIT.is_dir(), reason="the shared kermit collection is missing")
+def test_the_map_overlay_follows_a_scripted_pan(page, server_url):
+    """S2 Fig. 10: the map is a semi-transparent inset over the view (by default), and its eye markers follow
+    every frame of a pan. The expected positions are the library's: :meth:`StereoSpace.eyes` of each frame's
+    state, ordered by :func:`eye_order`, in :func:`map_frame`'s top view, placed on the SVG by the affine map
+    fitted to the camera dots against the library's camera centres (not the page's own rule)."""
+    from vergence.stereospace import PreparedCollection, StereoState, eye_order, load_collection, map_frame
+    from vergence.stereospace import pair_cameras
+
+    result = _prepared(page, server_url, "kermit/")
+    view, svg = page.locator('[data-testid="ss-view"]'), page.locator('[data-testid="ss-map"]')
+    assert page.locator('[data-testid="ss-overlay"]').is_checked()
+    vb, mb = view.bounding_box(), svg.bounding_box()
+    assert vb["x"] <= mb["x"] and mb["x"] + mb["width"] <= vb["x"] + vb["width"] + 0.5, (vb, mb)
+    assert vb["y"] <= mb["y"] and mb["y"] + mb["height"] <= vb["y"] + vb["height"] + 0.5, (vb, mb)
+    assert 0.0 < float(svg.evaluate("el => getComputedStyle(el).opacity")) < 1.0
+
+    prepared = PreparedCollection(load_collection(KERMIT / "bundle.out", images=KERMIT), grid_step=16)
+    col, space = prepared.collection, prepared.space
+    frame, origin = map_frame(col), col.centers.mean(axis=0)
+    top = lambda p: (np.asarray(p) - origin) @ frame[:2].T  # noqa: E731
+    dots = np.array(page.evaluate("""() => [...document.querySelectorAll("#ss-map circle.ss-camera")].map(
+        (c) => [Number(c.getAttribute("cx")), Number(c.getAttribute("cy"))])"""))
+    fit = [np.polyfit(top(col.centers)[:, a], dots[:, a], 1) for a in (0, 1)]  # scale, offset per axis
+    on_svg = lambda p: np.array([np.polyval(fit[0], p[0]), np.polyval(fit[1], p[1])])  # noqa: E731
+
+    start = {k: result["start"][k] for k in ("region", "li", "lj")}
+    moved = httpx.post(f"{server_url}/api/stereospace/{result['job']}/move",
+                       json={"state": start, "pan": result["start"]["pan_right"] * result["pan_step"]},
+                       timeout=60).json()
+    to = {k: moved["steps"][0]["to"][k] for k in ("region", "li", "lj")}
+    assert to["region"] == start["region"], "kermit's start pan stays in its region"
+    frames = page.evaluate(PAN_MARKERS, [start, to, 12])
+    moved_px = 0.0
+    for f in frames:
+        state = StereoState(tuple(f["state"]["region"]), f["state"]["li"], f["state"]["lj"])
+        first, second = pair_cameras(space, col, state)
+        eyes = space.eyes(state)
+        left, right = eyes[::-1] if eye_order(first, second, prepared.up) else eyes
+        np.testing.assert_allclose(f["left"], on_svg(top(left)), atol=0.05, err_msg=str(f["state"]))
+        np.testing.assert_allclose(f["right"], on_svg(top(right)), atol=0.05, err_msg=str(f["state"]))
+        moved_px = max(moved_px, float(np.hypot(*np.subtract(f["left"], frames[0]["left"]))))
+    assert moved_px > 1.0, "the pan moves the eyes on the map"
+    assert page.locator('[data-testid="ss-frame"]').get_attribute("data-frame") == "motion"
+    # the toggle puts the map beside the view again
+    page.locator('[data-testid="ss-overlay"]').uncheck()
+    vb, mb = view.bounding_box(), svg.bounding_box()
+    assert mb["x"] >= vb["x"] + vb["width"] or mb["y"] >= vb["y"] + vb["height"], (vb, mb)
+
+
+def test_a_second_collection_frees_the_first_renderers_gl_objects(page, server_url):
+    """Preparing again on the same page disposes of the previous renderer: none of its textures, frame
+    buffers, programs or buffers is still a GL object, and the new renderer draws."""
+    _prepared(page, server_url, "collection:tabletop")
+    before = page.evaluate("""() => { window.oldGL = SS.gl; const o = window.oldObjects = SS.gl.objects();
+        return Object.fromEntries(Object.entries(o).map(([k, v]) => [k, v.length])); }""")
+    assert before["textures"] == 7 and before["programs"] >= 2, before
+    page.click('[data-testid="ss-prepare"]')
+    page.wait_for_function("SS.gl !== null && SS.gl !== window.oldGL && document.body.dataset.state === 'ready'",
+                           timeout=JOB_MS)
+    alive = page.evaluate("""() => {
+        const gl = SS.gl.gl, o = window.oldObjects, n = SS.gl.objects();
+        const is = { textures: "isTexture", framebuffers: "isFramebuffer", programs: "isProgram", buffers: "isBuffer" };
+        const count = (set) => Object.entries(set).map(([k, v]) => v.filter((x) => gl[is[k]](x)).length);
+        return { old: count(o), now: count(n), same: gl === window.oldGL.gl };
+    }""")
+    assert alive["same"], "the page draws on one canvas"
+    assert alive["old"] == [0, 0, 0, 0], alive  # the old renderer's objects are deleted
+    assert min(alive["now"]) > 0, alive

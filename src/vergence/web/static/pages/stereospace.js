@@ -15,6 +15,11 @@ const SS = {
   gl: null, frames: [], timing: false,  // the browser renderer; per frame {t, ms} (timing: wait for the GPU)
 };
 const SS_ANIMATE_MS = 200;  // a move's animation
+// Frames while the view moves are drawn at the working width / SS_MOTION_DIVISOR (the canvas scales them to the
+// same size on screen), the still frame at the full working width as soon as the move ends; the page says which.
+// On this project's 2-core machine without a GPU (SwiftShader, load 5-7) a full 320 px frame takes 70-130 ms,
+// a motion frame at 80 px 9-18 ms (benchmarks/stereospace_browser.py, tests/web/test_browser_stereospace_gl.py).
+const SS_MOTION_DIVISOR = 4;
 const SS_WIDTHS = [160, 240, 320, 480, 640, 960, 1280];
 const SS_DRAG_STEPS = 8;  // pan steps for a drag across the whole view or map
 const SS_MAP = { width: 600, height: 480, pad: 16 };
@@ -39,6 +44,8 @@ async function initStereospace() {
     }
     document.getElementById("ss-format").addEventListener("change", () => ssShowPair());
     document.getElementById("ss-width").addEventListener("change", () => ssShowPair());
+    document.getElementById("ss-overlay").addEventListener("change", ssPlaceMap);
+    ssPlaceMap();
     document.addEventListener("keydown", ssKey);
     for (const id of ["ss-view", "ss-map"]) ssPointer(document.getElementById(id));
     document.body.dataset.state = "ready";
@@ -106,6 +113,7 @@ async function ssPrepare() {
 // the browser renderer of a job's scene, or null (the page then shows the server's pairs, and says so)
 async function ssStartGL(job) {
   const note = document.getElementById("ss-renderer");
+  if (SS.gl) SS.gl.dispose();  // the previous collection's textures, frame buffers and programs
   SS.gl = null;
   let gl = null, why = "WebGL2 is not available in this browser";
   try {
@@ -215,6 +223,16 @@ function ssPointer(node) {
 }
 
 // ---------------------------------------------------------------- what the page shows
+// the map over the view as a semi-transparent inset (S2 Fig. 10; the toggle, on by default), or beside it
+function ssPlaceMap() {
+  const over = document.getElementById("ss-overlay").checked, svg = document.getElementById("ss-map");
+  const box = document.getElementById("ss-map-box");
+  if (over) document.getElementById("ss-view").append(svg);
+  else box.append(svg);
+  box.hidden = over;
+  document.getElementById("ss-browser").classList.toggle("ss-overlaid", over);
+}
+
 function ssSet(id, value, text) {
   const node = document.getElementById(id);
   node.textContent = text;
@@ -250,12 +268,19 @@ function ssShowState(view, answer) {
 function ssDrawsHere() { return SS.gl !== null && SSGL.FORMATS.includes(document.getElementById("ss-format").value); }
 
 // one frame: the pair of two eye cameras on the canvas; its time in SS.frames
-function ssDrawCameras(first, second) {
-  const t0 = performance.now();
-  const pair = SS.gl.drawCameras(first, second, Number(document.getElementById("ss-width").value),
-    document.getElementById("ss-format").value);
+function ssDrawCameras(first, second, moving = false) {
+  const t0 = performance.now(), full = Number(document.getElementById("ss-width").value);
+  const width = moving ? Math.max(SS.result.min_width, Math.round(full / SS_MOTION_DIVISOR)) : full;
+  const pair = SS.gl.drawCameras(first, second, width, document.getElementById("ss-format").value);
   if (SS.timing) SS.gl.finish();
-  SS.frames.push({ t: t0, ms: performance.now() - t0 });
+  SS.frames.push({ t: t0, ms: performance.now() - t0, width });
+  const kind = document.getElementById("ss-frame");
+  if (kind.dataset.width !== String(width)) {
+    kind.dataset.width = String(width);
+    kind.dataset.frame = moving ? "motion" : "still";
+    kind.textContent = moving ? `Moving: drawn at ${width} px per view (${full} px when the view stops).`
+      : `Still: drawn at the full ${width} px per view.`;
+  }
   if (SS.frames.length > 1000) SS.frames.shift();
   ssFollowOnMap(pair.swapped ? second : first, pair.swapped ? first : second);
   return pair;
@@ -281,7 +306,7 @@ function ssFollowOnMap(left, right) {
   set('[data-testid="ss-map-stereo"]', { x: Number(to.X(s[0])) - 5, y: Number(to.Y(s[1])) - 5 });
 }
 
-function ssDrawState(state) { return ssDrawCameras(...SSCams.eyeCameras(SS.gl.scene(), state)); }
+function ssDrawState(state, moving = false) { return ssDrawCameras(...SSCams.eyeCameras(SS.gl.scene(), state), moving); }
 
 // from one state to the next at the display's frame rate: along the parameters inside a region, between the eyes'
 // cameras across a jump; a state on the way that cannot be drawn (no rectification) ends the animation
@@ -295,8 +320,9 @@ function ssAnimate(from, to) {
       t0 = t0 === null ? now : t0;
       const t = Math.min(1, (now - t0) / SS_ANIMATE_MS);
       try {
-        if (same) ssDrawState({ region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) });
-        else ssDrawCameras(SSCams.interpolate(fa, ta, t), SSCams.interpolate(fb, tb, t));
+        if (same) {
+          ssDrawState({ region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) }, true);
+        } else ssDrawCameras(SSCams.interpolate(fa, ta, t), SSCams.interpolate(fb, tb, t), true);
       } catch (exc) {
         resolve();
         return;

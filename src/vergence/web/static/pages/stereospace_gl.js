@@ -148,6 +148,7 @@ void main() {
     }
     gl.bindAttribLocation(program, 0, "corner");
     gl.linkProgram(program);
+    for (const shader of gl.getAttachedShaders(program)) gl.deleteShader(shader);  // freed with the program
     if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(`program: ${gl.getProgramInfoLog(program)}`);
     return program;
   }
@@ -191,8 +192,11 @@ void main() {
     // frame 144-177 ms against 101-113 ms, benchmarks/stereospace_browser.py --maps): the maps in JavaScript there
     let gpuMaps = mls !== null && !/swiftshader|llvmpipe|software/i.test(name);
     let images = null, scene = null, imageSize = [1, 1];
+    const finish = () => gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
 
     async function load(sceneJson) {
+      if (images) gl.deleteTexture(images);  // a scene loaded before on this renderer
+      images = null;
       scene = SSCams.prepare(sceneJson);
       const imgs = await Promise.all(sceneJson.images.map(loadImage));
       const w = Math.max(...imgs.map((i) => i.naturalWidth)), h = Math.max(...imgs.map((i) => i.naturalHeight));
@@ -252,8 +256,19 @@ void main() {
       gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
     }
 
+    // the profile of a frame (drawCameras' last argument): each stage's milliseconds, the GPU waited for after each
+    let profile = null, mark = 0;
+    function stage(name) {
+      if (!profile) return;
+      finish();
+      const now = performance.now();
+      profile[name] = (profile[name] || 0) + now - mark;
+      mark = now;
+    }
+
     function drawEye(eye, cam) {
       const plan = SSCams.viewPlan(scene, cam, !gpuMaps), r = scene.render, nx = plan.xs.length, ny = plan.ys.length;
+      stage(gpuMaps ? "plan" : "plan+maps");
       if (eye.width !== cam.width || eye.height !== cam.height) {
         gl.bindTexture(gl.TEXTURE_2D, eye.tex);
         gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, cam.width, cam.height, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
@@ -263,6 +278,7 @@ void main() {
       }
       if (gpuMaps) gpuNodes(eye, plan, cam);
       else nodeTexture(eye, nx, ny * plan.ids.length, plan.nodes);
+      stage(gpuMaps ? "maps" : "upload");
       gl.bindFramebuffer(gl.FRAMEBUFFER, eye.fbo);
       gl.viewport(0, 0, cam.width, cam.height);
       gl.useProgram(render);
@@ -288,12 +304,16 @@ void main() {
       }
       gl.uniform2f(loc(render, "texel"), 1 / imageSize[0], 1 / imageSize[1]);
       gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+      stage("blend");
       return plan;
     }
 
     // the pair of two eye cameras (the state's first and second) at a working width, packed on the canvas
-    function drawCameras(first, second, width, format) {
+    function drawCameras(first, second, width, format, times = null) {
+      profile = times;
+      mark = performance.now();
       const pair = SSCams.pairCameras(scene, first, second, width);
+      stage("cameras");
       drawEye(eyes[0], pair.left);
       drawEye(eyes[1], pair.right);
       const layout = Math.max(0, FORMATS.indexOf(format)), w = pair.left.width, h = pair.left.height;
@@ -310,6 +330,8 @@ void main() {
       gl.uniform1i(loc(pack, "right"), 1);
       for (const [name, v] of [["mode", layout], ["width", w], ["height", h]]) gl.uniform1i(loc(pack, name), v);
       gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+      stage("pack");
+      profile = null;
       return pair;
     }
 
@@ -335,13 +357,27 @@ void main() {
       return out.toDataURL("image/png");
     }
 
-    const finish = () => gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
     // where the MLS maps are made: "gpu" (when float targets render) or "js"; the tests compare both
     const maps = (where) => {
       if (where !== undefined) gpuMaps = where === "gpu" && mls !== null;
       return gpuMaps ? "gpu" : "js";
     };
-    return { gl, name, load, drawCameras, readEye, eyeURL, finish, maps, scene: () => scene };
+    // every GL object this renderer made, and their deletion (the page disposes of a renderer before it makes
+    // the next one on the same canvas: a second collection prepared)
+    const objects = () => ({
+      programs: [render, pack, mls].filter(Boolean), buffers: [quad], framebuffers: eyes.flatMap((e) => [e.fbo, e.nodesFbo]),
+      textures: [images, ...eyes.flatMap((e) => [e.tex, e.nodes, e.handles])].filter(Boolean),
+    });
+    function dispose() {
+      const o = objects();
+      o.programs.forEach((x) => gl.deleteProgram(x));
+      o.buffers.forEach((x) => gl.deleteBuffer(x));
+      o.framebuffers.forEach((x) => gl.deleteFramebuffer(x));
+      o.textures.forEach((x) => gl.deleteTexture(x));
+      images = null;
+      scene = null;
+    }
+    return { gl, name, load, drawCameras, readEye, eyeURL, finish, maps, objects, dispose, scene: () => scene };
   }
 
   return { FORMATS, create };
