@@ -374,6 +374,8 @@ async function ssShowPair(inMove = false) {
   if (ssDrawsHere()) return ssShowDrawn(inMove);
   document.getElementById("ss-canvas").style.display = "none";
   document.getElementById("ss-pair").style.display = "";
+  const kind = document.getElementById("ss-frame");  // the browser's frame note is not about the server's pair
+  [kind.textContent, kind.dataset.width, kind.dataset.frame] = ["", "", "server"];
   const job = SS.job;
   const body = {
     state: ssStateBody(SS.view), format: document.getElementById("ss-format").value,
