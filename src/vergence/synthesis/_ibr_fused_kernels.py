@@ -19,9 +19,9 @@ weights and colours float32, as in the staged kernels of ``_ibr_kernels.py`` (``
 weight may differ from the staged one by a float32 rounding step.
 
 Speed (``benchmarks/ibr.py --repeats 5``, 4 sources into 1920 x 1080, given proxy, 2 cores shared at
-load 5-7, two runs): bicubic 2.1-2.5x and bilinear 1.6-1.8x faster than the staged path in the same
-process (CPU 1.3-1.5 s and 0.9-1.0 s a frame against 2.8-3.5 s and 1.6 s); the goal of 150 ms is
-not met.
+load 3-7, three runs): bicubic 2.1-2.5x and bilinear 1.6-1.8x faster than the staged path in the same
+process (CPU 1.3-1.7 s and 0.9-1.05 s a frame against 2.8-3.6 s and 1.6-1.75 s); the goal of 150 ms
+is not met.
 """
 
 from __future__ import annotations
