@@ -3,7 +3,8 @@
 :func:`vergence.synthesis.render_ibr` (``weights="ulr"``) validates its inputs and calls
 :func:`ulr_render`; it trusts them: proxy points float64 ``(h, w, 3)`` (NaN = no proxy), per
 source a C-contiguous float32 image ``(H, W, 3)`` and float64 depth ``(H, W)`` (NaN = no surface),
-passed as tuples (one compiled version per number of sources, cached on disk).
+passed as Numba typed lists (one compiled version for any number of sources; tuples compiled one per
+count, about 40 s each on first use).
 
 Per target row, each source in turn: project the row's proxy points, test field of view and
 visibility, and compute the ULR penalty (row buffers of ``S x w`` numbers); then per pixel the k best,

@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
+from numba import typed
 import numpy as np
 
 from vergence.camera import Camera
@@ -146,6 +147,16 @@ def surface_slopes(depth: np.ndarray, cap: float, ratio: float = SLOPE_RATIO) ->
     return out
 
 
+def _source_arrays(sources: list[IBRSource]) -> tuple[typed.List, typed.List]:
+    """The sources' images (float32) and depths (float64) as two Numba typed lists: one kernel type for any
+    number of sources (a tuple's length is part of its type, so each source count compiled anew: ~40 s)."""
+    images, depths = typed.List(), typed.List()
+    for src in sources:
+        images.append(np.ascontiguousarray(src.image, dtype=np.float32))
+        depths.append(np.ascontiguousarray(src.depth, dtype=np.float64))
+    return images, depths
+
+
 def sample_sources(
     points: np.ndarray, sources: list[IBRSource], tol: float, slope_cap: float, store_pixels: bool, cubic: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -161,7 +172,7 @@ def sample_sources(
     cams = [s.camera for s in sources]
     _ibr_fused_kernels.sample_all(
         np.ascontiguousarray(points), np.stack([c.K for c in cams]), np.stack([c.R for c in cams]),
-        np.stack([c.t for c in cams]), tuple(s.image for s in sources), tuple(s.depth for s in sources), tol, slope_cap,
+        np.stack([c.t for c in cams]), *_source_arrays(sources), tol, slope_cap,
         SLOPE_RATIO, FOV_MARGIN_PX, cubic, pixels, visible, colours)
     return pixels, visible, colours
 
@@ -221,7 +232,7 @@ def ulr_fused(
         np.ascontiguousarray(points), rays, np.ascontiguousarray(centre, dtype=np.float64),
         np.stack([c.K for c in cams]), np.stack([c.R for c in cams]), np.stack([c.t for c in cams]),
         np.array([c.center for c in cams], dtype=np.float64), sizes, o.band * sizes.min(axis=1),
-        tuple(s.image for s in sources), tuple(s.depth for s in sources), o.tol, o.slope_cap, SLOPE_RATIO,
+        *_source_arrays(sources), o.tol, o.slope_cap, SLOPE_RATIO,
         FOV_MARGIN_PX, o.cubic, o.k, o.alpha, o.beta, o.gamma, o.relative, o.floor, o.scale, weights, image, coverage)
     return weights, image, coverage
 
