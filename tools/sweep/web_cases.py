@@ -434,6 +434,29 @@ def _id_cases(method: str, template: str, ctx: WebContext) -> list[WebCase]:
     return cases
 
 
+# Hostile query values (percent-encoded) for every query parameter of a GET route (issue 30's overlay
+# routes: ``?scale_arcmin=``, ``?of=``): validation answers 422, or the route's own 4xx.
+_HOSTILE_QUERY = (("nan", "nan"), ("inf", "inf"), ("negative", "-1"), ("zero", "0"), ("huge", "1e308"),
+                  ("empty", ""), ("nul", "%00"), ("control", "a%0Ab%1B%5B31m"), ("text", "abc"), ("long", "x" * 5000),
+                  ("dotdot", "..%2F..%2Fetc%2Fpasswd"))
+
+
+def _query_cases(app, ctx: WebContext) -> list[WebCase]:  # noqa: ANN001 - a FastAPI app
+    """Each query parameter of each GET route replaced by a hostile value, one at a time."""
+    cases = []
+    for route in app.routes:
+        params = getattr(getattr(route, "dependant", None), "query_params", ())
+        if "GET" not in (getattr(route, "methods", None) or ()) or not params:
+            continue
+        target = f"GET {route.path}"
+        for param in params:
+            for name, text in _HOSTILE_QUERY:
+                cases.append(WebCase(f"web/{target}?{param.name}={name}", target, "GET",
+                                     f"{_path(route.path, ctx)}?{param.name}={text}", strict=True,
+                                     expect=(400, 404, 409, 422)))
+    return cases
+
+
 def web_cases(app, ctx: WebContext, *, quick: bool, rng: random.Random,  # noqa: ANN001
               per_field: int = QUICK_PER_FIELD) -> list[WebCase]:
     """Every route's cases (module notes): the valid bases first, then guards, bodies, fields and path ids."""
@@ -460,4 +483,4 @@ def web_cases(app, ctx: WebContext, *, quick: bool, rng: random.Random,  # noqa:
             if method == "POST":
                 cases += _field_cases(label, url, filled, model, ctx, rng if quick else None, per_field)
         cases += _id_cases(method, template, ctx)
-    return bases + cases
+    return bases + cases + _query_cases(app, ctx)
