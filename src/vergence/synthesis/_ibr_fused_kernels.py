@@ -130,6 +130,32 @@ def agrees(depth, xj, yj, u, v, qz, tol, cap, ratio):  # pragma: no cover - comp
 
 
 @nb.njit(cache=True, inline="always")
+def project(K, R, t, px, py, pz):  # pragma: no cover - compiled
+    """World point ``(px, py, pz)`` into the camera ``K, R, t``: pixel ``(u, v)`` and camera-frame depth ``qz``
+    (``u``, ``v`` meaningless unless ``qz > 0``)."""
+    qx = R[0, 0] * px + R[0, 1] * py + R[0, 2] * pz + t[0]
+    qy = R[1, 0] * px + R[1, 1] * py + R[1, 2] * pz + t[1]
+    qz = R[2, 0] * px + R[2, 1] * py + R[2, 2] * pz + t[2]
+    if not qz > 0.0:
+        return np.nan, np.nan, qz
+    return (K[0, 0] * qx + K[0, 1] * qy + K[0, 2] * qz) / qz, (K[1, 1] * qy + K[1, 2] * qz) / qz, qz
+
+
+@nb.njit(cache=True, inline="always")
+def seen(depth, u, v, qz, margin, tol, cap, ratio):  # pragma: no cover - compiled
+    """Whether the source with ``depth`` sees the projected point: ``(u, v)`` within ``margin`` pixels of
+    its image and :func:`agrees` at the source pixel nearest to it (clamped into the image)."""
+    hs, ws = depth.shape
+    if not (-margin <= u <= ws - 1.0 + margin and -margin <= v <= hs - 1.0 + margin):
+        return False
+    uc = min(max(u, 0.0), ws - 1.0)
+    vc = min(max(v, 0.0), hs - 1.0)
+    xn = min(int(math.floor(uc + 0.5)), ws - 1)
+    yn = min(int(math.floor(vc + 0.5)), hs - 1)
+    return agrees(depth, xn, yn, uc, vc, qz, tol, cap, ratio)
+
+
+@nb.njit(cache=True, inline="always")
 def _sample(image, depth, u, v, qz, tol, cap, ratio, cubic, out):  # pragma: no cover - compiled
     """Colour of a visible point at ``(u, v)`` into ``out`` (3,): the renormalised bilinear blend of
     the agreeing pixels among the four around it; with ``cubic``, where all 16 around it agree, the
@@ -232,7 +258,6 @@ def ulr_render(points, rays, centre, Ks, Rs, ts, centres, sizes, band, images, d
         for i in range(s_count):
             K, R, t = Ks[i], Rs[i], ts[i]
             depth = depths[i]
-            hs, ws = depth.shape
             width, height, band_i = sizes[i, 0], sizes[i, 1], band[i]
             cx, cy, cz = centres[i, 0], centres[i, 1], centres[i, 2]
             for x in range(w):
@@ -241,20 +266,8 @@ def ulr_render(points, rays, centre, Ks, Rs, ts, centres, sizes, band, images, d
                 if not dn > 0.0:
                     continue
                 px, py, pz = points[y, x, 0], points[y, x, 1], points[y, x, 2]
-                qx = R[0, 0] * px + R[0, 1] * py + R[0, 2] * pz + t[0]
-                qy = R[1, 0] * px + R[1, 1] * py + R[1, 2] * pz + t[1]
-                qz = R[2, 0] * px + R[2, 1] * py + R[2, 2] * pz + t[2]
-                if not qz > 0.0:
-                    continue
-                u = (K[0, 0] * qx + K[0, 1] * qy + K[0, 2] * qz) / qz
-                v = (K[1, 1] * qy + K[1, 2] * qz) / qz
-                if not (-margin <= u <= ws - 1.0 + margin and -margin <= v <= hs - 1.0 + margin):
-                    continue
-                uc = min(max(u, 0.0), ws - 1.0)
-                vc = min(max(v, 0.0), hs - 1.0)
-                xn = min(int(math.floor(uc + 0.5)), ws - 1)
-                yn = min(int(math.floor(vc + 0.5)), hs - 1)
-                if not agrees(depth, xn, yn, uc, vc, qz, tol, cap, ratio):
+                u, v, qz = project(K, R, t, px, py, pz)
+                if not (qz > 0.0 and seen(depth, u, v, qz, margin, tol, cap, ratio)):
                     continue
                 us[i, x] = u
                 vs[i, x] = v
@@ -331,7 +344,6 @@ def sample_all(points, Ks, Rs, ts, images, depths, tol, cap, ratio, margin, cubi
         for i in range(s_count):
             K, R, t = Ks[i], Rs[i], ts[i]
             img, depth = images[i], depths[i]
-            hs, ws = depth.shape
             for x in range(w):
                 visible[i, y, x] = False
                 if store:
@@ -342,23 +354,13 @@ def sample_all(points, Ks, Rs, ts, images, depths, tol, cap, ratio, margin, cubi
                 px, py, pz = points[y, x, 0], points[y, x, 1], points[y, x, 2]
                 if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
                     continue
-                qx = R[0, 0] * px + R[0, 1] * py + R[0, 2] * pz + t[0]
-                qy = R[1, 0] * px + R[1, 1] * py + R[1, 2] * pz + t[1]
-                qz = R[2, 0] * px + R[2, 1] * py + R[2, 2] * pz + t[2]
+                u, v, qz = project(K, R, t, px, py, pz)
                 if not qz > 0.0:
                     continue
-                u = (K[0, 0] * qx + K[0, 1] * qy + K[0, 2] * qz) / qz
-                v = (K[1, 1] * qy + K[1, 2] * qz) / qz
                 if store:
                     pixels[i, y, x, 0] = u
                     pixels[i, y, x, 1] = v
-                if not (-margin <= u <= ws - 1.0 + margin and -margin <= v <= hs - 1.0 + margin):
-                    continue
-                uc = min(max(u, 0.0), ws - 1.0)
-                vc = min(max(v, 0.0), hs - 1.0)
-                xn = min(int(math.floor(uc + 0.5)), ws - 1)
-                yn = min(int(math.floor(vc + 0.5)), hs - 1)
-                if not agrees(depth, xn, yn, uc, vc, qz, tol, cap, ratio):
+                if not seen(depth, u, v, qz, margin, tol, cap, ratio):
                     continue
                 visible[i, y, x] = True
                 _sample(img, depth, u, v, qz, tol, cap, ratio, cubic, colour)
