@@ -60,3 +60,17 @@ def match_uploaded_pair(page, left, right, *, max_disparity: int, ready) -> None
     page.fill('[data-testid="st-max-disparity"]', str(max_disparity))
     page.click('[data-testid="st-run"]')
     ready(page)
+
+
+def run_specular_page(page, server_url: str, size: dict, *, timeout_ms: float) -> str:  # noqa: ANN001
+    """Open page 5, set the fields of ``size`` (``spec-<name>``), run a specular job and wait for its
+    result to show, no error on the page; returns the shown job's id."""
+    page.goto(server_url + "/#specular")
+    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
+    for name, value in size.items():
+        page.locator(f'[data-testid="spec-{name}"]').fill(str(value))
+    page.click('[data-testid="spec-run"]')
+    page.wait_for_function("!document.getElementById('spec-result').hidden "
+                           "|| document.body.dataset.state === 'error'", timeout=timeout_ms)
+    assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
+    return page.locator("#spec-result").get_attribute("data-job")

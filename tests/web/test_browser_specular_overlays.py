@@ -14,7 +14,7 @@ import math
 import httpx
 import numpy as np
 import pytest
-from web_checks import HEAT_COLOUR_TOL, heat_colour
+from web_checks import HEAT_COLOUR_TOL, heat_colour, run_specular_page
 
 pytestmark = pytest.mark.browser
 
@@ -23,15 +23,7 @@ TINY = {"width": 64, "height": 48, "k": 2, "samples": 1}
 
 
 def _run(page, server_url: str) -> str:
-    page.goto(server_url + "/#specular")
-    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
-    for name, value in TINY.items():
-        page.locator(f'[data-testid="spec-{name}"]').fill(str(value))
-    page.click('[data-testid="spec-run"]')
-    page.wait_for_function("!document.getElementById('spec-result').hidden "
-                           "|| document.body.dataset.state === 'error'", timeout=JOB_MS)
-    assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
-    job = page.locator("#spec-result").get_attribute("data-job")
+    job = run_specular_page(page, server_url, TINY, timeout_ms=JOB_MS)
     page.wait_for_function(f"document.getElementById('spec-ov').dataset.state === 'ready' && "
                            f"document.getElementById('spec-ov').dataset.job === '{job}'", timeout=60_000)
     assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()

@@ -9,6 +9,7 @@ import statistics
 
 import httpx
 import pytest
+from web_checks import run_specular_page
 
 pytestmark = pytest.mark.browser
 
@@ -23,16 +24,9 @@ STROKES = 5  # answered strokes after the warm-up one; the median is asserted
 
 
 def _run(page, server_url: str, size: dict) -> str:
-    page.goto(server_url + "/#specular")
-    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
-    for name, value in size.items():
-        page.locator(f'[data-testid="spec-{name}"]').fill(str(value))
-    page.click('[data-testid="spec-run"]')
-    page.wait_for_function("!document.getElementById('spec-result').hidden "
-                           "|| document.body.dataset.state === 'error'", timeout=JOB_MS)
-    assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
+    job = run_specular_page(page, server_url, size, timeout_ms=JOB_MS)
     page.wait_for_function("document.body.dataset.state === 'ready'", timeout=JOB_MS)
-    return page.locator("#spec-result").get_attribute("data-job")
+    return job
 
 
 def _stroke(page, x0: float, x1: float) -> None:
