@@ -90,7 +90,7 @@ def _every_handle(prepared: PreparedCollection, repeat: int) -> None:
 GOAL_MS = 70.0  # issue 27: a prepared pair, CPU time
 STAGES = (("render_view", "fused render kernel"), ("mls_similarity_points", "MLS maps (per source)"),
           ("mls_shared_handles", "MLS maps (shared handles)"), ("select_handles", "handle selection"),
-          ("node_angles", "node angles"), ("pack", "anaglyph packing"))  # fmt: skip
+          ("node_angles", "node angles"), ("_packed", "anaglyph packing"))  # fmt: skip
 
 
 def _numpy_selection(seen, ids, in_front, q, cell, window, chosen, counts):
@@ -150,7 +150,7 @@ def _goal(prepared, state, repeat: int) -> None:
     spent: dict[str, list[float]] = {}
     modules = {"render_view": _mls_view_kernels, "mls_similarity_points": _mls_kernels,
                "mls_shared_handles": _mls_kernels, "select_handles": _mls_view_kernels,
-               "node_angles": _mls_view_kernels, "pack": pair_module}  # fmt: skip
+               "node_angles": _mls_view_kernels, "_packed": pair_module}  # fmt: skip
     originals = {name: getattr(module, name) for name, module in modules.items()}
 
     def spy(name):

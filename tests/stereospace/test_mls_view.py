@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from vergence.camera import look_at
+from vergence.camera import Camera, look_at
 from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, mls_similarity, s2_view
 from vergence.stereospace import _mls_view_kernels
 from vergence.stereospace.mls import _grid_nodes, node_grid
@@ -340,3 +340,19 @@ def test_source_maps_share_the_common_handles_only_when_few_are_not(monkeypatch,
     for g, (n, sel) in enumerate(handles):  # each source's map on its own handles, float64
         expected = mls_similarity(nodes.astype(np.float64), q[sel], pixels[n, sel])
         assert_allclose(maps[g], expected, atol=SOURCE_MAPS_ATOL, rtol=0)
+
+
+def test_a_one_pixel_wide_or_high_view_is_that_line_of_the_full_view():
+    # A single node column (row) gets a phantom node one pixel on (mls.with_cells); the full view's
+    # first column (row) lies on its nodes: the same values, the same weights.
+    rng = np.random.default_rng(2)
+    target = _camera(0.1, 0.05)
+    sources = [(c, _render(c)) for c in (_camera(-0.3), _camera(0.4), _camera(0.0, 0.3))]
+    points = _points(rng)
+    full = s2_view(target, sources, points=points)
+    for width, height, line in ((1, H, np.s_[:, :1]), (W, 1, np.s_[:1, :])):
+        narrow = Camera(target.K, target.R, target.t, width, height)
+        res = s2_view(narrow, sources, points=points)
+        assert res.image.shape == (height, width)
+        assert_allclose(res.image, full.image[line], atol=1e-6, rtol=0)
+        assert_allclose(res.weights, full.weights[(slice(None), *line)], atol=1e-12, rtol=0)

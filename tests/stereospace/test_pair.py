@@ -228,6 +228,36 @@ def test_kermit_pair(shared_data):
     assert (res.left.max(axis=2) > 0).mean() > 0.5
 
 
+def test_anaglyphs_of_the_built_in_views_skip_the_checks_and_equal_pack(plane):
+    # stereo_pair packs its own views (float32 in [0, 1]) into an anaglyph without pack's validation:
+    # the same image as pack, for every anaglyph layout, grey and colour views; a callable method's
+    # views and views with alpha go through pack (its checks).
+    from vergence.display import LAYOUTS, pack
+    from vergence.stereospace import pair as pair_module
+
+    _, prep = plane
+    state = StereoState((0, 1), 0.3, 0.6)
+    res = stereo_pair(prep, state)
+    rng = np.random.default_rng(4)
+    colour = [np.clip(v[..., None] * rng.uniform(0.5, 1.0, 3), 0, 1).astype(np.float32) for v in (res.left, res.right)]
+    colour[0][:3, :3] = 0.0  # black pixels: sRGB's linear segment
+    anaglyphs = [name for name in LAYOUTS if name.startswith("anaglyph")]
+    assert len(anaglyphs) == 7
+    for layout in anaglyphs:
+        assert_array_equal(stereo_pair(prep, state, layout=layout).packed, pack(res.left, res.right, layout=layout))
+        for views in ((res.left, res.right), colour):
+            fast = pair_module._packed(*views, layout, own=True)
+            assert fast.dtype == np.float32 and fast.flags.c_contiguous
+            assert_array_equal(fast, pack(*views, layout=layout))
+    bad = np.full((H, W), np.nan, dtype=np.float32)
+    with pytest.raises(ValueError, match="must be finite"):
+        pair_module._packed(bad, bad, "anaglyph", own=False)
+    alpha = np.zeros((H, W, 4), dtype=np.float32)
+    with pytest.raises(ValueError, match="shape"):
+        pair_module._packed(alpha, alpha, "anaglyph", own=True)
+    assert_array_equal(pair_module._packed(res.left, res.right, "sbs", own=True), pack(res.left, res.right))
+
+
 def test_coincident_eyes_give_one_unrectified_view(plane):
     _, prep = plane
     res = stereo_pair(prep, StereoState((0, 0), 0.4, 0.4), method=lambda p, cam: _render(cam))

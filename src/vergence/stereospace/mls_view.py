@@ -248,13 +248,14 @@ def render_source_set(
         at_nodes[used >= 0, ..., :2] = mapped.reshape(len(handles), ys.size, xs.size, 2)
     if not counts.any():
         raise ValueError(f"sources must include one that sees at least {MLS_MIN_HANDLES} of the points")
-    xs, ys, cells = with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
+    if xs.size == 1 or ys.size == 1:  # a one-pixel-wide or -high view: phantom nodes (else no copy)
+        xs, ys, cells = with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
+        at_nodes = np.ascontiguousarray(np.moveaxis(cells, 2, 0))
     channels = sources.images.shape[3]
     image = np.empty((h, w, channels), dtype=np.float32)
     weights = np.empty((len(ids), h, w) if keep_weights else (len(ids), 0, 0))
-    _mls_view_kernels.render_view(sources.images, sources.sizes, used, np.ascontiguousarray(np.moveaxis(cells, 2, 0)),
-                                  xs, ys, grid_step, S2_PENALTY_FLOOR, k, S2_THRESHOLD_SCALE, NEGLIGIBLE_WEIGHT, image,
-                                  weights, sources.unit)  # fmt: skip
+    _mls_view_kernels.render_view(sources.images, sources.sizes, used, at_nodes, xs, ys, grid_step, S2_PENALTY_FLOOR,
+                                  k, S2_THRESHOLD_SCALE, NEGLIGIBLE_WEIGHT, image, weights, sources.unit)  # fmt: skip
     return image, (weights if keep_weights else None), counts, proxy_depth
 
 
