@@ -351,8 +351,10 @@ def test_a_second_collection_frees_the_first_renderers_gl_objects(page, server_u
     buffers, programs or buffers is still a GL object, and the new renderer draws."""
     _prepared(page, server_url, "collection:tabletop")
     before = page.evaluate("""() => { window.oldGL = SS.gl; const o = window.oldObjects = SS.gl.objects();
-        return Object.fromEntries(Object.entries(o).map(([k, v]) => [k, v.length])); }""")
-    assert before["textures"] == 7 and before["programs"] >= 2, before
+        return { ...Object.fromEntries(Object.entries(o).map(([k, v]) => [k, v.length])),
+                 images: SS.gl.scene().sizes.length }; }""")
+    # a texture per source image, and each eye's image, node values and MLS handles
+    assert before["textures"] == before["images"] + 6 and before["programs"] >= 2, before
     page.click('[data-testid="ss-prepare"]')
     page.wait_for_function("SS.gl !== null && SS.gl !== window.oldGL && document.body.dataset.state === 'ready'",
                            timeout=JOB_MS)
