@@ -30,7 +30,9 @@ function registerPage(id, init) {
 async function loadFragment(id) {
   const section = document.querySelector(`section[data-page="${id}"]`);
   const response = await fetch(`/static/pages/${id}.html`);
-  if (!response.ok) throw new ApiError(`the page ${id} is not installed (static/pages/${id}.html: HTTP ${response.status})`);
+  if (!response.ok) {
+    throw new ApiError(`the page ${id} is not installed (static/pages/${id}.html: HTTP ${response.status})`);
+  }
   section.innerHTML = await response.text();
   section.classList.remove("placeholder");
 }
@@ -42,7 +44,8 @@ async function showPage() {
   for (const link of document.querySelectorAll("[data-page-link]")) {
     link.classList.toggle("current", link.dataset.pageLink === id);
     link.classList.toggle("soon", !(link.dataset.pageLink in PAGES));
-    if (link.dataset.pageLink === id) link.setAttribute("aria-current", "page"); else link.removeAttribute("aria-current");
+    if (link.dataset.pageLink === id) link.setAttribute("aria-current", "page");
+    else link.removeAttribute("aria-current");
   }
   document.title = `${PAGE_TITLES[id]} · Vergence workbench`;
   showError(null);
@@ -156,14 +159,19 @@ function niceTicks(lo, hi, count = 5) {
   const mag = 10 ** Math.floor(Math.log10(raw));
   const step = [1, 2, 2.5, 5, 10].map((m) => m * mag).find((s) => s >= raw);
   const ticks = [];
-  for (let i = Math.ceil(lo / step); i * step <= hi + step * 1e-9; i++) ticks.push(i === 0 ? 0 : Number((i * step).toPrecision(12)));
+  for (let i = Math.ceil(lo / step); i * step <= hi + step * 1e-9; i++) {
+    ticks.push(i === 0 ? 0 : Number((i * step).toPrecision(12)));
+  }
   return { lo: Math.min(lo, ticks[0]), hi: Math.max(hi, ticks[ticks.length - 1]), ticks };
 }
 
 function logTicks(lo, hi) {
   const ticks = [];
   for (let e = Math.floor(Math.log10(lo)); e <= Math.ceil(Math.log10(hi)); e++) {
-    for (const m of [1, 2, 5]) { const t = m * 10 ** e; if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) ticks.push(t); }
+    for (const m of [1, 2, 5]) {
+      const t = m * 10 ** e;
+      if (t >= lo * (1 - 1e-9) && t <= hi * (1 + 1e-9)) ticks.push(t);
+    }
   }
   return ticks;
 }
@@ -182,8 +190,10 @@ function drawAxes(svg, xticks, yticks, tx, ty, height, opts) {
     grid.append(el("line", { x1: left, x2: width - right, y1: ty(t), y2: ty(t), class: "grid" }));
     grid.append(el("text", { x: left - 6, y: ty(t) + 4, "text-anchor": "end" }, fmt(t, 3)));
   }
-  grid.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom, class: "frame" }));
-  grid.append(el("text", { x: (left + width - right) / 2, y: height - 6, "text-anchor": "middle", class: "label" }, opts.xlabel));
+  grid.append(el("rect", { x: left, y: top, width: width - left - right, height: height - top - bottom,
+    class: "frame" }));
+  grid.append(el("text", { x: (left + width - right) / 2, y: height - 6, "text-anchor": "middle", class: "label" },
+    opts.xlabel));
   grid.append(el("text", { x: 12, y: (top + height - bottom) / 2, "text-anchor": "middle", class: "label",
     transform: `rotate(-90 12 ${(top + height - bottom) / 2})` }, opts.ylabel));
   svg.append(grid);
@@ -198,7 +208,8 @@ function drawPlot(svg, series, opts) {
     if (Number.isFinite(y) && (s.unclipped || !opts.yclip || (y >= opts.yclip[0] && y <= opts.yclip[1]))) ys.push(y);
   }
   if (!xs.length || !ys.length) {
-    svg.append(el("text", { x: width / 2, y: height / 2, class: "empty", "text-anchor": "middle" }, opts.empty || "no data"));
+    svg.append(el("text", { x: width / 2, y: height / 2, class: "empty", "text-anchor": "middle" },
+      opts.empty || "no data"));
     svg.dataset.points = "0";
     return;
   }
@@ -213,7 +224,8 @@ function drawPlot(svg, series, opts) {
 
   if (opts.shade) {  // the divergence limit: eyes diverge from shade.from on
     const x0 = Math.max(left, tx(Math.max(opts.shade.from, xlo)));
-    svg.append(el("rect", { x: x0, y: top, width: Math.max(0, width - right - x0), height: height - top - bottom, class: "shade" }));
+    svg.append(el("rect", { x: x0, y: top, width: Math.max(0, width - right - x0), height: height - top - bottom,
+      class: "shade" }));
     svg.append(el("text", { x: x0 + 4, y: top + 12, class: "shade-label" }, opts.shade.label));
   }
   drawAxes(svg, opts.xlog ? logTicks(xlo, xhi) : xt.ticks, yr.ticks, tx, ty, height, opts);
@@ -242,7 +254,9 @@ function drawPlot(svg, series, opts) {
     }
     if (d) curves.append(el("path", { d, class: `series ${s.cls}`, "data-series": s.label }));
     for (const [x, y] of s.dots || []) {
-      if (Number.isFinite(x) && Number.isFinite(y)) curves.append(el("circle", { cx: tx(x), cy: ty(y), r: 4, class: `dot ${s.cls}` }));
+      if (Number.isFinite(x) && Number.isFinite(y)) {
+        curves.append(el("circle", { cx: tx(x), cy: ty(y), r: 4, class: `dot ${s.cls}` }));
+      }
     }
   }
   svg.dataset.points = String(count);
@@ -302,7 +316,8 @@ function drawHistogram(svg, bars, opts) {
   const labels = [];
   for (const band of opts.bands || []) {
     const x0 = clamp(band.from), x1 = clamp(band.to);
-    if (x1 > x0) svg.append(el("rect", { x: x0, y: top, width: x1 - x0, height: height - top - bottom, class: band.cls || "shade" }));
+    if (x1 > x0) svg.append(el("rect", { x: x0, y: top, width: x1 - x0, height: height - top - bottom,
+      class: band.cls || "shade" }));
     // a narrow band at the right edge is labelled left of its start
     const outside = x1 - x0 < 80 && x1 >= width - right - 1;
     if (band.label && x1 > x0) labels.push(el("text", { x: outside ? x0 - 3 : x0 + 3, y: top + 11 + 13 * labels.length,

@@ -42,7 +42,8 @@ function xrProgram(gl) {
   };
   const program = gl.createProgram();
   gl.attachShader(program, compile(gl.VERTEX_SHADER,
-    "attribute vec2 p; uniform vec2 s; varying vec2 uv; void main() { uv = vec2(p.x, -p.y) * 0.5 + 0.5; gl_Position = vec4(p * s, 0.0, 1.0); }"));
+    "attribute vec2 p; uniform vec2 s; varying vec2 uv; " +
+    "void main() { uv = vec2(p.x, -p.y) * 0.5 + 0.5; gl_Position = vec4(p * s, 0.0, 1.0); }"));
   gl.attachShader(program, compile(gl.FRAGMENT_SHADER,
     "precision mediump float; varying vec2 uv; uniform sampler2D t; void main() { gl_FragColor = texture2D(t, uv); }"));
   gl.linkProgram(program);
@@ -54,7 +55,9 @@ function xrTexture(gl, img) {
   gl.bindTexture(gl.TEXTURE_2D, texture);
   gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA, gl.RGBA, gl.UNSIGNED_BYTE, img);
   for (const [k, v] of [[gl.TEXTURE_MIN_FILTER, gl.LINEAR], [gl.TEXTURE_MAG_FILTER, gl.LINEAR],
-    [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) gl.texParameteri(gl.TEXTURE_2D, k, v);
+                        [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) {
+    gl.texParameteri(gl.TEXTURE_2D, k, v);
+  }
   return texture;
 }
 

@@ -81,7 +81,9 @@ function initBudget() {
     const far = given === Infinity ? near * FAR_PLOT_FACTOR : given;
     if (!(near > 0 && far > near && Number.isFinite(far))) return [];
     const out = [];
-    for (let i = 0; i < DENSE_SAMPLES; i++) out.push(Number((near * (far / near) ** (i / (DENSE_SAMPLES - 1))).toPrecision(6)));
+    for (let i = 0; i < DENSE_SAMPLES; i++) {
+      out.push(Number((near * (far / near) ** (i / (DENSE_SAMPLES - 1))).toPrecision(6)));
+    }
     return out;
   }
 
@@ -126,7 +128,8 @@ function initBudget() {
     setFigure("focal-ratio", result.focal_ratio);
     setFigure("roundness-at-convergence", atH.roundness);
     setFigure("perceived-at-probe", atProbe.perceived_depth,
-      atProbe.perceived_depth === null ? (atProbe.diverges ? "— (eyes diverge)" : "∞") : `${fmt(atProbe.perceived_depth)} m`);
+      atProbe.perceived_depth === null ? (atProbe.diverges ? "— (eyes diverge)" : "∞")
+        : `${fmt(atProbe.perceived_depth)} m`);
     // Roundness means nothing where the eyes diverge (no fused point to be round)
     setFigure("roundness-at-probe", atProbe.diverges ? null : atProbe.roundness,
       atProbe.diverges ? "— (eyes diverge)" : undefined);
@@ -136,8 +139,10 @@ function initBudget() {
     setFigure("divergence-depth", inScene ? zDiv : null,
       zDiv === null ? "never" : `beyond z = ${fmt(zDiv)} m` + (inScene ? "" : " (past the scene's depths)"));
     const list = document.getElementById("warnings");
-    list.replaceChildren(...result.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w, title: w })));
-    return { dense, divergence: inScene ? zDiv : null, probe, convergence, viewingDistance: number("viewing-distance") || 1 };
+    list.replaceChildren(...result.warnings.map((w) => Object.assign(document.createElement("li"),
+      { textContent: w, title: w })));
+    return { dense, divergence: inScene ? zDiv : null, probe, convergence,
+      viewingDistance: number("viewing-distance") || 1 };
   }
 
   // A budget curve as [z, value] points, broken where the eyes start to diverge (the curve jumps there);
@@ -161,7 +166,8 @@ function initBudget() {
     drawPlot(document.getElementById("plot-perceived"), [
       { points: budgetPoints(dense, "perceived_depth"), cls: "budget", label: "budget" },
       // psi keeps z' finite: its whole curve sets the range (the budget's blows up, so it is clipped)
-      ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.perceived_depth]), cls: "psi", label: "psi", unclipped: true }] : []),
+      ...(mapping ? [{ points: mapped.map((s) => [s.depth, s.perceived_depth]), cls: "psi", label: "psi",
+        unclipped: true }] : []),
     ], { ...common, ylabel: "z′ (m)", yclip: [0, PERCEIVED_CAP * viewingDistance] });
     drawPlot(document.getElementById("plot-roundness"), [
       { points: budgetPoints(dense, "roundness", true), cls: "budget", label: "budget" },
@@ -173,7 +179,8 @@ function initBudget() {
     } else {
       const ds = mapping.samples.map((s) => s.disparity);
       drawPlot(psiSvg, [
-        { points: [[Math.min(...ds), Math.min(...ds)], [Math.max(...ds), Math.max(...ds)]], cls: "identity", label: "identity" },
+        { points: [[Math.min(...ds), Math.min(...ds)], [Math.max(...ds), Math.max(...ds)]], cls: "identity",
+          label: "identity" },
         { points: mapping.samples.map((s) => [s.disparity, s.mapped]), cls: "psi", label: "psi",
           dots: mapping.control_points.map((c) => [c.disparity, c.value]) },
       ], { xlabel: "captured disparity d", ylabel: "ψ(d)" });
@@ -226,13 +233,15 @@ function initBudget() {
     const row = document.createElement("tr");
     const cells = [["z", z], ["perceived", perceived], ["roundness", roundness]].map(([name, v]) => {
       const td = document.createElement("td");
-      const input = Object.assign(document.createElement("input"), { type: "number", step: "any", name, value: v ?? "" });
+      const input = Object.assign(document.createElement("input"),
+        { type: "number", step: "any", name, value: v ?? "" });
       input.setAttribute("aria-label", name);
       input.dataset.field = name;
       td.append(input);
       return td;
     });
-    const remove = Object.assign(document.createElement("button"), { type: "button", textContent: "Remove", className: "remove" });
+    const remove = Object.assign(document.createElement("button"),
+      { type: "button", textContent: "Remove", className: "remove" });
     remove.dataset.testid = "remove-constraint";
     remove.addEventListener("click", () => { row.remove(); later(); });
     const td = document.createElement("td");

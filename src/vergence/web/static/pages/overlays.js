@@ -1,6 +1,7 @@
 "use strict";
 
-// ---------------------------------------------------------------- overlays shared by the pages (docs/workbench.md, "Overlays")
+// ---------------------------------------------------------------- overlays shared by the pages
+// (docs/workbench.md, "Overlays")
 // What a stereographer's overlays draw from a disparity map the server wrote (an NPY file of a job): a heat map
 // over the image, its colour bar, and a histogram against the display's comfort zone and divergence limit with
 // the plain shares outside them. The numbers (the map, the zone, the limit, the colour scale's ticks) come from
@@ -18,7 +19,9 @@ const OV_BIN_STEPS = [1, 2, 2.5, 5];
 // A float32 NPY file (numpy's format 1.0-3.0, little-endian, C order) of `ndim` dimensions as {shape, data}.
 function ovParseNpy(buffer, name, ndim = 2) {
   const bytes = new Uint8Array(buffer);
-  if (bytes[0] !== 0x93 || String.fromCharCode(...bytes.slice(1, 6)) !== "NUMPY") throw new ApiError(`${name} is not an NPY file`);
+  if (bytes[0] !== 0x93 || String.fromCharCode(...bytes.slice(1, 6)) !== "NUMPY") {
+    throw new ApiError(`${name} is not an NPY file`);
+  }
   const view = new DataView(buffer);
   const major = bytes[6];
   const headerLen = major === 1 ? view.getUint16(8, true) : view.getUint32(8, true);
@@ -94,10 +97,12 @@ function ovHeatBar(svg, opts) {
   const x = (t) => left + t * (width - left - right);
   for (let i = 0; i < n; i++) {
     const [r, g, b] = ovHeatColour((i + 0.5) / n);
-    svg.append(el("rect", { x: x(i / n), y: 4, width: (width - left - right) / n + 0.5, height: 14, fill: `rgb(${r},${g},${b})` }));
+    svg.append(el("rect", { x: x(i / n), y: 4, width: (width - left - right) / n + 0.5, height: 14,
+      fill: `rgb(${r},${g},${b})` }));
   }
   svg.append(el("rect", { x: left, y: 4, width: width - left - right, height: 14, class: "frame" }));
-  for (const z of marks) svg.append(el("line", { x1: x(ovHeatT(z, range)), x2: x(ovHeatT(z, range)), y1: 1, y2: 21, class: "st-zone-mark" }));
+  for (const z of marks) svg.append(el("line", { x1: x(ovHeatT(z, range)), x2: x(ovHeatT(z, range)), y1: 1, y2: 21,
+    class: "st-zone-mark" }));
   for (const tick of ticks) {
     const tx = x(ovHeatT(tick.value, range));
     svg.append(el("line", { x1: tx, x2: tx, y1: 18, y2: 22, class: "frame" }));
@@ -106,7 +111,8 @@ function ovHeatBar(svg, opts) {
   }
   svg.append(el("text", { x: left - 22, y: 33, "text-anchor": "end", class: "label" }, units[0]));
   if (units[1]) svg.append(el("text", { x: left - 22, y: 45, "text-anchor": "end", class: "label" }, units[1]));
-  svg.append(el("text", { x: (left + width - right) / 2, y: units[1] ? 57 : 45, "text-anchor": "middle", class: "label" }, caption));
+  svg.append(el("text", { x: (left + width - right) / 2, y: units[1] ? 57 : 45, "text-anchor": "middle",
+    class: "label" }, caption));
 }
 
 // The histogram's bins for `values` (NaN skipped): a width from OV_BIN_STEPS x 10^k giving about OV_HIST_BINS

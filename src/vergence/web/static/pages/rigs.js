@@ -36,7 +36,8 @@ async function initRigs() {
     const changed = () => {
       document.body.dataset.state = "loading";
       rigEl("rig-results").classList.add("stale");
-      rigEl("rig-result").classList.add("stale");  // the render shown is of the settings as they were: dimmed until the next
+      // the render shown is of the settings as they were: dimmed until the next
+      rigEl("rig-result").classList.add("stale");
       later();
     };
     const form = rigEl("rig-form");
@@ -48,7 +49,10 @@ async function initRigs() {
     });
     rigEl("rig-kind").addEventListener("change", () => { rigToggle(); changed(); });
     display.addEventListener("change", () => { rigToggle(); changed(); });
-    rigEl("rig-add-element").addEventListener("click", () => { rigElementRow({ name: "", point: [0, 0, 0] }); changed(); });
+    rigEl("rig-add-element").addEventListener("click", () => {
+      rigElementRow({ name: "", point: [0, 0, 0] });
+      changed();
+    });
     rigEl("rig-add-constraint").addEventListener("click", () => { rigConstraintRow(""); changed(); });
     rigEl("rig-run").addEventListener("click", rigRender);
     rigEl("rig-cancel").addEventListener("click", () => { if (rigJob) cancelJob(rigJob); });
@@ -106,7 +110,8 @@ function rigToggle() {
   for (const fs of document.querySelectorAll("#rig-form [data-rig]")) fs.hidden = fs.dataset.rig !== kind;
   const custom = rigEl("rig-display").value === "";
   for (const label of document.querySelectorAll("#rig-form [data-display]")) label.hidden = !custom;
-  rigEl("rig-camera-legend").textContent = kind === "quadri" ? "Camera: the virtual rig's centre" : "Camera: the director's (left)";
+  rigEl("rig-camera-legend").textContent = kind === "quadri"
+    ? "Camera: the virtual rig's centre" : "Camera: the director's (left)";
   rigEl("rig-camera-hint").textContent = kind === "quadri"
     ? "Where no real camera can go; the real cameras stand the setback behind it."
     : "The left image, unchanged; the subject and background cameras stand to its right.";
@@ -167,7 +172,8 @@ function readRigShot() {
   const displayName = rigEl("rig-display").value;
   let display = displayName;
   if (!displayName) {
-    display = { eye_separation: rigNumber("rig-eye-separation"), distance: rigNumber("rig-distance"), width: rigNumber("rig-screen-width") };
+    display = { eye_separation: rigNumber("rig-eye-separation"), distance: rigNumber("rig-distance"),
+      width: rigNumber("rig-screen-width") };
     if (rigEl("rig-resolution").value.trim() !== "") display.resolution = rigNumber("rig-resolution");
   }
   const shot = {
@@ -181,7 +187,8 @@ function readRigShot() {
     shot.setback = rigNumber("rig-setback");
     shot.elements = [...rigEl("rig-elements").rows].map((tr) => {
       const inputs = tr.querySelectorAll("input");
-      return { name: inputs[0].value.trim(), point: [1, 2, 3].map((i) => (inputs[i].value.trim() === "" ? null : Number(inputs[i].value))) };
+      return { name: inputs[0].value.trim(),
+        point: [1, 2, 3].map((i) => (inputs[i].value.trim() === "" ? null : Number(inputs[i].value))) };
     });
   } else {
     shot.constraints = [...rigEl("rig-constraints").rows].map((tr) => {
@@ -239,12 +246,15 @@ function rigDrawPlan(shot, plan) {
   if (plan.rig === "quadri") {
     rigFigure(figures, "Setback s", plan.setback, `${fmt(plan.setback)} m`, "rig-fig-setback");
     for (const row of plan.cameras.filter((r) => r.eye === "left")) {
-      rigFigure(figures, `b<sub>${row.element}</sub> (S0 Eq. 10)`, row.baseline, `${fmt(row.baseline)} m`, `rig-fig-baseline-${row.element}`);
-      rigFigure(figures, `fx ratio ${row.element}`, row.fx_ratio, `× ${fmt(row.fx_ratio)}`, `rig-fig-ratio-${row.element}`);
+      rigFigure(figures, `b<sub>${row.element}</sub> (S0 Eq. 10)`, row.baseline, `${fmt(row.baseline)} m`,
+        `rig-fig-baseline-${row.element}`);
+      rigFigure(figures, `fx ratio ${row.element}`, row.fx_ratio, `× ${fmt(row.fx_ratio)}`,
+        `rig-fig-ratio-${row.element}`);
     }
   } else {
     for (const row of plan.cameras.slice(1)) {
-      rigFigure(figures, `b<sub>${row.name}</sub>`, row.baseline, `${fmt(row.baseline)} m`, `rig-fig-baseline-${row.name}`);
+      rigFigure(figures, `b<sub>${row.name}</sub>`, row.baseline, `${fmt(row.baseline)} m`,
+        `rig-fig-baseline-${row.name}`);
     }
     const ref = plan.reference;
     rigFigure(figures, "ψ reference b<sub>r</sub>", ref.baseline, `${fmt(ref.baseline)} m`, "rig-fig-ref-baseline");
@@ -373,11 +383,13 @@ function rigShowResult(id, result, files) {
       rigImage(id, `${method}_right.png`, "right eye"),
       rigImage(id, `${method}_anaglyph.png`, "Dubois anaglyph")]));
     const errors = ["left", "right"].filter((eye) => has(`${method}_error_${eye}.png`))
-      .map((eye) => rigImage(id, `${method}_error_${eye}.png`, `${eye}: |synthesised − truth| × 4; blue: no source sees it`));
+      .map((eye) => rigImage(id, `${method}_error_${eye}.png`,
+        `${eye}: |synthesised − truth| × 4; blue: no source sees it`));
     rows.push(rigRow(`Error, ${label}`, errors));
   }
-  rows.push(rigRow(result.rig === "tri" ? "Truth (right: the curved-ray truth of S0 §6)" : "Truth (the virtual eyes ray-traced)", [
-    rigImage(id, "truth_left.png", "left"), rigImage(id, "truth_right.png", "right")]));
+  rows.push(rigRow(
+    result.rig === "tri" ? "Truth (right: the curved-ray truth of S0 §6)" : "Truth (the virtual eyes ray-traced)",
+    [rigImage(id, "truth_left.png", "left"), rigImage(id, "truth_right.png", "right")]));
   rigEl("rig-images").replaceChildren(...rows);
   rigEl("rig-sources").replaceChildren(...result.cameras.map((name) => rigImage(id, `camera_${name}.png`, name)));
   const vr = rigEl("rig-vr");

@@ -49,34 +49,46 @@ function rigShapes(shot, plan, basis, reach) {
     const start = basis.depth(c);
     for (const dir of rigEdges(cam)) {  // each edge ray runs to the same forward distance, `reach` from the origin
       const along = rigDot(dir, basis.forward);
-      if (along > 1e-9 && reach > start) shapes.push({ kind: "line", role, pts: [basis.project(c), basis.project(rigAdd(c, dir, (reach - start) / along))] });
+      if (along > 1e-9 && reach > start) {
+        shapes.push({ kind: "line", role,
+          pts: [basis.project(c), basis.project(rigAdd(c, dir, (reach - start) / along))] });
+      }
     }
     shapes.push({ kind: "camera", role, pts: [basis.project(c)], name });
   };
   if (plan.rig === "quadri") {
     camera("virtual left", plan.virtual.left, "virtual");
     camera("virtual right", plan.virtual.right, "virtual");
-    for (const row of plan.cameras) camera(row.name, row.camera, row.element === plan.elements[0].name ? "subject" : "other");
-    for (const e of plan.elements) shapes.push({ kind: "element", pts: [basis.project(e.point)], name: e.name, label: e.name });
+    for (const row of plan.cameras) {
+      camera(row.name, row.camera, row.element === plan.elements[0].name ? "subject" : "other");
+    }
+    for (const e of plan.elements) {
+      shapes.push({ kind: "element", pts: [basis.project(e.point)], name: e.name, label: e.name });
+    }
     const c = plan.virtual.center;
     const h = shot.convergence;
     const half = h * (c.width / 2) / c.K[0][0];
     const mid = rigAdd(c.center, basis.forward, h);
-    shapes.push({ kind: "plane", pts: [basis.project(rigAdd(mid, basis.right, -half)), basis.project(rigAdd(mid, basis.right, half))],
+    shapes.push({ kind: "plane",
+      pts: [basis.project(rigAdd(mid, basis.right, -half)), basis.project(rigAdd(mid, basis.right, half))],
       label: `convergence H_v = ${fmt(h)} m` });
   } else {
     camera("reference right", plan.reference_right, "virtual");
     plan.cameras.forEach((row, i) => camera(row.name, row.camera, ["director", "subject", "other"][i] || "other"));
     const d = plan.cameras[0].camera.center;
-    const mid = rigAdd(rigAdd(d, rigSub(plan.reference_right.center, d), 0.5), basis.forward, plan.reference.convergence);
+    const mid = rigAdd(rigAdd(d, rigSub(plan.reference_right.center, d), 0.5), basis.forward,
+      plan.reference.convergence);
     const half = plan.reference.window / 2;
-    shapes.push({ kind: "plane", pts: [basis.project(rigAdd(mid, basis.right, -half)), basis.project(rigAdd(mid, basis.right, half))],
+    shapes.push({ kind: "plane",
+      pts: [basis.project(rigAdd(mid, basis.right, -half)), basis.project(rigAdd(mid, basis.right, half))],
       label: `convergence H = ${fmt(plan.reference.convergence)} m, window W = ${fmt(plan.reference.window)} m` });
     // the depth range psi maps (the shot's near and far, when given and finite), dotted
     for (const [name, z] of [["near", shot.near], ["far", shot.far]]) {
       if (!(Number.isFinite(z) && z > 0)) continue;
       const at = rigAdd(d, basis.forward, z);
-      shapes.push({ kind: "range", pts: [basis.project(rigAdd(at, basis.right, -reach * 0.08)), basis.project(rigAdd(at, basis.right, reach * 0.08))],
+      shapes.push({ kind: "range",
+        pts: [basis.project(rigAdd(at, basis.right, -reach * 0.08)),
+              basis.project(rigAdd(at, basis.right, reach * 0.08))],
         label: `${name} z = ${fmt(z)} m` });
     }
     for (const text of shot.constraints) {
@@ -84,7 +96,9 @@ function rigShapes(shot, plan, basis, reach) {
       const p = (/perceived=([^,]+)/.exec(text) || [])[1];
       if (Number.isFinite(z) && z > 0) {
         const at = rigAdd(d, basis.forward, z);
-        shapes.push({ kind: "depth", pts: [basis.project(rigAdd(at, basis.right, -reach * 0.04)), basis.project(rigAdd(at, basis.right, reach * 0.04))],
+        shapes.push({ kind: "depth",
+          pts: [basis.project(rigAdd(at, basis.right, -reach * 0.04)),
+                basis.project(rigAdd(at, basis.right, reach * 0.04))],
           label: `z = ${fmt(z)} m → z′ = ${p} m` });
       }
     }
@@ -98,7 +112,10 @@ function rigFit(points, box, minExtent) {
   const hs = points.map((p) => p[0]), vs = points.map((p) => p[1]);
   let [h0, h1, v0, v1] = [Math.min(...hs), Math.max(...hs), Math.min(...vs), Math.max(...vs)];
   const pad = RIG_PAD * Math.max(h1 - h0, v1 - v0, minExtent);
-  const grow = (lo, hi) => { const more = Math.max(0, minExtent - (hi - lo)) / 2 + pad; return [lo - more, hi + more]; };
+  const grow = (lo, hi) => {
+    const more = Math.max(0, minExtent - (hi - lo)) / 2 + pad;
+    return [lo - more, hi + more];
+  };
   [h0, h1] = grow(h0, h1);
   [v0, v1] = grow(v0, v1);
   const plot = { x0: box.left, x1: box.width - box.right, y0: box.top, y1: box.height - box.bottom };
@@ -124,12 +141,14 @@ function rigGrid(svg, box, fit, basis) {
   };
   for (const m of values(...metres.h)) {
     const [x] = fit.at([m, 0]);
-    g.append(el("line", { x1: x, x2: x, y1: plot.y0, y2: plot.y1, class: "grid", "data-axis": "h", "data-m": String(m) }));
+    g.append(el("line", { x1: x, x2: x, y1: plot.y0, y2: plot.y1, class: "grid", "data-axis": "h",
+      "data-m": String(m) }));
     g.append(el("text", { x, y: plot.y1 + 13, "text-anchor": "middle" }, fmt(m, 4)));
   }
   for (const m of values(...metres.v)) {
     const [, y] = fit.at([0, m]);
-    g.append(el("line", { x1: plot.x0, x2: plot.x1, y1: y, y2: y, class: "grid", "data-axis": "v", "data-m": String(m) }));
+    g.append(el("line", { x1: plot.x0, x2: plot.x1, y1: y, y2: y, class: "grid", "data-axis": "v",
+      "data-m": String(m) }));
     g.append(el("text", { x: plot.x0 - 5, y: y + 4, "text-anchor": "end" }, fmt(m, 4)));
   }
   g.append(el("rect", { x: plot.x0, y: plot.y0, width: plot.x1 - plot.x0, height: plot.y1 - plot.y0, class: "frame" }));
@@ -137,7 +156,8 @@ function rigGrid(svg, box, fit, basis) {
   g.append(el("text", { x: (plot.x0 + plot.x1) / 2, y: plot.y1 + 30, "text-anchor": "middle", class: "label" },
     `${hName} (m), grid every ${fmt(step)} m`));
   const ym = (plot.y0 + plot.y1) / 2;
-  g.append(el("text", { x: 12, y: ym, "text-anchor": "middle", class: "label", transform: `rotate(-90 12 ${ym})` }, `${vName} (m)`));
+  g.append(el("text", { x: 12, y: ym, "text-anchor": "middle", class: "label", transform: `rotate(-90 12 ${ym})` },
+    `${vName} (m)`));
   svg.append(g);
   Object.assign(svg.dataset, { hAxis: hName, vAxis: vName, gridM: String(step) });
 }
@@ -164,7 +184,8 @@ function rigHits([x1, y1], [x2, y2], box, pad = 1) {
   return true;
 }
 
-const rigOverlap = (a, b, pad = 1) => a.x < b.x + b.width + pad && b.x < a.x + a.width + pad && a.y < b.y + b.height + pad && b.y < a.y + a.height + pad;
+const rigOverlap = (a, b, pad = 1) => a.x < b.x + b.width + pad && b.x < a.x + a.width + pad
+  && a.y < b.y + b.height + pad && b.y < a.y + a.height + pad;
 
 // Places `text` near one of `anchors` (SVG px; a line's two ends): the first spot, on rings of growing radius round
 // each anchor in 16 directions, whose box lies inside the plot and meets no segment and no box taken; answers its
@@ -178,7 +199,8 @@ function rigPlaceLabel(g, text, anchors, plot, segments, taken) {
       const side = Math.cos(a) > 0.3 ? "start" : Math.cos(a) < -0.3 ? "end" : "middle";
       text.setAttribute("x", cx); text.setAttribute("y", cy + 4); text.setAttribute("text-anchor", side);
       const box = rigBox(text);
-      if (box.x < plot.x0 + 2 || box.x + box.width > plot.x1 - 2 || box.y < plot.y0 + 2 || box.y + box.height > plot.y1 - 2) continue;
+      if (box.x < plot.x0 + 2 || box.x + box.width > plot.x1 - 2
+          || box.y < plot.y0 + 2 || box.y + box.height > plot.y1 - 2) continue;
       if (segments.some(([p, q]) => rigHits(p, q, box)) || taken.some((t) => rigOverlap(t, box))) continue;
       return box;
     }
@@ -198,11 +220,13 @@ function rigDrawShapes(svg, shapes, fit, box, basis, { names }) {
   for (const s of shapes) {
     const pts = s.pts.map(fit.at);
     if (s.kind === "line" || s.kind === "plane" || s.kind === "depth" || s.kind === "range") {
-      g.append(el("line", { x1: pts[0][0], y1: pts[0][1], x2: pts[1][0], y2: pts[1][1], class: s.kind === "line" ? `rig-ray ${s.role}` : `rig-${s.kind}` }));
+      g.append(el("line", { x1: pts[0][0], y1: pts[0][1], x2: pts[1][0], y2: pts[1][1],
+        class: s.kind === "line" ? `rig-ray ${s.role}` : `rig-${s.kind}` }));
       segments.push(pts);
       if (s.label) labels.push({ text: s.label, at: [pts[1], pts[0]], cls: `rig-${s.kind}-label` });
     } else if (s.kind === "element") {
-      g.append(el("rect", { x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8, class: "rig-element", "data-element": s.name }));
+      g.append(el("rect", { x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8, class: "rig-element",
+        "data-element": s.name }));
       taken.push({ x: pts[0][0] - 4, y: pts[0][1] - 4, width: 8, height: 8 });
       labels.push({ text: s.label, at: [pts[0]], cls: "label" });
     } else if (s.kind === "camera") {
@@ -232,8 +256,8 @@ function rigDrawShapes(svg, shapes, fit, box, basis, { names }) {
   }
   // what found no free spot: a legend under the plot
   legend.forEach((text, i) => {
-    group.append(el("text", { x: box.left, y: box.height + RIG_LEGEND_ROW * (i + 0.8), class: "label", "data-label": text,
-      "data-legend": "true" }, `not placed on the plot: ${text}`));
+    group.append(el("text", { x: box.left, y: box.height + RIG_LEGEND_ROW * (i + 0.8), class: "label",
+      "data-label": text, "data-legend": "true" }, `not placed on the plot: ${text}`));
   });
   svg.setAttribute("viewBox", `0 0 ${box.width} ${box.height + RIG_LEGEND_ROW * legend.length}`);
   svg.dataset.cameras = String(count);
@@ -242,10 +266,12 @@ function rigDrawShapes(svg, shapes, fit, box, basis, { names }) {
 
 function rigDrawTop(shot, plan) {
   const basis = rigBasis(shot, plan);
-  const centres = [...plan.cameras.map((r) => r.camera.center), ...(plan.rig === "tri" ? [plan.reference_right.center] : [])];
+  const centres = [...plan.cameras.map((r) => r.camera.center),
+    ...(plan.rig === "tri" ? [plan.reference_right.center] : [])];
   const far = plan.rig === "quadri"
     ? Math.max(...plan.elements.map((e) => basis.depth(e.point)))
-    : Math.max(plan.reference.convergence, ...[shot.near, shot.far].filter(Number.isFinite), ...shot.constraints.map((t) => Number((/z=([^,]+)/.exec(t) || [])[1])).filter(Number.isFinite));
+    : Math.max(plan.reference.convergence, ...[shot.near, shot.far].filter(Number.isFinite),
+      ...shot.constraints.map((t) => Number((/z=([^,]+)/.exec(t) || [])[1])).filter(Number.isFinite));
   const reach = 1.15 * Math.max(far, 1e-3);
   const shapes = rigShapes(shot, plan, basis, reach);
   const top = rigEl("rig-top");
@@ -256,5 +282,6 @@ function rigDrawTop(shot, plan) {
   const shortReach = Math.max(...centres.map(basis.depth)) + Math.max(spread, 0.2) * 0.6;
   const closeShapes = rigShapes(shot, plan, basis, shortReach)
     .filter((s) => (s.kind === "camera" || s.kind === "line") && !(plan.rig === "quadri" && s.role === "virtual"));
-  rigDrawShapes(rigEl("rig-close"), closeShapes, rigFit(closeShapes.flatMap((s) => s.pts), RIG_CLOSE, 0.2), RIG_CLOSE, basis, { names: true });
+  rigDrawShapes(rigEl("rig-close"), closeShapes, rigFit(closeShapes.flatMap((s) => s.pts), RIG_CLOSE, 0.2), RIG_CLOSE,
+    basis, { names: true });
 }

@@ -139,7 +139,8 @@ function specLayers(report) {
   const select = document.getElementById("spec-layer");
   select.replaceChildren();
   for (const layer of report.layers) {
-    const option = new Option(`${layer.layer} · ${layer.name} (${layer.matched_pixels_before} of ${layer.pixels} px matched)`,
+    const option = new Option(
+      `${layer.layer} · ${layer.name} (${layer.matched_pixels_before} of ${layer.pixels} px matched)`,
       String(layer.layer));
     if (!report.specular || !layer.matched_pixels_before) {
       option.disabled = true;
@@ -151,7 +152,8 @@ function specLayers(report) {
     select.add(option);
   }
   // the first specular layer that can be painted (the first hit can too: its weights enter the others' solve)
-  const first = [...select.options].find((o) => !o.disabled && o.value !== "1") || [...select.options].find((o) => !o.disabled);
+  const first = [...select.options].find((o) => !o.disabled && o.value !== "1")
+    || [...select.options].find((o) => !o.disabled);
   if (first) select.value = first.value;
   const none = !first;
   document.getElementById("spec-reoptimise").disabled = false;
@@ -207,7 +209,9 @@ function specDraw() {
     return count ? `layer ${layer} · ${term || "every term"}: ${count} px` : null;
   }).filter(Boolean);
   const note = document.getElementById("spec-painted");
-  if (document.getElementById("spec-layer").options.length) note.textContent = painted.length ? painted.join("; ") : "nothing painted";
+  if (document.getElementById("spec-layer").options.length) {
+    note.textContent = painted.length ? painted.join("; ") : "nothing painted";
+  }
   note.dataset.maps = String(painted.length);
 }
 
@@ -264,7 +268,8 @@ async function specUpload(map, name) {
   let response;
   try {
     response = await fetch(`/api/uploads?name=${encodeURIComponent(name)}`, {
-      method: "POST", headers: { "Content-Type": "application/octet-stream" }, body: specNpy(map, spec.height, spec.width) });
+      method: "POST", headers: { "Content-Type": "application/octet-stream" },
+      body: specNpy(map, spec.height, spec.width) });
   } catch (exc) {
     throw new ApiError("the workbench server does not answer (/api/uploads): is vergence serve still running?");
   }
@@ -329,7 +334,10 @@ function specOutside(out) {
   const note = document.getElementById("spec-outside");
   const o = spec.overlay;
   const layer = Number(document.getElementById("spec-layer").value);
-  if (!o || !spec.report || !layer || o.width !== spec.width || o.height !== spec.height) { note.textContent = ""; return; }
+  if (!o || !spec.report || !layer || o.width !== spec.width || o.height !== spec.height) {
+    note.textContent = "";
+    return;
+  }
   const [lo, hi] = spec.report.comfort_zone_arcmin;
   const plane = o.data.subarray((layer - 1) * o.width * o.height, layer * o.width * o.height);
   const show = document.getElementById("spec-overlay").checked;
@@ -347,8 +355,8 @@ function specOutside(out) {
     out.data[4 * i + 1] += (g - out.data[4 * i + 1]) * a;
     out.data[4 * i + 2] += (b - out.data[4 * i + 2]) * a;
   }
-  note.textContent = `layer ${layer} after the latest solve: ${outside} of ${matched} matched px outside the comfort zone`
-    + ` [${lo}′, ${hi}′]${show && outside ? " (magenta)" : ""}`;
+  note.textContent = `layer ${layer} after the latest solve: ${outside} of ${matched} matched px`
+    + ` outside the comfort zone [${lo}′, ${hi}′]${show && outside ? " (magenta)" : ""}`;
   note.dataset.outside = String(outside);
   note.dataset.job = o.id;
 }
@@ -405,14 +413,17 @@ async function showSpecular(id, report) {
     specCell(tr, layer.pixels, String(layer.pixels), `spec-pixels-${layer.layer}`);
     specCell(tr, layer.inside_share_before, specShare(layer.inside_share_before), `spec-inside-before-${layer.layer}`);
     specCell(tr, layer.inside_share_after, specShare(layer.inside_share_after), `spec-inside-after-${layer.layer}`);
-    specCell(tr, layer.comfort_share_before, specShare(layer.comfort_share_before), `spec-comfort-before-${layer.layer}`);
+    specCell(tr, layer.comfort_share_before, specShare(layer.comfort_share_before),
+      `spec-comfort-before-${layer.layer}`);
     specCell(tr, layer.comfort_share_after, specShare(layer.comfort_share_after), `spec-comfort-after-${layer.layer}`);
     specCell(tr, layer.matched_before, specShare(layer.matched_before), `spec-matched-before-${layer.layer}`);
     specCell(tr, layer.matched_after, specShare(layer.matched_after), `spec-matched-after-${layer.layer}`);
   }
   const d = report.display;
-  document.getElementById("spec-display-line").textContent = d ? `${d.name ?? "display"}, fit ${d.fit}: ` +
-    `${d.arcmin_per_px.toFixed(2)} arcmin per image pixel; ` + report.warnings.map((w) => `warning: ${w}`).join("; ") : "";
+  document.getElementById("spec-display-line").textContent = d
+    ? `${d.name ?? "display"}, fit ${d.fit}: ` + `${d.arcmin_per_px.toFixed(2)} arcmin per image pixel; `
+      + report.warnings.map((w) => `warning: ${w}`).join("; ")
+    : "";
   const costs = document.querySelector("#spec-costs tbody");
   costs.replaceChildren();
   for (const term of Object.keys(report.cost_before)) {

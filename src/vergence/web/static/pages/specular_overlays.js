@@ -73,7 +73,8 @@ function specDrawOverlays() {
   ovHeatBar(document.getElementById("spec-heat-bar"), {
     range: geo.scale.arcmin, marks: geo.zone_arcmin, units: ["arcmin"],
     ticks: geo.scale.ticks.map((t) => ({ value: t, label: `${fmt(t, 3)}′`, attrs: { "data-arcmin": String(t) } })),
-    caption: `vergence on ${geo.display || "the display"} (fit ${geo.fit}) · red: in front of the screen, blue: behind`,
+    caption: `vergence on ${geo.display || "the display"} (fit ${geo.fit})`
+      + ` · red: in front of the screen, blue: behind`,
   });
   const counting = { binWidth: bins.width, zone: geo.zone_arcmin, divergence: geo.divergence_arcmin };
   const all = ovCount(o.data, counting);

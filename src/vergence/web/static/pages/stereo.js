@@ -5,8 +5,10 @@
 // two `synthesize` jobs (parameter sets A and B, same input) make the pair in every layout of vergence.display
 // with the comfort figures. The page shows a chosen layout of A and B wiped against each other, the
 // figures of both, the downloads and the equivalent `vergence` command lines. Nothing is computed here.
-const ST_FIRST_LAYOUTS = ["anaglyph", "sbs", "cross-eyed", "tb", "rows", "columns", "half-sbs", "half-tb", "checkerboard"];
-const stState = { uploads: {}, jobs: { a: null, b: null }, results: { a: null, b: null }, body: null, format: "anaglyph" };
+const ST_FIRST_LAYOUTS = ["anaglyph", "sbs", "cross-eyed", "tb", "rows", "columns", "half-sbs", "half-tb",
+  "checkerboard"];
+const stState = { uploads: {}, jobs: { a: null, b: null }, results: { a: null, b: null }, body: null,
+  format: "anaglyph" };
 
 function stSource() { return document.querySelector('input[name="st-source"]:checked').value; }
 
@@ -20,12 +22,15 @@ async function stUpload(field, file) {
   const type = ["image/png", "image/jpeg"].includes(file.type) ? file.type : "application/octet-stream";
   let response;
   try {
-    response = await fetch(`/api/uploads?name=${encodeURIComponent(file.name)}`, { method: "POST", headers: { "Content-Type": type }, body: file });
+    response = await fetch(`/api/uploads?name=${encodeURIComponent(file.name)}`, {
+      method: "POST", headers: { "Content-Type": type }, body: file });
   } catch (exc) {
     throw new ApiError("the workbench server does not answer (/api/uploads): is vergence serve still running?");
   }
   const data = await response.json().catch(() => null);
-  if (!response.ok) throw new ApiError(data && data.error ? `${field}: ${data.error}` : `${field}: HTTP ${response.status}`);
+  if (!response.ok) {
+    throw new ApiError(data && data.error ? `${field}: ${data.error}` : `${field}: HTTP ${response.status}`);
+  }
   stState.uploads[field] = data;
   stShowUploads();
 }
@@ -114,7 +119,8 @@ function stCli(set, body, format) {
     if (body[key] !== undefined) options[key] = body[key];
   }
   options.format = format;
-  return before + cliLine("synthesize", options).replace("vergence synthesize", `vergence synthesize ${q(image)} ${q(depth)}`);
+  return before + cliLine("synthesize", options)
+    .replace("vergence synthesize", `vergence synthesize ${q(image)} ${q(depth)}`);
 }
 
 function stBusy(busy) {
@@ -151,7 +157,8 @@ async function stRun() {
         return;
       }
       if (status.state !== "done") {
-        throw new ApiError(status.state === "failed" ? `${set.toUpperCase()}: ${status.error}` : `${set.toUpperCase()}: ${status.state}`);
+        throw new ApiError(status.state === "failed" ? `${set.toUpperCase()}: ${status.error}`
+          : `${set.toUpperCase()}: ${status.state}`);
       }
       stState.jobs[set] = status.id;
       stState.results[set] = status.result;
@@ -176,7 +183,8 @@ function stShow() {
   const { a } = stState.results;
   const select = document.getElementById("st-format");
   const layouts = Object.keys(a.layouts);
-  const ordered = [...ST_FIRST_LAYOUTS.filter((l) => layouts.includes(l)), ...layouts.filter((l) => !ST_FIRST_LAYOUTS.includes(l))];
+  const ordered = [...ST_FIRST_LAYOUTS.filter((l) => layouts.includes(l)),
+    ...layouts.filter((l) => !ST_FIRST_LAYOUTS.includes(l))];
   if (select.options.length !== ordered.length) {
     select.replaceChildren(...ordered.map((l) => new Option(l, l)));
   }
@@ -209,7 +217,9 @@ function stShowFormat() {
     link.download = `${set}_${stState.results[set].layouts[format]}`;
     document.getElementById(`st-cli-${set}`).value = stCli(set, stState.body[set], format);
   }
-  for (const view of ["left", "right"]) document.getElementById(`st-${view}-a`).href = jobFile(stState.jobs.a, `${view}.png`);
+  for (const view of ["left", "right"]) {
+    document.getElementById(`st-${view}-a`).href = jobFile(stState.jobs.a, `${view}.png`);
+  }
   document.getElementById("st-json-a").href = jobFile(stState.jobs.a, "synthesis.json");
   document.getElementById("st-wipe-box").dataset.format = format;
   stCliNotes();
@@ -271,13 +281,15 @@ function stComfortPlot() {
   const hi = Math.max(a.zone_max_arcmin, a.max_arcmin, b.max_arcmin) * 1.15;
   const left = 60, right = 14, width = 560;
   const x = (v) => left + (v - lo) / (hi - lo || 1) * (width - left - right);
-  svg.append(el("rect", { x: x(a.zone_min_arcmin), y: 6, width: x(a.zone_max_arcmin) - x(a.zone_min_arcmin), height: 56, class: "st-zone" }));
+  svg.append(el("rect", { x: x(a.zone_min_arcmin), y: 6, width: x(a.zone_max_arcmin) - x(a.zone_min_arcmin), height: 56,
+    class: "st-zone" }));
   svg.append(el("line", { x1: x(0), x2: x(0), y1: 4, y2: 64, class: "grid" }));
   for (const [row, set, c] of [[0, "A", a], [1, "B", b]]) {
     const y = 14 + row * 26;
     svg.append(el("text", { x: left - 8, y: y + 10, "text-anchor": "end", class: "label" }, set));
     svg.append(el("rect", { x: x(c.min_arcmin), y, width: Math.max(1, x(c.max_arcmin) - x(c.min_arcmin)), height: 14,
-      class: `st-range st-range-${set.toLowerCase()}${c.inside ? "" : " st-out"}`, "data-testid": `st-bar-${set.toLowerCase()}` }));
+      class: `st-range st-range-${set.toLowerCase()}${c.inside ? "" : " st-out"}`,
+      "data-testid": `st-bar-${set.toLowerCase()}` }));
   }
   for (const t of niceTicks(lo, hi, 6).ticks) {
     if (t < lo || t > hi) continue;
@@ -333,8 +345,13 @@ async function initStereo() {
     stRun();
   });
   document.getElementById("st-run").addEventListener("click", stRun);
-  document.getElementById("st-cancel").addEventListener("click", () => { if (stState.running) cancelJob(stState.running); });
-  document.getElementById("st-format").addEventListener("change", (event) => { stState.format = event.target.value; stShowFormat(); });
+  document.getElementById("st-cancel").addEventListener("click", () => {
+    if (stState.running) cancelJob(stState.running);
+  });
+  document.getElementById("st-format").addEventListener("change", (event) => {
+    stState.format = event.target.value;
+    stShowFormat();
+  });
   document.getElementById("st-wipe").addEventListener("input", (event) => stWipe(Number(event.target.value)));
   const box = document.getElementById("st-wipe-box");
   const drag = (event) => {

@@ -70,7 +70,8 @@ function stOvState() {
       const i = Math.floor(pos);
       cue = i + 1 < values.length ? values[i] + (pos - i) * (values[i + 1] - values[i]) : values[i];
     }
-    edges[edge] = { share, violation, cue, rows: [first, last], width: violation && cue > geo.window.min_px ? Math.ceil(cue) : 0 };
+    edges[edge] = { share, violation, cue, rows: [first, last],
+      width: violation && cue > geo.window.min_px ? Math.ceil(cue) : 0 };
   }
   return { ...state, edges };
 }
@@ -165,7 +166,8 @@ function stShowWindow(state, floating, mask) {
     li.dataset.width = String(e.width);
     const band = `${(100 * e.share).toFixed(1)} % of the ${geo.window.band_px}-px band in front of the screen`;
     li.textContent = e.violation
-      ? `${edge} edge: stereo-window violation, rows ${e.rows[0]}–${e.rows[1]} (${band}, ≥ ${100 * geo.window.share} %): ` +
+      ? `${edge} edge: stereo-window violation, rows ${e.rows[0]}–${e.rows[1]} ` +
+        `(${band}, ≥ ${100 * geo.window.share} %): ` +
         `a floating window of ${e.width} px masks it`
       : `${edge} edge: no violation (${band})`;
     li.className = e.violation ? (mask[edge] ? "st-masked" : "st-violation") : "";
@@ -173,9 +175,11 @@ function stShowWindow(state, floating, mask) {
   }));
   const note = document.getElementById("st-float-note");
   const applied = ["left", "right"].filter((e) => mask[e] > 0)
-    .map((e) => `${e} edge of the ${e} view: ${mask[e]} px black (the window's edge ${mask[e]} px in front of the screen)`);
+    .map((e) => `${e} edge of the ${e} view: ${mask[e]} px black ` +
+      `(the window's edge ${mask[e]} px in front of the screen)`);
   note.textContent = !floating ? "Floating window off."
-    : applied.length ? `Floating window applied in the shown pair: ${applied.join("; ")}.` : "Floating window on: no edge needs it.";
+    : applied.length ? `Floating window applied in the shown pair: ${applied.join("; ")}.`
+    : "Floating window on: no edge needs it.";
 }
 
 function stShowVertical() {
@@ -190,9 +194,11 @@ function stShowVertical() {
     return;
   }
   const display = r.median_abs_dy_px * stOv.geo.display_px_per_px;
-  p.textContent = `Vertical disparity (rectify --check's measure, median |y_r − y_l| of ${r.matches} SIFT + RANSAC matches): ` +
-    `${fmt(r.median_abs_dy_px, 3)} px of the pair (90th percentile ${fmt(r.p90_abs_dy_px, 3)} px; ${fmt(display, 3)} px on ${stOv.geo.display})` +
-    (r.above ? ` — above ${r.threshold_px} px: rectify the pair (vergence rectify) before matching` : ` — below ${r.threshold_px} px`);
+  p.textContent = `Vertical disparity (rectify --check's measure, median |y_r − y_l| of ${r.matches} ` +
+    `SIFT + RANSAC matches): ${fmt(r.median_abs_dy_px, 3)} px of the pair ` +
+    `(90th percentile ${fmt(r.p90_abs_dy_px, 3)} px; ${fmt(display, 3)} px on ${stOv.geo.display})` +
+    (r.above ? ` — above ${r.threshold_px} px: rectify the pair (vergence rectify) before matching`
+      : ` — below ${r.threshold_px} px`);
   p.dataset.value = String(r.median_abs_dy_px);
   p.classList.toggle("st-warn", r.above);
 }
@@ -206,16 +212,23 @@ function stCliNotes() {
     const { shift, mask } = stOv.applied;
     const parts = [];
     const signed = (v) => `${v > 0 ? "+" : ""}${v}`;
-    if (set === stOv.set && shift !== 0) parts.push(`HIT ${signed(shift)} px (left view ${signed(-shift / 2)} px, right view ${signed(shift / 2)} px)`);
-    if (set === stOv.set && (mask.left || mask.right)) parts.push(`floating window: left ${mask.left} px, right ${mask.right} px`);
-    field.value = parts.length ? `${base}  # shown on the page with ${parts.join(", ")}: not applied by this command` : base;
+    if (set === stOv.set && shift !== 0) {
+      parts.push(`HIT ${signed(shift)} px (left view ${signed(-shift / 2)} px, right view ${signed(shift / 2)} px)`);
+    }
+    if (set === stOv.set && (mask.left || mask.right)) {
+      parts.push(`floating window: left ${mask.left} px, right ${mask.right} px`);
+    }
+    field.value = parts.length
+      ? `${base}  # shown on the page with ${parts.join(", ")}: not applied by this command` : base;
   }
   const link = document.getElementById("st-save-shown");
   const { shift, mask } = stOv.applied;
-  const tag = `${stOv.set}_anaglyph_hit${shift >= 0 ? "+" : ""}${shift}px${mask.left || mask.right ? `_window-l${mask.left}-r${mask.right}` : ""}`;
+  const tag = `${stOv.set}_anaglyph_hit${shift >= 0 ? "+" : ""}${shift}px` +
+    `${mask.left || mask.right ? `_window-l${mask.left}-r${mask.right}` : ""}`;
   link.download = `${tag}.png`;
   const shown = stOv.set === "input" ? "the stereo pair as matched" : stOv.set.toUpperCase();
-  link.textContent = `Download the shown pair (${shown}, red-cyan anaglyph at 2×, HIT ${shift >= 0 ? "+" : ""}${shift} px` +
+  link.textContent = `Download the shown pair (${shown}, red-cyan anaglyph at 2×, ` +
+    `HIT ${shift >= 0 ? "+" : ""}${shift} px` +
     `${mask.left || mask.right ? `, floating window left ${mask.left} px, right ${mask.right} px` : ""})`;
 }
 
@@ -233,14 +246,24 @@ function stInitOverlays() {
     pending = true;
     requestAnimationFrame(() => { pending = false; stDrawOverlays(); });
   };
-  document.getElementById("st-ov-set").addEventListener("change", (ev) => stLoadOverlays(ev.target.value).catch(stOverlaysError));
-  document.getElementById("st-heat-scale").addEventListener("change", () => stLoadOverlays(stOv.set).catch(stOverlaysError));
+  document.getElementById("st-ov-set").addEventListener("change",
+    (ev) => stLoadOverlays(ev.target.value).catch(stOverlaysError));
+  document.getElementById("st-heat-scale").addEventListener("change",
+    () => stLoadOverlays(stOv.set).catch(stOverlaysError));
   document.getElementById("st-heat").addEventListener("change", redraw);
   document.getElementById("st-heat-opacity").addEventListener("input", () => {
-    document.getElementById("st-heat-canvas").style.opacity = String(Number(document.getElementById("st-heat-opacity").value) / 100);
+    document.getElementById("st-heat-canvas").style.opacity =
+      String(Number(document.getElementById("st-heat-opacity").value) / 100);
   });
-  document.getElementById("st-hit").addEventListener("input", (ev) => { stOv.shift = Number(ev.target.value); redraw(); });
-  document.getElementById("st-hit-reset").addEventListener("click", () => { stOv.shift = 0; document.getElementById("st-hit").value = "0"; redraw(); });
+  document.getElementById("st-hit").addEventListener("input", (ev) => {
+    stOv.shift = Number(ev.target.value);
+    redraw();
+  });
+  document.getElementById("st-hit-reset").addEventListener("click", () => {
+    stOv.shift = 0;
+    document.getElementById("st-hit").value = "0";
+    redraw();
+  });
   document.getElementById("st-float").addEventListener("change", redraw);
   document.getElementById("st-save-shown").addEventListener("click", (ev) => {
     const link = ev.currentTarget;
