@@ -5,7 +5,6 @@ blended with S2's penalties (angle + field of view) on a proxy built from the po
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -189,8 +188,11 @@ def _source_maps(nodes: np.ndarray, q: np.ndarray, pixels: np.ndarray, handles: 
     share most (:data:`SHARED_EXTRA_SHARE`), else each source's own
     (:func:`_mls_kernels.mls_similarity_points`)."""
     mapped = np.empty((len(handles), len(nodes), 2), dtype=np.float32)
-    common = functools.reduce(lambda a, b: np.intersect1d(a, b, assume_unique=True), [sel for _, sel in handles])
-    extras = [np.setdiff1d(sel, common, assume_unique=True) for _, sel in handles]
+    times = np.zeros(pixels.shape[1], dtype=np.int64)  # of how many sources each point is a handle
+    for _, sel in handles:
+        times[sel] += 1
+    common = np.flatnonzero(times == len(handles))  # ascending, as each source's handles
+    extras = [sel[times[sel] < len(handles)] for _, sel in handles]
     n_extra = sum(e.size for e in extras)
     if 2 <= len(handles) <= _mls_kernels.MAX_SHARED_SETS and n_extra <= SHARED_EXTRA_SHARE * common.size:
         dst = np.stack([pixels[n, common] for n, _ in handles]).astype(np.float32)
