@@ -21,8 +21,8 @@ void main() { gl_Position = vec4(corner, 0.0, 1.0); }`;
   // bilinear value a + t d, t the pixel's fraction of the row. Vertices sit at pixel centres (pixel x's centre
   // x + 0.5 at fraction (x - x0) / (x1 - x0) of its cell, as the kernel's), the outer ones on the frame's edges
   // with their values extrapolated along the cell. u and v are handed on as texture coordinates of the source,
-  // ((u, v) + 0.5) / (w, h): on the source where both lie in [0, 1]; a source left out lies far outside. (Each
-  // pixel reading the 4 sources' nodes from a float texture, bilinear filter, took twice as long on SwiftShader.)
+  // ((u, v) + 0.5) / (w, h): on the source where both lie in [0, 1]; a source left out lies far outside. (A
+  // full-frame pass whose pixels read the 4 sources' nodes from a float texture took a third longer on SwiftShader.)
   const GRID = `#version 300 es
 precision highp float; precision highp int;
 uniform highp sampler2D nodes;  // (nx, ny * 4): (u, v, P_ANG, 0) per node and source
@@ -53,13 +53,13 @@ void main() {
   dp = vec4(bot[0].z, bot[1].z, bot[2].z, bot[3].z);
   gl_Position = vec4(2.0 * X / float(width) - 1.0, 1.0 - 2.0 * Y / float(height), 0.0, 1.0);
 }`;
-  // Each source's pixels read by the texture unit's bilinear filter (one fetch; CLAMP_TO_EDGE repeats the edge
-  // pixels over their outer half as the kernel's taps do; SwiftShader filters in float, GPUs weigh with 8-bit
-  // subtexel steps, 1/256 of a texel), a texture per source image. K (the scene's k) is compiled in: with k = 4
-  // of 4 sources the k-th smallest penalty is the largest, no sort. On SwiftShader every operation a pixel does
-  // counts, branches skip only where no pixel of a 2 x 2 quad takes them, and a uniform array indexed by a
-  // variable costs a gather per pixel (the clamps of the source positions to each source's size did: a quarter
-  // of the pass).
+  // Each source's pixels read by the texture unit's bilinear filter (one fetch, a texture per source image;
+  // CLAMP_TO_EDGE repeats the edge pixels over their outer half as the kernel's taps do; the filter's weights are
+  // the texture unit's, GPUs' in 8-bit subtexel steps, 1/256 of a texel). K (the scene's k) is compiled in: with
+  // k = 4 of 4 sources the k-th smallest penalty is the largest, no sort. On SwiftShader every operation of a
+  // pixel counts (docs/stereospace.md, "Where a still frame's time goes"): a branch is skipped only where no
+  // pixel of a 2 x 2 quad takes it, and the clamps of the source positions to each source's size, read from a
+  // uniform array indexed by the source, took a quarter to a third of the pass.
   const RENDER = (k) => `#version 300 es
 precision highp float; precision highp int;
 #define K ${k}
