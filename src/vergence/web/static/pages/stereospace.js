@@ -129,7 +129,8 @@ async function ssStartGL(job) {
   SS.gl = gl;
   note.dataset.renderer = gl ? "webgl2" : "server";
   note.textContent = gl ? `Drawn in the browser (WebGL2 on ${gl.name}, MLS maps `
-    + `${gl.maps() === "gpu" ? "in a shader pass" : "in JavaScript"}); moves animate. Layouts ${SSGL.FORMATS.join(", ")}; `
+    + `${gl.maps() === "gpu" ? "in a shader pass" : "in JavaScript"}); moves animate. `
+    + `Layouts ${SSGL.FORMATS.join(", ")}; `
     + "the others come from the server." : `${why}: each pair is drawn by the server.`;
 }
 
@@ -306,7 +307,9 @@ function ssFollowOnMap(left, right) {
   set('[data-testid="ss-map-stereo"]', { x: Number(to.X(s[0])) - 5, y: Number(to.Y(s[1])) - 5 });
 }
 
-function ssDrawState(state, moving = false) { return ssDrawCameras(...SSCams.eyeCameras(SS.gl.scene(), state), moving); }
+function ssDrawState(state, moving = false) {
+  return ssDrawCameras(...SSCams.eyeCameras(SS.gl.scene(), state), moving);
+}
 
 // from one state to the next at the display's frame rate: along the parameters inside a region, between the eyes'
 // cameras across a jump; a state on the way that cannot be drawn (no rectification) ends the animation
@@ -321,7 +324,8 @@ function ssAnimate(from, to) {
       const t = Math.min(1, (now - t0) / SS_ANIMATE_MS);
       try {
         if (same) {
-          ssDrawState({ region: to.region, li: from.li + t * (to.li - from.li), lj: from.lj + t * (to.lj - from.lj) }, true);
+          const li = from.li + t * (to.li - from.li), lj = from.lj + t * (to.lj - from.lj);
+          ssDrawState({ region: to.region, li, lj }, true);
         } else ssDrawCameras(SSCams.interpolate(fa, ta, t), SSCams.interpolate(fb, tb, t), true);
       } catch (exc) {
         resolve();
@@ -357,7 +361,8 @@ function ssShowDrawn(inMove) {
   document.getElementById("ss-view").classList.remove("stale");
   const q = SS.view.quality, last = SS.frames[SS.frames.length - 1];
   ssSet("ss-range", q ? q.range_arcmin : null, q && q.range_arcmin !== null
-    ? `${fmt(q.range_arcmin, 3)}′ (zone ${fmt(q.zone_arcmin[1] - q.zone_arcmin[0], 3)}′${q.fits_with_shift ? ", fits with a shift" : ""})`
+    ? `${fmt(q.range_arcmin, 3)}′ (zone ${fmt(q.zone_arcmin[1] - q.zone_arcmin[0], 3)}′`
+      + `${q.fits_with_shift ? ", fits with a shift" : ""})`
     : "— (mono)");
   document.getElementById("ss-caption").textContent = `The stereo view: ${document.getElementById("ss-format").value}, `
     + `${pair.left.width} × ${pair.left.height} per view, drawn in the browser in ${fmt(last.ms, 3)} ms.`;

@@ -130,7 +130,8 @@ const SSCams = (() => {
   // the first and second eye's cameras of a state (vergence.stereospace.pair_cameras)
   function eyeCameras(scene, state) {
     const [i, j] = state.region, seg = scene.segment_cameras, cams = scene.cams;
-    return [interpolate(cams[seg[i][0]], cams[seg[i][1]], state.li), interpolate(cams[seg[j][0]], cams[seg[j][1]], state.lj)];
+    return [interpolate(cams[seg[i][0]], cams[seg[i][1]], state.li),
+      interpolate(cams[seg[j][0]], cams[seg[j][1]], state.lj)];
   }
 
   // vergence.stereospace.eye_order: whether the left eye is the second
@@ -147,7 +148,9 @@ const SSCams = (() => {
     const out = [Infinity, -Infinity, Infinity, -Infinity];
     const at = (x, y) => {
       const h = mulv(T, [x, y, 1]);
-      if (!(h[2] > 0)) throw new Error("this pair cannot be rectified: part of an image maps behind the rectified camera");
+      if (!(h[2] > 0)) {
+        throw new Error("this pair cannot be rectified: part of an image maps behind the rectified camera");
+      }
       const u = h[0] / h[2], v = h[1] / h[2];
       out[0] = Math.min(out[0], u); out[1] = Math.max(out[1], u);
       out[2] = Math.min(out[2], v); out[3] = Math.max(out[3], v);
@@ -226,7 +229,8 @@ const SSCams = (() => {
       if (!seen[p] || !inFront[p]) continue;
       const kx = Math.floor(q[2 * p] / cell), ky = Math.floor(q[2 * p + 1] / cell);
       // one number per cell while |kx|, |ky| < 2^20 (a million cells out); a string beyond
-      const key = Math.abs(kx) < 1048576 && Math.abs(ky) < 1048576 ? (kx + 1048576) * 2097152 + ky + 1048576 : `${kx},${ky}`;
+      const key = Math.abs(kx) < 1048576 && Math.abs(ky) < 1048576
+        ? (kx + 1048576) * 2097152 + ky + 1048576 : `${kx},${ky}`;
       if (taken.has(key)) continue;
       taken.add(key);
       out.push(p);
@@ -298,7 +302,8 @@ const SSCams = (() => {
           // P_ANG at the node's proxy point P = c + depth R^T K^-1 (x, y, 1) (_mls_view_kernels.node_angles)
           const rx = Kinv[0] * xs[i] + Kinv[1] * ys[j] + Kinv[2], ry = Kinv[3] * xs[i] + Kinv[4] * ys[j] + Kinv[5];
           const rz = Kinv[6] * xs[i] + Kinv[7] * ys[j] + Kinv[8];
-          const ax = -proxy * (Rt[0] * rx + Rt[1] * ry + Rt[2] * rz), ay = -proxy * (Rt[3] * rx + Rt[4] * ry + Rt[5] * rz);
+          const ax = -proxy * (Rt[0] * rx + Rt[1] * ry + Rt[2] * rz);
+          const ay = -proxy * (Rt[3] * rx + Rt[4] * ry + Rt[5] * rz);
           const az = -proxy * (Rt[6] * rx + Rt[7] * ry + Rt[8] * rz);  // a = c - P
           const bx = cs[0] - c[0] + ax, by = cs[1] - c[1] + ay, bz = cs[2] - c[2] + az;  // b = c_s - P
           const cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;

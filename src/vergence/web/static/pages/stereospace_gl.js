@@ -200,7 +200,8 @@ void main() {
 
   // a renderer on a canvas, or null without WebGL2
   function create(canvas) {
-    const gl = canvas.getContext("webgl2", { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
+    const gl = canvas.getContext("webgl2",
+      { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
     if (!gl) return null;
     const packs = FORMATS.map((_, layout) => compile(gl, VERTEX, PACK(layout)));
     const renders = new Map();  // the blend's program per k, compiled when a scene first needs it
@@ -352,7 +353,8 @@ void main() {
       drawEye(eyes[1], pair.right);
       const layout = Math.max(0, FORMATS.indexOf(format)), w = pair.left.width, h = pair.left.height;
       const cw = layout === 2 || layout === 3 ? 2 * w : w, ch = layout === 4 ? 2 * h : h;
-      if (canvas.width !== cw || canvas.height !== ch) [canvas.width, canvas.height] = [cw, ch];  // else no reallocation
+      // a new size only when it changes (else no reallocation)
+      if (canvas.width !== cw || canvas.height !== ch) [canvas.width, canvas.height] = [cw, ch];
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       gl.viewport(0, 0, canvas.width, canvas.height);
       const pack = packs[layout];
@@ -377,7 +379,9 @@ void main() {
       gl.readPixels(0, 0, eye.width, eye.height, gl.RGBA, gl.UNSIGNED_BYTE, out);
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
       const rows = new Uint8Array(out.length), stride = 4 * eye.width;
-      for (let y = 0; y < eye.height; y++) rows.set(out.subarray(y * stride, (y + 1) * stride), (eye.height - 1 - y) * stride);
+      for (let y = 0; y < eye.height; y++) {
+        rows.set(out.subarray(y * stride, (y + 1) * stride), (eye.height - 1 - y) * stride);
+      }
       let text = "";
       for (let o = 0; o < rows.length; o += 0x8000) text += String.fromCharCode(...rows.subarray(o, o + 0x8000));
       return { width: eye.width, height: eye.height, rgba: btoa(text) };
