@@ -13,7 +13,9 @@ collection's; for step 16 the mean absolute difference of the two views from ste
 MLS handle instead of one per ``S2_HANDLE_CELL_PX`` cell. The issue's goal is 70 ms a pair on 2 cores: the script
 prints the threads Numba and OpenCV use and the load average (the development machine's 2 cores
 are shared; CPU time is less sensitive to that than wall time; OpenMP threads wait passively unless
-``OMP_WAIT_POLICY`` is set, as the console script does). The numba kernels are compiled (or
+``OMP_WAIT_POLICY`` is set, as the console script does; glibc's malloc keeps freed blocks for reuse, as
+``vergence serve`` sets it, unless ``--default-malloc``: kermit's pairs otherwise fault their images in
+again each time, :mod:`vergence.cli._malloc`). The numba kernels are compiled (or
 loaded from their cache) by a first, untimed pair. Last, per collection, the 4-source pair against the
 goal: its CPU time per stage (the fused render kernel, the MLS maps, the handle selection, the
 nodes' angles, the anaglyph packing) and, interleaved in the same process, the same pair with the
@@ -39,6 +41,7 @@ import cv2  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
+from vergence.cli._malloc import keep_freed_memory  # noqa: E402
 from vergence.stereospace import (  # noqa: E402
     PAIR_METHODS,
     PreparedCollection,
@@ -199,9 +202,13 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=9)
     parser.add_argument("--data", type=Path, default=DATA)
     parser.add_argument("--collections", nargs="+", choices=list(COLLECTIONS), default=list(COLLECTIONS))
+    parser.add_argument("--default-malloc", action="store_true",
+                        help="leave glibc's malloc thresholds as they are (default: as vergence serve sets them)")
     args = parser.parse_args()
+    kept = not args.default_malloc and keep_freed_memory(os.environ)
     print(f"threads: numba {numba.get_num_threads()}, OpenCV {cv2.getNumThreads()}; OMP_WAIT_POLICY="
-          f"{os.environ['OMP_WAIT_POLICY']}; load average {os.getloadavg()[0]:.1f} at the start")  # fmt: skip
+          f"{os.environ['OMP_WAIT_POLICY']}; malloc: {'freed blocks kept (as vergence serve)' if kept else 'defaults'}"
+          f"; load average {os.getloadavg()[0]:.1f} at the start")  # fmt: skip
     mls = PAIR_METHODS["mls"]
     methods = {"mls, 4 sources": mls, "mls, 2 sources": lambda p, cam: mls(p, cam, sources=2)}
     for name in args.collections:

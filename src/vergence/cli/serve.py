@@ -65,6 +65,9 @@ def serve(
         from vergence.web import create_app
     except ImportError as exc:
         raise ValueError(f"vergence serve needs the web extra: pip install 'vergence[web]' ({exc})") from None
+    from vergence.cli._malloc import keep_freed_memory
+
+    keep_freed_memory(os.environ)  # each request's images: freed blocks reused, not faulted in again
     sock = _listen(host, port)
     try:
         address, bound = sock.getsockname()[:2]
