@@ -41,7 +41,6 @@ import cv2  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
-from vergence.cli._malloc import keep_freed_memory  # noqa: E402
 from vergence.stereospace import (  # noqa: E402
     PAIR_METHODS,
     PreparedCollection,
@@ -205,6 +204,9 @@ def main() -> None:
     parser.add_argument("--default-malloc", action="store_true",
                         help="leave glibc's malloc thresholds as they are (default: as vergence serve sets them)")
     args = parser.parse_args()
+    # imported here: tools.stereospace_pair_ab imports this module under older trees, which lack it
+    from vergence.cli._malloc import keep_freed_memory
+
     kept = not args.default_malloc and keep_freed_memory(os.environ)
     print(f"threads: numba {numba.get_num_threads()}, OpenCV {cv2.getNumThreads()}; OMP_WAIT_POLICY="
           f"{os.environ['OMP_WAIT_POLICY']}; malloc: {'freed blocks kept (as vergence serve)' if kept else 'defaults'}"
