@@ -185,23 +185,18 @@ def render_shot(
 
 
 def check_ibr_settings(k: object, tolerance: object, cap: object) -> dict:
-    """render_ibr's k, occlusion_tolerance and deformation_cap for render_shot, checked (None: its default)."""
+    """render_ibr's k, occlusion_tolerance and deformation_cap for render_shot, checked as render_ibr checks them
+    (None: its default)."""
+    from vergence._validate import check_positive, check_positive_int
     from vergence.synthesis.ibr import IBR_OCCLUSION_TOLERANCE, ULR_K
     from vergence.synthesis.ibr_bayes import BAYES_DEFORMATION_CAP
 
-    k = ULR_K if k is None else k
-    if isinstance(k, bool) or not isinstance(k, int | np.integer) or k < 1:
-        raise ValueError(f"k must be an integer >= 1; got {k!r}")
-    out = {"k": int(k)}
-    for name, value, default, low, strict in (("occlusion_tolerance", tolerance, IBR_OCCLUSION_TOLERANCE, 0.0, True),
-                                              ("deformation_cap", cap, BAYES_DEFORMATION_CAP, 1.0, False)):
-        value = default if value is None else value
-        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-            raise TypeError(f"{name} must be a number; got {type(value).__name__}")
-        v = float(value)
-        if not math.isfinite(v) or (v <= low if strict else v < low):
-            raise ValueError(f"{name} must be {'>' if strict else '>='} {low:g} and finite; got {v:g}")
-        out[name] = v
+    out = {"k": check_positive_int("k", ULR_K if k is None else k),
+           "occlusion_tolerance": check_positive("occlusion_tolerance",
+                                                 IBR_OCCLUSION_TOLERANCE if tolerance is None else tolerance),
+           "deformation_cap": check_positive("deformation_cap", BAYES_DEFORMATION_CAP if cap is None else cap)}
+    if out["deformation_cap"] < 1.0:  # Pujades et al. 2014's cap on the deformation weight: at least 1
+        raise ValueError(f"deformation_cap must be >= 1; got {out['deformation_cap']:g}")
     return out
 
 
