@@ -233,3 +233,26 @@ def test_look_at_narrowest_field_of_view_is_finite():
     cam = look_at([0, 0, 0], [0, 0, 1], [0, -1, 0], fov_deg=MIN_FOV_DEG, width=4, height=4)
     # f = 4 / (2 tan(0.0005 deg)) = 229183.1 px
     np.testing.assert_allclose(cam.focal_px, 4 / (2 * math.tan(math.radians(MIN_FOV_DEG / 2))), rtol=1e-12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), s=st.floats(0, 1), near=st.sampled_from([None, 1e-9, 1e-4, math.pi - 1e-6]))
+def test_interpolate_rotation_is_scipys_slerp(seed, s, near):
+    """The quaternion slerp of interpolate against scipy's Slerp (the reference), for random rotations, nearly
+    equal ones and ones almost half a turn apart (the arc's end the quaternions' sign decides)."""
+    from scipy.spatial.transform import Slerp
+
+    rng = np.random.default_rng(seed)
+    ra = Rotation.random(random_state=rng)
+    if near is None:
+        rb = Rotation.random(random_state=rng)
+    else:
+        axis = rng.normal(size=3)
+        rb = ra * Rotation.from_rotvec(near * axis / np.linalg.norm(axis))
+    K = np.array([[100.0, 0, 10], [0, 100.0, 10], [0, 0, 1]])
+    a = Camera(K=K, R=ra.as_matrix(), t=np.zeros(3), width=20, height=20)
+    b = Camera(K=K, R=rb.as_matrix(), t=np.ones(3), width=20, height=20)
+    want = Slerp([0.0, 1.0], Rotation.concatenate([ra, rb]))([s]).as_matrix()[0]
+    got = interpolate(a, b, s).R
+    assert_allclose(got, want, atol=1e-9)
+    assert_allclose(got @ got.T, np.eye(3), atol=1e-12)
