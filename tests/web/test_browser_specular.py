@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import httpx
 import pytest
+from web_checks import run_specular_page
 
 pytestmark = pytest.mark.browser
 
@@ -17,15 +18,8 @@ TINY = {"width": 96, "height": 72, "k": 2, "samples": 1}
 
 
 def _run_tiny(page, server_url: str) -> None:
-    page.goto(server_url + "/#specular")
-    page.wait_for_function("document.body.dataset.state === 'ready'", timeout=15_000)
-    assert page.locator('[data-testid="spec-scene"]').input_value() == "scene:glasses"
-    for name, value in TINY.items():
-        page.locator(f'[data-testid="spec-{name}"]').fill(str(value))
-    page.click('[data-testid="spec-run"]')
-    page.wait_for_function("!document.getElementById('spec-result').hidden "
-                           "|| document.body.dataset.state === 'error'", timeout=JOB_MS)
-    assert page.locator("#error").is_hidden(), page.locator("#error").inner_text()
+    run_specular_page(page, server_url, TINY, timeout_ms=JOB_MS)
+    assert page.locator('[data-testid="spec-scene"]').input_value() == "scene:glasses"  # the page's default scene
 
 
 def _value(page, testid: str) -> float | None:

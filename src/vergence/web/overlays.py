@@ -97,6 +97,20 @@ def stereo_overlay(summary: dict[str, Any], *, scale_arcmin: float = HEAT_SCALE_
     }  # fmt: skip
 
 
+def _done_result(jobs: JobManager, job_id: str, kinds: tuple[str, ...], named: str) -> dict[str, Any] | Response:
+    """The result of the done job ``job_id`` of one of ``kinds``, or the refusal to answer: 404 for an unknown id
+    or a job of another kind (``named`` in the message), 409 before it is done."""
+    try:
+        status, _ = jobs.status(jobs.get(job_id))
+    except KeyError as exc:
+        return refusal(404, str(exc.args[0]))
+    if status["kind"] not in kinds:
+        return refusal(404, f"job {job_id} is a {status['kind']} job, not a {named} job")
+    if status["state"] != "done":
+        return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
+    return status["result"]
+
+
 def add_stereo_routes(app: FastAPI, jobs: JobManager) -> None:
     """``GET /api/stereo/{job_id}/overlay``: :func:`stereo_overlay` of a done synthesize job."""
     error = {"content": {"application/json": {"example": {"error": "one line"}}}}
@@ -111,16 +125,11 @@ def add_stereo_routes(app: FastAPI, jobs: JobManager) -> None:
         """The comfort zone, divergence limit and colour scale in px of the pair, the stereo-window rule, the
         name of the job's parallax map (``GET /api/jobs/{job_id}/files/parallax.npy``) and, for a stereo pair,
         its vertical disparity; 404 for an unknown id or another kind of job, 409 before it is done."""
+        result = _done_result(jobs, job_id, ("synthesize",), "synthesize")
+        if isinstance(result, Response):
+            return result
         try:
-            status, _ = jobs.status(jobs.get(job_id))
-        except KeyError as exc:
-            return refusal(404, str(exc.args[0]))
-        if status["kind"] != "synthesize":
-            return refusal(404, f"job {job_id} is a {status['kind']} job, not a synthesize job")
-        if status["state"] != "done":
-            return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
-        try:
-            return JSONResponse(stereo_overlay(status["result"], scale_arcmin=scale_arcmin, of=of))
+            return JSONResponse(stereo_overlay(result, scale_arcmin=scale_arcmin, of=of))
         except ValueError as exc:
             return refusal(422, str(exc))
 
@@ -166,12 +175,7 @@ def add_specular_routes(app: FastAPI, jobs: JobManager) -> None:
         """The comfort zone, the divergence limit and the colour scale in arcmin of the job's display (as shown),
         and the name of its disparity array (``GET /api/jobs/{job_id}/files/disparity_after.npy``); 404 for an
         unknown id or a job of another kind, 409 before it is done."""
-        try:
-            status, _ = jobs.status(jobs.get(job_id))
-        except KeyError as exc:
-            return refusal(404, str(exc.args[0]))
-        if status["kind"] not in ("specular", "specular-reoptimise"):
-            return refusal(404, f"job {job_id} is a {status['kind']} job, not a specular job")
-        if status["state"] != "done":
-            return refusal(409, f"job {job_id} is {status['state']}: its overlays exist once it is done")
-        return JSONResponse(specular_overlay(status["result"], scale_arcmin=scale_arcmin))
+        result = _done_result(jobs, job_id, ("specular", "specular-reoptimise"), "specular")
+        if isinstance(result, Response):
+            return result
+        return JSONResponse(specular_overlay(result, scale_arcmin=scale_arcmin))
