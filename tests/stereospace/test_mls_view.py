@@ -16,7 +16,7 @@ from vergence.camera import Camera, look_at
 from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, mls_similarity, s2_view
 from vergence.stereospace import _mls_view_kernels
 from vergence.stereospace.mls import _grid_nodes, node_grid
-from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, _node_angles
+from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, _node_angles, pack_rgb
 
 PLANE_Z = 5.0
 W, H = 64, 48
@@ -116,8 +116,8 @@ def _render_reference(images, ids, at_nodes, xs, ys, shape, k):
 
 
 def _render_kernel(stack, sizes, ids, at_nodes, xs, ys, shape, k, weights, negligible=0.0):
-    image = np.empty((*shape, stack.shape[3]), np.float32)
-    if stack.dtype == np.uint8:
+    image = np.empty((*shape, 3 if stack.ndim == 3 else stack.shape[3]), np.float32)  # 3-D: packed RGB
+    if stack.dtype in (np.uint8, np.uint32):
         unit = 1.0 / 255.0
     else:
         unit = 1.0
@@ -161,6 +161,9 @@ def test_render_kernel_matches_a_slow_reference(k):
     assert_allclose(_render_kernel(codes, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))),
                     _render_kernel(as_float, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))),
                     atol=2e-7, rtol=0)  # float32 round-off of one scaling  # fmt: skip
+    # RGB bytes packed in a uint32 a pixel: the same sums in the same order, the same view
+    assert_array_equal(_render_kernel(pack_rgb(codes), sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))),
+                       _render_kernel(codes, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))))
 
 
 def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():

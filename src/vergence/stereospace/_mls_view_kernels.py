@@ -26,17 +26,55 @@ _KEY_CLIP = 1 << 62
 
 
 @nb.njit(cache=True, inline="always")
-def _taps(u, v, h, w, base, row_stride, n_ch, weight):  # pragma: no cover - compiled
+def _taps(u, v, h, w, base, row_stride, px_stride, weight):  # pragma: no cover - compiled
     """Offsets (into the flattened image stack) of the 4 pixels around ``(u, v)`` of an ``h x w``
-    image starting at ``base``, edge pixels repeated, and their bilinear weights times ``weight``."""
+    image starting at ``base`` (``px_stride`` values a pixel), edge pixels repeated, and their
+    bilinear weights times ``weight``."""
     fx, fy = math.floor(u), math.floor(v)
     dx, dy = u - fx, v - fy
     ix, iy = int(fx), int(fy)
-    x0, x1 = max(ix, 0) * n_ch, min(ix + 1, w - 1) * n_ch
+    x0, x1 = max(ix, 0) * px_stride, min(ix + 1, w - 1) * px_stride
     y0, y1 = base + max(iy, 0) * row_stride, base + min(iy + 1, h - 1) * row_stride
     top, bottom = weight * (1.0 - dy), weight * dy
     return (y0 + x0, y0 + x1, y1 + x0, y1 + x1, top * (1.0 - dx), top * dx, bottom * (1.0 - dx),
             bottom * dx)  # fmt: skip
+
+
+def _add_sample(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x, values):  # pragma: no cover
+    """The bilinear sample (taps ``o..``, weights ``w..``) added to the pixel ``x`` of the row's sums:
+    ``red``, ``green``, ``blue`` for RGB, ``row[x, c]`` for other channel counts. RGB packed in a uint32
+    (``R | G << 8 | B << 16``), bytes read through ``values`` (their float64), float32 values as they are.
+    Replaced by its overload in compiled code."""
+    raise NotImplementedError("compiled only")
+
+
+@overload(_add_sample, inline="always")
+def _add_sample_overload(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x,
+                         values):  # pragma: no cover - compiled
+    if flat.dtype == nb.types.uint32:
+        def packed(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x, values):
+            p00, p01, p10, p11 = flat[o00], flat[o01], flat[o10], flat[o11]
+            red[x] += (w00 * np.float64(p00 & 255) + w01 * np.float64(p01 & 255)
+                       + w10 * np.float64(p10 & 255) + w11 * np.float64(p11 & 255))
+            green[x] += (w00 * np.float64((p00 >> 8) & 255) + w01 * np.float64((p01 >> 8) & 255)
+                         + w10 * np.float64((p10 >> 8) & 255) + w11 * np.float64((p11 >> 8) & 255))
+            blue[x] += (w00 * np.float64((p00 >> 16) & 255) + w01 * np.float64((p01 >> 16) & 255)
+                        + w10 * np.float64((p10 >> 16) & 255) + w11 * np.float64((p11 >> 16) & 255))
+        return packed
+
+    def channels(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x, values):
+        if row.shape[1] == 3:
+            red[x] += (w00 * _stored(flat, o00, values) + w01 * _stored(flat, o01, values)
+                       + w10 * _stored(flat, o10, values) + w11 * _stored(flat, o11, values))
+            green[x] += (w00 * _stored(flat, o00 + 1, values) + w01 * _stored(flat, o01 + 1, values)
+                         + w10 * _stored(flat, o10 + 1, values) + w11 * _stored(flat, o11 + 1, values))
+            blue[x] += (w00 * _stored(flat, o00 + 2, values) + w01 * _stored(flat, o01 + 2, values)
+                        + w10 * _stored(flat, o10 + 2, values) + w11 * _stored(flat, o11 + 2, values))
+        else:
+            for c in range(row.shape[1]):
+                row[x, c] += (w00 * _stored(flat, o00 + c, values) + w01 * _stored(flat, o01 + c, values)
+                              + w10 * _stored(flat, o10 + c, values) + w11 * _stored(flat, o11 + c, values))
+    return channels
 
 
 def _stored(flat, o, values):  # pragma: no cover - replaced by its overload in compiled code
@@ -58,7 +96,8 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
 
     Source ``s`` is the image ``unit * images[ids[s]]`` (``images (N, Hm, Wm, C)`` float32 with
     ``unit`` 1, or uint8 with ``unit`` 1/255: the colour is summed from the stored values and scaled
-    once; its pixels
+    once; or ``(N, Hm, Wm)`` uint32, 8-bit RGB packed ``R | G << 8 | B << 16``, with ``unit``
+    1/255); its pixels
     ``sizes[ids[s]] = (h_s, w_s)``; ``ids[s] < 0``: left out). ``at_nodes[s] (ny, nx, 3)`` holds at
     the node columns ``xs`` and rows ``ys`` (``0, step, 2 step, ..., last pixel``; at least 2 of
     each) its MLS map (target pixel -> source position ``(u, v)``) and its angle penalty ``P_ANG``
@@ -78,9 +117,12 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
     (branch-free where it can be, so that the compiler vectorises it): the maps and penalties cell
     by cell of the grid, the ULR threshold (with exactly k valid sources ``P_(k)`` is the largest
     valid penalty: no sort), the weights and their normalisation (the same divisions as pixel by
-    pixel: the same weights); the colour is gathered source by source (each source's rows read in order: twice
-    as fast as pixel by pixel, where the sources' rows evict each other from the cache), 8-bit
-    values read through a table of their float64 values.
+    pixel: the same weights); the colour is gathered source by source (each source's rows read in
+    order: twice as fast as pixel by pixel, where the sources' rows evict each other from the cache)
+    into one sum a channel, 8-bit values read through a table of their float64 values or unpacked
+    from their uint32. The row's arrays are indexed, never sliced into views: with no view in the
+    parallel loop Numba tells LLVM that its arrays do not overlap (``noalias``), and the row loops
+    are vectorised without run-time overlap checks.
     """
     s_count = ids.shape[0]
     h, w, n_ch = image.shape
@@ -88,9 +130,10 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
     ny = ys.shape[0]
     keep = weights.shape[1] == h and weights.shape[2] == w
     flat = images.reshape(-1)
-    row_stride = images.shape[2] * n_ch
-    image_stride = images.shape[1] * row_stride
-    values = np.arange(256).astype(np.float64)  # a stored byte's value (unused for float32 images)
+    image_stride = flat.shape[0] // images.shape[0]
+    row_stride = image_stride // images.shape[1]
+    px_stride = row_stride // images.shape[2]  # 1 packed, else the channels
+    values = np.arange(256).astype(np.float64)  # a stored byte's value (unused for other images)
     frac = np.empty(w)  # each column's position in its grid cell
     for x in range(w):
         i = min(x // step, nx - 2)
@@ -105,12 +148,16 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
         thresh = np.empty(w)
         total = np.zeros(w)
         order = np.empty(s_count)
+        red = np.zeros(w)  # the colour: RGB in three sums (one array each: they cannot overlap)
+        green = np.zeros(w)
+        blue = np.zeros(w)
+        row = np.zeros((w if n_ch != 3 else 0, n_ch))  # other channel counts
         j = min(y // step, ny - 2)
         ty = (y - ys[j]) / (ys[j + 1] - ys[j])
         for s in range(s_count):
-            pen_s, us_s, vs_s = pen[s], us[s], vs[s]
             if ids[s] < 0:
-                pen_s[:] = np.inf
+                for x in range(w):
+                    pen[s, x] = np.inf
                 continue
             v_max, u_max = sizes[ids[s], 0] - 0.5, sizes[ids[s], 1] - 0.5
             for i in range(nx):  # the node rows j and j + 1 mixed: the map and angle along this row
@@ -123,14 +170,14 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                     tx = frac[x]
                     u = u0 + tx * du
                     v = v0 + tx * dv
-                    us_s[x] = u
-                    vs_s[x] = v
+                    us[s, x] = u
+                    vs[s, x] = v
                     valid = (u >= -0.5) & (u <= u_max) & (v >= -0.5) & (v <= v_max)
-                    pen_s[x] = max(floor, t0 + tx * dt) if valid else np.inf
+                    pen[s, x] = max(floor, t0 + tx * dt) if valid else np.inf
             for x in range(w):
-                valid = pen_s[x] < np.inf
+                valid = pen[s, x] < np.inf
                 count[x] += 1 if valid else 0
-                largest[x] = max(largest[x], pen_s[x]) if valid else largest[x]
+                largest[x] = max(largest[x], pen[s, x]) if valid else largest[x]
         for x in range(w):  # scale P_(k) where m >= k
             m = count[x]
             if m == k:
@@ -147,23 +194,20 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
             else:
                 thresh[x] = np.inf
         for s in range(s_count):
-            pen_s = pen[s]
             for x in range(w):
-                p = pen_s[x]
+                p = pen[s, x]
                 wt = max(0.0, 1.0 - p / thresh[x]) if count[x] >= k else 1.0
                 wt = wt if p < np.inf else 0.0
-                pen_s[x] = wt
+                pen[s, x] = wt
                 total[x] += wt
         for x in range(w):
             total[x] = total[x] if total[x] > 0.0 else np.inf  # no valid source: weights 0
         for s in range(s_count):
-            pen_s = pen[s]
             for x in range(w):
-                pen_s[x] /= total[x]
+                pen[s, x] /= total[x]
             if keep:
                 for x in range(w):
-                    weights[s, y, x] = pen_s[x]
-        row = np.zeros((w, n_ch))
+                    weights[s, y, x] = pen[s, x]
         for s in range(s_count):  # the colour source by source: each source's rows read in order
             n = ids[s]
             if n < 0:
@@ -172,20 +216,17 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
                 wn = pen[s, x]
                 if wn > negligible:
                     o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], sizes[n, 0], sizes[n, 1],
-                                                                   n * image_stride, row_stride, n_ch, wn)  # fmt: skip
-                    if n_ch == 3:  # RGB spelt out: the compiler keeps the three sums in registers
-                        for c in range(3):
-                            row[x, c] += (w00 * _stored(flat, o00 + c, values) + w01 * _stored(flat, o01 + c, values)
-                                          + w10 * _stored(flat, o10 + c, values)
-                                          + w11 * _stored(flat, o11 + c, values))  # fmt: skip
-                    else:
-                        for c in range(n_ch):
-                            row[x, c] += (w00 * _stored(flat, o00 + c, values) + w01 * _stored(flat, o01 + c, values)
-                                          + w10 * _stored(flat, o10 + c, values)
-                                          + w11 * _stored(flat, o11 + c, values))  # fmt: skip
-        for x in range(w):
-            for c in range(n_ch):
-                image[y, x, c] = row[x, c] * unit
+                                                                   n * image_stride, row_stride, px_stride, wn)  # fmt: skip
+                    _add_sample(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x, values)
+        if n_ch == 3:
+            for x in range(w):
+                image[y, x, 0] = red[x] * unit
+                image[y, x, 1] = green[x] * unit
+                image[y, x, 2] = blue[x] * unit
+        else:
+            for x in range(w):
+                for c in range(n_ch):
+                    image[y, x, c] = row[x, c] * unit
 
 
 @nb.njit(cache=True, inline="always")  # inlined: compiled with select_handles, never on its own

@@ -105,13 +105,15 @@ class SourceSet:
     """Source cameras made ready for S2's views (:func:`render_source_set`): what depends on the sources
     and the points only, never on the target, so a collection computes it once.
 
-    ``images (N, Hm, Wm, C)``, each image in the corner of the largest size, times ``unit`` the
-    float32 images: uint8 with ``unit = 1/255`` when every image is exactly ``v / 255`` in float32
-    (an 8-bit photo: a quarter of the memory, and the render kernel's samples 10-15 % faster on
-    dino and kermit; the views differ by at most 6e-8), else float32 with ``unit = 1``;
-    ``sizes (N, 2)`` its ``(h, w)``, ``centres (N, 3)``, ``pixels (N, P, 2)`` the points projected
-    into each camera and ``seen (N, P)`` which of them are in front of it and on its image
-    (``-0.5 <= x <= w - 0.5``).
+    ``images``: each image in the corner of the largest size, times ``unit`` the float32 images. When
+    every image is exactly ``v / 255`` in float32 (an 8-bit photo) the stored values are its bytes with
+    ``unit = 1/255`` (a quarter of the memory; the views differ by at most 6e-8): RGB packed in one
+    uint32 a pixel, ``R | G << 8 | B << 16``, ``(N, Hm, Wm)`` (one load a bilinear tap instead of
+    three: the render kernel's RGB pairs 0.85-0.95 of the time on kermit and dino,
+    ``benchmarks/stereospace_pair.py``), other channel counts ``(N, Hm, Wm, C)`` uint8. Otherwise
+    float32 ``(N, Hm, Wm, C)`` with ``unit = 1``. ``sizes (N, 2)`` its ``(h, w)``, ``centres (N, 3)``,
+    ``pixels (N, P, 2)`` the points projected into each camera and ``seen (N, P)`` which of them are
+    in front of it and on its image (``-0.5 <= x <= w - 0.5``).
     """
 
     cameras: tuple[Camera, ...]
@@ -122,11 +124,25 @@ class SourceSet:
     seen: np.ndarray
     unit: float
 
+    @property
+    def channels(self) -> int:
+        """Channels of the images."""
+        return 3 if self.images.ndim == 3 else self.images.shape[3]
+
     def image(self, k: int) -> np.ndarray:
         """Image ``k`` as float32 ``(h, w, C)``, the values it was given (exactly)."""
         h, w = self.sizes[k]
         stored = self.images[k, :h, :w]
+        if stored.ndim == 2:  # packed RGB
+            stored = np.stack([(stored >> shift) & 255 for shift in (0, 8, 16)], axis=2).astype(np.uint8)
         return stored if self.unit == 1.0 else _from_bytes(stored)
+
+
+def pack_rgb(image: np.ndarray) -> np.ndarray:
+    """``(H, W, 3)`` RGB bytes (any integer type in 0..255) as one uint32 a pixel,
+    ``R | G << 8 | B << 16`` (the render kernel's packed images)."""
+    wide = image.astype(np.uint32)
+    return wide[..., 0] | (wide[..., 1] << 8) | (wide[..., 2] << 16)
 
 
 def _from_bytes(values: np.ndarray) -> np.ndarray:
@@ -141,9 +157,11 @@ def source_set(cameras: Sequence[Camera], images: Sequence[np.ndarray], points: 
     as_bytes = [np.rint(img * np.float32(255.0)) for img in images]
     eight_bit = all(((b >= 0) & (b <= 255)).all() and np.array_equal(_from_bytes(b.astype(np.uint8)), img)
                     for b, img in zip(as_bytes, images))  # fmt: skip
-    stack = np.zeros((len(images), *sizes.max(axis=0), images[0].shape[2]), dtype=np.uint8 if eight_bit else np.float32)
+    packed = eight_bit and images[0].shape[2] == 3
+    stored_shape = (len(images), *sizes.max(axis=0)) + (() if packed else (images[0].shape[2],))
+    stack = np.zeros(stored_shape, dtype=np.uint32 if packed else np.uint8 if eight_bit else np.float32)
     for n, img in enumerate(images):
-        stack[n, : img.shape[0], : img.shape[1]] = as_bytes[n] if eight_bit else img
+        stack[n, : img.shape[0], : img.shape[1]] = pack_rgb(as_bytes[n]) if packed else as_bytes[n] if eight_bit else img
     as_bytes.clear()
     pixels = np.empty((len(cameras), len(points), 2))
     seen = np.empty((len(cameras), len(points)), dtype=bool)
@@ -253,8 +271,7 @@ def render_source_set(
     if xs.size == 1 or ys.size == 1:  # a one-pixel-wide or -high view: phantom nodes (else no copy)
         xs, ys, cells = with_cells(xs, ys, np.moveaxis(at_nodes, 0, 2))
         at_nodes = np.ascontiguousarray(np.moveaxis(cells, 2, 0))
-    channels = sources.images.shape[3]
-    image = np.empty((h, w, channels), dtype=np.float32)
+    image = np.empty((h, w, sources.channels), dtype=np.float32)
     weights = np.empty((len(ids), h, w) if keep_weights else (len(ids), 0, 0))
     _mls_view_kernels.render_view(sources.images, sources.sizes, used, at_nodes, xs, ys, grid_step, S2_PENALTY_FLOOR,
                                   k, S2_THRESHOLD_SCALE, NEGLIGIBLE_WEIGHT, image, weights, sources.unit)  # fmt: skip
