@@ -5,6 +5,7 @@ blended with S2's penalties (angle + field of view) on a proxy built from the po
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -187,6 +188,15 @@ def _cell_window(width: int, height: int, cell: float) -> np.ndarray:
     return np.array([x0, y0, x1, y1], dtype=np.int64)
 
 
+@functools.lru_cache(maxsize=8)
+def _view_nodes(h: int, w: int, grid_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`~vergence.stereospace.mls.node_grid` of an ``h x w`` view and its nodes in float32: the same
+    for every view of that size (a stereo pair's two eyes and the next states'), made once. Shared: never
+    written (left writeable so that the kernels keep their one compiled signature)."""
+    xs, ys, nodes = node_grid((h, w), grid_step)
+    return xs, ys, nodes, nodes.astype(np.float32)
+
+
 def _node_angles(target: Camera, nodes: np.ndarray, centres: np.ndarray, depth: float) -> np.ndarray:
     """``P_ANG (S, len(nodes))`` (S2 §3.1 Eq. (4)): at each node's proxy point ``P`` (its ray at
     camera-frame ``depth``), the angle between ``C_target - P`` and ``centres[s] - P`` (atan2 of
@@ -244,8 +254,7 @@ def render_source_set(
         raise ValueError("points must hold at least one point in front of target")
     proxy_depth = float(np.median(z_target[in_front]))
     h, w = target.height, target.width
-    xs, ys, nodes = node_grid((h, w), grid_step)
-    nodes32 = nodes.astype(np.float32)
+    xs, ys, nodes, nodes32 = _view_nodes(h, w, grid_step)
     ids = np.asarray(ids, dtype=np.int64)
     used = ids.copy()
     counts = np.zeros(len(ids), dtype=np.int64)
