@@ -26,17 +26,20 @@ _KEY_CLIP = 1 << 62
 
 
 @nb.njit(cache=True, inline="always")
-def _taps(u, v, h, w, base, row_stride, px_stride, weight):  # pragma: no cover - compiled
-    """Offsets (into the flattened image stack) of the 4 pixels around ``(u, v)`` of an ``h x w``
-    image starting at ``base`` (``px_stride`` values a pixel), edge pixels repeated, and their
-    bilinear weights times ``weight``."""
-    fx, fy = math.floor(u), math.floor(v)
+def _taps(u, v, last_x, last_y, base, row_stride, px_stride, weight):  # pragma: no cover - compiled
+    """Offsets (into the flattened image stack) of the 4 pixels around ``(u, v)``, ``-1 <= floor(u) <=
+    last_x`` and ``-1 <= floor(v) <= last_y`` (the image's last column and row, as floats), of an image
+    starting at ``base`` (``row_stride`` and ``px_stride`` values a row and a pixel; all three floats),
+    edge pixels repeated, and their bilinear weights times ``weight``. The first offset is computed in
+    float64 (exact below 2**53) and the others added by selects: no integer multiplication, which the
+    vectorised loop would do in 64-bit lanes."""
+    fx, fy = np.floor(u), np.floor(v)
     dx, dy = u - fx, v - fy
-    ix, iy = int(fx), int(fy)
-    x0, x1 = max(ix, 0) * px_stride, min(ix + 1, w - 1) * px_stride
-    y0, y1 = base + max(iy, 0) * row_stride, base + min(iy + 1, h - 1) * row_stride
+    o00 = np.int64(base + max(fy, 0.0) * row_stride + max(fx, 0.0) * px_stride)
+    o01 = o00 + (np.int64(px_stride) if (fx >= 0.0) & (fx < last_x) else 0)
+    down = np.int64(row_stride) if (fy >= 0.0) & (fy < last_y) else 0
     top, bottom = weight * (1.0 - dy), weight * dy
-    return (y0 + x0, y0 + x1, y1 + x0, y1 + x1, top * (1.0 - dx), top * dx, bottom * (1.0 - dx),
+    return (o00, o01, o00 + down, o01 + down, top * (1.0 - dx), top * dx, bottom * (1.0 - dx),
             bottom * dx)  # fmt: skip
 
 
@@ -53,7 +56,7 @@ def _add_sample_overload(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, gree
                          values):  # pragma: no cover - compiled
     if flat.dtype == nb.types.uint32:
         def packed(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x, values):
-            p00, p01, p10, p11 = flat[o00], flat[o01], flat[o10], flat[o11]
+            p00, p01, p10, p11 = flat[np.uint64(o00)], flat[np.uint64(o01)], flat[np.uint64(o10)], flat[np.uint64(o11)]
             red[x] += (w00 * np.float64(p00 & 255) + w01 * np.float64(p01 & 255)
                        + w10 * np.float64(p10 & 255) + w11 * np.float64(p11 & 255))
             green[x] += (w00 * np.float64((p00 >> 8) & 255) + w01 * np.float64((p01 >> 8) & 255)
@@ -85,8 +88,8 @@ def _stored(flat, o, values):  # pragma: no cover - replaced by its overload in 
 @overload(_stored, inline="always")
 def _stored_overload(flat, o, values):  # pragma: no cover - compiled
     if flat.dtype == nb.types.uint8:
-        return lambda flat, o, values: values[flat[o]]
-    return lambda flat, o, values: np.float64(flat[o])
+        return lambda flat, o, values: values[flat[np.uint64(o)]]
+    return lambda flat, o, values: np.float64(flat[np.uint64(o)])
 
 
 @nb.njit(cache=True, parallel=True, error_model="numpy")
@@ -122,7 +125,10 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
     into one sum a channel, 8-bit values read through a table of their float64 values or unpacked
     from their uint32. The row's arrays are indexed, never sliced into views: with no view in the
     parallel loop Numba tells LLVM that its arrays do not overlap (``noalias``), and the row loops
-    are vectorised without run-time overlap checks.
+    are vectorised without run-time overlap checks, the colour gather included (masked AVX gathers,
+    the taps' offsets from float64 products: no 64-bit integer multiplication in the lanes). With
+    views and RGB read byte by byte (the tree at ``a8db4fb``) kermit's and dino's pairs took 1.1-1.3
+    times the CPU time, with identical images (``tools.stereospace_pair_ab``, docs/stereospace.md).
     """
     s_count = ids.shape[0]
     h, w, n_ch = image.shape
@@ -133,6 +139,7 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
     image_stride = flat.shape[0] // images.shape[0]
     row_stride = image_stride // images.shape[1]
     px_stride = row_stride // images.shape[2]  # 1 packed, else the channels
+    rows_f, px_f = np.float64(row_stride), np.float64(px_stride)
     values = np.arange(256).astype(np.float64)  # a stored byte's value (unused for other images)
     frac = np.empty(w)  # each column's position in its grid cell
     for x in range(w):
@@ -212,11 +219,13 @@ def render_view(images, sizes, ids, at_nodes, xs, ys, step, floor, k, scale, neg
             n = ids[s]
             if n < 0:
                 continue
+            last_x, last_y = np.float64(sizes[n, 1] - 1), np.float64(sizes[n, 0] - 1)
+            base = np.float64(n * image_stride)
             for x in range(w):
                 wn = pen[s, x]
                 if wn > negligible:
-                    o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], sizes[n, 0], sizes[n, 1],
-                                                                   n * image_stride, row_stride, px_stride, wn)  # fmt: skip
+                    o00, o01, o10, o11, w00, w01, w10, w11 = _taps(us[s, x], vs[s, x], last_x, last_y, base,
+                                                                   rows_f, px_f, wn)  # fmt: skip
                     _add_sample(flat, o00, o01, o10, o11, w00, w01, w10, w11, red, green, blue, row, x, values)
         if n_ch == 3:
             for x in range(w):
