@@ -166,6 +166,28 @@ def test_render_kernel_matches_a_slow_reference(k):
                        _render_kernel(codes, sizes, ids, at_nodes, xs, ys, (10, 13), k, np.empty((5, 0, 0))))
 
 
+@pytest.mark.parametrize("channels", [1, 2, 4])
+def test_render_kernel_other_channel_counts_match_the_reference(channels):
+    """Grey, two- and four-channel sources take the kernel's per-channel sums (RGB alone has three
+    sums of its own, and is packed when 8-bit): float32 and 8-bit stacks against the slow reference."""
+    rng = np.random.default_rng(10 + channels)
+    sizes = [(9, 11), (7, 12)]
+    xs, ys = _grid_nodes(13, 4), _grid_nodes(10, 4)
+    ids = np.array([1, 0, 1])
+    at_nodes = np.concatenate([rng.uniform(-2.0, 13.0, (3, ys.size, xs.size, 2)),
+                               rng.uniform(0.0, 0.3, (3, ys.size, xs.size, 1))], axis=3)  # fmt: skip
+    codes = np.zeros((2, 9, 12, channels), np.uint8)
+    for n, (hh, ww) in enumerate(sizes):
+        codes[n, :hh, :ww] = rng.integers(0, 256, (hh, ww, channels))
+    as_float = codes.astype(np.float32) / np.float32(255.0)
+    images = [as_float[n, :hh, :ww] for n, (hh, ww) in enumerate(sizes)]
+    ref, _ = _render_reference(images, ids, at_nodes, xs, ys, (10, 13), 2)
+    for stack in (as_float, codes):
+        out = _render_kernel(stack, sizes, ids, at_nodes, xs, ys, (10, 13), 2, np.empty((3, 0, 0)))
+        assert out.shape == (10, 13, channels)
+        assert_allclose(out, ref, atol=1e-6)
+
+
 def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():
     target = look_at([0.1, 0.2, -0.3], [0.5, 0, 5], [0.1, -1.0, 0.0], fov_deg=5.0, width=61, height=45)
     centres = np.array([[-0.4, 0.0, 0.0], [0.3, 0.2, 0.0], target.center])
