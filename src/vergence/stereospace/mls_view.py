@@ -162,7 +162,8 @@ def source_set(cameras: Sequence[Camera], images: Sequence[np.ndarray], points: 
     stored_shape = (len(images), *sizes.max(axis=0)) + (() if packed else (images[0].shape[2],))
     stack = np.zeros(stored_shape, dtype=np.uint32 if packed else np.uint8 if eight_bit else np.float32)
     for n, img in enumerate(images):
-        stack[n, : img.shape[0], : img.shape[1]] = pack_rgb(as_bytes[n]) if packed else as_bytes[n] if eight_bit else img
+        stored = pack_rgb(as_bytes[n]) if packed else as_bytes[n] if eight_bit else img
+        stack[n, : img.shape[0], : img.shape[1]] = stored
     as_bytes.clear()
     pixels = np.empty((len(cameras), len(points), 2))
     seen = np.empty((len(cameras), len(points)), dtype=bool)

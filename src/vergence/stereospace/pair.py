@@ -29,20 +29,17 @@ Decisions (S2 leaves them open)
 Speed
 -----
 :class:`PreparedCollection` does once what does not depend on the pair: the camera graph, every
-image decoded into one float32 stack, the sparse points projected into every camera. A view then
+image decoded into one stack (8-bit photos as bytes, RGB packed one uint32 a pixel), the sparse
+points projected into every camera. A view then
 costs one parallel MLS evaluation of its sources at the grid nodes (float32, nodes x handles) and
 one fused pass over its pixels (maps, penalties, ULR weights, bilinear samples); the handles and
 the nodes' angle penalties come from Numba kernels too (``_mls_view_kernels``), and the handles
-the sources share are weighed once for all of them. Issue 27's figures (a dino pair 92-99 CPU-ms
-median at load 5-7, 63-69 the least, 87-106 before its last session; the render kernel 48-58 of
-them; the goal of 70 met only in the quietest runs) are in docs/stereospace.md. Measured earlier on the
-shared 2-core development machine (load average 2.5 to 4.5), median anaglyph-packed 640 x 480
-pairs from 4 sources (``benchmarks/stereospace_pair.py``): kermit (634 points) 85-109 ms prepared
-(140-147 ms of CPU time on 2 threads), 139-164 ms from the bare collection; dino (6,487 points,
-about 6,000 handles a source) 167-304 ms prepared, 347-379 ms bare. The former implementation
-(per-source ``mls_warp``, numpy blend and sRGB) took 517-761 ms (kermit) and 882-1531 ms (dino)
-prepared in the same hour. On dino the MLS maps are half of the time: ``PreparedCollection(grid_step=16)``
-makes them 4 times cheaper.
+the sources share are weighed once for all of them. On the shared 2-core development machine an
+anaglyph-packed 640 x 480 pair from 4 sources of the prepared collection takes 70.9 CPU-ms (kermit,
+wall 41.9 ms) and 80.8 (dino, wall 49.1): the goal of 70 CPU-ms is not met at the median
+(``benchmarks/stereospace_pair.py``; the history and what was tried are in docs/stereospace.md).
+On dino the MLS maps are a quarter of the time: ``PreparedCollection(grid_step=16)`` makes them 4
+times cheaper.
 """
 
 from __future__ import annotations
