@@ -108,10 +108,9 @@ class SourceSet:
 
     ``images``: each image in the corner of the largest size, times ``unit`` the float32 images. When
     every image is exactly ``v / 255`` in float32 (an 8-bit photo) the stored values are its bytes with
-    ``unit = 1/255`` (a quarter of the memory; the views differ by at most 6e-8): RGB packed in one
-    uint32 a pixel, ``R | G << 8 | B << 16``, ``(N, Hm, Wm)`` (one load a bilinear tap instead of
-    three: the render kernel's RGB pairs 0.85-0.95 of the time on kermit and dino,
-    ``benchmarks/stereospace_pair.py``), other channel counts ``(N, Hm, Wm, C)`` uint8. Otherwise
+    ``unit = 1/255`` (the views differ by at most 6e-8): RGB packed in one uint32 a pixel,
+    ``R | G << 8 | B << 16``, ``(N, Hm, Wm)`` (a third of the float32 images' memory; one load a
+    bilinear tap instead of three), other channel counts ``(N, Hm, Wm, C)`` uint8 (a quarter). Otherwise
     float32 ``(N, Hm, Wm, C)`` with ``unit = 1``. ``sizes (N, 2)`` its ``(h, w)``, ``centres (N, 3)``,
     ``pixels (N, P, 2)`` the points projected into each camera and ``seen (N, P)`` which of them are
     in front of it and on its image (``-0.5 <= x <= w - 0.5``).
