@@ -201,8 +201,8 @@ class PreparedCollection:
     def image(self, k: int) -> np.ndarray:
         """The decoded float32 image of camera ``k``, ``(H, W)`` or ``(H, W, C)``, read-only.
 
-        8-bit photos are kept as bytes (a quarter of the memory): the float32 image is made again
-        on each call, equal to the decoded one bit for bit.
+        8-bit photos are kept as bytes (a quarter of the memory; a third for RGB, packed one uint32 a
+        pixel): the float32 image is made again on each call, equal to the decoded one bit for bit.
         """
         img = self._sources.image(k)
         if img.flags.writeable:
