@@ -1,7 +1,7 @@
 """Leave-one-out quality of the StereoSpace novel views (S2 §3.1) on dino and kermit.
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_loo.py [--data DIR] [--collections dino kermit
-CAMERA_FILE ...] [--methods plane mls depth] [--limit N] [--out DIR]``.
+CAMERA_FILE ...] [--methods plane mls depth] [--limit N] [--grid-step N] [--out DIR]``.
 A collection is a built-in name (``dino``, ``kermit``: under ``--data``, by default the shared data
 beside the checkout, ``../shared/data/collections``, as the tests find it) or the path of any camera
 file of :func:`vergence.io.read_cameras`, its images in the same folder.
@@ -25,6 +25,7 @@ import numpy as np
 from PIL import Image
 
 from vergence.stereospace import leave_one_out, load_collection
+from vergence.stereospace.mls_view import S2_GRID_STEP
 
 CAMERAS = {"dino": "dino_par.txt", "kermit": "bundle.out"}
 # The shared data beside the checkout, as tests/conftest.py finds it (see shared/data/SOURCES.md).
@@ -77,19 +78,23 @@ def main() -> None:
                         help="built-in names (dino, kermit) or camera files (images beside them)")
     parser.add_argument("--methods", nargs="+", default=["plane", "mls", "depth"])
     parser.add_argument("--limit", type=int, default=None, help="only the first N views")
+    parser.add_argument("--grid-step", type=int, default=None,
+                        help="S2's MLS grid spacing, pixels (mls, and depth's hole fill; default: the library's)")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
+    step = {} if args.grid_step is None else {"grid_step": args.grid_step}
     for spec in args.collections:
         name, camera_file = _camera_file(spec, args.data)
         start = time.perf_counter()
         col = load_collection(camera_file, images=camera_file.parent)
-        print(f"{name}: {len(col)} views, {col.point_count} points, loaded in {time.perf_counter() - start:.1f} s")
+        print(f"{name}: {len(col)} views, {col.point_count} points, loaded in {time.perf_counter() - start:.1f} s; "
+              f"MLS grid step {args.grid_step or S2_GRID_STEP}")  # fmt: skip
         images: dict = {}
         names = list(col.names)[: args.limit]
         scores = {}
         for method in args.methods:
             start = time.perf_counter()
-            scores[method] = leave_one_out(col, method=method, names=names, images=images)
+            scores[method] = leave_one_out(col, method=method, names=names, images=images, **step)
             print(f"  {method}: {time.perf_counter() - start:.1f} s")
         both = {"depth", "plane"} <= set(args.methods)
         print("  " + f"{'view':<16}" + "".join(f"{m:>9}" for m in args.methods)
@@ -101,7 +106,7 @@ def main() -> None:
                 row += f"   {scores['depth'][n][0] - scores['plane'][n][0]:+11.2f}   {pixels:5.1f} %  {error:5.1f} %"
             print(f"  {n:<16}{row}")
         for label, part in _split(name, names):
-            means = "".join(f"{np.mean([scores[m][n][0] for n in part]):9.2f}" for m in args.methods)
+            means = "".join(f"{np.mean([scores[m][n][0] for n in part]):9.3f}" for m in args.methods)
             print(f"  {'mean ' + label:<16}{means}   ({len(part)} views)")
             if {"depth", "plane"} <= set(args.methods):
                 gain = [scores["depth"][n][0] - scores["plane"][n][0] for n in part]

@@ -6,10 +6,10 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/stereospace_pair.py [--repeat 
 :class:`~vergence.stereospace.PreparedCollection` (once) and, for S2's novel view from 4 sources
 and from the segment's 2 cameras at a rhomboid state and a triangle state, the median wall and
 process CPU time of an anaglyph-packed :func:`stereo_pair` on the prepared collection (MLS grid
-step 8, the default, and 16) and on the bare collection (graph built, images decoded and points
-projected for the pair). Pairs from the prepared collection at step 8 must equal the bare
-collection's; for step 16 the mean absolute difference of the two views from step 8's is printed
-(pixels covered by both, RGB in [0, 1]), and the 4-source rhomboid pair is timed again with every
+step: the default, 10; 8, the default before; and 16) and on the bare collection (graph built, images
+decoded and points projected for the pair). Pairs from the prepared collection at the default step
+must equal the bare collection's; for steps 8 and 16 the mean absolute difference of the two views
+from the default's is printed (pixels covered by both, RGB in [0, 1]), and the 4-source rhomboid pair is timed again with every
 MLS handle instead of one per ``S2_HANDLE_CELL_PX`` cell. The issue's goal is 70 ms a pair on 2 cores: the script
 prints the threads Numba and OpenCV use and the load average (the development machine's 2 cores
 are shared; CPU time is less sensitive to that than wall time; OpenMP threads wait passively unless
@@ -19,8 +19,8 @@ again each time, :mod:`vergence.cli._malloc`). The numba kernels are compiled (o
 loaded from their cache) by a first, untimed pair. Last, per collection, the 4-source pair against the
 goal: its CPU time per stage (the fused render kernel, the MLS maps, the handle selection, the
 nodes' angles, the anaglyph packing) and, interleaved in the same process, the same pair with the
-former numpy handle selection and node angles, and with every source's MLS map on its own handles
-(the references), with the verdict against 70 CPU-ms. CPU-ms: the process CPU time (all threads)
+former numpy handle selection and node angles, with every source's MLS map on its own handles and
+at grid step 8 (the references), with the verdict against 70 CPU-ms. CPU-ms: the process CPU time (all threads)
 of one ``stereo_pair(prepared, state, layout="anaglyph")`` at 640 x 480, median of the runs.
 """
 
@@ -90,6 +90,7 @@ def _every_handle(prepared: PreparedCollection, repeat: int) -> None:
 
 
 GOAL_MS = 70.0  # issue 27: a prepared pair, CPU time
+FORMER_GRID_STEP = 8  # S2_GRID_STEP before it became 10 (mls_view's comment has the leave-one-out table)
 STAGES = (("render_view", "fused render kernel"), ("mls_similarity_points", "MLS maps (per source)"),
           ("mls_shared_handles", "MLS maps (shared handles)"), ("select_handles", "handle selection"),
           ("node_angles", "node angles"), ("_packed", "anaglyph packing"))  # fmt: skip
@@ -118,13 +119,21 @@ def _numpy_angles(target, nodes, centres, depth):
     return np.arctan2(cross, np.einsum("pk,spk->sp", to_target, to_sources))
 
 
-def _references():
+def _references(prepared):
     """Name -> (patch, unpatch) of the in-process references: the former numpy handle selection and
-    node angles, and every source's MLS map on its own handles (no shared handles)."""
+    node angles, every source's MLS map on its own handles (no shared handles), and the former
+    default grid step, 8 (``prepared``'s views at that step)."""
     from vergence.stereospace import _mls_view_kernels, mls_view
 
     kernels = (_mls_view_kernels.select_handles, mls_view._node_angles)
     share = mls_view.SHARED_EXTRA_SHARE
+    step = prepared.grid_step
+
+    def step_on():
+        prepared.grid_step = FORMER_GRID_STEP
+
+    def step_off():
+        prepared.grid_step = step
 
     def numpy_on():
         _mls_view_kernels.select_handles, mls_view._node_angles = _numpy_selection, _numpy_angles
@@ -139,7 +148,8 @@ def _references():
         mls_view.SHARED_EXTRA_SHARE = share
 
     return {"numpy handle selection and node angles": (numpy_on, numpy_off),
-            "per-source MLS maps": (per_source_on, per_source_off)}  # fmt: skip
+            "per-source MLS maps": (per_source_on, per_source_off),
+            f"grid step {FORMER_GRID_STEP} (the default before issue 27's last change)": (step_on, step_off)}  # fmt: skip
 
 
 def _goal(prepared, state, repeat: int) -> None:
@@ -164,7 +174,8 @@ def _goal(prepared, state, repeat: int) -> None:
         return call
 
     pair = lambda: stereo_pair(prepared, state, layout="anaglyph")  # noqa: E731
-    ours, reference = [], {name: [] for name in _references()}
+    references = _references(prepared)
+    ours, reference = [], {name: [] for name in references}
     try:
         for name, module in modules.items():
             setattr(module, name, spy(name))
@@ -175,7 +186,7 @@ def _goal(prepared, state, repeat: int) -> None:
         for name, module in modules.items():
             setattr(module, name, originals[name])
     for _ in range(repeat):  # interleaved: the load of the shared machine hits all alike
-        for name, (patch, unpatch) in _references().items():
+        for name, (patch, unpatch) in references.items():
             ours.append(timed(pair))
             patch()
             try:
@@ -217,25 +228,27 @@ def main() -> None:
         folder, camera_file = COLLECTIONS[name]
         col = load_collection(args.data / folder / camera_file, images=args.data / folder)
         t_prep = _times(lambda: PreparedCollection(col), 3)[0]
-        prepared = {8: PreparedCollection(col), 16: PreparedCollection(col, grid_step=16)}
-        first = stereo_pair(prepared[8], STATES["rhomboid (0,1) at (0.5, 0.5)"])  # compile / load the numba caches
+        steps = {"default": PreparedCollection(col), FORMER_GRID_STEP: PreparedCollection(col, grid_step=FORMER_GRID_STEP),
+                 16: PreparedCollection(col, grid_step=16)}  # fmt: skip
+        first = stereo_pair(steps["default"], STATES["rhomboid (0,1) at (0.5, 0.5)"])  # compile / load the numba caches
         h, w = first.left.shape[:2]
-        print(f"{name}: {len(col)} cameras, {col.point_count} points, {len(prepared[8].space.segments)} segments; "
-              f"pair {w} x {h}; preparation {t_prep:.0f} ms (median of 3)")  # fmt: skip
+        print(f"{name}: {len(col)} cameras, {col.point_count} points, {len(steps['default'].space.segments)} segments; "
+              f"pair {w} x {h}; preparation {t_prep:.0f} ms (median of 3); grid step {steps['default'].grid_step}")  # fmt: skip
         for m_name, method in methods.items():
             for s_name, state in STATES.items():
-                a, b = stereo_pair(prepared[8], state, method=method), stereo_pair(col, state, method=method)
+                a, b = stereo_pair(steps["default"], state, method=method), stereo_pair(col, state, method=method)
                 same = np.array_equal(a.left, b.left) and np.array_equal(a.right, b.right)
-                coarse = _difference(stereo_pair(prepared[16], state, method=method), a)
-                wall8, cpu8, wall16, cpu16, wall_u, cpu_u = (
-                    t for src in (prepared[8], prepared[16], col)
+                moved = {k: _difference(stereo_pair(steps[k], state, method=method), a) for k in (FORMER_GRID_STEP, 16)}
+                wall, cpu, wall_f, cpu_f, wall16, cpu16, wall_u, cpu_u = (
+                    t for src in (steps["default"], steps[FORMER_GRID_STEP], steps[16], col)
                     for t in _times(lambda s=src: stereo_pair(s, state, method=method, layout="anaglyph"), args.repeat)
                 )  # fmt: skip
-                print(f"  {m_name:15s} {s_name:31s} prepared {wall8:6.1f} ms (CPU {cpu8:6.1f}), step 16 {wall16:6.1f} "
-                      f"ms (CPU {cpu16:6.1f}; mean |diff| {coarse:.4f}), unprepared {wall_u:6.1f} ms "
+                print(f"  {m_name:15s} {s_name:31s} prepared {wall:6.1f} ms (CPU {cpu:6.1f}), step {FORMER_GRID_STEP} "
+                      f"{wall_f:6.1f} ms (CPU {cpu_f:6.1f}; mean |diff| {moved[FORMER_GRID_STEP]:.4f}), step 16 "
+                      f"{wall16:6.1f} ms (CPU {cpu16:6.1f}; mean |diff| {moved[16]:.4f}), unprepared {wall_u:6.1f} ms "
                       f"(CPU {cpu_u:6.1f}); median of {args.repeat}; equal pairs: {same}")  # fmt: skip
-        _every_handle(prepared[8], args.repeat)
-        _goal(prepared[8], STATES["rhomboid (0,1) at (0.5, 0.5)"], args.repeat)
+        _every_handle(steps["default"], args.repeat)
+        _goal(steps["default"], STATES["rhomboid (0,1) at (0.5, 0.5)"], args.repeat)
     print(f"load average {os.getloadavg()[0]:.1f} at the end")
 
 

@@ -16,7 +16,7 @@ from vergence.camera import Camera, look_at
 from vergence.stereospace import S2_MAX_SOURCES, S2_PENALTY_FLOOR, S2_THRESHOLD_SCALE, mls_similarity, s2_view
 from vergence.stereospace import _mls_view_kernels
 from vergence.stereospace.mls import _grid_nodes, node_grid
-from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, _node_angles, pack_rgb
+from vergence.stereospace.mls_view import NEGLIGIBLE_WEIGHT, S2_GRID_STEP, _node_angles, pack_rgb
 
 PLANE_Z = 5.0
 W, H = 64, 48
@@ -203,11 +203,12 @@ def test_node_angles_match_numpy_and_their_interpolation_error_is_tiny():
 
 
 def test_weights_follow_the_angle_penalty():
-    # k = 2 of 2 sources: w_i = 1 - P_i / (1.0000001 max P), normalised, at the centre pixel.
+    # k = 2 of 2 sources: w_i = 1 - P_i / (1.0000001 max P), normalised, at a grid node near the centre
+    # (the angle is exact at the nodes, bilinear in between)
     target = _camera(0.1)
     cams = [_camera(-0.2), _camera(0.5)]
     res = s2_view(target, [(c, _render(c)) for c in cams], points=_points(np.random.default_rng(2)), k=2)
-    y, x = H // 2, W // 2
+    y, x = (S2_GRID_STEP * round(n / 2 / S2_GRID_STEP) for n in (H, W))
     proxy = target.backproject([[x, y]], [PLANE_Z])[0]
     rays = [c.center - proxy for c in cams]
     to_t = target.center - proxy

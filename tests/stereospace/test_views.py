@@ -81,6 +81,25 @@ def test_leave_one_out_excludes_the_camera(plane):
         assert score > 30.0  # a plane scene: every method is near exact
 
 
+def test_grid_step_reaches_s2_view_in_both_methods(plane):
+    """``grid_step`` is S2's MLS grid: the mls view is s2_view's at that step; leave_one_out passes it on."""
+    from vergence.stereospace import s2_view
+
+    target = _camera(0.1, 0.05)
+    sources = [(plane.cameras[i], np.load(plane.image_paths[i])) for i in neighbours(plane, target)]
+    for step in (3, 16):
+        res = novel_view(plane, target, method="mls", grid_step=step)
+        assert np.array_equal(res.image, s2_view(target, sources, points=plane.points, grid_step=step).image)
+    coarse = leave_one_out(plane, method="mls", names=["v2.npy"], grid_step=3)["v2.npy"][1].image
+    assert np.array_equal(coarse, novel_view(plane, plane.cameras[2], method="mls", exclude=["v2.npy"], grid_step=3).image)
+    assert not np.array_equal(coarse, leave_one_out(plane, method="mls", names=["v2.npy"])["v2.npy"][1].image)
+    for bad, error in ((0, ValueError), (2.5, TypeError), (True, TypeError)):
+        with pytest.raises(error, match="grid_step must be"):
+            novel_view(plane, target, method="depth", grid_step=bad)  # refused before any depth is computed
+        with pytest.raises(error, match="grid_step must be"):
+            leave_one_out(plane, method="plane", grid_step=bad)
+
+
 def test_bad_input(plane):
     with pytest.raises(ValueError, match="method"):
         novel_view(plane, _camera(0.0), method="nerf")

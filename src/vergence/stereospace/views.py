@@ -19,10 +19,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from vergence._validate import check_positive_int
 from vergence.camera import Camera
 from vergence.stereospace.collection import Collection
 from vergence.stereospace.depths import source_depth
-from vergence.stereospace.mls_view import S2_MAX_SOURCES, s2_view
+from vergence.stereospace.mls_view import S2_GRID_STEP, S2_MAX_SOURCES, s2_view
 from vergence.stereospace.sources import as_colour, check_request, load_view, neighbours
 from vergence.synthesis import IBRSource, fill_holes, render_ibr
 
@@ -120,6 +121,7 @@ def novel_view(
     depths: Mapping[str, np.ndarray] | None = None,
     k: int = 4,
     images: dict | None = None,
+    grid_step: int = S2_GRID_STEP,
 ) -> NovelView:
     """The view of ``target`` from the ``k`` :func:`neighbours` of the collection.
 
@@ -130,16 +132,18 @@ def novel_view(
     Holes (pixels no source's checked depth sees: textureless, half-occluded or inconsistent parts)
     take S2's ``"mls"`` view where it has one (tuned on kermit: 17.08 dB mean leave-one-out PSNR
     against 16.11 filling along rows only), the rest is filled along rows from its background side
-    (:func:`~vergence.synthesis.fill_holes`, disparity = 1 / proxy depth).
+    (:func:`~vergence.synthesis.fill_holes`, disparity = 1 / proxy depth). ``grid_step``: the
+    spacing of S2's MLS maps, pixels (:func:`~vergence.stereospace.s2_view`'s, for both methods).
     """
     collection, target, excluded = check_request(collection, target, exclude)
     if not isinstance(method, str) or method not in NOVEL_VIEW_METHODS:
         raise ValueError(f"method must be one of {', '.join(NOVEL_VIEW_METHODS)}; got {method!r}")
+    step = check_positive_int("grid_step", grid_step)
     idx = neighbours(collection, target, k=k, exclude=excluded)
     if method == "mls":
         idx = idx[:S2_MAX_SOURCES]  # S2 blends its four neighbours at most
         res = s2_view(target, [(collection.cameras[i], load_view(collection, i, images)) for i in idx],
-                      points=collection.points, k=min(k, S2_MAX_SOURCES))  # fmt: skip
+                      points=collection.points, k=min(k, S2_MAX_SOURCES), grid_step=step)  # fmt: skip
         return NovelView(as_colour(res.image), res.coverage, "mls", tuple(collection.names[i] for i in idx))
     if depths is None:  # only the sources this view uses
         depths = {collection.names[i]: source_depth(collection, i, exclude=excluded, images=images) for i in idx}
@@ -154,7 +158,7 @@ def novel_view(
     if coverage.any() and not coverage.all():  # holes: S2's view where it has one, then rows
         near = idx_all[:S2_MAX_SOURCES]
         mls = s2_view(target, [(collection.cameras[i], load_view(collection, i, images)) for i in near],
-                      points=collection.points, k=min(k, S2_MAX_SOURCES))  # fmt: skip
+                      points=collection.points, k=min(k, S2_MAX_SOURCES), grid_step=step)  # fmt: skip
         take = ~coverage & mls.coverage
         image[take] = as_colour(mls.image)[take]
         known = coverage | take
@@ -179,6 +183,7 @@ def leave_one_out(
     depths: Mapping[str, np.ndarray] | None = None,
     images: dict | None = None,
     progress: Progress | None = None,
+    grid_step: int = S2_GRID_STEP,
 ) -> dict[str, tuple[float, NovelView]]:
     """Each named camera's view made without it, and its PSNR against its photo.
 
@@ -188,7 +193,8 @@ def leave_one_out(
     ``"depth"``). For ``"depth"``, each view's sources get their
     :func:`~vergence.stereospace.source_depth` made without the held-out camera (it is neither a
     partner nor a checking view; the matched pairs are cached across views); ``depths`` instead
-    gives maps to use as they are (e.g. known depth: maps that never saw the held-out camera).
+    gives maps to use as they are (e.g. known depth: maps that never saw the held-out camera);
+    ``grid_step`` goes to :func:`novel_view`.
 
     Returns
     -------
@@ -199,6 +205,7 @@ def leave_one_out(
         raise TypeError(f"collection must be a Collection; got {type(collection).__name__}")
     if not isinstance(method, str) or method not in ("plane", *NOVEL_VIEW_METHODS):
         raise ValueError(f"method must be one of plane, {', '.join(NOVEL_VIEW_METHODS)}; got {method!r}")
+    check_positive_int("grid_step", grid_step)
     chosen = list(collection.names) if names is None else list(names)
     unknown = set(chosen) - set(collection.names)
     if unknown:
@@ -217,7 +224,8 @@ def leave_one_out(
             if method == "depth" and depths is None:
                 used = {collection.names[j]: source_depth(collection, j, exclude=[name], images=images, pairs=pairs)
                         for j in neighbours(collection, target, exclude=[name])}  # fmt: skip
-            view = novel_view(collection, target, method=method, exclude=[name], depths=used, images=images)
+            view = novel_view(collection, target, method=method, exclude=[name], depths=used, images=images,
+                              grid_step=grid_step)  # fmt: skip
         photo = load_view(collection, i, images)
         out[name] = (psnr(view.image, photo, base.coverage), view)
         if progress is not None:

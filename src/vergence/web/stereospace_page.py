@@ -36,7 +36,8 @@ Speed (the shared two-core machine at load average 3-4 from other work, so range
 6,487 triangulated points) prepares in 3.5-6 s (the triangulation is most of it). A pair at the
 page's working width of 320 px: :func:`~vergence.stereospace.stereo_pair` 21-44 ms with
 ``grid_step`` 16 (the page's "fast"; 41-68 ms the whole request with the packed PNG, the disparity
-range and the map data), 25-91 ms with S2's grid 8 (43-140 ms the request); at 640 px 35-83 ms
+range and the map data), 25-91 ms with grid 8 (the page's "fine", the library's default then; 43-140 ms
+the request); at 640 px 35-83 ms
 (16) and 66-185 ms (8). kermit (9 cameras), grid 8, 320 px: 15-44 ms. A move inside a region
 takes 3-9 ms; one that jumps searches every region's tessellation (dino: 4,371 regions) in 76-141 ms.
 The last :data:`PAIR_CACHE` pairs of a job are kept, so a change of format re-packs without
@@ -91,8 +92,9 @@ class StereoSpaceJob(RequestModel):
     model_config = pydantic.ConfigDict(extra="forbid")
 
     collection: str = pydantic.Field(description="A collection id of GET /api/data (a camera file and its images).")
-    grid_step: int = pydantic.Field(8, ge=2, le=64, description="Grid spacing of the MLS maps of the pair's views, "
-                                    "pixels (S2: 8; 16 is about 4 times cheaper on dense points).")
+    grid_step: int | None = pydantic.Field(None, ge=2, le=64, description="Grid spacing of the MLS maps of the pair's "
+                                           "views, pixels (omitted: the library's default; 16 is about 2.5 times "
+                                           "cheaper than it on dense points).")
     display: str = pydantic.Field("desktop-24", description="A display preset of GET /api/displays (with a "
                                   "resolution): the start state and the pairs' disparity range are judged on it.")
 
@@ -188,7 +190,8 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
         except ValueError as exc:
             raise ValueError(_without_paths(str(exc), images, entry, env.data)) from None
         ctx.progress(0.6, f"decoding {len(collection)} images, projecting {collection.point_count} points")
-        prepared = PreparedCollection(collection, grid_step=params.grid_step)
+        prepared = (PreparedCollection(collection) if params.grid_step is None
+                    else PreparedCollection(collection, grid_step=params.grid_step))
         ctx.progress(0.9, "choosing the start state")
         note = ""
         try:
@@ -207,7 +210,7 @@ def _prepare(params: pydantic.BaseModel, env: Any) -> Prepared:
                    "points": collection.point_count, "points_source": collection.points_source,
                    "segments": len(prepared.space.segments), "regions": len(prepared.space.regions),
                    "paths": len(paths), "image_width": first.width, "image_height": first.height,
-                   "grid_step": params.grid_step, "display": params.display, "start": view,
+                   "grid_step": prepared.grid_step, "display": params.display, "start": view,
                    "pan_step": _PAN_STEP * view["interocular"] or 0.01 * extent,
                    "zoom_step": _ZOOM_STEP * view["interocular"] or 0.01 * extent,
                    "max_move": MAX_MOVE_EXTENTS * extent, "formats": _formats(),
