@@ -35,11 +35,10 @@ costs one parallel MLS evaluation of its sources at the grid nodes (float32, nod
 one fused pass over its pixels (maps, penalties, ULR weights, bilinear samples); the handles and
 the nodes' angle penalties come from Numba kernels too (``_mls_view_kernels``), and the handles
 the sources share are weighed once for all of them. On the shared 2-core development machine an
-anaglyph-packed 640 x 480 pair from 4 sources of the prepared collection takes 70.9 CPU-ms (kermit,
-wall 41.9 ms) and 80.8 (dino, wall 49.1): the goal of 70 CPU-ms is not met at the median
-(``benchmarks/stereospace_pair.py``; the history and what was tried are in docs/stereospace.md).
-On dino the MLS maps are a quarter of the time: ``PreparedCollection(grid_step=16)`` makes them 4
-times cheaper.
+anaglyph-packed 640 x 480 pair from 4 sources of the prepared collection takes 58-66 CPU-ms (kermit,
+wall 34-36 ms) and 52-69 (dino, wall 31-39) at the median of three runs: under issue 27's goal of
+70 CPU-ms, by 0.8 to 17.6 (``benchmarks/stereospace_pair.py``; the history and what was tried are in
+docs/stereospace.md). ``PreparedCollection(grid_step=16)`` makes the maps 2.5 times cheaper.
 """
 
 from __future__ import annotations
