@@ -37,8 +37,8 @@ the nodes' angle penalties come from Numba kernels too (``_mls_view_kernels``), 
 the sources share are weighed once for all of them. On the shared 2-core development machine an
 anaglyph-packed 640 x 480 pair from 4 sources of the prepared collection takes 58-66 CPU-ms (kermit,
 wall 34-36 ms) and 52-69 (dino, wall 31-39) at the median of three runs: under issue 27's goal of
-70 CPU-ms, by 0.8 to 17.6 (``benchmarks/stereospace_pair.py``; the history and what was tried are in
-docs/stereospace.md). ``PreparedCollection(grid_step=16)`` makes the maps 2.5 times cheaper.
+70 CPU-ms, by 0.8 to 17.6; a fourth run at load 3.4 gave 77.7 and 66.2 (``benchmarks/stereospace_pair.py``;
+the history and what was tried are in docs/stereospace.md). ``PreparedCollection(grid_step=16)`` makes the maps 2.5 times cheaper.
 """
 
 from __future__ import annotations
