@@ -1,5 +1,5 @@
 """Numba kernel of Dubois's anaglyph (:func:`vergence.display.anaglyph`): sRGB decoding, the two
-3 x 3 projections, the gamut clip and sRGB encoding in one pass over the pixels.
+3 x 3 projections, the gamut clip and sRGB encoding, a row at a time in channel planes (:func:`dubois`).
 
 The sRGB transfer curves (IEC 61966-2-1) are a line near black and a power law above it; the
 power laws are read from tables of :data:`TABLE_SIZE` + 1 nodes with linear interpolation, the
